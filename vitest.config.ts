@@ -1,0 +1,12 @@
+import { defineConfig } from "vitest/config";
+
+export default defineConfig({
+  test: {
+    include: ["packages/*/src/**/*.test.ts", "tests/**/*.test.ts"],
+    testTimeout: 120_000,
+    hookTimeout: 180_000,
+    // Tests start real Python backends and servients; two cores: keep files sequential-ish.
+    fileParallelism: true,
+    maxWorkers: 2,
+  },
+});
