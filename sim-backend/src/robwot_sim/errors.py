@@ -1,0 +1,201 @@
+"""Structured errors of the simulation backend.
+
+Every error carries a stable JSON-RPC ``rpc_code`` (number), a stable string ``code`` (``E_...``) and a
+``data`` dict of structured fields (joint, value, limits, file, line, ...). The RPC layer maps them to
+``{"code": rpc_code, "message": message, "data": {"code": code, **data}}`` (see ARCHITECTURE.md, Contract 1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+
+class SimError(Exception):
+    """Base class of every backend error."""
+
+    rpc_code: int = -32603
+    code: str = "E_INTERNAL"
+
+    def __init__(self, message: str, *, code: str | None = None, **data: Any) -> None:
+        super().__init__(message)
+        self.message = message
+        if code is not None:
+            self.code = code
+        self.data: dict[str, Any] = data
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-RPC ``error`` object."""
+        return {"code": self.rpc_code, "message": self.message, "data": {"code": self.code, **self.data}}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.message!r}, code={self.code!r}, data={self.data!r})"
+
+
+class InternalError(SimError):
+    rpc_code = -32603
+    code = "E_INTERNAL"
+
+
+class InvalidParams(SimError):
+    """Wrong type/length, NaN/Infinity, missing parameter."""
+
+    rpc_code = -32602
+    code = "E_INVALID_PARAMS"
+
+    def __init__(self, message: str, *, param: str | None = None, expected: Any = None, got: Any = None,
+                 **data: Any) -> None:
+        super().__init__(message, param=param, expected=expected, got=_jsonable(got), **data)
+
+
+class _UnknownName(SimError):
+    rpc_code = -32001
+    kind = "name"
+
+    def __init__(self, name: str, available: Iterable[str]) -> None:
+        avail = sorted(str(a) for a in available)
+        super().__init__(f"unknown {self.kind} {name!r}; available: {', '.join(avail) or '(none)'}",
+                         name=name, available=avail)
+
+
+class UnknownRobot(_UnknownName):
+    code = "E_UNKNOWN_ROBOT"
+    kind = "robot"
+
+
+class UnknownObject(_UnknownName):
+    code = "E_UNKNOWN_OBJECT"
+    kind = "object"
+
+
+class UnknownLink(_UnknownName):
+    code = "E_UNKNOWN_LINK"
+    kind = "link"
+
+
+class OutOfLimits(SimError):
+    """A joint value outside its limits (radians or metres)."""
+
+    rpc_code = -32002
+    code = "E_OUT_OF_LIMITS"
+
+    def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
+        super().__init__(f"joint {joint!r} value {value:.6g} outside limits [{lower:.6g}, {upper:.6g}]",
+                         joint=joint, value=float(value), lower=float(lower), upper=float(upper))
+
+
+class UrdfError(SimError):
+    """Malformed URDF (XML error with line/column, or a structural problem)."""
+
+    rpc_code = -32003
+    code = "E_URDF"
+
+    def __init__(self, message: str, *, file: str, line: int | None = None, column: int | None = None,
+                 code: str | None = None, **data: Any) -> None:
+        where = f"{file}" + (f":{line}" if line is not None else "") + (
+            f":{column}" if column is not None and line is not None else "")
+        super().__init__(f"{where}: {message}", code=code, file=file, line=line, column=column, **data)
+
+
+class NoMovableJoint(UrdfError):
+    code = "E_NO_MOVABLE_JOINT"
+
+    def __init__(self, file: str) -> None:
+        super().__init__("URDF has no movable (revolute, continuous or prismatic) joint", file=file)
+
+
+class FileNotFound(SimError):
+    """Missing URDF, mesh or scene file. ``urdf`` names the URDF that referenced a missing mesh."""
+
+    rpc_code = -32004
+    code = "E_FILE_NOT_FOUND"
+
+    def __init__(self, file: str, *, urdf: str | None = None, what: str = "file") -> None:
+        msg = f"{what} not found: {file}" + (f" (referenced by {urdf})" if urdf else "")
+        data: dict[str, Any] = {"file": file}
+        if urdf is not None:
+            data["urdf"] = urdf
+        super().__init__(msg, **data)
+
+
+class Forbidden(SimError):
+    """XML DTD/entities, or other refused input."""
+
+    rpc_code = -32005
+    code = "E_FORBIDDEN"
+
+    def __init__(self, message: str, *, file: str, roots: Sequence[str] = (), code: str | None = None,
+                 **data: Any) -> None:
+        super().__init__(message, code=code, file=file, roots=[str(r) for r in roots], **data)
+
+
+class PathEscape(Forbidden):
+    """A mesh path resolving outside the allowed roots."""
+
+    code = "E_PATH_ESCAPE"
+
+    def __init__(self, file: str, roots: Sequence[str], *, urdf: str | None = None) -> None:
+        super().__init__(f"path {file} is outside the allowed roots: {', '.join(str(r) for r in roots)}",
+                         file=file, roots=roots, **({"urdf": urdf} if urdf else {}))
+
+
+class SceneError(SimError):
+    """Scene document violating the schema; ``path`` is a JSON pointer."""
+
+    rpc_code = -32006
+    code = "E_SCENE"
+
+    def __init__(self, message: str, *, file: str | None, path: str) -> None:
+        super().__init__(f"scene {file or '(inline)'} at {path or '/'}: {message}", file=file, path=path)
+        self.data["message"] = message
+
+
+class Unreachable(SimError):
+    """IK found no solution within tolerance; ``best`` is the best configuration found."""
+
+    rpc_code = -32007
+    code = "E_UNREACHABLE"
+
+    def __init__(self, position_error: float, orientation_error: float, best: Sequence[float]) -> None:
+        super().__init__(
+            f"target unreachable: best position error {position_error:.4g} m, "
+            f"orientation error {orientation_error:.4g} rad",
+            positionError=float(position_error), orientationError=float(orientation_error),
+            best=[float(b) for b in best])
+
+
+class Busy(SimError):
+    rpc_code = -32008
+    code = "E_BUSY"
+
+    def __init__(self, robot: str) -> None:
+        super().__init__(f"a motion is already running for robot {robot!r}; call robot.stop first",
+                         robot=robot)
+
+
+class CollisionError(SimError):
+    rpc_code = -32009
+    code = "E_COLLISION"
+
+    def __init__(self, contacts: Sequence[dict[str, Any]], message: str | None = None) -> None:
+        super().__init__(message or f"configuration in collision ({len(contacts)} contacts)",
+                         contacts=list(contacts))
+
+
+class NameTaken(SimError):
+    rpc_code = -32010
+    code = "E_NAME_TAKEN"
+
+    def __init__(self, name: str) -> None:
+        super().__init__(f"name {name!r} is already used", name=name)
+
+
+def _jsonable(value: Any) -> Any:
+    """Best-effort JSON-safe echo of a bad value (NaN/Infinity become strings)."""
+    if isinstance(value, float) and (value != value or value in (float("inf"), float("-inf"))):
+        return str(value)
+    if isinstance(value, (str, int, float, bool)) or value is None:
+        return value
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value][:64]
+    return repr(value)[:200]

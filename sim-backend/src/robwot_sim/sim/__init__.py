@@ -1,0 +1,1 @@
+"""PyBullet simulation core: world, robots, kinematics, collision, motion planning."""
