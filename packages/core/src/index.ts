@@ -1,1 +1,4 @@
-export {};
+/** Public surface of @robwot/core (Node). The browser entry `./browser.js` holds the pure subset. */
+export * from "./browser.js";
+export { validateThingDescription } from "./td/validate.js";
+export type { TdValidationResult } from "./td/validate.js";

@@ -1,0 +1,157 @@
+/** The affordances of a RobWoT twin (Contract 3), without forms. */
+import type { Bounds, JointSpec } from "../types.js";
+import { moveObstacleSchema, obstacleSchema, removeObstacleSchema } from "./obstacle-schemas.js";
+import {
+  calibrationResultSchema,
+  cartesianSchema,
+  contactSchema,
+  jointTargetSchema,
+  jointsSchema,
+  moveResultSchema,
+  quaternionSchema,
+  UNIT_M,
+  validationReportSchema,
+  xyzSchema,
+} from "./schemas.js";
+import type { ActionAffordance, DataSchema, EventAffordance, PropertyAffordance } from "./types.js";
+
+type NoForms<T> = Omit<T, "forms">;
+
+export function propertyAffordances(joints: JointSpec[], bounds: Bounds | null): Record<string, NoForms<PropertyAffordance>> {
+  const cartesian = xyzSchema("End-effector link frame position (calibrated real frame when a calibration is active)", bounds);
+  cartesian.properties = { ...cartesian.properties, orientation: quaternionSchema("End-effector orientation quaternion") };
+  cartesian.required = ["x", "y", "z", "orientation"];
+  return {
+    getJointPosition: {
+      ...jointsSchema(joints, "Current position of every controllable joint"),
+      title: "Joint positions",
+      readOnly: true,
+      observable: true,
+    },
+    getCartesianPosition: { ...cartesian, title: "End-effector pose", readOnly: true, observable: true },
+    motionStatus: {
+      title: "Motion status",
+      type: "object",
+      readOnly: true,
+      observable: true,
+      properties: {
+        state: { type: "string", enum: ["idle", "moving", "stopped", "collision"] },
+        lastError: {
+          oneOf: [
+            { type: "null" },
+            { type: "object", properties: { code: { type: "string" }, message: { type: "string" } }, required: ["code", "message"] },
+          ],
+        },
+        lastResult: { oneOf: [{ type: "null" }, moveResultSchema(joints)] },
+      },
+      required: ["state", "lastError", "lastResult"],
+    },
+    calibration: {
+      title: "Calibration",
+      description: "Active virtual-to-real calibration (x_real = s·R·x_virtual + t) or {active: false}",
+      type: "object",
+      readOnly: true,
+      properties: {
+        active: { type: "boolean" },
+        ...calibrationResultSchema().properties,
+        withScale: { type: "boolean" },
+        createdAt: { type: "string", format: "date-time" },
+      },
+      required: ["active"],
+    },
+  };
+}
+
+const cartesianInput = (bounds: Bounds | null): DataSchema =>
+  cartesianSchema(bounds, true, "Target end-effector position (m) and optional orientation");
+
+export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): Record<string, NoForms<ActionAffordance>> {
+  const jointInput = jointTargetSchema(joints, "Target joint positions and optional speed fraction");
+  return {
+    moveToJointPosition: {
+      title: "Move in joint space",
+      description: "Validates the target (limits, collision along the path), then moves; completes when the motion ends.",
+      input: jointInput,
+      output: moveResultSchema(joints),
+      safe: false,
+      idempotent: false,
+    },
+    moveToCartesianPosition: {
+      title: "Move to a Cartesian target",
+      description: "Validates the target (workspace, point cloud, IK, path), then moves; completes when the motion ends.",
+      input: cartesianInput(bounds),
+      output: moveResultSchema(joints),
+      safe: false,
+      idempotent: false,
+    },
+    validateJointPosition: {
+      title: "Validate a joint target",
+      description: "Simulation-in-the-loop check without moving.",
+      input: jointTargetSchema(joints, "Joint target to check"),
+      output: validationReportSchema(),
+      safe: true,
+      idempotent: true,
+    },
+    validateCartesianPosition: {
+      title: "Validate a Cartesian target",
+      description: "Inside workspace.stl? point-cloud score, IK reachability, collision-free path; without moving.",
+      input: cartesianInput(bounds),
+      output: validationReportSchema(),
+      safe: true,
+      idempotent: true,
+    },
+    stop: {
+      title: "Stop",
+      description: "Stops the running motion, if any.",
+      output: { type: "object", properties: { stopped: { type: "boolean" } }, required: ["stopped"] },
+      safe: false,
+      idempotent: true,
+    },
+    calibrate: {
+      title: "Calibrate",
+      description: "Solves x_real = s·R·x_virtual + t (Kabsch-Umeyama) from >= 3 non-collinear point pairs and applies it to every Cartesian input and output.",
+      input: {
+        type: "object",
+        properties: {
+          pairs: {
+            type: "array",
+            minItems: 3,
+            items: {
+              type: "object",
+              properties: { real: xyzSchema("point in the real robot's frame"), virtual: xyzSchema("same point in the twin's frame") },
+              required: ["real", "virtual"],
+            },
+          },
+          withScale: { type: "boolean", default: true },
+        },
+        required: ["pairs"],
+      },
+      output: calibrationResultSchema(),
+      safe: false,
+      idempotent: true,
+    },
+    addObstacle: { title: "Add an obstacle", input: obstacleSchema(), output: obstacleSchema(), safe: false, idempotent: false },
+    moveObstacle: { title: "Move an obstacle", input: moveObstacleSchema(), output: obstacleSchema(), safe: false, idempotent: true },
+    removeObstacle: { title: "Remove an obstacle", input: removeObstacleSchema(), output: { type: "object", properties: {} }, safe: false, idempotent: true },
+  };
+}
+
+export function eventAffordances(joints: JointSpec[]): Record<string, NoForms<EventAffordance>> {
+  const contact = contactSchema();
+  return {
+    collision: {
+      title: "Collision",
+      description: "A motion was stopped by contact.",
+      data: {
+        type: "object",
+        properties: {
+          pair: { type: "object", properties: { a: contact.properties?.a ?? {}, b: contact.properties?.b ?? {} }, required: ["a", "b"] },
+          position: xyzSchema("contact point"),
+          depth: { type: "number", unit: UNIT_M, minimum: 0 },
+          joints: jointsSchema(joints, "Joint positions when the motion stopped"),
+        },
+        required: ["pair", "position", "depth", "joints"],
+      },
+    },
+  };
+}

@@ -1,0 +1,137 @@
+import { describe, expect, it } from "vitest";
+import { RobwotError } from "../errors.js";
+import { kukaLikeModel, summaryFixture } from "../test-support/models.js";
+import { buildThingDescription, transformBounds } from "./build.js";
+import { securityFor } from "./security.js";
+import type { DataSchema } from "./types.js";
+import { validateThingDescription } from "./validate.js";
+
+const model = kukaLikeModel();
+const summary = summaryFixture();
+const td = buildThingDescription({ model, summary, sceneId: "scene-a" });
+
+describe("buildThingDescription", () => {
+  it("passes the official TD validator (schema + assertions, JSON-LD off)", async () => {
+    const res = await validateThingDescription(td);
+    expect(res.errors).toEqual([]);
+    expect(res.valid).toBe(true);
+    expect(res.report.schema).toBe("passed");
+    expect(res.report.additional).toBe("passed");
+  });
+
+  it("has context, stable id, base, nosec security and the contract's links", () => {
+    expect(td["@context"][0]).toBe("https://www.w3.org/2022/wot/td/v1.1");
+    expect(td["@context"][1]).toMatchObject({ "@language": "en", robwot: "https://robwot.dev/ns#" });
+    expect(td.id).toMatch(/^urn:robwot:lbr_iiwa:[0-9a-f]{16}$/);
+    expect(buildThingDescription({ model, summary, sceneId: "scene-a" }).id).toBe(td.id);
+    expect(buildThingDescription({ model, summary, sceneId: "scene-b" }).id).not.toBe(td.id);
+    expect(td.base).toBe("http://localhost:8080/lbr_iiwa/");
+    expect(buildThingDescription({ model, summary, baseUrl: "https://h.example:9000/twins", slug: "arm" }).base).toBe("https://h.example:9000/twins/arm/");
+    expect(td.securityDefinitions).toEqual({ nosec_sc: { scheme: "nosec" } });
+    expect(td.links).toEqual(
+      expect.arrayContaining([
+        { rel: "model", href: "robot.urdf", type: "application/urdf+xml" },
+        { rel: "workspace-pointcloud", href: "workspace.csv", type: "text/csv" },
+        { rel: "workspace", href: "workspace.stl", type: "model/stl" },
+      ]),
+    );
+  });
+
+  it("carries joint limits and units for every controllable joint only", () => {
+    const props = td.properties.getJointPosition?.properties ?? {};
+    expect(Object.keys(props)).toEqual(model.controllable);
+    expect(Object.keys(props)).not.toContain("finger_right");
+    expect(Object.keys(props)).not.toContain("tool_fixed");
+    expect(props.lbr_iiwa_joint_2).toMatchObject({ type: "number", unit: "rad", minimum: -2.09, maximum: 2.09 });
+    expect(props.lift).toMatchObject({ unit: "m", minimum: 0, maximum: 0.25 });
+    expect(props.tool_roll).toMatchObject({ unit: "rad", minimum: -Math.PI, maximum: Math.PI });
+    const input = td.actions.moveToJointPosition?.input?.properties?.joints;
+    expect(input?.properties?.lift).toEqual(props.lift);
+    expect(input?.required).toEqual(model.controllable);
+  });
+
+  it("bounds Cartesian x, y, z by the collision-free points", () => {
+    const input = td.actions.moveToCartesianPosition?.input as DataSchema;
+    expect(input.required).toEqual(["x", "y", "z"]);
+    expect(input.properties?.z).toMatchObject({ unit: "m", minimum: -0.3, maximum: 1.31 });
+    expect(input.properties?.speed).toMatchObject({ exclusiveMinimum: 0, maximum: 1 });
+    expect(td.properties.getCartesianPosition?.properties?.x).toMatchObject({ minimum: -1.1, maximum: 1.1 });
+  });
+
+  it("uses node-wot's form layout and ops", () => {
+    expect(td.properties.getJointPosition?.forms.slice(0, 2)).toEqual([
+      { href: "properties/getJointPosition", contentType: "application/json", op: ["readproperty"], "htv:methodName": "GET" },
+      { href: "properties/getJointPosition/observable", contentType: "application/json", op: ["observeproperty", "unobserveproperty"], subprotocol: "longpoll" },
+    ]);
+    expect(td.properties.getJointPosition?.forms[2]).toMatchObject({ href: "ws://localhost:8080/live", "robwot:subscribe": "lbr_iiwa" });
+    expect(td.actions.stop?.forms).toEqual([{ href: "actions/stop", contentType: "application/json", op: ["invokeaction"], "htv:methodName": "POST" }]);
+    expect(td.events.collision?.forms[0]).toMatchObject({ href: "events/collision", op: ["subscribeevent", "unsubscribeevent"] });
+    const names = [...Object.keys(td.properties), ...Object.keys(td.actions), ...Object.keys(td.events)];
+    for (const n of ["getJointPosition", "getCartesianPosition", "moveToJointPosition", "moveToCartesianPosition", "validateCartesianPosition", "calibrate", "collision", "motionStatus"]) {
+      expect(names).toContain(n);
+    }
+    expect(buildThingDescription({ model, summary, liveUrl: null }).properties.getJointPosition?.forms).toHaveLength(2);
+  });
+
+  it("maps Cartesian bounds through an active calibration", () => {
+    const rotZ90 = [[0, -1, 0], [1, 0, 0], [0, 0, 1]];
+    const b = transformBounds(summary.bounds, { scale: 2, rotation: rotZ90, translation: [1, 0, 0] });
+    expect(b.min[0]).toBeCloseTo(1 - 2 * 1.08);
+    expect(b.max[1]).toBeCloseTo(2 * 1.1);
+    const cal = buildThingDescription({ model, summary, calibration: { scale: 2, rotation: rotZ90, translation: [1, 0, 0] } });
+    expect(cal.properties.getCartesianPosition?.properties?.x?.minimum).toBeCloseTo(b.min[0]);
+  });
+
+  it.each([
+    ["unknown controllable joint", { ...model, controllable: ["nope"] }, /nope/],
+    ["no controllable joint", { ...model, controllable: [] }, /no controllable/],
+    ["inverted limits", { ...model, joints: model.joints.map((j) => (j.name === "lift" ? { ...j, lower: 1, upper: 0 } : j)) }, /lift/],
+  ])("rejects %s", (_label, bad, message) => {
+    expect(() => buildThingDescription({ model: bad, summary })).toThrow(message);
+    try {
+      buildThingDescription({ model: bad, summary });
+    } catch (e) {
+      expect(e).toBeInstanceOf(RobwotError);
+      expect((e as RobwotError).code).toBe("E_TD");
+    }
+  });
+
+  it("rejects a relative base URL", () => {
+    expect(() => buildThingDescription({ model, summary, baseUrl: "localhost:8080" })).toThrow(/baseUrl/);
+  });
+});
+
+describe("securityFor", () => {
+  it.each([
+    [{ scheme: "basic" as const }, "basic_sc", "basic"],
+    [{ scheme: "bearer" as const }, "bearer_sc", "bearer"],
+    [null, "nosec_sc", "nosec"],
+  ])("rewrites security for %j", async (auth, name, scheme) => {
+    const out = securityFor(td, auth);
+    expect(out.security).toBe(name);
+    expect(Object.keys(out.securityDefinitions)).toEqual([name]);
+    expect(out.securityDefinitions[name]?.scheme).toBe(scheme);
+    expect(td.security).toBe("nosec_sc");
+    expect((await validateThingDescription(out)).valid).toBe(true);
+  });
+});
+
+describe("validateThingDescription", () => {
+  it("detects a property without forms", async () => {
+    const bad = structuredClone(td) as unknown as { properties: Record<string, Record<string, unknown>> };
+    delete bad.properties.getJointPosition?.forms;
+    const res = await validateThingDescription(bad);
+    expect(res.valid).toBe(false);
+    expect(res.errors.join(" ")).toMatch(/forms/);
+  });
+
+  it.each([
+    ["undefined security name", { security: "missing_sc" }],
+    ["missing title", { title: undefined }],
+    ["wrong context", { "@context": "https://example.org/ctx" }],
+  ])("detects %s", async (_label, patch) => {
+    const res = await validateThingDescription({ ...td, ...patch });
+    expect(res.valid).toBe(false);
+    expect(res.errors.length).toBeGreaterThan(0);
+  });
+});

@@ -1,0 +1,211 @@
+/**
+ * Thing Description builder (Contract 3). Forms use node-wot 0.9.2 HttpServer's URL layout relative to
+ * `base` = `<baseUrl><slug>/`: `properties/<name>` (GET, readproperty), `properties/<name>/observable`
+ * (longpoll observeproperty), `actions/<name>` (POST, invokeaction), `events/<name>` (longpoll
+ * subscribeevent), and `properties` (readallproperties) at the Thing level.
+ */
+import { ThingDescriptionError } from "../errors.js";
+import type { Bounds, JointSpec, RobotModelLike, Vec3, WorkspaceSummary } from "../types.js";
+import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
+import { canonicalJson, fnv1a64, thingSlug } from "./hash.js";
+import type { ActionAffordance, EventAffordance, Form, Link, PropertyAffordance, ThingDescription } from "./types.js";
+
+export const TD_CONTEXT_V11 = "https://www.w3.org/2022/wot/td/v1.1";
+export const ROBWOT_NS = "https://robwot.dev/ns#";
+export const DEFAULT_BASE_URL = "http://localhost:8080/";
+const JSON_TYPE = "application/json";
+
+/** A similarity transform x_real = scale · rotation · x_virtual + translation (rotation 3x3 row-major). */
+export interface SimilarityTransform {
+  scale: number;
+  rotation: number[][];
+  translation: Vec3;
+}
+
+export interface BuildThingDescriptionOptions {
+  model: RobotModelLike;
+  /** workspace.json; its bounds give the Cartesian minimum/maximum. null: no Cartesian bounds. */
+  summary: WorkspaceSummary | null;
+  /** Absolute http(s) URL of the servient, default `http://localhost:8080/`. */
+  baseUrl?: string;
+  /** URL path segment of the Thing, default `thingSlug(title)` (node-wot's devFriendlyUri path). */
+  slug?: string;
+  /** Default `urn:robwot:<slug>:<FNV-1a-64 of robot model + sceneId>`. */
+  id?: string;
+  /** Identifies the scene (e.g. a hash of scene.json) so the same robot in another scene gets another id. */
+  sceneId?: string;
+  /** Default: the robot name. */
+  title?: string;
+  description?: string;
+  /** When given, Cartesian bounds are mapped into the real frame (axis-aligned box of the 8 corners). */
+  calibration?: SimilarityTransform | null;
+  /** Live WebSocket endpoint (Contract 4); default ws(s)://<host of baseUrl>/live; null: no WebSocket forms. */
+  liveUrl?: string | null;
+}
+
+function controllableJoints(model: RobotModelLike): JointSpec[] {
+  const byName = new Map(model.joints.map((j) => [j.name, j]));
+  if (model.controllable.length === 0) {
+    throw new ThingDescriptionError(`robot '${model.name}' has no controllable joint`, { field: "model.controllable" });
+  }
+  return model.controllable.map((name) => {
+    const j = byName.get(name);
+    if (!j) {
+      throw new ThingDescriptionError(`controllable joint '${name}' is not in the model's joints`, {
+        field: "model.controllable",
+        joint: name,
+        available: [...byName.keys()],
+      });
+    }
+    if (!Number.isFinite(j.lower) || !Number.isFinite(j.upper) || j.lower > j.upper) {
+      throw new ThingDescriptionError(`joint '${name}' has invalid limits [${j.lower}, ${j.upper}]`, {
+        field: "model.joints",
+        joint: name,
+        lower: j.lower,
+        upper: j.upper,
+      });
+    }
+    return j;
+  });
+}
+
+function checkBounds(b: Bounds): Bounds {
+  for (let i = 0; i < 3; i++) {
+    const lo = b.min[i];
+    const hi = b.max[i];
+    if (lo === undefined || hi === undefined || !Number.isFinite(lo) || !Number.isFinite(hi) || lo > hi) {
+      throw new ThingDescriptionError(`workspace bounds are invalid on axis ${i}: [${lo}, ${hi}]`, { field: "summary.bounds", axis: i, min: lo, max: hi });
+    }
+  }
+  return b;
+}
+
+/** Axis-aligned box of the transformed corners of `b`. */
+export function transformBounds(b: Bounds, t: SimilarityTransform): Bounds {
+  const min: Vec3 = [Infinity, Infinity, Infinity];
+  const max: Vec3 = [-Infinity, -Infinity, -Infinity];
+  for (let c = 0; c < 8; c++) {
+    const p: Vec3 = [c & 1 ? b.max[0] : b.min[0], c & 2 ? b.max[1] : b.min[1], c & 4 ? b.max[2] : b.min[2]];
+    for (let r = 0; r < 3; r++) {
+      const row = t.rotation[r] ?? [];
+      const v = t.scale * ((row[0] ?? 0) * p[0] + (row[1] ?? 0) * p[1] + (row[2] ?? 0) * p[2]) + t.translation[r]!;
+      min[r] = Math.min(min[r]!, v);
+      max[r] = Math.max(max[r]!, v);
+    }
+  }
+  return { min, max };
+}
+
+function normaliseBaseUrl(baseUrl: string): URL {
+  let url: URL;
+  try {
+    url = new URL(baseUrl);
+  } catch {
+    throw new ThingDescriptionError(`baseUrl '${baseUrl}' is not an absolute URL`, { field: "baseUrl", value: baseUrl });
+  }
+  if (url.protocol !== "http:" && url.protocol !== "https:") {
+    throw new ThingDescriptionError(`baseUrl '${baseUrl}' must be http or https`, { field: "baseUrl", value: baseUrl });
+  }
+  if (!url.pathname.endsWith("/")) url.pathname += "/";
+  return url;
+}
+
+/** Stable Thing id: same robot model + same scene id gives the same urn. */
+export function thingId(model: RobotModelLike, slug: string, sceneId?: string): string {
+  const robot = {
+    name: model.name,
+    eeLink: model.eeLink,
+    controllable: model.controllable,
+    joints: model.joints.map((j) => ({ name: j.name, type: j.type, lower: j.lower, upper: j.upper, velocity: j.velocity, effort: j.effort, mimic: j.mimic })),
+    basePosition: model.basePosition,
+    baseOrientation: model.baseOrientation,
+  };
+  return `urn:robwot:${slug}:${fnv1a64(canonicalJson({ robot, scene: sceneId ?? null }))}`;
+}
+
+function propertyForms(name: string, observable: boolean, live: string | null, slug: string): Form[] {
+  const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET" }];
+  if (observable) {
+    forms.push({ href: `properties/${name}/observable`, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], subprotocol: "longpoll" });
+    if (live) forms.push({ href: live, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], "robwot:subscribe": slug });
+  }
+  return forms;
+}
+
+export function buildThingDescription(options: BuildThingDescriptionOptions): ThingDescription {
+  const { model, summary } = options;
+  const joints = controllableJoints(model);
+  const title = options.title ?? model.name;
+  if (title.trim().length === 0) throw new ThingDescriptionError("title is empty", { field: "title" });
+  const slug = options.slug ?? thingSlug(title);
+  if (!/^[A-Za-z0-9._~-]+$/.test(slug)) {
+    throw new ThingDescriptionError(`slug '${slug}' is not a plain URL path segment`, { field: "slug", value: slug });
+  }
+  const base = normaliseBaseUrl(options.baseUrl ?? DEFAULT_BASE_URL);
+  let live: string | null = null;
+  if (options.liveUrl !== null) {
+    live = options.liveUrl ?? `${base.protocol === "https:" ? "wss:" : "ws:"}//${base.host}/live`;
+  }
+  let bounds = summary ? checkBounds(summary.bounds) : null;
+  if (bounds && options.calibration) bounds = transformBounds(bounds, options.calibration);
+
+  const properties: Record<string, PropertyAffordance> = {};
+  for (const [name, p] of Object.entries(propertyAffordances(joints, bounds))) {
+    properties[name] = { ...p, forms: propertyForms(name, p.observable === true, live, slug) };
+  }
+  const actions: Record<string, ActionAffordance> = {};
+  for (const [name, a] of Object.entries(actionAffordances(joints, bounds))) {
+    actions[name] = { ...a, forms: [{ href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST" }] };
+  }
+  const events: Record<string, EventAffordance> = {};
+  for (const [name, e] of Object.entries(eventAffordances(joints))) {
+    const forms: Form[] = [{ href: `events/${name}`, contentType: JSON_TYPE, op: ["subscribeevent", "unsubscribeevent"], subprotocol: "longpoll" }];
+    if (live) forms.push({ href: live, contentType: JSON_TYPE, op: ["subscribeevent", "unsubscribeevent"], "robwot:subscribe": slug });
+    events[name] = { ...e, forms };
+  }
+  const links: Link[] = [
+    { rel: "model", href: "robot.urdf", type: "application/urdf+xml" },
+    { rel: "workspace-pointcloud", href: "workspace.csv", type: "text/csv" },
+    { rel: "workspace", href: "workspace.stl", type: "model/stl" },
+    { rel: "workspace-summary", href: "workspace.json", type: JSON_TYPE },
+    { rel: "scene", href: "scene.json", type: JSON_TYPE },
+  ];
+  const td: ThingDescription = {
+    "@context": [TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],
+    "@type": ["Thing", "robwot:RobotArmTwin"],
+    id: options.id ?? thingId(model, slug, options.sceneId),
+    title,
+    description: options.description ?? defaultDescription(model, joints, summary),
+    base: `${base.href}${slug}/`,
+    securityDefinitions: { nosec_sc: { scheme: "nosec" } },
+    security: "nosec_sc",
+    properties,
+    actions,
+    events,
+    links,
+    forms: [{ href: "properties", contentType: JSON_TYPE, op: ["readallproperties", "readmultipleproperties"] }],
+    "robwot:robot": model.name,
+    "robwot:eeLink": model.eeLink,
+    "robwot:controllableJoints": joints.map((j) => j.name),
+  };
+  if (summary) {
+    td["robwot:workspace"] = {
+      samples: summary.samples,
+      collisionFree: summary.collisionFree,
+      method: summary.method,
+      alpha: summary.alpha,
+      volume: summary.volume,
+      seed: summary.seed,
+      bounds: summary.bounds,
+    };
+  }
+  return td;
+}
+
+function defaultDescription(model: RobotModelLike, joints: JointSpec[], summary: WorkspaceSummary | null): string {
+  let text = `Digital twin of the robot arm '${model.name}' (${joints.length} controllable joints, end effector '${model.eeLink}'), simulated with PyBullet.`;
+  if (summary) {
+    text += ` Workspace: ${summary.samples} sampled configurations, ${summary.collisionFree} collision-free, ${summary.method} of volume ${summary.volume.toFixed(4)} m³.`;
+  }
+  return text;
+}

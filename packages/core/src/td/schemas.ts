@@ -1,0 +1,182 @@
+/** JSON data schemas of RobWoT's affordances (Contract 3). Units: "rad", "m", "s", "m/s". */
+import type { Bounds, JointSpec } from "../types.js";
+import type { DataSchema } from "./types.js";
+
+export const UNIT_RAD = "rad";
+export const UNIT_M = "m";
+export const UNIT_S = "s";
+export const UNIT_M_PER_S = "m/s";
+
+export function jointUnit(joint: JointSpec): string {
+  return joint.type === "prismatic" ? UNIT_M : UNIT_RAD;
+}
+
+/** One number per controllable joint, all required, limits from the URDF. */
+export function jointsSchema(joints: JointSpec[], description: string): DataSchema {
+  const properties: Record<string, DataSchema> = {};
+  for (const j of joints) {
+    properties[j.name] = {
+      type: "number",
+      title: j.name,
+      description: `${j.type} joint position`,
+      unit: jointUnit(j),
+      minimum: j.lower,
+      maximum: j.upper,
+    };
+  }
+  return {
+    type: "object",
+    description,
+    properties,
+    required: joints.map((j) => j.name),
+    additionalProperties: false,
+  };
+}
+
+function coordinate(axis: "x" | "y" | "z", bounds: Bounds | null): DataSchema {
+  const i = axis === "x" ? 0 : axis === "y" ? 1 : 2;
+  const s: DataSchema = { type: "number", unit: UNIT_M, description: `${axis} coordinate of the end-effector link frame` };
+  if (bounds) {
+    s.minimum = bounds.min[i];
+    s.maximum = bounds.max[i];
+  }
+  return s;
+}
+
+export function quaternionSchema(description: string): DataSchema {
+  const c = (): DataSchema => ({ type: "number", minimum: -1, maximum: 1 });
+  return {
+    type: "object",
+    description,
+    properties: { x: c(), y: c(), z: c(), w: c() },
+    required: ["x", "y", "z", "w"],
+    additionalProperties: false,
+  };
+}
+
+export function xyzSchema(description: string, bounds: Bounds | null = null): DataSchema {
+  return {
+    type: "object",
+    description,
+    properties: { x: coordinate("x", bounds), y: coordinate("y", bounds), z: coordinate("z", bounds) },
+    required: ["x", "y", "z"],
+    additionalProperties: false,
+  };
+}
+
+export const speedSchema = (): DataSchema => ({
+  type: "number",
+  description: "Fraction of the URDF joint velocity limits (0 < speed <= 1)",
+  exclusiveMinimum: 0,
+  maximum: 1,
+  default: 1,
+});
+
+/** Cartesian pose: x, y, z required (bounded by the collision-free points), orientation optional. */
+export function cartesianSchema(bounds: Bounds | null, withSpeed: boolean, description: string): DataSchema {
+  const s = xyzSchema(description, bounds);
+  s.properties = {
+    ...s.properties,
+    orientation: quaternionSchema("End-effector orientation quaternion {x,y,z,w}; any orientation if absent"),
+  };
+  if (withSpeed) s.properties.speed = speedSchema();
+  return s;
+}
+
+export function jointTargetSchema(joints: JointSpec[], description: string): DataSchema {
+  return {
+    type: "object",
+    description,
+    properties: {
+      joints: jointsSchema(joints, "Target position of every controllable joint"),
+      speed: speedSchema(),
+    },
+    required: ["joints"],
+    additionalProperties: false,
+  };
+}
+
+const contactSide = (): DataSchema => ({
+  type: "object",
+  properties: {
+    body: { type: "string", description: "robot id or obstacle name" },
+    link: { oneOf: [{ type: "string" }, { type: "null" }], description: "link name, null for an obstacle" },
+  },
+  required: ["body", "link"],
+});
+
+export function contactSchema(): DataSchema {
+  return {
+    type: "object",
+    properties: {
+      a: contactSide(),
+      b: contactSide(),
+      depth: { type: "number", unit: UNIT_M, minimum: 0 },
+      position: vec3Schema("contact point"),
+    },
+    required: ["a", "b", "depth", "position"],
+  };
+}
+
+export function vec3Schema(description: string, unit: string | null = UNIT_M): DataSchema {
+  const items: DataSchema = unit === null ? { type: "number" } : { type: "number", unit };
+  return { type: "array", description, items, minItems: 3, maxItems: 3 };
+}
+
+export function moveResultSchema(joints: JointSpec[]): DataSchema {
+  const jointsOut = jointsSchema(joints, "Joint positions at the end of the motion");
+  return {
+    type: "object",
+    description: "Result of a motion",
+    properties: {
+      status: { type: "string", enum: ["reached", "stopped", "collision"] },
+      joints: jointsOut,
+      position: xyzSchema("End-effector position at the end of the motion"),
+      orientation: quaternionSchema("End-effector orientation at the end of the motion"),
+      duration: { type: "number", unit: UNIT_S, minimum: 0 },
+      positionError: { type: "number", unit: UNIT_M, minimum: 0, description: "Cartesian moves: distance to the target" },
+    },
+    required: ["status", "joints", "position", "orientation", "duration"],
+  };
+}
+
+export function validationReportSchema(): DataSchema {
+  const ok = { type: "boolean" } as const;
+  return {
+    type: "object",
+    properties: {
+      valid: { type: "boolean" },
+      reasons: { type: "array", items: { type: "string" } },
+      checks: {
+        type: "object",
+        properties: {
+          limits: { type: "object", properties: { ok } },
+          insideWorkspace: { type: "object", properties: { ok }, description: "inside workspace.stl" },
+          pointCloud: {
+            type: "object",
+            description: "k nearest workspace.csv points: share of colliding ones against the threshold",
+            properties: { score: { type: "number", minimum: 0, maximum: 1 }, threshold: { type: "number" }, k: { type: "integer" }, ok },
+          },
+          ik: { type: "object", properties: { ok, positionError: { type: "number", unit: UNIT_M } } },
+          path: { type: "object", properties: { ok, contacts: { type: "array", items: contactSchema() } } },
+        },
+      },
+    },
+    required: ["valid", "reasons", "checks"],
+  };
+}
+
+export function calibrationResultSchema(): DataSchema {
+  return {
+    type: "object",
+    description: "x_real = scale * rotation * x_virtual + translation",
+    properties: {
+      scale: { type: "number", exclusiveMinimum: 0 },
+      rotation: { type: "array", items: { type: "array", items: { type: "number" }, minItems: 3, maxItems: 3 }, minItems: 3, maxItems: 3, description: "3x3 row-major, det +1" },
+      translation: vec3Schema("translation"),
+      rms: { type: "number", unit: UNIT_M, minimum: 0, description: "RMS residual over the pairs" },
+      pairs: { type: "integer", minimum: 3 },
+    },
+    required: ["scale", "rotation", "translation", "rms", "pairs"],
+  };
+}

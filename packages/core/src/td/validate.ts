@@ -1,0 +1,65 @@
+/**
+ * Validation with the official W3C WoT validator `@thing-description-playground/core` (`tdValidator`,
+ * CommonJS, loaded lazily through `createRequire`: it pulls in ajv and jsonld). The JSON-LD check needs
+ * the network and the Thing Model conformance checks may fetch linked TMs: both are off.
+ * Node only (not exported to the browser entry).
+ */
+import { createRequire } from "node:module";
+
+type Outcome = "passed" | "failed" | "warning" | null;
+
+interface PlaygroundResult {
+  report: { json: Outcome; schema: Outcome; defaults: Outcome; jsonld: Outcome; additional: Outcome };
+  details: Record<string, Outcome | string>;
+  detailComments: Record<string, string>;
+}
+
+interface Playground {
+  tdValidator(
+    td: string,
+    log: (message: unknown) => void,
+    options: { checkDefaults?: boolean; checkJsonLd?: boolean; checkTmConformance?: boolean },
+  ): Promise<PlaygroundResult>;
+}
+
+export interface TdValidationResult {
+  /** JSON, TD 1.1 JSON Schema and the additional assertions passed (warnings allowed). */
+  valid: boolean;
+  /** Why it is not valid: schema errors and failed assertions. */
+  errors: string[];
+  /** Non-fatal findings (e.g. defaults not spelled out, assertion warnings). */
+  warnings: string[];
+  report: PlaygroundResult["report"];
+}
+
+let playground: Playground | undefined;
+
+function loadPlayground(): Playground {
+  playground ??= createRequire(import.meta.url)("@thing-description-playground/core") as Playground;
+  return playground;
+}
+
+export async function validateThingDescription(td: unknown): Promise<TdValidationResult> {
+  const text = typeof td === "string" ? td : JSON.stringify(td);
+  const log: string[] = [];
+  const result = await loadPlayground().tdValidator(text, (m) => log.push(String(m)), {
+    checkDefaults: true,
+    checkJsonLd: false,
+    checkTmConformance: false,
+  });
+  const errors: string[] = [];
+  const warnings: string[] = [];
+  const { report, details, detailComments } = result;
+  if (report.json !== "passed") errors.push("not valid JSON");
+  if (report.schema === "failed") {
+    errors.push(`TD 1.1 JSON Schema: ${log.filter((l) => l.startsWith(">")).map((l) => l.slice(2)).join("; ") || "failed"}`);
+  }
+  if (report.defaults === "warning") warnings.push(`full schema with defaults: ${log.find((l) => l.startsWith(">"))?.slice(2) ?? "warning"}`);
+  for (const [key, outcome] of Object.entries(details)) {
+    const why = detailComments[key] ?? key;
+    if (outcome === "failed") errors.push(`${key}: ${why}`);
+    else if (outcome === "warning") warnings.push(`${key}: ${why}`);
+  }
+  const valid = report.json === "passed" && report.schema === "passed" && report.additional !== "failed";
+  return { valid, errors, warnings, report };
+}
