@@ -1,0 +1,123 @@
+/**
+ * Cartesian target form: "Validate" asks the twin (validateCartesianPosition) and shows the verdict;
+ * "Move" is enabled only for the validated, unchanged, valid target.
+ */
+import type { Commander } from "./commander.js";
+import { el, fmt } from "./dom.js";
+import { showError } from "./errors.js";
+import { isRecord } from "./http.js";
+
+type Target = { x: number; y: number; z: number };
+
+export class CartesianPanel {
+  private readonly inputs: Record<keyof Target, HTMLInputElement>;
+  private readonly verdict = el("div", { class: "verdict", hidden: "" });
+  private readonly validateButton = el("button", { type: "button", text: "Validate" });
+  private readonly moveButton = el("button", { type: "button", text: "Move", disabled: "" });
+  private validated: string | null = null;
+  private edited = false;
+
+  constructor(
+    parent: HTMLElement,
+    private readonly commander: Commander,
+  ) {
+    const input = (axis: keyof Target): HTMLInputElement => {
+      const i = el("input", { type: "number", step: "0.01", name: axis, "aria-label": `${axis} (m)`, value: "0" });
+      i.addEventListener("input", () => {
+        this.edited = true;
+        this.invalidate();
+      });
+      return i;
+    };
+    this.inputs = { x: input("x"), y: input("y"), z: input("z") };
+    const row = el("div", { class: "row" });
+    for (const axis of ["x", "y", "z"] as const) row.append(el("label", { text: axis }), this.inputs[axis]);
+    row.append(el("span", { text: "m" }));
+    this.validateButton.addEventListener("click", () => void this.validate());
+    this.moveButton.addEventListener("click", () => void this.move());
+    parent.append(
+      el(
+        "section",
+        { id: "cartesian" },
+        el("h2", { text: "Cartesian target (world frame)" }),
+        row,
+        el("div", { class: "row" }, this.validateButton, this.moveButton),
+        this.verdict,
+      ),
+    );
+  }
+
+  /** Pre-fill with the current end-effector position until the user edits the form. */
+  showCurrent(p: Target): void {
+    if (this.edited) return;
+    for (const axis of ["x", "y", "z"] as const) this.inputs[axis].value = fmt(p[axis]);
+  }
+
+  private target(): Target | null {
+    const t = { x: Number(this.inputs.x.value), y: Number(this.inputs.y.value), z: Number(this.inputs.z.value) };
+    return Object.values(t).every((v) => Number.isFinite(v)) && Object.values(this.inputs).every((i) => i.value !== "")
+      ? t
+      : null;
+  }
+
+  private invalidate(): void {
+    this.validated = null;
+    this.moveButton.disabled = true;
+    this.verdict.hidden = true;
+  }
+
+  private async validate(): Promise<void> {
+    const t = this.target();
+    if (!t) {
+      this.show(false, "Enter numbers for x, y and z (metres).");
+      return;
+    }
+    this.validateButton.disabled = true;
+    try {
+      const report = await this.commander.validateCartesian(t);
+      const valid = isRecord(report) && report["valid"] === true;
+      this.show(valid, describeReport(report));
+      this.validated = valid ? JSON.stringify(t) : null;
+      this.moveButton.disabled = !valid;
+    } catch (err) {
+      showError("validateCartesianPosition", err);
+      this.invalidate();
+    } finally {
+      this.validateButton.disabled = false;
+    }
+  }
+
+  private async move(): Promise<void> {
+    const t = this.target();
+    if (!t || this.validated !== JSON.stringify(t)) {
+      this.invalidate();
+      return;
+    }
+    this.moveButton.disabled = true;
+    this.edited = false;
+    await this.commander.moveCartesian(t);
+    this.invalidate();
+  }
+
+  private show(ok: boolean, text: string): void {
+    this.verdict.hidden = false;
+    this.verdict.className = `verdict ${ok ? "ok" : "bad"}`;
+    this.verdict.textContent = text;
+  }
+}
+
+function describeReport(report: unknown): string {
+  if (!isRecord(report)) return `unexpected answer: ${JSON.stringify(report)}`;
+  const lines = [report["valid"] === true ? "✔ valid: the twin can move there" : "✘ rejected"];
+  if (Array.isArray(report["reasons"])) for (const r of report["reasons"]) lines.push(`• ${String(r)}`);
+  const checks = isRecord(report["checks"]) ? report["checks"] : {};
+  for (const [name, c] of Object.entries(checks)) {
+    if (!isRecord(c)) continue;
+    const extra = Object.entries(c)
+      .filter(([k, v]) => k !== "ok" && typeof v === "number")
+      .map(([k, v]) => `${k}=${fmt(v as number, 4)}`)
+      .join(" ");
+    lines.push(`${c["ok"] === true ? "ok " : c["ok"] === false ? "NO " : "–  "} ${name} ${extra}`);
+  }
+  return lines.join("\n");
+}

@@ -1,0 +1,49 @@
+/**
+ * Read-only debug state exposed as `window.__robwot` for tests and curious users. The page writes it;
+ * nothing reads it back, so tampering with it from the console changes nothing.
+ */
+export interface DebugState {
+  /** "loading" until the TD, model and data are loaded, then "ready" (or "error" if the model failed). */
+  phase: "loading" | "ready" | "error" | "list";
+  thing: string | null;
+  /** Joint values (rad or m) currently applied to the displayed model. */
+  joints: Record<string, number>;
+  /** Number of joint frames applied to the model (display-rate updates). */
+  framesApplied: number;
+  liveConnected: boolean;
+  liveMessages: number;
+  lastStatus: unknown;
+  collisions: number;
+  pointCloud: { shown: number; total: number; collisionFree: number } | null;
+  workspaceTriangles: number;
+  obstacles: string[];
+  errors: string[];
+  twins: string[];
+}
+
+export const debugState: DebugState = {
+  phase: "loading",
+  thing: null,
+  joints: {},
+  framesApplied: 0,
+  liveConnected: false,
+  liveMessages: 0,
+  lastStatus: null,
+  collisions: 0,
+  pointCloud: null,
+  workspaceTriangles: 0,
+  obstacles: [],
+  errors: [],
+  twins: [],
+};
+
+declare global {
+  interface Window {
+    __robwot: Readonly<DebugState>;
+  }
+}
+
+/** Publish a deep-frozen snapshot; call after each change worth observing. */
+export function publishDebug(): void {
+  window.__robwot = Object.freeze(structuredClone(debugState));
+}

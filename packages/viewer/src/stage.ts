@@ -1,0 +1,107 @@
+/**
+ * Renderer, camera, lights, orbit controls and the render loop. Renders on demand (when something
+ * changed) at display rate via requestAnimationFrame; per-frame hooks run first (e.g. apply the latest
+ * live joint state).
+ */
+import {
+  AmbientLight,
+  Box3,
+  Color,
+  DirectionalLight,
+  GridHelper,
+  HemisphereLight,
+  type Object3D,
+  PerspectiveCamera,
+  Scene,
+  Vector3,
+  WebGLRenderer,
+} from "three";
+import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
+import { createWorldRoot, urdfToThree } from "./frames.js";
+
+export class Stage {
+  readonly scene = new Scene();
+  /** Parent of everything built from twin data, in URDF world coordinates (see frames.ts). */
+  readonly worldRoot = createWorldRoot();
+  readonly camera = new PerspectiveCamera(45, 1, 0.01, 100);
+  readonly renderer: WebGLRenderer;
+  readonly controls: OrbitControls;
+  private dirty = true;
+  private readonly hooks: Array<() => boolean> = [];
+
+  constructor(private readonly container: HTMLElement) {
+    this.renderer = new WebGLRenderer({ antialias: true });
+    this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
+    container.append(this.renderer.domElement);
+    this.scene.background = new Color(0xf4f6f9);
+    this.scene.add(new HemisphereLight(0xffffff, 0x8899aa, 1.6));
+    this.scene.add(new AmbientLight(0xffffff, 0.4));
+    const sun = new DirectionalLight(0xffffff, 2.2);
+    sun.position.copy(urdfToThree([2, 1.5, 4]));
+    this.scene.add(sun);
+    // The floor grid lives in three.js's own frame: its XZ plane is the URDF's XY plane (z = 0).
+    const grid = new GridHelper(4, 40, 0x9aa5b1, 0xd0d6de);
+    this.scene.add(grid, this.worldRoot);
+    this.camera.position.copy(urdfToThree([2, 1.2, 1.4]));
+    this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+    this.controls.enableDamping = false;
+    this.controls.addEventListener("change", () => this.invalidate());
+    new ResizeObserver(() => this.resize()).observe(container);
+    this.resize();
+  }
+
+  /** Register a per-frame hook; it returns true when it changed the scene. */
+  onFrame(hook: () => boolean): void {
+    this.hooks.push(hook);
+  }
+
+  invalidate(): void {
+    this.dirty = true;
+  }
+
+  add(obj: Object3D): void {
+    this.worldRoot.add(obj);
+    this.invalidate();
+  }
+
+  start(): void {
+    const tick = (): void => {
+      for (const hook of this.hooks) if (hook()) this.dirty = true;
+      if (this.dirty) {
+        this.dirty = false;
+        this.renderer.render(this.scene, this.camera);
+      }
+      requestAnimationFrame(tick);
+    };
+    requestAnimationFrame(tick);
+  }
+
+  /** Aim the camera at `objects` (three.js world bounding box) from the front-right, above. */
+  frame(objects: Object3D[]): void {
+    this.scene.updateMatrixWorld(true);
+    const box = new Box3();
+    for (const o of objects) box.expandByObject(o);
+    if (box.isEmpty()) return;
+    const centre = box.getCenter(new Vector3());
+    const radius = box.getSize(new Vector3()).length() / 2;
+    const fov = (this.camera.fov * Math.PI) / 180;
+    const distance = (radius / Math.sin(fov / 2)) * 0.9;
+    const dir = urdfToThree([1.3, 0.9, 0.75]).normalize();
+    this.camera.position.copy(centre).addScaledVector(dir, distance);
+    this.camera.near = distance / 100;
+    this.camera.far = distance * 20;
+    this.camera.updateProjectionMatrix();
+    this.controls.target.copy(centre);
+    this.controls.update();
+    this.invalidate();
+  }
+
+  private resize(): void {
+    const w = Math.max(1, this.container.clientWidth);
+    const h = Math.max(1, this.container.clientHeight);
+    this.renderer.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+    this.invalidate();
+  }
+}

@@ -1,0 +1,146 @@
+/**
+ * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
+ * and the linked model / workspace files (Contract 3).
+ */
+import { ViewerError } from "./errors.js";
+import { fetchJson, isRecord } from "./http.js";
+
+export interface JointLimit {
+  name: string;
+  minimum: number;
+  maximum: number;
+  unit: string;
+}
+
+export interface TwinTd {
+  title: string;
+  /** URL the TD was fetched from. */
+  url: string;
+  /** Base against which link hrefs resolve (`<base-url><slug>/`). */
+  base: string;
+  raw: Record<string, unknown>;
+  joints: JointLimit[];
+  links: { model: string; pointCloud: string | null; workspace: string | null; scene: string | null };
+  /** Live WebSocket endpoint from the TD's forms carrying `robwot:subscribe` (Contract 4), if any. */
+  live: string | null;
+}
+
+export async function loadTd(slug: string): Promise<TwinTd> {
+  const url = new URL(`/${encodeURIComponent(slug)}`, location.href).href;
+  const raw = await fetchJson(url);
+  if (!isRecord(raw)) throw new ViewerError("E_TD", `TD at ${url} is not a JSON object`);
+  const base = typeof raw["base"] === "string" ? ensureSlash(raw["base"]) : `${url}/`;
+  const link = (rel: string): string | null => {
+    const links = Array.isArray(raw["links"]) ? raw["links"] : [];
+    for (const l of links) {
+      if (isRecord(l) && l["rel"] === rel && typeof l["href"] === "string") return sameOrigin(new URL(l["href"], base).href);
+    }
+    return null;
+  };
+  const model = link("model");
+  if (model === null) throw new ViewerError("E_TD", `TD at ${url} has no link with rel "model" (the URDF)`);
+  return {
+    title: typeof raw["title"] === "string" ? raw["title"] : slug,
+    url,
+    base,
+    raw,
+    joints: jointLimits(raw),
+    links: {
+      model,
+      pointCloud: link("workspace-pointcloud"),
+      workspace: link("workspace"),
+      scene: link("scene") ?? new URL("scene.json", base).href,
+    },
+    live: liveUrl(raw),
+  };
+}
+
+function jointLimits(td: Record<string, unknown>): JointLimit[] {
+  const prop = affordance(td, "properties", "getJointPosition");
+  const props = prop && isRecord(prop["properties"]) ? prop["properties"] : null;
+  if (!props) throw new ViewerError("E_TD", "TD property getJointPosition has no per-joint schema");
+  return Object.entries(props).map(([name, schema]) => {
+    const s = isRecord(schema) ? schema : {};
+    const min = s["minimum"];
+    const max = s["maximum"];
+    if (typeof min !== "number" || typeof max !== "number") {
+      throw new ViewerError("E_TD", `joint ${name} has no minimum/maximum in the TD`, { joint: name });
+    }
+    return { name, minimum: min, maximum: max, unit: typeof s["unit"] === "string" ? s["unit"] : "rad" };
+  });
+}
+
+function liveUrl(td: Record<string, unknown>): string | null {
+  for (const kind of ["properties", "events"]) {
+    const group = td[kind];
+    if (!isRecord(group)) continue;
+    for (const a of Object.values(group)) {
+      const forms = isRecord(a) && Array.isArray(a["forms"]) ? a["forms"] : [];
+      for (const f of forms) {
+        if (isRecord(f) && typeof f["href"] === "string" && f["robwot:subscribe"] !== undefined && /^wss?:/.test(f["href"])) {
+          // Same machine as the page: keep the advertised port and path, use the host name we reached.
+          const u = new URL(f["href"]);
+          u.hostname = location.hostname;
+          return u.href;
+        }
+      }
+    }
+  }
+  return null;
+}
+
+function affordance(td: Record<string, unknown>, kind: string, name: string): Record<string, unknown> | null {
+  const group = td[kind];
+  if (!isRecord(group)) return null;
+  const a = group[name];
+  return isRecord(a) ? a : null;
+}
+
+/**
+ * URL of an HTTP form of an affordance for the given op (no subprotocol such as longpoll). Forms on our
+ * own origin are preferred: node-wot may list one form per network interface. The page is served by the
+ * servient's own HTTP server (Contract 4), so another host name for it is mapped onto our origin.
+ */
+export function formUrl(td: TwinTd, kind: "properties" | "actions", name: string, op: string): string {
+  const a = affordance(td.raw, kind, name);
+  if (!a) throw new ViewerError("E_TD", `TD has no ${kind === "properties" ? "property" : "action"} "${name}"`);
+  const forms = Array.isArray(a["forms"]) ? a["forms"].filter(isRecord) : [];
+  const candidates = forms
+    .filter((f) => typeof f["href"] === "string" && f["subprotocol"] === undefined)
+    .filter((f) => {
+      const ops = f["op"];
+      return ops === undefined || ops === op || (Array.isArray(ops) && ops.includes(op));
+    })
+    .map((f) => new URL(String(f["href"]), td.base))
+    .filter((u) => u.protocol === "http:" || u.protocol === "https:");
+  const own = candidates.find((u) => u.origin === location.origin);
+  const chosen = own ?? candidates[0];
+  if (!chosen) throw new ViewerError("E_TD", `no HTTP form with op ${op} for ${name}`);
+  return sameOrigin(chosen.href);
+}
+
+export async function readProperty(td: TwinTd, name: string): Promise<unknown> {
+  return fetchJson(formUrl(td, "properties", name, "readproperty"));
+}
+
+export async function invokeAction(td: TwinTd, name: string, input?: unknown): Promise<unknown> {
+  const init: RequestInit = { method: "POST" };
+  if (input !== undefined) {
+    init.headers = { "content-type": "application/json" };
+    init.body = JSON.stringify(input);
+  }
+  return fetchJson(formUrl(td, "actions", name, "invokeaction"), init);
+}
+
+function ensureSlash(u: string): string {
+  return u.endsWith("/") ? u : `${u}/`;
+}
+
+/**
+ * Links and forms may name another interface address of this same servient (PITFALLS: node-wot forms
+ * point at every local interface). The servient that served this page serves them too: keep the path.
+ */
+function sameOrigin(href: string): string {
+  const u = new URL(href);
+  return u.origin === location.origin ? href : new URL(u.pathname + u.search, location.origin).href;
+}

@@ -1,0 +1,223 @@
+/**
+ * One twin's page: loads the TD, model, scene, point cloud and workspace surface, wires the control
+ * panel to the TD's HTTP forms and the live WebSocket to the model.
+ */
+import { Mesh, MeshBasicMaterial, type Object3D, SphereGeometry } from "three";
+import type { URDFRobot } from "urdf-loader";
+import { CartesianPanel } from "./cartesian-panel.js";
+import { Commander } from "./commander.js";
+import { debugState, publishDebug } from "./debug.js";
+import { showError, showNotice } from "./errors.js";
+import { fetchBuffer, fetchJson, fetchText, isRecord } from "./http.js";
+import { JointPanel } from "./joint-panel.js";
+import { LiveClient } from "./live.js";
+import { MotionPanel } from "./motion-panel.js";
+import { buildObstacles } from "./obstacles.js";
+import { buildPointCloud, parseWorkspaceCsv } from "./pointcloud.js";
+import { applyJoints, highlightLink, loadRobot } from "./robot.js";
+import { Stage } from "./stage.js";
+import { loadTd, readProperty, type TwinTd } from "./td.js";
+import { buildWorkspaceMesh, triangleCount } from "./workspace-mesh.js";
+
+const HIGHLIGHT_MS = 1500;
+
+export async function showTwin(slug: string, view: HTMLElement, content: HTMLElement): Promise<void> {
+  debugState.thing = slug;
+  publishDebug();
+  const td = await loadTd(slug);
+  document.title = `${td.title} · RobWoT`;
+  const title = document.getElementById("title");
+  if (title) title.textContent = td.title;
+
+  const stage = new Stage(view);
+  stage.start();
+
+  const motion = new MotionPanel(content, () => void commander.stop());
+  const commander = new Commander(td, {
+    speed: () => motion.speed(),
+    busy: (active) => (joints.targetActive = active),
+    result: () => undefined, // the live status stream reports outcomes
+    error: (action, err) => showError(action, err),
+  });
+  const joints = new JointPanel(content, td.joints, (target) => commander.moveJoints(target));
+  const cartesian = new CartesianPanel(content, commander);
+
+  let robot: URDFRobot | null = null;
+  let latest: Record<string, number> | null = null;
+  const reportedUnknown = new Set<string>();
+  stage.onFrame(() => {
+    if (!robot || !latest) return false;
+    const unknown = applyJoints(robot, latest).filter((n) => !reportedUnknown.has(n));
+    for (const n of unknown) {
+      reportedUnknown.add(n);
+      showError("live", `joint "${n}" is not in the model (known: ${Object.keys(robot.joints).join(", ")})`);
+    }
+    joints.showActual(latest);
+    debugState.joints = { ...debugState.joints, ...latest };
+    debugState.framesApplied++;
+    publishDebug();
+    latest = null;
+    return true;
+  });
+
+  // Everything loads in parallel; each failure is shown, the rest of the page keeps working.
+  const robotTask = loadRobot(td.links.model).then(({ robot: r, meshErrors }) => {
+    for (const e of meshErrors) showError("model", e);
+    robot = r;
+    stage.add(r);
+    motion.addLayer("robot", true, (v) => setVisible(stage, r, v));
+    return r;
+  });
+  const sceneTask = loadScene(td, stage, motion);
+  const cloudTask = loadCloud(td, stage, motion);
+  const surfaceTask = loadSurface(td, stage, motion);
+  const stateTask = loadState(td, motion, cartesian).then((q) => (latest ??= q));
+
+  startLive(td, slug, {
+    joints: (q, msg) => {
+      latest = q;
+      const p = msg["position"];
+      if (isRecord(p) && typeof p["x"] === "number") cartesian.showCurrent(p as { x: number; y: number; z: number });
+    },
+    status: (msg) => {
+      motion.showStatus(msg);
+      debugState.lastStatus = msg;
+      publishDebug();
+      if (msg["state"] !== "moving") readProperty(td, "calibration").then((c) => motion.showCalibration(c), (e: unknown) => showError("calibration", e));
+    },
+    collision: (msg) => {
+      debugState.collisions++;
+      publishDebug();
+      highlightCollision(stage, robot, msg);
+    },
+  });
+
+  const results = await Promise.allSettled([robotTask, sceneTask, cloudTask, surfaceTask, stateTask]);
+  const labels = ["model", "scene", "workspace.csv", "workspace.stl", "state"];
+  results.forEach((r, i) => {
+    if (r.status === "rejected") showError(labels[i] ?? "load", r.reason);
+  });
+  const framed: Object3D[] = [];
+  if (results[0].status === "fulfilled") framed.push(results[0].value);
+  if (results[3].status === "fulfilled" && results[3].value) framed.push(results[3].value);
+  else if (results[2].status === "fulfilled" && results[2].value) framed.push(results[2].value);
+  stage.frame(framed);
+  debugState.phase = results[0].status === "fulfilled" ? "ready" : "error";
+  publishDebug();
+}
+
+async function loadScene(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<void> {
+  if (!td.links.scene) return;
+  const built = await buildObstacles(await fetchJson(td.links.scene), td.base);
+  for (const e of built.errors) showError("scene.json", e);
+  stage.add(built.group);
+  debugState.obstacles = built.names;
+  if (built.names.length > 0) motion.addLayer(`obstacles (${built.names.length})`, true, (v) => setVisible(stage, built.group, v));
+}
+
+async function loadCloud(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<Object3D | null> {
+  if (!td.links.pointCloud) return null;
+  const cloud = parseWorkspaceCsv(await fetchText(td.links.pointCloud), undefined, td.links.pointCloud);
+  const points = buildPointCloud(cloud);
+  stage.add(points);
+  debugState.pointCloud = { shown: cloud.free.length, total: cloud.total, collisionFree: cloud.collisionFree };
+  const label = cloud.free.length < cloud.total ? `point cloud (${cloud.free.length} of ${cloud.total})` : `point cloud (${cloud.total})`;
+  motion.addLayer(label, true, (v) => setVisible(stage, points, v));
+  return points;
+}
+
+async function loadSurface(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<Object3D | null> {
+  if (!td.links.workspace) return null;
+  const mesh = buildWorkspaceMesh(await fetchBuffer(td.links.workspace));
+  stage.add(mesh);
+  debugState.workspaceTriangles = triangleCount(mesh);
+  motion.addLayer("workspace surface", true, (v) => setVisible(stage, mesh, v));
+  return mesh;
+}
+
+async function loadState(td: TwinTd, motion: MotionPanel, cartesian: CartesianPanel): Promise<Record<string, number>> {
+  const [q, pose, status, calibration] = await Promise.all([
+    readProperty(td, "getJointPosition"),
+    readProperty(td, "getCartesianPosition"),
+    readProperty(td, "motionStatus"),
+    readProperty(td, "calibration"),
+  ]);
+  if (isRecord(status)) motion.showStatus(status);
+  motion.showCalibration(calibration);
+  if (isRecord(pose) && typeof pose["x"] === "number") cartesian.showCurrent(pose as { x: number; y: number; z: number });
+  if (!isRecord(q) || !Object.values(q).every((v) => typeof v === "number")) {
+    throw new Error(`getJointPosition answered ${JSON.stringify(q)}`);
+  }
+  return q as Record<string, number>;
+}
+
+function startLive(
+  td: TwinTd,
+  slug: string,
+  on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision">,
+): void {
+  const url = td.live ?? `${location.protocol === "https:" ? "wss:" : "ws:"}//${location.host}/live`;
+  const badge = document.getElementById("connection");
+  // Count every message so tests and users can see the stream is flowing.
+  const counted =
+    <A extends unknown[]>(f: (...a: A) => void) =>
+    (...a: A): void => {
+      debugState.liveMessages++;
+      f(...a);
+    };
+  new LiveClient(url, slug, {
+    joints: counted(on.joints),
+    status: counted(on.status),
+    collision: counted(on.collision),
+    connection: (open) => {
+      debugState.liveConnected = open;
+      publishDebug();
+      if (badge) {
+        badge.textContent = open ? "live" : "offline";
+        badge.className = `badge ${open ? "on" : "off"}`;
+      }
+    },
+    error: (err) => showError("live", err),
+  }).connect();
+}
+
+function setVisible(stage: Stage, obj: Object3D, visible: boolean): void {
+  obj.visible = visible;
+  stage.invalidate();
+}
+
+function highlightCollision(stage: Stage, robot: URDFRobot | null, msg: Record<string, unknown>): void {
+  const pair = isRecord(msg["pair"]) ? msg["pair"] : {};
+  const names: string[] = [];
+  for (const side of [pair["a"], pair["b"]]) {
+    const link = isRecord(side) ? side["link"] : side;
+    const body = isRecord(side) ? side["body"] : null;
+    if (typeof link === "string" && robot?.links[link]) {
+      highlightLink(robot.links[link], HIGHLIGHT_MS);
+      names.push(link);
+    } else if (typeof body === "string") {
+      const obstacle = stage.worldRoot.getObjectByName(body);
+      if (obstacle instanceof Mesh) flash(obstacle);
+      names.push(body);
+    }
+  }
+  const p = msg["position"];
+  if (isRecord(p) && typeof p["x"] === "number" && typeof p["y"] === "number" && typeof p["z"] === "number") {
+    const marker = new Mesh(new SphereGeometry(0.02, 16, 8), new MeshBasicMaterial({ color: 0xff0000 }));
+    marker.position.set(p["x"], p["y"], p["z"]);
+    stage.add(marker);
+    window.setTimeout(() => {
+      marker.removeFromParent();
+      stage.invalidate();
+    }, HIGHLIGHT_MS);
+  }
+  showNotice("collision", `motion stopped by contact between ${names.join(" and ") || "unknown bodies"}`);
+  stage.invalidate();
+  window.setTimeout(() => stage.invalidate(), HIGHLIGHT_MS + 50);
+}
+
+function flash(mesh: Mesh): void {
+  const saved = mesh.material;
+  mesh.material = new MeshBasicMaterial({ color: 0xe02020 });
+  window.setTimeout(() => (mesh.material = saved), HIGHLIGHT_MS);
+}
