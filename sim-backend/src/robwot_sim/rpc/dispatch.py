@@ -1,0 +1,124 @@
+"""Method table and dispatch: frame in, reply frame out (sans-I/O: handlers are awaited, nothing else).
+
+Handlers receive validated `Params` (unknown param names refused) and a `Call` giving the id and a
+way to notify the calling connection. Exceptions become JSON-RPC errors:
+`Fault` as is, `SimError`-like objects (`rpc_code`, `code`, `data`) with their stable codes, anything
+else -32603 E_INTERNAL naming the method (and the traceback goes to the log, not the client).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Awaitable, Callable, Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from robwot_sim.rpc.params import Params
+from robwot_sim.rpc.protocol import (
+    DEFAULT_MAX_MESSAGE_BYTES,
+    INTERNAL_ERROR,
+    METHOD_NOT_FOUND,
+    Fault,
+    Rejected,
+    RequestId,
+    error_message,
+    parse_frame,
+    result_message,
+)
+
+log = logging.getLogger("robwot_sim.rpc")
+
+Notify = Callable[[str, dict[str, Any]], None]
+
+
+@dataclass(frozen=True)
+class Call:
+    """One call in progress: its id, method name and a sink for notifications to the caller."""
+
+    id: RequestId
+    method: str
+    notify: Notify
+
+
+Handler = Callable[[Params, Call], Awaitable[Any]]
+
+
+@dataclass(frozen=True)
+class Method:
+    name: str
+    handler: Handler
+    params: tuple[str, ...]
+    summary: str
+
+
+def fault_from_exception(exc: BaseException, method: str) -> Fault:
+    """Map an exception raised by a handler to a JSON-RPC error object."""
+    if isinstance(exc, Fault):
+        return exc
+    rpc_code = getattr(exc, "rpc_code", None)
+    code = getattr(exc, "code", None)
+    if isinstance(rpc_code, int) and isinstance(code, str):
+        data = getattr(exc, "data", None)
+        payload = dict(data) if isinstance(data, dict) else {}
+        payload["code"] = code
+        message = getattr(exc, "message", None)
+        return Fault(rpc_code, message if isinstance(message, str) else str(exc), payload)
+    log.error("internal error in %s", method, exc_info=exc)
+    return Fault(
+        INTERNAL_ERROR,
+        f"internal error in {method}: {type(exc).__name__}: {exc}",
+        {"code": "E_INTERNAL", "method": method},
+    )
+
+
+class Dispatcher:
+    """Registered methods plus the frame -> reply logic."""
+
+    def __init__(self, max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> None:
+        self.max_message_bytes = max_message_bytes
+        self._methods: dict[str, Method] = {}
+
+    def register(self, name: str, handler: Handler, params: Iterable[str] = (), summary: str = "") -> None:
+        if name in self._methods:
+            raise ValueError(f"method {name!r} registered twice")
+        self._methods[name] = Method(name, handler, tuple(params), summary)
+
+    def method(self, name: str, params: Iterable[str] = (),
+               summary: str = "") -> Callable[[Handler], Handler]:
+        """Decorator form of `register`."""
+
+        def wrap(handler: Handler) -> Handler:
+            self.register(name, handler, params, summary)
+            return handler
+
+        return wrap
+
+    @property
+    def names(self) -> list[str]:
+        return sorted(self._methods)
+
+    def get(self, name: str) -> Method | None:
+        return self._methods.get(name)
+
+    async def handle(self, frame: str | bytes, notify: Notify) -> str | None:
+        """Process one frame; return the reply frame, or None for a client notification."""
+        parsed = parse_frame(frame, self.max_message_bytes)
+        if isinstance(parsed, Rejected):
+            return error_message(parsed.id, parsed.fault)
+        method = self._methods.get(parsed.method)
+        try:
+            if method is None:
+                raise Fault(
+                    METHOD_NOT_FOUND,
+                    f"unknown method {parsed.method!r}; available: {', '.join(self.names)}",
+                    {"code": "E_METHOD_NOT_FOUND", "method": parsed.method, "available": self.names},
+                )
+            params = Params(parsed.params, method.params)
+            result = await method.handler(params, Call(parsed.id, parsed.method, notify))
+        except Exception as exc:
+            if parsed.is_notification:
+                return None
+            return error_message(parsed.id, fault_from_exception(exc, parsed.method))
+        if parsed.is_notification:
+            return None
+        return result_message(parsed.id, {} if result is None else result)
