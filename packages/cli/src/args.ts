@@ -1,0 +1,70 @@
+/** Small parsers for option values; each throws a `CliError` naming the option and the bad value. */
+import { existsSync, statSync } from "node:fs";
+import { resolve } from "node:path";
+import { CliError } from "./errors.js";
+
+export function parseInteger(option: string, value: string | undefined, fallback: number, min: number, max = Number.MAX_SAFE_INTEGER): number {
+  if (value === undefined) return fallback;
+  if (!/^[+]?\d+$/.test(value.trim())) throw new CliError(`--${option} must be an integer, got "${value}"`);
+  const n = Number(value);
+  if (n < min || n > max) throw new CliError(`--${option} must be between ${min} and ${max}, got ${n}`);
+  return n;
+}
+
+export function parseNumber(option: string, value: string | undefined, fallback: number, min: number, max = Number.POSITIVE_INFINITY): number {
+  if (value === undefined) return fallback;
+  const n = Number(value);
+  if (value.trim() === "" || !Number.isFinite(n)) throw new CliError(`--${option} must be a number, got "${value}"`);
+  if (n < min || n > max) throw new CliError(`--${option} must be between ${min} and ${max}, got ${n}`);
+  return n;
+}
+
+export function parseAlpha(value: string | undefined): "auto" | number {
+  if (value === undefined || value === "auto") return "auto";
+  const n = Number(value);
+  if (value.trim() === "" || !Number.isFinite(n) || n <= 0) {
+    throw new CliError(`--alpha must be "auto" or a positive radius in metres, got "${value}"`);
+  }
+  return n;
+}
+
+/** `--package-root NAME=DIR` (repeatable) → `{NAME: absolute DIR}`; the folder must exist. */
+export function parsePackageRoots(values: string[] | undefined): Record<string, string> {
+  const roots: Record<string, string> = {};
+  for (const v of values ?? []) {
+    const eq = v.indexOf("=");
+    const name = eq > 0 ? v.slice(0, eq) : "";
+    const dir = eq > 0 ? v.slice(eq + 1) : "";
+    if (!/^[A-Za-z0-9_.-]+$/.test(name) || dir === "") {
+      throw new CliError(`--package-root must look like NAME=DIR (e.g. ur_description=./ur_description), got "${v}"`);
+    }
+    const abs = resolve(dir);
+    if (!existsSync(abs) || !statSync(abs).isDirectory()) {
+      throw new CliError(`--package-root ${name}: folder not found: ${abs}`);
+    }
+    roots[name] = abs;
+  }
+  return roots;
+}
+
+export function parseUrl(option: string, value: string | undefined, protocols: string[]): URL | undefined {
+  if (value === undefined) return undefined;
+  let url: URL;
+  try {
+    url = new URL(value);
+  } catch {
+    throw new CliError(`--${option} must be a URL (${protocols.join(" or ")}), got "${value}"`);
+  }
+  if (!protocols.includes(url.protocol.replace(/:$/, ""))) {
+    throw new CliError(`--${option} must use ${protocols.join(" or ")}, got "${value}"`);
+  }
+  return url;
+}
+
+/** A file argument that must exist and be a regular file. */
+export function existingFile(what: string, path: string): string {
+  const abs = resolve(path);
+  if (!existsSync(abs)) throw new CliError(`${what} not found: ${abs}`, "E_FILE_NOT_FOUND");
+  if (!statSync(abs).isFile()) throw new CliError(`${what} is not a file: ${abs}`, "E_FILE_NOT_FOUND");
+  return abs;
+}

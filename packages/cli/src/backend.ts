@@ -1,0 +1,121 @@
+/**
+ * The CLI's view of the simulation backend: starts the Python backend through `@robwot/sim-client` (or
+ * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
+ */
+import type { WorkspaceSummary as CoreWorkspaceSummary } from "@robwot/core";
+import { connect, launchBackend, type LaunchedBackend, type RobotModel as SimRobotModel, type SimClient, type WorldList as SimWorldList } from "@robwot/sim-client";
+import { CliError } from "./errors.js";
+
+export type WorkspaceSummary = CoreWorkspaceSummary;
+export type RobotModel = SimRobotModel;
+export type WorldList = SimWorldList;
+export interface Progress {
+  stage: string;
+  done: number;
+  total: number;
+}
+
+export interface Backend {
+  /** `pybullet_data.getDataPath()` of the backend (for example robots). */
+  readonly pybulletData: string;
+  loadRobot(params: { urdf: string; eeLink?: string; packageRoots?: Record<string, string> }): Promise<RobotModel>;
+  loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void>;
+  listWorld(): Promise<WorldList>;
+  resetWorld(): Promise<void>;
+  exportRobot(params: { robot: string; outDir: string }): Promise<void>;
+  generateWorkspace(
+    params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
+    onProgress: (p: Progress) => void,
+  ): Promise<WorkspaceSummary>;
+  /** Leaves the world as found (when connected to a running backend) and stops an own backend. Idempotent. */
+  close(): Promise<void>;
+}
+
+/** Generous per-request timeout: loading a mesh-heavy robot or a large scene can take a while. */
+const REQUEST_TIMEOUT_MS = 120_000;
+
+class SimBackend implements Backend {
+  private closing: Promise<void> | null = null;
+  private readonly own: LaunchedBackend | null;
+
+  constructor(
+    private readonly client: SimClient,
+    own: LaunchedBackend | null,
+    readonly pybulletData: string,
+  ) {
+    this.own = own;
+  }
+
+  loadRobot(params: { urdf: string; eeLink?: string; packageRoots?: Record<string, string> }): Promise<RobotModel> {
+    return this.client.loadRobot(params);
+  }
+  async loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void> {
+    await this.client.loadScene(params);
+  }
+  listWorld(): Promise<WorldList> {
+    return this.client.listWorld();
+  }
+  async resetWorld(): Promise<void> {
+    await this.client.resetWorld();
+  }
+  async exportRobot(params: { robot: string; outDir: string }): Promise<void> {
+    await this.client.exportRobot(params.robot, params.outDir);
+  }
+  generateWorkspace(
+    params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
+    onProgress: (p: Progress) => void,
+  ): Promise<WorkspaceSummary> {
+    return this.client.generateWorkspace(params, { onProgress }) as Promise<WorkspaceSummary>;
+  }
+  close(): Promise<void> {
+    this.closing ??= (async () => {
+      if (this.own) {
+        await this.own.stop();
+      } else {
+        // A shared backend: leave its world empty, as we found it.
+        await this.client.resetWorld().catch(() => undefined);
+        await this.client.close().catch(() => undefined);
+      }
+    })();
+    return this.closing;
+  }
+}
+
+/**
+ * Starts an own backend, or connects to `url`. A running backend must have an empty world (generation
+ * labels collisions against everything in it); it is reset again on close.
+ */
+export async function openBackend(url?: string): Promise<Backend> {
+  if (url === undefined) {
+    const own = await launchBackend({ requestTimeoutMs: REQUEST_TIMEOUT_MS });
+    try {
+      const ping = await own.client.ping();
+      return new SimBackend(own.client, own, ping.pybulletData);
+    } catch (err) {
+      await own.stop();
+      throw err;
+    }
+  }
+  let client: SimClient;
+  try {
+    client = await connect(url, { requestTimeoutMs: REQUEST_TIMEOUT_MS });
+  } catch (err) {
+    throw new CliError(`cannot connect to the backend at ${url}: ${(err as Error).message}`, "E_BACKEND", 1);
+  }
+  try {
+    const ping = await client.ping();
+    const world = await client.listWorld();
+    if (world.robots.length > 0 || world.obstacles.length > 0) {
+      throw new CliError(
+        `the backend at ${url} is in use (${world.robots.length} robot(s), ${world.obstacles.length} obstacle(s) loaded); ` +
+          "generate needs an empty world: omit --backend to start a dedicated one",
+        "E_BACKEND",
+        1,
+      );
+    }
+    return new SimBackend(client, null, ping.pybulletData);
+  } catch (err) {
+    await client.close().catch(() => undefined);
+    throw err;
+  }
+}

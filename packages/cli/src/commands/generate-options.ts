@@ -1,0 +1,137 @@
+/**
+ * `robwot generate` options: parsed with node's `util.parseArgs` and fully validated before anything is
+ * started (no backend, no folder), so a typo costs milliseconds and leaves nothing behind.
+ */
+import { readFileSync } from "node:fs";
+import { basename, join, resolve } from "node:path";
+import { parseArgs } from "node:util";
+import { existingFile, parseAlpha, parseInteger, parsePackageRoots, parseUrl } from "../args.js";
+import { CliError } from "../errors.js";
+import { EXAMPLE_NAMES, type ExampleRobot, findExample, looksLikeExampleName } from "../examples.js";
+
+export interface GenerateOptions {
+  /** Exactly one of `urdfFile` (absolute path) and `example` is set. */
+  urdfFile?: string;
+  example?: ExampleRobot;
+  scene?: string;
+  samples: number;
+  seed: number;
+  ee?: string;
+  out: string;
+  baseUrl: string;
+  alpha: "auto" | number;
+  workers?: number;
+  packageRoots: Record<string, string>;
+  csvJoints: boolean;
+  backend?: string;
+  json: boolean;
+  force: boolean;
+}
+
+export const GENERATE_OPTIONS = {
+  scene: { type: "string" },
+  samples: { type: "string" },
+  seed: { type: "string" },
+  ee: { type: "string" },
+  out: { type: "string", short: "o" },
+  "base-url": { type: "string" },
+  alpha: { type: "string" },
+  workers: { type: "string" },
+  "package-root": { type: "string", multiple: true },
+  "csv-joints": { type: "boolean" },
+  backend: { type: "string" },
+  json: { type: "boolean" },
+  force: { type: "boolean" },
+} as const;
+
+export const DEFAULT_SAMPLES = 80_000;
+export const DEFAULT_BASE_URL = "http://localhost:8080/";
+
+/** File-system friendly name: lower case, `[a-z0-9_-]`. */
+export function slugify(name: string): string {
+  const s = name.toLowerCase().replace(/[^a-z0-9_-]+/g, "-").replace(/^-+|-+$/g, "");
+  return s === "" ? "robot" : s;
+}
+
+/** The `<robot name="...">` of a URDF, read cheaply (the backend parses it properly later). */
+function urdfRobotName(file: string): string | undefined {
+  try {
+    const head = readFileSync(file, "utf8").slice(0, 65536);
+    return /<robot\b[^>]*\bname\s*=\s*["']([^"']+)["']/.exec(head)?.[1];
+  } catch {
+    return undefined;
+  }
+}
+
+function parseSceneFile(path: string): string {
+  const abs = existingFile("scene file", path);
+  let text: string;
+  try {
+    text = readFileSync(abs, "utf8");
+  } catch (err) {
+    throw new CliError(`cannot read scene file ${abs}: ${(err as Error).message}`, "E_SCENE", 1);
+  }
+  try {
+    JSON.parse(text);
+  } catch (err) {
+    throw new CliError(`scene file ${abs} is not valid JSON: ${(err as Error).message}`, "E_SCENE", 1);
+  }
+  return abs;
+}
+
+export function parseGenerateArgs(argv: string[]): GenerateOptions {
+  let parsed;
+  try {
+    parsed = parseArgs({ args: argv, options: GENERATE_OPTIONS, allowPositionals: true, strict: true });
+  } catch (err) {
+    throw new CliError(`${(err as Error).message} (see robwot generate --help)`);
+  }
+  const { values, positionals } = parsed;
+  if (positionals.length !== 1) {
+    throw new CliError(
+      positionals.length === 0
+        ? `missing robot: give a URDF file or an example name (${EXAMPLE_NAMES.join(", ")})`
+        : `expected one robot, got ${positionals.length}: ${positionals.join(" ")}`,
+    );
+  }
+  const robotArg = positionals[0] as string;
+  let urdfFile: string | undefined;
+  let example: ExampleRobot | undefined;
+  if (looksLikeExampleName(robotArg)) {
+    example = findExample(robotArg);
+    if (!example) {
+      throw new CliError(`unknown example robot "${robotArg}" and no such file (examples: ${EXAMPLE_NAMES.join(", ")})`);
+    }
+  } else {
+    urdfFile = existingFile("URDF file", robotArg);
+  }
+  const samples = parseInteger("samples", values.samples, DEFAULT_SAMPLES, 100, 10_000_000);
+  const seed = parseInteger("seed", values.seed, 1, 0, 2 ** 32 - 1);
+  const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, 1, 1, 256);
+  const alpha = parseAlpha(values.alpha);
+  const packageRoots = parsePackageRoots(values["package-root"]);
+  const baseUrlObj = parseUrl("base-url", values["base-url"] ?? DEFAULT_BASE_URL, ["http", "https"]) as URL;
+  const baseUrl = baseUrlObj.href.endsWith("/") ? baseUrlObj.href : `${baseUrlObj.href}/`;
+  const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
+  const scene = values.scene === undefined ? undefined : parseSceneFile(values.scene);
+  if (values.ee !== undefined && values.ee.trim() === "") throw new CliError("--ee must name a link");
+  const robotName = example?.name ?? (urdfFile ? urdfRobotName(urdfFile) : undefined) ?? basename(urdfFile ?? "robot", ".urdf");
+  const out = resolve(values.out ?? join("twins", slugify(robotName)));
+  return {
+    ...(urdfFile ? { urdfFile } : {}),
+    ...(example ? { example } : {}),
+    ...(scene ? { scene } : {}),
+    samples,
+    seed,
+    ...(values.ee !== undefined ? { ee: values.ee } : {}),
+    out,
+    baseUrl,
+    alpha,
+    ...(workers !== undefined ? { workers } : {}),
+    packageRoots,
+    csvJoints: values["csv-joints"] ?? false,
+    ...(backend ? { backend } : {}),
+    json: values.json ?? false,
+    force: values.force ?? false,
+  };
+}

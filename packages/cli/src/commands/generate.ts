@@ -1,0 +1,85 @@
+/** `robwot generate`: wiring of options, output folder, backend, progress and the summary printout. */
+import { relative } from "node:path";
+import { openBackend } from "../backend.js";
+import { describeError } from "../errors.js";
+import { exampleHelp } from "../examples.js";
+import { type GenerateResult, generateTwin } from "../generate-twin.js";
+import { onCleanup } from "../lifecycle.js";
+import { createProgress } from "../progress.js";
+import { StagedDir } from "../twin-dir.js";
+import { DEFAULT_BASE_URL, DEFAULT_SAMPLES, type GenerateOptions, parseGenerateArgs } from "./generate-options.js";
+
+export const USAGE = `Usage: robwot generate <robot.urdf | example-name> [options]
+
+Builds a digital-twin folder: td.json (W3C Thing Description), twin.json, robot.urdf + meshes,
+scene.json, workspace.csv (labelled point cloud), workspace.stl (alpha shape), workspace.json.
+
+Options:
+  --scene FILE            scene JSON with obstacles (default: none)
+  --samples N             random joint configurations (default ${DEFAULT_SAMPLES})
+  --seed N                random seed (default 1; same seed => same workspace.csv)
+  --ee LINK               end-effector link (default: the last link of the chain)
+  --out DIR, -o DIR       output folder (default twins/<robot-name>); replaced only on success
+  --base-url URL          base URL of the servient for the TD (default ${DEFAULT_BASE_URL})
+  --alpha auto|R          alpha-shape radius in metres (default auto)
+  --workers N             collision-checking processes (default: number of cores)
+  --package-root NAME=DIR resolve package://NAME/... mesh paths (repeatable)
+  --csv-joints            add the joint values to workspace.csv
+  --backend ws://HOST:PORT use a running backend instead of starting one
+  --json                  print a machine-readable summary on stdout
+  --force                 replace --out even if it is not a twin folder
+
+Example robots:
+${exampleHelp()}
+`;
+
+function printHuman(r: GenerateResult, seconds: number): void {
+  const s = r.summary;
+  const rel = relative(process.cwd(), r.out) || ".";
+  const lines = [
+    `robwot: twin "${r.robot.name}" written to ${rel.startsWith("..") ? r.out : rel}/ in ${seconds.toFixed(1)} s`,
+    `  robot      ${r.robot.controllable.length} joints (${r.robot.controllable.join(", ")}), end effector ${r.robot.eeLink}`,
+    `  scene      ${r.obstacles} obstacle(s)${r.scene ? ` from ${r.scene}` : ""}`,
+    `  workspace  ${s.samples} samples, ${s.collisionFree} collision-free (${((100 * s.collisionFree) / Math.max(1, s.samples)).toFixed(1)}%), ` +
+      `${s.method}${s.alpha !== null ? ` alpha ${s.alpha.toFixed(3)} m` : ""}, volume ${s.volume.toFixed(3)} m^3`,
+    `  bounds     min [${s.bounds.min.map((v) => v.toFixed(3)).join(", ")}] max [${s.bounds.max.map((v) => v.toFixed(3)).join(", ")}] m`,
+    `  td         ${r.td.file} (id ${r.td.id})`,
+  ];
+  process.stdout.write(`${lines.join("\n")}\n`);
+}
+
+/** Validates, generates and reports. Returns the exit code. */
+export async function runGenerate(opts: GenerateOptions): Promise<number> {
+  const t0 = performance.now();
+  const progress = createProgress({ silent: opts.json });
+  const staged = StagedDir.create(opts.out, { force: opts.force });
+  const dropStaged = onCleanup(() => staged.discard());
+  try {
+    const backend = await openBackend(opts.backend);
+    const dropBackend = onCleanup(() => backend.close());
+    try {
+      const result = await generateTwin(opts, backend, staged, progress);
+      const seconds = (performance.now() - t0) / 1000;
+      if (opts.json) process.stdout.write(`${JSON.stringify({ ok: true, ...result, seconds }, null, 2)}\n`);
+      else printHuman(result, seconds);
+      return 0;
+    } finally {
+      dropBackend();
+      await backend.close();
+    }
+  } catch (err) {
+    progress.end();
+    if (opts.json) {
+      const { message, code } = describeError(err);
+      process.stdout.write(`${JSON.stringify({ ok: false, error: { code, message } }, null, 2)}\n`);
+    }
+    throw err;
+  } finally {
+    dropStaged();
+    staged.discard();
+  }
+}
+
+export async function run(argv: string[]): Promise<number> {
+  return runGenerate(parseGenerateArgs(argv));
+}

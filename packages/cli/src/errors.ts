@@ -1,0 +1,67 @@
+/**
+ * CLI errors. Every failure the user can cause ends as one line `robwot: error: <message>` on stderr and a
+ * non-zero exit code; the message names the file, line, joint, link or value involved.
+ */
+
+/** An error whose message is ready to show to the user. */
+export class CliError extends Error {
+  override name = "CliError";
+  constructor(
+    message: string,
+    /** Stable string code (`E_USAGE`, `E_OUTPUT`, or the backend's `E_...` code). */
+    readonly code: string = "E_USAGE",
+    /** Process exit code: 2 for usage errors, 1 for everything else. */
+    readonly exitCode: number = code === "E_USAGE" ? 2 : 1,
+  ) {
+    super(message);
+  }
+}
+
+/** Shape of a JSON-RPC error as the sim-client surfaces it (`error.code`, `error.data.code`, fields). */
+interface RpcLikeError {
+  message: string;
+  code?: unknown;
+  data?: Record<string, unknown>;
+}
+
+function isRecord(v: unknown): v is Record<string, unknown> {
+  return typeof v === "object" && v !== null && !Array.isArray(v);
+}
+
+const DETAIL_FIELDS = ["file", "line", "column", "joint", "value", "lower", "upper", "param", "expected", "got", "path", "name", "urdf"];
+
+function fmtValue(v: unknown): string {
+  if (typeof v === "string") return v;
+  if (typeof v === "number") return String(v);
+  return JSON.stringify(v);
+}
+
+/**
+ * Turns any thrown value into a one-line message. Backend (JSON-RPC) errors keep their message and get
+ * their structured fields appended when the message does not already mention them.
+ */
+export function describeError(err: unknown): { message: string; code: string; exitCode: number } {
+  if (err instanceof CliError) return { message: err.message, code: err.code, exitCode: err.exitCode };
+  if (err instanceof Error) {
+    const e = err as Error & RpcLikeError;
+    const data = isRecord(e.data) ? e.data : undefined;
+    const code = typeof data?.["code"] === "string" ? data["code"] : typeof e.code === "string" ? e.code : "E_INTERNAL";
+    let message = e.message;
+    if (data) {
+      const extra: string[] = [];
+      for (const k of DETAIL_FIELDS) {
+        const v = data[k];
+        if (v === undefined || v === null) continue;
+        const s = fmtValue(v);
+        if (!message.includes(s)) extra.push(`${k}=${s}`);
+      }
+      const available = data["available"];
+      if (Array.isArray(available) && !/valid|available/i.test(message)) {
+        extra.push(`valid: ${available.map(fmtValue).join(", ")}`);
+      }
+      if (extra.length > 0) message += ` (${extra.join(", ")})`;
+    }
+    return { message, code, exitCode: 1 };
+  }
+  return { message: String(err), code: "E_INTERNAL", exitCode: 1 };
+}

@@ -1,0 +1,127 @@
+/**
+ * The generate pipeline (Contract 2): URDF (+ scene) → complete twin folder, written into a staged
+ * temporary folder and moved into place only when everything, TD validation included, succeeded.
+ * Shared by `robwot generate` and `robwot demo`.
+ */
+import { existsSync, writeFileSync } from "node:fs";
+import { join } from "node:path";
+import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
+import { buildTd, tdErrorsMessage } from "./td.js";
+import type { GenerateOptions } from "./commands/generate-options.js";
+import { CliError } from "./errors.js";
+import { exampleUrdfPath } from "./examples.js";
+import type { ProgressSink } from "./progress.js";
+import { StagedDir } from "./twin-dir.js";
+import { VERSION } from "./version.js";
+
+export interface GenerateResult {
+  out: string;
+  robot: { name: string; id: string; urdf: string; eeLink: string; controllable: string[] };
+  scene: string | null;
+  obstacles: number;
+  summary: WorkspaceSummary;
+  td: { id: string; title: string; file: string };
+  seconds: number;
+}
+
+function writeJson(file: string, value: unknown): void {
+  writeFileSync(file, `${JSON.stringify(value, null, 2)}\n`);
+}
+
+/** Resolves the URDF to load: a file given by the user or an example robot. */
+function urdfPath(opts: GenerateOptions, pybulletData: string): string {
+  if (opts.urdfFile) return opts.urdfFile;
+  if (!opts.example) throw new CliError("no robot given");
+  const file = exampleUrdfPath(opts.example, pybulletData);
+  if (!existsSync(file)) {
+    throw new CliError(`example robot "${opts.example.name}" not found at ${file} (is pybullet_data installed?)`, "E_FILE_NOT_FOUND", 1);
+  }
+  return file;
+}
+
+/**
+ * Runs the whole pipeline against an open backend whose world is empty. `staged` must have been created
+ * by the caller (before starting the backend, so output problems are reported first); it is committed
+ * on success and left for the caller to discard on failure.
+ */
+export async function generateTwin(
+  opts: GenerateOptions,
+  backend: Backend,
+  staged: StagedDir,
+  progress: ProgressSink,
+): Promise<GenerateResult> {
+  const t0 = performance.now();
+  progress.stage("load");
+  const urdf = urdfPath(opts, backend.pybulletData);
+  const model: RobotModel = await backend.loadRobot({
+    urdf,
+    ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}),
+    packageRoots: opts.packageRoots,
+  });
+  if (opts.scene) await backend.loadScene({ path: opts.scene, packageRoots: opts.packageRoots });
+  const world = await backend.listWorld();
+  const obstacles = world.obstacles;
+  const otherRobots = world.robots.filter((r) => r.id !== model.id);
+
+  await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
+  const scene = {
+    version: 1,
+    robots: otherRobots.map((r) => ({
+      id: r.id,
+      urdf: r.urdf,
+      basePosition: r.basePosition,
+      baseOrientation: r.baseOrientation,
+      ...(r.eeLink ? { eeLink: r.eeLink } : {}),
+    })),
+    obstacles,
+  };
+  writeJson(join(staged.tmp, "scene.json"), scene);
+  writeJson(join(staged.tmp, "twin.json"), {
+    version: 1,
+    robot: {
+      urdf: "robot.urdf",
+      eeLink: model.eeLink,
+      basePosition: model.basePosition ?? [0, 0, 0],
+      baseOrientation: model.baseOrientation ?? [0, 0, 0, 1],
+      name: model.name,
+    },
+    scene: "scene.json",
+    generatedAt: new Date().toISOString(),
+    tool: `robwot ${VERSION}`,
+  });
+
+  const summary = await backend.generateWorkspace(
+    {
+      robot: model.id,
+      samples: opts.samples,
+      seed: opts.seed,
+      ...(opts.workers !== undefined ? { workers: opts.workers } : {}),
+      alpha: opts.alpha,
+      outDir: staged.tmp,
+      csvJoints: opts.csvJoints,
+    },
+    (p) => progress.update(p.stage, p.done, p.total),
+  );
+  writeJson(join(staged.tmp, "workspace.json"), summary);
+  if (summary.method === "convex-hull") {
+    progress.info("the alpha shape degenerated (planar robot or too few points): workspace.stl is the convex hull");
+  }
+
+  progress.stage("td");
+  const td = buildTd(model, summary, scene, opts.baseUrl);
+  const errors = await td.validate();
+  if (errors.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(errors)}`, "E_TD_INVALID", 1);
+  writeJson(join(staged.tmp, "td.json"), td.td);
+
+  staged.commit();
+  progress.end();
+  return {
+    out: staged.out,
+    robot: { name: model.name, id: model.id, urdf, eeLink: model.eeLink, controllable: model.controllable },
+    scene: opts.scene ?? null,
+    obstacles: obstacles.length,
+    summary,
+    td: { id: td.td.id, title: td.td.title, file: join(staged.out, "td.json") },
+    seconds: (performance.now() - t0) / 1000,
+  };
+}

@@ -1,0 +1,64 @@
+#!/usr/bin/env node
+/**
+ * `robwot` entry point: dispatches to one module per command and turns every failure into
+ * `robwot: error: <message>` on stderr with a non-zero exit code.
+ */
+import { describeError } from "./errors.js";
+import { runCleanups } from "./lifecycle.js";
+import { silenceAjvFormatNoise } from "./quiet-console.js";
+import { exampleHelp } from "./examples.js";
+import { VERSION } from "./version.js";
+
+const COMMANDS: Record<string, () => Promise<{ run(argv: string[]): Promise<number>; USAGE: string }>> = {
+  generate: () => import("./commands/generate.js"),
+  serve: () => import("./commands/serve.js"),
+  demo: () => import("./commands/demo.js"),
+};
+
+const HELP = `robwot ${VERSION}: turn a robot arm's URDF into a Web of Things digital twin
+
+Usage:
+  robwot generate <robot.urdf | example-name> [options]   build a twin folder (TD, URDF, workspace)
+  robwot serve <twin-folder>... [options]                 serve twins as node-wot Things
+  robwot demo                                             generate the bundled demo twin and serve it
+  robwot <command> --help                                 options of a command
+
+Example robots:
+${exampleHelp()}
+`;
+
+async function main(argv: string[]): Promise<number> {
+  silenceAjvFormatNoise();
+  const [command, ...rest] = argv;
+  if (command === undefined || command === "help" || command === "--help" || command === "-h") {
+    process.stdout.write(HELP);
+    return command === undefined ? 2 : 0;
+  }
+  if (command === "--version" || command === "-v") {
+    process.stdout.write(`${VERSION}\n`);
+    return 0;
+  }
+  const load = COMMANDS[command];
+  if (!load) {
+    process.stderr.write(`robwot: error: unknown command "${command}" (valid: ${Object.keys(COMMANDS).join(", ")})\n`);
+    return 2;
+  }
+  const mod = await load();
+  if (rest.includes("--help") || rest.includes("-h")) {
+    process.stdout.write(mod.USAGE);
+    return 0;
+  }
+  return mod.run(rest);
+}
+
+let code: number;
+try {
+  code = await main(process.argv.slice(2));
+} catch (err) {
+  const { message, exitCode } = describeError(err);
+  process.stderr.write(`robwot: error: ${message}\n`);
+  if (process.env["ROBWOT_DEBUG"] && err instanceof Error && err.stack) process.stderr.write(`${err.stack}\n`);
+  code = exitCode;
+}
+await runCleanups();
+process.exit(code);

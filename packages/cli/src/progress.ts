@@ -1,0 +1,102 @@
+/**
+ * Progress reporting on stderr: a redrawn bar with ETA on a terminal, plain lines otherwise (CI logs,
+ * pipes), nothing at all in `--quiet`/`--json` mode. Stages are named by the caller.
+ */
+
+export interface ProgressSink {
+  /** A stage starts (`load`, `sample`, `collide`, `alpha`, `write`, `td`). */
+  stage(name: string): void;
+  /** Progress within the current stage. */
+  update(name: string, done: number, total: number): void;
+  /** Free text (kept on its own line). */
+  info(text: string): void;
+  /** Clears the bar; call once at the end. */
+  end(): void;
+}
+
+export interface ProgressOptions {
+  stream?: NodeJS.WriteStream;
+  /** Force TTY behaviour on or off (defaults to `stream.isTTY`). */
+  tty?: boolean;
+  silent?: boolean;
+  now?: () => number;
+}
+
+const BAR_WIDTH = 28;
+
+export function formatDuration(seconds: number): string {
+  if (!Number.isFinite(seconds) || seconds < 0) return "?";
+  if (seconds < 10) return `${seconds.toFixed(1)}s`;
+  if (seconds < 60) return `${Math.round(seconds)}s`;
+  const m = Math.floor(seconds / 60);
+  const s = Math.round(seconds % 60);
+  return `${m}m${String(s).padStart(2, "0")}s`;
+}
+
+export function createProgress(opts: ProgressOptions = {}): ProgressSink {
+  const stream = opts.stream ?? process.stderr;
+  const now = opts.now ?? (() => performance.now() / 1000);
+  const tty = opts.tty ?? Boolean(stream.isTTY);
+  if (opts.silent) {
+    return { stage() {}, update() {}, info() {}, end() {} };
+  }
+  let current: string | null = null;
+  let stageStart = now();
+  let lastPlainQuarter = -1;
+  let barShown = false;
+  let lastDraw = 0;
+
+  const clearBar = (): void => {
+    if (tty && barShown) {
+      stream.write("\r\x1b[2K");
+      barShown = false;
+    }
+  };
+  const finishStage = (): void => {
+    if (current === null) return;
+    const took = formatDuration(now() - stageStart);
+    clearBar();
+    stream.write(`robwot: ${current} done in ${took}\n`);
+    current = null;
+  };
+
+  return {
+    stage(name) {
+      finishStage();
+      current = name;
+      stageStart = now();
+      lastPlainQuarter = -1;
+      if (!tty) stream.write(`robwot: ${name}...\n`);
+    },
+    update(name, done, total) {
+      if (name !== current) this.stage(name);
+      const frac = total > 0 ? Math.min(1, Math.max(0, done / total)) : 0;
+      const elapsed = now() - stageStart;
+      const eta = frac > 0 ? (elapsed * (1 - frac)) / frac : Number.NaN;
+      if (tty) {
+        const t = now();
+        if (t - lastDraw < 0.05 && frac < 1) return;
+        lastDraw = t;
+        const filled = Math.round(frac * BAR_WIDTH);
+        const bar = "#".repeat(filled) + "-".repeat(BAR_WIDTH - filled);
+        const pct = `${Math.floor(frac * 100)}`.padStart(3);
+        stream.write(`\r\x1b[2K${name.padEnd(8)} [${bar}] ${pct}% ${done}/${total} ETA ${formatDuration(eta)}`);
+        barShown = true;
+      } else {
+        const quarter = Math.floor(frac * 4);
+        if (quarter > lastPlainQuarter && quarter < 4) {
+          lastPlainQuarter = quarter;
+          if (quarter > 0) stream.write(`robwot: ${name} ${done}/${total} (${quarter * 25}%, ETA ${formatDuration(eta)})\n`);
+        }
+      }
+    },
+    info(text) {
+      clearBar();
+      stream.write(`robwot: ${text}\n`);
+    },
+    end() {
+      finishStage();
+      clearBar();
+    },
+  };
+}

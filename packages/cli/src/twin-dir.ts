@@ -1,0 +1,80 @@
+/**
+ * Atomic output folder. Everything is written into a temporary folder next to the destination (same
+ * file system, so `rename` is atomic); `commit()` swaps it in, `discard()` removes it. An existing output
+ * is replaced only after the new one is complete: rename old away, rename new in, delete old.
+ */
+import { randomBytes } from "node:crypto";
+import { existsSync, mkdirSync, mkdtempSync, renameSync, rmSync, statSync, readdirSync } from "node:fs";
+import { basename, dirname, join, resolve } from "node:path";
+import { CliError } from "./errors.js";
+
+/** A file every complete twin folder contains; an existing folder without it is not ours to replace. */
+export const TWIN_MARKER = "twin.json";
+
+export class StagedDir {
+  readonly out: string;
+  readonly tmp: string;
+  private done = false;
+
+  private constructor(out: string, tmp: string) {
+    this.out = out;
+    this.tmp = tmp;
+  }
+
+  /**
+   * Checks that `out` can be (re)placed and creates the temporary folder. Throws a `CliError`
+   * (`E_OUTPUT`) naming the path when the destination is not writable or not replaceable.
+   */
+  static create(outArg: string, opts: { force?: boolean } = {}): StagedDir {
+    const out = resolve(outArg);
+    if (existsSync(out)) {
+      const st = statSync(out);
+      if (!st.isDirectory()) throw new CliError(`output ${out} exists and is not a directory`, "E_OUTPUT");
+      const entries = readdirSync(out);
+      if (entries.length > 0 && !entries.includes(TWIN_MARKER) && !opts.force) {
+        throw new CliError(
+          `output ${out} exists and is not a twin folder (no ${TWIN_MARKER}); refusing to replace it (use --force, or another --out)`,
+          "E_OUTPUT",
+        );
+      }
+    }
+    const parent = dirname(out);
+    try {
+      mkdirSync(parent, { recursive: true });
+    } catch (err) {
+      throw new CliError(`cannot create output folder ${parent}: ${(err as Error).message}`, "E_OUTPUT");
+    }
+    let tmp: string;
+    try {
+      tmp = mkdtempSync(join(parent, `.${basename(out)}.tmp-`));
+    } catch (err) {
+      throw new CliError(`output folder ${parent} is not writable: ${(err as Error).message}`, "E_OUTPUT");
+    }
+    return new StagedDir(out, tmp);
+  }
+
+  /** Moves the finished folder into place, replacing a previous output only now. */
+  commit(): void {
+    if (this.done) throw new Error("StagedDir already committed or discarded");
+    let old: string | null = null;
+    if (existsSync(this.out)) {
+      old = join(dirname(this.out), `.${basename(this.out)}.old-${randomBytes(4).toString("hex")}`);
+      renameSync(this.out, old);
+    }
+    try {
+      renameSync(this.tmp, this.out);
+    } catch (err) {
+      if (old !== null) renameSync(old, this.out);
+      throw new CliError(`cannot move ${this.tmp} to ${this.out}: ${(err as Error).message}`, "E_OUTPUT");
+    }
+    this.done = true;
+    if (old !== null) rmSync(old, { recursive: true, force: true });
+  }
+
+  /** Removes the temporary folder (idempotent; a committed folder is left alone). */
+  discard(): void {
+    if (this.done) return;
+    this.done = true;
+    rmSync(this.tmp, { recursive: true, force: true });
+  }
+}

@@ -1,0 +1,191 @@
+/**
+ * End to end: `robwot generate` as a real child process with the real Python backend, checking the twin
+ * folder it writes (Contract 2) and the Thing Description (Contract 3) with the official validator.
+ */
+import { existsSync, mkdtempSync, readdirSync, readFileSync, rmSync, writeFileSync, mkdirSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { runCli, TINY_URDF } from "./cli-run.js";
+import { checkBinaryStl, officialTdValidation, readCsv } from "./twin-files.js";
+
+const SAMPLES = 3000;
+let work: string;
+
+
+beforeAll(() => {
+  work = mkdtempSync(join(tmpdir(), "robwot-generate-"));
+  writeFileSync(join(work, "tiny.urdf"), TINY_URDF);
+});
+afterAll(() => rmSync(work, { recursive: true, force: true }));
+
+interface Summary {
+  samples: number;
+  collisionFree: number;
+  bounds: { min: number[]; max: number[] };
+  method: string;
+  volume: number;
+  seed: number;
+}
+
+async function generate(robot: string, out: string, extra: string[] = []): Promise<Record<string, unknown>> {
+  const r = await runCli(["generate", robot, "--samples", String(SAMPLES), "--out", out, "--json", ...extra]);
+  expect(r.stderr, r.stderr).not.toMatch(/unknown format/);
+  expect(r.code, `exit ${r.code}\n${r.stderr}`).toBe(0);
+  return JSON.parse(r.stdout) as Record<string, unknown>;
+}
+
+const json = (file: string): Record<string, any> => JSON.parse(readFileSync(file, "utf8")) as Record<string, any>;
+
+describe.each([
+  ["kuka_iiwa", "kuka_iiwa", 7],
+  ["franka_panda", "franka_panda", 7],
+  ["xarm6", "xarm6", 6],
+  ["tiny URDF", "TINY", 3],
+])("robwot generate %s", (_label, robotArg, dof) => {
+  let out: string;
+  let printed: Record<string, unknown>;
+  beforeAll(async () => {
+    out = join(work, `twin-${robotArg}`);
+    printed = await generate(robotArg === "TINY" ? join(work, "tiny.urdf") : robotArg, out);
+  });
+
+  it("writes the complete twin folder and nothing else next to it", () => {
+    for (const f of ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json"]) {
+      expect(existsSync(join(out, f)), f).toBe(true);
+    }
+    expect(readdirSync(work).filter((n) => n.includes(".tmp-") || n.includes(".old-"))).toEqual([]);
+    expect(printed["ok"]).toBe(true);
+  });
+
+  it("writes a labelled point cloud with one row per sample", () => {
+    const csv = readCsv(join(out, "workspace.csv"));
+    expect(csv.header).toEqual(["x", "y", "z", "collision_free"]);
+    expect(csv.rows.length).toBe(SAMPLES);
+    for (const row of csv.rows) {
+      expect(row.length).toBe(4);
+      expect(row.slice(0, 3).every(Number.isFinite)).toBe(true);
+      expect([0, 1]).toContain(row[3]);
+    }
+    const summary = json(join(out, "workspace.json")) as Summary;
+    const free = csv.rows.filter((r) => r[3] === 1);
+    expect(summary.samples).toBe(SAMPLES);
+    expect(summary.collisionFree).toBe(free.length);
+    expect(free.length).toBeGreaterThan(SAMPLES * 0.2);
+    for (let k = 0; k < 3; k++) {
+      expect(Math.min(...free.map((r) => r[k]!))).toBeCloseTo(summary.bounds.min[k]!, 4);
+      expect(Math.max(...free.map((r) => r[k]!))).toBeCloseTo(summary.bounds.max[k]!, 4);
+    }
+  });
+
+  it("writes a closed, outward-oriented binary STL whose volume matches workspace.json", () => {
+    const stl = checkBinaryStl(join(out, "workspace.stl"));
+    const summary = json(join(out, "workspace.json")) as Summary;
+    expect(stl.triangles).toBeGreaterThan(10);
+    expect(stl.closed).toBe(true);
+    expect(stl.consistent).toBe(true);
+    expect(stl.signedVolume).toBeGreaterThan(0);
+    expect(stl.normalsAgree).toBeGreaterThan(0.99);
+    expect(stl.signedVolume).toBeCloseTo(summary.volume, 2);
+  });
+
+  it("writes a Thing Description that passes the official validator, with the twin's limits and links", async () => {
+    const text = readFileSync(join(out, "td.json"), "utf8");
+    const { result, log } = await officialTdValidation(text);
+    expect(result.report.json).toBe("passed");
+    expect(result.report.schema, log.join("\n")).toBe("passed");
+    expect(result.report.additional, log.join("\n")).not.toBe("failed");
+    const td = JSON.parse(text) as Record<string, any>;
+    expect(td["base"]).toMatch(/^http:\/\/localhost:8080\/.+\/$/);
+    const joints = td["properties"]["getJointPosition"]["properties"] as Record<string, { minimum: number; maximum: number }>;
+    expect(Object.keys(joints).length).toBe(dof);
+    for (const j of Object.values(joints)) expect(j.maximum).toBeGreaterThan(j.minimum);
+    const summary = json(join(out, "workspace.json")) as Summary;
+    const cart = td["properties"]["getCartesianPosition"]["properties"];
+    expect(cart.x.minimum).toBeCloseTo(summary.bounds.min[0]!, 6);
+    expect(cart.z.maximum).toBeCloseTo(summary.bounds.max[2]!, 6);
+    for (const name of ["moveToJointPosition", "moveToCartesianPosition"]) expect(td["actions"][name]).toBeDefined();
+    const links = td["links"] as { rel: string; href: string; type: string }[];
+    const byRel = Object.fromEntries(links.map((l) => [l.rel, l]));
+    expect(byRel["model"]).toMatchObject({ href: "robot.urdf", type: "application/urdf+xml" });
+    expect(byRel["workspace-pointcloud"]).toMatchObject({ href: "workspace.csv", type: "text/csv" });
+    expect(byRel["workspace"]).toMatchObject({ href: "workspace.stl", type: "model/stl" });
+    for (const l of links) expect(existsSync(join(out, l.href)), l.href).toBe(true);
+  });
+
+  it("writes twin.json and a self-contained URDF", () => {
+    const twin = json(join(out, "twin.json"));
+    expect(twin).toMatchObject({ version: 1, scene: "scene.json", robot: { urdf: "robot.urdf" } });
+    expect(typeof twin["robot"]["eeLink"]).toBe("string");
+    expect(json(join(out, "scene.json"))["obstacles"]).toEqual([]);
+    const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
+    const meshes = [...urdf.matchAll(/filename="([^"]+)"/g)].map((m) => m[1]!);
+    for (const m of meshes) {
+      expect(m).not.toMatch(/^(\/|package:\/\/|file:)/);
+      expect(existsSync(join(out, m)), m).toBe(true);
+    }
+  });
+});
+
+describe("workspace determinism and obstacles (kuka_iiwa)", () => {
+  const rowsOf = (dir: string): number[][] => readCsv(join(dir, "workspace.csv")).rows;
+
+  it("same seed gives an identical workspace.csv; another seed gives bounds within a few cm", async () => {
+    const a = join(work, "seed-a");
+    const b = join(work, "seed-b");
+    const c = join(work, "seed-c");
+    const n = ["--samples", "20000"];
+    await runCli(["generate", "kuka_iiwa", "--out", a, "--seed", "7", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
+    await runCli(["generate", "kuka_iiwa", "--out", b, "--seed", "7", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
+    await runCli(["generate", "kuka_iiwa", "--out", c, "--seed", "8", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
+    expect(readFileSync(join(a, "workspace.csv")).equals(readFileSync(join(b, "workspace.csv")))).toBe(true);
+    expect(readFileSync(join(a, "workspace.csv")).equals(readFileSync(join(c, "workspace.csv")))).toBe(false);
+    const sa = json(join(a, "workspace.json")) as Summary;
+    const sc = json(join(c, "workspace.json")) as Summary;
+    for (let k = 0; k < 3; k++) {
+      expect(Math.abs(sa.bounds.min[k]! - sc.bounds.min[k]!)).toBeLessThan(0.05);
+      expect(Math.abs(sa.bounds.max[k]! - sc.bounds.max[k]!)).toBeLessThan(0.05);
+    }
+  });
+
+  it("a box in the workspace removes exactly collision-free points, and those near the box", async () => {
+    const box = { name: "block", shape: { type: "box", size: [0.4, 0.4, 0.4] }, position: [0.5, 0, 0.5] };
+    const sceneFile = join(work, "box-scene.json");
+    writeFileSync(sceneFile, JSON.stringify({ version: 1, obstacles: [box] }));
+    const free = join(work, "no-box");
+    const boxed = join(work, "with-box");
+    await generate("kuka_iiwa", free, ["--seed", "3"]);
+    await generate("kuka_iiwa", boxed, ["--seed", "3", "--scene", sceneFile]);
+    const a = rowsOf(free);
+    const b = rowsOf(boxed);
+    expect(b.length).toBe(a.length);
+    let removed = 0;
+    let freeInsideBox = 0;
+    for (let i = 0; i < a.length; i++) {
+      const ra = a[i]!;
+      const rb = b[i]!;
+      expect(rb.slice(0, 3)).toEqual(ra.slice(0, 3));
+      expect(rb[3]!).toBeLessThanOrEqual(ra[3]!);
+      if (ra[3] === 1 && rb[3] === 0) removed++;
+      const inside = [0, 1, 2].every((k) => Math.abs(rb[k]! - (box.position[k] as number)) < 0.2);
+      if (inside && rb[3] === 1) freeInsideBox++;
+    }
+    expect(removed).toBeGreaterThan(SAMPLES * 0.05);
+    expect(freeInsideBox).toBe(0);
+    const scene = json(join(boxed, "scene.json"));
+    expect(scene["obstacles"]).toHaveLength(1);
+    expect(scene["obstacles"][0]).toMatchObject({ name: "block", shape: { type: "box" } });
+    expect((json(join(boxed, "workspace.json")) as Summary).collisionFree).toBeLessThan((json(join(free, "workspace.json")) as Summary).collisionFree);
+  });
+
+  it("regenerating replaces an existing twin only once the new one is complete", async () => {
+    const out = join(work, "replace-me");
+    mkdirSync(out);
+    writeFileSync(join(out, "twin.json"), "{}");
+    writeFileSync(join(out, "stale.txt"), "old");
+    await generate("xarm6", out);
+    expect(existsSync(join(out, "stale.txt"))).toBe(false);
+    expect(existsSync(join(out, "td.json"))).toBe(true);
+    expect(readdirSync(work).filter((n) => n.includes(".tmp-") || n.includes(".old-"))).toEqual([]);
+  });
+});
