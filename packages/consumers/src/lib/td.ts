@@ -1,0 +1,118 @@
+/**
+ * Reading what a consumer needs out of a RobWoT Thing Description (ARCHITECTURE.md Contract 3):
+ * joint limits from `getJointPosition`'s schema, Cartesian bounds from `getCartesianPosition`'s
+ * schema, the linked workspace files, and the live WebSocket endpoint (Contract 4).
+ */
+export interface SchemaLike {
+  type?: string;
+  minimum?: number;
+  maximum?: number;
+  unit?: string;
+  properties?: Record<string, SchemaLike>;
+  [key: string]: unknown;
+}
+export interface FormLike {
+  href: string;
+  subprotocol?: string;
+  op?: string | string[];
+  [key: string]: unknown;
+}
+export interface AffordanceLike extends SchemaLike {
+  forms?: FormLike[];
+  input?: SchemaLike;
+  output?: SchemaLike;
+}
+export interface LinkLike {
+  rel?: string;
+  href: string;
+  type?: string;
+}
+export interface ThingDescriptionLike {
+  id?: string;
+  title?: string;
+  base?: string;
+  properties?: Record<string, AffordanceLike>;
+  actions?: Record<string, AffordanceLike>;
+  events?: Record<string, AffordanceLike>;
+  links?: LinkLike[];
+  forms?: FormLike[];
+  [key: string]: unknown;
+}
+
+export class TdError extends Error {
+  override name = "TdError";
+  readonly code = "E_TD";
+}
+
+export interface JointLimit {
+  name: string;
+  lower: number;
+  upper: number;
+  unit: string;
+}
+
+/** Joint limits in TD order, from `properties.getJointPosition.properties.<joint>.minimum/maximum`. */
+export function jointLimits(td: ThingDescriptionLike): JointLimit[] {
+  const joints = td.properties?.["getJointPosition"]?.properties;
+  if (joints === undefined) throw new TdError(`TD "${td.title ?? "?"}" has no getJointPosition object schema`);
+  return Object.entries(joints).map(([name, s]) => {
+    if (typeof s.minimum !== "number" || typeof s.maximum !== "number") {
+      throw new TdError(`TD joint "${name}" lacks numeric minimum/maximum (got ${String(s.minimum)}, ${String(s.maximum)})`);
+    }
+    return { name, lower: s.minimum, upper: s.maximum, unit: s.unit ?? "rad" };
+  });
+}
+
+export interface Bounds3 {
+  min: [number, number, number];
+  max: [number, number, number];
+}
+
+/** Cartesian bounds of the collision-free workspace, from `getCartesianPosition` x/y/z min/max. */
+export function cartesianBounds(td: ThingDescriptionLike): Bounds3 {
+  const props = td.properties?.["getCartesianPosition"]?.properties;
+  const axis = (k: "x" | "y" | "z"): [number, number] => {
+    const s = props?.[k];
+    if (typeof s?.minimum !== "number" || typeof s.maximum !== "number") {
+      throw new TdError(`TD getCartesianPosition.${k} lacks numeric minimum/maximum`);
+    }
+    return [s.minimum, s.maximum];
+  };
+  const [x, y, z] = [axis("x"), axis("y"), axis("z")];
+  return { min: [x[0], y[0], z[0]], max: [x[1], y[1], z[1]] };
+}
+
+/** Absolute URL of the link with `rel`, resolved against the TD's `base` (else the TD URL). */
+export function linkUrl(td: ThingDescriptionLike, rel: string, tdUrl: string): string {
+  const link = td.links?.find((l) => l.rel === rel);
+  if (link === undefined) {
+    const rels = (td.links ?? []).map((l) => l.rel ?? "?").join(", ");
+    throw new TdError(`TD has no link with rel "${rel}" (links: ${rels || "none"})`);
+  }
+  const base = td.base ?? tdUrl;
+  return new URL(link.href, base.endsWith("/") ? base : `${base}/`).toString();
+}
+
+/** The Thing's slug: the last path segment of its TD URL. */
+export function slugOf(tdUrl: string): string {
+  const parts = new URL(tdUrl).pathname.split("/").filter((p) => p !== "");
+  const last = parts[parts.length - 1];
+  if (last === undefined) throw new TdError(`TD URL ${tdUrl} has no Thing path segment`);
+  return decodeURIComponent(last);
+}
+
+/** Every WebSocket (`ws:`/`wss:`) form href in the TD: Thing-level, property, then event forms. */
+export function webSocketHrefs(td: ThingDescriptionLike): string[] {
+  const forms: FormLike[] = [...(td.forms ?? [])];
+  for (const group of [td.properties, td.events, td.actions]) {
+    for (const aff of Object.values(group ?? {})) forms.push(...(aff.forms ?? []));
+  }
+  const hrefs = forms.map((f) => f.href).filter((h) => /^wss?:/i.test(h));
+  return [...new Set(hrefs)];
+}
+
+/** The live endpoint: the TD's WebSocket form ending in `/live` (query kept), else any WS form. */
+export function liveUrl(td: ThingDescriptionLike): string | undefined {
+  const hrefs = webSocketHrefs(td);
+  return hrefs.find((h) => new URL(h).pathname.endsWith("/live")) ?? hrefs[0];
+}
