@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
+DEFAULT_VELOCITY = 1.0
 
 
 def _floats(v: Any) -> list[float]:
@@ -173,9 +174,12 @@ class RobotModel:
                 np.array([j.upper for j in js], dtype=np.float64))
 
     def velocity_limits(self) -> FloatArray:
-        """Velocity limits (rad/s or m/s) of the controllable joints; non-positive URDF values become inf."""
+        """Velocity limits (rad/s or m/s) of the controllable joints.
+
+        A missing or non-positive URDF velocity limit is taken as ``DEFAULT_VELOCITY`` (1 rad/s or m/s).
+        """
         v = [self.joint(n).velocity for n in self.controllable]
-        return np.array([x if x > 0 and math.isfinite(x) else math.inf for x in v], dtype=np.float64)
+        return np.array([x if x > 0 and math.isfinite(x) else DEFAULT_VELOCITY for x in v], dtype=np.float64)
 
     def to_json(self) -> dict[str, Any]:
         return {"id": self.id, "name": self.name, "urdf": self.urdf, "eeLink": self.ee_link,

@@ -1,0 +1,138 @@
+"""Scene documents: versioned JSON checked against ``schemas/scene.schema.json``.
+
+A scene is ``{"version": 1, "obstacles": [Obstacle], "robots": [Robot]}``; relative URDF and mesh paths
+are relative to the scene file's folder (then ``pybullet_data`` for URDFs). Errors carry a JSON pointer.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from functools import cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+
+from robwot_sim.errors import FileNotFound, InvalidParams, SceneError
+from robwot_sim.sim.client import quat_from_rpy
+from robwot_sim.urdf import pybullet_data_path
+
+MAX_SCENE_BYTES = 50 * 1024 * 1024
+
+
+@cache
+def schema() -> dict[str, Any]:
+    text = resources.files("robwot_sim").joinpath("schemas/scene.schema.json").read_text(encoding="utf-8")
+    data: dict[str, Any] = json.loads(text)
+    return data
+
+
+@cache
+def _validator() -> jsonschema.protocols.Validator:
+    cls = jsonschema.validators.validator_for(schema())
+    v: jsonschema.protocols.Validator = cls(schema())
+    return v
+
+
+def _pointer(parts: Any) -> str:
+    return "".join("/" + str(p).replace("~", "~0").replace("/", "~1") for p in parts)
+
+
+def _nonfinite(value: Any, path: tuple[Any, ...] = ()) -> tuple[tuple[Any, ...], Any] | None:
+    if isinstance(value, float) and not math.isfinite(value):
+        return path, value
+    if isinstance(value, dict):
+        items: Any = value.items()
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for k, v in items:
+        bad = _nonfinite(v, (*path, k))
+        if bad is not None:
+            return bad
+    return None
+
+
+def schema_errors(doc: Any) -> tuple[str, str] | None:
+    """First problem of a scene document as (JSON pointer, message), or None when valid."""
+    bad = _nonfinite(doc)
+    if bad is not None:
+        return _pointer(bad[0]), f"{bad[1]} is not a finite number"
+    err = jsonschema.exceptions.best_match(_validator().iter_errors(doc))
+    if err is not None:
+        return _pointer(err.absolute_path), err.message
+    names: set[str] = set()
+    for i, ob in enumerate(doc.get("obstacles", [])):
+        if ob["name"] in names:
+            return f"/obstacles/{i}/name", f"duplicate obstacle name {ob['name']!r}"
+        names.add(ob["name"])
+    for kind, key in (("obstacles", "orientation"), ("robots", "baseOrientation")):
+        for i, ob in enumerate(doc.get(kind, [])):
+            if key in ob and sum(v * v for v in ob[key]) < 1e-12:
+                return f"/{kind}/{i}/{key}", "quaternion has zero norm"
+    return None
+
+
+def read_scene(scene: dict[str, Any] | str | Path) -> tuple[dict[str, Any], Path, str | None]:
+    """Read and validate a scene (dict or file). Returns (document, base folder, file name or None)."""
+    if isinstance(scene, dict):
+        doc, base, file = scene, Path.cwd(), None
+    else:
+        p = Path(scene).expanduser()
+        if not p.is_file():
+            raise FileNotFound(str(p), what="scene file")
+        file = str(p.resolve())
+        if p.stat().st_size > MAX_SCENE_BYTES:
+            raise SceneError(f"file larger than {MAX_SCENE_BYTES} bytes", file=file, path="")
+
+        def refuse(c: str) -> Any:
+            raise ValueError(f"{c} is not valid JSON")
+
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8"), parse_constant=refuse)
+        except (ValueError, UnicodeDecodeError) as e:
+            raise SceneError(f"not valid JSON: {e}", file=file, path="") from None
+        base = p.resolve().parent
+    problem = schema_errors(doc)
+    if problem is not None:
+        raise SceneError(problem[1], file=file, path=problem[0])
+    return doc, base, file
+
+
+def normalise_obstacle(spec: Any, base: Path | None = None) -> dict[str, Any]:
+    """Validate one obstacle spec (InvalidParams with a JSON pointer) and return it normalised:
+    ``{name, shape, position, orientation}`` with a unit quaternion; mesh files made absolute."""
+    problem = schema_errors({"version": 1, "obstacles": [spec]})
+    if problem is not None:
+        ptr = problem[0].removeprefix("/obstacles/0")
+        raise InvalidParams(f"obstacle{ptr or ''}: {problem[1]}", param=ptr or "/", expected="Obstacle",
+                            got=None)
+    shape = dict(spec["shape"])
+    if shape["type"] == "mesh":
+        shape["file"] = str(resolve_file(shape["file"], base or Path.cwd(), what="mesh file"))
+    if "orientation" in spec:
+        q = [float(v) for v in spec["orientation"]]
+        n = math.sqrt(sum(v * v for v in q))
+        quat = [v / n for v in q]
+    elif "rpy" in spec:
+        quat = list(quat_from_rpy(spec["rpy"]))
+    else:
+        quat = [0.0, 0.0, 0.0, 1.0]
+    out: dict[str, Any] = {"name": spec["name"], "shape": shape,
+                           "position": [float(v) for v in spec["position"]], "orientation": quat}
+    if "color" in spec:
+        out["color"] = list(spec["color"])
+    return out
+
+
+def resolve_file(name: str, base: Path, *, what: str, data_fallback: bool = False) -> Path:
+    """An existing file: absolute, or relative to ``base`` (then to ``pybullet_data`` if allowed)."""
+    p = Path(name).expanduser()
+    cands = [p] if p.is_absolute() else [base / p] + ([pybullet_data_path() / p] if data_fallback else [])
+    for c in cands:
+        if c.is_file():
+            return c.resolve()
+    raise FileNotFound(str(cands[0]), what=what)

@@ -1,0 +1,163 @@
+"""Typed wrapper of one PyBullet DIRECT client: pybullet tuples are unpacked into named types here."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import pybullet as pb
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+class JointInfo(NamedTuple):
+    idx: int
+    name: str
+    type: int  # pb.JOINT_REVOLUTE / JOINT_PRISMATIC / JOINT_FIXED ...
+    link_name: str
+    parent_index: int
+
+
+class ContactPoint(NamedTuple):
+    body_a: int
+    body_b: int
+    link_a: int
+    link_b: int
+    position_on_a: Vec3
+    distance: float  # negative = penetration (m)
+
+
+class Bullet:
+    """One PyBullet physics client in DIRECT mode. Use as a context manager or call ``close()``."""
+
+    def __init__(self) -> None:
+        self.cid: int = pb.connect(pb.DIRECT)
+        if self.cid < 0:
+            raise RuntimeError("could not start a PyBullet DIRECT client")
+
+    def close(self) -> None:
+        if self.cid >= 0:
+            pb.disconnect(physicsClientId=self.cid)
+            self.cid = -1
+
+    def __enter__(self) -> Bullet:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # bodies
+    def load_urdf(self, path: str, position: Sequence[float], quat_xyzw: Sequence[float], flags: int) -> int:
+        return int(pb.loadURDF(path, list(position), list(quat_xyzw), useFixedBase=True, flags=flags,
+                               physicsClientId=self.cid))
+
+    def remove_body(self, body: int) -> None:
+        pb.removeBody(body, physicsClientId=self.cid)
+
+    def body_name(self, body: int) -> tuple[str, str]:
+        """(base link name, body name)."""
+        info = pb.getBodyInfo(body, physicsClientId=self.cid)
+        return info[0].decode(), info[1].decode()
+
+    def joints(self, body: int) -> list[JointInfo]:
+        out = []
+        for i in range(pb.getNumJoints(body, physicsClientId=self.cid)):
+            ji = pb.getJointInfo(body, i, physicsClientId=self.cid)
+            out.append(JointInfo(i, ji[1].decode(), int(ji[2]), ji[12].decode(), int(ji[16])))
+        return out
+
+    def reset_base(self, body: int, position: Sequence[float], quat_xyzw: Sequence[float]) -> None:
+        pb.resetBasePositionAndOrientation(body, list(position), list(quat_xyzw), physicsClientId=self.cid)
+
+    def base_pose(self, body: int) -> tuple[Vec3, Quat]:
+        pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=self.cid)
+        return tuple(pos), tuple(orn)  # type: ignore[return-value]
+
+    def has_collision_shape(self, body: int, link: int) -> bool:
+        return bool(pb.getCollisionShapeData(body, link, physicsClientId=self.cid))
+
+    def link_masses(self, body: int, links: Sequence[int]) -> list[float]:
+        return [float(pb.getDynamicsInfo(body, ln, physicsClientId=self.cid)[0]) for ln in links]
+
+    # joints and kinematics
+    def reset_joints(self, body: int, indices: Sequence[int], values: Sequence[float]) -> None:
+        """Teleport joints (1-DoF each) to ``values`` with zero velocity."""
+        pb.resetJointStatesMultiDof(body, list(indices), [[float(v)] for v in values],
+                                    physicsClientId=self.cid)
+
+    def joint_positions(self, body: int, indices: Sequence[int]) -> list[float]:
+        return [float(s[0]) for s in pb.getJointStates(body, list(indices), physicsClientId=self.cid)]
+
+    def link_frame(self, body: int, link: int) -> tuple[Vec3, Quat]:
+        """World pose of a link *frame* (not its centre of mass); link -1 is the base."""
+        if link < 0:
+            return self.base_pose(body)
+        s = pb.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.cid)
+        return tuple(s[4]), tuple(s[5])  # type: ignore[return-value]
+
+    def ik(self, body: int, link: int, position: Sequence[float], quat_xyzw: Sequence[float] | None,
+           damping: Sequence[float], iterations: int, threshold: float) -> list[float]:
+        """PyBullet damped least squares IK; one value per movable joint, starting from the current state."""
+        kw: dict[str, Any] = {"jointDamping": list(damping), "maxNumIterations": iterations,
+                              "residualThreshold": threshold, "physicsClientId": self.cid}
+        if quat_xyzw is not None:
+            kw["targetOrientation"] = list(quat_xyzw)
+        return list(pb.calculateInverseKinematics(body, link, list(position), **kw))
+
+    # collision
+    def detect(self) -> None:
+        pb.performCollisionDetection(physicsClientId=self.cid)
+
+    def contacts(self, body_a: int, body_b: int = -1) -> list[ContactPoint]:
+        """Contact points from the last ``detect()`` involving ``body_a`` (and ``body_b`` if given)."""
+        if body_b >= 0:
+            pts = pb.getContactPoints(body_a, body_b, physicsClientId=self.cid)
+        else:
+            pts = pb.getContactPoints(body_a, physicsClientId=self.cid)
+        return [ContactPoint(c[1], c[2], c[3], c[4], tuple(c[5]), float(c[8])) for c in pts or ()]
+
+    def contacts_raw(self, body_a: int) -> Any:
+        """Raw contact tuples (fast path: index 3/4 links, 2 body b, 8 distance)."""
+        return pb.getContactPoints(body_a, physicsClientId=self.cid)
+
+    def closest(self, body_a: int, body_b: int, distance: float, link_a: int | None = None,
+                link_b: int | None = None) -> list[ContactPoint]:
+        kw: dict[str, Any] = {"physicsClientId": self.cid}
+        if link_a is not None:
+            kw["linkIndexA"] = link_a
+        if link_b is not None:
+            kw["linkIndexB"] = link_b
+        pts = pb.getClosestPoints(body_a, body_b, distance, **kw)
+        return [ContactPoint(c[1], c[2], c[3], c[4], tuple(c[5]), float(c[8])) for c in pts or ()]
+
+    def set_pair_filter(self, body_a: int, body_b: int, link_a: int, link_b: int, enable: bool) -> None:
+        pb.setCollisionFilterPair(body_a, body_b, link_a, link_b, int(enable), physicsClientId=self.cid)
+
+    # static obstacles
+    def create_static(self, shape: dict[str, Any], position: Sequence[float], quat_xyzw: Sequence[float]) -> int:
+        """A mass-0 body with one collision shape (no visual). ``shape`` as in Contract 1 (mesh file resolved)."""
+        t = shape["type"]
+        if t == "box":
+            col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[s / 2 for s in shape["size"]],
+                                          physicsClientId=self.cid)
+        elif t == "sphere":
+            col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=shape["radius"], physicsClientId=self.cid)
+        elif t == "cylinder":
+            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=shape["radius"], height=shape["length"],
+                                          physicsClientId=self.cid)
+        else:
+            scale = shape.get("scale", 1.0)
+            s3 = [scale] * 3 if isinstance(scale, (int, float)) else list(scale)
+            col = pb.createCollisionShape(pb.GEOM_MESH, fileName=shape["file"], meshScale=s3,
+                                          physicsClientId=self.cid)
+        if col < 0:
+            raise RuntimeError(f"PyBullet could not create the collision shape {shape}")
+        return int(pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=-1,
+                                      basePosition=list(position), baseOrientation=list(quat_xyzw),
+                                      physicsClientId=self.cid))
+
+
+def quat_from_rpy(rpy: Sequence[float]) -> Quat:
+    q = pb.getQuaternionFromEuler(list(rpy))
+    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))

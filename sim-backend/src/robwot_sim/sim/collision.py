@@ -1,0 +1,152 @@
+"""Self and environment collision of a robot, with pair names and penetration depth.
+
+How (see PITFALLS.md): moving links go through Bullet's broadphase (``performCollisionDetection`` +
+``getContactPoints``). Links that never move (the fixed base and links fixed to it) are static to Bullet,
+which never pairs them with static obstacles, so they are checked with ``getClosestPoints(distance=0)``
+once per world change and cached. Moving links without mass (static to Bullet too) use
+``getClosestPoints`` at every check. Pairs touching in >= 95 % of random configurations are filtered
+at load (``setCollisionFilterPair``), e.g. Panda link7/hand.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robwot_sim.sim.client import ContactPoint
+from robwot_sim.sim.robot import BoundRobot
+from robwot_sim.sim.types import BodyLink, Contact, FloatArray
+
+ALWAYS_FRACTION = 0.95
+FILTER_SAMPLES = 200
+TOUCH = 0.0  # contact points with distance <= TOUCH (m) count as collision
+
+
+@dataclass
+class BodyTable:
+    """Names of every body in the world, for naming contact pairs."""
+
+    names: dict[int, str] = field(default_factory=dict)  # body id -> robot id / obstacle name
+    robots: dict[int, BoundRobot] = field(default_factory=dict)  # body id -> robot
+    version: int = 0  # bumped on every world change (invalidates static caches)
+
+    def side(self, body: int, link: int) -> BodyLink:
+        r = self.robots.get(body)
+        if r is None:
+            return BodyLink(self.names.get(body, str(body)), None)
+        return BodyLink(self.names[body], r.link_names.get(link))
+
+
+def find_always_colliding(robot: BoundRobot, rng: np.random.Generator,
+                          samples: int = FILTER_SAMPLES) -> list[tuple[int, int]]:
+    """Self-collision link pairs touching in >= 95 % of random configurations (link indices, a < b)."""
+    counts: dict[tuple[int, int], int] = {}
+    b = robot.bullet
+    saved = robot.q.copy()
+    for q in robot.random_q(rng, samples):
+        robot.apply(q)
+        b.detect()
+        seen = {(min(c.link_a, c.link_b), max(c.link_a, c.link_b))
+                for c in b.contacts(robot.body, robot.body) if c.distance <= TOUCH}
+        for pair in seen:
+            counts[pair] = counts.get(pair, 0) + 1
+    robot.apply(saved)
+    return sorted(p for p, n in counts.items() if n >= ALWAYS_FRACTION * samples)
+
+
+class CollisionChecker:
+    """Collision queries for one robot against itself and every other body of the world."""
+
+    def __init__(self, robot: BoundRobot, table: BodyTable, filtered: Iterable[tuple[int, int]]) -> None:
+        self.robot, self.table = robot, table
+        self.filtered = {(min(a, b), max(a, b)) for a, b in filtered}
+        for a, b in self.filtered:
+            robot.bullet.set_pair_filter(robot.body, robot.body, a, b, False)
+        masses = robot.bullet.link_masses(robot.body, robot.moving_links)
+        self.massless_moving = [ln for ln, m in zip(robot.moving_links, masses, strict=True)
+                                if m <= 0 and robot.bullet.has_collision_shape(robot.body, ln)]
+        self.static_links = [ln for ln in robot.static_links if robot.bullet.has_collision_shape(robot.body, ln)]
+        self._static: list[Contact] | None = None
+        self._static_version = -1
+
+    def _others(self) -> list[int]:
+        return [b for b in self.table.names if b != self.robot.body]
+
+    def _pair_ok(self, c: ContactPoint) -> bool:
+        if c.body_a == c.body_b:
+            return (min(c.link_a, c.link_b), max(c.link_a, c.link_b)) not in self.filtered
+        return True
+
+    def _contact(self, c: ContactPoint) -> Contact:
+        if c.body_a != self.robot.body and c.body_b == self.robot.body:
+            a, b = self.table.side(c.body_b, c.link_b), self.table.side(c.body_a, c.link_a)
+        else:
+            a, b = self.table.side(c.body_a, c.link_a), self.table.side(c.body_b, c.link_b)
+        return Contact(a, b, max(0.0, -c.distance), c.position_on_a)
+
+    def _closest_links(self, links: Iterable[int]) -> list[ContactPoint]:
+        bl = self.robot.bullet
+        out: list[ContactPoint] = []
+        for other in self._others():
+            for ln in links:
+                out += [c for c in bl.closest(self.robot.body, other, TOUCH, link_a=ln) if c.distance <= TOUCH]
+        return out
+
+    def static_contacts(self) -> list[Contact]:
+        """Contacts of the links that never move (cached until the world changes)."""
+        if self._static is None or self._static_version != self.table.version:
+            pts = self._closest_links(self.static_links)
+            self._static = _dedupe(self._contact(c) for c in pts)
+            self._static_version = self.table.version
+        return self._static
+
+    def contacts(self) -> list[Contact]:
+        """Every contact at the robot's current state, one per pair (deepest), deepest first."""
+        bl = self.robot.bullet
+        bl.detect()
+        pts = [c for c in bl.contacts(self.robot.body) if c.distance <= TOUCH and self._pair_ok(c)]
+        if self.massless_moving:
+            pts += self._closest_links(self.massless_moving)
+        return _dedupe([*self.static_contacts(), *(self._contact(c) for c in pts)])
+
+    def is_free(self) -> bool:
+        """Fast check at the current state (no contact details)."""
+        if self.static_contacts():
+            return False
+        bl = self.robot.bullet
+        bl.detect()
+        body = self.robot.body
+        for c in bl.contacts_raw(body):
+            if c[8] <= TOUCH and (c[1] != c[2] or (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered):
+                return False
+        return not (self.massless_moving and self._closest_links(self.massless_moving))
+
+    def batch(self, qs: FloatArray, progress: Callable[[int], None] | None = None) -> np.ndarray:
+        """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state."""
+        robot = self.robot
+        saved = robot.q.copy()
+        out = np.zeros(len(qs), dtype=bool)
+        if self.static_contacts():
+            return out
+        try:
+            for i, q in enumerate(qs):
+                robot.apply(q)
+                out[i] = self.is_free()
+                if progress is not None and (i + 1) % 1000 == 0:
+                    progress(i + 1)
+        finally:
+            robot.apply(saved)
+        return out
+
+
+def _dedupe(contacts: Iterable[Contact]) -> list[Contact]:
+    best: dict[tuple[str, str | None, str, str | None], Contact] = {}
+    for c in contacts:
+        k1 = (c.a.body, c.a.link, c.b.body, c.b.link)
+        k2 = (c.b.body, c.b.link, c.a.body, c.a.link)
+        key = k2 if k2 in best else k1
+        if key not in best or c.depth > best[key].depth:
+            best[key] = c
+    return sorted(best.values(), key=lambda c: -c.depth)

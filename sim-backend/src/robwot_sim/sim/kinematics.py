@@ -1,0 +1,103 @@
+"""Forward and inverse kinematics of a bound robot (end-effector *link frame*, world frame).
+
+IK (see PITFALLS.md): PyBullet damped least squares with a small damping (1e-3) and ~100 iterations,
+the result clipped to the limits (continuous joints wrapped) and re-solved from there (chained), then
+random restarts. Solutions are always within limits; collision-free when a checker is given and one is
+found; otherwise the best colliding solution is returned flagged, or ``Unreachable`` with the best error.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from robwot_sim.errors import Unreachable
+from robwot_sim.sim.robot import BoundRobot
+from robwot_sim.sim.types import FloatArray, IkResult, Pose
+
+DAMPING = 1e-3
+ITERATIONS = 100
+RESIDUAL = 1e-7
+CHAIN = 3
+RESTARTS = 40
+CHAIN_POSITION = 1e-6  # m: stop chaining solves below this
+CHAIN_ORIENTATION = 1e-5  # rad
+GOOD_POSITION = 1e-4  # m: stop restarting below this
+GOOD_ORIENTATION = 1e-3  # rad
+ACCEPT_POSITION = 1e-3  # m: best result above this is "unreachable"
+ACCEPT_ORIENTATION = math.radians(1.0)  # rad
+
+
+def fk_pose(robot: BoundRobot) -> Pose:
+    """End-effector link frame at the robot's current state."""
+    pos, quat = robot.bullet.link_frame(robot.body, robot.ee_index)
+    return Pose(pos, quat, robot.ee_link)
+
+
+def quat_angle(a: Sequence[float], b: Sequence[float]) -> float:
+    """Rotation angle (rad) between two unit quaternions [x, y, z, w]."""
+    d = abs(sum(x * y for x, y in zip(a, b, strict=True)))
+    na = math.sqrt(sum(x * x for x in a) * sum(y * y for y in b))
+    return 2.0 * math.acos(min(1.0, d / na)) if na > 0 else math.pi
+
+
+def wrap_clip(robot: BoundRobot, q: FloatArray) -> FloatArray:
+    """Wrap continuous joints into [-pi, pi] and clip the others to their limits."""
+    out = np.where(robot.continuous, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
+    return np.clip(out, robot.lower, robot.upper)
+
+
+def solve_ik(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequence[float] | None,
+             seed: FloatArray, rng: np.random.Generator,
+             is_free: Callable[[FloatArray], bool] | None = None) -> IkResult:
+    """IK from ``seed``, then random restarts. Moves the robot: the caller restores its state.
+
+    ``collision_free`` in the result is True unless only colliding solutions were found (``is_free``).
+    Raises Unreachable when no configuration reaches within 1 mm / 1 degree.
+    """
+    b = robot.bullet
+    damping = [DAMPING] * len(robot.movable_idx)
+    target_p = np.asarray(position, dtype=np.float64)
+    quat = None if quat_xyzw is None else [float(v) for v in quat_xyzw]
+    if quat is not None:
+        n = math.sqrt(sum(v * v for v in quat))
+        quat = [v / n for v in quat]
+
+    def error(q: FloatArray) -> tuple[float, float]:
+        robot.apply(q)
+        p, o = b.link_frame(robot.body, robot.ee_index)
+        pe = float(np.linalg.norm(np.asarray(p) - target_p))
+        return pe, (quat_angle(o, quat) if quat is not None else 0.0)
+
+    best: tuple[float, FloatArray, float, float] | None = None  # (score, q, pe, oe) of any solution
+    fallback: tuple[float, FloatArray, float, float] | None = None  # best colliding one within tolerance
+    start = seed
+    for attempt in range(RESTARTS + 1):
+        if attempt > 0:
+            start = robot.random_q(rng)
+        q = start
+        robot.apply(q)
+        for _ in range(CHAIN):
+            raw = np.asarray(b.ik(robot.body, robot.ee_index, position, quat, damping, ITERATIONS, RESIDUAL))
+            q = wrap_clip(robot, raw[robot.ik_slots])
+            pe, oe = error(q)  # also leaves the robot at q for the next chained solve
+            if pe <= CHAIN_POSITION and oe <= CHAIN_ORIENTATION:
+                break
+        score = pe + oe * 0.1
+        within = pe <= ACCEPT_POSITION and oe <= ACCEPT_ORIENTATION
+        if within and is_free is not None and not is_free(q):
+            if fallback is None or score < fallback[0]:
+                fallback = (score, q, pe, oe)
+            continue
+        if best is None or score < best[0]:
+            best = (score, q, pe, oe)
+        if pe <= GOOD_POSITION and oe <= GOOD_ORIENTATION:
+            break
+    if best is not None and best[2] <= ACCEPT_POSITION and best[3] <= ACCEPT_ORIENTATION:
+        return IkResult(tuple(float(v) for v in best[1]), best[2], best[3], True)
+    if fallback is not None:
+        return IkResult(tuple(float(v) for v in fallback[1]), fallback[2], fallback[3], False)
+    assert best is not None
+    raise Unreachable(best[2], best[3], [float(v) for v in best[1]])

@@ -1,0 +1,82 @@
+"""Loading a URDF into a PyBullet client: checks first, then the body, joint model and collision filter."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+
+from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
+from robwot_sim.sim.client import Bullet
+from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
+from robwot_sim.sim.robot import BoundRobot, parse_model
+from robwot_sim.sim.types import RobotModel
+from robwot_sim.urdf import parse_urdf, prepare_urdf, pybullet_data_path
+
+FILTER_SEED = 12345
+
+
+@dataclass
+class RobotEntry:
+    model: RobotModel
+    bound: BoundRobot
+    checker: CollisionChecker
+    urdf_path: Path
+    package_roots: dict[str, str]
+
+
+def resolve_urdf_path(urdf: str | Path, base: Path | None = None) -> Path:
+    """An existing URDF file: absolute, relative to ``base`` (default cwd), else relative to pybullet_data."""
+    p = Path(urdf).expanduser()
+    if p.is_absolute():
+        cands = [p]
+    else:
+        cands = [(base or Path.cwd()) / p, pybullet_data_path() / p]
+    for c in cands:
+        if c.is_file():
+            return c.resolve()
+    raise FileNotFound(str(cands[0]), what="URDF file")
+
+
+def load_robot_body(bullet: Bullet, table: BodyTable, urdf: str | Path, robot_id: str,
+                    base_position: list[float], base_orientation: list[float], ee_link: str | None,
+                    package_roots: Mapping[str, str], base_dir: Path | None = None) -> RobotEntry:
+    """Check the URDF completely, then create the body. Nothing is left in the client on error."""
+    path = resolve_urdf_path(urdf, base_dir)
+    for name, folder in package_roots.items():
+        if not Path(folder).expanduser().is_dir():
+            raise FileNotFound(str(folder), what=f"package root {name!r} folder")
+    doc = parse_urdf(path)
+    urdf_model = parse_model(doc)
+    ee = ee_link if ee_link is not None else urdf_model.default_ee()
+    if ee not in urdf_model.links:
+        raise UnknownLink(ee, urdf_model.links)
+    prepared = prepare_urdf(path, package_roots, doc)
+    try:
+        flags = pb.URDF_USE_SELF_COLLISION
+        try:
+            body = bullet.load_urdf(str(prepared.bullet_path), base_position, base_orientation, flags)
+        except pb.error as e:
+            raise UrdfError(f"PyBullet could not load the URDF: {e}", file=str(path)) from None
+    finally:
+        prepared.cleanup()
+    try:
+        bound = BoundRobot(bullet, body, urdf_model, ee)
+        rng = np.random.default_rng(FILTER_SEED)
+        filtered = find_always_colliding(bound, rng)
+        checker = CollisionChecker(bound, table, filtered)
+    except Exception:
+        bullet.remove_body(body)
+        raise
+    names = bound.link_names
+    model = RobotModel(
+        id=robot_id, name=urdf_model.name, urdf=str(path), ee_link=ee, links=urdf_model.links,
+        joints=urdf_model.joints, controllable=urdf_model.controllable,
+        filtered_pairs=tuple((names[a], names[b]) for a, b in sorted(checker.filtered)),
+        base_position=(base_position[0], base_position[1], base_position[2]),
+        base_orientation=(base_orientation[0], base_orientation[1], base_orientation[2], base_orientation[3]),
+        package_roots=dict(package_roots))
+    return RobotEntry(model, bound, checker, path, dict(package_roots))

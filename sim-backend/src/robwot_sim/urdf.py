@@ -1,0 +1,230 @@
+"""Safe URDF reading, mesh path resolution with root confinement, and self-contained export.
+
+* No DTD, no entities: a document containing ``<!DOCTYPE`` or ``<!ENTITY`` is refused before parsing
+  (XXE, billion laughs), and the expat parser refuses them again if they slip through an encoding.
+* Mesh filenames are resolved (``package://``, relative, absolute) and must stay inside the allowed roots:
+  the URDF folder, user package roots, package folders found as ancestors of the URDF, ``pybullet_data``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+import xml.parsers.expat
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pybullet_data
+
+from robwot_sim.errors import FileNotFound, Forbidden, PathEscape, UrdfError
+
+MAX_URDF_BYTES = 20 * 1024 * 1024
+MESH_SUFFIXES = (".stl", ".obj", ".dae")
+_FORBIDDEN = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
+
+
+def pybullet_data_path() -> Path:
+    return Path(pybullet_data.getDataPath()).resolve()
+
+
+@dataclass
+class UrdfDoc:
+    """A parsed URDF: root element, its source file, and the source line of each element."""
+
+    root: ET.Element
+    file: Path
+    lines: dict[int, int] = field(default_factory=dict)
+
+    def line_of(self, el: ET.Element) -> int | None:
+        return self.lines.get(id(el))
+
+
+class _Refused(Exception):
+    pass
+
+
+def parse_urdf(path: str | Path) -> UrdfDoc:
+    """Read and parse a URDF file safely. Raises FileNotFound, Forbidden or UrdfError."""
+    p = Path(path).expanduser()
+    if not p.is_file():
+        raise FileNotFound(str(p), what="URDF file")
+    p = p.resolve()
+    data = p.read_bytes()
+    if len(data) > MAX_URDF_BYTES:
+        raise UrdfError(f"file larger than {MAX_URDF_BYTES} bytes", file=str(p))
+    m = _FORBIDDEN.search(data)
+    if m is not None:
+        line = data.count(b"\n", 0, m.start()) + 1
+        raise Forbidden(f"{p}:{line}: XML {m.group(1).decode().upper()} declarations are refused "
+                        "(no DTD or entities in URDF)", file=str(p), line=line)
+    builder = ET.TreeBuilder()
+    parser = xml.parsers.expat.ParserCreate()
+    lines: dict[int, int] = {}
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        lines[id(builder.start(tag, attrs))] = parser.CurrentLineNumber
+
+    def refuse(*_: Any) -> None:
+        raise _Refused
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = builder.end
+    parser.CharacterDataHandler = builder.data
+    parser.StartDoctypeDeclHandler = refuse
+    parser.EntityDeclHandler = refuse
+    parser.ExternalEntityRefHandler = refuse
+    try:
+        parser.Parse(data, True)
+        root = builder.close()
+    except _Refused:
+        raise Forbidden(f"{p}:{parser.CurrentLineNumber}: XML DTD/entity refused", file=str(p),
+                        line=parser.CurrentLineNumber) from None
+    except xml.parsers.expat.ExpatError as e:
+        raise UrdfError(xml.parsers.expat.ErrorString(e.code), file=str(p), line=e.lineno,
+                        column=e.offset + 1) from None
+    if root.tag != "robot":
+        raise UrdfError(f"root element is <{root.tag}>, expected <robot>", file=str(p), line=lines.get(id(root)))
+    return UrdfDoc(root, p, lines)
+
+
+def read_urdf(path: str | Path) -> ET.Element:
+    """Contract 5: the root ``<robot>`` element of a URDF file, read safely."""
+    return parse_urdf(path).root
+
+
+def allowed_roots(urdf_dir: Path, package_roots: Mapping[str, str | Path] | None) -> list[Path]:
+    roots = [urdf_dir.resolve(), pybullet_data_path()]
+    roots += [Path(r).expanduser().resolve() for r in (package_roots or {}).values()]
+    return roots
+
+
+def _inside(p: Path, roots: list[Path]) -> bool:
+    return any(p == r or r in p.parents for r in roots)
+
+
+def resolve_mesh(filename: str, urdf_dir: str | Path, package_roots: Mapping[str, str | Path] | None = None,
+                 *, urdf: str | None = None) -> Path:
+    """Resolve a URDF mesh filename to an existing absolute path inside the allowed roots.
+
+    ``package://NAME/rest`` is looked up in ``package_roots[NAME]``, then in ancestors of the URDF folder
+    named NAME, then ``pybullet_data/NAME``, then the URDF folder (PyBullet's own rule, used by
+    pybullet_data's panda). ``file://`` and absolute paths are taken as is; others are relative to the
+    URDF folder. Raises PathEscape when the result leaves the allowed roots, FileNotFound when missing.
+    """
+    udir = Path(urdf_dir).resolve()
+    roots = allowed_roots(udir, package_roots)
+    pkg_roots = {k: Path(v).expanduser().resolve() for k, v in (package_roots or {}).items()}
+    candidates: list[Path] = []
+    extra_roots: list[Path] = []
+    if filename.startswith("package://"):
+        rest = filename[len("package://"):]
+        name, _, sub = rest.partition("/")
+        if name in pkg_roots:
+            candidates.append(pkg_roots[name] / sub)
+        for anc in [udir, *udir.parents]:
+            if anc.name == name:
+                candidates.append(anc / sub)
+                extra_roots.append(anc)
+                break
+        candidates.append(pybullet_data_path() / name / sub)
+        candidates.append(udir / name / sub)
+        candidates.append(udir / sub)
+    elif filename.startswith("file://"):
+        candidates.append(Path(filename[len("file://"):]))
+    else:
+        fp = Path(filename)
+        candidates.append(fp if fp.is_absolute() else udir / fp)
+    roots = roots + extra_roots
+    resolved = [Path(os.path.normpath(c)) for c in candidates]
+    for c in resolved:
+        if not _inside(c, roots):
+            continue
+        if c.is_file():
+            real = c.resolve()  # follow symlinks: they must not lead out either
+            if not _inside(real, roots):
+                raise PathEscape(str(real), [str(r) for r in roots], urdf=urdf)
+            return real
+    inside = [c for c in resolved if _inside(c, roots)]
+    if not inside:
+        raise PathEscape(str(resolved[0]), [str(r) for r in roots], urdf=urdf)
+    raise FileNotFound(str(inside[0]), urdf=urdf, what="mesh file")
+
+
+@dataclass
+class PreparedUrdf:
+    """A URDF checked and rewritten for PyBullet: absolute mesh paths, visuals stripped."""
+
+    doc: UrdfDoc
+    bullet_path: Path
+    meshes: dict[str, Path]  # original filename -> resolved absolute path
+    tmpdir: str
+
+    def cleanup(self) -> None:
+        shutil.rmtree(self.tmpdir, ignore_errors=True)
+
+
+def prepare_urdf(path: str | Path, package_roots: Mapping[str, str | Path] | None = None,
+                 doc: UrdfDoc | None = None) -> PreparedUrdf:
+    """Resolve every mesh (visual and collision) and write a temp URDF PyBullet can load as is.
+
+    Visual elements are dropped from the temp copy (DIRECT mode never renders them).
+    """
+    doc = doc or parse_urdf(path)
+    udir = doc.file.parent
+    meshes: dict[str, Path] = {}
+    root = ET.fromstring(ET.tostring(doc.root))
+    for el in doc.root.iter("mesh"):
+        fn = el.get("filename")
+        if not fn:
+            raise UrdfError("<mesh> without filename", file=str(doc.file), line=doc.line_of(el))
+        if fn not in meshes:
+            resolved = resolve_mesh(fn, udir, package_roots, urdf=str(doc.file))
+            if resolved.suffix.lower() not in MESH_SUFFIXES:
+                raise UrdfError(f"unsupported mesh format {resolved.suffix!r} ({fn}); use STL, OBJ or DAE",
+                                file=str(doc.file), line=doc.line_of(el))
+            meshes[fn] = resolved
+    for link in root.iter("link"):
+        for vis in list(link.findall("visual")):
+            link.remove(vis)
+    for el in root.iter("mesh"):
+        el.set("filename", str(meshes[el.get("filename", "")]))
+    tmpdir = tempfile.mkdtemp(prefix="robwot-urdf-")
+    out = Path(tmpdir) / "robot.urdf"
+    ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
+    return PreparedUrdf(doc, out, meshes, tmpdir)
+
+
+def export_urdf(path: str | Path, out_dir: str | Path,
+                package_roots: Mapping[str, str | Path] | None = None) -> dict[str, Any]:
+    """Write ``out_dir/robot.urdf`` with meshes copied under ``out_dir/meshes/`` and relative filenames.
+
+    Returns ``{"urdf": "robot.urdf", "meshes": [relative paths]}``.
+    """
+    doc = parse_urdf(path)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    root = ET.fromstring(ET.tostring(doc.root))
+    mapping: dict[str, str] = {}
+    used: set[str] = set()
+    for el in root.iter("mesh"):
+        fn = el.get("filename", "")
+        if fn not in mapping:
+            src = resolve_mesh(fn, doc.file.parent, package_roots, urdf=str(doc.file))
+            base = src.name
+            rel = f"meshes/{base}"
+            i = 1
+            while rel in used:
+                rel = f"meshes/{src.stem}_{i}{src.suffix}"
+                i += 1
+            used.add(rel)
+            (out / "meshes").mkdir(exist_ok=True)
+            shutil.copyfile(src, out / rel)
+            mapping[fn] = rel
+        el.set("filename", mapping[fn])
+    ET.ElementTree(root).write(out / "robot.urdf", encoding="utf-8", xml_declaration=True)
+    return {"urdf": "robot.urdf", "meshes": sorted(mapping.values())}
