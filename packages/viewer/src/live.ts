@@ -18,6 +18,8 @@ export class LiveClient {
   private socket: WebSocket | null = null;
   private retryMs = 500;
   private closed = false;
+  /** One message per outage, not one per retry. */
+  private outageReported = false;
 
   constructor(
     private readonly url: string,
@@ -30,6 +32,7 @@ export class LiveClient {
     this.socket = ws;
     ws.addEventListener("open", () => {
       this.retryMs = 500;
+      this.outageReported = false;
       ws.send(JSON.stringify({ subscribe: this.slug }));
       this.handlers.connection(true);
     });
@@ -37,10 +40,11 @@ export class LiveClient {
     ws.addEventListener("close", (ev) => {
       this.handlers.connection(false);
       if (this.closed) return;
-      if (ev.code !== 1000 && ev.code !== 1001) {
+      if (!this.outageReported && ev.code !== 1000) {
+        this.outageReported = true;
         this.handlers.error(
-          new ViewerError("E_LIVE", `live connection ${this.url} closed (${ev.code} ${ev.reason}); retrying`, {
-            retryMs: this.retryMs,
+          new ViewerError("E_LIVE", `live connection ${this.url} lost (close code ${ev.code}${ev.reason ? `: ${ev.reason}` : ""}); reconnecting in the background`, {
+            url: this.url,
           }),
         );
       }

@@ -50,7 +50,16 @@ async function buildOne(spec: unknown, base: string, index: number): Promise<Mes
     throw new ViewerError("E_SCENE", `obstacle #${index} has no shape`, { path: `/obstacles/${index}` });
   }
   const name = typeof spec["name"] === "string" ? spec["name"] : `obstacle-${index}`;
-  const mesh = new Mesh(await geometry(spec["shape"], base, name), MATERIAL.clone());
+  const material = MATERIAL.clone();
+  const colour = spec["color"];
+  if (Array.isArray(colour) && colour.length >= 3 && colour.every((c) => typeof c === "number")) {
+    material.color.setRGB(colour[0] as number, colour[1] as number, colour[2] as number);
+    if (typeof colour[3] === "number" && colour[3] < 1) {
+      material.transparent = true;
+      material.opacity = colour[3];
+    }
+  }
+  const mesh = new Mesh(await geometry(spec["shape"], base, name), material);
   mesh.name = name;
   const pos = vec3(spec["position"]) ?? [0, 0, 0];
   mesh.position.set(pos[0], pos[1], pos[2]);
