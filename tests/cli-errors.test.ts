@@ -39,7 +39,7 @@ const leftovers = (): string[] => readdirSync(work).filter((n) => n.includes(".t
 const CASES: [string, () => string[], RegExp][] = [
   ["missing URDF file", () => ["generate", join(work, "nope.urdf")], /URDF file not found: .*nope\.urdf/],
   ["unknown example name", () => ["generate", "kuka_iiwaa"], /unknown example robot "kuka_iiwaa".*kuka_iiwa, franka_panda, xarm6/],
-  ["malformed URDF", () => ["generate", join(work, "malformed.urdf")], /malformed\.urdf.*line/i],
+  ["malformed URDF", () => ["generate", join(work, "malformed.urdf")], /malformed\.urdf:\d+:\d+/],
   ["URDF without movable joints", () => ["generate", join(work, "fixed-only.urdf")], /movable/i],
   ["unknown --ee link", () => ["generate", join(work, "tiny.urdf"), "--ee", "hand"], /hand.*(turret|upper|fore|tip).*(turret|upper|fore|tip)/],
   ["missing scene file", () => ["generate", join(work, "tiny.urdf"), "--scene", join(work, "none.json")], /scene file not found/],

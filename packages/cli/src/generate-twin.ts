@@ -11,6 +11,7 @@ import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
 import type { ProgressSink } from "./progress.js";
+import { sceneDocument } from "./scene-doc.js";
 import { StagedDir } from "./twin-dir.js";
 import { VERSION } from "./version.js";
 
@@ -61,20 +62,9 @@ export async function generateTwin(
   if (opts.scene) await backend.loadScene({ path: opts.scene, packageRoots: opts.packageRoots });
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
-  const otherRobots = world.robots.filter((r) => r.id !== model.id);
 
   await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
-  const scene = {
-    version: 1,
-    robots: otherRobots.map((r) => ({
-      id: r.id,
-      urdf: r.urdf,
-      basePosition: r.basePosition,
-      baseOrientation: r.baseOrientation,
-      ...(r.eeLink ? { eeLink: r.eeLink } : {}),
-    })),
-    obstacles,
-  };
+  const scene = sceneDocument(world, model.id, staged.tmp, opts.scene);
   writeJson(join(staged.tmp, "scene.json"), scene);
   writeJson(join(staged.tmp, "twin.json"), {
     version: 1,

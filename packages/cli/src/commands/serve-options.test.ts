@@ -1,0 +1,46 @@
+import { mkdirSync, mkdtempSync, rmSync, writeFileSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { isLoopback, parseAuth, parseServeArgs } from "./serve-options.js";
+
+let dir: string;
+beforeAll(() => {
+  dir = mkdtempSync(join(tmpdir(), "robwot-serve-opts-"));
+  mkdirSync(join(dir, "twin"));
+  writeFileSync(join(dir, "twin", "td.json"), "{}");
+  writeFileSync(join(dir, "twin", "twin.json"), "{}");
+  mkdirSync(join(dir, "empty"));
+});
+afterAll(() => rmSync(dir, { recursive: true, force: true }));
+
+describe("serve options", () => {
+  it.each([
+    ["basic:ada:s3cr:et", { scheme: "basic", user: "ada", password: "s3cr:et" }],
+    ["bearer:tok", { scheme: "bearer", token: "tok" }],
+  ])("parses --auth %s", (arg, want) => expect(parseAuth(arg)).toEqual(want));
+
+  it.each(["basic:ada", "bearer:", "digest:a:b", "basic::pw"])("refuses --auth %s", (arg) => {
+    expect(() => parseAuth(arg)).toThrow(/--auth must be basic:USER:PASS or bearer:TOKEN/);
+  });
+
+  it.each([
+    ["127.0.0.1", true],
+    ["127.1.2.3", true],
+    ["localhost", true],
+    ["::1", true],
+    ["0.0.0.0", false],
+    ["192.0.2.7", false],
+    ["::", false],
+  ])("isLoopback(%s) = %s", (host, want) => expect(isLoopback(host)).toBe(want));
+
+  it("defaults and validation", () => {
+    const o = parseServeArgs([join(dir, "twin")]);
+    expect(o).toMatchObject({ port: 8080, host: "127.0.0.1", realtime: 1, json: false });
+    expect(() => parseServeArgs([join(dir, "empty")])).toThrow(/is not a twin folder: no td\.json/);
+    expect(() => parseServeArgs([join(dir, "nope")])).toThrow(/twin folder not found/);
+    expect(() => parseServeArgs([join(dir, "twin"), "--port", "70000"])).toThrow(/--port must be between 0 and 65535/);
+    expect(() => parseServeArgs([join(dir, "twin"), "--relay", "ftp://x"])).toThrow(/--relay must use http or https/);
+    expect(() => parseServeArgs([])).toThrow(/missing twin folder/);
+  });
+});

@@ -1,0 +1,85 @@
+/** `robwot serve` options, validated before anything starts (folders exist and hold a twin, URLs parse). */
+import { existsSync, statSync } from "node:fs";
+import { isIP } from "node:net";
+import { join, resolve } from "node:path";
+import { parseArgs } from "node:util";
+import { parseInteger, parseNumber, parseUrl } from "../args.js";
+import { CliError } from "../errors.js";
+
+export type AuthOption = { scheme: "basic"; user: string; password: string } | { scheme: "bearer"; token: string };
+
+export interface ServeOptions {
+  folders: string[];
+  port: number;
+  host: string;
+  realtime: number;
+  relay?: string;
+  auth?: AuthOption;
+  backend?: string;
+  json: boolean;
+}
+
+export const SERVE_OPTIONS = {
+  port: { type: "string", short: "p" },
+  host: { type: "string" },
+  realtime: { type: "string" },
+  relay: { type: "string" },
+  auth: { type: "string" },
+  backend: { type: "string" },
+  json: { type: "boolean" },
+} as const;
+
+export function parseAuth(value: string | undefined): AuthOption | undefined {
+  if (value === undefined) return undefined;
+  const [scheme, ...rest] = value.split(":");
+  if (scheme === "basic" && rest.length >= 2 && rest[0] !== "" && rest.slice(1).join(":") !== "") {
+    return { scheme: "basic", user: rest[0] as string, password: rest.slice(1).join(":") };
+  }
+  if (scheme === "bearer" && rest.length >= 1 && rest.join(":") !== "") return { scheme: "bearer", token: rest.join(":") };
+  throw new CliError(`--auth must be basic:USER:PASS or bearer:TOKEN, got "${value.replace(/:.*/, ":...")}"`);
+}
+
+/** 127.0.0.0/8, ::1 and localhost: reachable only from this machine. */
+export function isLoopback(host: string): boolean {
+  const h = host.replace(/^\[|\]$/g, "");
+  if (h === "localhost" || h === "::1") return true;
+  return isIP(h) === 4 && h.startsWith("127.");
+}
+
+export function checkTwinFolder(folder: string): string {
+  const dir = resolve(folder);
+  if (!existsSync(dir) || !statSync(dir).isDirectory()) throw new CliError(`twin folder not found: ${dir}`, "E_TWIN_FOLDER", 1);
+  for (const f of ["td.json", "twin.json"]) {
+    if (!existsSync(join(dir, f))) {
+      throw new CliError(`${dir} is not a twin folder: no ${f} (create one with robwot generate)`, "E_TWIN_FOLDER", 1);
+    }
+  }
+  return dir;
+}
+
+export function parseServeArgs(argv: string[]): ServeOptions {
+  let parsed;
+  try {
+    parsed = parseArgs({ args: argv, options: SERVE_OPTIONS, allowPositionals: true, strict: true });
+  } catch (err) {
+    throw new CliError(`${(err as Error).message} (see robwot serve --help)`);
+  }
+  const { values, positionals } = parsed;
+  if (positionals.length === 0) throw new CliError("missing twin folder (robwot serve <twin-folder>...)");
+  const folders = positionals.map(checkTwinFolder);
+  const host = values.host ?? "127.0.0.1";
+  if (host.trim() === "") throw new CliError("--host must not be empty");
+  const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
+  const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
+  const auth = parseAuth(values.auth);
+  return {
+    folders,
+    port: parseInteger("port", values.port, 8080, 0, 65535),
+    host,
+    realtime: parseNumber("realtime", values.realtime, 1, 0, 1000),
+    ...(relay ? { relay } : {}),
+    ...(auth ? { auth } : {}),
+    ...(backend ? { backend } : {}),
+    json: values.json ?? false,
+  };
+}

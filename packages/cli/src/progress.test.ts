@@ -1,0 +1,47 @@
+import { describe, expect, it } from "vitest";
+import { createProgress, formatDuration } from "./progress.js";
+
+function sink(tty: boolean) {
+  let text = "";
+  let t = 0;
+  const stream = { write: (s: string) => ((text += s), true), isTTY: tty } as unknown as NodeJS.WriteStream;
+  const p = createProgress({ stream, tty, now: () => t });
+  return { p, advance: (s: number) => (t += s), text: () => text };
+}
+
+describe("progress", () => {
+  it("prints plain lines (stage start, quarters with ETA, stage end) when not a TTY", () => {
+    const { p, advance, text } = sink(false);
+    p.stage("load");
+    advance(1);
+    for (let done = 0; done <= 100; done += 10) {
+      p.update("collide", done, 100);
+      advance(0.5);
+    }
+    p.end();
+    const lines = text().trim().split("\n");
+    expect(lines[0]).toBe("robwot: load...");
+    expect(lines[1]).toBe("robwot: load done in 1.0s");
+    expect(lines).toContain("robwot: collide...");
+    expect(lines.filter((l) => /collide \d+\/100 \(\d+%, ETA/.test(l))).toHaveLength(3);
+    expect(lines.at(-1)).toMatch(/^robwot: collide done in 5\.5s$/);
+    expect(text()).not.toContain("\r");
+  });
+
+  it("redraws one bar with percentage and ETA on a TTY", () => {
+    const { p, advance, text } = sink(true);
+    p.stage("collide");
+    advance(2);
+    p.update("collide", 50, 100);
+    expect(text()).toMatch(/\r\x1b\[2Kcollide +\[#{14}-{14}\]  50% 50\/100 ETA 2\.0s$/);
+    p.end();
+    expect(text()).toMatch(/robwot: collide done in 2\.0s\n$/);
+  });
+
+  it("formats durations", () => {
+    expect(formatDuration(3.21)).toBe("3.2s");
+    expect(formatDuration(42.4)).toBe("42s");
+    expect(formatDuration(125)).toBe("2m05s");
+    expect(formatDuration(Number.NaN)).toBe("?");
+  });
+});

@@ -1,0 +1,52 @@
+/**
+ * The twin's `scene.json`: the world as the backend has it after loading (Contract 2, scene schema
+ * `sim-backend/src/robwot_sim/schemas/scene.schema.json`), with mesh obstacles copied into the folder so
+ * it stays self-contained.
+ */
+import { copyFileSync, existsSync, mkdirSync, readFileSync } from "node:fs";
+import { basename, join } from "node:path";
+import type { WorldList } from "./backend.js";
+
+export interface SceneDoc {
+  version: 1;
+  name?: string;
+  description?: string;
+  obstacles: Record<string, unknown>[];
+  robots: Record<string, unknown>[];
+}
+
+function sourceMeta(sceneFile: string | undefined): { name?: string; description?: string } {
+  if (!sceneFile) return {};
+  try {
+    const doc = JSON.parse(readFileSync(sceneFile, "utf8")) as { name?: unknown; description?: unknown };
+    return {
+      ...(typeof doc.name === "string" ? { name: doc.name } : {}),
+      ...(typeof doc.description === "string" ? { description: doc.description } : {}),
+    };
+  } catch {
+    return {};
+  }
+}
+
+/**
+ * Builds the normalised scene from `world.list` (our own robot excluded) and copies mesh obstacle files
+ * into `<dir>/meshes/scene/`, rewriting their paths relative to the twin folder.
+ */
+export function sceneDocument(world: WorldList, ownRobot: string, dir: string, sceneFile?: string): SceneDoc {
+  const obstacles = world.obstacles.map((o) => {
+    const ob = { ...(o as unknown as Record<string, unknown>) };
+    const shape = ob["shape"] as Record<string, unknown> | undefined;
+    if (shape?.["type"] === "mesh" && typeof shape["file"] === "string" && existsSync(shape["file"])) {
+      const rel = join("meshes", "scene", `${String(ob["name"])}-${basename(shape["file"])}`);
+      mkdirSync(join(dir, "meshes", "scene"), { recursive: true });
+      copyFileSync(shape["file"], join(dir, rel));
+      ob["shape"] = { ...shape, file: rel };
+    }
+    if (ob["orientation"] !== undefined) delete ob["rpy"];
+    return ob;
+  });
+  const robots = world.robots
+    .filter((r) => r.id !== ownRobot)
+    .map((r) => ({ id: r.id, urdf: r.urdf, basePosition: r.basePosition, baseOrientation: r.baseOrientation, eeLink: r.eeLink }));
+  return { version: 1, ...sourceMeta(sceneFile), obstacles, robots };
+}
