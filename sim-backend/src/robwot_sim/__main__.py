@@ -1,0 +1,56 @@
+"""`python -m robwot_sim serve [--host 127.0.0.1] [--port 0] [--max-message BYTES]`.
+
+Stdout carries exactly one line, `{"event":"ready","port":N}`, once the server listens: everything else
+(logs, Bullet's own printf output) is redirected to stderr. SIGTERM/SIGINT stop the server cleanly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import logging
+import os
+import sys
+
+from robwot_sim.rpc.protocol import DEFAULT_MAX_MESSAGE_BYTES
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m robwot_sim", description="RobWoT simulation backend")
+    sub = parser.add_subparsers(dest="command", required=True)
+    serve = sub.add_parser("serve", help="serve JSON-RPC 2.0 over WebSocket")
+    serve.add_argument("--host", default="127.0.0.1", help="interface to bind (default: loopback)")
+    serve.add_argument("--port", type=int, default=0, help="TCP port, 0 = any free port (default)")
+    serve.add_argument("--max-message", type=int, default=DEFAULT_MAX_MESSAGE_BYTES,
+                       help=f"largest accepted message in bytes (default {DEFAULT_MAX_MESSAGE_BYTES})")
+    serve.add_argument("--log-level", default="WARNING", help="stderr log level (default WARNING)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    # Keep the real stdout for the ready line only; send fd 1 (C printf from Bullet) to stderr.
+    sys.stdout.flush()
+    ready_fd = os.dup(1)
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
+    logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from robwot_sim.server import run_server
+
+    def ready(port: int) -> None:
+        line = json.dumps({"event": "ready", "port": port}, separators=(",", ":")) + "\n"
+        os.write(ready_fd, line.encode())
+        os.close(ready_fd)
+
+    try:
+        asyncio.run(run_server(args.host, args.port, max_message_bytes=args.max_message, on_ready=ready))
+    except OSError as exc:
+        print(f"robwot_sim: cannot serve on {args.host}:{args.port}: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

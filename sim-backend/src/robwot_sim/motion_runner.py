@@ -1,0 +1,129 @@
+"""Executes robot motions on the asyncio loop: one plan step at a time, collision-checked, streamed.
+
+`robot.move` asks the world for the interpolated plan (`World.plan_motion`, velocity limits x speed,
+fixed dt), then for every step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with
+realtime 0 it only yields to the loop), checks the step for collision and, when free, teleports the robot
+there. A colliding step ends the motion at the last collision-free state (`status: "collision"`, a
+`robot.collision` notification). `robot.state` notifications go out at every step whose simulated time
+crosses a 1/60 s boundary, plus the final state (`moving: false`). One motion per robot: a second
+`move` raises `Busy`; `stop` ends the current motion at its last reached state (`status: "stopped"`).
+
+All PyBullet calls happen on the loop thread between awaits, so they never interleave.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robwot_sim.errors import Busy, UnknownRobot
+from robwot_sim.sim.world import World
+
+Broadcast = Callable[[str, dict[str, Any]], None]
+
+STATE_PERIOD = 1.0 / 60.0
+
+
+@dataclass
+class _Motion:
+    robot: str
+    stop_requested: bool = False
+    done: asyncio.Event = field(default_factory=asyncio.Event)
+
+
+class MotionRunner:
+    """Runs at most one motion per robot; motions of different robots run concurrently."""
+
+    def __init__(self, world: World, broadcast: Broadcast) -> None:
+        self._world = world
+        self._broadcast = broadcast
+        self._active: dict[str, _Motion] = {}
+
+    def is_moving(self, robot: str) -> bool:
+        return robot in self._active
+
+    def stop(self, robot: str) -> bool:
+        """Request the robot's motion to stop; True when one was running."""
+        motion = self._active.get(robot)
+        if motion is None:
+            return False
+        motion.stop_requested = True
+        return True
+
+    async def stop_and_wait(self, robots: Sequence[str] | None = None) -> None:
+        """Stop the given robots' motions (all when None) and wait until they have ended."""
+        motions = [m for r, m in self._active.items() if robots is None or r in robots]
+        for motion in motions:
+            motion.stop_requested = True
+        for motion in motions:
+            await motion.done.wait()
+
+    async def move(self, robot: str, target: Sequence[float], *, speed: float = 1.0,
+                   realtime: float = 1.0, dt: float = 1.0 / 240.0) -> dict[str, Any]:
+        """Move `robot` to joint `target` (controllable order, rad/m); returns the MoveResult dict."""
+        if robot in self._active:
+            raise Busy(robot)
+        plan = self._world.plan_motion(robot, target, speed=speed, dt=dt)
+        motion = _Motion(robot)
+        self._active[robot] = motion
+        try:
+            return await self._run(motion, np.asarray(plan, dtype=np.float64), realtime, dt)
+        finally:
+            del self._active[robot]
+            motion.done.set()
+
+    async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float,
+                   dt: float) -> dict[str, Any]:
+        loop = asyncio.get_running_loop()
+        robot = motion.robot
+        t0 = loop.time()
+        reached = plan[0]
+        reached_time = 0.0
+        status = "reached"
+        contacts: list[dict[str, Any]] = []
+        for i in range(1, len(plan)):
+            sim_time = i * dt
+            delay = t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0
+            await asyncio.sleep(max(0.0, delay))
+            if motion.stop_requested:
+                status = "stopped"
+                break
+            if robot not in self._world.robot_ids():
+                status = "stopped"
+                break
+            q = plan[i]
+            report = self._world.check_collision(robot, q)
+            if not report.collision_free:
+                status = "collision"
+                contacts = [c.to_json() for c in report.contacts]
+                self._broadcast("robot.collision", {
+                    "robot": robot, "contacts": contacts, "positions": _floats(reached),
+                    "time": reached_time})
+                break
+            self._world.set_joint_positions(robot, q)
+            reached, reached_time = q, sim_time
+            if math.floor(sim_time / STATE_PERIOD + 1e-9) > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9):
+                self._broadcast("robot.state", {
+                    "robot": robot, "time": sim_time, "positions": _floats(q), "moving": True})
+        wall = loop.time() - t0
+        if robot in self._world.robot_ids():
+            self._broadcast("robot.state", {
+                "robot": robot, "time": reached_time, "positions": _floats(reached), "moving": False})
+        return {"status": status, "positions": _floats(reached), "duration": reached_time,
+                "wallTime": wall, "contacts": contacts}
+
+
+def require_robot(world: World, robot: str) -> None:
+    """Raise UnknownRobot unless `robot` is loaded."""
+    ids = world.robot_ids()
+    if robot not in ids:
+        raise UnknownRobot(robot, ids)
+
+
+def _floats(values: Any) -> list[float]:
+    return [float(v) for v in values]

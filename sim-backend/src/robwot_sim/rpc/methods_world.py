@@ -1,0 +1,46 @@
+"""`ping`, `world.*` methods."""
+
+from __future__ import annotations
+
+from importlib import metadata
+from typing import Any
+
+import pybullet_data
+
+from robwot_sim import __version__
+from robwot_sim.rpc.dispatch import Call, Dispatcher
+from robwot_sim.rpc.params import Params, invalid_param
+from robwot_sim.rpc.services import Services
+
+
+def _pybullet_version() -> str:
+    try:
+        return metadata.version("pybullet")
+    except metadata.PackageNotFoundError:  # pragma: no cover - pybullet is a hard dependency
+        return "unknown"
+
+
+def register(d: Dispatcher, s: Services) -> None:
+    @d.method("ping", summary="liveness and versions")
+    async def ping(p: Params, call: Call) -> dict[str, Any]:
+        return {"version": __version__, "pybullet": _pybullet_version(),
+                "pybulletData": pybullet_data.getDataPath()}
+
+    @d.method("world.reset", summary="remove every robot and obstacle (stops motions first)")
+    async def reset(p: Params, call: Call) -> dict[str, Any]:
+        await s.motions.stop_and_wait()
+        s.world.reset()
+        return {}
+
+    @d.method("world.list", summary="robots and obstacles in the world")
+    async def list_(p: Params, call: Call) -> dict[str, Any]:
+        return s.world.list()
+
+    @d.method("world.loadScene", ("path", "scene", "packageRoots"), "load a scene file or document")
+    async def load_scene(p: Params, call: Call) -> dict[str, Any]:
+        if p.has("path") == p.has("scene"):
+            raise invalid_param("path", "exactly one of 'path' (string) or 'scene' (object)",
+                                p.raw.get("path"), missing=not p.has("path"))
+        roots = p.string_map("packageRoots", None)
+        source: dict[str, Any] | str = p.string("path") if p.has("path") else p.obj("scene")
+        return s.world.load_scene(source, package_roots=roots)
