@@ -1,0 +1,58 @@
+/**
+ * Action handlers. Inputs come parsed and schema-validated from the HTTP middleware (request context);
+ * handlers re-check what the schema cannot (speed > 0, unknown joints, quaternion norm, calibration
+ * geometry) and throw ServientErrors that the middleware answers as JSON with their status.
+ */
+import type { BackendSupervisor } from "./backend.js";
+import { calibrate, type CalibrateInput } from "./calibration.js";
+import { badInput, backendDown } from "./errors.js";
+import type { CartesianInput, JointInput, Mover } from "./moves.js";
+import { recordErrors, requestContext } from "./request-context.js";
+import type { SceneObstacle } from "./twin-folder.js";
+import type { Twin } from "./twin.js";
+import type { World } from "./world.js";
+
+async function inputOf<T>(input: WoT.InteractionOutput): Promise<T> {
+  const ctx = requestContext.getStore();
+  const v = ctx?.hasBody ? ctx.body : await input.value();
+  if (v === null || typeof v !== "object" || Array.isArray(v)) throw badInput("expected a JSON object as input", { got: v ?? null });
+  return v as T;
+}
+
+export interface ActionDeps {
+  backend: BackendSupervisor;
+  twin: Twin;
+  mover: Mover;
+  world: World;
+  onCalibrated(): void;
+}
+
+export function registerActions(thing: WoT.ExposedThing, d: ActionDeps): void {
+  const on = <T>(name: string, fn: (input: T) => Promise<unknown> | unknown, needsBackend = true): void => {
+    thing.setActionHandler(
+      name,
+      recordErrors(async (input: WoT.InteractionOutput) => {
+        if (needsBackend && !d.backend.isUp) throw backendDown("simulation backend is restarting; retry shortly", { action: name });
+        const value = name === "stop" ? undefined : await inputOf<T>(input);
+        return (await fn(value as T)) as WoT.InteractionInput;
+      }),
+    );
+  };
+  on<JointInput>("moveToJointPosition", (i) => d.mover.moveJoints(i));
+  on<CartesianInput>("moveToCartesianPosition", (i) => d.mover.moveCartesian(i));
+  on<JointInput>("validateJointPosition", (i) => d.mover.validateJoints(i));
+  on<CartesianInput>("validateCartesianPosition", (i) => d.mover.validateCartesian(i));
+  on("stop", () => d.mover.stop());
+  on<CalibrateInput>(
+    "calibrate",
+    (i) => {
+      const r = calibrate(d.twin, i);
+      d.onCalibrated();
+      return r;
+    },
+    false,
+  );
+  on<SceneObstacle>("addObstacle", (i) => d.world.addObstacle(d.backend, i));
+  on<{ name: string; position: number[]; orientation?: number[]; rpy?: number[] }>("moveObstacle", (i) => d.world.moveObstacle(d.backend, i));
+  on<{ name: string }>("removeObstacle", (i) => d.world.removeObstacle(d.backend, i.name));
+}

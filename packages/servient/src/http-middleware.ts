@@ -1,0 +1,121 @@
+/**
+ * RobWoT's HTTP middleware in front of node-wot's router (HttpServer `middleware` option):
+ * auth for everything; `/robwot.json`; the viewer at `/viewer/`; the TDs at `/` and `/<slug>` (with
+ * the real base, live URL and security); the twin folder files at `/<slug>/...`; action bodies parsed
+ * and validated against the TD (400 JSON); handler errors mapped to their status with a JSON body.
+ */
+import type { IncomingMessage, ServerResponse } from "node:http";
+import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
+import { ServientError } from "./errors.js";
+import { parseBody, validateInput } from "./input-validation.js";
+import { requestContext, type RequestContext } from "./request-context.js";
+import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
+
+const MAX_BODY = 1 << 20;
+
+export interface ServedThing {
+  slug: string;
+  dir: string;
+  urdfName: string;
+  /** the TD as served (real base, live URL, security, calibrated bounds) */
+  td(): Record<string, unknown>;
+  /** current input schema of an action (undefined: no input), null: no such action */
+  actionInput(name: string): object | undefined | null;
+}
+
+export interface MiddlewareEnv {
+  auth?: AuthConfig | undefined;
+  /** by slug and by encoded Thing id */
+  things: Map<string, ServedThing>;
+  viewerDir: string | null;
+  index(): unknown;
+}
+
+async function readBody(req: IncomingMessage): Promise<string> {
+  const chunks: Buffer[] = [];
+  let size = 0;
+  for await (const chunk of req) {
+    const b = chunk as Buffer;
+    size += b.length;
+    if (size > MAX_BODY) throw new ServientError(413, "E_TOO_LARGE", `request body larger than ${MAX_BODY} bytes`, { limit: MAX_BODY });
+    chunks.push(b);
+  }
+  return Buffer.concat(chunks).toString("utf8");
+}
+
+/** Replaces node-wot's `500 <message>` by the recorded error's status and JSON body. */
+function mapErrors(res: ServerResponse, ctx: RequestContext): void {
+  const writeHead = res.writeHead.bind(res) as (status: number, ...rest: unknown[]) => ServerResponse;
+  const end = res.end.bind(res) as (...args: unknown[]) => ServerResponse;
+  (res as { writeHead: unknown }).writeHead = (status: number, ...rest: unknown[]): ServerResponse => {
+    if (status === 500 && ctx.error) {
+      res.setHeader("Content-Type", "application/json");
+      return writeHead(ctx.error.status);
+    }
+    return writeHead(status, ...rest);
+  };
+  (res as { end: unknown }).end = (...args: unknown[]): ServerResponse => {
+    if (ctx.error && res.statusCode === ctx.error.status && typeof args[0] !== "function") {
+      return end(JSON.stringify(ctx.error.toJSON()));
+    }
+    return end(...args);
+  };
+}
+
+export function createMiddleware(env: MiddlewareEnv) {
+  return async (req: IncomingMessage, res: ServerResponse, next: () => void): Promise<void> => {
+    try {
+      const url = new URL(req.url ?? "/", "http://localhost");
+      let path: string;
+      try {
+        path = decodeURIComponent(url.pathname);
+      } catch {
+        throw new ServientError(400, "E_BAD_PATH", `malformed URL path ${url.pathname}`, { path: url.pathname });
+      }
+      const method = req.method ?? "GET";
+      if (method === "OPTIONS") return next(); // CORS preflight carries no credentials
+      if (env.auth && !isAuthorized(req, env.auth)) return challenge(res, env.auth);
+      const get = method === "GET" || method === "HEAD";
+
+      if (path === "/robwot.json" && get) return sendJson(res, 200, env.index());
+      if (path === "/viewer" && get) {
+        res.writeHead(301, { Location: `/viewer/${url.search}` });
+        return void res.end();
+      }
+      if (path.startsWith("/viewer/") && get) {
+        const file = env.viewerDir ? confine(env.viewerDir, path.slice("/viewer/".length) || "index.html") : null;
+        return file ? sendFile(req, res, file) : notFound(res, path);
+      }
+      if (path === "/" && get) {
+        const tds = [...new Set(env.things.values())].map((t) => t.td());
+        return sendJson(res, 200, tds);
+      }
+      const segments = path.split("/").filter((s) => s.length > 0);
+      const thing = env.things.get(segments[0] ?? "");
+      if (!thing) return next();
+      if (segments.length === 1 && get) return sendJson(res, 200, thing.td(), "application/td+json");
+      const rest = segments.slice(1).join("/");
+      if (get && isTwinFile(rest, thing.urdfName)) {
+        const file = confine(thing.dir, rest);
+        return file ? sendFile(req, res, file) : notFound(res, path);
+      }
+      const ctx: RequestContext = { hasBody: false };
+      if (segments[1] === "actions" && segments.length === 3 && method === "POST") {
+        const name = segments[2] as string;
+        const schema = thing.actionInput(name);
+        if (schema !== null) {
+          const body = parseBody(await readBody(req), schema !== undefined, name);
+          validateInput(schema, body, name);
+          ctx.body = body;
+          ctx.hasBody = true;
+        }
+      }
+      mapErrors(res, ctx);
+      requestContext.run(ctx, next);
+    } catch (err) {
+      const se = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
+      if (!res.headersSent) sendJson(res, se.status, se.toJSON());
+      else res.end();
+    }
+  };
+}

@@ -1,0 +1,191 @@
+/**
+ * Move actions: validate (simulation in the loop), then run `robot.move` on the backend, keep the
+ * twin's state and motion status current, relay to the physical robot when configured.
+ * A move while the twin is moving answers 409 `E_BUSY`; a rejected target 422 `E_REJECTED` with the
+ * validation report in `details`; the twin does not move in either case.
+ */
+import type { Contact, MoveResult, Quaternion, Vec3 } from "@robwot/core";
+import type { BackendSupervisor } from "./backend.js";
+import { badInput, ServientError } from "./errors.js";
+import { vec } from "./frames.js";
+import type { Relay, RelayReport } from "./relay.js";
+import type { Twin } from "./twin.js";
+import { validateCartesian, validateJoints, type JointPlan } from "./validation.js";
+import type { WorkspaceChecks } from "./workspace-checks.js";
+
+interface BackendMoveResult {
+  status: "reached" | "stopped" | "collision";
+  positions: number[];
+  duration: number;
+  wallTime?: number;
+  contacts?: Contact[];
+}
+
+export type RelayedMoveResult = MoveResult & { relay?: RelayReport };
+
+export interface JointInput {
+  joints: Record<string, unknown>;
+  speed?: number;
+}
+
+export interface CartesianInput {
+  x: number;
+  y: number;
+  z: number;
+  orientation?: Quaternion;
+  speed?: number;
+}
+
+export function speedOf(input: { speed?: unknown }): number {
+  const s = input.speed ?? 1;
+  if (typeof s !== "number" || !Number.isFinite(s) || s <= 0 || s > 1) {
+    throw badInput(`speed must be a number in (0, 1], got ${JSON.stringify(s)}`, { param: "speed", value: s ?? null });
+  }
+  return s;
+}
+
+export function cartesianTarget(input: CartesianInput): { real: Vec3; orientation?: Quaternion } {
+  for (const k of ["x", "y", "z"] as const) {
+    if (typeof input[k] !== "number" || !Number.isFinite(input[k])) {
+      throw badInput(`${k} must be a finite number (m), got ${JSON.stringify(input[k])}`, { param: k, value: input[k] ?? null });
+    }
+  }
+  const o = input.orientation;
+  if (o !== undefined) {
+    const n = Math.hypot(o.x, o.y, o.z, o.w);
+    if (![o.x, o.y, o.z, o.w].every((v) => typeof v === "number" && Number.isFinite(v)) || n < 1e-6) {
+      throw badInput("orientation must be a non-zero quaternion {x, y, z, w}", { param: "orientation", value: o });
+    }
+    return { real: vec(input), orientation: { x: o.x / n, y: o.y / n, z: o.z / n, w: o.w / n } };
+  }
+  return { real: vec(input) };
+}
+
+export class Mover {
+  constructor(
+    private readonly backend: BackendSupervisor,
+    private readonly twin: Twin,
+    private readonly ws: WorkspaceChecks | null,
+    private readonly realtime: number,
+    private readonly relay: Relay | null,
+  ) {}
+
+  async validateJoints(input: JointInput): Promise<JointPlan["report"]> {
+    const q = this.twin.jointsVector(input.joints);
+    return (await validateJoints(this.backend, this.twin, q, speedOf(input))).report;
+  }
+
+  async validateCartesian(input: CartesianInput): Promise<JointPlan["report"]> {
+    const t = cartesianTarget(input);
+    return (await validateCartesian(this.backend, this.twin, this.ws, t.real, t.orientation, speedOf(input))).report;
+  }
+
+  async moveJoints(input: JointInput): Promise<RelayedMoveResult> {
+    const q = this.twin.jointsVector(input.joints);
+    const speed = speedOf(input);
+    return this.guarded(async () => {
+      const plan = await validateJoints(this.backend, this.twin, q, speed);
+      this.reject(plan);
+      const result = await this.execute(plan.target, speed);
+      if (result.status === "reached" && this.relay) {
+        result.relay = await this.relay.forward("moveToJointPosition", { joints: this.twin.jointsRecord(q), speed });
+        this.reportRelay(result.relay);
+      }
+      return result;
+    });
+  }
+
+  async moveCartesian(input: CartesianInput): Promise<RelayedMoveResult> {
+    const t = cartesianTarget(input);
+    const speed = speedOf(input);
+    return this.guarded(async () => {
+      const plan = await validateCartesian(this.backend, this.twin, this.ws, t.real, t.orientation, speed);
+      this.reject(plan);
+      const result = await this.execute(plan.target, speed);
+      const p = result.position;
+      result.positionError = Math.hypot(p.x - t.real[0], p.y - t.real[1], p.z - t.real[2]);
+      if (result.status === "reached" && this.relay) {
+        const cmd: Record<string, unknown> = { x: t.real[0], y: t.real[1], z: t.real[2], speed };
+        if (t.orientation) cmd.orientation = t.orientation;
+        result.relay = await this.relay.forward("moveToCartesianPosition", cmd);
+        this.reportRelay(result.relay);
+      }
+      return result;
+    });
+  }
+
+  async stop(): Promise<{ stopped: boolean }> {
+    const r = await this.backend.call<{ stopped: boolean }>("robot.stop", { robot: this.twin.robotId });
+    let relayed = false;
+    if (this.relay) relayed = (await this.relay.forward("stop", undefined)).ok;
+    return { stopped: r.stopped || relayed };
+  }
+
+  /** One move at a time per twin: the busy flag is taken before validation starts. */
+  private async guarded(run: () => Promise<RelayedMoveResult>): Promise<RelayedMoveResult> {
+    if (this.twin.busy) {
+      throw new ServientError(409, "E_BUSY", `${this.twin.slug} is already moving; call stop first or wait for the motion to end`, {
+        thing: this.twin.slug,
+        state: this.twin.status.state,
+      });
+    }
+    this.twin.busy = true;
+    try {
+      return await run();
+    } finally {
+      this.twin.busy = false;
+    }
+  }
+
+  private reject(plan: JointPlan): void {
+    if (plan.report.valid) return;
+    const err = new ServientError(422, "E_REJECTED", `target rejected by validation: ${plan.report.reasons.join("; ")}`, {
+      reasons: plan.report.reasons,
+      checks: plan.report.checks,
+    });
+    this.twin.setStatus({ lastError: { code: err.code, message: err.message } });
+    throw err;
+  }
+
+  private reportRelay(r: RelayReport): void {
+    if (!r.ok) this.twin.setStatus({ lastError: { code: "E_RELAY", message: `relay to the physical robot failed: ${r.error}` } });
+  }
+
+  private async execute(target: number[], speed: number): Promise<RelayedMoveResult> {
+    const twin = this.twin;
+    twin.collisionSeen = false;
+    twin.setStatus({ state: "moving", lastError: null });
+    let res: BackendMoveResult;
+    try {
+      res = await this.backend.call<BackendMoveResult>("robot.move", {
+        robot: twin.robotId,
+        target,
+        speed,
+        realtime: this.realtime,
+      });
+    } catch (err) {
+      const e = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
+      twin.setStatus({ state: "stopped", lastError: { code: e.code, message: e.message } });
+      throw e;
+    }
+    await twin.refresh(res.positions);
+    if (res.status === "collision" && !twin.collisionSeen) twin.onCollision(res.contacts ?? [], res.positions);
+    const pose = twin.realPose();
+    const result: RelayedMoveResult = {
+      status: res.status,
+      joints: twin.jointsRecord(res.positions),
+      position: pose.position,
+      orientation: pose.orientation,
+      duration: res.duration,
+    };
+    const state = res.status === "reached" ? "idle" : res.status;
+    const lastError =
+      res.status === "collision"
+        ? { code: "E_COLLISION", message: "motion stopped by a collision" }
+        : res.status === "stopped"
+          ? { code: "E_STOPPED", message: "motion stopped before reaching the target" }
+          : null;
+    twin.setStatus({ state, lastError, lastResult: result });
+    return result;
+  }
+}

@@ -1,0 +1,38 @@
+/** Property read handlers: served from the twin's in-memory state (no backend round trip). */
+import { calibrationProperty } from "./calibration.js";
+import { recordErrors } from "./request-context.js";
+import type { Twin } from "./twin.js";
+
+export function registerProperties(thing: WoT.ExposedThing, twin: Twin): void {
+  const read = (fn: () => unknown): WoT.PropertyReadHandler => recordErrors(async () => fn() as WoT.InteractionInput);
+  thing.setPropertyReadHandler("getJointPosition", read(() => twin.jointsRecord()));
+  thing.setPropertyReadHandler(
+    "getCartesianPosition",
+    read(() => {
+      const p = twin.realPose();
+      return { ...p.position, orientation: p.orientation };
+    }),
+  );
+  thing.setPropertyReadHandler("motionStatus", read(() => twin.status));
+  thing.setPropertyReadHandler("calibration", read(() => calibrationProperty(twin.folder.calibration)));
+
+  // node-wot's emitPropertyChange returns a promise at run time (typed void): never leave it unhandled
+  const change = (name: string): void => void Promise.resolve(thing.emitPropertyChange(name) as unknown).catch(() => undefined);
+  // node-wot long-poll observers re-read the property on change; joints are throttled to 50 Hz
+  let last = 0;
+  let timer: NodeJS.Timeout | null = null;
+  const emitPose = (): void => {
+    last = Date.now();
+    timer = null;
+    change("getJointPosition");
+    change("getCartesianPosition");
+  };
+  twin.on("joints", () => {
+    if (timer) return;
+    const wait = 20 - (Date.now() - last);
+    if (wait <= 0) emitPose();
+    else timer = setTimeout(emitPose, wait);
+  });
+  twin.on("status", () => change("motionStatus"));
+  twin.on("collision", (e) => thing.emitEvent("collision", e as unknown as WoT.InteractionInput));
+}

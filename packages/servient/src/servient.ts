@@ -1,0 +1,196 @@
+/**
+ * `startServient`: loads the twin folders, starts (or connects to) the simulation backend, builds the
+ * shared world, exposes one node-wot Thing per twin over HTTP (with RobWoT's middleware), the `/live`
+ * WebSocket on the same port, and the relay when asked.
+ */
+import { createRequire } from "node:module";
+import { dirname } from "node:path";
+import { fileURLToPath } from "node:url";
+import { existsSync } from "node:fs";
+import type { Bounds } from "@robwot/core";
+import type { AuthConfig } from "./auth.js";
+import { registerActions } from "./actions.js";
+import { BackendSupervisor } from "./backend.js";
+import { createMiddleware, type ServedThing } from "./http-middleware.js";
+import { attachLive, type LiveServer } from "./live.js";
+import { Mover } from "./moves.js";
+import { registerProperties } from "./properties.js";
+import { Relay } from "./relay.js";
+import { launchConnector, urlConnector } from "./sim-connector.js";
+import { defaultViewerDir } from "./static-files.js";
+import { produceInit, servedTd } from "./thing-td.js";
+import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
+import { Twin } from "./twin.js";
+import { loadWorkspaceChecks } from "./workspace-checks.js";
+import { World } from "./world.js";
+
+const require = createRequire(import.meta.url);
+// node-wot 0.9.2 is CommonJS
+const { Servient } = require("@node-wot/core") as typeof import("@node-wot/core");
+const { HttpServer, HttpClientFactory } = require("@node-wot/binding-http") as typeof import("@node-wot/binding-http");
+const slugify = require("slugify") as (s: string, o: { lower: boolean }) => string;
+
+export interface ServientOptions {
+  /** twin folders (Contract 2) */
+  twins: string[];
+  host?: string;
+  /** 0 = pick a free port */
+  port?: number;
+  /** real-time factor of motions: 1 = wall clock, 0 = as fast as possible */
+  realtime?: number;
+  /** TD URL of the physical robot's Thing */
+  relay?: string;
+  auth?: AuthConfig;
+  /** ws:// URL of an already running backend (default: launch one) */
+  backendUrl?: string;
+  /** Python interpreter for the launched backend */
+  python?: string;
+  /** viewer bundle (default packages/viewer/dist) */
+  viewerDir?: string;
+}
+
+export interface ThingInfo {
+  slug: string;
+  id: string;
+  title: string;
+  tdUrl: string;
+  viewerUrl: string;
+}
+
+export interface RunningServient {
+  url: string;
+  liveUrl: string;
+  things: ThingInfo[];
+  /** the backend supervisor (pid, restarts, isUp) */
+  backend: BackendSupervisor;
+  twins: Map<string, Twin>;
+  stop(): Promise<void>;
+}
+
+const isLoopback = (h: string): boolean => h === "127.0.0.1" || h === "localhost" || h === "::1" || h.startsWith("127.");
+
+export async function startServient(opts: ServientOptions): Promise<RunningServient> {
+  if (opts.twins.length === 0) throw new Error("startServient: no twin folder given");
+  const host = opts.host ?? "127.0.0.1";
+  const realtime = opts.realtime ?? 1;
+  if (!Number.isFinite(realtime) || realtime < 0) throw new Error(`realtime must be >= 0, got ${realtime}`);
+  if (!isLoopback(host) && !opts.auth) {
+    process.emitWarning(`robwot serve: binding ${host} without --auth exposes the robot to the network`, { code: "ROBWOT_NO_AUTH" });
+  }
+
+  const folders = opts.twins.map(loadTwinFolder);
+  const twins = new Map<string, Twin>();
+  const slugs = new Set<string>();
+  const connector = opts.backendUrl ? urlConnector(opts.backendUrl) : launchConnector({ python: opts.python });
+  // the world is built from the twins below; restore runs only at start()
+  const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call));
+  for (const folder of folders) {
+    const base = slugify(folder.td.title, { lower: true });
+    let slug = base;
+    for (let n = 2; slugs.has(slug); n++) slug = `${base}_${n}`;
+    slugs.add(slug);
+    twins.set(slug, new Twin(slug, folder, backend));
+  }
+  const world = new World([...twins.values()]);
+  backend.on("notification", (method, p) => {
+    const twin = twins.get(String(p.robot));
+    if (!twin) return;
+    if (method === "robot.state") twin.onState(p as { positions?: number[]; time?: number });
+    else if (method === "robot.collision") twin.onCollision((p.contacts ?? []) as never[], (p.positions ?? twin.q) as number[]);
+  });
+  backend.on("down", (reason) => {
+    for (const t of twins.values()) t.setStatus({ lastError: { code: "E_BACKEND_DOWN", message: `simulation backend down (${reason}); restarting` } });
+  });
+  backend.on("up", (n) => {
+    for (const t of twins.values()) {
+      t.setStatus({ state: t.busy ? t.status.state : "idle", lastError: { code: "E_BACKEND_RESTARTED", message: `simulation backend restarted (${n}); state restored` } });
+    }
+  });
+  await backend.start();
+  const checks = new Map(await Promise.all([...twins].map(async ([s, t]) => [s, await loadWorkspaceChecks(t.folder.dir)] as const)));
+
+  // node-wot reads PORT / WOT_PORT from the environment before its config: keep them out
+  const saved = { PORT: process.env.PORT, WOT_PORT: process.env.WOT_PORT };
+  delete process.env.PORT;
+  delete process.env.WOT_PORT;
+  const served = new Map<string, ServedThing>();
+  let url = "";
+  let liveUrl = "";
+  const viewerDir = opts.viewerDir ?? defaultViewerDir(dirname(fileURLToPath(import.meta.url)));
+  const middleware = createMiddleware({
+    auth: opts.auth,
+    things: served,
+    viewerDir: existsSync(viewerDir) ? viewerDir : null,
+    index: () => ({ url, live: liveUrl, viewer: `${url}/viewer/`, things: infos() }),
+  });
+  const http = new HttpServer({ port: opts.port ?? 8080, address: host, middleware });
+  Object.assign(process.env, Object.fromEntries(Object.entries(saved).filter(([, v]) => v !== undefined)));
+  const servient = new Servient();
+  servient.addServer(http);
+  servient.addClientFactory(new HttpClientFactory());
+  let live: LiveServer | null = null;
+  try {
+    const wot = await servient.start();
+    const urlHost = host === "0.0.0.0" || host === "::" ? "127.0.0.1" : host.includes(":") ? `[${host}]` : host;
+    url = `http://${urlHost}:${http.getPort()}`;
+    liveUrl = `ws://${urlHost}:${http.getPort()}/live`;
+    // the port is known only now (port 0): node-wot's forms must use the address actually served
+    (http as unknown as { baseUri: string }).baseUri = url;
+    const relay = opts.relay ? new Relay(wot as never, opts.relay) : null;
+    if (relay) await relay.connect().catch(() => undefined /* retried at the first command; failures are reported */);
+
+    for (const [slug, twin] of twins) {
+      const bounds: Bounds | null = twin.folder.workspace?.bounds ?? null;
+      let cached: TdDocument | null = null;
+      const td = (): TdDocument =>
+        (cached ??= servedTd(twin.folder.td, { url, slug, liveUrl, auth: opts.auth, frames: twin.frames, bounds }));
+      const thing = await wot.produce(produceInit(twin.folder.td));
+      const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
+      registerProperties(thing, twin);
+      registerActions(thing, { backend, twin, mover, world, onCalibrated: () => (cached = null) });
+      await thing.expose();
+      const entry: ServedThing = {
+        slug,
+        dir: twin.folder.dir,
+        urdfName: twin.folder.manifest.robot.urdf,
+        td,
+        actionInput: (name) => {
+          const a = td().actions?.[name];
+          return a ? ((a.input as object | undefined) ?? undefined) : null;
+        },
+      };
+      served.set(slug, entry);
+      if (twin.folder.td.id) served.set(encodeURIComponent(twin.folder.td.id), entry);
+    }
+    live = attachLive(http.getServer() as import("node:http").Server, twins, opts.auth);
+  } catch (err) {
+    await servient.shutdown().catch(() => undefined);
+    await backend.stop();
+    throw err;
+  }
+
+  function infos(): ThingInfo[] {
+    return [...twins].map(([slug, t]) => ({
+      slug,
+      id: t.folder.td.id ?? slug,
+      title: t.folder.td.title,
+      tdUrl: `${url}/${slug}`,
+      viewerUrl: `${url}/viewer/?thing=${encodeURIComponent(slug)}`,
+    }));
+  }
+
+  let stopping: Promise<void> | null = null;
+  return {
+    url,
+    liveUrl,
+    things: infos(),
+    backend,
+    twins,
+    stop: () =>
+      (stopping ??= (async () => {
+        await live?.close();
+        await servient.shutdown().catch(() => undefined);
+        await backend.stop();
+      })()),
+  };
+}

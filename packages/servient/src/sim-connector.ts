@@ -1,0 +1,31 @@
+/**
+ * Connectors from the supervisor to a backend: launch our own `robwot_sim` process (restarted by the
+ * supervisor when it dies), or connect to an external `ws://` URL (reconnected when it drops).
+ */
+import { launchBackend, RpcConnection } from "@robwot/sim-client";
+import type { SimConnector, SimSession } from "./backend.js";
+
+/** Methods that last as long as a motion: no request timeout. */
+const LONG = new Set(["robot.move", "workspace.generate"]);
+
+function session(conn: RpcConnection, extra: { pid?: number | undefined; closed?: Promise<unknown>; close?: () => Promise<void> }): SimSession {
+  return {
+    call: (method, params) => conn.call(method, params, LONG.has(method) ? { timeoutMs: 0 } : {}),
+    onNotification: (cb) => void conn.onNotification("*", cb),
+    closed: Promise.race([conn.closed, extra.closed ?? new Promise<never>(() => undefined)]).then(() => undefined),
+    pid: extra.pid,
+    close: extra.close ?? (() => conn.close()),
+  };
+}
+
+export function launchConnector(options: { python?: string | undefined } = {}): SimConnector {
+  return async () => {
+    const b = await launchBackend({ requestTimeoutMs: 60_000, ...(options.python ? { python: options.python } : {}) });
+    const conn = b.client.connection;
+    return session(conn, { pid: b.pid, closed: b.exited, close: () => b.stop() });
+  };
+}
+
+export function urlConnector(url: string): SimConnector {
+  return async () => session(await RpcConnection.open(url, { requestTimeoutMs: 60_000 }), {});
+}

@@ -1,0 +1,72 @@
+/**
+ * The TD of a twin, two ways:
+ * - `produceInit`: what node-wot's `WoT.produce` gets: the generated td.json without forms and base
+ *   (node-wot adds its own forms for the real address), with nosec (auth is enforced by the middleware).
+ * - `servedTd`: what `/<slug>` answers: td.json with `base` = `<url>/<slug>/`, the live WebSocket forms
+ *   pointing at this servient's `/live`, the security required (`securityFor`), and the Cartesian
+ *   bounds in the real frame when a calibration is active.
+ */
+import { securityFor, type Bounds, type ThingDescription } from "@robwot/core";
+import type { AuthConfig } from "./auth.js";
+import type { FrameMap } from "./frames.js";
+import type { TdDocument } from "./twin-folder.js";
+
+type Json = Record<string, unknown>;
+
+const clone = <T>(v: T): T => structuredClone(v);
+
+function eachAffordance(td: TdDocument, fn: (a: Json, kind: "properties" | "actions" | "events", name: string) => void): void {
+  for (const kind of ["properties", "actions", "events"] as const) {
+    for (const [name, a] of Object.entries((td[kind] ?? {}) as Record<string, Json>)) fn(a, kind, name);
+  }
+}
+
+export function produceInit(td: TdDocument): WoT.ExposedThingInit {
+  const init = clone(td);
+  delete init.forms;
+  delete init.base;
+  eachAffordance(init, (a) => delete a.forms);
+  init.securityDefinitions = { nosec_sc: { scheme: "nosec" } };
+  init.security = "nosec_sc";
+  return init as unknown as WoT.ExposedThingInit;
+}
+
+function setBounds(schema: Json | undefined, b: Bounds): void {
+  const props = schema?.properties as Record<string, Json> | undefined;
+  if (!props) return;
+  (["x", "y", "z"] as const).forEach((axis, i) => {
+    const s = props[axis];
+    if (s && typeof s.minimum === "number") s.minimum = b.min[i];
+    if (s && typeof s.maximum === "number") s.maximum = b.max[i];
+  });
+}
+
+export interface ServeTdOptions {
+  url: string;
+  slug: string;
+  liveUrl: string;
+  auth?: AuthConfig | undefined;
+  frames: FrameMap;
+  bounds: Bounds | null;
+}
+
+export function servedTd(td: TdDocument, o: ServeTdOptions): TdDocument {
+  const out = clone(td);
+  out.base = `${o.url}/${o.slug}/`;
+  eachAffordance(out, (a) => {
+    for (const f of (a.forms ?? []) as Json[]) {
+      if (typeof f.href === "string" && /^wss?:/.test(f.href)) {
+        f.href = o.liveUrl;
+        f["robwot:subscribe"] = o.slug;
+      }
+    }
+  });
+  if (o.bounds && o.frames.transform) {
+    const b = o.frames.boundsToReal(o.bounds);
+    setBounds(out.properties?.getCartesianPosition, b);
+    setBounds(out.actions?.moveToCartesianPosition?.input as Json | undefined, b);
+    setBounds(out.actions?.validateCartesianPosition?.input as Json | undefined, b);
+  }
+  const secured = securityFor(out as unknown as ThingDescription, o.auth ? { scheme: o.auth.scheme } : null);
+  return secured as unknown as TdDocument;
+}

@@ -1,0 +1,172 @@
+/**
+ * One twin's live state: joint vector, end-effector pose (virtual frame), motion status and the
+ * calibration frame map. Emits `joints`, `status` and `collision` for the /live stream and for
+ * node-wot property observation.
+ */
+import { EventEmitter } from "node:events";
+import type { CollisionEvent, Contact, MotionStatus, Quaternion, RobotModelLike, Vec3, Xyz } from "@robwot/core";
+import type { BackendSupervisor } from "./backend.js";
+import { badInput } from "./errors.js";
+import { FrameMap, quat, toTransform, xyz } from "./frames.js";
+import type { TwinFolder } from "./twin-folder.js";
+
+export interface LiveJoints {
+  thing: string;
+  type: "joints";
+  time: number;
+  joints: Record<string, number>;
+  position: Xyz;
+  orientation: Quaternion;
+}
+
+export interface TwinEvents {
+  joints: [msg: LiveJoints];
+  status: [status: MotionStatus];
+  collision: [event: CollisionEvent];
+}
+
+interface FkResult {
+  position: number[];
+  orientation: number[];
+}
+
+export class Twin extends EventEmitter<TwinEvents> {
+  readonly slug: string;
+  readonly robotId: string;
+  readonly folder: TwinFolder;
+  model: RobotModelLike | null = null;
+  /** joint vector in `model.controllable` order (rad / m) */
+  q: number[] = [];
+  /** end-effector pose, virtual frame */
+  position: Vec3 = [0, 0, 0];
+  orientation: Quaternion = { x: 0, y: 0, z: 0, w: 1 };
+  time = 0;
+  status: MotionStatus = { state: "idle", lastError: null, lastResult: null };
+  frames: FrameMap;
+  /** true from the moment a move is accepted for validation until it ends */
+  busy = false;
+  /** set when a collision event was emitted for the current motion */
+  collisionSeen = false;
+  private fkInFlight = false;
+  private fkPending: number[] | null = null;
+
+  constructor(
+    slug: string,
+    folder: TwinFolder,
+    private readonly backend: BackendSupervisor,
+  ) {
+    super();
+    this.setMaxListeners(0);
+    this.slug = slug;
+    this.robotId = slug;
+    this.folder = folder;
+    this.frames = new FrameMap(folder.calibration ? toTransform(folder.calibration) : null);
+  }
+
+  get joints(): string[] {
+    return this.model?.controllable ?? [];
+  }
+
+  jointsRecord(q: readonly number[] = this.q): Record<string, number> {
+    const out: Record<string, number> = {};
+    this.joints.forEach((name, i) => (out[name] = q[i] ?? 0));
+    return out;
+  }
+
+  /** Joint record (all controllable joints required, no unknown ones) -> vector. */
+  jointsVector(rec: Record<string, unknown>): number[] {
+    const unknown = Object.keys(rec).filter((k) => !this.joints.includes(k));
+    if (unknown.length > 0) {
+      throw badInput(`unknown joint(s) ${unknown.join(", ")}; joints are ${this.joints.join(", ")}`, {
+        unknown,
+        available: this.joints,
+      });
+    }
+    return this.joints.map((name) => {
+      const v = rec[name];
+      if (typeof v !== "number" || !Number.isFinite(v)) {
+        throw badInput(`joint ${name}: expected a finite number, got ${JSON.stringify(v)}`, { joint: name, value: v ?? null });
+      }
+      return v;
+    });
+  }
+
+  /** Cartesian pose in the real frame (identity when not calibrated). */
+  realPose(position: Vec3 = this.position, orientation: Quaternion = this.orientation): { position: Xyz; orientation: Quaternion } {
+    return { position: xyz(this.frames.pointToReal(position)), orientation: this.frames.quatToReal(orientation) };
+  }
+
+  liveJoints(): LiveJoints {
+    const p = this.realPose();
+    return { thing: this.slug, type: "joints", time: this.time, joints: this.jointsRecord(), ...p };
+  }
+
+  setStatus(patch: Partial<MotionStatus>): void {
+    this.status = { ...this.status, ...patch };
+    this.emit("status", this.status);
+  }
+
+  /** Sets joints and pose from a finished FK call and notifies listeners. */
+  async refresh(q?: number[]): Promise<void> {
+    const target = q ?? (await this.backend.call<{ positions: number[] }>("robot.getJointPositions", { robot: this.robotId })).positions;
+    const fk = await this.backend.call<FkResult>("robot.fk", { robot: this.robotId, positions: target });
+    this.applyPose(target, fk);
+  }
+
+  applyPose(q: number[], fk: FkResult): void {
+    this.q = [...q];
+    this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
+    this.orientation = quat(fk.orientation);
+    this.emit("joints", this.liveJoints());
+  }
+
+  /** `robot.state` notification: joints now, pose by a self-throttled FK (one call in flight). */
+  onState(params: { positions?: number[]; time?: number }): void {
+    if (!Array.isArray(params.positions)) return;
+    if (typeof params.time === "number") this.time = params.time;
+    this.q = [...params.positions];
+    if (this.fkInFlight) {
+      this.fkPending = this.q;
+      return;
+    }
+    this.runFk(this.q);
+  }
+
+  private runFk(q: number[]): void {
+    this.fkInFlight = true;
+    this.backend
+      .call<FkResult>("robot.fk", { robot: this.robotId, positions: q })
+      .then((fk) => {
+        this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
+        this.orientation = quat(fk.orientation);
+        this.emit("joints", { ...this.liveJoints(), joints: this.jointsRecord(q) });
+      })
+      .catch(() => undefined /* backend down: the supervisor reports it; the next state retries */)
+      .finally(() => {
+        this.fkInFlight = false;
+        const next = this.fkPending;
+        this.fkPending = null;
+        if (next) this.runFk(next);
+      });
+  }
+
+  /** A motion stopped on contact: emits the `collision` event once per motion. */
+  onCollision(contacts: Contact[], positions: number[]): void {
+    const ev = this.collisionEvent(contacts, positions);
+    if (!ev || this.collisionSeen) return;
+    this.collisionSeen = true;
+    this.emit("collision", ev);
+  }
+
+  /** `robot.collision` notification -> the `collision` event (contact point in the real frame). */
+  collisionEvent(contacts: Contact[], positions: number[]): CollisionEvent | null {
+    const c = [...contacts].sort((a, b) => b.depth - a.depth)[0];
+    if (!c) return null;
+    return {
+      pair: { a: c.a, b: c.b },
+      position: xyz(this.frames.pointToReal(c.position)),
+      depth: c.depth,
+      joints: this.jointsRecord(positions),
+    };
+  }
+}

@@ -1,0 +1,93 @@
+/**
+ * The one simulation world every twin of a `serve` shares: the union of the twins' scenes (obstacles
+ * and other robots), each twin's robot (robots see each other as obstacles), and run-time scene
+ * edits. `restore` rebuilds it on a fresh backend (start and after a crash), putting every robot back
+ * at its last known joint state.
+ */
+import type { BackendSupervisor, SimCall } from "./backend.js";
+import { ServientError } from "./errors.js";
+import type { SceneObstacle } from "./twin-folder.js";
+import type { Twin } from "./twin.js";
+
+interface FkResult {
+  position: number[];
+  orientation: number[];
+}
+
+export class World {
+  /** current obstacles by name (scene files + run-time edits), world frame */
+  readonly obstacles = new Map<string, SceneObstacle>();
+  /** robots of the scene files that are not twins */
+  private readonly sceneRobots: Record<string, unknown>[] = [];
+
+  constructor(private readonly twins: Twin[]) {
+    const robotKeys = new Set<string>();
+    const twinIds = new Set(twins.map((t) => t.robotId));
+    for (const t of twins) {
+      for (const ob of t.folder.scene.obstacles ?? []) if (!this.obstacles.has(ob.name)) this.obstacles.set(ob.name, ob);
+      for (const r of (t.folder.scene.robots ?? []) as Record<string, unknown>[]) {
+        const key = JSON.stringify([r.id ?? null, r.urdf, r.basePosition ?? null]);
+        if (robotKeys.has(key) || (typeof r.id === "string" && twinIds.has(r.id))) continue;
+        robotKeys.add(key);
+        this.sceneRobots.push(r);
+      }
+    }
+  }
+
+  /** Builds the world on a (new) backend connection. */
+  readonly restore = async (call: SimCall): Promise<void> => {
+    await call("world.reset");
+    await call("world.loadScene", { scene: { version: 1, obstacles: [...this.obstacles.values()], robots: this.sceneRobots } });
+    for (const twin of this.twins) {
+      const m = twin.folder.manifest.robot;
+      const model = (await call("robot.load", {
+        urdf: twin.folder.urdfPath,
+        id: twin.robotId,
+        basePosition: m.basePosition,
+        baseOrientation: m.baseOrientation,
+        eeLink: m.eeLink,
+      })) as Twin["model"];
+      twin.model = model;
+      if (model && twin.q.length === model.controllable.length) {
+        await call("robot.setJointPositions", { robot: twin.robotId, positions: twin.q }).catch(() => undefined);
+      }
+    }
+    for (const twin of this.twins) {
+      const q = ((await call("robot.getJointPositions", { robot: twin.robotId })) as { positions: number[] }).positions;
+      twin.applyPose(q, (await call("robot.fk", { robot: twin.robotId, positions: q })) as FkResult);
+    }
+  };
+
+  async addObstacle(backend: BackendSupervisor, spec: SceneObstacle): Promise<unknown> {
+    if (this.obstacles.has(spec.name) || this.twins.some((t) => t.robotId === spec.name)) {
+      throw new ServientError(409, "E_NAME_TAKEN", `an object named '${spec.name}' already exists`, { name: spec.name });
+    }
+    const out = await backend.call<SceneObstacle>("obstacle.add", spec);
+    this.obstacles.set(spec.name, { ...spec, ...(out ?? {}) });
+    return out;
+  }
+
+  async moveObstacle(backend: BackendSupervisor, pose: { name: string; position: number[]; orientation?: number[]; rpy?: number[] }): Promise<unknown> {
+    const cur = this.obstacles.get(pose.name);
+    if (!cur) throw this.unknown(pose.name);
+    const out = await backend.call<SceneObstacle>("obstacle.move", pose);
+    const next: SceneObstacle = { ...cur, position: pose.position };
+    delete next.orientation;
+    delete next.rpy;
+    if (pose.orientation) next.orientation = pose.orientation;
+    if (pose.rpy) next.rpy = pose.rpy;
+    this.obstacles.set(pose.name, { ...next, ...(out ?? {}) });
+    return out;
+  }
+
+  async removeObstacle(backend: BackendSupervisor, name: string): Promise<Record<string, never>> {
+    if (!this.obstacles.has(name)) throw this.unknown(name);
+    await backend.call("obstacle.remove", { name });
+    this.obstacles.delete(name);
+    return {};
+  }
+
+  private unknown(name: string): ServientError {
+    return new ServientError(404, "E_UNKNOWN_OBJECT", `no obstacle named '${name}'`, { name, available: [...this.obstacles.keys()] });
+  }
+}
