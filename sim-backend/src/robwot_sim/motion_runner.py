@@ -6,7 +6,8 @@ realtime 0 it only yields to the loop), checks the step for collision and, when 
 there. A colliding step ends the motion at the last collision-free state (`status: "collision"`, a
 `robot.collision` notification). `robot.state` notifications go out at every step whose simulated time
 crosses a 1/60 s boundary, plus the final state (`moving: false`). One motion per robot: a second
-`move` raises `Busy`; `stop` ends the current motion at its last reached state (`status: "stopped"`).
+`move` raises `Busy`; `stop` ends the current motion at its last reached state (`status: "stopped"`)
+and returns once it has ended, so a new `move` may follow at once.
 
 All PyBullet calls happen on the loop thread between awaits, so they never interleave.
 """
@@ -14,6 +15,7 @@ All PyBullet calls happen on the loop thread between awaits, so they never inter
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -32,8 +34,20 @@ STATE_PERIOD = 1.0 / 60.0
 @dataclass
 class _Motion:
     robot: str
-    stop_requested: bool = False
+    stop: asyncio.Event = field(default_factory=asyncio.Event)
     done: asyncio.Event = field(default_factory=asyncio.Event)
+
+    @property
+    def stop_requested(self) -> bool:
+        return self.stop.is_set()
+
+    async def pause(self, delay: float) -> None:
+        """Sleep `delay` seconds (always yielding to the loop), waking early on a stop request."""
+        if delay <= 0:
+            await asyncio.sleep(0)
+            return
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(self.stop.wait(), delay)
 
 
 class MotionRunner:
@@ -47,19 +61,20 @@ class MotionRunner:
     def is_moving(self, robot: str) -> bool:
         return robot in self._active
 
-    def stop(self, robot: str) -> bool:
-        """Request the robot's motion to stop; True when one was running."""
+    async def stop(self, robot: str) -> bool:
+        """Stop the robot's motion and wait until it has ended; True when one was running."""
         motion = self._active.get(robot)
         if motion is None:
             return False
-        motion.stop_requested = True
+        motion.stop.set()
+        await motion.done.wait()
         return True
 
     async def stop_and_wait(self, robots: Sequence[str] | None = None) -> None:
         """Stop the given robots' motions (all when None) and wait until they have ended."""
         motions = [m for r, m in self._active.items() if robots is None or r in robots]
         for motion in motions:
-            motion.stop_requested = True
+            motion.stop.set()
         for motion in motions:
             await motion.done.wait()
 
@@ -88,8 +103,7 @@ class MotionRunner:
         contacts: list[dict[str, Any]] = []
         for i in range(1, len(plan)):
             sim_time = i * dt
-            delay = t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0
-            await asyncio.sleep(max(0.0, delay))
+            await motion.pause(t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0)
             if motion.stop_requested:
                 status = "stopped"
                 break

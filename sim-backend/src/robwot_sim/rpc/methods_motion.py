@@ -39,7 +39,7 @@ def register(d: Dispatcher, s: Services) -> None:
             raise invalid_param("realtime", "0 (as fast as possible) or a factor in [0.01, 1000]", realtime)
         return await s.motions.move(model.id, target, speed=speed, realtime=realtime, dt=dt)
 
-    @d.method("robot.stop", ("robot",), "stop the robot's motion in progress")
+    @d.method("robot.stop", ("robot",), "stop the robot's motion in progress; answers once it has stopped")
     async def stop(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        return {"stopped": s.motions.stop(model.id)}
+        return {"stopped": await s.motions.stop(model.id)}

@@ -1,0 +1,80 @@
+"""`python -m robwot_sim serve`: the ready line, clean exit on signals, survival of misbehaving clients."""
+
+from __future__ import annotations
+
+import json
+import signal
+import socket
+import subprocess
+import sys
+
+import pytest
+from rpc_backend import BackendProcess
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_ready_line_and_clean_exit(sig: int) -> None:
+    """Stdout carries exactly one JSON ready line with the bound port; a signal exits with code 0."""
+    backend = BackendProcess()
+    assert json.loads(backend.ready_line) == {"event": "ready", "port": backend.port}
+    assert backend.ready_line == json.dumps({"event": "ready", "port": backend.port},
+                                            separators=(",", ":")) + "\n"
+    client = backend.client()
+    client.call("robot.load", {"urdf": "kuka_iiwa/model.urdf"})
+    assert backend.proc.stdout is not None
+    assert backend.stop(sig) == 0
+    assert backend.proc.stdout.closed
+
+
+def test_exit_during_motion_is_clean() -> None:
+    """SIGTERM while a motion runs stops it and exits with code 0."""
+    backend = BackendProcess()
+    client = backend.client()
+    client.call("robot.load", {"urdf": "kuka_iiwa/model.urdf", "id": "k"})
+    client.send("robot.move", {"robot": "k", "target": [2.0, 0, 0, 0, 0, 0, 0], "speed": 0.05})
+    client.wait_notification("robot.state")
+    assert backend.stop() == 0
+
+
+def test_stdout_is_only_the_ready_line() -> None:
+    """Nothing but the ready line reaches stdout, even after loading robots (Bullet prints go to stderr)."""
+    backend = BackendProcess()
+    client = backend.client()
+    client.call("robot.load", {"urdf": "franka_panda/panda.urdf"})
+    client.close()
+    assert backend.proc.stdout is not None
+    stdout = backend.proc.stdout
+    backend.proc.send_signal(signal.SIGTERM)
+    assert backend.proc.wait(15) == 0
+    assert stdout.read() == b""
+
+
+def test_port_in_use_fails_with_message() -> None:
+    """A port already taken makes serve exit non-zero with the reason on stderr, without a ready line."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        sock.listen()
+        port = sock.getsockname()[1]
+        proc = subprocess.run([sys.executable, "-m", "robwot_sim", "serve", "--port", str(port)],
+                              capture_output=True, timeout=60, check=False)
+    assert proc.returncode != 0
+    assert proc.stdout == b""
+    assert str(port) in proc.stderr.decode()
+
+
+def test_survives_abrupt_disconnects_and_raw_garbage() -> None:
+    """Clients vanishing mid-motion or sending non-WebSocket bytes do not take the server down."""
+    backend = BackendProcess()
+    c1 = backend.client()
+    c1.call("robot.load", {"urdf": "kuka_iiwa/model.urdf", "id": "k"})
+    c1.send("robot.move", {"robot": "k", "target": [1.0, 0, 0, 0, 0, 0, 0], "speed": 0.1})
+    c1.ws.socket.close()
+    with socket.create_connection(("127.0.0.1", backend.port)) as raw:
+        raw.sendall(b"\x00\xff garbage\r\n\r\n")
+    c2 = backend.client()
+    assert c2.call("ping")["version"]
+    # a motion outlives the connection that started it: stop it from another client
+    assert c2.call("robot.stop", {"robot": "k"}) == {"stopped": True}
+    assert c2.call("robot.move", {"robot": "k", "target": [0.0] * 7, "realtime": 0})["status"] == "reached"
+    c2.close()
+    assert backend.stop() == 0

@@ -1,0 +1,156 @@
+"""robot.move over the real WebSocket: collision stop, stop mid-motion, real-time factor, busy, streaming."""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Iterator
+
+import pytest
+from rpc_backend import BackendProcess, RpcClient
+
+KUKA = "kuka_iiwa/model.urdf"
+ZERO = [0.0] * 7
+
+
+@pytest.fixture(scope="module")
+def backend() -> Iterator[BackendProcess]:
+    proc = BackendProcess()
+    yield proc
+    assert proc.stop() == 0
+
+
+@pytest.fixture
+def client(backend: BackendProcess) -> Iterator[RpcClient]:
+    c = backend.client()
+    c.call("world.reset")
+    c.call("robot.load", {"urdf": KUKA, "id": "kuka"})
+    yield c
+    c.close()
+
+
+def _wall_in_path(c: RpcClient) -> None:
+    """A box where the end effector passes at joint 2 = 0.6 rad on the way to 1.2 rad."""
+    p = c.call("robot.fk", {"robot": "kuka", "positions": [0, 0.6, 0, 0, 0, 0, 0]})["position"]
+    c.call("obstacle.add", {"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": p})
+
+
+def test_move_through_obstacle_stops_before_it(client: RpcClient) -> None:
+    """The motion stops at the last collision-free state and reports the robot/obstacle pair."""
+    _wall_in_path(client)
+    result = client.call("robot.move", {"robot": "kuka", "target": [0, 1.2, 0, 0, 0, 0, 0], "realtime": 0})
+    assert result["status"] == "collision"
+    assert 0.0 < result["positions"][1] < 0.6
+    pairs = {(c["a"]["body"], c["b"]["body"]) for c in result["contacts"]}
+    assert ("kuka", "wall") in pairs
+    assert all(c["depth"] >= 0 for c in result["contacts"])
+    assert all(c["a"]["link"].startswith("lbr_iiwa_link") for c in result["contacts"])
+    now = client.call("robot.getJointPositions", {"robot": "kuka"})["positions"]
+    assert now == pytest.approx(result["positions"])
+    assert client.call("robot.checkCollision", {"robot": "kuka"})["collisionFree"] is True
+    note = client.wait_notification("robot.collision")
+    assert note["robot"] == "kuka"
+    assert note["positions"] == pytest.approx(result["positions"])
+    assert note["contacts"] == result["contacts"]
+    assert note["time"] == pytest.approx(result["duration"])
+
+
+def test_obstacle_moved_into_path_during_motion_is_seen(client: RpcClient) -> None:
+    """Collision is checked live at every step: an obstacle moved in mid-motion stops the robot."""
+    client.call("obstacle.add", {"name": "ball", "shape": {"type": "sphere", "radius": 0.08},
+                                 "position": [3.0, 3.0, 3.0]})
+    move = client.send("robot.move", {"robot": "kuka", "target": [0, 1.2, 0, 0, 0, 0, 0], "speed": 0.1})
+    client.wait_notification("robot.state")
+    p = client.call("robot.fk", {"robot": "kuka", "positions": [0, 1.0, 0, 0, 0, 0, 0]})["position"]
+    client.call("obstacle.move", {"name": "ball", "position": p})
+    result = client.wait(move)
+    assert result["status"] == "collision"
+    assert ("kuka", "ball") in {(c["a"]["body"], c["b"]["body"]) for c in result["contacts"]}
+    assert result["positions"][1] < 1.0
+
+
+def test_stop_mid_motion(client: RpcClient) -> None:
+    """robot.stop ends a running motion at its last reached state; the move answers status stopped."""
+    move = client.send("robot.move", {"robot": "kuka", "target": [2.0, 0, 0, 0, 0, 0, 0], "speed": 0.1})
+    for _ in range(5):
+        assert client.wait_notification("robot.state")["moving"] is True
+    assert client.call("robot.stop", {"robot": "kuka"}) == {"stopped": True}
+    result = client.wait(move)
+    assert result["status"] == "stopped"
+    assert 0.05 < result["duration"] < 2.0
+    assert 0.0 < result["positions"][0] < 2.0
+    now = client.call("robot.getJointPositions", {"robot": "kuka"})["positions"]
+    assert now == pytest.approx(result["positions"])
+    assert client.call("robot.stop", {"robot": "kuka"}) == {"stopped": False}
+
+
+def test_realtime_one_follows_the_wall_clock(client: RpcClient) -> None:
+    """Real-time factor 1: a 1 s motion takes 1 s of wall time (+-20%), streaming >= 30 Hz of states."""
+    start = time.monotonic()
+    result = client.call("robot.move", {"robot": "kuka", "target": [1.0, 0, 0, 0, 0, 0, 0], "speed": 0.1,
+                                        "realtime": 1})
+    elapsed = time.monotonic() - start
+    assert result["status"] == "reached"
+    assert result["duration"] == pytest.approx(1.0, abs=1e-6)
+    assert 0.8 <= elapsed <= 1.2
+    assert 0.8 <= result["wallTime"] <= 1.2
+    states = [p for m, p in client.notifications if m == "robot.state" and p["robot"] == "kuka"]
+    times = [s["time"] for s in states]
+    assert len(states) >= 30 * result["duration"]
+    assert all(0 <= b - a <= 1 / 30 + 1e-9 for a, b in itertools.pairwise(times))
+    assert times[0] <= 1 / 30
+    assert states[-1]["moving"] is False
+    assert states[-1]["positions"] == pytest.approx([1.0, 0, 0, 0, 0, 0, 0])
+
+
+def test_realtime_zero_is_much_faster(client: RpcClient) -> None:
+    """Real-time factor 0 runs the same 1 s motion as fast as possible (well under its duration)."""
+    result = client.call("robot.move", {"robot": "kuka", "target": [1.0, 0, 0, 0, 0, 0, 0], "speed": 0.1,
+                                        "realtime": 0})
+    assert result["status"] == "reached"
+    assert result["duration"] == pytest.approx(1.0, abs=1e-6)
+    assert result["wallTime"] < 0.25 * result["duration"]
+
+
+def test_realtime_zero_still_serves_other_requests(client: RpcClient) -> None:
+    """A long as-fast-as-possible motion yields to the loop: ping and stop are answered meanwhile."""
+    move = client.send("robot.move", {"robot": "kuka", "target": [2.9, 0, 0, 0, 0, 0, 0], "speed": 0.001,
+                                      "realtime": 0})
+    client.wait_notification("robot.state")
+    assert client.call("ping", timeout=10)["version"]
+    assert client.call("robot.stop", {"robot": "kuka"}, timeout=10)["stopped"] is True
+    assert client.wait(move)["status"] == "stopped"
+
+
+def test_one_motion_per_robot_but_robots_move_concurrently(client: RpcClient) -> None:
+    """A second move of the same robot is E_BUSY; another robot moves at the same time."""
+    client.call("robot.load", {"urdf": KUKA, "id": "kuka2", "basePosition": [2.0, 0.0, 0.0]})
+    first = client.send("robot.move", {"robot": "kuka", "target": [1.0, *ZERO[1:]], "speed": 0.2})
+    other = client.send("robot.move", {"robot": "kuka2", "target": [-1.0, *ZERO[1:]], "speed": 0.2})
+    client.wait_notification("robot.state")
+    err = client.error("robot.move", {"robot": "kuka", "target": ZERO})
+    assert err.code == -32008 and err.data == {"code": "E_BUSY", "robot": "kuka"}
+    assert client.wait(first)["status"] == "reached"
+    assert client.wait(other)["status"] == "reached"
+    robots = {p["robot"] for m, p in client.notifications if m == "robot.state"}
+    assert robots == {"kuka", "kuka2"}
+    assert client.call("robot.move", {"robot": "kuka", "target": ZERO, "realtime": 0})["status"] == "reached"
+
+
+def test_states_are_broadcast_to_every_client(backend: BackendProcess, client: RpcClient) -> None:
+    """robot.state notifications reach every connected client, not only the caller."""
+    watcher = backend.client()
+    watcher.call("ping")
+    client.call("robot.move", {"robot": "kuka", "target": [0.5, *ZERO[1:]], "realtime": 0})
+    state = watcher.wait_notification("robot.state")
+    assert state["robot"] == "kuka"
+    watcher.close()
+
+
+def test_removing_a_moving_robot_stops_its_motion(client: RpcClient) -> None:
+    """robot.remove during a motion stops the motion first; the move answers stopped."""
+    move = client.send("robot.move", {"robot": "kuka", "target": [2.0, *ZERO[1:]], "speed": 0.1})
+    client.wait_notification("robot.state")
+    assert client.call("robot.remove", {"robot": "kuka"}) == {}
+    assert client.wait(move)["status"] == "stopped"
+    assert client.call("world.list")["robots"] == []
