@@ -46,7 +46,7 @@ const CASES: [string, () => string[], RegExp][] = [
   ["scene that is not JSON", () => ["generate", join(work, "tiny.urdf"), "--scene", join(work, "not-json.json")], /not-json\.json is not valid JSON/],
   ["scene violating the schema", () => ["generate", join(work, "tiny.urdf"), "--scene", join(work, "bad-scene.json")], /bad-scene\.json.*(obstacles|size)/],
   ["bad --samples", () => ["generate", "kuka_iiwa", "--samples", "many"], /--samples must be an integer, got "many"/],
-  ["bad --alpha", () => ["generate", "kuka_iiwa", "--alpha", "-1"], /--alpha must be "auto" or a positive radius/],
+  ["bad --alpha", () => ["generate", "kuka_iiwa", "--alpha", "0"], /--alpha must be "auto" or a positive radius/],
   ["unknown option", () => ["generate", "kuka_iiwa", "--sampels", "10"], /sampels/],
 ];
 

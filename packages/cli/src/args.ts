@@ -68,3 +68,8 @@ export function existingFile(what: string, path: string): string {
   if (!statSync(abs).isFile()) throw new CliError(`${what} is not a file: ${abs}`, "E_FILE_NOT_FOUND");
   return abs;
 }
+
+/** node's `parseArgs` errors span several lines: one line, pointing at the command's help. */
+export function usageError(err: unknown, command: string): CliError {
+  return new CliError(`${(err as Error).message.replace(/\s*\n\s*/g, " ")} (see robwot ${command} --help)`);
+}

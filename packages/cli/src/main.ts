@@ -4,7 +4,7 @@
  * `robwot: error: <message>` on stderr with a non-zero exit code.
  */
 import { describeError } from "./errors.js";
-import { runCleanups } from "./lifecycle.js";
+import { runCleanups, wasInterrupted } from "./lifecycle.js";
 import { silenceAjvFormatNoise } from "./quiet-console.js";
 import { exampleHelp } from "./examples.js";
 import { VERSION } from "./version.js";
@@ -55,6 +55,11 @@ let code: number;
 try {
   code = await main(process.argv.slice(2));
 } catch (err) {
+  // After Ctrl-C the pending request fails because the backend was stopped: not worth a message.
+  if (wasInterrupted()) {
+    await runCleanups();
+    process.exit(130);
+  }
   const { message, exitCode } = describeError(err);
   process.stderr.write(`robwot: error: ${message}\n`);
   if (process.env["ROBWOT_DEBUG"] && err instanceof Error && err.stack) process.stderr.write(`${err.stack}\n`);

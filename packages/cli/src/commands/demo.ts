@@ -1,24 +1,33 @@
 /**
- * `robwot demo` (and `npm start`): generates the bundled demo twin (kuka_iiwa in a bundled scene) into
- * `twins/demo-kuka`, or reuses it when it is complete, then tells where everything is.
+ * `robwot demo` (and `npm start`): generates the bundled demo twin (kuka_iiwa on the bundled table
+ * scene) into `twins/demo-kuka`, or reuses it when it is complete, then serves it and prints the TD and
+ * viewer URLs.
  */
 import { existsSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
-import { CliError } from "../errors.js";
+import { parseInteger, parseNumber, usageError } from "../args.js";
 import { findExample } from "../examples.js";
-import { type GenerateOptions, DEFAULT_BASE_URL } from "./generate-options.js";
+import { DEFAULT_BASE_URL, type GenerateOptions } from "./generate-options.js";
 import { runGenerate } from "./generate.js";
+import { serve } from "./serve.js";
 
-export const USAGE = `Usage: robwot demo [--out DIR] [--samples N] [--regenerate] [--json]
+export const USAGE = `Usage: robwot demo [options]
 
-Generates the demo twin (kuka_iiwa in examples/scenes/table.json) into twins/demo-kuka, or reuses it
-when it is complete, and prints where the files are.
+Generates the demo twin (kuka_iiwa on examples/scenes/table.json) into twins/demo-kuka, or reuses it
+when it is complete, then serves it (like robwot serve) and prints the TD and viewer URLs.
+
+Options:
+  --out DIR          twin folder (default twins/demo-kuka)
+  --samples N        workspace samples when generating (default 80000)
+  --regenerate       generate even if the folder is complete
+  --port N, --host ADDR, --realtime F   as for robwot serve (default 8080, 127.0.0.1, 1)
+  --no-serve         only generate (or check) the twin
 `;
 
-const DEMO_FILES = ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json"];
+const TWIN_FILES = ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json"];
 
-/** The bundled scene: the repository's examples/scenes (relative to this package). */
+/** The bundled scene: the repository's examples/scenes, found relative to this package. */
 export function demoScene(): string | undefined {
   const scenes = resolve(import.meta.dirname, "..", "..", "..", "..", "examples", "scenes");
   for (const name of ["table.json", "obstacles-4.json"]) {
@@ -28,10 +37,11 @@ export function demoScene(): string | undefined {
   return undefined;
 }
 
+/** Every file of Contract 2 present and the JSON ones parse. */
 export function twinComplete(dir: string): boolean {
-  if (!DEMO_FILES.every((f) => existsSync(join(dir, f)))) return false;
+  if (!TWIN_FILES.every((f) => existsSync(join(dir, f)))) return false;
   try {
-    JSON.parse(readFileSync(join(dir, "td.json"), "utf8"));
+    for (const f of ["td.json", "twin.json", "workspace.json"]) JSON.parse(readFileSync(join(dir, f), "utf8"));
     return true;
   } catch {
     return false;
@@ -43,13 +53,25 @@ export async function run(argv: string[]): Promise<number> {
   try {
     ({ values } = parseArgs({
       args: argv,
-      options: { out: { type: "string" }, samples: { type: "string" }, regenerate: { type: "boolean" }, json: { type: "boolean" } },
+      options: {
+        out: { type: "string" },
+        samples: { type: "string" },
+        regenerate: { type: "boolean" },
+        port: { type: "string" },
+        host: { type: "string" },
+        realtime: { type: "string" },
+        "no-serve": { type: "boolean" },
+      },
       strict: true,
     }));
   } catch (err) {
-    throw new CliError(`${(err as Error).message} (see robwot demo --help)`);
+    throw usageError(err, "demo");
   }
   const out = resolve(values.out ?? join("twins", "demo-kuka"));
+  const samples = parseInteger("samples", values.samples, 80_000, 100, 10_000_000);
+  const port = parseInteger("port", values.port, 8080, 0, 65535);
+  const host = values.host ?? "127.0.0.1";
+  const realtime = parseNumber("realtime", values.realtime, 1, 0, 1000);
   if (values.regenerate || !twinComplete(out)) {
     const example = findExample("kuka_iiwa");
     if (!example) throw new Error("kuka_iiwa example missing");
@@ -57,14 +79,14 @@ export async function run(argv: string[]): Promise<number> {
     const opts: GenerateOptions = {
       example,
       ...(scene ? { scene } : {}),
-      samples: values.samples ? Number(values.samples) : 80_000,
+      samples,
       seed: 1,
       out,
       baseUrl: DEFAULT_BASE_URL,
       alpha: "auto",
       packageRoots: {},
       csvJoints: false,
-      json: values.json ?? false,
+      json: false,
       force: false,
     };
     const code = await runGenerate(opts);
@@ -72,6 +94,6 @@ export async function run(argv: string[]): Promise<number> {
   } else {
     process.stdout.write(`robwot: reusing the demo twin in ${out} (--regenerate to rebuild it)\n`);
   }
-  process.stdout.write(`robwot: demo twin ready: ${join(out, "td.json")}\n`);
-  return 0;
+  if (values["no-serve"]) return 0;
+  return serve({ folders: [out], port, host, realtime, json: false });
 }

@@ -5,7 +5,7 @@
 import { readFileSync } from "node:fs";
 import { basename, join, resolve } from "node:path";
 import { parseArgs } from "node:util";
-import { existingFile, parseAlpha, parseInteger, parsePackageRoots, parseUrl } from "../args.js";
+import { existingFile, parseAlpha, parseInteger, parsePackageRoots, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 import { EXAMPLE_NAMES, type ExampleRobot, findExample, looksLikeExampleName } from "../examples.js";
 
@@ -84,7 +84,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   try {
     parsed = parseArgs({ args: argv, options: GENERATE_OPTIONS, allowPositionals: true, strict: true });
   } catch (err) {
-    throw new CliError(`${(err as Error).message} (see robwot generate --help)`);
+    throw usageError(err, "generate");
   }
   const { values, positionals } = parsed;
   if (positionals.length !== 1) {

@@ -3,7 +3,7 @@ import { existsSync, statSync } from "node:fs";
 import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
-import { parseInteger, parseNumber, parseUrl } from "../args.js";
+import { parseInteger, parseNumber, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 
 export type AuthOption = { scheme: "basic"; user: string; password: string } | { scheme: "bearer"; token: string };
@@ -62,7 +62,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   try {
     parsed = parseArgs({ args: argv, options: SERVE_OPTIONS, allowPositionals: true, strict: true });
   } catch (err) {
-    throw new CliError(`${(err as Error).message} (see robwot serve --help)`);
+    throw usageError(err, "serve");
   }
   const { values, positionals } = parsed;
   if (positionals.length === 0) throw new CliError("missing twin folder (robwot serve <twin-folder>...)");

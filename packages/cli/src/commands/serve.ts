@@ -1,9 +1,66 @@
-/** `robwot serve`: wires CLI flags to the servient (`@robwot/servient`). */
-import { CliError } from "../errors.js";
+/** `robwot serve`: wires CLI flags to the servient (`@robwot/servient`) and prints where things are. */
+import { startServient, type RunningServient } from "@robwot/servient";
+import { onCleanup } from "../lifecycle.js";
+import { isLoopback, parseServeArgs, type ServeOptions } from "./serve-options.js";
 
 export const USAGE = `Usage: robwot serve <twin-folder>... [options]
+
+Serves twin folders (made by robwot generate) as node-wot Things over HTTP, with live state on the
+/live WebSocket and the browser viewer at /viewer/. Several folders share one simulated world.
+
+Options:
+  --port N, -p N               HTTP port (default 8080; 0 = any free port)
+  --host ADDR                  interface to bind (default 127.0.0.1)
+  --realtime F                 motion speed vs wall clock (default 1; 0 = as fast as possible)
+  --relay URL                  TD URL of the physical robot's Thing: validated commands are relayed there
+  --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
+  --backend ws://HOST:PORT     use a running backend instead of starting one
+  --json                       print the URLs as JSON on stdout
 `;
 
-export async function run(_argv: string[]): Promise<number> {
-  throw new CliError("serve: the servient is not available in this build yet");
+/** Node prints process warnings as `(node:PID) Warning: ...`: print them as `robwot: warning: ...`. */
+function robwotWarnings(): void {
+  process.removeAllListeners("warning");
+  process.on("warning", (w) => {
+    // the servient's own no-auth warning: already said by serve() in CLI terms
+    if ((w as Error & { code?: string }).code === "ROBWOT_NO_AUTH") return;
+    process.stderr.write(`robwot: warning: ${w.message}\n`);
+  });
+}
+
+export function printServing(s: RunningServient, json: boolean): void {
+  if (json) {
+    process.stdout.write(`${JSON.stringify({ url: s.url, liveUrl: s.liveUrl, viewer: `${s.url}/viewer/`, things: s.things })}\n`);
+    return;
+  }
+  const lines = [`robwot: serving ${s.things.length} twin(s) at ${s.url} (Ctrl-C to stop)`];
+  for (const t of s.things) {
+    lines.push(`  ${t.title}`, `    TD      ${t.tdUrl}`, `    viewer  ${t.viewerUrl}`);
+  }
+  lines.push(`  live WebSocket ${s.liveUrl}`);
+  process.stdout.write(`${lines.join("\n")}\n`);
+}
+
+/** Starts the servient and keeps running until SIGINT/SIGTERM (then stops it and the backend). */
+export async function serve(opts: ServeOptions): Promise<number> {
+  robwotWarnings();
+  if (!isLoopback(opts.host) && !opts.auth) {
+    process.stderr.write(`robwot: warning: binding ${opts.host} without --auth: anyone on the network can move the robot\n`);
+  }
+  const running = await startServient({
+    twins: opts.folders,
+    host: opts.host,
+    port: opts.port,
+    realtime: opts.realtime,
+    ...(opts.relay ? { relay: opts.relay } : {}),
+    ...(opts.auth ? { auth: opts.auth } : {}),
+    ...(opts.backend ? { backendUrl: opts.backend } : {}),
+  });
+  onCleanup(() => running.stop());
+  printServing(running, opts.json);
+  return new Promise<number>(() => undefined);
+}
+
+export async function run(argv: string[]): Promise<number> {
+  return serve(parseServeArgs(argv));
 }
