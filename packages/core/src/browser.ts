@@ -7,3 +7,15 @@ export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/bui
 export { securityFor } from "./td/security.js";
 export type { AuthScheme } from "./td/security.js";
 export { thingSlug, fnv1a64, canonicalJson } from "./td/hash.js";
+export { parseWorkspaceCsv, writeWorkspaceCsv } from "./workspace/csv.js";
+export type { WorkspaceCloud, ParseCsvOptions } from "./workspace/csv.js";
+export { parseStl, writeStl, triangleNormal } from "./workspace/stl.js";
+export type { StlMesh } from "./workspace/stl.js";
+export { WorkspaceMesh } from "./workspace/mesh.js";
+export type { MeshTopology } from "./workspace/topology.js";
+export { PointCloudIndex } from "./workspace/point-cloud.js";
+export type { PointCloudScore, PointCloudCheck } from "./workspace/point-cloud.js";
+export { Workspace } from "./workspace/workspace.js";
+export type { WorkspacePointCheck } from "./workspace/workspace.js";
+export { loadWorkspaceFromUrls } from "./workspace/load-url.js";
+export type { FetchLike } from "./workspace/load-url.js";

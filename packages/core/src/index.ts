@@ -2,3 +2,4 @@
 export * from "./browser.js";
 export { validateThingDescription } from "./td/validate.js";
 export type { TdValidationResult } from "./td/validate.js";
+export { loadWorkspace } from "./workspace/load-fs.js";
