@@ -110,9 +110,9 @@ class FileNotFound(SimError):
     rpc_code = -32004
     code = "E_FILE_NOT_FOUND"
 
-    def __init__(self, file: str, *, urdf: str | None = None, what: str = "file") -> None:
+    def __init__(self, file: str, *, urdf: str | None = None, what: str = "file", **extra: Any) -> None:
         msg = f"{what} not found: {file}" + (f" (referenced by {urdf})" if urdf else "")
-        data: dict[str, Any] = {"file": file}
+        data: dict[str, Any] = {"file": file, **extra}
         if urdf is not None:
             data["urdf"] = urdf
         super().__init__(msg, **data)

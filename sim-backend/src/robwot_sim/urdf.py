@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import struct
 import tempfile
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
@@ -152,7 +153,8 @@ def resolve_mesh(filename: str, urdf_dir: str | Path, package_roots: Mapping[str
     inside = [c for c in resolved if _inside(c, roots)]
     if not inside:
         raise PathEscape(str(resolved[0]), [str(r) for r in roots], urdf=urdf)
-    raise FileNotFound(str(inside[0]), urdf=urdf, what="mesh file")
+    raise FileNotFound(str(inside[0]), urdf=urdf, what=f"mesh file {filename!r}", reference=filename,
+                       searched=[str(c) for c in inside])
 
 
 @dataclass
@@ -191,12 +193,44 @@ def prepare_urdf(path: str | Path, package_roots: Mapping[str, str | Path] | Non
     for link in root.iter("link"):
         for vis in list(link.findall("visual")):
             link.remove(vis)
+    tmpdir = tempfile.mkdtemp(prefix="robwot-urdf-")
+    try:
+        for k, (fn, src) in enumerate(sorted(meshes.items())):
+            if src.suffix.lower() == ".stl" and not _is_binary_stl(src):  # PyBullet reads binary STL only
+                meshes[fn] = ascii_stl_to_binary(src, Path(tmpdir) / f"mesh{k}.stl", str(doc.file))
+    except BaseException:
+        shutil.rmtree(tmpdir, ignore_errors=True)
+        raise
     for el in root.iter("mesh"):
         el.set("filename", str(meshes[el.get("filename", "")]))
-    tmpdir = tempfile.mkdtemp(prefix="robwot-urdf-")
     out = Path(tmpdir) / "robot.urdf"
     ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
     return PreparedUrdf(doc, out, meshes, tmpdir)
+
+
+def _is_binary_stl(path: Path) -> bool:
+    size = path.stat().st_size
+    with path.open("rb") as f:
+        head = f.read(84)
+    return len(head) == 84 and 84 + 50 * struct.unpack_from("<I", head, 80)[0] == size
+
+
+def ascii_stl_to_binary(src: Path, dst: Path, urdf: str) -> Path:
+    """Rewrite an ASCII STL as binary STL (normals left zero: Bullet recomputes what it needs)."""
+    verts = [ln.split()[1:4] for ln in src.read_text(encoding="utf-8", errors="replace").splitlines()
+             if ln.strip().startswith("vertex")]
+    if not verts or len(verts) % 3:
+        raise UrdfError(f"mesh {src} is neither a binary nor a valid ASCII STL", file=urdf, mesh=str(src))
+    try:
+        flat = [float(x) for v in verts for x in v]
+    except ValueError:
+        raise UrdfError(f"mesh {src}: bad ASCII STL vertex", file=urdf, mesh=str(src)) from None
+    n = len(verts) // 3
+    out = bytearray(b"robwot: converted from ASCII STL".ljust(80, b" ")) + struct.pack("<I", n)
+    for t in range(n):
+        out += struct.pack("<12fH", 0.0, 0.0, 0.0, *flat[9 * t: 9 * t + 9], 0)
+    dst.write_bytes(bytes(out))
+    return dst
 
 
 def export_urdf(path: str | Path, out_dir: str | Path,

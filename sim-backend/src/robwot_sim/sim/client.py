@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import os
+import sys
+from collections.abc import Iterator, Sequence
 from typing import Any, NamedTuple
 
 import pybullet as pb
@@ -28,6 +31,23 @@ class ContactPoint(NamedTuple):
     distance: float  # negative = penetration (m)
 
 
+@contextlib.contextmanager
+def stdout_to_stderr() -> Iterator[None]:
+    """Send C-level stdout (Bullet's warnings) to stderr: stdout may carry a protocol (the ready line)."""
+    sys.stdout.flush()
+    try:
+        saved = os.dup(1)
+    except OSError:
+        yield
+        return
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 class Bullet:
     """One PyBullet physics client in DIRECT mode. Use as a context manager or call ``close()``."""
 
@@ -49,8 +69,9 @@ class Bullet:
 
     # bodies
     def load_urdf(self, path: str, position: Sequence[float], quat_xyzw: Sequence[float], flags: int) -> int:
-        return int(pb.loadURDF(path, list(position), list(quat_xyzw), useFixedBase=True, flags=flags,
-                               physicsClientId=self.cid))
+        with stdout_to_stderr():
+            return int(pb.loadURDF(path, list(position), list(quat_xyzw), useFixedBase=True, flags=flags,
+                                   physicsClientId=self.cid))
 
     def remove_body(self, body: int) -> None:
         pb.removeBody(body, physicsClientId=self.cid)
@@ -149,8 +170,11 @@ class Bullet:
         else:
             scale = shape.get("scale", 1.0)
             s3 = [scale] * 3 if isinstance(scale, (int, float)) else list(scale)
-            col = pb.createCollisionShape(pb.GEOM_MESH, fileName=shape["file"], meshScale=s3,
-                                          physicsClientId=self.cid)
+            with stdout_to_stderr():
+                col = pb.createCollisionShape(pb.GEOM_MESH, fileName=shape["file"], meshScale=s3,
+                                              physicsClientId=self.cid)
+            if col < 0:
+                raise RuntimeError(f"PyBullet could not read the mesh {shape['file']}")
         if col < 0:
             raise RuntimeError(f"PyBullet could not create the collision shape {shape}")
         return int(pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=-1,

@@ -14,7 +14,7 @@ from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
 from robwot_sim.sim.robot import BoundRobot, parse_model
 from robwot_sim.sim.types import RobotModel
-from robwot_sim.urdf import parse_urdf, prepare_urdf, pybullet_data_path
+from robwot_sim.urdf import UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
 
 FILTER_SEED = 12345
 
@@ -41,6 +41,19 @@ def resolve_urdf_path(urdf: str | Path, base: Path | None = None) -> Path:
     raise FileNotFound(str(cands[0]), what="URDF file")
 
 
+def _check_collision_shapes(bullet: Bullet, bound: BoundRobot, doc: UrdfDoc, meshes: dict[str, Path]) -> None:
+    """PyBullet silently drops meshes it cannot read: refuse a link whose collision geometry vanished."""
+    for el in doc.root.findall("link"):
+        if el.find("collision") is None:
+            continue
+        idx = bound.link_index.get(el.get("name", ""))
+        if idx is not None and not bullet.has_collision_shape(bound.body, idx):
+            files = [m.get("filename", "") for m in el.iter("mesh")]
+            raise UrdfError(f"PyBullet could not read the collision geometry of link {el.get('name')!r} "
+                            f"({', '.join(files) or 'no mesh'})", file=str(doc.file), line=doc.line_of(el),
+                            link=el.get("name"), meshes=[str(meshes.get(f, f)) for f in files])
+
+
 def load_robot_body(bullet: Bullet, table: BodyTable, urdf: str | Path, robot_id: str,
                     base_position: list[float], base_orientation: list[float], ee_link: str | None,
                     package_roots: Mapping[str, str], base_dir: Path | None = None) -> RobotEntry:
@@ -65,6 +78,7 @@ def load_robot_body(bullet: Bullet, table: BodyTable, urdf: str | Path, robot_id
         prepared.cleanup()
     try:
         bound = BoundRobot(bullet, body, urdf_model, ee)
+        _check_collision_shapes(bullet, bound, doc, prepared.meshes)
         rng = np.random.default_rng(FILTER_SEED)
         filtered = find_always_colliding(bound, rng)
         checker = CollisionChecker(bound, table, filtered)
