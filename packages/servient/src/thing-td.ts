@@ -26,6 +26,9 @@ export function produceInit(td: TdDocument): WoT.ExposedThingInit {
   delete init.forms;
   delete init.base;
   eachAffordance(init, (a) => delete a.forms);
+  // node-wot 0.9.2 validates the init against the TD 1.0 schema: its context URL only
+  const ctx = Array.isArray(init["@context"]) ? (init["@context"] as unknown[]) : [];
+  init["@context"] = ["https://www.w3.org/2019/wot/td/v1", ...ctx.filter((c) => typeof c === "object")];
   init.securityDefinitions = { nosec_sc: { scheme: "nosec" } };
   init.security = "nosec_sc";
   return init as unknown as WoT.ExposedThingInit;

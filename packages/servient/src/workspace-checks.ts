@@ -1,20 +1,14 @@
 /**
- * The twin's offline-style workspace checks (the same code any consumer can run from the linked files):
+ * The twin's workspace checks, with the same core code any consumer runs offline on the linked files:
  * inside workspace.stl, and the k-nearest-neighbour point-cloud score of workspace.csv. Virtual frame.
  */
-import * as core from "@robwot/core";
-import type { Vec3 } from "@robwot/core";
 import { existsSync } from "node:fs";
 import { join } from "node:path";
+import { loadWorkspace, type Vec3, type Workspace } from "@robwot/core";
 
 export interface WorkspaceChecks {
   inside(p: Vec3): boolean;
   score(p: Vec3): { score: number; threshold: number; k: number; ok: boolean; nearestDistance: number };
-}
-
-interface Workspace {
-  contains(p: readonly number[]): boolean;
-  cloudIndex: { check(p: readonly number[]): { share: number; threshold: number; k: number; ok: boolean; nearestDistance: number } };
 }
 
 export function workspaceChecks(ws: Workspace): WorkspaceChecks {
@@ -30,7 +24,5 @@ export function workspaceChecks(ws: Workspace): WorkspaceChecks {
 /** Loads workspace.stl + workspace.csv of a twin folder; null when the folder has none. */
 export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks | null> {
   if (!existsSync(join(dir, "workspace.stl")) || !existsSync(join(dir, "workspace.csv"))) return null;
-  const load = (core as unknown as { loadWorkspace?: (d: string) => Promise<Workspace> }).loadWorkspace;
-  if (!load) return null;
-  return workspaceChecks(await load(dir));
+  return workspaceChecks(await loadWorkspace(dir));
 }

@@ -1,0 +1,110 @@
+/**
+ * Shared helpers of the servient end-to-end tests: twin folders made by the real CLI, a node-wot
+ * consumer, plain fetch and /live WebSocket clients.
+ */
+import { cpSync, existsSync, mkdtempSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+import WebSocket from "ws";
+import { Servient } from "@node-wot/core";
+import { HttpClientFactory } from "@node-wot/binding-http";
+import { runCli } from "./cli-run.js";
+
+const cache = new Map<string, string>();
+
+/** `robwot generate <robot> --samples N --out <tmp>` once per process; returns a private copy. */
+export async function generateTwin(robot = "kuka_iiwa", samples = 3000, extra: string[] = []): Promise<string> {
+  const key = [robot, samples, ...extra].join(" ");
+  let dir = cache.get(key);
+  if (!dir || !existsSync(dir)) {
+    dir = join(mkdtempSync(join(tmpdir(), "robwot-serve-gen-")), robot);
+    const r = await runCli(["generate", robot, "--samples", String(samples), "--out", dir, ...extra], { timeoutMs: 300_000 });
+    if (r.code !== 0) throw new Error(`robwot generate failed (${r.code}): ${r.stderr}`);
+    cache.set(key, dir);
+  }
+  const copy = join(mkdtempSync(join(tmpdir(), "robwot-serve-twin-")), robot);
+  cpSync(dir, copy, { recursive: true });
+  return copy;
+}
+
+export interface HttpAnswer {
+  status: number;
+  type: string | null;
+  body: any;
+}
+
+export async function http(url: string, init: RequestInit = {}): Promise<HttpAnswer> {
+  const r = await fetch(url, init);
+  const text = await r.text();
+  let body: unknown = text;
+  try {
+    body = JSON.parse(text);
+  } catch {
+    /* not JSON */
+  }
+  return { status: r.status, type: r.headers.get("content-type"), body };
+}
+
+export function invoke(base: string, action: string, body: unknown, headers: Record<string, string> = {}): Promise<HttpAnswer> {
+  return http(`${base}/actions/${action}`, {
+    method: "POST",
+    headers: { "content-type": "application/json", ...headers },
+    body: typeof body === "string" ? body : JSON.stringify(body),
+  });
+}
+
+export async function consumer(credentials?: Record<string, unknown>): Promise<{ wot: WoT.WoT; stop(): Promise<void>; servient: Servient }> {
+  const servient = new Servient();
+  servient.addClientFactory(new HttpClientFactory());
+  if (credentials) servient.addCredentials(credentials);
+  const wot = (await servient.start()) as unknown as WoT.WoT;
+  return { wot, servient, stop: () => servient.shutdown() };
+}
+
+export interface LiveClient {
+  messages: any[];
+  ws: WebSocket;
+  waitFor(pred: (m: any) => boolean, timeoutMs?: number): Promise<any>;
+  close(): void;
+}
+
+export async function live(url: string, headers: Record<string, string> = {}): Promise<LiveClient> {
+  const ws = new WebSocket(url, { headers });
+  const messages: any[] = [];
+  const waiters: { pred: (m: any) => boolean; resolve: (m: any) => void }[] = [];
+  ws.on("message", (d) => {
+    const m = JSON.parse(d.toString());
+    messages.push(m);
+    for (const w of [...waiters]) {
+      if (w.pred(m)) {
+        waiters.splice(waiters.indexOf(w), 1);
+        w.resolve(m);
+      }
+    }
+  });
+  await new Promise<void>((resolve, reject) => {
+    ws.once("open", () => resolve());
+    ws.once("error", reject);
+  });
+  return {
+    messages,
+    ws,
+    waitFor: (pred, timeoutMs = 20_000) => {
+      const seen = messages.find(pred);
+      if (seen) return Promise.resolve(seen);
+      return new Promise((resolve, reject) => {
+        const t = setTimeout(() => reject(new Error("live message not received in time")), timeoutMs);
+        waiters.push({ pred, resolve: (m) => (clearTimeout(t), resolve(m)) });
+      });
+    },
+    close: () => ws.close(),
+  };
+}
+
+export const KUKA_JOINTS = Array.from({ length: 7 }, (_, i) => `lbr_iiwa_joint_${i + 1}`);
+
+export function kukaPose(values: number[]): Record<string, number> {
+  return Object.fromEntries(KUKA_JOINTS.map((n, i) => [n, values[i] ?? 0]));
+}
+
+export const sleep = (ms: number): Promise<void> => new Promise((r) => setTimeout(r, ms));

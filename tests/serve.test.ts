@@ -1,0 +1,242 @@
+/**
+ * End to end: `robwot generate` -> servient on port 0 -> node-wot consumer, plain fetch and /live.
+ * Every affordance, the served files and TD, bad input (400 JSON, state unchanged), busy (409),
+ * stop mid-motion, validation against obstacles (422) and a collision mid-motion.
+ */
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, type LiveClient } from "./serve-helpers.js";
+
+let s: RunningServient;
+let base: string;
+let slug: string;
+const HOME = kukaPose([0, 0, 0, 0, 0, 0, 0]);
+const BENT = kukaPose([0.3, 0.5, 0, -1.2, 0, 0.6, 0]);
+
+beforeAll(async () => {
+  const dir = await generateTwin("kuka_iiwa", 3000);
+  s = await startServient({ twins: [dir], port: 0, realtime: 1 });
+  slug = s.things[0]!.slug;
+  base = `${s.url}/${slug}`;
+});
+afterAll(async () => s?.stop());
+
+const readJoints = async (): Promise<Record<string, number>> => (await http(`${base}/properties/getJointPosition`)).body;
+const readStatus = async (): Promise<any> => (await http(`${base}/properties/motionStatus`)).body;
+
+describe("TD and files", () => {
+  it("serves the TD with the real base, live forms and every affordance", async () => {
+    const r = await http(base);
+    expect(r.status).toBe(200);
+    expect(r.type).toContain("application/td+json");
+    const td = r.body;
+    expect(td.base).toBe(`${base}/`);
+    expect(Object.keys(td.properties).sort()).toEqual(["calibration", "getCartesianPosition", "getJointPosition", "motionStatus"]);
+    expect(Object.keys(td.actions)).toEqual(
+      expect.arrayContaining(["moveToJointPosition", "moveToCartesianPosition", "validateJointPosition", "validateCartesianPosition", "stop", "calibrate", "addObstacle", "moveObstacle", "removeObstacle"]),
+    );
+    const wsForms = td.properties.getJointPosition.forms.filter((f: any) => f.href.startsWith("ws:"));
+    expect(wsForms[0].href).toBe(s.liveUrl);
+    expect(td.securityDefinitions[td.security].scheme).toBe("nosec");
+    const index = await http(`${s.url}/robwot.json`);
+    expect(index.body.things[0].tdUrl).toBe(base);
+    expect(index.body.live).toBe(s.liveUrl);
+  });
+
+  it.each([
+    ["robot.urdf", "application/urdf+xml"],
+    ["workspace.csv", "text/csv"],
+    ["workspace.stl", "model/stl"],
+    ["workspace.json", "application/json"],
+    ["scene.json", "application/json"],
+  ])("serves %s as %s at the TD's link href", async (file, type) => {
+    const td = (await http(base)).body;
+    const link = td.links.find((l: any) => l.href === file);
+    expect(link?.type ?? type).toBe(type);
+    const r = await fetch(new URL(file, td.base));
+    expect(r.status).toBe(200);
+    expect(r.headers.get("content-type")).toBe(type);
+    expect((await r.arrayBuffer()).byteLength).toBeGreaterThan(10);
+  });
+
+  it.each(["/%2e%2e/%2e%2e/etc/passwd", "/..%2ftwin.json", "/twin.json", "/meshes/../../../etc/passwd"])("refuses %s outside the allowed files", async (p) => {
+    const r = await fetch(`${base}${p}`);
+    expect([400, 404]).toContain(r.status);
+  });
+});
+
+describe("affordances through a node-wot consumer", () => {
+  it("reads every property and invokes the moves and validations", async () => {
+    const c = await consumer();
+    try {
+      const thing = await c.wot.consume(await c.wot.requestThingDescription(base));
+      const joints = (await (await thing.readProperty("getJointPosition")).value()) as Record<string, number>;
+      expect(Object.keys(joints)).toHaveLength(7);
+      const pose = (await (await thing.readProperty("getCartesianPosition")).value()) as any;
+      expect(pose.z).toBeGreaterThan(1);
+      expect(((await (await thing.readProperty("motionStatus")).value()) as any).state).toBeDefined();
+      expect(await (await thing.readProperty("calibration")).value()).toEqual({ active: false });
+
+      const moved = (await (await thing.invokeAction("moveToJointPosition", { joints: BENT }))!.value()) as any;
+      expect(moved.status).toBe("reached");
+      for (const [k, v] of Object.entries(BENT)) expect(moved.joints[k]).toBeCloseTo(v, 4);
+      const after = (await (await thing.readProperty("getJointPosition")).value()) as Record<string, number>;
+      expect(after.lbr_iiwa_joint_4).toBeCloseTo(-1.2, 4);
+
+      const target = { x: moved.position.x, y: moved.position.y - 0.05, z: moved.position.z - 0.05 };
+      const report = (await (await thing.invokeAction("validateCartesianPosition", target))!.value()) as any;
+      expect(report.valid).toBe(true);
+      expect(report.checks.insideWorkspace.ok).toBe(true);
+      expect(report.checks.ik.ok).toBe(true);
+      expect(report.checks.path.ok).toBe(true);
+      const jr = (await (await thing.invokeAction("validateJointPosition", { joints: HOME }))!.value()) as any;
+      expect(jr.valid).toBe(true);
+      const cart = (await (await thing.invokeAction("moveToCartesianPosition", target))!.value()) as any;
+      expect(cart.status).toBe("reached");
+      expect(cart.positionError).toBeLessThan(1e-3);
+      expect(cart.duration).toBeGreaterThan(0);
+      const stop = (await (await thing.invokeAction("stop"))!.value()) as any;
+      expect(stop).toEqual({ stopped: false });
+    } finally {
+      await c.stop();
+    }
+  });
+
+  it("streams joints and status over /live while moving (>= 20 Hz)", async () => {
+    const ws: LiveClient = await live(s.liveUrl);
+    try {
+      ws.ws.send(JSON.stringify({ subscribe: slug }));
+      await ws.waitFor((m) => m.type === "status");
+      const start = ws.messages.length;
+      const r = await invoke(base, "moveToJointPosition", { joints: kukaPose([1.0, 0.3, 0, -1.0, 0, 0.5, 0]), speed: 0.2 });
+      expect(r.status).toBe(200);
+      const joints = ws.messages.slice(start).filter((m) => m.type === "joints");
+      const simSpan = joints.at(-1).time - joints[0].time;
+      expect(simSpan).toBeGreaterThan(0);
+      expect(joints.length / Math.max(r.body.duration, 1e-3)).toBeGreaterThanOrEqual(20);
+      expect(joints[0]).toMatchObject({ thing: slug, type: "joints" });
+      expect(Object.keys(joints[0].position)).toEqual(["x", "y", "z"]);
+      expect(ws.messages.slice(start).some((m) => m.type === "status" && m.state === "moving")).toBe(true);
+      await ws.waitFor((m) => m.type === "status" && m.state === "idle");
+    } finally {
+      ws.close();
+    }
+  });
+});
+
+describe("bad input -> 400 JSON, state unchanged", () => {
+  const cases: [string, string, unknown][] = [
+    ["joints of the wrong type", "moveToJointPosition", { joints: "up" }],
+    ["a joint out of range", "moveToJointPosition", { joints: { ...HOME, lbr_iiwa_joint_2: 7 } }],
+    ["an unknown joint", "moveToJointPosition", { joints: { ...HOME, elbow: 0.1 } }],
+    ["a missing joint", "moveToJointPosition", { joints: { lbr_iiwa_joint_1: 0.1 } }],
+    ["NaN (not JSON)", "moveToJointPosition", '{"joints": {"lbr_iiwa_joint_1": NaN}}'],
+    ["Infinity via 1e999", "moveToCartesianPosition", '{"x": 1e999, "y": 0, "z": 0.5}'],
+    ["a missing body", "moveToCartesianPosition", ""],
+    ["a string coordinate", "validateCartesianPosition", { x: "0.5", y: 0, z: 0.5 }],
+    ["speed 0", "moveToJointPosition", { joints: HOME, speed: 0 }],
+    ["speed 2", "moveToCartesianPosition", { x: 0.4, y: 0, z: 0.6, speed: 2 }],
+    ["too few calibration pairs", "calibrate", { pairs: [{ real: { x: 0, y: 0, z: 0 }, virtual: { x: 0, y: 0, z: 0 } }] }],
+    ["an obstacle with a negative size", "addObstacle", { name: "bad", shape: { type: "box", size: [0.1, -1, 0.1] }, position: [1, 1, 1] }],
+    ["an obstacle without a name", "addObstacle", { shape: { type: "sphere", radius: 0.1 }, position: [1, 1, 1] }],
+  ];
+  it.each(cases)("%s", async (_what, action, body) => {
+    const before = await readJoints();
+    const statusBefore = await readStatus();
+    const r = await invoke(base, action, body);
+    expect(r.status).toBe(400);
+    expect(r.type).toContain("application/json");
+    expect(typeof r.body.code).toBe("string");
+    expect(typeof r.body.message).toBe("string");
+    expect(r.body.details).toBeTypeOf("object");
+    expect(await readJoints()).toEqual(before);
+    expect(await readStatus()).toEqual(statusBefore);
+  });
+
+  it("collinear calibration pairs -> 400 naming the problem", async () => {
+    const p = (t: number) => ({ real: { x: t, y: 2 * t, z: 0 }, virtual: { x: t, y: 2 * t, z: 0 } });
+    const r = await invoke(base, "calibrate", { pairs: [p(0), p(1), p(2), p(3)] });
+    expect(r.status).toBe(400);
+    expect(r.body.message).toMatch(/collinear|degenerate/i);
+    expect((await http(`${base}/properties/calibration`)).body).toEqual({ active: false });
+  });
+});
+
+describe("motion control", () => {
+  it("refuses a second move while moving (409) and stops mid-motion", async () => {
+    await invoke(base, "moveToJointPosition", { joints: HOME });
+    const long = invoke(base, "moveToJointPosition", { joints: kukaPose([2.5, 0, 0, 0, 0, 0, 0]), speed: 0.05 });
+    await sleep(400);
+    const busy = await invoke(base, "moveToJointPosition", { joints: BENT });
+    expect(busy.status).toBe(409);
+    expect(busy.body.code).toBe("E_BUSY");
+    expect((await readStatus()).state).toBe("moving");
+    const stop = await invoke(base, "stop", "");
+    expect(stop.body).toEqual({ stopped: true });
+    const r = await long;
+    expect(r.status).toBe(200);
+    expect(r.body.status).toBe("stopped");
+    expect(r.body.joints.lbr_iiwa_joint_1).toBeGreaterThan(0.01);
+    expect(r.body.joints.lbr_iiwa_joint_1).toBeLessThan(2.4);
+    const st = await readStatus();
+    expect(st.state).toBe("stopped");
+    expect((await readJoints()).lbr_iiwa_joint_1).toBeCloseTo(r.body.joints.lbr_iiwa_joint_1, 6);
+  });
+
+  it("rejects a move into an obstacle (422) without moving, and accepts it once the obstacle is gone", async () => {
+    await invoke(base, "moveToJointPosition", { joints: HOME });
+    const target = kukaPose([0, 0.9, 0, -0.6, 0, 0.5, 0]);
+    const fk = (await invoke(base, "validateJointPosition", { joints: target })).body;
+    expect(fk.valid).toBe(true);
+    // a box across the arm's way between home and the target
+    const add = await invoke(base, "addObstacle", { name: "wall", shape: { type: "box", size: [0.1, 0.6, 0.1] }, position: [0.45, 0, 0.9] });
+    expect(add.status).toBe(200);
+    const dup = await invoke(base, "addObstacle", { name: "wall", shape: { type: "sphere", radius: 0.05 }, position: [2, 2, 2] });
+    expect(dup.status).toBe(409);
+    const before = await readJoints();
+    const v = (await invoke(base, "validateJointPosition", { joints: target })).body;
+    expect(v.valid).toBe(false);
+    expect(v.checks.path.ok).toBe(false);
+    const r = await invoke(base, "moveToJointPosition", { joints: target });
+    expect(r.status).toBe(422);
+    expect(r.body.code).toBe("E_REJECTED");
+    expect(r.body.details.checks.path.ok).toBe(false);
+    expect(await readJoints()).toEqual(before);
+    expect((await invoke(base, "moveObstacle", { name: "wall", position: [-2, -2, 0.5] })).status).toBe(200);
+    expect((await invoke(base, "validateJointPosition", { joints: target })).body.valid).toBe(true);
+    expect((await invoke(base, "removeObstacle", { name: "wall" })).status).toBe(200);
+    expect((await invoke(base, "removeObstacle", { name: "wall" })).status).toBe(404);
+  });
+
+  it("stops with a collision event when an obstacle appears in the path mid-motion", async () => {
+    await invoke(base, "moveToJointPosition", { joints: HOME });
+    const ws = await live(`${s.liveUrl}?thing=${slug}`);
+    const c = await consumer();
+    try {
+      const thing = await c.wot.consume(await c.wot.requestThingDescription(base));
+      const events: any[] = [];
+      await thing.subscribeEvent("collision", async (d) => void events.push(await d.value()));
+      const target = kukaPose([0, 1.2, 0, -0.4, 0, 0.4, 0]);
+      const move = invoke(base, "moveToJointPosition", { joints: target, speed: 0.05 });
+      await sleep(500);
+      const add = await invoke(base, "addObstacle", { name: "intruder", shape: { type: "box", size: [0.2, 0.6, 0.2] }, position: [0.55, 0, 0.75] });
+      expect(add.status).toBe(200);
+      const r = await move;
+      expect(r.status).toBe(200);
+      expect(r.body.status).toBe("collision");
+      const ev = await ws.waitFor((m) => m.type === "collision");
+      expect(ev.pair.a.body === "intruder" || ev.pair.b.body === "intruder").toBe(true);
+      expect(ev.depth).toBeGreaterThanOrEqual(0);
+      expect(Object.keys(ev.joints)).toHaveLength(7);
+      const st = await readStatus();
+      expect(st.state).toBe("collision");
+      expect(st.lastError.code).toBe("E_COLLISION");
+      for (let i = 0; i < 50 && events.length === 0; i++) await sleep(100);
+      expect(events[0]?.pair).toBeDefined();
+    } finally {
+      ws.close();
+      await c.stop();
+      await invoke(base, "removeObstacle", { name: "intruder" });
+    }
+  });
+});
