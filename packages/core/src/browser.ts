@@ -19,3 +19,5 @@ export { Workspace } from "./workspace/workspace.js";
 export type { WorkspacePointCheck } from "./workspace/workspace.js";
 export { loadWorkspaceFromUrls } from "./workspace/load-url.js";
 export type { FetchLike } from "./workspace/load-url.js";
+export { solveCalibration, applyCalibration, invertCalibration, COLLINEAR_RATIO, COINCIDENT_SPREAD } from "./calibration.js";
+export type { Calibration, CalibrationPair, PointLike } from "./calibration.js";
