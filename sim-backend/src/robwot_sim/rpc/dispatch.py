@@ -59,7 +59,7 @@ def fault_from_exception(exc: BaseException, method: str) -> Fault:
     code = getattr(exc, "code", None)
     if isinstance(rpc_code, int) and isinstance(code, str):
         data = getattr(exc, "data", None)
-        payload = dict(data) if isinstance(data, dict) else {}
+        payload = {"code": code, **(data if isinstance(data, dict) else {})}
         payload["code"] = code
         message = getattr(exc, "message", None)
         return Fault(rpc_code, message if isinstance(message, str) else str(exc), payload)

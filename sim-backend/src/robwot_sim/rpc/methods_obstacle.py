@@ -65,9 +65,15 @@ def pose_params(p: Params) -> dict[str, Any]:
 
 
 def register(d: Dispatcher, s: Services) -> None:
-    @d.method("obstacle.add", ("name", "shape", "position", "orientation", "rpy"), "add a static obstacle")
+    @d.method("obstacle.add", ("name", "shape", "position", "orientation", "rpy", "color"),
+              "add a static obstacle")
     async def add(p: Params, call: Call) -> dict[str, Any]:
         spec = {"name": p.string("name"), "shape": check_shape(p.obj("shape")), **pose_params(p)}
+        if p.has("color"):
+            color = p.vector("color")
+            if len(color) not in (3, 4) or not all(0.0 <= c <= 1.0 for c in color):
+                raise invalid_param("color", "[r, g, b] or [r, g, b, a] in [0, 1]", p.raw["color"])
+            spec["color"] = color
         return s.world.add_obstacle(spec)
 
     @d.method("obstacle.move", ("name", "position", "orientation", "rpy"), "move an obstacle")
