@@ -189,6 +189,7 @@ def prepare_urdf(path: str | Path, package_roots: Mapping[str, str | Path] | Non
             if resolved.suffix.lower() not in MESH_SUFFIXES:
                 raise UrdfError(f"unsupported mesh format {resolved.suffix!r} ({fn}); use STL, OBJ or DAE",
                                 file=str(doc.file), line=doc.line_of(el))
+            _check_mesh_content(resolved, str(doc.file), doc.line_of(el))
             meshes[fn] = resolved
     for link in root.iter("link"):
         for vis in list(link.findall("visual")):
@@ -206,6 +207,21 @@ def prepare_urdf(path: str | Path, package_roots: Mapping[str, str | Path] | Non
     out = Path(tmpdir) / "robot.urdf"
     ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
     return PreparedUrdf(doc, out, meshes, tmpdir)
+
+
+def _check_mesh_content(path: Path, urdf: str, line: int | None) -> None:
+    """Refuse meshes PyBullet would silently drop: an OBJ without vertices, an empty STL."""
+    suffix = path.suffix.lower()
+    if suffix == ".obj":
+        with path.open("rb") as f:
+            ok = sum(1 for ln in f if ln.startswith(b"v ")) >= 3
+    elif suffix == ".stl":
+        ok = path.stat().st_size > 84 or b"vertex" in path.read_bytes()
+    else:
+        ok = path.stat().st_size > 0
+    if not ok:
+        raise UrdfError(f"mesh {path} has no geometry (unreadable {suffix[1:].upper()})", file=urdf, line=line,
+                        mesh=str(path))
 
 
 def _is_binary_stl(path: Path) -> bool:

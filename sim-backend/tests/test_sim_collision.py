@@ -1,0 +1,140 @@
+"""Self and environment collision: known cases, base contact, filtered pairs, fast path agreement (H1)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as pb
+import pytest
+from simhelp import KUKA, MODELS, PANDA, SCENES, XARM
+
+from robwot_sim.errors import InvalidParams, OutOfLimits
+from robwot_sim.sim.world import World
+
+
+def test_free_and_self_colliding_configurations() -> None:
+    """Kuka upright is free; folding joint 4 fully with joint 2 back makes links touch each other."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        assert w.check_collision(m.id, [0.0] * 7).collision_free
+        rep = w.check_collision(m.id, [0, 2.0, 0, -2.0, 0, 2.0, 0])
+        assert not rep.collision_free
+        assert all(c.a.body == m.id and c.b.body == m.id for c in rep.contacts)
+        assert all(c.depth >= 0 for c in rep.contacts)
+
+
+def test_environment_contact_names_pair_and_depth() -> None:
+    """A box through the upright arm is reported as (robot link, obstacle) with a positive depth."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.add_obstacle({"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]},
+                        "position": [0.0, 0.0, 0.9]})
+        rep = w.check_collision(m.id)
+        assert not rep.collision_free
+        pairs = {(c.a.body, c.b.body, c.b.link) for c in rep.contacts}
+        assert (m.id, "wall", None) in pairs
+        wall = [c for c in rep.contacts if c.b.body == "wall"][0]
+        assert wall.a.link in m.links and wall.depth > 0.01
+        w.move_obstacle("wall", (1.5, 0.0, 0.9))
+        assert w.check_collision(m.id).collision_free
+
+
+def test_fixed_base_touching_static_obstacle_is_reported() -> None:
+    """An obstacle touching only the fixed base (which never moves) is a collision."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.add_obstacle({"name": "block", "shape": {"type": "box", "size": [0.1, 0.1, 0.1]},
+                        "position": [0.12, 0.0, 0.05]})
+        rep = w.check_collision(m.id)
+        assert not rep.collision_free
+        assert any(c.b.body == "block" and c.a.link == "lbr_iiwa_link_0" for c in rep.contacts)
+        assert not w.collision_free_batch(m.id, np.zeros((3, 7))).any()
+
+
+def test_panda_always_touching_pair_is_filtered() -> None:
+    """Panda link7/hand touch in every configuration: detected at load and filtered."""
+    with World() as w:
+        m = w.load_robot(PANDA)
+        assert ("panda_link7", "panda_hand") in m.filtered_pairs
+        ready = [0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02]
+        rep = w.check_collision(m.id, ready)
+        assert rep.collision_free, rep.contacts
+        k = w.load_robot(KUKA, base_position=(2, 0, 0))
+        assert k.filtered_pairs == ()
+
+
+def test_mimic_joint_followed_in_collision_and_state() -> None:
+    """The mimic joint follows its master (q * -0.5 + 0.1), in PyBullet's state too."""
+    with World() as w:
+        m = w.load_robot(MODELS / "mimic.urdf")
+        assert m.controllable == ("finger",)
+        assert m.joint("finger_mimic").mimic is not None
+        w.set_joint_positions(m.id, [0.4])
+        e = w._robots[m.id]
+        follower = [ji.idx for ji in w.bullet.joints(e.bound.body) if ji.name == "finger_mimic"][0]
+        value = pb.getJointState(e.bound.body, follower, physicsClientId=w.bullet.cid)[0]
+        assert value == pytest.approx(0.4 * -0.5 + 0.1)
+
+
+def _brute_force_free(w: World, robot_id: str, q: np.ndarray) -> bool:
+    """Every link of the robot against every other body and every non-adjacent, unfiltered self pair,
+    with getClosestPoints(distance=0): slow but exhaustive."""
+    e = w._robots[robot_id]
+    b, cid, body = e.bound, w.bullet.cid, e.bound.body
+    b.apply(q)
+    links = [-1, *range(pb.getNumJoints(body, physicsClientId=cid))]
+    parent = {ji.idx: ji.parent_index for ji in w.bullet.joints(body)}
+    for other in w.table.names:
+        if other != body and pb.getClosestPoints(body, other, 0.0, physicsClientId=cid):
+            return False
+    for i, a in enumerate(links):
+        for c in links[i + 1:]:
+            if parent.get(c) == a or parent.get(a) == c or (min(a, c), max(a, c)) in e.checker.filtered:
+                continue
+            if a in b.static_links and c in b.static_links:
+                continue
+            if pb.getClosestPoints(body, body, 0.0, linkIndexA=a, linkIndexB=c, physicsClientId=cid):
+                return False
+    return True
+
+
+@pytest.mark.parametrize("urdf", [KUKA, PANDA, XARM])
+def test_fast_batch_agrees_with_check_collision_and_brute_force(urdf: str) -> None:
+    """collision_free_batch == check_collision == exhaustive pairs, on 150 random configs with 66 obstacles."""
+    with World() as w:
+        m = w.load_robot(urdf)
+        w.load_scene(SCENES / "obstacles-66.json")
+        e = w._robots[m.id]
+        qs = e.bound.random_q(np.random.default_rng(5), 150)
+        before = w.get_joint_positions(m.id)
+        fast = w.collision_free_batch(m.id, qs)
+        assert np.array_equal(w.get_joint_positions(m.id), before)
+        slow = np.array([w.check_collision(m.id, q).collision_free for q in qs])
+        brute = np.array([_brute_force_free(w, m.id, q) for q in qs])
+        e.bound.apply(before)
+        assert np.array_equal(fast, slow)
+        assert np.mean(fast == brute) >= 0.98, np.flatnonzero(fast != brute)
+        assert 0.1 < fast.mean() < 0.95
+
+
+def test_batch_rejects_bad_arrays() -> None:
+    """Wrong shapes, NaN and out-of-limit rows are refused before any check."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        with pytest.raises(InvalidParams):
+            w.collision_free_batch(m.id, np.zeros((4, 6)))
+        bad = np.zeros((4, 7))
+        bad[2, 3] = np.nan
+        with pytest.raises(InvalidParams):
+            w.collision_free_batch(m.id, bad)
+        bad[2, 3] = 9.0
+        with pytest.raises(OutOfLimits):
+            w.collision_free_batch(m.id, bad)
+
+
+def test_two_robots_see_each_other() -> None:
+    """A second robot is an obstacle for the first, named by its id and link."""
+    with World() as w:
+        a = w.load_robot(KUKA, robot_id="a")
+        w.load_robot(KUKA, robot_id="b", base_position=(0.5, 0, 0))
+        rep = w.check_collision(a.id, [0, 1.2, 0, 0, 0, 0, 0])
+        assert any(c.b.body == "b" for c in rep.contacts)

@@ -1,0 +1,54 @@
+"""Joint-space motion planning and path checking (H1)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from simhelp import KUKA, MODELS
+
+from robwot_sim.errors import InvalidParams, OutOfLimits
+from robwot_sim.sim.world import World
+
+
+def test_plan_respects_velocity_limits_and_dt() -> None:
+    """Steps are dt apart; no joint moves faster than velocity * speed; start and target included."""
+    with World() as w:
+        m = w.load_robot(MODELS / "planar2.urdf")  # velocities 1.5 and 3.0 rad/s
+        for speed, dt in [(1.0, 1 / 240), (0.25, 0.01)]:
+            path = w.plan_motion(m.id, [1.5, -2.0], start=[0.0, 0.0], speed=speed, dt=dt)
+            assert np.allclose(path[0], [0, 0]) and np.allclose(path[-1], [1.5, -2.0])
+            vel = np.abs(np.diff(path, axis=0)) / dt
+            assert np.all(vel <= np.array([1.5, 3.0]) * speed + 1e-9)
+            assert (len(path) - 1) * dt == pytest.approx(1.0 / speed, abs=dt)
+        assert len(w.plan_motion(m.id, [0.0, 0.0], start=[0.0, 0.0])) == 1
+
+
+def test_plan_rejects_bad_parameters() -> None:
+    """Speed outside (0, 1], bad dt and out-of-limit targets are refused."""
+    with World() as w:
+        m = w.load_robot(MODELS / "planar2.urdf")
+        for kw in [{"speed": 0}, {"speed": 1.5}, {"dt": 0}, {"dt": float("nan")}, {"speed": True}]:
+            with pytest.raises(InvalidParams):
+                w.plan_motion(m.id, [0.1, 0.1], **kw)
+        with pytest.raises(OutOfLimits):
+            w.plan_motion(m.id, [0.1, 3.0])
+
+
+def test_check_path_finds_first_collision_without_state_change() -> None:
+    """Sweeping joint 1 through a post reports the first colliding state and pair; state is unchanged."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, [-1.5, 1.0, 0, 0, 0, 0, 0])
+        w.add_obstacle({"name": "post", "shape": {"type": "cylinder", "radius": 0.05, "length": 1.0},
+                        "position": [0.6, 0.0, 0.5]})
+        before = w.get_joint_positions(m.id)
+        rep = w.check_path(m.id, [1.5, 1.0, 0, 0, 0, 0, 0], speed=0.5)
+        assert not rep.collision_free and rep.first_collision is not None
+        fc = rep.first_collision
+        assert 0 < fc.time < rep.duration
+        assert -0.6 < fc.positions[0] < 0.2
+        assert any(c.b.body == "post" for c in fc.contacts)
+        assert np.array_equal(w.get_joint_positions(m.id), before)
+        free = w.check_path(m.id, [-1.0, 1.0, 0, 0, 0, 0, 0])
+        assert free.collision_free and free.first_collision is None
+        assert free.to_json()["steps"] == free.steps
