@@ -23,7 +23,7 @@ import { axisAngle, centroid, invertSimilarity, norm, spreadOffLine, sub, toV3, 
 import { runScenario } from "./lib/run.js";
 import { maxAbsDiff, spreadTargets, type Joints } from "./lib/targets.js";
 import { jointLimits } from "./lib/td.js";
-import type { CalibrationResult, CalibrationState, CartesianPose, MotionStatus, MoveResult, ValidationReport } from "./lib/types.js";
+import type { CalibrationResult, CalibrationState, CartesianPose, MotionStatus, RelayedMoveResult, ValidationReport } from "./lib/types.js";
 
 const USAGE = "calibrate-and-relay [VIRTUAL TD URL] [PHYSICAL TD URL] [--speed 0..1] [--fraction 0..0.9] [--no-scale] [--timeout S] [--json]";
 
@@ -82,8 +82,10 @@ async function main(): Promise<void> {
         continue;
       }
       const before = await lastResultOf(physical);
-      const moved = await invoke<MoveResult>(virtual, "moveToJointPosition", { joints: target, speed });
+      const moved = await invoke<RelayedMoveResult>(virtual, "moveToJointPosition", { joints: target, speed });
       if (moved.status !== "reached") throw new Error(`virtual twin move ended "${moved.status}"`);
+      if (moved.relay === undefined) throw new Error(`the virtual twin did not relay the move: serve it with --relay ${physicalUrl}`);
+      if (!moved.relay.ok) throw new Error(`relay to the physical twin failed: ${moved.relay.error ?? "?"}`);
       const phys = await settle(physical, before, target, timeout);
       if (!phys.settled) throw new Error(`the physical twin did not reach the relayed joint target within ${timeout} s (is the virtual twin served with --relay ${physicalUrl}?)`);
       const v = virtualPoint(await read<CartesianPose>(virtual, "getCartesianPosition"));
@@ -123,12 +125,13 @@ async function main(): Promise<void> {
     if (target === undefined) throw new Error("no real-frame Cartesian target was accepted by validateCartesianPosition");
     const before = await lastResultOf(physical);
     console.log(`\nmoveToCartesianPosition (real frame) ${fmtXyz(toXyz(target))}`);
-    const result = await invoke<MoveResult>(virtual, "moveToCartesianPosition", { ...toXyz(target), speed });
+    const result = await invoke<RelayedMoveResult>(virtual, "moveToCartesianPosition", { ...toXyz(target), speed });
     console.log(`virtual twin: ${result.status}, reports ${fmtXyz(result.position, 4)} (real frame)`);
+    if (result.relay && !result.relay.ok) console.log(`relay to the physical twin FAILED: ${result.relay.error ?? "?"}`);
     const landed = await settle(physical, before, undefined, timeout);
     const error = norm(sub(toV3(landed.pose), target));
     console.log(`physical twin landed at ${fmtXyz(landed.pose, 4)}: ${fmt(error * 1000, 3)} mm from the real-frame target${landed.settled ? "" : " (did not settle in time)"}`);
-    if (!landed.settled || result.status !== "reached") process.exitCode = 1;
+    if (!landed.settled || result.status !== "reached" || result.relay?.ok !== true) process.exitCode = 1;
     if (args.options.has("json")) {
       printJsonSummary({ pairs, calibration: cal, target: toXyz(target), virtualResult: result, physical: landed.pose, errorM: error, settled: landed.settled });
     }

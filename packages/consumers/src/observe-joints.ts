@@ -115,6 +115,7 @@ async function main(): Promise<void> {
       if (!quiet) console.log(`[+${fmt(now())} s] move ${result.status} after ${fmt(result.duration)} s`);
       toward = toward === away ? start : away;
     }
+    await new Promise((r) => setTimeout(r, 200)); // let the final state of the last move arrive
     stopping = true;
     await subscription?.stop();
     await live?.close();
@@ -135,7 +136,8 @@ async function main(): Promise<void> {
       ),
     );
     if (args.options.has("json")) {
-      printJsonSummary({ moves: moves.length, observers: rows, last: updates[updates.length - 1] ?? null });
+      const last = (src: Update["source"]): Update | null => updates.filter((u) => u.source === src).pop() ?? null;
+      printJsonSummary({ moves: moves.length, observers: rows, lastWs: last("ws"), lastPoll: last("poll") });
     }
   } finally {
     await live?.close();

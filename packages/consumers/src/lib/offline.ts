@@ -1,0 +1,43 @@
+/**
+ * Offline workspace checks ("validation without the twin"): the consumer downloads the twin's
+ * `workspace.stl` and `workspace.csv` from the TD's links once, then answers "inside the workspace
+ * surface?" and the k-nearest-neighbour point-cloud score locally with @robwot/core (no Python,
+ * no request to the twin per target).
+ */
+import { loadWorkspaceFromUrls, type PointCloudCheck } from "@robwot/core";
+import { authHeaders, type Twin } from "./connect.js";
+import { linkUrl } from "./td.js";
+import type { V3 } from "./frames.js";
+
+export interface OfflineVerdict {
+  inside: boolean;
+  /** unsigned distance to the workspace surface (m) */
+  surfaceDistance: number;
+  pointCloud: PointCloudCheck;
+  ok: boolean;
+}
+
+export interface OfflineWorkspace {
+  stlUrl: string;
+  csvUrl: string;
+  triangles: number;
+  points: number;
+  check(p: V3): OfflineVerdict;
+}
+
+export async function loadOfflineWorkspace(twin: Twin, options: { k?: number; threshold?: number } = {}): Promise<OfflineWorkspace> {
+  const stlUrl = linkUrl(twin.td, "workspace", twin.url);
+  const csvUrl = linkUrl(twin.td, "workspace-pointcloud", twin.url);
+  const headers = authHeaders(twin.auth);
+  const ws = await loadWorkspaceFromUrls(stlUrl, csvUrl, (url) => fetch(url, { headers }));
+  return {
+    stlUrl,
+    csvUrl,
+    triangles: ws.mesh.triangleCount,
+    points: ws.cloudIndex.size,
+    check(p: V3): OfflineVerdict {
+      const { insideWorkspace, pointCloud, ok } = ws.check(p, options);
+      return { inside: insideWorkspace, surfaceDistance: ws.mesh.distanceToSurface(p), pointCloud, ok };
+    },
+  };
+}

@@ -1,0 +1,119 @@
+/**
+ * Scenario 2: a pick-and-place loop that validates every target before moving.
+ *
+ * For each Cartesian target (a pick and a place station on each side of the robot, each with an
+ * approach point above it, plus one point deliberately out of reach):
+ *   1. OFFLINE: inside workspace.stl? and the point-cloud score from workspace.csv, both fetched once
+ *      from the TD's links and evaluated locally with @robwot/core;
+ *   2. the twin's validateCartesianPosition (STL, point cloud, IK, collision-free path in the scene);
+ *   3. moveToCartesianPosition only if the twin says valid.
+ * Prints a table of targets and verdicts. Targets are derived from the TD's Cartesian bounds, so the
+ * loop fits any robot; `--targets "x,y,z;x,y,z"` gives your own (metres, the twin's frame).
+ *
+ *   node packages/consumers/dist/pick-and-place.js [TD URL] [--targets ...] [--speed 1] [--json]
+ */
+import { numberOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
+import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
+import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
+import { invertSimilarity, norm, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
+import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
+import { runScenario } from "./lib/run.js";
+import { cartesianBounds, type Bounds3 } from "./lib/td.js";
+import type { CalibrationState, MoveResult, ValidationReport } from "./lib/types.js";
+
+const USAGE = "pick-and-place [TD URL] [--targets \"x,y,z;x,y,z\"] [--speed 0..1] [--json]";
+
+interface Target {
+  label: string;
+  p: V3;
+}
+
+/**
+ * Stations on a circle around the middle of the workspace, at 45% of its horizontal half-extent and a
+ * quarter of its height: pick at +90°, place at -90°, pick at 0°, place at 180°, each preceded by an
+ * approach point 10 cm higher, then one point 30 cm beyond the workspace bounds.
+ */
+export function defaultTargets(b: Bounds3): Target[] {
+  const c: V3 = [(b.min[0] + b.max[0]) / 2, (b.min[1] + b.max[1]) / 2, 0];
+  const r = 0.45 * Math.min(b.max[0] - b.min[0], b.max[1] - b.min[1]) / 2;
+  const z = b.min[2] + 0.25 * (b.max[2] - b.min[2]);
+  const out: Target[] = [];
+  const stations: [string, number][] = [["pick A", 90], ["place A", -90], ["pick B", 0], ["place B", 180]];
+  for (const [label, deg] of stations) {
+    const a = (deg * Math.PI) / 180;
+    const p: V3 = [c[0] + r * Math.cos(a), c[1] + r * Math.sin(a), z];
+    out.push({ label: `${label} approach`, p: [p[0], p[1], p[2] + 0.1] }, { label, p });
+  }
+  out.push({ label: "out of reach", p: [b.max[0] + 0.3, c[1], b.max[2]] });
+  return out;
+}
+
+export function parseTargets(text: string): Target[] {
+  return text.split(";").map((chunk, i) => {
+    const v = chunk.split(",").map(Number);
+    if (v.length !== 3 || !v.every(Number.isFinite)) throw new UsageError(`--targets entry ${i + 1} "${chunk}" is not x,y,z`);
+    return { label: `target ${i + 1}`, p: v as V3 };
+  });
+}
+
+const yesNo = (b: boolean | undefined): string => (b === undefined ? "-" : b ? "yes" : "no");
+
+async function main(): Promise<void> {
+  const args = parseArgs(process.argv.slice(2), { targets: "value", speed: "value", json: "flag" });
+  const url = args.positional[0] ?? defaultTdUrl();
+  const speed = numberOption(args, "speed", 1, 0.01, 1);
+  const session = await openSession();
+  try {
+    const twin = await session.connect(url);
+    console.log(`Consumed "${twin.td.title ?? "?"}" from ${url}`);
+    const given = stringOption(args, "targets");
+    const targets = given !== undefined ? parseTargets(given) : defaultTargets(cartesianBounds(twin.td));
+
+    const ws = await loadOfflineWorkspace(twin);
+    console.log(`offline workspace: ${ws.triangles} triangles (${ws.stlUrl}), ${ws.points} points (${ws.csvUrl})`);
+    // Targets are in the twin's Cartesian frame: the real frame when a calibration is active. The
+    // workspace files are in the virtual frame, so map targets back for the offline check.
+    const cal = await read<CalibrationState>(twin, "calibration");
+    const toVirtual = (p: V3): V3 => (cal.active !== false && "rotation" in cal ? invertSimilarity(cal, p) : p);
+
+    const rows: { label: string; target: V3; offline: OfflineVerdict; twin: ValidationReport; moved: MoveResult | null }[] = [];
+    for (const t of targets) {
+      const offline = ws.check(toVirtual(t.p));
+      const verdict = await invoke<ValidationReport>(twin, "validateCartesianPosition", toXyz(t.p));
+      let moved: MoveResult | null = null;
+      if (verdict.valid) moved = await invoke<MoveResult>(twin, "moveToCartesianPosition", { ...toXyz(t.p), speed });
+      rows.push({ label: t.label, target: t.p, offline, twin: verdict, moved });
+      const action = moved ? `moved: ${moved.status}, ${fmt(norm(sub(toV3(moved.position), t.p)) * 1000, 2)} mm off` : `skipped: ${verdict.reasons.join("; ")}`;
+      console.log(`${t.label.padEnd(16)} ${fmtXyz(toXyz(t.p))}  ${action}`);
+    }
+
+    console.log(
+      "\n" +
+        table(
+          ["target", "x, y, z (m)", "in STL", "cloud share", "offline", "twin STL", "twin cloud", "IK", "path", "twin", "agree", "result"],
+          rows.map((r) => [
+            r.label,
+            fmtXyz(toXyz(r.target), 3),
+            yesNo(r.offline.inside),
+            fmt(r.offline.pointCloud.share, 2),
+            r.offline.ok ? "valid" : "invalid",
+            yesNo(r.twin.checks.insideWorkspace?.ok),
+            yesNo(r.twin.checks.pointCloud?.ok),
+            yesNo(r.twin.checks.ik?.ok),
+            yesNo(r.twin.checks.path?.ok),
+            r.twin.valid ? "valid" : "invalid",
+            yesNo(r.twin.checks.insideWorkspace === undefined || r.twin.checks.insideWorkspace.ok === r.offline.inside),
+            r.moved ? r.moved.status : "not moved",
+          ]),
+        ),
+    );
+    const moved = rows.filter((r) => r.moved !== null).length;
+    console.log(`\n${moved} of ${rows.length} targets moved to; offline and twin STL verdicts agree on ${rows.filter((r) => r.twin.checks.insideWorkspace?.ok === r.offline.inside).length}`);
+    if (rows.some((r) => r.moved !== null && r.moved.status !== "reached")) process.exitCode = 1;
+    if (args.options.has("json")) printJsonSummary({ rows });
+  } finally {
+    await session.close();
+  }
+}
+
+runScenario("pick-and-place", USAGE, main);
