@@ -19,11 +19,11 @@ READY_TIMEOUT = 60.0
 class BackendProcess:
     """`python -m robwot_sim serve --port 0` with stderr captured to a file."""
 
-    def __init__(self, *args: str) -> None:
+    def __init__(self, *args: str, stdin: int = subprocess.DEVNULL) -> None:
         self.stderr_file = tempfile.TemporaryFile()  # noqa: SIM115 - lives as long as the process
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "robwot_sim", "serve", "--port", "0", *args],
-            stdout=subprocess.PIPE, stderr=self.stderr_file, stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE, stderr=self.stderr_file, stdin=stdin,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )
         assert self.proc.stdout is not None

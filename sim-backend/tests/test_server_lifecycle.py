@@ -78,3 +78,13 @@ def test_survives_abrupt_disconnects_and_raw_garbage() -> None:
     assert c2.call("robot.move", {"robot": "k", "target": [0.0] * 7, "realtime": 0})["status"] == "reached"
     c2.close()
     assert backend.stop() == 0
+
+
+def test_exit_on_stdin_eof() -> None:
+    """With --exit-on-stdin-eof the server exits cleanly once its stdin pipe closes (launcher died)."""
+    backend = BackendProcess("--exit-on-stdin-eof", stdin=subprocess.PIPE)
+    client = backend.client()
+    assert client.call("ping")["version"]
+    assert backend.proc.stdin is not None
+    backend.proc.stdin.close()
+    assert backend.proc.wait(15) == 0

@@ -1,3 +1,4 @@
+import { spawn } from "node:child_process";
 import { chmodSync, mkdtempSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
@@ -54,6 +55,30 @@ describe("launchBackend", () => {
     backend.process.kill("SIGKILL");
     expect(await exited).toEqual({ code: null, signal: "SIGKILL" });
     expect(await move).toBeInstanceOf(ConnectionClosedError);
+  });
+
+  it("takes the backend down when the launching process is SIGKILLed", async () => {
+    const entry = new URL("../dist/index.js", import.meta.url).href;
+    const code = `const { launchBackend } = await import(${JSON.stringify(entry)});
+      const b = await launchBackend(); console.log(b.pid); setInterval(() => {}, 1000);`;
+    const parent = spawn(process.execPath, ["--input-type=module", "-e", code], { stdio: ["ignore", "pipe", "inherit"] });
+    const pid = await new Promise<number>((resolve, reject) => {
+      parent.stdout.once("data", (d: Buffer) => resolve(Number(d.toString().trim())));
+      parent.once("exit", (c) => reject(new Error(`launcher exited early (${c})`)));
+    });
+    const alive = (): boolean => {
+      try {
+        process.kill(pid, 0);
+        return true;
+      } catch {
+        return false;
+      }
+    };
+    expect(alive()).toBe(true);
+    parent.kill("SIGKILL");
+    const deadline = Date.now() + 15_000;
+    while (alive() && Date.now() < deadline) await new Promise((r) => setTimeout(r, 100));
+    expect(alive()).toBe(false);
   });
 
   it("fails clearly when the interpreter is missing", async () => {

@@ -1,7 +1,8 @@
 /**
  * Starts the Python backend (`python -m robwot_sim serve`) as a child process, waits for its
  * `{"event":"ready","port":N}` line and connects a SimClient. The child is stopped by `stop()`
- * (SIGTERM, then SIGKILL after a grace period) and killed when this Node process exits.
+ * (SIGTERM, then SIGKILL after a grace period) and killed when this Node process exits; should this
+ * process die without cleaning up, the backend sees its stdin pipe close and exits by itself.
  *
  * Python interpreter, in order: `options.python`, env `ROBWOT_PYTHON`, `<repo>/sim-backend/.venv/bin/python`
  * (the repo root is `../../` from this package, i.e. `../../../` from `src/` or `dist/`).
@@ -131,9 +132,10 @@ export async function launchBackend(options: LaunchOptions = {}): Promise<Launch
     );
   }
   const host = options.host ?? "127.0.0.1";
-  const args = ["-m", "robwot_sim", "serve", "--host", host, "--port", String(options.port ?? 0)];
+  // --exit-on-stdin-eof: the backend ends when our end of its stdin pipe closes, even if we are SIGKILLed
+  const args = ["-m", "robwot_sim", "serve", "--host", host, "--port", String(options.port ?? 0), "--exit-on-stdin-eof"];
   const child = spawn(python, args, {
-    stdio: ["ignore", "pipe", "pipe"],
+    stdio: ["pipe", "pipe", "pipe"],
     env: { ...process.env, PYTHONUNBUFFERED: "1", ...options.env },
     ...(options.cwd ? { cwd: options.cwd } : {}),
   });

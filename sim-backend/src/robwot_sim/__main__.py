@@ -25,6 +25,8 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("--max-message", type=int, default=DEFAULT_MAX_MESSAGE_BYTES,
                        help=f"largest accepted message in bytes (default {DEFAULT_MAX_MESSAGE_BYTES})")
     serve.add_argument("--log-level", default="WARNING", help="stderr log level (default WARNING)")
+    serve.add_argument("--exit-on-stdin-eof", action="store_true",
+                       help="stop when stdin is closed (used by launchers to tie our life to theirs)")
     return parser
 
 
@@ -45,7 +47,8 @@ def main(argv: list[str] | None = None) -> int:
         os.close(ready_fd)
 
     try:
-        asyncio.run(run_server(args.host, args.port, max_message_bytes=args.max_message, on_ready=ready))
+        asyncio.run(run_server(args.host, args.port, max_message_bytes=args.max_message, on_ready=ready,
+                               exit_on_stdin_eof=args.exit_on_stdin_eof))
     except OSError as exc:
         print(f"robwot_sim: cannot serve on {args.host}:{args.port}: {exc}", file=sys.stderr)
         return 1

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
 import signal
+import sys
 import threading
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -141,16 +143,38 @@ class Backend:
             task.cancel()
 
 
+def _watch_stdin(loop: asyncio.AbstractEventLoop, stop: asyncio.Event) -> None:
+    """Set `stop` when stdin reaches end of file (the parent process died or closed the pipe)."""
+    stdin_fd = sys.stdin.fileno()
+
+    def wait_eof() -> None:
+        try:  # raw fd reads: a daemon thread blocked in a buffered read aborts interpreter shutdown
+            while os.read(stdin_fd, 4096):
+                pass
+        except (OSError, ValueError):
+            pass
+        if not loop.is_closed():
+            loop.call_soon_threadsafe(stop.set)
+
+    threading.Thread(target=wait_eof, name="robwot-stdin-watch", daemon=True).start()
+
+
 async def run_server(host: str = "127.0.0.1", port: int = 0, *,
                      max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
                      on_ready: Callable[[int], None] | None = None,
-                     stop: asyncio.Event | None = None) -> None:
-    """Serve until `stop` is set (or SIGTERM/SIGINT when `stop` is None); `on_ready(port)` once listening."""
+                     stop: asyncio.Event | None = None, exit_on_stdin_eof: bool = False) -> None:
+    """Serve until `stop` is set (or SIGTERM/SIGINT when `stop` is None); `on_ready(port)` once listening.
+
+    With `exit_on_stdin_eof`, also stop when stdin closes: a launcher that keeps a pipe to our stdin thus
+    takes the server down with it even when it is killed without a chance to clean up.
+    """
     loop = asyncio.get_running_loop()
     if stop is None:
         stop = asyncio.Event()
         for sig in (signal.SIGTERM, signal.SIGINT):
             loop.add_signal_handler(sig, stop.set)
+    if exit_on_stdin_eof:
+        _watch_stdin(loop, stop)
     with World() as world:
         backend = Backend(world, max_message_bytes)
         hard_cap = max(4 * max_message_bytes, max_message_bytes + 1024 * 1024)
