@@ -15,7 +15,8 @@ const cache = new Map<string, string>();
 /** `robwot generate <robot> --samples N --out <tmp>` once per process; returns a private copy. */
 export async function generateTwin(robot = "kuka_iiwa", samples = 3000, extra: string[] = []): Promise<string> {
   const key = [robot, samples, ...extra].join(" ");
-  let dir = cache.get(key);
+  // ROBWOT_TEST_TWIN_<ROBOT>=<folder>: reuse a folder generated earlier (faster local iteration)
+  let dir = process.env[`ROBWOT_TEST_TWIN_${robot.toUpperCase()}`] ?? cache.get(key);
   if (!dir || !existsSync(dir)) {
     dir = join(mkdtempSync(join(tmpdir(), "robwot-serve-gen-")), robot);
     const r = await runCli(["generate", robot, "--samples", String(samples), "--out", dir, ...extra], { timeoutMs: 300_000 });

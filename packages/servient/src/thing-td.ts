@@ -13,6 +13,8 @@ import type { TdDocument } from "./twin-folder.js";
 
 type Json = Record<string, unknown>;
 
+const TD10 = "https://www.w3.org/2019/wot/td/v1";
+
 const clone = <T>(v: T): T => structuredClone(v);
 
 function eachAffordance(td: TdDocument, fn: (a: Json, kind: "properties" | "actions" | "events", name: string) => void): void {
@@ -28,7 +30,7 @@ export function produceInit(td: TdDocument): WoT.ExposedThingInit {
   eachAffordance(init, (a) => delete a.forms);
   // node-wot 0.9.2 validates the init against the TD 1.0 schema: its context URL only
   const ctx = Array.isArray(init["@context"]) ? (init["@context"] as unknown[]) : [];
-  init["@context"] = ["https://www.w3.org/2019/wot/td/v1", ...ctx.filter((c) => typeof c === "object")];
+  init["@context"] = [TD10, ...ctx.filter((c) => typeof c === "object")];
   init.securityDefinitions = { nosec_sc: { scheme: "nosec" } };
   init.security = "nosec_sc";
   return init as unknown as WoT.ExposedThingInit;
@@ -55,6 +57,10 @@ export interface ServeTdOptions {
 
 export function servedTd(td: TdDocument, o: ServeTdOptions): TdDocument {
   const out = clone(td);
+  // node-wot 0.9.2 consumers validate against a schema that wants the TD 1.0 context first; TD 1.1
+  // allows [v1, v1.1, ...] for exactly this compatibility
+  const ctx = Array.isArray(out["@context"]) ? (out["@context"] as unknown[]) : [out["@context"]];
+  if (ctx[0] !== TD10) out["@context"] = [TD10, ...ctx.filter((c) => c !== TD10)];
   out.base = `${o.url}/${o.slug}/`;
   eachAffordance(out, (a) => {
     for (const f of (a.forms ?? []) as Json[]) {
