@@ -126,6 +126,19 @@ describe("SimClient against the real backend", () => {
     expect((await sim.ping()).pybullet).toBe("3.2.7");
   });
 
+  it("generates a workspace with progress callbacks", async () => {
+    const out = mkdtempSync(join(tmpdir(), "robwot-ws-"));
+    const stages: string[] = [];
+    const summary = await sim.generateWorkspace(
+      { robot: "kuka", outDir: out, samples: 2000, seed: 3, workers: 1 },
+      { onProgress: (p) => stages.push(p.stage) },
+    );
+    expect(summary.samples).toBe(2000);
+    expect(summary.collisionFree).toBeGreaterThan(0);
+    expect(new Set(stages)).toEqual(new Set(["sample", "collide", "alpha", "write"]));
+    expect(readFileSync(join(out, "workspace.csv"), "utf8").trim().split("\n")).toHaveLength(2001);
+  });
+
   it("exports a self-contained URDF", async () => {
     const out = mkdtempSync(join(tmpdir(), "robwot-export-"));
     const result = await sim.exportRobot("kuka", out);
