@@ -1,0 +1,155 @@
+"""Workspace generation: sample configurations, vectorised FK, parallel collision labelling, alpha shape.
+
+``generate_workspace`` writes ``workspace.csv`` and ``workspace.stl`` into ``out_dir`` and returns the
+WorkspaceSummary of ARCHITECTURE.md (Contract 2). Units: metres, radians, seconds; world frame.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy
+
+import robwot_sim
+from robwot_sim.errors import InvalidParams
+from robwot_sim.urdf import read_urdf
+from robwot_sim.workspace.alpha_shape import AlphaShape, alpha_shape
+from robwot_sim.workspace.fk import ChainFK
+from robwot_sim.workspace.io import write_csv, write_stl
+from robwot_sim.workspace.labelling import Labelling, warm_up
+from robwot_sim.workspace.sampling import sample_configurations
+
+if TYPE_CHECKING:
+    from robwot_sim.sim.world import World
+
+__all__ = ["AlphaShape", "ChainFK", "alpha_shape", "chain_fk", "generate_workspace", "warm_up"]
+
+Progress = Callable[[str, int, int], None]
+
+
+def versions() -> dict[str, str]:
+    """Versions of the tools that produced a workspace."""
+    try:
+        pybullet = metadata.version("pybullet")
+    except metadata.PackageNotFoundError:  # pragma: no cover - pybullet is a dependency
+        pybullet = "unknown"
+    return {"robwot_sim": robwot_sim.__version__, "pybullet": pybullet, "numpy": np.__version__,
+            "scipy": scipy.__version__}
+
+
+def chain_fk(world: World, robot_id: str) -> ChainFK:
+    """Vectorised FK of a loaded robot's end-effector link (its URDF chain and base pose)."""
+    model = world.robot_model(robot_id)
+    urdf = next((str(r["urdf"]) for r in world.scene_spec().get("robots", []) if r.get("id") == robot_id),
+                model.urdf)
+    return ChainFK.from_urdf(read_urdf(urdf), model.ee_link, model.controllable,
+                             base_position=model.base_position, base_orientation=model.base_orientation,
+                             file=urdf)
+
+
+def _check(samples: int, seed: int, workers: int | None, alpha: float | str) -> tuple[int, float | str]:
+    def is_int(v: object) -> bool:
+        return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+    if not is_int(samples) or samples < 1:
+        raise InvalidParams("samples must be an integer >= 1", param="samples", expected="integer >= 1",
+                            got=samples)
+    if not is_int(seed) or seed < 0:
+        raise InvalidParams("seed must be an integer >= 0", param="seed", expected="integer >= 0", got=seed)
+    n = (os.cpu_count() or 1) if workers is None else workers
+    if not is_int(n) or n < 1:
+        raise InvalidParams("workers must be an integer >= 1", param="workers", expected="integer >= 1",
+                            got=workers)
+    if alpha != "auto":
+        if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not math.isfinite(alpha) \
+                or alpha <= 0:
+            raise InvalidParams('alpha must be "auto" or a radius in metres > 0', param="alpha",
+                                expected='"auto" or number > 0', got=alpha)
+        alpha = float(alpha)
+    return int(n), alpha
+
+
+def _out_dir(out_dir: str | Path) -> Path:
+    if not isinstance(out_dir, (str, Path)) or not str(out_dir):
+        raise InvalidParams("outDir must be a folder path", param="outDir", expected="string", got=out_dir)
+    out = Path(out_dir).expanduser()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InvalidParams(f"outDir {str(out)!r} cannot be created: {e.strerror}", param="outDir",
+                            expected="a writable folder", got=str(out)) from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise InvalidParams(f"outDir {str(out)!r} is not writable", param="outDir",
+                            expected="a writable folder", got=str(out))
+    return out
+
+
+def _bounds(points: np.ndarray) -> dict[str, list[float] | None]:
+    if len(points) == 0:
+        return {"min": None, "max": None}
+    return {"min": [float(v) for v in points.min(axis=0)], "max": [float(v) for v in points.max(axis=0)]}
+
+
+def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, seed: int = 1,
+                       workers: int | None = None, alpha: float | str = "auto", out_dir: str | Path,
+                       csv_joints: bool = False, progress: Progress | None = None) -> dict[str, Any]:
+    """Sample ``samples`` configurations (seeded), label them in ``workers`` processes, build the alpha
+    shape of the collision-free end-effector positions and write ``workspace.csv``/``workspace.stl``.
+
+    Returns the WorkspaceSummary; ``bounds`` are those of the collision-free points (``None`` when there
+    is none); ``timings`` in seconds: ``sample`` = sampling + FK, ``collide`` = wall time of the parallel
+    labelling (FK runs in the meantime), ``alpha``, ``write``. A ``warning`` key appears when the
+    alpha shape fell back to the convex hull.
+    """
+    n_workers, alpha_arg = _check(samples, seed, workers, alpha)
+    report: Progress = progress or (lambda _s, _d, _t: None)
+    model = world.robot_model(robot_id)
+    out = _out_dir(out_dir)
+    spec = world.scene_spec()
+    for r in spec.get("robots", []):
+        if r.get("id") == robot_id:
+            r.pop("positions", None)  # irrelevant to labelling: keeps the workers' cached world valid
+    fk = chain_fk(world, robot_id)
+    lower, upper = model.limits()
+
+    t0 = time.perf_counter()
+    report("sample", 0, samples)
+    qs = sample_configurations(lower, upper, int(samples), int(seed))
+    t_submit = time.perf_counter()
+    job = Labelling(spec, robot_id, qs, n_workers)
+    t1 = time.perf_counter()
+    positions = fk.positions(qs)
+    t_sample = (t_submit - t0) + (time.perf_counter() - t1)
+    report("sample", samples, samples)
+    report("collide", 0, samples)
+    free = job.result(lambda done, total: report("collide", done, total))
+    t_collide = time.perf_counter() - t_submit
+
+    t2 = time.perf_counter()
+    report("alpha", 0, 1)
+    shape = alpha_shape(positions[free], alpha_arg)
+    report("alpha", 1, 1)
+    t3 = time.perf_counter()
+
+    report("write", 0, 2)
+    write_csv(out / "workspace.csv", positions, free, qs if csv_joints else None, model.controllable)
+    report("write", 1, 2)
+    write_stl(out / "workspace.stl", shape.vertices, shape.triangles)
+    report("write", 2, 2)
+    t4 = time.perf_counter()
+
+    summary: dict[str, Any] = {
+        "samples": int(samples), "collisionFree": int(free.sum()), "bounds": _bounds(positions[free]),
+        "alpha": shape.alpha, "method": shape.method, "volume": shape.volume, "seed": int(seed),
+        "timings": {"sample": t_sample, "collide": t_collide, "alpha": t3 - t2, "write": t4 - t3},
+        "versions": versions()}
+    if shape.warning is not None:
+        summary["warning"] = shape.warning
+    return summary

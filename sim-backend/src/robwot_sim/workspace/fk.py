@@ -1,0 +1,208 @@
+"""Vectorised forward kinematics (numpy) of the joint chain from a URDF's root link to one link.
+
+Frames: the world frame (Z up). The robot's root link frame is placed at the base pose given at load
+(``base_position`` in m, ``base_orientation`` as ``[x, y, z, w]``); each joint applies its ``<origin>``
+(``xyz`` in m, ``rpy`` in rad, fixed-axis roll-pitch-yaw: R = Rz(yaw) Ry(pitch) Rx(roll)) and then its
+motion about/along ``<axis>`` (expressed in the joint frame). The result is the URDF link frame of the
+target link (not its centre of mass), as ``World.fk`` reports it.
+
+Joint values come in the order of the robot's ``controllable`` list; mimic joints follow their master
+(``value = multiplier * master + offset``); fixed joints only contribute their origin.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from robwot_sim.errors import UnknownLink, UrdfError
+
+FloatArray = npt.NDArray[np.float64]
+
+_MOVING = ("revolute", "continuous", "prismatic")
+_KNOWN = (*_MOVING, "fixed")
+
+
+@dataclass(frozen=True)
+class ChainJoint:
+    """One joint on the chain. ``source`` indexes the joint vector (-1 for fixed joints)."""
+
+    name: str
+    type: str
+    origin_xyz: tuple[float, float, float]
+    origin_rot: tuple[tuple[float, float, float], ...]
+    axis: tuple[float, float, float]
+    source: int
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> FloatArray:
+    """URDF fixed-axis rotation ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``."""
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
+                              math.cos(yaw), math.sin(yaw))
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]], dtype=np.float64)
+
+
+def quat_matrix(quat_xyzw: Sequence[float]) -> FloatArray:
+    """Rotation matrix of a quaternion ``[x, y, z, w]`` (normalised first)."""
+    x, y, z, w = (float(v) for v in quat_xyzw)
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if n == 0.0:
+        raise ValueError("zero quaternion")
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]], dtype=np.float64)
+
+
+def _floats(text: str | None, n: int, default: float, *, where: str, file: str) -> tuple[float, ...]:
+    if text is None:
+        return (default,) * n
+    parts = text.split()
+    try:
+        vals = tuple(float(p) for p in parts)
+    except ValueError:
+        raise UrdfError(f"{where}: expected {n} numbers, got {text!r}", file=file) from None
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise UrdfError(f"{where}: expected {n} finite numbers, got {text!r}", file=file)
+    return vals
+
+
+class ChainFK:
+    """Forward kinematics of the chain ending at ``ee_link``, vectorised over configurations."""
+
+    def __init__(self, joints: Sequence[ChainJoint], dof: int, ee_link: str,
+                 base_position: Sequence[float] = (0.0, 0.0, 0.0),
+                 base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0)) -> None:
+        self.joints = tuple(joints)
+        self.dof = dof
+        self.ee_link = ee_link
+        self.base_position = np.asarray(base_position, dtype=np.float64).reshape(3)
+        self.base_rotation = quat_matrix(base_orientation)
+
+    @classmethod
+    def from_urdf(cls, root: ET.Element, ee_link: str, controllable: Sequence[str], *,
+                  base_position: Sequence[float] = (0.0, 0.0, 0.0),
+                  base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), file: str = "") -> ChainFK:
+        """Build the chain root -> ``ee_link`` from a parsed URDF (``robwot_sim.urdf.read_urdf``)."""
+        by_child: dict[str, ET.Element] = {}
+        by_name: dict[str, ET.Element] = {}
+        for j in root.findall("joint"):
+            child = j.find("child")
+            name = j.get("name", "")
+            if child is None or child.get("link") is None:
+                raise UrdfError(f"joint {name!r} has no <child link=...>", file=file)
+            by_child[str(child.get("link"))] = j
+            by_name[name] = j
+        links = [str(lk.get("name")) for lk in root.findall("link")]
+        if ee_link not in links:
+            raise UnknownLink(ee_link, links)
+        index = {n: i for i, n in enumerate(controllable)}
+        chain: list[ET.Element] = []
+        link, seen = ee_link, set()
+        while link in by_child:
+            if link in seen:
+                raise UrdfError(f"kinematic loop through link {link!r}", file=file)
+            seen.add(link)
+            j = by_child[link]
+            chain.append(j)
+            parent = j.find("parent")
+            link = str(parent.get("link")) if parent is not None else ""
+        chain.reverse()
+        return cls([_chain_joint(j, index, by_name, file) for j in chain], len(controllable), ee_link,
+                   base_position, base_orientation)
+
+    def _values(self, qs: FloatArray, j: ChainJoint) -> FloatArray:
+        v = qs[:, j.source]
+        return v if j.multiplier == 1.0 and j.offset == 0.0 else v * j.multiplier + j.offset
+
+    def poses(self, qs: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Positions ``(n, 3)`` (m) and rotation matrices ``(n, 3, 3)`` of the end link, world frame."""
+        q = np.asarray(qs, dtype=np.float64)
+        if q.ndim != 2 or q.shape[1] != self.dof:
+            raise ValueError(f"expected configurations of shape (n, {self.dof}), got {q.shape}")
+        n = q.shape[0]
+        p = np.broadcast_to(self.base_position, (n, 3)).copy()
+        r = np.broadcast_to(self.base_rotation, (n, 3, 3)).copy()
+        for j in self.joints:
+            p += r @ np.asarray(j.origin_xyz)
+            r = r @ np.asarray(j.origin_rot)
+            if j.source < 0:
+                continue
+            v = self._values(q, j)
+            axis = np.asarray(j.axis)
+            if j.type == "prismatic":
+                p += (r @ axis) * v[:, None]
+            else:
+                r = r @ _axis_angle(axis, v)
+        return p, r
+
+    def positions(self, qs: npt.ArrayLike) -> FloatArray:
+        """End-link frame positions ``(n, 3)`` in metres, world frame."""
+        return self.poses(qs)[0]
+
+
+def _axis_angle(axis: FloatArray, angle: FloatArray) -> FloatArray:
+    """Rodrigues rotation matrices ``(n, 3, 3)`` about a fixed unit ``axis`` by ``angle`` (rad)."""
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    k2 = k @ k
+    s = np.sin(angle)[:, None, None]
+    c = (1.0 - np.cos(angle))[:, None, None]
+    rot: FloatArray = np.eye(3) + s * k + c * k2
+    return rot
+
+
+def _chain_joint(j: ET.Element, index: dict[str, int], by_name: dict[str, ET.Element],
+                 file: str) -> ChainJoint:
+    name = j.get("name", "")
+    jtype = j.get("type", "")
+    if jtype not in _KNOWN:
+        raise UrdfError(f"joint {name!r}: type {jtype!r} is not supported (use one of {', '.join(_KNOWN)})",
+                        file=file, joint=name)
+    origin = j.find("origin")
+    xyz = _floats(origin.get("xyz") if origin is not None else None, 3, 0.0,
+                  where=f"joint {name!r} origin xyz", file=file)
+    rpy = _floats(origin.get("rpy") if origin is not None else None, 3, 0.0,
+                  where=f"joint {name!r} origin rpy", file=file)
+    rot = rpy_matrix(*rpy)
+    ax_el = j.find("axis")
+    axis = np.array(_floats(ax_el.get("xyz", "1 0 0") if ax_el is not None else "1 0 0", 3, 0.0,
+                            where=f"joint {name!r} axis", file=file))
+    source, mult, off = -1, 1.0, 0.0
+    if jtype in _MOVING:
+        norm = float(np.linalg.norm(axis))
+        if norm == 0.0:
+            raise UrdfError(f"joint {name!r}: zero axis", file=file, joint=name)
+        axis = axis / norm
+        source, mult, off = _source(name, index, by_name, file)
+    return ChainJoint(name, jtype, (xyz[0], xyz[1], xyz[2]),
+                      tuple((float(a), float(b), float(c)) for a, b, c in rot),
+                      (float(axis[0]), float(axis[1]), float(axis[2])), source, mult, off)
+
+
+def _source(name: str, index: dict[str, int], by_name: dict[str, ET.Element],
+            file: str) -> tuple[int, float, float]:
+    """Joint-vector index plus the composed mimic multiplier/offset driving joint ``name``."""
+    mult, off, seen = 1.0, 0.0, set()
+    while name not in index:
+        if name in seen:
+            raise UrdfError(f"mimic loop through joint {name!r}", file=file, joint=name)
+        seen.add(name)
+        el = by_name.get(name)
+        mimic = el.find("mimic") if el is not None else None
+        if mimic is None or mimic.get("joint") is None:
+            raise UrdfError(f"joint {name!r} is neither controllable nor a mimic of one", file=file,
+                            joint=name)
+        m = float(mimic.get("multiplier", "1"))
+        o = float(mimic.get("offset", "0"))
+        mult, off = mult * m, off + mult * o  # v = mult * (m * master + o) + off
+        name = str(mimic.get("joint"))
+    return index[name], mult, off

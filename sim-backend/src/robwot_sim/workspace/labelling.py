@@ -1,0 +1,182 @@
+"""Parallel collision labelling of joint configurations, one PyBullet world per worker process.
+
+PyBullet clients cannot be shared across ``fork``, so workers come from a ``forkserver`` (a clean
+process, started once, that has already imported numpy, pybullet and the simulation core): forking a
+worker from it costs milliseconds instead of a fresh interpreter's import time. The pool stays alive
+between calls; each worker rebuilds its world from the main world's ``scene_spec()`` (obstacles and
+every robot, with their base poses and joint positions) and keeps it while the spec is unchanged, so a
+second generation in the same backend skips the rebuild. Work is split in chunks for progress
+reporting and load balance.
+"""
+
+from __future__ import annotations
+
+import atexit
+import hashlib
+import json
+import math
+import multiprocessing
+import os
+import threading
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from robwot_sim.errors import InternalError, SimError
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+MIN_CHUNK = 500
+MAX_CHUNK = 4000
+CHUNKS_PER_WORKER = 8
+_PRELOAD = ["robwot_sim.workspace.labelling", "robwot_sim.sim.world"]
+
+_pool_lock = threading.Lock()
+_pool: ProcessPoolExecutor | None = None
+_pool_size = 0
+
+# worker-process state: (spec key, World)
+_worker_world: tuple[str, Any] | None = None
+
+
+def spec_key(spec: dict[str, Any]) -> str:
+    """Stable digest of a scene document (identifies a worker's cached world)."""
+    text = json.dumps(spec, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray) -> Any:
+    """Runs in a worker: label ``qs`` in the cached world (built from ``spec`` when the key changed).
+
+    Returns the flag array, or an error dict (``SimError`` subclasses do not all survive pickling).
+    """
+    global _worker_world
+    try:
+        if _worker_world is None or _worker_world[0] != key:
+            from robwot_sim.sim.world import World
+
+            if _worker_world is not None:
+                _worker_world[1].close()
+                _worker_world = None
+            world = World()
+            try:
+                world.load_scene(spec)
+            except BaseException:
+                world.close()
+                raise
+            _worker_world = (key, world)
+        flags: BoolArray = _worker_world[1].collision_free_batch(robot_id, qs)
+        return flags
+    except SimError as e:
+        return {"error": e.to_json(), "type": type(e).__name__}
+
+
+def _ping() -> int:
+    return os.getpid()
+
+
+def _get_pool(workers: int) -> ProcessPoolExecutor:
+    global _pool, _pool_size
+    with _pool_lock:
+        if _pool is not None and _pool_size != workers:
+            _pool.shutdown(wait=False, cancel_futures=True)
+            _pool = None
+        if _pool is None:
+            ctx = multiprocessing.get_context("forkserver")
+            ctx.set_forkserver_preload(_PRELOAD)
+            _pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+            _pool_size = workers
+        return _pool
+
+
+def _drop_pool() -> None:
+    global _pool
+    with _pool_lock:
+        if _pool is not None:
+            _pool.shutdown(wait=False, cancel_futures=True)
+            _pool = None
+
+
+def shutdown_pool() -> None:
+    """Stop the worker processes (also registered with ``atexit``)."""
+    global _pool
+    with _pool_lock:
+        if _pool is not None:
+            _pool.shutdown(wait=True, cancel_futures=True)
+            _pool = None
+
+
+atexit.register(shutdown_pool)
+
+
+def warm_up(workers: int | None = None) -> None:
+    """Start the forkserver and the worker processes now (e.g. at backend start), without waiting."""
+    pool = _get_pool(workers or os.cpu_count() or 1)
+    for _ in range(workers or os.cpu_count() or 1):
+        pool.submit(_ping)
+
+
+def chunk_size(n: int, workers: int) -> int:
+    return max(MIN_CHUNK, min(MAX_CHUNK, math.ceil(n / (workers * CHUNKS_PER_WORKER))))
+
+
+class Labelling:
+    """Collision labelling submitted to the pool; ``result()`` waits and reports progress per chunk."""
+
+    def __init__(self, spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int) -> None:
+        self.n = len(qs)
+        self.pool = _get_pool(workers)
+        key = spec_key(spec)
+        size = chunk_size(self.n, workers)
+        self.bounds = [(i, min(i + size, self.n)) for i in range(0, self.n, size)]
+        try:
+            self.futures: dict[Future[Any], tuple[int, int]] = {
+                self.pool.submit(_worker_label, key, spec, robot_id, np.ascontiguousarray(qs[a:b])): (a, b)
+                for a, b in self.bounds}
+        except (BrokenProcessPool, RuntimeError):
+            _drop_pool()
+            raise InternalError("the collision worker pool could not start") from None
+
+    def result(self, progress: Callable[[int, int], None] | None = None) -> BoolArray:
+        out = np.zeros(self.n, dtype=bool)
+        done = 0
+        pending = set(self.futures)
+        try:
+            while pending:
+                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for f in finished:
+                    a, b = self.futures[f]
+                    res = f.result()
+                    if isinstance(res, dict):
+                        raise _rebuild_error(res)
+                    out[a:b] = res
+                    done += b - a
+                if progress is not None:
+                    progress(done, self.n)
+        except BrokenProcessPool:
+            _drop_pool()
+            raise InternalError("a collision worker process died (PyBullet crash or out of memory)") from None
+        finally:
+            for f in pending:
+                f.cancel()
+        return out
+
+
+def _rebuild_error(res: dict[str, Any]) -> SimError:
+    err = res["error"]
+    data = dict(err.get("data", {}))
+    code = data.pop("code", "E_INTERNAL")
+    e = SimError(f"collision worker: {err.get('message', '')}", code=code, **data)
+    e.rpc_code = int(err.get("code", -32603))
+    return e
+
+
+def label_configurations(spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int,
+                         progress: Callable[[int, int], None] | None = None) -> BoolArray:
+    """Collision-free flag per row of ``qs`` (controllable joint order) in the world described by ``spec``."""
+    return Labelling(spec, robot_id, qs, workers).result(progress)

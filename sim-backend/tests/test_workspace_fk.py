@@ -1,0 +1,108 @@
+"""Vectorised FK (robwot_sim.workspace.fk) against PyBullet's link frames (World.fk) and sampling."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robwot_sim.errors import InvalidParams, UnknownLink
+from robwot_sim.sim.world import World
+from robwot_sim.urdf import read_urdf
+from robwot_sim.workspace import chain_fk
+from robwot_sim.workspace.fk import ChainFK, quat_matrix, rpy_matrix
+from robwot_sim.workspace.sampling import sample_configurations
+
+MODELS = Path(__file__).parent / "models" / "workspace"
+BASE_POS = (0.3, -0.2, 0.1)
+BASE_QUAT = (0.1, 0.2, 0.3, 0.9)  # normalised by the loader and by the FK alike
+
+
+@pytest.fixture(scope="module")
+def world() -> Iterator[World]:
+    with World() as w:
+        yield w
+
+
+@pytest.mark.parametrize("urdf", [
+    "kuka_iiwa/model.urdf", "franka_panda/panda.urdf", "xarm/xarm6_robot.urdf",
+    str(MODELS / "chain_mimic.urdf"), str(MODELS / "shell.urdf"), str(MODELS / "planar2.urdf"),
+])
+def test_fk_matches_pybullet(world: World, urdf: str) -> None:
+    """Vectorised FK equals PyBullet's end-effector link frame (< 1e-6 m, < 1e-6 in rotation) at random q."""
+    rid = Path(urdf).stem + "-fk"
+    model = world.load_robot(urdf, robot_id=rid, base_position=BASE_POS, base_orientation=BASE_QUAT)
+    try:
+        fk = chain_fk(world, rid)
+        lo, hi = model.limits()
+        qs = sample_configurations(lo, hi, 40, seed=7)
+        pos, rot = fk.poses(qs)
+        for i, q in enumerate(qs):
+            pose = world.fk(rid, q)
+            assert np.abs(np.array(pose.position) - pos[i]).max() < 1e-6
+            assert np.abs(quat_matrix(pose.quat_xyzw) - rot[i]).max() < 1e-6
+        assert np.allclose(fk.positions(qs), pos)
+    finally:
+        world.remove_robot(rid)
+
+
+def test_fk_base_pose_moves_points(world: World) -> None:
+    """The base pose is applied: the same q differs by the base transform between two placements."""
+    a = world.load_robot("kuka_iiwa/model.urdf", robot_id="kuka-a")
+    b = world.load_robot("kuka_iiwa/model.urdf", robot_id="kuka-b", base_position=BASE_POS,
+                         base_orientation=BASE_QUAT)
+    try:
+        lo, hi = a.limits()
+        qs = sample_configurations(lo, hi, 10, seed=3)
+        pa = chain_fk(world, "kuka-a").positions(qs)
+        pb = chain_fk(world, "kuka-b").positions(qs)
+        expected = pa @ quat_matrix(BASE_QUAT).T + np.array(BASE_POS)
+        assert np.abs(pb - expected).max() < 1e-12
+        assert b.base_position == pytest.approx(BASE_POS)
+    finally:
+        world.remove_robot("kuka-a")
+        world.remove_robot("kuka-b")
+
+
+def test_fk_mimic_follows_master() -> None:
+    """A mimic joint on the chain moves with its master (multiplier and offset) without a vector entry."""
+    root = read_urdf(MODELS / "chain_mimic.urdf")
+    fk = ChainFK.from_urdf(root, "tool", ["base_yaw", "spin", "slide"])
+    follower = next(j for j in fk.joints if j.name == "follower")
+    assert (follower.source, follower.multiplier, follower.offset) == (0, 0.5, 0.2)
+    assert fk.dof == 3
+
+
+def test_fk_unknown_link_lists_links() -> None:
+    """An unknown end-effector link is refused with the available names."""
+    root = read_urdf(MODELS / "shell.urdf")
+    with pytest.raises(UnknownLink) as exc:
+        ChainFK.from_urdf(root, "nope", ["yaw", "pitch", "radial"])
+    assert "tip" in exc.value.data["available"]
+
+
+def test_rpy_matches_fixed_axis_convention() -> None:
+    """URDF rpy is Rz(yaw) Ry(pitch) Rx(roll): a pure yaw of pi/2 maps x onto y."""
+    assert np.allclose(rpy_matrix(0, 0, np.pi / 2) @ [1, 0, 0], [0, 1, 0])
+    assert np.allclose(rpy_matrix(np.pi / 2, 0, 0) @ [0, 1, 0], [0, 0, 1])
+
+
+def test_sampling_seeded_and_within_limits() -> None:
+    """Same seed gives the same configurations; all lie within the limits; another seed differs."""
+    lo, hi = np.array([-1.0, 0.05, -3.0]), np.array([2.0, 0.25, 3.0])
+    a = sample_configurations(lo, hi, 5000, seed=1)
+    assert a.shape == (5000, 3)
+    assert np.array_equal(a, sample_configurations(lo, hi, 5000, seed=1))
+    assert not np.array_equal(a, sample_configurations(lo, hi, 5000, seed=2))
+    assert (a >= lo).all() and (a <= hi).all()
+    assert np.allclose(a.mean(axis=0), (lo + hi) / 2, atol=0.05 * (hi - lo))
+
+
+def test_sampling_refuses_bad_limits() -> None:
+    """Infinite or inverted limits are refused with the joint index."""
+    with pytest.raises(InvalidParams):
+        sample_configurations([0.0], [np.inf], 10, seed=1)
+    with pytest.raises(InvalidParams):
+        sample_configurations([1.0], [0.0], 10, seed=1)
