@@ -104,8 +104,7 @@ class Bullet:
     # joints and kinematics
     def reset_joints(self, body: int, indices: Sequence[int], values: Sequence[float]) -> None:
         """Teleport joints (1-DoF each) to ``values`` with zero velocity."""
-        pb.resetJointStatesMultiDof(body, list(indices), [[float(v)] for v in values],
-                                    physicsClientId=self.cid)
+        pb.resetJointStatesMultiDof(body, indices, [[v] for v in values], physicsClientId=self.cid)
 
     def joint_positions(self, body: int, indices: Sequence[int]) -> list[float]:
         return [float(s[0]) for s in pb.getJointStates(body, list(indices), physicsClientId=self.cid)]

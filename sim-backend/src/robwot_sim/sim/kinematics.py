@@ -21,9 +21,10 @@ DAMPING = 1e-3
 ITERATIONS = 100
 RESIDUAL = 1e-7
 CHAIN = 3
-RESTARTS = 40
-CHAIN_POSITION = 1e-6  # m: stop chaining solves below this
-CHAIN_ORIENTATION = 1e-5  # rad
+FIRST_CHAINED = 2  # seed and mid-range attempts: one solve each, then chained random restarts
+RESTARTS = 120
+CHAIN_POSITION = 1e-5  # m: stop chaining solves below this
+CHAIN_ORIENTATION = 1e-4  # rad
 GOOD_POSITION = 1e-4  # m: stop restarting below this
 GOOD_ORIENTATION = 1e-3  # rad
 ACCEPT_POSITION = 1e-3  # m: best result above this is "unreachable"
@@ -45,8 +46,10 @@ def quat_angle(a: Sequence[float], b: Sequence[float]) -> float:
 
 def wrap_clip(robot: BoundRobot, q: FloatArray) -> FloatArray:
     """Wrap continuous joints into [-pi, pi] and clip the others to their limits."""
-    out = np.where(robot.continuous, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
-    return np.clip(out, robot.lower, robot.upper)
+    if robot.continuous.any():
+        q = np.where(robot.continuous, np.mod(q + math.pi, 2 * math.pi) - math.pi, q)
+    out: FloatArray = np.minimum(np.maximum(q, robot.lower), robot.upper)
+    return out
 
 
 def solve_ik(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequence[float] | None,
@@ -59,7 +62,7 @@ def solve_ik(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequence[f
     """
     b = robot.bullet
     damping = [DAMPING] * len(robot.movable_idx)
-    target_p = np.asarray(position, dtype=np.float64)
+    target_p = tuple(float(v) for v in position)
     quat = None if quat_xyzw is None else [float(v) for v in quat_xyzw]
     if quat is not None:
         n = math.sqrt(sum(v * v for v in quat))
@@ -68,23 +71,25 @@ def solve_ik(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequence[f
     def error(q: FloatArray) -> tuple[float, float]:
         robot.apply(q)
         p, o = b.link_frame(robot.body, robot.ee_index)
-        pe = float(np.linalg.norm(np.asarray(p) - target_p))
+        pe = math.dist(p, target_p)
         return pe, (quat_angle(o, quat) if quat is not None else 0.0)
 
     best: tuple[float, FloatArray, float, float] | None = None  # (score, q, pe, oe) of any solution
     fallback: tuple[float, FloatArray, float, float] | None = None  # best colliding one within tolerance
-    start = seed
-    for attempt in range(RESTARTS + 1):
-        if attempt > 0:
-            start = robot.random_q(rng)
-        q = start
+    mid = (robot.lower + robot.upper) / 2
+    for attempt in range(RESTARTS + 2):
+        # the caller's seed first, then the middle of the limits (far from them), then random restarts
+        q = seed if attempt == 0 else mid if attempt == 1 else robot.random_q(rng)
         robot.apply(q)
-        for _ in range(CHAIN):
-            raw = np.asarray(b.ik(robot.body, robot.ee_index, position, quat, damping, ITERATIONS, RESIDUAL))
-            q = wrap_clip(robot, raw[robot.ik_slots])
+        for _ in range(CHAIN if attempt >= FIRST_CHAINED else 1):
+            raw = np.asarray(b.ik(robot.body, robot.ee_index, position, quat, damping, ITERATIONS,
+                                  RESIDUAL))[robot.ik_slots]
+            q = wrap_clip(robot, raw)
             pe, oe = error(q)  # also leaves the robot at q for the next chained solve
             if pe <= CHAIN_POSITION and oe <= CHAIN_ORIENTATION:
                 break
+            if pe > ACCEPT_POSITION and np.array_equal(q, raw):
+                break  # converged inside the limits to a wrong point: restarting beats re-solving
         score = pe + oe * 0.1
         within = pe <= ACCEPT_POSITION and oe <= ACCEPT_ORIENTATION
         if within and is_free is not None and not is_free(q):

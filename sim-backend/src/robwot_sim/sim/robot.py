@@ -171,8 +171,16 @@ class BoundRobot:
                 moving.add(ji.idx)
         self.moving_links = sorted(moving)
         self.static_links = [-1] + [ji.idx for ji in infos if ji.idx not in moving]
-        self.q = np.clip(np.zeros(len(self.ctrl_idx)), self.lower, self.upper)
+        self.q = self.home()
         self.apply(self.q)
+
+    def home(self) -> FloatArray:
+        """Initial configuration: 0 for joints where 0 is at least 10 % of the range away from both limits,
+        the middle of the range otherwise (e.g. Panda joints 4 and 6), so the robot never starts at a limit."""
+        margin = 0.1 * (self.upper - self.lower)
+        zero_ok = (self.lower + margin <= 0) & (0 <= self.upper - margin)
+        out: FloatArray = np.where(zero_ok, 0.0, (self.lower + self.upper) / 2)
+        return out
 
     @property
     def dof(self) -> int:
@@ -180,8 +188,9 @@ class BoundRobot:
 
     def full_values(self, q: FloatArray) -> list[float]:
         """Values for ``set_idx``: the controllable joints then the mimic joints (follower = m * q + off)."""
-        vals = [float(v) for v in q]
-        vals += [float(q[k]) * m + off for _, k, m, off in self.mimic]
+        vals: list[float] = np.asarray(q, dtype=np.float64).tolist()
+        if self.mimic:
+            vals += [vals[k] * m + off for _, k, m, off in self.mimic]
         return vals
 
     def apply(self, q: FloatArray) -> None:
