@@ -69,6 +69,10 @@ export function fromBackendError(err: unknown): ServientError {
   const strCode =
     typeof data.code === "string" ? data.code : typeof e.code === "string" && e.code.startsWith("E_") ? e.code : undefined;
   const message = typeof e.message === "string" ? e.message : String(err);
+  if (strCode === "E_CONNECTION_CLOSED" || strCode === "E_BACKEND_START") {
+    return backendDown(`simulation backend unavailable: ${message}`);
+  }
+  if (strCode === "E_TIMEOUT") return new ServientError(504, "E_BACKEND_TIMEOUT", message);
   if (strCode !== undefined && strCode !== "E_INTERNAL") {
     const status = RPC_STATUS[strCode] ?? 500;
     const { code: _c, ...rest } = data;
