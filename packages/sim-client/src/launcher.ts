@@ -139,6 +139,7 @@ export async function launchBackend(options: LaunchOptions = {}): Promise<Launch
     env: { ...process.env, PYTHONUNBUFFERED: "1", ...options.env },
     ...(options.cwd ? { cwd: options.cwd } : {}),
   });
+  child.stdin?.on("error", () => undefined); // EPIPE once the child is gone: nothing is ever written
   installExitHook();
   live.add(child);
   child.once("exit", () => live.delete(child));
