@@ -21,6 +21,7 @@ from robwot_sim.scene import normalise_obstacle, read_scene
 from robwot_sim.sim import validate as v
 from robwot_sim.sim.client import Bullet, quat_from_rpy
 from robwot_sim.sim.collision import BodyTable
+from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
 from robwot_sim.sim.loader import RobotEntry, load_robot_body
 from robwot_sim.sim.motion import check_speed_dt, plan_joint_path
@@ -53,6 +54,7 @@ class World:
         self._robots: dict[str, RobotEntry] = {}
         self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
         self._rng = np.random.default_rng(ik_seed)
+        self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
 
     def __enter__(self) -> World:
         return self
@@ -61,6 +63,9 @@ class World:
         self.close()
 
     def close(self) -> None:
+        if self._fast is not None:
+            self._fast.close()
+            self._fast = None
         self.bullet.close()
 
     def _entry(self, robot_id: str) -> RobotEntry:
@@ -307,7 +312,24 @@ class World:
             arr > e.bound.upper + 1e-9).any(axis=1)
         if bad.any():
             e.bound.validate(arr[int(np.argmax(bad))], f"qs[{int(np.argmax(bad))}]")
-        return e.checker.batch(arr)
+        if e.checker.static_contacts():
+            return np.zeros(len(arr), dtype=bool)
+        if e.checker.massless_moving:
+            return e.checker.batch(arr)
+        fast = self._fast_world()
+        others = {rid: o.bound.full_values(o.bound.q) for rid, o in self._robots.items() if rid != robot_id}
+        return fast.batch(robot_id, arr, others, e.bound.mimic)
+
+    def _fast_world(self) -> FastWorld:
+        if self._fast is None or self._fast.version != self.table.version:
+            if self._fast is not None:
+                self._fast.close()
+                self._fast = None
+            mirror = {rid: MirrorRobot(e.urdf_path, e.package_roots, e.model.base_position,
+                                       e.model.base_orientation, e.bound.set_idx, e.checker.filtered)
+                      for rid, e in self._robots.items()}
+            self._fast = FastWorld(mirror, [spec for _, spec in self._obstacles.values()], self.table.version)
+        return self._fast
 
     # motion (planning only)
     @_locked

@@ -1,0 +1,122 @@
+"""A second, collision-only PyBullet client for batches of collision checks.
+
+Bullet's ``performCollisionDetection`` updates the bounding box of every object and manages the
+broadphase pairs of all of them at every call: with hundreds of static obstacles this overhead rivals
+the narrowphase itself. Here all primitive obstacles (box, sphere, cylinder) are merged into ONE compound
+body, whose internal AABB tree finds the children near each robot link; robots are mirrored (same
+URDF, base pose, self-collision filter) and mesh obstacles stay separate bodies. Only collision-free
+flags come out of this client; contact details come from the main world (``CollisionChecker``).
+The mirror is rebuilt when the world changes (``BodyTable.version``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pybullet as pb
+
+from robwot_sim.sim.client import Bullet
+from robwot_sim.sim.types import FloatArray
+from robwot_sim.urdf import prepare_urdf
+
+TOUCH = 0.0
+MAX_CHILDREN = 16
+
+
+@dataclass
+class MirrorRobot:
+    """What the mirror needs to rebuild a robot."""
+
+    urdf: Path
+    package_roots: Mapping[str, str]
+    base_position: tuple[float, float, float]
+    base_orientation: tuple[float, float, float, float]
+    set_idx: list[int]
+    filtered: set[tuple[int, int]]
+
+
+class FastWorld:
+    """Mirror of a world for ``is_free`` batches; build with ``FastWorld(robots, obstacles, version)``."""
+
+    def __init__(self, robots: Mapping[str, MirrorRobot], obstacles: list[dict[str, Any]], version: int) -> None:
+        self.version = version
+        self.bullet = Bullet()
+        self.bodies: dict[str, int] = {}
+        try:
+            for rid, r in robots.items():
+                prepared = prepare_urdf(r.urdf, r.package_roots)
+                try:
+                    body = self.bullet.load_urdf(str(prepared.bullet_path), r.base_position, r.base_orientation,
+                                                 pb.URDF_USE_SELF_COLLISION)
+                finally:
+                    prepared.cleanup()
+                for a, b in r.filtered:
+                    self.bullet.set_pair_filter(body, body, a, b, False)
+                self.bodies[rid] = body
+            self._add_obstacles(obstacles)
+        except Exception:
+            self.bullet.close()
+            raise
+        self.robots = dict(robots)
+
+    def _add_obstacles(self, obstacles: list[dict[str, Any]]) -> None:
+        prims = [o for o in obstacles if o["shape"]["type"] != "mesh"]
+        for o in obstacles:
+            if o["shape"]["type"] == "mesh":
+                self.bullet.create_static(o["shape"], o["position"], o["orientation"])
+        # PyBullet caps a compound at 16 children: merge runs of neighbours (scenes list them in order)
+        prims.sort(key=lambda o: float(np.arctan2(o["position"][1], o["position"][0])))
+        for k in range(0, len(prims), MAX_CHILDREN):
+            self._compound(prims[k:k + MAX_CHILDREN])
+
+    def _compound(self, prims: list[dict[str, Any]]) -> None:
+        cid = self.bullet.cid
+        types, radii, halves, lengths = [], [], [], []
+        for o in prims:
+            s = o["shape"]
+            t = s["type"]
+            types.append({"box": pb.GEOM_BOX, "sphere": pb.GEOM_SPHERE, "cylinder": pb.GEOM_CYLINDER}[t])
+            radii.append(float(s.get("radius", 0.0)))
+            halves.append([v / 2 for v in s["size"]] if t == "box" else [0.0, 0.0, 0.0])
+            lengths.append(float(s.get("length", 0.0)))
+        col = pb.createCollisionShapeArray(
+            shapeTypes=types, radii=radii, halfExtents=halves, lengths=lengths,
+            collisionFramePositions=[o["position"] for o in prims],
+            collisionFrameOrientations=[o["orientation"] for o in prims], physicsClientId=cid)
+        if col < 0:
+            raise RuntimeError("PyBullet could not create the compound obstacle shape")
+        body = pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=-1,
+                                  physicsClientId=cid)
+        if len(pb.getCollisionShapeData(body, -1, physicsClientId=cid) or ()) != len(prims):
+            raise RuntimeError("PyBullet dropped children of a compound obstacle shape")
+
+    def close(self) -> None:
+        self.bullet.close()
+
+    def batch(self, robot_id: str, qs: FloatArray, others: Mapping[str, FloatArray],
+              mimic: list[tuple[int, int, float, float]]) -> np.ndarray:
+        """Collision-free flag per row of ``qs`` for ``robot_id``; ``others`` gives the other robots' states
+        as full value lists for their ``set_idx``."""
+        b, cid = self.bullet, self.bullet.cid
+        for rid, vals in others.items():
+            b.reset_joints(self.bodies[rid], self.robots[rid].set_idx, list(vals))
+        body = self.bodies[robot_id]
+        r = self.robots[robot_id]
+        idx, filtered = r.set_idx, r.filtered
+        out = np.zeros(len(qs), dtype=bool)
+        reset, detect, contacts = pb.resetJointStatesMultiDof, pb.performCollisionDetection, pb.getContactPoints
+        for i, q in enumerate(qs.tolist()):
+            vals = q + [q[k] * m + off for _, k, m, off in mimic] if mimic else q
+            reset(body, idx, [[v] for v in vals], physicsClientId=cid)
+            detect(physicsClientId=cid)
+            free = True
+            for c in contacts(body, physicsClientId=cid):
+                if c[8] <= TOUCH and (c[1] != c[2] or (min(c[3], c[4]), max(c[3], c[4])) not in filtered):
+                    free = False
+                    break
+            out[i] = free
+        return out
