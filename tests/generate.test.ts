@@ -38,11 +38,12 @@ async function generate(robot: string, out: string, extra: string[] = []): Promi
 const json = (file: string): Record<string, any> => JSON.parse(readFileSync(file, "utf8")) as Record<string, any>;
 
 describe.each([
-  ["kuka_iiwa", "kuka_iiwa", 7],
-  ["franka_panda", "franka_panda", 7],
-  ["xarm6", "xarm6", 6],
-  ["tiny URDF", "TINY", 3],
-])("robwot generate %s", (_label, robotArg, dof) => {
+  ["kuka_iiwa", "kuka_iiwa", 7, true],
+  // 7 arm joints + panda_finger_joint1 (panda_finger_joint2 mimics it)
+  ["franka_panda", "franka_panda", 8, true],
+  ["xarm6", "xarm6", 6, true],
+  ["tiny URDF", "TINY", 3, false],
+])("robwot generate %s", (_label, robotArg, dof, hasMeshes) => {
   let out: string;
   let printed: Record<string, unknown>;
   beforeAll(async () => {
@@ -119,7 +120,8 @@ describe.each([
     expect(typeof twin["robot"]["eeLink"]).toBe("string");
     expect(json(join(out, "scene.json"))["obstacles"]).toEqual([]);
     const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
-    const meshes = [...urdf.matchAll(/filename="([^"]+)"/g)].map((m) => m[1]!);
+    const meshes = [...urdf.matchAll(/<mesh\b[^>]*\bfilename="([^"]+)"/g)].map((m) => m[1]!);
+    expect(meshes.length > 0).toBe(hasMeshes);
     for (const m of meshes) {
       expect(m).not.toMatch(/^(\/|package:\/\/|file:)/);
       expect(existsSync(join(out, m)), m).toBe(true);
@@ -134,7 +136,7 @@ describe("workspace determinism and obstacles (kuka_iiwa)", () => {
     const a = join(work, "seed-a");
     const b = join(work, "seed-b");
     const c = join(work, "seed-c");
-    const n = ["--samples", "20000"];
+    const n = ["--samples", "10000"];
     await runCli(["generate", "kuka_iiwa", "--out", a, "--seed", "7", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
     await runCli(["generate", "kuka_iiwa", "--out", b, "--seed", "7", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
     await runCli(["generate", "kuka_iiwa", "--out", c, "--seed", "8", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));

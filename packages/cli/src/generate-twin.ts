@@ -25,6 +25,20 @@ export interface GenerateResult {
   seconds: number;
 }
 
+/** Same shape as the real summary; only the numbers differ (used to pre-validate the TD). */
+function placeholderSummary(opts: GenerateOptions): WorkspaceSummary {
+  return {
+    samples: opts.samples,
+    collisionFree: 0,
+    bounds: { min: [-1, -1, -1], max: [1, 1, 1] },
+    alpha: null,
+    method: "alpha-shape",
+    volume: 0,
+    seed: opts.seed,
+    timings: { sample: 0, collide: 0, alpha: 0, write: 0 },
+  };
+}
+
 function writeJson(file: string, value: unknown): void {
   writeFileSync(file, `${JSON.stringify(value, null, 2)}\n`);
 }
@@ -80,7 +94,7 @@ export async function generateTwin(
     tool: `robwot ${VERSION}`,
   });
 
-  const summary = await backend.generateWorkspace(
+  const generating = backend.generateWorkspace(
     {
       robot: model.id,
       samples: opts.samples,
@@ -92,6 +106,13 @@ export async function generateTwin(
     },
     (p) => progress.update(p.stage, p.done, p.total),
   );
+  // While the backend samples: validate the TD's structure (placeholder bounds). This loads the official
+  // validator (~1 s) off the critical path and reports a bad model before the long part ends.
+  const early = await buildTd(model, placeholderSummary(opts), scene, opts.baseUrl)
+    .validate()
+    .catch((err: unknown) => [String(err)]);
+  const summary = await generating;
+  if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
   writeJson(join(staged.tmp, "workspace.json"), summary);
   if (summary.method === "convex-hull") {
     progress.info("the alpha shape degenerated (planar robot or too few points): workspace.stl is the convex hull");

@@ -55,6 +55,7 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
   const staged = StagedDir.create(opts.out, { force: opts.force });
   const dropStaged = onCleanup(() => staged.discard());
   try {
+    progress.stage("backend");
     const backend = await openBackend(opts.backend);
     const dropBackend = onCleanup(() => backend.close());
     try {
