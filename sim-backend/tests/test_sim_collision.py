@@ -26,13 +26,14 @@ def test_environment_contact_names_pair_and_depth() -> None:
     """A box through the upright arm is reported as (robot link, obstacle) with a positive depth."""
     with World() as w:
         m = w.load_robot(KUKA)
-        w.add_obstacle({"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]},
-                        "position": [0.0, 0.0, 0.9]})
+        w.add_obstacle(
+            {"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": [0.0, 0.0, 0.9]}
+        )
         rep = w.check_collision(m.id)
         assert not rep.collision_free
         pairs = {(c.a.body, c.b.body, c.b.link) for c in rep.contacts}
         assert (m.id, "wall", None) in pairs
-        wall = [c for c in rep.contacts if c.b.body == "wall"][0]
+        wall = next(c for c in rep.contacts if c.b.body == "wall")
         assert wall.a.link in m.links and wall.depth > 0.01
         w.move_obstacle("wall", (1.5, 0.0, 0.9))
         assert w.check_collision(m.id).collision_free
@@ -42,8 +43,13 @@ def test_fixed_base_touching_static_obstacle_is_reported() -> None:
     """An obstacle touching only the fixed base (which never moves) is a collision."""
     with World() as w:
         m = w.load_robot(KUKA)
-        w.add_obstacle({"name": "block", "shape": {"type": "box", "size": [0.1, 0.1, 0.1]},
-                        "position": [0.12, 0.0, 0.05]})
+        w.add_obstacle(
+            {
+                "name": "block",
+                "shape": {"type": "box", "size": [0.1, 0.1, 0.1]},
+                "position": [0.12, 0.0, 0.05],
+            }
+        )
         rep = w.check_collision(m.id)
         assert not rep.collision_free
         assert any(c.b.body == "block" and c.a.link == "lbr_iiwa_link_0" for c in rep.contacts)
@@ -70,7 +76,7 @@ def test_mimic_joint_followed_in_collision_and_state() -> None:
         assert m.joint("finger_mimic").mimic is not None
         w.set_joint_positions(m.id, [0.4])
         e = w._robots[m.id]
-        follower = [ji.idx for ji in w.bullet.joints(e.bound.body) if ji.name == "finger_mimic"][0]
+        follower = next(ji.idx for ji in w.bullet.joints(e.bound.body) if ji.name == "finger_mimic")
         value = pb.getJointState(e.bound.body, follower, physicsClientId=w.bullet.cid)[0]
         assert value == pytest.approx(0.4 * -0.5 + 0.1)
 
@@ -87,7 +93,7 @@ def _brute_force_free(w: World, robot_id: str, q: np.ndarray) -> bool:
         if other != body and pb.getClosestPoints(body, other, 0.0, physicsClientId=cid):
             return False
     for i, a in enumerate(links):
-        for c in links[i + 1:]:
+        for c in links[i + 1 :]:
             if parent.get(c) == a or parent.get(a) == c or (min(a, c), max(a, c)) in e.checker.filtered:
                 continue
             if a in b.static_links and c in b.static_links:
@@ -99,7 +105,7 @@ def _brute_force_free(w: World, robot_id: str, q: np.ndarray) -> bool:
 
 @pytest.mark.parametrize("urdf", [KUKA, PANDA, XARM])
 def test_fast_batch_agrees_with_check_collision_and_brute_force(urdf: str) -> None:
-    """collision_free_batch == check_collision == exhaustive pairs, on 150 random configs with 66 obstacles."""
+    """collision_free_batch == check_collision == exhaustive pairs on 150 random configs, 66 obstacles."""
     with World() as w:
         m = w.load_robot(urdf)
         w.load_scene(SCENES / "obstacles-66.json")

@@ -11,8 +11,14 @@ from simhelp import DATA, KUKA, MODELS, PANDA, XARM, numpy_fk, quat_to_matrix
 from robwot_sim.errors import InvalidParams, OutOfLimits, Unreachable
 from robwot_sim.sim.world import World
 
-FK_CASES = [(DATA / KUKA, None), (MODELS / "planar2.urdf", None), (MODELS / "prismatic.urdf", None),
-            (MODELS / "continuous.urdf", None), (MODELS / "one_dof.urdf", None), (MODELS / "mimic.urdf", "right")]
+FK_CASES = [
+    (DATA / KUKA, None),
+    (MODELS / "planar2.urdf", None),
+    (MODELS / "prismatic.urdf", None),
+    (MODELS / "continuous.urdf", None),
+    (MODELS / "one_dof.urdf", None),
+    (MODELS / "mimic.urdf", "right"),
+]
 
 
 @pytest.mark.parametrize(("urdf", "ee"), FK_CASES, ids=lambda c: getattr(c, "name", str(c)))
@@ -21,8 +27,10 @@ def test_fk_matches_numpy_from_urdf(urdf, ee) -> None:
     rng = np.random.default_rng(3)
     with World() as w:
         m = w.load_robot(urdf, ee_link=ee, base_position=(0.3, -0.2, 0.1))
-        lo, hi = (np.array(x) for x in zip(*[(m.joint(n).lower, m.joint(n).upper) for n in m.controllable],
-                                           strict=True))
+        lo, hi = (
+            np.array(x)
+            for x in zip(*[(m.joint(n).lower, m.joint(n).upper) for n in m.controllable], strict=True)
+        )
         for _ in range(40):
             q = rng.uniform(lo, hi)
             pose = w.fk(m.id, q)
@@ -47,14 +55,20 @@ def _round_trip(urdf: str, n: int, with_orientation: bool) -> tuple[float, list[
     errors = []
     with World(ik_seed=1) as w:
         m = w.load_robot(urdf)
-        lo, hi = (np.array(x) for x in zip(*[(m.joint(c).lower, m.joint(c).upper) for c in m.controllable],
-                                           strict=True))
+        lo, hi = (
+            np.array(x)
+            for x in zip(*[(m.joint(c).lower, m.joint(c).upper) for c in m.controllable], strict=True)
+        )
         ok = 0
         for _ in range(n):
             target = w.fk(m.id, rng.uniform(lo, hi))
             try:
-                r = w.ik(m.id, target.position, target.quat_xyzw if with_orientation else None,
-                         collision_free=False)
+                r = w.ik(
+                    m.id,
+                    target.position,
+                    target.quat_xyzw if with_orientation else None,
+                    collision_free=False,
+                )
             except Unreachable:
                 continue
             q = np.array(r.positions)
@@ -92,8 +106,10 @@ def test_ik_unreachable_reports_best_error() -> None:
             w.ik(m.id, (5.0, 0.0, 0.5))
         data = ei.value.data
         assert data["positionError"] > 3.0
-        lo, hi = (np.array(x) for x in zip(*[(m.joint(c).lower, m.joint(c).upper) for c in m.controllable],
-                                           strict=True))
+        lo, hi = (
+            np.array(x)
+            for x in zip(*[(m.joint(c).lower, m.joint(c).upper) for c in m.controllable], strict=True)
+        )
         assert np.all(np.array(data["best"]) >= lo) and np.all(np.array(data["best"]) <= hi)
         assert ei.value.rpc_code == -32007
 
@@ -102,8 +118,13 @@ def test_ik_prefers_collision_free_solution() -> None:
     """With an obstacle near the elbow-up solution, IK still returns a collision-free configuration."""
     with World() as w:
         m = w.load_robot(KUKA)
-        w.add_obstacle({"name": "post", "shape": {"type": "box", "size": [0.1, 0.1, 0.3]},
-                        "position": [0.25, 0.25, 0.75]})
+        w.add_obstacle(
+            {
+                "name": "post",
+                "shape": {"type": "box", "size": [0.1, 0.1, 0.3]},
+                "position": [0.25, 0.25, 0.75],
+            }
+        )
         target = (0.5, 0.1, 0.5)
         r = w.ik(m.id, target)
         assert r.collision_free

@@ -39,8 +39,13 @@ def test_check_path_finds_first_collision_without_state_change() -> None:
     with World() as w:
         m = w.load_robot(KUKA)
         w.set_joint_positions(m.id, [-1.5, 1.0, 0, 0, 0, 0, 0])
-        w.add_obstacle({"name": "post", "shape": {"type": "cylinder", "radius": 0.05, "length": 1.0},
-                        "position": [0.6, 0.0, 0.5]})
+        w.add_obstacle(
+            {
+                "name": "post",
+                "shape": {"type": "cylinder", "radius": 0.05, "length": 1.0},
+                "position": [0.6, 0.0, 0.5],
+            }
+        )
         before = w.get_joint_positions(m.id)
         rep = w.check_path(m.id, [1.5, 1.0, 0, 0, 0, 0, 0], speed=0.5)
         assert not rep.collision_free and rep.first_collision is not None

@@ -13,20 +13,47 @@ from robwot_sim.errors import FileNotFound, SceneError
 from robwot_sim.sim.world import World
 
 
-@pytest.mark.parametrize(("doc", "pointer"), [
-    ({"version": 2}, "/version"),
-    ({"version": 1, "obstacles": [{"name": "a", "shape": {"type": "box", "size": [1, 1]}, "position": [0, 0, 0]}]},
-     "/obstacles/0/shape/size"),
-    ({"version": 1, "obstacles": [{"name": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0]}]},
-     "/obstacles/0/position"),
-    ({"version": 1, "obstacles": [{"name": "a", "shape": {"type": "sphere", "radius": 1},
-                                   "position": [0, 0, float("nan")]}]}, "/obstacles/0/position/2"),
-    ({"version": 1, "obstacles": [{"name": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0, 0]},
-                                  {"name": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0, 0]}]},
-     "/obstacles/1/name"),
-    ({"version": 1, "robots": [{"basePosition": [0, 0, 0]}]}, "/robots/0"),
-    ({"version": 1, "extra": 1}, ""),
-])
+@pytest.mark.parametrize(
+    ("doc", "pointer"),
+    [
+        ({"version": 2}, "/version"),
+        (
+            {
+                "version": 1,
+                "obstacles": [{"name": "a", "shape": {"type": "box", "size": [1, 1]}, "position": [0, 0, 0]}],
+            },
+            "/obstacles/0/shape/size",
+        ),
+        (
+            {
+                "version": 1,
+                "obstacles": [{"name": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0]}],
+            },
+            "/obstacles/0/position",
+        ),
+        (
+            {
+                "version": 1,
+                "obstacles": [
+                    {"name": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0, float("nan")]}
+                ],
+            },
+            "/obstacles/0/position/2",
+        ),
+        (
+            {
+                "version": 1,
+                "obstacles": [
+                    {"name": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0, 0]},
+                    {"name": "a", "shape": {"type": "sphere", "radius": 1}, "position": [0, 0, 0]},
+                ],
+            },
+            "/obstacles/1/name",
+        ),
+        ({"version": 1, "robots": [{"basePosition": [0, 0, 0]}]}, "/robots/0"),
+        ({"version": 1, "extra": 1}, ""),
+    ],
+)
 def test_schema_violations_give_json_pointer(doc: dict, pointer: str) -> None:
     """Each violation is a SceneError whose data.path is the JSON pointer of the bad value."""
     with World() as w:
@@ -51,8 +78,11 @@ def test_scene_file_errors(tmp_path) -> None:
 
 def test_failed_scene_leaves_world_unchanged(tmp_path) -> None:
     """A scene whose robot URDF is missing adds nothing (all or nothing)."""
-    doc = {"version": 1, "obstacles": [{"name": "a", "shape": {"type": "sphere", "radius": 0.1},
-                                        "position": [1, 1, 1]}], "robots": [{"urdf": "missing/robot.urdf"}]}
+    doc = {
+        "version": 1,
+        "obstacles": [{"name": "a", "shape": {"type": "sphere", "radius": 0.1}, "position": [1, 1, 1]}],
+        "robots": [{"urdf": "missing/robot.urdf"}],
+    }
     with World() as w:
         with pytest.raises(FileNotFound):
             w.load_scene(doc)

@@ -23,8 +23,11 @@ def test_doctype_and_entities_refused_before_parsing() -> None:
 def test_entity_in_utf16_document_refused(tmp_path) -> None:
     """The byte scan cannot see UTF-16 text; the parser refuses the DTD there too."""
     p = tmp_path / "x.urdf"
-    p.write_bytes('<?xml version="1.0" encoding="UTF-16"?>\n<!DOCTYPE r [<!ENTITY a "b">]>\n<robot name="&a;"/>'
-                  .encode("utf-16"))
+    p.write_bytes(
+        '<?xml version="1.0" encoding="UTF-16"?>\n<!DOCTYPE r [<!ENTITY a "b">]>\n<robot name="&a;"/>'.encode(
+            "utf-16"
+        )
+    )
     with pytest.raises(Forbidden):
         read_urdf(p)
 
@@ -44,8 +47,10 @@ def test_structural_errors(tmp_path) -> None:
             w.load_robot(MODELS / "no_movable.urdf")
         assert ei.value.code == "E_NO_MOVABLE_JOINT"
         p = tmp_path / "nolimit.urdf"
-        p.write_text('<robot name="n"><link name="a"/><link name="b"/>\n<joint name="j" type="revolute">'
-                     '<parent link="a"/><child link="b"/></joint></robot>')
+        p.write_text(
+            '<robot name="n"><link name="a"/><link name="b"/>\n<joint name="j" type="revolute">'
+            '<parent link="a"/><child link="b"/></joint></robot>'
+        )
         with pytest.raises(UrdfError) as lim:
             w.load_robot(p)
         assert lim.value.data["line"] == 2 and lim.value.data["joint"] == "j"
@@ -85,11 +90,17 @@ def test_symlink_out_of_root_refused(tmp_path) -> None:
 def test_package_uris_resolved() -> None:
     """package:// resolves via user roots, URDF ancestors named like the package and pybullet_data layouts."""
     udir = MODELS / "pkgtest" / "urdf"
-    assert resolve_mesh("package://pkgtest/meshes/cube.stl", udir) == MODELS / "pkgtest" / "meshes" / "cube.stl"
-    assert resolve_mesh("package://shared/cube.obj", udir, {"shared": str(MODELS / "shared")}) == \
-        MODELS / "shared" / "cube.obj"
+    assert (
+        resolve_mesh("package://pkgtest/meshes/cube.stl", udir) == MODELS / "pkgtest" / "meshes" / "cube.stl"
+    )
+    assert (
+        resolve_mesh("package://shared/cube.obj", udir, {"shared": str(MODELS / "shared")})
+        == MODELS / "shared" / "cube.obj"
+    )
     assert resolve_mesh("package://meshes/collision/link0.obj", (DATA / PANDA).parent).is_file()
-    assert resolve_mesh("package://xarm_description/meshes/xarm6/visual/base.stl", (DATA / XARM).parent).is_file()
+    assert resolve_mesh(
+        "package://xarm_description/meshes/xarm6/visual/base.stl", (DATA / XARM).parent
+    ).is_file()
     with pytest.raises(FileNotFound) as ei:
         resolve_mesh("package://shared/cube.obj", udir)
     assert ei.value.data["reference"] == "package://shared/cube.obj"
@@ -103,7 +114,9 @@ def test_stl_obj_dae_meshes_load_as_collision_shapes() -> None:
         for link in ("base", "a", "b"):
             assert w.bullet.has_collision_shape(e.bound.body, e.bound.link_index[link])
         w.set_joint_positions(m.id, [0.0, 0.0])
-        w.add_obstacle({"name": "probe", "shape": {"type": "sphere", "radius": 0.03}, "position": [0.6, 0.0, 0.4]})
+        w.add_obstacle(
+            {"name": "probe", "shape": {"type": "sphere", "radius": 0.03}, "position": [0.6, 0.0, 0.4]}
+        )
         rep = w.check_collision(m.id)
         assert any(c.a.link == "b" and c.b.body == "probe" for c in rep.contacts)
 
@@ -112,7 +125,8 @@ def test_unreadable_mesh_is_an_error(tmp_path) -> None:
     """A mesh PyBullet silently drops (garbage OBJ) is reported instead of loading a robot without it."""
     (tmp_path / "bad.obj").write_text("this is not an obj file\n")
     (tmp_path / "r.urdf").write_text(
-        (MODELS / "mesh_formats.urdf").read_text().replace("meshes/cube.obj", "bad.obj"))
+        (MODELS / "mesh_formats.urdf").read_text().replace("meshes/cube.obj", "bad.obj")
+    )
     (tmp_path / "meshes").mkdir()
     for f in ("cube.stl", "cube.dae"):
         (tmp_path / "meshes" / f).write_bytes((MODELS / "meshes" / f).read_bytes())

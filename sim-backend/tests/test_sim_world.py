@@ -19,8 +19,9 @@ from robwot_sim.errors import (
 from robwot_sim.sim.world import World
 
 
-@pytest.mark.parametrize(("urdf", "ee", "dof"), [(KUKA, "lbr_iiwa_link_7", 7), (PANDA, "panda_hand", 8),
-                                                 (XARM, "link6", 6)])
+@pytest.mark.parametrize(
+    ("urdf", "ee", "dof"), [(KUKA, "lbr_iiwa_link_7", 7), (PANDA, "panda_hand", 8), (XARM, "link6", 6)]
+)
 def test_default_end_effector_and_controllable(urdf: str, ee: str, dof: int) -> None:
     """The default end effector is the tip of the longest serial chain; mimic joints are not controllable."""
     with World() as w:
@@ -35,15 +36,31 @@ def test_joint_model_of_tiny_urdfs() -> None:
     with World() as w:
         m = w.load_robot(MODELS / "prismatic.urdf")
         rail = m.joint("rail")
-        assert (rail.type, rail.lower, rail.upper, rail.velocity, rail.effort) == ("prismatic", -0.2, 0.4, 0.5, 100)
+        assert (rail.type, rail.lower, rail.upper, rail.velocity, rail.effort) == (
+            "prismatic",
+            -0.2,
+            0.4,
+            0.5,
+            100,
+        )
         mm = w.load_robot(MODELS / "mimic.urdf")
         js = {j["name"]: j for j in mm.to_json()["joints"]}
         assert js["finger_mimic"]["mimic"] == {"joint": "finger", "multiplier": -0.5, "offset": 0.1}
         assert mm.to_json()["controllable"] == ["finger"]
         c = w.load_robot(MODELS / "continuous.urdf").to_json()
         assert c["joints"][0]["lower"] == -math.pi and c["joints"][0]["type"] == "continuous"
-        assert set(c) >= {"id", "name", "urdf", "eeLink", "links", "joints", "controllable", "filteredPairs",
-                          "basePosition", "baseOrientation"}
+        assert set(c) >= {
+            "id",
+            "name",
+            "urdf",
+            "eeLink",
+            "links",
+            "joints",
+            "controllable",
+            "filteredPairs",
+            "basePosition",
+            "baseOrientation",
+        }
 
 
 def test_robot_ids_unique_and_names_taken() -> None:
@@ -66,17 +83,26 @@ def test_set_joint_positions_validates_before_changing() -> None:
     with World() as w:
         m = w.load_robot(KUKA)
         w.set_joint_positions(m.id, [0.1] * 7)
-        for bad, err in [([float("nan")] * 7, InvalidParams), ([0.1] * 6, InvalidParams),
-                         (["a"] * 7, InvalidParams), ([0.1, 0.1, 0.1, 3.0, 0.1, 0.1, 0.1], OutOfLimits),
-                         ([float("inf")] * 7, InvalidParams), ([True] * 7, InvalidParams)]:
+        for bad, err in [
+            ([float("nan")] * 7, InvalidParams),
+            ([0.1] * 6, InvalidParams),
+            (["a"] * 7, InvalidParams),
+            ([0.1, 0.1, 0.1, 3.0, 0.1, 0.1, 0.1], OutOfLimits),
+            ([float("inf")] * 7, InvalidParams),
+            ([True] * 7, InvalidParams),
+        ]:
             with pytest.raises(err) as ei:
                 w.set_joint_positions(m.id, bad)
             assert np.allclose(w.get_joint_positions(m.id), 0.1)
         assert ei.type is InvalidParams
         with pytest.raises(OutOfLimits) as lim:
             w.set_joint_positions(m.id, [0.1, 0.1, 0.1, 3.0, 0.1, 0.1, 0.1])
-        assert lim.value.data == {"joint": "lbr_iiwa_joint_4", "value": 3.0, "lower": -2.09439510239,
-                                  "upper": 2.09439510239}
+        assert lim.value.data == {
+            "joint": "lbr_iiwa_joint_4",
+            "value": 3.0,
+            "lower": -2.09439510239,
+            "upper": 2.09439510239,
+        }
 
 
 def test_unknown_names_list_available() -> None:
@@ -100,20 +126,33 @@ def test_obstacles_add_move_remove_and_reset() -> None:
     """Obstacles are normalised (rpy -> quaternion), moved, removed; reset empties the world."""
     with World() as w:
         w.load_robot(KUKA)
-        ob = w.add_obstacle({"name": "c", "shape": {"type": "cylinder", "radius": 0.05, "length": 0.2},
-                             "position": [1, 0, 0.1], "rpy": [0, 0, math.pi / 2]})
+        ob = w.add_obstacle(
+            {
+                "name": "c",
+                "shape": {"type": "cylinder", "radius": 0.05, "length": 0.2},
+                "position": [1, 0, 0.1],
+                "rpy": [0, 0, math.pi / 2],
+            }
+        )
         assert ob["orientation"] == pytest.approx([0, 0, math.sqrt(0.5), math.sqrt(0.5)])
         moved = w.move_obstacle("c", (1, 1, 0.1), orientation=(0, 0, 0, 2))
         assert moved["orientation"] == [0, 0, 0, 1] and moved["position"] == [1, 1, 0.1]
         with pytest.raises(InvalidParams):
             w.move_obstacle("c", (1, float("nan"), 0))
         with pytest.raises(InvalidParams):
-            w.add_obstacle({"name": "bad", "shape": {"type": "box", "size": [0.1, -1, 0.1]}, "position": [0, 0, 0]})
+            w.add_obstacle(
+                {"name": "bad", "shape": {"type": "box", "size": [0.1, -1, 0.1]}, "position": [0, 0, 0]}
+            )
         assert w.list()["obstacles"][0]["position"] == [1, 1, 0.1]
         w.remove_obstacle("c")
         assert w.list()["obstacles"] == []
-        w.add_obstacle({"name": "m", "shape": {"type": "mesh", "file": str(MODELS / "meshes" / "cube.obj")},
-                        "position": [0.6, 0, 0.5]})
+        w.add_obstacle(
+            {
+                "name": "m",
+                "shape": {"type": "mesh", "file": str(MODELS / "meshes" / "cube.obj")},
+                "position": [0.6, 0, 0.5],
+            }
+        )
         w.reset()
         assert w.list() == {"robots": [], "obstacles": []}
 
@@ -121,7 +160,9 @@ def test_obstacles_add_move_remove_and_reset() -> None:
 def test_export_robot_is_self_contained(tmp_path) -> None:
     """Export writes robot.urdf with relative mesh paths that load again from the new folder."""
     with World() as w:
-        m = w.load_robot(MODELS / "pkgtest" / "urdf" / "robot.urdf", package_roots={"shared": str(MODELS / "shared")})
+        m = w.load_robot(
+            MODELS / "pkgtest" / "urdf" / "robot.urdf", package_roots={"shared": str(MODELS / "shared")}
+        )
         out = w.export_robot(m.id, tmp_path / "twin")
         assert out["urdf"] == "robot.urdf" and all(p.startswith("meshes/") for p in out["meshes"])
         text = (tmp_path / "twin" / "robot.urdf").read_text()

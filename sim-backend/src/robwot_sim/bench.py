@@ -81,10 +81,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--checks", type=int, default=3000, help="collision checks per robot and scene")
     ap.add_argument("--robots", default=",".join(ROBOTS), help="comma-separated: kuka,panda")
     args = ap.parse_args(argv)
-    print(f"robwot_sim backend benchmark  python {platform.python_version()}  {platform.machine()}  "
-          f"cpus={len(__import__('os').sched_getaffinity(0))}")
-    print(f"IK: {args.ik} seeded random reachable targets (success = within 1 mm and 1 deg, collision-free "
-          f"requested); collision: {args.checks} random configurations per scene\n")
+    print(
+        f"robwot_sim backend benchmark  python {platform.python_version()}  {platform.machine()}  "
+        f"cpus={len(__import__('os').sched_getaffinity(0))}"
+    )
+    print(
+        f"IK: {args.ik} seeded random reachable targets (success = within 1 mm and 1 deg, collision-free "
+        f"requested); collision: {args.checks} random configurations per scene\n"
+    )
     rows: list[list[str]] = []
     for name in args.robots.split(","):
         urdf = ROBOTS[name]
@@ -92,13 +96,21 @@ def main(argv: list[str] | None = None) -> int:
             rid = w.load_robot(urdf).id
             for kind, orient in (("position", False), ("pose", True)):
                 rate, med, p99 = bench_ik(w, rid, args.ik, orient)
-                rows.append([name, f"IK {kind}", f"{rate * 100:.1f}% ok", f"median {med:.3f} ms",
-                             f"p99 {p99:.3f} ms"])
+                rows.append(
+                    [name, f"IK {kind}", f"{rate * 100:.1f}% ok", f"median {med:.3f} ms", f"p99 {p99:.3f} ms"]
+                )
             rows.append([name, "FK", f"{bench_fk(w, rid, args.fk):,.0f} configs/s", "", ""])
         for k in SCENE_SIZES:
             wall, cpu, free = bench_collision(urdf, k, args.checks)
-            rows.append([name, f"collision {k} obstacles", f"{wall:,.0f} checks/s wall",
-                         f"{cpu:,.0f} checks/s CPU", f"{free * 100:.0f}% free"])
+            rows.append(
+                [
+                    name,
+                    f"collision {k} obstacles",
+                    f"{wall:,.0f} checks/s wall",
+                    f"{cpu:,.0f} checks/s CPU",
+                    f"{free * 100:.0f}% free",
+                ]
+            )
         sys.stdout.flush()
     widths = [max(len(r[i]) for r in rows) for i in range(5)]
     header = ["robot", "measure", "result", "", ""]

@@ -43,8 +43,9 @@ class InvalidParams(SimError):
     rpc_code = -32602
     code = "E_INVALID_PARAMS"
 
-    def __init__(self, message: str, *, param: str | None = None, expected: Any = None, got: Any = None,
-                 **data: Any) -> None:
+    def __init__(
+        self, message: str, *, param: str | None = None, expected: Any = None, got: Any = None, **data: Any
+    ) -> None:
         super().__init__(message, param=param, expected=expected, got=_jsonable(got), **data)
 
 
@@ -54,8 +55,11 @@ class _UnknownName(SimError):
 
     def __init__(self, name: str, available: Iterable[str]) -> None:
         avail = sorted(str(a) for a in available)
-        super().__init__(f"unknown {self.kind} {name!r}; available: {', '.join(avail) or '(none)'}",
-                         name=name, available=avail)
+        super().__init__(
+            f"unknown {self.kind} {name!r}; available: {', '.join(avail) or '(none)'}",
+            name=name,
+            available=avail,
+        )
 
 
 class UnknownRobot(_UnknownName):
@@ -80,8 +84,13 @@ class OutOfLimits(SimError):
     code = "E_OUT_OF_LIMITS"
 
     def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
-        super().__init__(f"joint {joint!r} value {value:.6g} outside limits [{lower:.6g}, {upper:.6g}]",
-                         joint=joint, value=float(value), lower=float(lower), upper=float(upper))
+        super().__init__(
+            f"joint {joint!r} value {value:.6g} outside limits [{lower:.6g}, {upper:.6g}]",
+            joint=joint,
+            value=float(value),
+            lower=float(lower),
+            upper=float(upper),
+        )
 
 
 class UrdfError(SimError):
@@ -90,10 +99,21 @@ class UrdfError(SimError):
     rpc_code = -32003
     code = "E_URDF"
 
-    def __init__(self, message: str, *, file: str, line: int | None = None, column: int | None = None,
-                 code: str | None = None, **data: Any) -> None:
-        where = f"{file}" + (f":{line}" if line is not None else "") + (
-            f":{column}" if column is not None and line is not None else "")
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str,
+        line: int | None = None,
+        column: int | None = None,
+        code: str | None = None,
+        **data: Any,
+    ) -> None:
+        where = (
+            f"{file}"
+            + (f":{line}" if line is not None else "")
+            + (f":{column}" if column is not None and line is not None else "")
+        )
         super().__init__(f"{where}: {message}", code=code, file=file, line=line, column=column, **data)
 
 
@@ -124,8 +144,9 @@ class Forbidden(SimError):
     rpc_code = -32005
     code = "E_FORBIDDEN"
 
-    def __init__(self, message: str, *, file: str, roots: Sequence[str] = (), code: str | None = None,
-                 **data: Any) -> None:
+    def __init__(
+        self, message: str, *, file: str, roots: Sequence[str] = (), code: str | None = None, **data: Any
+    ) -> None:
         super().__init__(message, code=code, file=file, roots=[str(r) for r in roots], **data)
 
 
@@ -135,8 +156,12 @@ class PathEscape(Forbidden):
     code = "E_PATH_ESCAPE"
 
     def __init__(self, file: str, roots: Sequence[str], *, urdf: str | None = None) -> None:
-        super().__init__(f"path {file} is outside the allowed roots: {', '.join(str(r) for r in roots)}",
-                         file=file, roots=roots, **({"urdf": urdf} if urdf else {}))
+        super().__init__(
+            f"path {file} is outside the allowed roots: {', '.join(str(r) for r in roots)}",
+            file=file,
+            roots=roots,
+            **({"urdf": urdf} if urdf else {}),
+        )
 
 
 class SceneError(SimError):
@@ -160,8 +185,10 @@ class Unreachable(SimError):
         super().__init__(
             f"target unreachable: best position error {position_error:.4g} m, "
             f"orientation error {orientation_error:.4g} rad",
-            positionError=float(position_error), orientationError=float(orientation_error),
-            best=[float(b) for b in best])
+            positionError=float(position_error),
+            orientationError=float(orientation_error),
+            best=[float(b) for b in best],
+        )
 
 
 class Busy(SimError):
@@ -169,8 +196,9 @@ class Busy(SimError):
     code = "E_BUSY"
 
     def __init__(self, robot: str) -> None:
-        super().__init__(f"a motion is already running for robot {robot!r}; call robot.stop first",
-                         robot=robot)
+        super().__init__(
+            f"a motion is already running for robot {robot!r}; call robot.stop first", robot=robot
+        )
 
 
 class CollisionError(SimError):
@@ -178,8 +206,9 @@ class CollisionError(SimError):
     code = "E_COLLISION"
 
     def __init__(self, contacts: Sequence[dict[str, Any]], message: str | None = None) -> None:
-        super().__init__(message or f"configuration in collision ({len(contacts)} contacts)",
-                         contacts=list(contacts))
+        super().__init__(
+            message or f"configuration in collision ({len(contacts)} contacts)", contacts=list(contacts)
+        )
 
 
 class NameTaken(SimError):

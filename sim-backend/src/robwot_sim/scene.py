@@ -108,8 +108,9 @@ def normalise_obstacle(spec: Any, base: Path | None = None) -> dict[str, Any]:
     problem = schema_errors({"version": 1, "obstacles": [spec]})
     if problem is not None:
         ptr = problem[0].removeprefix("/obstacles/0")
-        raise InvalidParams(f"obstacle{ptr or ''}: {problem[1]}", param=ptr or "/", expected="Obstacle",
-                            got=None)
+        raise InvalidParams(
+            f"obstacle{ptr or ''}: {problem[1]}", param=ptr or "/", expected="Obstacle", got=None
+        )
     shape = dict(spec["shape"])
     if shape["type"] == "mesh":
         shape["file"] = str(resolve_file(shape["file"], base or Path.cwd(), what="mesh file"))
@@ -121,8 +122,12 @@ def normalise_obstacle(spec: Any, base: Path | None = None) -> dict[str, Any]:
         quat = list(quat_from_rpy(spec["rpy"]))
     else:
         quat = [0.0, 0.0, 0.0, 1.0]
-    out: dict[str, Any] = {"name": spec["name"], "shape": shape,
-                           "position": [float(v) for v in spec["position"]], "orientation": quat}
+    out: dict[str, Any] = {
+        "name": spec["name"],
+        "shape": shape,
+        "position": [float(v) for v in spec["position"]],
+        "orientation": quat,
+    }
     if "color" in spec:
         out["color"] = list(spec["color"])
     return out

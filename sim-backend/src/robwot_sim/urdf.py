@@ -61,8 +61,12 @@ def parse_urdf(path: str | Path) -> UrdfDoc:
     m = _FORBIDDEN.search(data)
     if m is not None:
         line = data.count(b"\n", 0, m.start()) + 1
-        raise Forbidden(f"{p}:{line}: XML {m.group(1).decode().upper()} declarations are refused "
-                        "(no DTD or entities in URDF)", file=str(p), line=line)
+        raise Forbidden(
+            f"{p}:{line}: XML {m.group(1).decode().upper()} declarations are refused "
+            "(no DTD or entities in URDF)",
+            file=str(p),
+            line=line,
+        )
     builder = ET.TreeBuilder()
     parser = xml.parsers.expat.ParserCreate()
     lines: dict[int, int] = {}
@@ -70,7 +74,7 @@ def parse_urdf(path: str | Path) -> UrdfDoc:
     def start(tag: str, attrs: dict[str, str]) -> None:
         lines[id(builder.start(tag, attrs))] = parser.CurrentLineNumber
 
-    def refuse(*_: Any) -> None:
+    def refuse(*_: Any) -> Any:
         raise _Refused
 
     parser.StartElementHandler = start
@@ -83,13 +87,19 @@ def parse_urdf(path: str | Path) -> UrdfDoc:
         parser.Parse(data, True)
         root = builder.close()
     except _Refused:
-        raise Forbidden(f"{p}:{parser.CurrentLineNumber}: XML DTD/entity refused", file=str(p),
-                        line=parser.CurrentLineNumber) from None
+        raise Forbidden(
+            f"{p}:{parser.CurrentLineNumber}: XML DTD/entity refused",
+            file=str(p),
+            line=parser.CurrentLineNumber,
+        ) from None
     except xml.parsers.expat.ExpatError as e:
-        raise UrdfError(xml.parsers.expat.ErrorString(e.code), file=str(p), line=e.lineno,
-                        column=e.offset + 1) from None
+        raise UrdfError(
+            xml.parsers.expat.ErrorString(e.code), file=str(p), line=e.lineno, column=e.offset + 1
+        ) from None
     if root.tag != "robot":
-        raise UrdfError(f"root element is <{root.tag}>, expected <robot>", file=str(p), line=lines.get(id(root)))
+        raise UrdfError(
+            f"root element is <{root.tag}>, expected <robot>", file=str(p), line=lines.get(id(root))
+        )
     return UrdfDoc(root, p, lines)
 
 
@@ -108,8 +118,13 @@ def _inside(p: Path, roots: list[Path]) -> bool:
     return any(p == r or r in p.parents for r in roots)
 
 
-def resolve_mesh(filename: str, urdf_dir: str | Path, package_roots: Mapping[str, str | Path] | None = None,
-                 *, urdf: str | None = None) -> Path:
+def resolve_mesh(
+    filename: str,
+    urdf_dir: str | Path,
+    package_roots: Mapping[str, str | Path] | None = None,
+    *,
+    urdf: str | None = None,
+) -> Path:
     """Resolve a URDF mesh filename to an existing absolute path inside the allowed roots.
 
     ``package://NAME/rest`` is looked up in ``package_roots[NAME]``, then in ancestors of the URDF folder
@@ -123,7 +138,7 @@ def resolve_mesh(filename: str, urdf_dir: str | Path, package_roots: Mapping[str
     candidates: list[Path] = []
     extra_roots: list[Path] = []
     if filename.startswith("package://"):
-        rest = filename[len("package://"):]
+        rest = filename[len("package://") :]
         name, _, sub = rest.partition("/")
         if name in pkg_roots:
             candidates.append(pkg_roots[name] / sub)
@@ -136,7 +151,7 @@ def resolve_mesh(filename: str, urdf_dir: str | Path, package_roots: Mapping[str
         candidates.append(udir / name / sub)
         candidates.append(udir / sub)
     elif filename.startswith("file://"):
-        candidates.append(Path(filename[len("file://"):]))
+        candidates.append(Path(filename[len("file://") :]))
     else:
         fp = Path(filename)
         candidates.append(fp if fp.is_absolute() else udir / fp)
@@ -153,8 +168,13 @@ def resolve_mesh(filename: str, urdf_dir: str | Path, package_roots: Mapping[str
     inside = [c for c in resolved if _inside(c, roots)]
     if not inside:
         raise PathEscape(str(resolved[0]), [str(r) for r in roots], urdf=urdf)
-    raise FileNotFound(str(inside[0]), urdf=urdf, what=f"mesh file {filename!r}", reference=filename,
-                       searched=[str(c) for c in inside])
+    raise FileNotFound(
+        str(inside[0]),
+        urdf=urdf,
+        what=f"mesh file {filename!r}",
+        reference=filename,
+        searched=[str(c) for c in inside],
+    )
 
 
 @dataclass
@@ -170,8 +190,9 @@ class PreparedUrdf:
         shutil.rmtree(self.tmpdir, ignore_errors=True)
 
 
-def prepare_urdf(path: str | Path, package_roots: Mapping[str, str | Path] | None = None,
-                 doc: UrdfDoc | None = None) -> PreparedUrdf:
+def prepare_urdf(
+    path: str | Path, package_roots: Mapping[str, str | Path] | None = None, doc: UrdfDoc | None = None
+) -> PreparedUrdf:
     """Resolve every mesh (visual and collision) and write a temp URDF PyBullet can load as is.
 
     Visual elements are dropped from the temp copy (DIRECT mode never renders them).
@@ -187,8 +208,11 @@ def prepare_urdf(path: str | Path, package_roots: Mapping[str, str | Path] | Non
         if fn not in meshes:
             resolved = resolve_mesh(fn, udir, package_roots, urdf=str(doc.file))
             if resolved.suffix.lower() not in MESH_SUFFIXES:
-                raise UrdfError(f"unsupported mesh format {resolved.suffix!r} ({fn}); use STL, OBJ or DAE",
-                                file=str(doc.file), line=doc.line_of(el))
+                raise UrdfError(
+                    f"unsupported mesh format {resolved.suffix!r} ({fn}); use STL, OBJ or DAE",
+                    file=str(doc.file),
+                    line=doc.line_of(el),
+                )
             _check_mesh_content(resolved, str(doc.file), doc.line_of(el))
             meshes[fn] = resolved
     for link in root.iter("link"):
@@ -220,8 +244,12 @@ def _check_mesh_content(path: Path, urdf: str, line: int | None) -> None:
     else:
         ok = path.stat().st_size > 0
     if not ok:
-        raise UrdfError(f"mesh {path} has no geometry (unreadable {suffix[1:].upper()})", file=urdf, line=line,
-                        mesh=str(path))
+        raise UrdfError(
+            f"mesh {path} has no geometry (unreadable {suffix[1:].upper()})",
+            file=urdf,
+            line=line,
+            mesh=str(path),
+        )
 
 
 def _is_binary_stl(path: Path) -> bool:
@@ -233,8 +261,11 @@ def _is_binary_stl(path: Path) -> bool:
 
 def ascii_stl_to_binary(src: Path, dst: Path, urdf: str) -> Path:
     """Rewrite an ASCII STL as binary STL (normals left zero: Bullet recomputes what it needs)."""
-    verts = [ln.split()[1:4] for ln in src.read_text(encoding="utf-8", errors="replace").splitlines()
-             if ln.strip().startswith("vertex")]
+    verts = [
+        ln.split()[1:4]
+        for ln in src.read_text(encoding="utf-8", errors="replace").splitlines()
+        if ln.strip().startswith("vertex")
+    ]
     if not verts or len(verts) % 3:
         raise UrdfError(f"mesh {src} is neither a binary nor a valid ASCII STL", file=urdf, mesh=str(src))
     try:
@@ -244,13 +275,14 @@ def ascii_stl_to_binary(src: Path, dst: Path, urdf: str) -> Path:
     n = len(verts) // 3
     out = bytearray(b"robwot: converted from ASCII STL".ljust(80, b" ")) + struct.pack("<I", n)
     for t in range(n):
-        out += struct.pack("<12fH", 0.0, 0.0, 0.0, *flat[9 * t: 9 * t + 9], 0)
+        out += struct.pack("<12fH", 0.0, 0.0, 0.0, *flat[9 * t : 9 * t + 9], 0)
     dst.write_bytes(bytes(out))
     return dst
 
 
-def export_urdf(path: str | Path, out_dir: str | Path,
-                package_roots: Mapping[str, str | Path] | None = None) -> dict[str, Any]:
+def export_urdf(
+    path: str | Path, out_dir: str | Path, package_roots: Mapping[str, str | Path] | None = None
+) -> dict[str, Any]:
     """Write ``out_dir/robot.urdf`` with meshes copied under ``out_dir/meshes/`` and relative filenames.
 
     Returns ``{"urdf": "robot.urdf", "meshes": [relative paths]}``.

@@ -70,8 +70,16 @@ class Bullet:
     # bodies
     def load_urdf(self, path: str, position: Sequence[float], quat_xyzw: Sequence[float], flags: int) -> int:
         with stdout_to_stderr():
-            return int(pb.loadURDF(path, list(position), list(quat_xyzw), useFixedBase=True, flags=flags,
-                                   physicsClientId=self.cid))
+            return int(
+                pb.loadURDF(
+                    path,
+                    list(position),
+                    list(quat_xyzw),
+                    useFixedBase=True,
+                    flags=flags,
+                    physicsClientId=self.cid,
+                )
+            )
 
     def remove_body(self, body: int) -> None:
         pb.removeBody(body, physicsClientId=self.cid)
@@ -93,7 +101,7 @@ class Bullet:
 
     def base_pose(self, body: int) -> tuple[Vec3, Quat]:
         pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=self.cid)
-        return tuple(pos), tuple(orn)  # type: ignore[return-value]
+        return tuple(pos), tuple(orn)
 
     def has_collision_shape(self, body: int, link: int) -> bool:
         return bool(pb.getCollisionShapeData(body, link, physicsClientId=self.cid))
@@ -114,13 +122,25 @@ class Bullet:
         if link < 0:
             return self.base_pose(body)
         s = pb.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.cid)
-        return tuple(s[4]), tuple(s[5])  # type: ignore[return-value]
+        return tuple(s[4]), tuple(s[5])
 
-    def ik(self, body: int, link: int, position: Sequence[float], quat_xyzw: Sequence[float] | None,
-           damping: Sequence[float], iterations: int, threshold: float) -> list[float]:
+    def ik(
+        self,
+        body: int,
+        link: int,
+        position: Sequence[float],
+        quat_xyzw: Sequence[float] | None,
+        damping: Sequence[float],
+        iterations: int,
+        threshold: float,
+    ) -> list[float]:
         """PyBullet damped least squares IK; one value per movable joint, starting from the current state."""
-        kw: dict[str, Any] = {"jointDamping": list(damping), "maxNumIterations": iterations,
-                              "residualThreshold": threshold, "physicsClientId": self.cid}
+        kw: dict[str, Any] = {
+            "jointDamping": list(damping),
+            "maxNumIterations": iterations,
+            "residualThreshold": threshold,
+            "physicsClientId": self.cid,
+        }
         if quat_xyzw is not None:
             kw["targetOrientation"] = list(quat_xyzw)
         return list(pb.calculateInverseKinematics(body, link, list(position), **kw))
@@ -141,8 +161,9 @@ class Bullet:
         """Raw contact tuples (fast path: index 3/4 links, 2 body b, 8 distance)."""
         return pb.getContactPoints(body_a, physicsClientId=self.cid)
 
-    def closest(self, body_a: int, body_b: int, distance: float, link_a: int | None = None,
-                link_b: int | None = None) -> list[ContactPoint]:
+    def closest(
+        self, body_a: int, body_b: int, distance: float, link_a: int | None = None, link_b: int | None = None
+    ) -> list[ContactPoint]:
         kw: dict[str, Any] = {"physicsClientId": self.cid}
         if link_a is not None:
             kw["linkIndexA"] = link_a
@@ -155,30 +176,42 @@ class Bullet:
         pb.setCollisionFilterPair(body_a, body_b, link_a, link_b, int(enable), physicsClientId=self.cid)
 
     # static obstacles
-    def create_static(self, shape: dict[str, Any], position: Sequence[float], quat_xyzw: Sequence[float]) -> int:
-        """A mass-0 body with one collision shape (no visual). ``shape`` as in Contract 1 (mesh file resolved)."""
+    def create_static(
+        self, shape: dict[str, Any], position: Sequence[float], quat_xyzw: Sequence[float]
+    ) -> int:
+        """A mass-0 body with one collision shape, no visual (``shape`` as in Contract 1, file resolved)."""
         t = shape["type"]
         if t == "box":
-            col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[s / 2 for s in shape["size"]],
-                                          physicsClientId=self.cid)
+            col = pb.createCollisionShape(
+                pb.GEOM_BOX, halfExtents=[s / 2 for s in shape["size"]], physicsClientId=self.cid
+            )
         elif t == "sphere":
             col = pb.createCollisionShape(pb.GEOM_SPHERE, radius=shape["radius"], physicsClientId=self.cid)
         elif t == "cylinder":
-            col = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=shape["radius"], height=shape["length"],
-                                          physicsClientId=self.cid)
+            col = pb.createCollisionShape(
+                pb.GEOM_CYLINDER, radius=shape["radius"], height=shape["length"], physicsClientId=self.cid
+            )
         else:
             scale = shape.get("scale", 1.0)
             s3 = [scale] * 3 if isinstance(scale, (int, float)) else list(scale)
             with stdout_to_stderr():
-                col = pb.createCollisionShape(pb.GEOM_MESH, fileName=shape["file"], meshScale=s3,
-                                              physicsClientId=self.cid)
+                col = pb.createCollisionShape(
+                    pb.GEOM_MESH, fileName=shape["file"], meshScale=s3, physicsClientId=self.cid
+                )
             if col < 0:
                 raise RuntimeError(f"PyBullet could not read the mesh {shape['file']}")
         if col < 0:
             raise RuntimeError(f"PyBullet could not create the collision shape {shape}")
-        return int(pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=-1,
-                                      basePosition=list(position), baseOrientation=list(quat_xyzw),
-                                      physicsClientId=self.cid))
+        return int(
+            pb.createMultiBody(
+                baseMass=0,
+                baseCollisionShapeIndex=col,
+                baseVisualShapeIndex=-1,
+                basePosition=list(position),
+                baseOrientation=list(quat_xyzw),
+                physicsClientId=self.cid,
+            )
+        )
 
 
 def quat_from_rpy(rpy: Sequence[float]) -> Quat:

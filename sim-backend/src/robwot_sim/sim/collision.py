@@ -39,8 +39,9 @@ class BodyTable:
         return BodyLink(self.names[body], r.link_names.get(link))
 
 
-def find_always_colliding(robot: BoundRobot, rng: np.random.Generator,
-                          samples: int = FILTER_SAMPLES) -> list[tuple[int, int]]:
+def find_always_colliding(
+    robot: BoundRobot, rng: np.random.Generator, samples: int = FILTER_SAMPLES
+) -> list[tuple[int, int]]:
     """Self-collision link pairs touching in >= 95 % of random configurations (link indices, a < b)."""
     counts: dict[tuple[int, int], int] = {}
     b = robot.bullet
@@ -48,8 +49,11 @@ def find_always_colliding(robot: BoundRobot, rng: np.random.Generator,
     for q in robot.random_q(rng, samples):
         robot.apply(q)
         b.detect()
-        seen = {(min(c.link_a, c.link_b), max(c.link_a, c.link_b))
-                for c in b.contacts(robot.body, robot.body) if c.distance <= TOUCH}
+        seen = {
+            (min(c.link_a, c.link_b), max(c.link_a, c.link_b))
+            for c in b.contacts(robot.body, robot.body)
+            if c.distance <= TOUCH
+        }
         for pair in seen:
             counts[pair] = counts.get(pair, 0) + 1
     robot.apply(saved)
@@ -65,9 +69,14 @@ class CollisionChecker:
         for a, b in self.filtered:
             robot.bullet.set_pair_filter(robot.body, robot.body, a, b, False)
         masses = robot.bullet.link_masses(robot.body, robot.moving_links)
-        self.massless_moving = [ln for ln, m in zip(robot.moving_links, masses, strict=True)
-                                if m <= 0 and robot.bullet.has_collision_shape(robot.body, ln)]
-        self.static_links = [ln for ln in robot.static_links if robot.bullet.has_collision_shape(robot.body, ln)]
+        self.massless_moving = [
+            ln
+            for ln, m in zip(robot.moving_links, masses, strict=True)
+            if m <= 0 and robot.bullet.has_collision_shape(robot.body, ln)
+        ]
+        self.static_links = [
+            ln for ln in robot.static_links if robot.bullet.has_collision_shape(robot.body, ln)
+        ]
         self._static: list[Contact] | None = None
         self._static_version = -1
 
@@ -91,7 +100,9 @@ class CollisionChecker:
         out: list[ContactPoint] = []
         for other in self._others():
             for ln in links:
-                out += [c for c in bl.closest(self.robot.body, other, TOUCH, link_a=ln) if c.distance <= TOUCH]
+                out += [
+                    c for c in bl.closest(self.robot.body, other, TOUCH, link_a=ln) if c.distance <= TOUCH
+                ]
         return out
 
     def static_contacts(self) -> list[Contact]:

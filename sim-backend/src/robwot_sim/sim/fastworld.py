@@ -42,7 +42,9 @@ class MirrorRobot:
 class FastWorld:
     """Mirror of a world for ``is_free`` batches; build with ``FastWorld(robots, obstacles, version)``."""
 
-    def __init__(self, robots: Mapping[str, MirrorRobot], obstacles: list[dict[str, Any]], version: int) -> None:
+    def __init__(
+        self, robots: Mapping[str, MirrorRobot], obstacles: list[dict[str, Any]], version: int
+    ) -> None:
         self.version = version
         self.bullet = Bullet()
         self.bodies: dict[str, int] = {}
@@ -50,8 +52,12 @@ class FastWorld:
             for rid, r in robots.items():
                 prepared = prepare_urdf(r.urdf, r.package_roots)
                 try:
-                    body = self.bullet.load_urdf(str(prepared.bullet_path), r.base_position, r.base_orientation,
-                                                 pb.URDF_USE_SELF_COLLISION)
+                    body = self.bullet.load_urdf(
+                        str(prepared.bullet_path),
+                        r.base_position,
+                        r.base_orientation,
+                        pb.URDF_USE_SELF_COLLISION,
+                    )
                 finally:
                     prepared.cleanup()
                 for a, b in r.filtered:
@@ -71,7 +77,7 @@ class FastWorld:
         # PyBullet caps a compound at 16 children: merge runs of neighbours (scenes list them in order)
         prims.sort(key=lambda o: float(np.arctan2(o["position"][1], o["position"][0])))
         for k in range(0, len(prims), MAX_CHILDREN):
-            self._compound(prims[k:k + MAX_CHILDREN])
+            self._compound(prims[k : k + MAX_CHILDREN])
 
     def _compound(self, prims: list[dict[str, Any]]) -> None:
         cid = self.bullet.cid
@@ -84,21 +90,32 @@ class FastWorld:
             halves.append([v / 2 for v in s["size"]] if t == "box" else [0.0, 0.0, 0.0])
             lengths.append(float(s.get("length", 0.0)))
         col = pb.createCollisionShapeArray(
-            shapeTypes=types, radii=radii, halfExtents=halves, lengths=lengths,
+            shapeTypes=types,
+            radii=radii,
+            halfExtents=halves,
+            lengths=lengths,
             collisionFramePositions=[o["position"] for o in prims],
-            collisionFrameOrientations=[o["orientation"] for o in prims], physicsClientId=cid)
+            collisionFrameOrientations=[o["orientation"] for o in prims],
+            physicsClientId=cid,
+        )
         if col < 0:
             raise RuntimeError("PyBullet could not create the compound obstacle shape")
-        body = pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=-1,
-                                  physicsClientId=cid)
+        body = pb.createMultiBody(
+            baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=-1, physicsClientId=cid
+        )
         if len(pb.getCollisionShapeData(body, -1, physicsClientId=cid) or ()) != len(prims):
             raise RuntimeError("PyBullet dropped children of a compound obstacle shape")
 
     def close(self) -> None:
         self.bullet.close()
 
-    def batch(self, robot_id: str, qs: FloatArray, others: Mapping[str, FloatArray],
-              mimic: list[tuple[int, int, float, float]]) -> np.ndarray:
+    def batch(
+        self,
+        robot_id: str,
+        qs: FloatArray,
+        others: Mapping[str, list[float]],
+        mimic: list[tuple[int, int, float, float]],
+    ) -> np.ndarray:
         """Collision-free flag per row of ``qs`` for ``robot_id``; ``others`` gives the other robots' states
         as full value lists for their ``set_idx``."""
         b, cid = self.bullet, self.bullet.cid
@@ -108,7 +125,11 @@ class FastWorld:
         r = self.robots[robot_id]
         idx, filtered = r.set_idx, r.filtered
         out = np.zeros(len(qs), dtype=bool)
-        reset, detect, contacts = pb.resetJointStatesMultiDof, pb.performCollisionDetection, pb.getContactPoints
+        reset, detect, contacts = (
+            pb.resetJointStatesMultiDof,
+            pb.performCollisionDetection,
+            pb.getContactPoints,
+        )
         for i, q in enumerate(qs.tolist()):
             vals = q + [q[k] * m + off for _, k, m, off in mimic] if mimic else q
             reset(body, idx, [[v] for v in vals], physicsClientId=cid)

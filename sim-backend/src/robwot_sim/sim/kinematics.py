@@ -52,9 +52,14 @@ def wrap_clip(robot: BoundRobot, q: FloatArray) -> FloatArray:
     return out
 
 
-def solve_ik(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequence[float] | None,
-             seed: FloatArray, rng: np.random.Generator,
-             is_free: Callable[[FloatArray], bool] | None = None) -> IkResult:
+def solve_ik(
+    robot: BoundRobot,
+    position: Sequence[float],
+    quat_xyzw: Sequence[float] | None,
+    seed: FloatArray,
+    rng: np.random.Generator,
+    is_free: Callable[[FloatArray], bool] | None = None,
+) -> IkResult:
     """IK from ``seed``, then random restarts. Moves the robot: the caller restores its state.
 
     ``collision_free`` in the result is True unless only colliding solutions were found (``is_free``).
@@ -82,8 +87,9 @@ def solve_ik(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequence[f
         q = seed if attempt == 0 else mid if attempt == 1 else robot.random_q(rng)
         robot.apply(q)
         for _ in range(CHAIN if attempt >= FIRST_CHAINED else 1):
-            raw = np.asarray(b.ik(robot.body, robot.ee_index, position, quat, damping, ITERATIONS,
-                                  RESIDUAL))[robot.ik_slots]
+            raw = np.asarray(b.ik(robot.body, robot.ee_index, position, quat, damping, ITERATIONS, RESIDUAL))[
+                robot.ik_slots
+            ]
             q = wrap_clip(robot, raw)
             pe, oe = error(q)  # also leaves the robot at q for the next chained solve
             if pe <= CHAIN_POSITION and oe <= CHAIN_ORIENTATION:

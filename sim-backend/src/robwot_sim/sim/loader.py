@@ -31,10 +31,7 @@ class RobotEntry:
 def resolve_urdf_path(urdf: str | Path, base: Path | None = None) -> Path:
     """An existing URDF file: absolute, relative to ``base`` (default cwd), else relative to pybullet_data."""
     p = Path(urdf).expanduser()
-    if p.is_absolute():
-        cands = [p]
-    else:
-        cands = [(base or Path.cwd()) / p, pybullet_data_path() / p]
+    cands = [p] if p.is_absolute() else [(base or Path.cwd()) / p, pybullet_data_path() / p]
     for c in cands:
         if c.is_file():
             return c.resolve()
@@ -49,14 +46,27 @@ def _check_collision_shapes(bullet: Bullet, bound: BoundRobot, doc: UrdfDoc, mes
         idx = bound.link_index.get(el.get("name", ""))
         if idx is not None and not bullet.has_collision_shape(bound.body, idx):
             files = [m.get("filename", "") for m in el.iter("mesh")]
-            raise UrdfError(f"PyBullet could not read the collision geometry of link {el.get('name')!r} "
-                            f"({', '.join(files) or 'no mesh'})", file=str(doc.file), line=doc.line_of(el),
-                            link=el.get("name"), meshes=[str(meshes.get(f, f)) for f in files])
+            raise UrdfError(
+                f"PyBullet could not read the collision geometry of link {el.get('name')!r} "
+                f"({', '.join(files) or 'no mesh'})",
+                file=str(doc.file),
+                line=doc.line_of(el),
+                link=el.get("name"),
+                meshes=[str(meshes.get(f, f)) for f in files],
+            )
 
 
-def load_robot_body(bullet: Bullet, table: BodyTable, urdf: str | Path, robot_id: str,
-                    base_position: list[float], base_orientation: list[float], ee_link: str | None,
-                    package_roots: Mapping[str, str], base_dir: Path | None = None) -> RobotEntry:
+def load_robot_body(
+    bullet: Bullet,
+    table: BodyTable,
+    urdf: str | Path,
+    robot_id: str,
+    base_position: list[float],
+    base_orientation: list[float],
+    ee_link: str | None,
+    package_roots: Mapping[str, str],
+    base_dir: Path | None = None,
+) -> RobotEntry:
     """Check the URDF completely, then create the body. Nothing is left in the client on error."""
     path = resolve_urdf_path(urdf, base_dir)
     for name, folder in package_roots.items():
@@ -87,10 +97,16 @@ def load_robot_body(bullet: Bullet, table: BodyTable, urdf: str | Path, robot_id
         raise
     names = bound.link_names
     model = RobotModel(
-        id=robot_id, name=urdf_model.name, urdf=str(path), ee_link=ee, links=urdf_model.links,
-        joints=urdf_model.joints, controllable=urdf_model.controllable,
+        id=robot_id,
+        name=urdf_model.name,
+        urdf=str(path),
+        ee_link=ee,
+        links=urdf_model.links,
+        joints=urdf_model.joints,
+        controllable=urdf_model.controllable,
         filtered_pairs=tuple((names[a], names[b]) for a, b in sorted(checker.filtered)),
         base_position=(base_position[0], base_position[1], base_position[2]),
         base_orientation=(base_orientation[0], base_orientation[1], base_orientation[2], base_orientation[3]),
-        package_roots=dict(package_roots))
+        package_roots=dict(package_roots),
+    )
     return RobotEntry(model, bound, checker, path, dict(package_roots))

@@ -22,8 +22,9 @@ def check_speed_dt(speed: object, dt: object) -> tuple[float, float]:
     return float(speed), float(dt)  # type: ignore[arg-type]
 
 
-def plan_joint_path(start: FloatArray, target: FloatArray, velocity: FloatArray, speed: float,
-                    dt: float) -> FloatArray:
+def plan_joint_path(
+    start: FloatArray, target: FloatArray, velocity: FloatArray, speed: float, dt: float
+) -> FloatArray:
     """States ``[steps + 1, dof]`` from ``start`` to ``target`` (both rows included), one per ``dt`` seconds.
 
     All joints move linearly and arrive together; the slowest joint moves at its velocity limit
@@ -34,8 +35,12 @@ def plan_joint_path(start: FloatArray, target: FloatArray, velocity: FloatArray,
     duration = float(np.max(np.abs(delta) / (velocity * speed))) if len(delta) else 0.0
     steps = math.ceil(duration / dt - 1e-9) if duration > 0 else 0
     if steps > MAX_STEPS:
-        raise InvalidParams(f"motion needs {steps} steps (> {MAX_STEPS}); use a larger dt or speed",
-                            param="dt", expected=f"<= {MAX_STEPS} steps", got=steps)
+        raise InvalidParams(
+            f"motion needs {steps} steps (> {MAX_STEPS}); use a larger dt or speed",
+            param="dt",
+            expected=f"<= {MAX_STEPS} steps",
+            got=steps,
+        )
     if steps == 0:
         return np.array([start], dtype=np.float64)
     s = np.arange(steps + 1, dtype=np.float64) / steps

@@ -24,11 +24,15 @@ def _float(el: ET.Element | None, attr: str, default: float, doc: UrdfDoc) -> fl
     try:
         v = float(raw)
     except ValueError:
-        raise UrdfError(f"attribute {attr}={raw!r} of <{el.tag}> is not a number", file=str(doc.file),
-                        line=doc.line_of(el)) from None
+        raise UrdfError(
+            f"attribute {attr}={raw!r} of <{el.tag}> is not a number",
+            file=str(doc.file),
+            line=doc.line_of(el),
+        ) from None
     if not math.isfinite(v):
-        raise UrdfError(f"attribute {attr}={raw!r} of <{el.tag}> is not finite", file=str(doc.file),
-                        line=doc.line_of(el))
+        raise UrdfError(
+            f"attribute {attr}={raw!r} of <{el.tag}> is not finite", file=str(doc.file), line=doc.line_of(el)
+        )
     return v
 
 
@@ -85,27 +89,37 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
         if not name or not jtype:
             raise UrdfError("<joint> needs name and type", file=f, line=line)
         if jtype not in (*MOVABLE, "fixed"):
-            raise UrdfError(f"joint {name!r}: unsupported type {jtype!r} (revolute, continuous, prismatic, "
-                            "fixed)", file=f, line=line, joint=name)
+            raise UrdfError(
+                f"joint {name!r}: unsupported type {jtype!r} (revolute, continuous, prismatic, fixed)",
+                file=f,
+                line=line,
+                joint=name,
+            )
         pel, cel = el.find("parent"), el.find("child")
         parent = pel.get("link", "") if pel is not None else ""
         child = cel.get("link", "") if cel is not None else ""
         for what, ln in (("parent", parent), ("child", child)):
             if ln not in links:
-                raise UrdfError(f"joint {name!r}: {what} link {ln!r} is not defined", file=f, line=line,
-                                joint=name)
+                raise UrdfError(
+                    f"joint {name!r}: {what} link {ln!r} is not defined", file=f, line=line, joint=name
+                )
         if child in parent_of:
             raise UrdfError(f"link {child!r} is the child of two joints", file=f, line=line, joint=name)
         parent_of[child] = parent
         lim = el.find("limit")
         if jtype in ("revolute", "prismatic"):
             if lim is None or lim.get("lower") is None or lim.get("upper") is None:
-                raise UrdfError(f"{jtype} joint {name!r} needs <limit lower=... upper=...>", file=f, line=line,
-                                joint=name)
+                raise UrdfError(
+                    f"{jtype} joint {name!r} needs <limit lower=... upper=...>", file=f, line=line, joint=name
+                )
             lower, upper = _float(lim, "lower", 0.0, doc), _float(lim, "upper", 0.0, doc)
             if lower > upper:
-                raise UrdfError(f"joint {name!r}: lower limit {lower} > upper limit {upper}", file=f,
-                                line=doc.line_of(lim), joint=name)
+                raise UrdfError(
+                    f"joint {name!r}: lower limit {lower} > upper limit {upper}",
+                    file=f,
+                    line=doc.line_of(lim),
+                    joint=name,
+                )
         elif jtype == "continuous":
             lower, upper = -math.pi, math.pi
         else:
@@ -113,9 +127,22 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
         mel = el.find("mimic")
         mimic = None
         if mel is not None and jtype in MOVABLE:
-            mimic = Mimic(mel.get("joint", ""), _float(mel, "multiplier", 1.0, doc), _float(mel, "offset", 0.0, doc))
-        joints.append(JointInfo(name, jtype, parent, child, lower, upper, _float(lim, "velocity", 0.0, doc),
-                                _float(lim, "effort", 0.0, doc), mimic))
+            mimic = Mimic(
+                mel.get("joint", ""), _float(mel, "multiplier", 1.0, doc), _float(mel, "offset", 0.0, doc)
+            )
+        joints.append(
+            JointInfo(
+                name,
+                jtype,
+                parent,
+                child,
+                lower,
+                upper,
+                _float(lim, "velocity", 0.0, doc),
+                _float(lim, "effort", 0.0, doc),
+                mimic,
+            )
+        )
     names = [j.name for j in joints]
     if len(set(names)) != len(names):
         raise UrdfError("duplicate joint names", file=f)
@@ -126,8 +153,11 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
         if j.mimic is not None:
             master = by_name.get(j.mimic.joint)
             if master is None or master.type not in MOVABLE or master.mimic is not None:
-                raise UrdfError(f"joint {j.name!r} mimics {j.mimic.joint!r}, which is not a movable non-mimic "
-                                "joint", file=f, joint=j.name)
+                raise UrdfError(
+                    f"joint {j.name!r} mimics {j.mimic.joint!r}, which is not a movable non-mimic joint",
+                    file=f,
+                    joint=j.name,
+                )
     roots = [ln for ln in links if ln not in parent_of]
     if len(roots) != 1:
         raise UrdfError(f"URDF must have exactly one root link, found {roots}", file=f)
@@ -156,8 +186,11 @@ class BoundRobot:
         self.movable_idx = [ji.idx for ji in infos if joints[ji.name].type in MOVABLE]
         self.ik_slots = np.array([self.movable_idx.index(i) for i in self.ctrl_idx], dtype=np.intp)
         pos = {n: k for k, n in enumerate(self.ctrl_names)}
-        self.mimic = [(by_joint[j.name].idx, pos[j.mimic.joint], j.mimic.multiplier, j.mimic.offset)
-                      for j in model.joints if j.mimic is not None]
+        self.mimic = [
+            (by_joint[j.name].idx, pos[j.mimic.joint], j.mimic.multiplier, j.mimic.offset)
+            for j in model.joints
+            if j.mimic is not None
+        ]
         self.set_idx = self.ctrl_idx + [m[0] for m in self.mimic]
         js = [joints[n] for n in self.ctrl_names]
         self.lower = np.array([j.lower for j in js], dtype=np.float64)
@@ -176,9 +209,9 @@ class BoundRobot:
 
     def home(self) -> FloatArray:
         """Initial configuration: 0 for joints where 0 is at least 10 % of the range away from both limits,
-        the middle of the range otherwise (e.g. Panda joints 4 and 6), so the robot never starts at a limit."""
+        the middle of the range otherwise (e.g. Panda joints 4 and 6): never starts at a limit."""
         margin = 0.1 * (self.upper - self.lower)
-        zero_ok = (self.lower + margin <= 0) & (0 <= self.upper - margin)
+        zero_ok = (self.lower + margin <= 0) & (self.upper - margin >= 0)
         out: FloatArray = np.where(zero_ok, 0.0, (self.lower + self.upper) / 2)
         return out
 
@@ -203,22 +236,35 @@ class BoundRobot:
         if isinstance(q, np.ndarray):
             arr = q.astype(np.float64, copy=False).ravel() if q.ndim == 1 else None
         elif isinstance(q, (list, tuple)) and all(
-                isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) for v in q):
+            isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) for v in q
+        ):
             arr = np.array(q, dtype=np.float64)
         else:
             arr = None
         if arr is None:
-            raise InvalidParams(f"{param} must be an array of {self.dof} numbers", param=param,
-                                expected=f"array of {self.dof} numbers", got=q)
+            raise InvalidParams(
+                f"{param} must be an array of {self.dof} numbers",
+                param=param,
+                expected=f"array of {self.dof} numbers",
+                got=q,
+            )
         if arr.shape != (self.dof,):
-            raise InvalidParams(f"{param} must have {self.dof} values ({', '.join(self.ctrl_names)}), "
-                                f"got {arr.shape[0]}", param=param, expected=self.dof, got=int(arr.shape[0]))
+            raise InvalidParams(
+                f"{param} must have {self.dof} values ({', '.join(self.ctrl_names)}), got {arr.shape[0]}",
+                param=param,
+                expected=self.dof,
+                got=int(arr.shape[0]),
+            )
         bad = ~np.isfinite(arr)
         if bad.any():
             k = int(np.argmax(bad))
-            raise InvalidParams(f"{param}[{k}] ({self.ctrl_names[k]}) is {arr[k]}, not a finite number",
-                                param=f"{param}[{k}]", expected="finite number", got=float(arr[k]),
-                                joint=self.ctrl_names[k])
+            raise InvalidParams(
+                f"{param}[{k}] ({self.ctrl_names[k]}) is {arr[k]}, not a finite number",
+                param=f"{param}[{k}]",
+                expected="finite number",
+                got=float(arr[k]),
+                joint=self.ctrl_names[k],
+            )
         out = (arr < self.lower - LIMIT_TOL) | (arr > self.upper + LIMIT_TOL)
         if out.any():
             k = int(np.argmax(out))

@@ -42,8 +42,12 @@ class IkResult:
     collision_free: bool
 
     def to_json(self) -> dict[str, Any]:
-        return {"positions": _floats(self.positions), "positionError": self.position_error,
-                "orientationError": self.orientation_error, "collisionFree": self.collision_free}
+        return {
+            "positions": _floats(self.positions),
+            "positionError": self.position_error,
+            "orientationError": self.orientation_error,
+            "collisionFree": self.collision_free,
+        }
 
 
 @dataclass(frozen=True)
@@ -67,8 +71,12 @@ class Contact:
     position: tuple[float, float, float]
 
     def to_json(self) -> dict[str, Any]:
-        return {"a": self.a.to_json(), "b": self.b.to_json(), "depth": self.depth,
-                "position": _floats(self.position)}
+        return {
+            "a": self.a.to_json(),
+            "b": self.b.to_json(),
+            "depth": self.depth,
+            "position": _floats(self.position),
+        }
 
 
 @dataclass(frozen=True)
@@ -87,8 +95,11 @@ class FirstCollision:
     contacts: tuple[Contact, ...]
 
     def to_json(self) -> dict[str, Any]:
-        return {"time": self.time, "positions": _floats(self.positions),
-                "contacts": [c.to_json() for c in self.contacts]}
+        return {
+            "time": self.time,
+            "positions": _floats(self.positions),
+            "contacts": [c.to_json() for c in self.contacts],
+        }
 
 
 @dataclass(frozen=True)
@@ -101,8 +112,11 @@ class PathReport:
     first_collision: FirstCollision | None = None
 
     def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"collisionFree": self.collision_free, "duration": self.duration,
-                               "steps": self.steps}
+        out: dict[str, Any] = {
+            "collisionFree": self.collision_free,
+            "duration": self.duration,
+            "steps": self.steps,
+        }
         if self.first_collision is not None:
             out["firstCollision"] = self.first_collision.to_json()
         return out
@@ -133,9 +147,16 @@ class JointInfo:
     mimic: Mimic | None = None
 
     def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"name": self.name, "type": self.type, "parent": self.parent,
-                               "child": self.child, "lower": self.lower, "upper": self.upper,
-                               "velocity": self.velocity, "effort": self.effort}
+        out: dict[str, Any] = {
+            "name": self.name,
+            "type": self.type,
+            "parent": self.parent,
+            "child": self.child,
+            "lower": self.lower,
+            "upper": self.upper,
+            "velocity": self.velocity,
+            "effort": self.effort,
+        }
         if self.mimic is not None:
             out["mimic"] = self.mimic.to_json()
         return out
@@ -170,8 +191,10 @@ class RobotModel:
     def limits(self) -> tuple[FloatArray, FloatArray]:
         """Lower and upper limits of the controllable joints, in vector order."""
         js = [self.joint(n) for n in self.controllable]
-        return (np.array([j.lower for j in js], dtype=np.float64),
-                np.array([j.upper for j in js], dtype=np.float64))
+        return (
+            np.array([j.lower for j in js], dtype=np.float64),
+            np.array([j.upper for j in js], dtype=np.float64),
+        )
 
     def velocity_limits(self) -> FloatArray:
         """Velocity limits (rad/s or m/s) of the controllable joints.
@@ -182,9 +205,15 @@ class RobotModel:
         return np.array([x if x > 0 and math.isfinite(x) else DEFAULT_VELOCITY for x in v], dtype=np.float64)
 
     def to_json(self) -> dict[str, Any]:
-        return {"id": self.id, "name": self.name, "urdf": self.urdf, "eeLink": self.ee_link,
-                "links": list(self.links), "joints": [j.to_json() for j in self.joints],
-                "controllable": list(self.controllable),
-                "filteredPairs": [list(p) for p in self.filtered_pairs],
-                "basePosition": _floats(self.base_position),
-                "baseOrientation": _floats(self.base_orientation)}
+        return {
+            "id": self.id,
+            "name": self.name,
+            "urdf": self.urdf,
+            "eeLink": self.ee_link,
+            "links": list(self.links),
+            "joints": [j.to_json() for j in self.joints],
+            "controllable": list(self.controllable),
+            "filteredPairs": [list(p) for p in self.filtered_pairs],
+            "basePosition": _floats(self.base_position),
+            "baseOrientation": _floats(self.base_orientation),
+        }

@@ -41,6 +41,7 @@ def _locked(fn: Callable[P, R]) -> Callable[P, R]:
     def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
         with args[0]._lock:  # type: ignore[attr-defined]
             return fn(*args, **kwargs)
+
     return wrapper
 
 
@@ -82,10 +83,17 @@ class World:
 
     # robots
     @_locked
-    def load_robot(self, urdf: str | Path, *, robot_id: str | None = None,
-                   base_position: Vec3 = (0.0, 0.0, 0.0), base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
-                   ee_link: str | None = None, package_roots: Mapping[str, str] | None = None,
-                   _base_dir: Path | None = None) -> RobotModel:
+    def load_robot(
+        self,
+        urdf: str | Path,
+        *,
+        robot_id: str | None = None,
+        base_position: Vec3 = (0.0, 0.0, 0.0),
+        base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
+        ee_link: str | None = None,
+        package_roots: Mapping[str, str] | None = None,
+        _base_dir: Path | None = None,
+    ) -> RobotModel:
         """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model."""
         if robot_id is not None:
             self._check_free_name(v.name("id", robot_id))
@@ -129,12 +137,14 @@ class World:
 
     # scene / obstacles
     @_locked
-    def load_scene(self, scene: dict[str, Any] | str | Path,
-                   package_roots: Mapping[str, str] | None = None) -> dict[str, Any]:
-        """Add a scene's obstacles and robots (all or nothing). Returns ``{"robots": [id], "obstacles": [name]}``."""
+    def load_scene(
+        self, scene: dict[str, Any] | str | Path, package_roots: Mapping[str, str] | None = None
+    ) -> dict[str, Any]:
+        """Add a scene's obstacles and robots, all or nothing: ``{"robots": [id], "obstacles": [name]}``."""
         if not isinstance(scene, (dict, str, Path)):
-            raise InvalidParams("scene must be an object or a file path", param="scene", expected="object",
-                                got=scene)
+            raise InvalidParams(
+                "scene must be an object or a file path", param="scene", expected="object", got=scene
+            )
         roots = v.string_map("packageRoots", package_roots)
         doc, base, _file = read_scene(scene)
         specs = [normalise_obstacle(o, base) for o in doc.get("obstacles", [])]
@@ -146,11 +156,18 @@ class World:
             for s in specs:
                 added_obs.append(self._add_obstacle(s)["name"])
             for r in doc.get("robots", []):
-                quat = r.get("baseOrientation") or (quat_from_rpy(r["baseRpy"]) if "baseRpy" in r else
-                                                    (0.0, 0.0, 0.0, 1.0))
-                model = self.load_robot(r["urdf"], robot_id=r.get("id"), base_position=r.get("basePosition",
-                                        (0.0, 0.0, 0.0)), base_orientation=quat, ee_link=r.get("eeLink"),
-                                        package_roots={**roots, **r.get("packageRoots", {})}, _base_dir=base)
+                quat = r.get("baseOrientation") or (
+                    quat_from_rpy(r["baseRpy"]) if "baseRpy" in r else (0.0, 0.0, 0.0, 1.0)
+                )
+                model = self.load_robot(
+                    r["urdf"],
+                    robot_id=r.get("id"),
+                    base_position=r.get("basePosition", (0.0, 0.0, 0.0)),
+                    base_orientation=quat,
+                    ee_link=r.get("eeLink"),
+                    package_roots={**roots, **r.get("packageRoots", {})},
+                    _base_dir=base,
+                )
                 added_rob.append(model.id)
                 if "positions" in r:
                     self.set_joint_positions(model.id, r["positions"])
@@ -167,8 +184,9 @@ class World:
         try:
             body = self.bullet.create_static(spec["shape"], spec["position"], spec["orientation"])
         except Exception as e:  # a mesh PyBullet cannot read
-            raise InvalidParams(f"obstacle {spec['name']!r}: {e}", param="shape", expected="loadable shape",
-                                got=spec["shape"]) from None
+            raise InvalidParams(
+                f"obstacle {spec['name']!r}: {e}", param="shape", expected="loadable shape", got=spec["shape"]
+            ) from None
         self._obstacles[spec["name"]] = (body, spec)
         self.table.names[body] = spec["name"]
         self._changed()
@@ -180,14 +198,16 @@ class World:
         return self._add_obstacle(normalise_obstacle(spec))
 
     @_locked
-    def move_obstacle(self, name: str, position: Vec3, orientation: Quat | None = None,
-                      rpy: Vec3 | None = None) -> dict[str, Any]:
+    def move_obstacle(
+        self, name: str, position: Vec3, orientation: Quat | None = None, rpy: Vec3 | None = None
+    ) -> dict[str, Any]:
         if name not in self._obstacles:
             raise UnknownObject(str(name), self._obstacles)
         pos = v.vector("position", position, 3)
         if orientation is not None and rpy is not None:
-            raise InvalidParams("give orientation or rpy, not both", param="rpy", expected="one of them",
-                                got=rpy)
+            raise InvalidParams(
+                "give orientation or rpy, not both", param="rpy", expected="one of them", got=rpy
+            )
         body, spec = self._obstacles[name]
         if orientation is not None:
             quat = v.quaternion("orientation", orientation)
@@ -212,9 +232,16 @@ class World:
 
     @_locked
     def list(self) -> dict[str, Any]:
-        robots = [{"id": rid, "urdf": e.model.urdf, "basePosition": list(e.model.base_position),
-                   "baseOrientation": list(e.model.base_orientation), "eeLink": e.model.ee_link}
-                  for rid, e in self._robots.items()]
+        robots = [
+            {
+                "id": rid,
+                "urdf": e.model.urdf,
+                "basePosition": list(e.model.base_position),
+                "baseOrientation": list(e.model.base_orientation),
+                "eeLink": e.model.ee_link,
+            }
+            for rid, e in self._robots.items()
+        ]
         return {"robots": robots, "obstacles": [spec for _, spec in self._obstacles.values()]}
 
     @_locked
@@ -230,11 +257,18 @@ class World:
         """The current world as a scene document (absolute paths); ``load_scene`` rebuilds it."""
         robots = []
         for rid, e in self._robots.items():
-            r: dict[str, Any] = {"id": rid, "urdf": str(e.urdf_path), "basePosition": list(e.model.base_position),
-                                 "baseOrientation": list(e.model.base_orientation), "eeLink": e.model.ee_link,
-                                 "positions": [float(x) for x in e.bound.q]}
+            r: dict[str, Any] = {
+                "id": rid,
+                "urdf": str(e.urdf_path),
+                "basePosition": list(e.model.base_position),
+                "baseOrientation": list(e.model.base_orientation),
+                "eeLink": e.model.ee_link,
+                "positions": [float(x) for x in e.bound.q],
+            }
             if e.package_roots:
-                r["packageRoots"] = {k: str(Path(p).expanduser().resolve()) for k, p in e.package_roots.items()}
+                r["packageRoots"] = {
+                    k: str(Path(p).expanduser().resolve()) for k, p in e.package_roots.items()
+                }
             robots.append(r)
         return {"version": 1, "obstacles": [spec for _, spec in self._obstacles.values()], "robots": robots}
 
@@ -263,9 +297,15 @@ class World:
             b.apply(saved)
 
     @_locked
-    def ik(self, robot_id: str, position: Vec3, quat_xyzw: Quat | None = None,
-           seed: Sequence[float] | None = None, collision_free: bool = True) -> IkResult:
-        """Joint positions placing the end-effector frame at ``position`` (and ``quat_xyzw``). No state change."""
+    def ik(
+        self,
+        robot_id: str,
+        position: Vec3,
+        quat_xyzw: Quat | None = None,
+        seed: Sequence[float] | None = None,
+        collision_free: bool = True,
+    ) -> IkResult:
+        """Joint positions putting the end-effector frame at ``position`` (+ ``quat_xyzw``). Read-only."""
         e = self._entry(robot_id)
         b = e.bound
         pos = v.vector("position", position, 3)
@@ -306,10 +346,17 @@ class World:
         e = self._entry(robot_id)
         arr = np.asarray(qs, dtype=np.float64)
         if arr.ndim != 2 or arr.shape[1] != e.bound.dof:
-            raise InvalidParams(f"expected an array [n, {e.bound.dof}]", param="qs",
-                                expected=f"[n, {e.bound.dof}]", got=list(arr.shape))
-        bad = ~np.isfinite(arr).all(axis=1) | (arr < e.bound.lower - 1e-9).any(axis=1) | (
-            arr > e.bound.upper + 1e-9).any(axis=1)
+            raise InvalidParams(
+                f"expected an array [n, {e.bound.dof}]",
+                param="qs",
+                expected=f"[n, {e.bound.dof}]",
+                got=list(arr.shape),
+            )
+        bad = (
+            ~np.isfinite(arr).all(axis=1)
+            | (arr < e.bound.lower - 1e-9).any(axis=1)
+            | (arr > e.bound.upper + 1e-9).any(axis=1)
+        )
         if bad.any():
             e.bound.validate(arr[int(np.argmax(bad))], f"qs[{int(np.argmax(bad))}]")
         if e.checker.static_contacts():
@@ -325,16 +372,30 @@ class World:
             if self._fast is not None:
                 self._fast.close()
                 self._fast = None
-            mirror = {rid: MirrorRobot(e.urdf_path, e.package_roots, e.model.base_position,
-                                       e.model.base_orientation, e.bound.set_idx, e.checker.filtered)
-                      for rid, e in self._robots.items()}
+            mirror = {
+                rid: MirrorRobot(
+                    e.urdf_path,
+                    e.package_roots,
+                    e.model.base_position,
+                    e.model.base_orientation,
+                    e.bound.set_idx,
+                    e.checker.filtered,
+                )
+                for rid, e in self._robots.items()
+            }
             self._fast = FastWorld(mirror, [spec for _, spec in self._obstacles.values()], self.table.version)
         return self._fast
 
     # motion (planning only)
     @_locked
-    def plan_motion(self, robot_id: str, target: JointVector, start: JointVector | None = None,
-                    speed: float = 1.0, dt: float = 1.0 / 240.0) -> npt.NDArray[np.float64]:
+    def plan_motion(
+        self,
+        robot_id: str,
+        target: JointVector,
+        start: JointVector | None = None,
+        speed: float = 1.0,
+        dt: float = 1.0 / 240.0,
+    ) -> npt.NDArray[np.float64]:
         """Joint states [steps + 1, dof] from ``start`` (default current) to ``target``, one per ``dt``."""
         e = self._entry(robot_id)
         tgt = e.bound.validate(target, "target")
@@ -343,8 +404,14 @@ class World:
         return plan_joint_path(st, tgt, e.model.velocity_limits(), sp, step)
 
     @_locked
-    def check_path(self, robot_id: str, target: JointVector, start: JointVector | None = None,
-                   speed: float = 1.0, dt: float = 1.0 / 240.0) -> PathReport:
+    def check_path(
+        self,
+        robot_id: str,
+        target: JointVector,
+        start: JointVector | None = None,
+        speed: float = 1.0,
+        dt: float = 1.0 / 240.0,
+    ) -> PathReport:
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
         path = self.plan_motion(robot_id, target, start, speed, dt)
         e = self._entry(robot_id)
@@ -355,5 +422,7 @@ class World:
         """Write a self-contained copy of the robot's URDF (meshes under ``meshes/``) into ``out_dir``."""
         e = self._entry(robot_id)
         if not isinstance(out_dir, (str, Path)) or not str(out_dir):
-            raise InvalidParams("outDir must be a folder path", param="outDir", expected="string", got=out_dir)
+            raise InvalidParams(
+                "outDir must be a folder path", param="outDir", expected="string", got=out_dir
+            )
         return export_urdf(e.urdf_path, out_dir, e.package_roots)
