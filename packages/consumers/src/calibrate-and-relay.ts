@@ -130,7 +130,7 @@ async function main(): Promise<void> {
     if (result.relay && !result.relay.ok) console.log(`relay to the physical twin FAILED: ${result.relay.error ?? "?"}`);
     const landed = await settle(physical, before, undefined, timeout);
     const error = norm(sub(toV3(landed.pose), target));
-    console.log(`physical twin landed at ${fmtXyz(landed.pose, 4)}: ${fmt(error * 1000, 3)} mm from the real-frame target${landed.settled ? "" : " (did not settle in time)"}`);
+    console.log(`physical twin landed at ${fmtXyz(landed.pose, 4)}: ${fmt(error * 1000, 4)} mm from the real-frame target${landed.settled ? "" : " (did not settle in time)"}`);
     if (!landed.settled || result.status !== "reached" || result.relay?.ok !== true) process.exitCode = 1;
     if (args.options.has("json")) {
       printJsonSummary({ pairs, calibration: cal, target: toXyz(target), virtualResult: result, physical: landed.pose, errorM: error, settled: landed.settled });

@@ -56,7 +56,7 @@ async function main(): Promise<void> {
   const updates: Update[] = [];
   const moves: [number, number][] = [];
   let live: LiveSubscription | undefined;
-  const t0 = performance.now();
+  let t0 = performance.now();
   const now = (): number => (performance.now() - t0) / 1000;
   const record = (source: Update["source"], joints: Joints): void => {
     const u: Update = { source, t: now(), joints };
@@ -75,6 +75,7 @@ async function main(): Promise<void> {
     const [away] = await acceptedTargets(twin, spreadTargets(jointLimits(twin.td), 0.4, 8), 1, start);
     if (away === undefined) throw new Error("no joint target accepted by validateJointPosition to move to");
 
+    t0 = performance.now(); // observation starts now
     let usePoll = via !== "ws";
     let useWs = false;
     if (via !== "poll") {
@@ -108,10 +109,12 @@ async function main(): Promise<void> {
     // The mover: back and forth between the start pose and `away` until time is up.
     const deadline = seconds;
     let toward: Joints = away;
+    let simulated = 0; // s of motion, by the twin's clock
     while (now() < deadline) {
       const a = now();
       const result = await invoke<MoveResult>(twin, "moveToJointPosition", { joints: toward, speed });
       moves.push([a, now()]);
+      simulated += result.duration;
       if (!quiet) console.log(`[+${fmt(now())} s] move ${result.status} after ${fmt(result.duration)} s`);
       toward = toward === away ? start : away;
     }
@@ -128,7 +131,7 @@ async function main(): Promise<void> {
         const r = rateWithin(mine, moves);
         return { source: s, total: mine.length, ...r };
       });
-    console.log(`\n${moves.length} moves, robot moving ${fmt(moves.reduce((s, [a, b]) => s + b - a, 0))} s of ${fmt(now())} s`);
+    console.log(`\n${moves.length} moves (${fmt(simulated)} s of motion), move requests open ${fmt(moves.reduce((s, [a, b]) => s + b - a, 0))} s of ${fmt(now())} s`);
     console.log(
       table(
         ["observer", "updates", "during motion", "rate (Hz)"],
@@ -137,7 +140,7 @@ async function main(): Promise<void> {
     );
     if (args.options.has("json")) {
       const last = (src: Update["source"]): Update | null => updates.filter((u) => u.source === src).pop() ?? null;
-      printJsonSummary({ moves: moves.length, observers: rows, lastWs: last("ws"), lastPoll: last("poll") });
+      printJsonSummary({ moves: moves.length, motionSeconds: simulated, observers: rows, lastWs: last("ws"), lastPoll: last("poll") });
     }
   } finally {
     await live?.close();

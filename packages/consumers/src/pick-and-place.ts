@@ -29,14 +29,16 @@ interface Target {
 }
 
 /**
- * Stations on a circle around the middle of the workspace, at 45% of its horizontal half-extent and a
- * quarter of its height: pick at +90°, place at -90°, pick at 0°, place at 180°, each preceded by an
- * approach point 10 cm higher, then one point 30 cm beyond the workspace bounds.
+ * Stations on a circle around the middle of the workspace, at 45% of its horizontal half-extent and 30%
+ * of its height above the floor: pick at +90°, place at -90°, pick at 0°, place at 180°, each preceded by an
+ * approach point 10 cm higher, then one point near the top corner of the bounding box (out of reach).
  */
 export function defaultTargets(b: Bounds3): Target[] {
   const c: V3 = [(b.min[0] + b.max[0]) / 2, (b.min[1] + b.max[1]) / 2, 0];
   const r = 0.45 * Math.min(b.max[0] - b.min[0], b.max[1] - b.min[1]) / 2;
-  const z = b.min[2] + 0.25 * (b.max[2] - b.min[2]);
+  // Z up with the floor at z = 0 (URDF convention); a workspace sampled without a floor reaches below it.
+  const floor = Math.max(b.min[2], 0);
+  const z = floor + 0.3 * (b.max[2] - floor);
   const out: Target[] = [];
   const stations: [string, number][] = [["pick A", 90], ["place A", -90], ["pick B", 0], ["place B", 180]];
   for (const [label, deg] of stations) {
@@ -44,7 +46,8 @@ export function defaultTargets(b: Bounds3): Target[] {
     const p: V3 = [c[0] + r * Math.cos(a), c[1] + r * Math.sin(a), z];
     out.push({ label: `${label} approach`, p: [p[0], p[1], p[2] + 0.1] }, { label, p });
   }
-  out.push({ label: "out of reach", p: [b.max[0] + 0.3, c[1], b.max[2]] });
+  // A corner of the bounding box: inside the bounds the TD declares, outside a roughly round workspace.
+  out.push({ label: "out of reach", p: [0.95 * b.max[0] + 0.05 * c[0], 0.95 * b.max[1] + 0.05 * c[1], 0.95 * b.max[2] + 0.05 * floor] });
   return out;
 }
 
@@ -90,12 +93,12 @@ async function main(): Promise<void> {
     console.log(
       "\n" +
         table(
-          ["target", "x, y, z (m)", "in STL", "cloud share", "offline", "twin STL", "twin cloud", "IK", "path", "twin", "agree", "result"],
+          ["target", "x, y, z (m)", "in STL", "cloud (share)", "offline", "twin STL", "twin cloud", "IK", "path", "twin", "agree", "result"],
           rows.map((r) => [
             r.label,
             fmtXyz(toXyz(r.target), 3),
             yesNo(r.offline.inside),
-            fmt(r.offline.pointCloud.share, 2),
+            `${fmt(r.offline.pointCloud.share, 2)} ${r.offline.pointCloud.ok ? "ok" : r.offline.pointCloud.share >= r.offline.pointCloud.threshold ? "colliding" : "no samples near"}`,
             r.offline.ok ? "valid" : "invalid",
             yesNo(r.twin.checks.insideWorkspace?.ok),
             yesNo(r.twin.checks.pointCloud?.ok),

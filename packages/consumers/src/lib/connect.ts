@@ -8,7 +8,7 @@
  */
 import type * as WoTTypes from "wot-typescript-definitions";
 import { loadNodeWot, silenceAjvFormatWarnings } from "./node-wot.js";
-import type { ThingDescriptionLike } from "./td.js";
+import type { SchemaLike, ThingDescriptionLike } from "./td.js";
 
 /** The Thing slug `npm start` / `robwot demo` serves (the bundled kuka_iiwa, TD title "lbr_iiwa"). */
 export const DEMO_SLUG = "lbr_iiwa";
@@ -91,10 +91,45 @@ export async function openSession(): Promise<Session> {
   };
 }
 
-/** Read a property and return its decoded value. */
+const warned = new Set<string>();
+
+/** Numeric min/max violations of `value` against `schema` (object properties, recursively). */
+export function schemaViolations(value: unknown, schema: SchemaLike | undefined, path = ""): string[] {
+  if (schema === undefined) return [];
+  if (typeof value === "number") {
+    const out: string[] = [];
+    if (typeof schema.minimum === "number" && value < schema.minimum) out.push(`${path || "value"}=${value} < minimum ${schema.minimum}`);
+    if (typeof schema.maximum === "number" && value > schema.maximum) out.push(`${path || "value"}=${value} > maximum ${schema.maximum}`);
+    return out;
+  }
+  if (value !== null && typeof value === "object" && schema.properties !== undefined) {
+    return Object.entries(schema.properties).flatMap(([k, sub]) =>
+      schemaViolations((value as Record<string, unknown>)[k], sub, path ? `${path}.${k}` : k),
+    );
+  }
+  return [];
+}
+
+/**
+ * Read a property and return its decoded value. node-wot's `value()` rejects a value outside the TD's
+ * schema; then the property is read again undecoded and a warning names the violation (a twin whose
+ * TD declares too narrow bounds is reported, not fatal to the scenario).
+ */
 export async function read<T>(twin: Twin, name: string): Promise<T> {
   const out = await twin.thing.readProperty(name);
-  return (await out.value()) as T;
+  try {
+    return (await out.value()) as T;
+  } catch (err) {
+    if (!/Invalid value according to DataSchema/i.test((err as Error).message)) throw err;
+    const raw = await twin.thing.readProperty(name);
+    const value = JSON.parse(new TextDecoder().decode(await raw.arrayBuffer())) as T;
+    if (!warned.has(name)) {
+      warned.add(name);
+      const why = schemaViolations(value, twin.td.properties?.[name]).join(", ") || (err as Error).message;
+      console.error(`warning: ${name} of ${twin.url} does not match its TD schema (${why}); using the value anyway`);
+    }
+    return value;
+  }
 }
 
 /** Invoke an action and return its decoded output; errors name the action and the twin. */
