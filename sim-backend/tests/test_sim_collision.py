@@ -144,3 +144,38 @@ def test_two_robots_see_each_other() -> None:
         w.load_robot(KUKA, robot_id="b", base_position=(0.5, 0, 0))
         rep = w.check_collision(a.id, [0, 1.2, 0, 0, 0, 0, 0])
         assert any(c.b.body == "b" for c in rep.contacts)
+
+
+def test_fast_batch_with_second_robot_and_mesh_obstacle() -> None:
+    """The batch mirror sees other robots (at their current state) and mesh obstacles like check_collision."""
+    with World() as w:
+        a = w.load_robot(KUKA, robot_id="a")
+        w.load_robot(PANDA, robot_id="p", base_position=(0.7, 0, 0))
+        w.set_joint_positions("p", [0.5, 0.3, 0, -1.5, 0, 1.8, 0, 0.02])
+        w.add_obstacle(
+            {
+                "name": "cube",
+                "shape": {"type": "mesh", "file": str(MODELS / "meshes" / "cube.obj"), "scale": 2.0},
+                "position": [-0.5, 0.2, 0.6],
+            }
+        )
+        qs = w._robots[a.id].bound.random_q(np.random.default_rng(9), 150)
+        fast = w.collision_free_batch(a.id, qs)
+        slow = np.array([w.check_collision(a.id, q).collision_free for q in qs])
+        assert np.array_equal(fast, slow)
+        hits = {c.b.body for q in qs[~slow] for c in w.check_collision(a.id, q).contacts}
+        assert {"p", "cube"} <= hits
+        w.set_joint_positions("p", [-0.5, 0.3, 0, -1.5, 0, 1.8, 0, 0.02])  # the mirror follows the new state
+        assert np.array_equal(
+            w.collision_free_batch(a.id, qs), [w.check_collision(a.id, q).collision_free for q in qs]
+        )
+
+
+def test_ik_reports_when_only_colliding_solutions_exist() -> None:
+    """A target inside an obstacle: the solution is returned flagged collisionFree=False."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.add_obstacle({"name": "ball", "shape": {"type": "sphere", "radius": 0.12}, "position": [0.5, 0, 0.5]})
+        r = w.ik(m.id, (0.5, 0.0, 0.5))
+        assert r.position_error <= 1e-3 and not r.collision_free
+        assert not w.check_collision(m.id, r.positions).collision_free
