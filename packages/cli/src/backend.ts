@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import type { WorkspaceSummary as CoreWorkspaceSummary } from "@robwot/core";
-import { connect, launchBackend, type LaunchedBackend, type RobotModel as SimRobotModel, type SimClient, type WorldList as SimWorldList } from "@robwot/sim-client";
+import { connect, launchBackend, type LaunchedBackend, type LoadRobotParams, type RobotModel as SimRobotModel, type SimClient, type WorldList as SimWorldList } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type WorkspaceSummary = CoreWorkspaceSummary;
@@ -18,7 +18,8 @@ export interface Progress {
 export interface Backend {
   /** `pybullet_data.getDataPath()` of the backend (for example robots). */
   readonly pybulletData: string;
-  loadRobot(params: { urdf: string; eeLink?: string; packageRoots?: Record<string, string> }): Promise<RobotModel>;
+  loadRobot(params: LoadRobotParams): Promise<RobotModel>;
+  removeRobot(id: string): Promise<void>;
   loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void>;
   listWorld(): Promise<WorldList>;
   resetWorld(): Promise<void>;
@@ -46,8 +47,11 @@ class SimBackend implements Backend {
     this.own = own;
   }
 
-  loadRobot(params: { urdf: string; eeLink?: string; packageRoots?: Record<string, string> }): Promise<RobotModel> {
+  loadRobot(params: LoadRobotParams): Promise<RobotModel> {
     return this.client.loadRobot(params);
+  }
+  async removeRobot(id: string): Promise<void> {
+    await this.client.removeRobot(id);
   }
   async loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void> {
     await this.client.loadScene(params);

@@ -3,8 +3,8 @@
  * temporary folder and moved into place only when everything, TD validation included, succeeded.
  * Shared by `robwot generate` and `robwot demo`.
  */
-import { existsSync, writeFileSync } from "node:fs";
-import { join } from "node:path";
+import { existsSync, realpathSync, writeFileSync } from "node:fs";
+import { join, resolve } from "node:path";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
@@ -54,6 +54,36 @@ function urdfPath(opts: GenerateOptions, pybulletData: string): string {
   return file;
 }
 
+function samePath(a: string, b: string): boolean {
+  try {
+    return realpathSync(a) === realpathSync(b);
+  } catch {
+    return resolve(a) === resolve(b);
+  }
+}
+
+/**
+ * Loads the scene, then the robot. A scene may place robots itself (`robots: [{urdf, basePosition, ...}]`):
+ * when one of them is the robot being generated, that one is the twin (reloaded with `--ee` if given, at
+ * the scene's pose); every other robot is an obstacle.
+ */
+async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: string): Promise<RobotModel> {
+  const packageRoots = opts.packageRoots;
+  if (!opts.scene) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots });
+  await backend.loadScene({ path: opts.scene, packageRoots });
+  const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf));
+  if (!placed) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots });
+  await backend.removeRobot(placed.id);
+  return backend.loadRobot({
+    urdf,
+    id: placed.id,
+    basePosition: placed.basePosition,
+    baseOrientation: placed.baseOrientation,
+    eeLink: opts.ee ?? placed.eeLink,
+    packageRoots,
+  });
+}
+
 /**
  * Runs the whole pipeline against an open backend whose world is empty. `staged` must have been created
  * by the caller (before starting the backend, so output problems are reported first); it is committed
@@ -68,12 +98,7 @@ export async function generateTwin(
   const t0 = performance.now();
   progress.stage("load");
   const urdf = urdfPath(opts, backend.pybulletData);
-  const model: RobotModel = await backend.loadRobot({
-    urdf,
-    ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}),
-    packageRoots: opts.packageRoots,
-  });
-  if (opts.scene) await backend.loadScene({ path: opts.scene, packageRoots: opts.packageRoots });
+  const model = await loadRobotInScene(opts, backend, urdf);
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
 

@@ -10,8 +10,8 @@ export interface ProgressSink {
   update(name: string, done: number, total: number): void;
   /** Free text (kept on its own line). */
   info(text: string): void;
-  /** Clears the bar; call once at the end. */
-  end(): void;
+  /** Clears the bar; call once at the end (`ok` false: the current stage did not finish). */
+  end(ok?: boolean): void;
 }
 
 export interface ProgressOptions {
@@ -67,6 +67,10 @@ export function createProgress(opts: ProgressOptions = {}): ProgressSink {
       stageStart = now();
       lastPlainQuarter = -1;
       if (!tty) stream.write(`robwot: ${name}...\n`);
+      else {
+        stream.write(`\r\x1b[2K${name}...`);
+        barShown = true;
+      }
     },
     update(name, done, total) {
       if (name !== current) this.stage(name);
@@ -94,8 +98,9 @@ export function createProgress(opts: ProgressOptions = {}): ProgressSink {
       clearBar();
       stream.write(`robwot: ${text}\n`);
     },
-    end() {
-      finishStage();
+    end(ok = true) {
+      if (ok) finishStage();
+      current = null;
       clearBar();
     },
   };

@@ -69,7 +69,7 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
       await backend.close();
     }
   } catch (err) {
-    progress.end();
+    progress.end(false);
     if (opts.json) {
       const { message, code } = describeError(err);
       process.stdout.write(`${JSON.stringify({ ok: false, error: { code, message } }, null, 2)}\n`);
