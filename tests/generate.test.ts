@@ -190,4 +190,19 @@ describe("workspace determinism and obstacles (kuka_iiwa)", () => {
     expect(existsSync(join(out, "td.json"))).toBe(true);
     expect(readdirSync(work).filter((n) => n.includes(".tmp-") || n.includes(".old-"))).toEqual([]);
   });
+
+  it("a scene that places the generated robot sets its base pose; --csv-joints adds joint columns", async () => {
+    const sceneFile = join(work, "placed.json");
+    writeFileSync(sceneFile, JSON.stringify({ version: 1, robots: [{ id: "tiny", urdf: join(work, "tiny.urdf"), basePosition: [1, 0, 0] }], obstacles: [] }));
+    const out = join(work, "placed");
+    await generate(join(work, "tiny.urdf"), out, ["--scene", sceneFile, "--csv-joints"]);
+    expect(json(join(out, "twin.json"))["robot"]["basePosition"]).toEqual([1, 0, 0]);
+    expect(json(join(out, "scene.json"))["robots"]).toEqual([]);
+    const csv = readCsv(join(out, "workspace.csv"));
+    expect(csv.header).toEqual(["x", "y", "z", "collision_free", "yaw", "shoulder", "elbow"]);
+    const summary = json(join(out, "workspace.json")) as Summary;
+    // reach 0.5 m around the shoulder at (1, 0, 0.15)
+    expect(summary.bounds.min[0]).toBeGreaterThan(0.45);
+    expect(summary.bounds.max[0]).toBeLessThan(1.55);
+  });
 });
