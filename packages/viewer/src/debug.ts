@@ -14,6 +14,8 @@ export interface DebugState {
   liveMessages: number;
   lastStatus: unknown;
   collisions: number;
+  /** Bodies (link or obstacle names) shown red right now after a collision event. */
+  highlighted: string[];
   pointCloud: { shown: number; total: number; collisionFree: number } | null;
   workspaceTriangles: number;
   obstacles: string[];
@@ -30,6 +32,7 @@ export const debugState: DebugState = {
   liveMessages: 0,
   lastStatus: null,
   collisions: 0,
+  highlighted: [],
   pointCloud: null,
   workspaceTriangles: 0,
   obstacles: [],

@@ -30,7 +30,7 @@ export class Stage {
   private readonly hooks: Array<() => boolean> = [];
 
   constructor(private readonly container: HTMLElement) {
-    this.renderer = new WebGLRenderer({ antialias: true });
+    this.renderer = new WebGLRenderer({ antialias: false });
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     container.append(this.renderer.domElement);
     this.scene.background = new Color(0xf4f6f9);
@@ -65,11 +65,18 @@ export class Stage {
   }
 
   start(): void {
-    const tick = (): void => {
+    // Rendering may be slow (software WebGL: 100+ ms a frame). Keep the page responsive: after a frame
+    // that took `cost` ms, wait at least as long before the next one (at most ~50% of the main thread).
+    let cost = 0;
+    let lastEnd = 0;
+    const tick = (now: number): void => {
       for (const hook of this.hooks) if (hook()) this.dirty = true;
-      if (this.dirty) {
+      if (this.dirty && now - lastEnd >= cost) {
         this.dirty = false;
+        const t0 = performance.now();
         this.renderer.render(this.scene, this.camera);
+        lastEnd = performance.now();
+        cost = lastEnd - t0;
       }
       requestAnimationFrame(tick);
     };
@@ -85,7 +92,7 @@ export class Stage {
     const centre = box.getCenter(new Vector3());
     const radius = box.getSize(new Vector3()).length() / 2;
     const fov = (this.camera.fov * Math.PI) / 180;
-    const distance = (radius / Math.sin(fov / 2)) * 0.9;
+    const distance = (radius / Math.sin(fov / 2)) * 0.8;
     const dir = urdfToThree([1.3, 0.9, 0.75]).normalize();
     this.camera.position.copy(centre).addScaledVector(dir, distance);
     this.camera.near = distance / 100;

@@ -19,7 +19,7 @@ import { Stage } from "./stage.js";
 import { loadTd, readProperty, type TwinTd } from "./td.js";
 import { buildWorkspaceMesh, triangleCount } from "./workspace-mesh.js";
 
-const HIGHLIGHT_MS = 1500;
+const HIGHLIGHT_MS = 3000;
 
 export async function showTwin(slug: string, view: HTMLElement, content: HTMLElement): Promise<void> {
   debugState.thing = slug;
@@ -212,8 +212,14 @@ function highlightCollision(stage: Stage, robot: URDFRobot | null, msg: Record<s
     }, HIGHLIGHT_MS);
   }
   showNotice("collision", `motion stopped by contact between ${names.join(" and ") || "unknown bodies"}`);
+  debugState.highlighted = names;
+  publishDebug();
   stage.invalidate();
-  window.setTimeout(() => stage.invalidate(), HIGHLIGHT_MS + 50);
+  window.setTimeout(() => {
+    debugState.highlighted = [];
+    publishDebug();
+    stage.invalidate();
+  }, HIGHLIGHT_MS + 50);
 }
 
 function flash(mesh: Mesh): void {

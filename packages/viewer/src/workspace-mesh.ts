@@ -1,5 +1,5 @@
 /** The workspace surface (`workspace.stl`, alpha shape of the collision-free points), translucent. */
-import { DoubleSide, Mesh, MeshPhongMaterial } from "three";
+import { FrontSide, Mesh, MeshPhongMaterial } from "three";
 import { STLLoader } from "three/examples/jsm/loaders/STLLoader.js";
 
 export function buildWorkspaceMesh(stl: ArrayBuffer): Mesh {
@@ -9,7 +9,9 @@ export function buildWorkspaceMesh(stl: ArrayBuffer): Mesh {
     transparent: true,
     opacity: 0.18,
     depthWrite: false,
-    side: DoubleSide,
+    // The STL has outward normals (Contract 2): the outer shell is enough for a translucent surface and
+    // halves the fill cost of this screen-filling mesh.
+    side: FrontSide,
   });
   const mesh = new Mesh(geometry, material);
   mesh.name = "workspace surface";
