@@ -175,7 +175,22 @@ def test_ik_reports_when_only_colliding_solutions_exist() -> None:
     """A target inside an obstacle: the solution is returned flagged collisionFree=False."""
     with World() as w:
         m = w.load_robot(KUKA)
-        w.add_obstacle({"name": "ball", "shape": {"type": "sphere", "radius": 0.12}, "position": [0.5, 0, 0.5]})
+        w.add_obstacle(
+            {"name": "ball", "shape": {"type": "sphere", "radius": 0.12}, "position": [0.5, 0, 0.5]}
+        )
         r = w.ik(m.id, (0.5, 0.0, 0.5))
         assert r.position_error <= 1e-3 and not r.collision_free
         assert not w.check_collision(m.id, r.positions).collision_free
+
+
+def test_other_robot_arm_reaching_the_fixed_base_is_seen_after_it_moves() -> None:
+    """Robot b's arm moved onto robot a's base is a contact for a, and gone when b moves away."""
+    with World() as w:
+        w.load_robot(KUKA, robot_id="a")
+        w.load_robot(KUKA, robot_id="b", base_position=(0.75, 0, 0))
+        w.set_joint_positions("b", [0, -1.22, 0, 1.32, 0, -0.22, 0])  # flange on a's base
+        assert any(c.b.body == "b" and c.a.link == "lbr_iiwa_link_0" for c in w.check_collision("a").contacts)
+        assert not w.collision_free_batch("a", np.zeros((1, 7)))[0]
+        w.set_joint_positions("b", [0.0] * 7)  # and moved away again: no stale contact
+        assert w.check_collision("a").collision_free
+        assert w.collision_free_batch("a", np.zeros((1, 7)))[0]

@@ -106,9 +106,21 @@ class CollisionChecker:
         return out
 
     def static_contacts(self) -> list[Contact]:
-        """Contacts of the links that never move (cached until the world changes)."""
+        """Contacts of the links that never move with static things (cached until the world changes)."""
         if self._static is None or self._static_version != self.table.version:
-            pts = self._closest_links(self.static_links)
+            bl, body = self.robot.bullet, self.robot.body
+            pts: list[ContactPoint] = []
+            for other in self._others():
+                robot = self.table.robots.get(other)
+                # other robots: only their static links (their moving links are found by detect())
+                targets: list[int | None] = [None] if robot is None else list(robot.static_links)
+                for ln in self.static_links:
+                    for lb in targets:
+                        pts += [
+                            c
+                            for c in bl.closest(body, other, TOUCH, link_a=ln, link_b=lb)
+                            if c.distance <= TOUCH
+                        ]
             self._static = _dedupe(self._contact(c) for c in pts)
             self._static_version = self.table.version
         return self._static
