@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from robwot_sim.rpc import methods_motion, methods_obstacle, methods_robot, methods_world
+from robwot_sim.rpc import methods_motion, methods_obstacle, methods_robot, methods_workspace, methods_world
 from robwot_sim.rpc.dispatch import Dispatcher
 from robwot_sim.rpc.protocol import DEFAULT_MAX_MESSAGE_BYTES
 from robwot_sim.rpc.services import Services
@@ -11,6 +11,6 @@ from robwot_sim.rpc.services import Services
 def build_dispatcher(services: Services, max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Dispatcher:
     """A dispatcher with every backend method bound to `services`."""
     d = Dispatcher(max_message_bytes)
-    for module in (methods_world, methods_robot, methods_motion, methods_obstacle):
+    for module in (methods_world, methods_robot, methods_motion, methods_obstacle, methods_workspace):
         module.register(d, services)
     return d
