@@ -13,6 +13,8 @@ from robwot_sim.sim.world import World
 
 FK_CASES = [
     (DATA / KUKA, None),
+    (DATA / PANDA, "panda_grasptarget"),
+    (DATA / XARM, None),
     (MODELS / "planar2.urdf", None),
     (MODELS / "prismatic.urdf", None),
     (MODELS / "continuous.urdf", None),

@@ -25,6 +25,33 @@ from robwot_sim.urdf import prepare_urdf
 
 TOUCH = 0.0
 MAX_CHILDREN = 16
+BIG = 0.3  # m: obstacles larger than this are not merged
+
+
+def _clusters(items: list[dict[str, Any]], size: int) -> list[list[dict[str, Any]]]:
+    """Spatially compact groups of at most ``size`` obstacles (PyBullet caps a compound at 16 children):
+    recursive median splits along the widest axis, so each compound has a small bounding box."""
+    if len(items) <= size:
+        return [items] if items else []
+    pts = np.array([o["position"] for o in items], dtype=np.float64)
+    axis = int(np.argmax(pts.max(axis=0) - pts.min(axis=0)))
+    order = np.argsort(pts[:, axis], kind="stable")
+    half = len(items) // 2
+    return _clusters([items[i] for i in order[:half]], size) + _clusters(
+        [items[i] for i in order[half:]], size
+    )
+
+
+def _extent(shape: dict[str, Any]) -> float:
+    """Largest dimension of a primitive shape (m); inf for meshes."""
+    t = shape["type"]
+    if t == "box":
+        return float(max(shape["size"]))
+    if t == "sphere":
+        return 2 * float(shape["radius"])
+    if t == "cylinder":
+        return max(2 * float(shape["radius"]), float(shape["length"]))
+    return float("inf")
 
 
 @dataclass
@@ -70,14 +97,13 @@ class FastWorld:
         self.robots = dict(robots)
 
     def _add_obstacles(self, obstacles: list[dict[str, Any]]) -> None:
-        prims = [o for o in obstacles if o["shape"]["type"] != "mesh"]
+        # big obstacles (a table) stay single bodies: inside a compound they would widen its bounding box
+        prims = [o for o in obstacles if o["shape"]["type"] != "mesh" and _extent(o["shape"]) <= BIG]
         for o in obstacles:
-            if o["shape"]["type"] == "mesh":
+            if o["shape"]["type"] == "mesh" or _extent(o["shape"]) > BIG:
                 self.bullet.create_static(o["shape"], o["position"], o["orientation"])
-        # PyBullet caps a compound at 16 children: merge runs of neighbours (scenes list them in order)
-        prims.sort(key=lambda o: float(np.arctan2(o["position"][1], o["position"][0])))
-        for k in range(0, len(prims), MAX_CHILDREN):
-            self._compound(prims[k : k + MAX_CHILDREN])
+        for group in _clusters(prims, MAX_CHILDREN):
+            self._compound(group)
 
     def _compound(self, prims: list[dict[str, Any]]) -> None:
         cid = self.bullet.cid
