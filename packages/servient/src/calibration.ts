@@ -6,9 +6,8 @@
  */
 import { renameSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
-import * as core from "@robwot/core";
-import type { CalibrationFile, Vec3, Xyz } from "@robwot/core";
-import { badInput, ServientError } from "./errors.js";
+import { solveCalibration, type CalibrationFile, type Vec3, type Xyz } from "@robwot/core";
+import { badInput } from "./errors.js";
 import { FrameMap, toTransform, vec } from "./frames.js";
 import type { Twin } from "./twin.js";
 
@@ -23,20 +22,6 @@ export interface CalibrationResult {
   translation: Vec3;
   rms: number;
   pairs: number;
-}
-
-interface Solution {
-  scale: number;
-  rotation: number[][];
-  translation: number[];
-  rms: number;
-}
-type Solver = (real: Vec3[], virtual: Vec3[], options: { withScale: boolean }) => Solution;
-
-function solver(): Solver {
-  const fn = (core as unknown as { solveCalibration?: Solver }).solveCalibration;
-  if (!fn) throw new ServientError(501, "E_NOT_AVAILABLE", "@robwot/core has no solveCalibration in this build");
-  return fn;
 }
 
 export function calibrationProperty(cal: CalibrationFile | null): Record<string, unknown> {
@@ -58,9 +43,11 @@ export function calibrate(twin: Twin, input: CalibrateInput): CalibrationResult 
     });
   }
   const withScale = input.withScale ?? true;
-  const real = input.pairs.map((p) => vec(p.real));
-  const virtual = input.pairs.map((p) => vec(p.virtual));
-  const sol = solver()(real, virtual, { withScale });
+  // core throws CalibrationError (E_CALIBRATION: collinear, coincident, non-finite) -> 400
+  const sol = solveCalibration(
+    input.pairs.map((p) => ({ real: vec(p.real), virtual: vec(p.virtual) })),
+    { withScale },
+  );
   const file: CalibrationFile = {
     scale: sol.scale,
     rotation: sol.rotation.map((r) => [...r]),

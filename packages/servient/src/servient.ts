@@ -189,7 +189,10 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     stop: () =>
       (stopping ??= (async () => {
         await live?.close();
-        await servient.shutdown().catch(() => undefined);
+        const shut = servient.shutdown().catch(() => undefined);
+        // long-poll observers (node-wot) hold requests open: close() alone would wait for them forever
+        (http.getServer() as import("node:http").Server).closeAllConnections();
+        await shut;
         await backend.stop();
       })()),
   };

@@ -31,9 +31,23 @@ export function produceInit(td: TdDocument): WoT.ExposedThingInit {
   // node-wot 0.9.2 validates the init against the TD 1.0 schema: its context URL only
   const ctx = Array.isArray(init["@context"]) ? (init["@context"] as unknown[]) : [];
   init["@context"] = [TD10, ...ctx.filter((c) => typeof c === "object")];
+  dropBounds(init.properties?.getCartesianPosition);
   init.securityDefinitions = { nosec_sc: { scheme: "nosec" } };
   init.security = "nosec_sc";
   return init as unknown as WoT.ExposedThingInit;
+}
+
+/**
+ * The pose *reading* is not bounded by the sampled collision-free points (the home pose of a kuka is
+ * above them): node-wot consumers validate readings against the schema, so the property has no
+ * minimum/maximum; the Cartesian *inputs* keep them.
+ */
+function dropBounds(schema: Json | undefined): void {
+  const props = schema?.properties as Record<string, Json> | undefined;
+  for (const axis of ["x", "y", "z"]) {
+    delete props?.[axis]?.minimum;
+    delete props?.[axis]?.maximum;
+  }
 }
 
 function setBounds(schema: Json | undefined, b: Bounds): void {
@@ -70,9 +84,9 @@ export function servedTd(td: TdDocument, o: ServeTdOptions): TdDocument {
       }
     }
   });
+  dropBounds(out.properties?.getCartesianPosition);
   if (o.bounds && o.frames.transform) {
     const b = o.frames.boundsToReal(o.bounds);
-    setBounds(out.properties?.getCartesianPosition, b);
     setBounds(out.actions?.moveToCartesianPosition?.input as Json | undefined, b);
     setBounds(out.actions?.validateCartesianPosition?.input as Json | undefined, b);
   }
