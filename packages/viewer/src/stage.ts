@@ -59,6 +59,11 @@ export class Stage {
     this.dirty = true;
   }
 
+  setVisible(obj: Object3D, visible: boolean): void {
+    obj.visible = visible;
+    this.invalidate();
+  }
+
   add(obj: Object3D): void {
     this.worldRoot.add(obj);
     this.invalidate();

@@ -8,16 +8,15 @@ import { CartesianPanel } from "./cartesian-panel.js";
 import { Commander } from "./commander.js";
 import { debugState, publishDebug } from "./debug.js";
 import { showError, showNotice } from "./errors.js";
-import { fetchBuffer, fetchJson, fetchText, isRecord } from "./http.js";
+import { xyzwToQuaternion } from "./frames.js";
+import { isRecord } from "./http.js";
 import { JointPanel } from "./joint-panel.js";
 import { LiveClient } from "./live.js";
 import { MotionPanel } from "./motion-panel.js";
-import { buildObstacles } from "./obstacles.js";
-import { buildPointCloud, parseWorkspaceCsv } from "./pointcloud.js";
 import { applyJoints, highlightLink, loadRobot } from "./robot.js";
 import { Stage } from "./stage.js";
 import { loadTd, readProperty, type TwinTd } from "./td.js";
-import { buildWorkspaceMesh, triangleCount } from "./workspace-mesh.js";
+import { loadBasePose, loadCloud, loadScene, loadSurface } from "./twin-data.js";
 
 const HIGHLIGHT_MS = 3000;
 
@@ -61,11 +60,20 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   });
 
   // Everything loads in parallel; each failure is shown, the rest of the page keeps working.
-  const robotTask = loadRobot(td.links.model).then(({ robot: r, meshErrors }) => {
+  const poseTask = loadBasePose(td).catch((err: unknown) => {
+    showError("twin.json (robot base pose; the robot is shown at the origin)", err);
+    return null;
+  });
+  const robotTask = loadRobot(td.links.model).then(async ({ robot: r, meshErrors }) => {
     for (const e of meshErrors) showError("model", e);
+    const pose = await poseTask;
+    if (pose) {
+      r.position.set(...pose.position);
+      r.quaternion.copy(xyzwToQuaternion(pose.orientation));
+    }
     robot = r;
     stage.add(r);
-    motion.addLayer("robot", true, (v) => setVisible(stage, r, v));
+    motion.addLayer("robot", true, (v) => stage.setVisible(r, v));
     return r;
   });
   const sceneTask = loadScene(td, stage, motion);
@@ -104,35 +112,6 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   stage.frame(framed);
   debugState.phase = results[0].status === "fulfilled" ? "ready" : "error";
   publishDebug();
-}
-
-async function loadScene(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<void> {
-  if (!td.links.scene) return;
-  const built = await buildObstacles(await fetchJson(td.links.scene), td.base);
-  for (const e of built.errors) showError("scene.json", e);
-  stage.add(built.group);
-  debugState.obstacles = built.names;
-  if (built.names.length > 0) motion.addLayer(`obstacles (${built.names.length})`, true, (v) => setVisible(stage, built.group, v));
-}
-
-async function loadCloud(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<Object3D | null> {
-  if (!td.links.pointCloud) return null;
-  const cloud = parseWorkspaceCsv(await fetchText(td.links.pointCloud), undefined, td.links.pointCloud);
-  const points = buildPointCloud(cloud);
-  stage.add(points);
-  debugState.pointCloud = { shown: cloud.free.length, total: cloud.total, collisionFree: cloud.collisionFree };
-  const label = cloud.free.length < cloud.total ? `point cloud (${cloud.free.length} of ${cloud.total})` : `point cloud (${cloud.total})`;
-  motion.addLayer(label, true, (v) => setVisible(stage, points, v));
-  return points;
-}
-
-async function loadSurface(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<Object3D | null> {
-  if (!td.links.workspace) return null;
-  const mesh = buildWorkspaceMesh(await fetchBuffer(td.links.workspace));
-  stage.add(mesh);
-  debugState.workspaceTriangles = triangleCount(mesh);
-  motion.addLayer("workspace surface", true, (v) => setVisible(stage, mesh, v));
-  return mesh;
 }
 
 async function loadState(td: TwinTd, motion: MotionPanel, cartesian: CartesianPanel): Promise<Record<string, number>> {
@@ -181,10 +160,6 @@ function startLive(
   }).connect();
 }
 
-function setVisible(stage: Stage, obj: Object3D, visible: boolean): void {
-  obj.visible = visible;
-  stage.invalidate();
-}
 
 function highlightCollision(stage: Stage, robot: URDFRobot | null, msg: Record<string, unknown>): void {
   const pair = isRecord(msg["pair"]) ? msg["pair"] : {};
