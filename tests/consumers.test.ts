@@ -41,6 +41,8 @@ function runScenario(name: string, args: string[], timeoutMs = 90_000): Promise<
   });
 }
 
+const SCENE = ["--scene", join(REPO, "examples", "scenes", "table.json")];
+
 /** Physical stand-in placement: x_real = R_z(25°) x_virtual + (0.3, -0.2, 0.05). */
 const YAW = (25 * Math.PI) / 180;
 const OFFSET = [0.3, -0.2, 0.05];
@@ -51,11 +53,14 @@ let physical: RunningServient; // the "physical robot", placed elsewhere
 let virtual: RunningServient; // relays to `physical`
 
 beforeAll(async () => {
-  // generated once (cached by the helper), then four private copies
-  const fastDir = await generateTwin("kuka_iiwa", 3000);
-  const [liveDir, virtualDir, physicalDir] = await Promise.all([1, 2, 3].map(() => generateTwin("kuka_iiwa", 3000)));
-  // The physical stand-in: same robot, base moved and turned. Its workspace files describe the
-  // original placement, so they are removed (a physical robot has none); it validates by IK and path.
+  // the demo setup (kuka_iiwa on a table with a box and a can), generated once (cached by the
+  // helper), then four private copies
+  const fastDir = await generateTwin("kuka_iiwa", 3000, SCENE);
+  const [liveDir, virtualDir, physicalDir] = await Promise.all([1, 2, 3].map(() => generateTwin("kuka_iiwa", 3000, SCENE)));
+  // The physical stand-in: same robot, base moved and turned, alone (no obstacles). Its workspace
+  // files describe the original placement, so they are removed (a physical robot has none); it
+  // validates by IK and path.
+  writeFileSync(join(physicalDir as string, "scene.json"), JSON.stringify({ version: 1, name: "physical", obstacles: [] }));
   const manifestPath = join(physicalDir as string, "twin.json");
   const manifest = JSON.parse(readFileSync(manifestPath, "utf8"));
   manifest.robot.basePosition = OFFSET;
@@ -115,7 +120,9 @@ describe("pick-and-place", () => {
     const run = await runScenario("pick-and-place", [tdUrl(fast)]);
     expect(run.code, run.stderr).toBe(0);
     const rows = run.result.rows as any[];
-    expect(rows.length).toBe(9);
+    // 8 stations + out of reach + above/into the box and the can
+    expect(rows.map((r) => r.label)).toEqual(expect.arrayContaining(["pick A", "place B approach", "out of reach", "above box", "into box", "into can"]));
+    expect(rows.length).toBe(13);
     expect(run.stdout).toMatch(/target\s+x, y, z \(m\)\s+in STL/);
     let compared = 0;
     for (const r of rows) {
@@ -137,7 +144,11 @@ describe("pick-and-place", () => {
     const out = rows.find((r) => r.label === "out of reach");
     expect(out.offline.ok).toBe(false);
     expect(out.twin.valid).toBe(false);
-    expect(rows.filter((r) => r.moved !== null).length).toBeGreaterThanOrEqual(2);
+    for (const r of rows.filter((r) => r.label.startsWith("into "))) {
+      expect(r.twin.valid, r.label).toBe(false);
+      expect(r.moved, r.label).toBeNull();
+    }
+    expect(rows.filter((r) => r.moved !== null).length).toBeGreaterThanOrEqual(4);
   });
 });
 

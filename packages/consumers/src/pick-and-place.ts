@@ -2,7 +2,8 @@
  * Scenario 2: a pick-and-place loop that validates every target before moving.
  *
  * For each Cartesian target (a pick and a place station on each side of the robot, each with an
- * approach point above it, plus one point deliberately out of reach):
+ * approach point above it, one point deliberately out of reach, and, when the twin's scene has small
+ * obstacles, a point on top of each and one inside it):
  *   1. OFFLINE: inside workspace.stl? and the point-cloud score from workspace.csv, both fetched once
  *      from the TD's links and evaluated locally with @robwot/core;
  *   2. the twin's validateCartesianPosition (STL, point cloud, IK, collision-free path in the scene);
@@ -13,7 +14,7 @@
  *   node packages/consumers/dist/pick-and-place.js [TD URL] [--targets ...] [--speed 1] [--json]
  */
 import { numberOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
-import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
+import { authHeaders, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { invertSimilarity, norm, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
 import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
@@ -51,6 +52,46 @@ export function defaultTargets(b: Bounds3): Target[] {
   return out;
 }
 
+interface SceneObstacle {
+  name?: string;
+  shape?: { type?: string; size?: number[]; radius?: number; length?: number };
+  position?: number[];
+}
+
+/** Half height and horizontal half extent of a primitive obstacle (undefined for meshes). */
+function extents(o: SceneObstacle): { halfHeight: number; halfWidth: number } | undefined {
+  const sh = o.shape;
+  if (sh?.type === "box" && sh.size?.length === 3) return { halfHeight: (sh.size[2] as number) / 2, halfWidth: Math.max(sh.size[0] as number, sh.size[1] as number) / 2 };
+  if (sh?.type === "cylinder" && sh.radius !== undefined && sh.length !== undefined) return { halfHeight: sh.length / 2, halfWidth: sh.radius };
+  if (sh?.type === "sphere" && sh.radius !== undefined) return { halfHeight: sh.radius, halfWidth: sh.radius };
+  return undefined;
+}
+
+/**
+ * Targets from the scene (`<base>scene.json`, served next to the TD): for up to two small obstacles
+ * (the table the robot stands on is skipped), "above <name>" 15 cm over its top (the approach for
+ * placing a part there) and "into <name>" at its centre, which validation must refuse (collision).
+ */
+export function sceneTargets(obstacles: SceneObstacle[]): Target[] {
+  const out: Target[] = [];
+  for (const o of obstacles) {
+    const e = extents(o);
+    const p = o.position;
+    if (e === undefined || p?.length !== 3 || e.halfWidth > 0.3 || out.length >= 4) continue;
+    const [x, y, z] = p as V3;
+    out.push({ label: `above ${o.name ?? "?"}`, p: [x, y, z + e.halfHeight + 0.15] }, { label: `into ${o.name ?? "?"}`, p: [x, y, z] });
+  }
+  return out;
+}
+
+async function fetchSceneObstacles(twin: Twin): Promise<SceneObstacle[]> {
+  const url = new URL("scene.json", twin.td.base ?? `${twin.url}/`).toString();
+  const res = await fetch(url, { headers: authHeaders(twin.auth) }).catch(() => undefined);
+  if (res === undefined || !res.ok) return [];
+  const scene = (await res.json()) as { obstacles?: SceneObstacle[] };
+  return scene.obstacles ?? [];
+}
+
 export function parseTargets(text: string): Target[] {
   return text.split(";").map((chunk, i) => {
     const v = chunk.split(",").map(Number);
@@ -70,7 +111,10 @@ async function main(): Promise<void> {
     const twin = await session.connect(url);
     console.log(`Consumed "${twin.td.title ?? "?"}" from ${url}`);
     const given = stringOption(args, "targets");
-    const targets = given !== undefined ? parseTargets(given) : defaultTargets(cartesianBounds(twin.td));
+    const targets =
+      given !== undefined
+        ? parseTargets(given)
+        : [...defaultTargets(cartesianBounds(twin.td)), ...sceneTargets(await fetchSceneObstacles(twin))];
 
     const ws = await loadOfflineWorkspace(twin);
     console.log(`offline workspace: ${ws.triangles} triangles (${ws.stlUrl}), ${ws.points} points (${ws.csvUrl})`);

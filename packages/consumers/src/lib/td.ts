@@ -68,15 +68,18 @@ export interface Bounds3 {
   max: [number, number, number];
 }
 
-/** Cartesian bounds of the collision-free workspace, from `getCartesianPosition` x/y/z min/max. */
+/**
+ * Cartesian bounds of the collision-free workspace: x/y/z minimum/maximum of the
+ * `moveToCartesianPosition` input schema (what the twin accepts), else of `getCartesianPosition`.
+ */
 export function cartesianBounds(td: ThingDescriptionLike): Bounds3 {
-  const props = td.properties?.["getCartesianPosition"]?.properties;
+  const sources = [td.actions?.["moveToCartesianPosition"]?.input?.properties, td.properties?.["getCartesianPosition"]?.properties];
   const axis = (k: "x" | "y" | "z"): [number, number] => {
-    const s = props?.[k];
-    if (typeof s?.minimum !== "number" || typeof s.maximum !== "number") {
-      throw new TdError(`TD getCartesianPosition.${k} lacks numeric minimum/maximum`);
+    for (const props of sources) {
+      const s = props?.[k];
+      if (typeof s?.minimum === "number" && typeof s.maximum === "number") return [s.minimum, s.maximum];
     }
-    return [s.minimum, s.maximum];
+    throw new TdError(`TD declares no numeric minimum/maximum for ${k} (moveToCartesianPosition input or getCartesianPosition)`);
   };
   const [x, y, z] = [axis("x"), axis("y"), axis("z")];
   return { min: [x[0], y[0], z[0]], max: [x[1], y[1], z[1]] };
