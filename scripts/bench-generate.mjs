@@ -76,8 +76,9 @@ try {
         last = JSON.parse(p.stdout);
         times.push(seconds);
         rmSync(out, { recursive: true, force: true });
+        const st = Object.entries(last.summary.timings).map(([k, v]) => `${k} ${v.toFixed(2)}`).join(", ");
         console.log(`  [${done}/${total}] ${robot} obstacles-${n} run ${r + 1}: ${seconds.toFixed(2)} s ` +
-          `(collide ${last.summary.timings.collide.toFixed(2)} s, ${last.summary.collisionFree}/${last.summary.samples} free)`);
+          `(${st}; ${last.summary.collisionFree}/${last.summary.samples} free)`);
       }
       results[robot][n] = {
         times,
