@@ -9,7 +9,7 @@ import numpy.typing as npt
 import pytest
 from scipy.spatial import ConvexHull
 
-from robwot_sim.workspace.alpha_shape import alpha_shape, auto_alpha
+from robwot_sim.workspace.alpha_shape import AlphaShape, alpha_shape, auto_alpha, thin_interior
 from robwot_sim.workspace.io import read_stl, write_csv, write_stl
 
 
@@ -108,3 +108,18 @@ def test_csv_writer_format(tmp_path: Path) -> None:
     lines = (tmp_path / "w.csv").read_text().splitlines()
     assert lines == ["x,y,z,collision_free,a,b", "0.123457,-2.000000,3.500000,1,0.500000,-0.250000",
                      "0.000000,0.000000,0.000000,0,1.000000,2.000000"]
+
+
+def test_interior_thinning_keeps_the_surface() -> None:
+    """Thinning deep interior points before the triangulation changes neither surface nor volume."""
+    p = np.random.default_rng(7).random((20000, 3))
+    a = auto_alpha(p)
+    assert len(thin_interior(p, a)) < 0.9 * len(p)
+    thin, full = alpha_shape(p, a), alpha_shape(p, a, thin=False)
+    assert thin.volume == pytest.approx(full.volume, rel=1e-9)
+
+    def faces(s: AlphaShape) -> set[tuple[float, ...]]:
+        return {tuple(sorted(map(tuple, t)))
+                for t in s.vertices[s.triangles].tolist()}
+
+    assert faces(thin) == faces(full)

@@ -20,7 +20,8 @@ import scipy
 import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.urdf import read_urdf
-from robwot_sim.workspace.alpha_shape import AlphaShape, alpha_shape
+from robwot_sim.workspace import alpha_shape as _alpha
+from robwot_sim.workspace.alpha_shape import AlphaShape
 from robwot_sim.workspace.fk import ChainFK
 from robwot_sim.workspace.io import write_csv, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
@@ -29,7 +30,7 @@ from robwot_sim.workspace.sampling import sample_configurations
 if TYPE_CHECKING:
     from robwot_sim.sim.world import World
 
-__all__ = ["AlphaShape", "ChainFK", "alpha_shape", "chain_fk", "generate_workspace", "warm_up"]
+__all__ = ["AlphaShape", "ChainFK", "chain_fk", "generate_workspace", "warm_up"]
 
 Progress = Callable[[str, int, int], None]
 
@@ -134,7 +135,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
 
     t2 = time.perf_counter()
     report("alpha", 0, 1)
-    shape = alpha_shape(positions[free], alpha_arg)
+    shape = _alpha.alpha_shape(positions[free], alpha_arg)
     report("alpha", 1, 1)
     t3 = time.perf_counter()
 
