@@ -170,4 +170,12 @@ def test_export_robot_is_self_contained(tmp_path) -> None:
         again = w.load_robot(tmp_path / "twin" / "robot.urdf")
         assert again.controllable == m.controllable
         pk = w.load_robot(PANDA, base_position=(3, 0, 0))
-        assert len(w.export_robot(pk.id, tmp_path / "panda")["meshes"]) >= 10
+        meshes = w.export_robot(pk.id, tmp_path / "panda")["meshes"]
+        assert "meshes/collision/link0.obj" in meshes and "meshes/visual/link1.obj" in meshes
+        for companion in ("link1.mtl", "colors.png"):  # OBJ material library and its texture
+            assert (tmp_path / "panda" / "meshes" / "visual" / companion).is_file()
+        kk = w.load_robot(KUKA, base_position=(5, 0, 0))
+        w.export_robot(kk.id, tmp_path / "kuka")
+        assert (tmp_path / "kuka" / "meshes" / "link_0.mtl").is_file()  # OBJ material library copied
+        again = w.load_robot(tmp_path / "panda" / "robot.urdf", base_position=(7, 0, 0))
+        assert again.filtered_pairs == pk.filtered_pairs

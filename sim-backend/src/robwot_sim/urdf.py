@@ -278,35 +278,3 @@ def ascii_stl_to_binary(src: Path, dst: Path, urdf: str) -> Path:
         out += struct.pack("<12fH", 0.0, 0.0, 0.0, *flat[9 * t : 9 * t + 9], 0)
     dst.write_bytes(bytes(out))
     return dst
-
-
-def export_urdf(
-    path: str | Path, out_dir: str | Path, package_roots: Mapping[str, str | Path] | None = None
-) -> dict[str, Any]:
-    """Write ``out_dir/robot.urdf`` with meshes copied under ``out_dir/meshes/`` and relative filenames.
-
-    Returns ``{"urdf": "robot.urdf", "meshes": [relative paths]}``.
-    """
-    doc = parse_urdf(path)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    root = ET.fromstring(ET.tostring(doc.root))
-    mapping: dict[str, str] = {}
-    used: set[str] = set()
-    for el in root.iter("mesh"):
-        fn = el.get("filename", "")
-        if fn not in mapping:
-            src = resolve_mesh(fn, doc.file.parent, package_roots, urdf=str(doc.file))
-            base = src.name
-            rel = f"meshes/{base}"
-            i = 1
-            while rel in used:
-                rel = f"meshes/{src.stem}_{i}{src.suffix}"
-                i += 1
-            used.add(rel)
-            (out / "meshes").mkdir(exist_ok=True)
-            shutil.copyfile(src, out / rel)
-            mapping[fn] = rel
-        el.set("filename", mapping[fn])
-    ET.ElementTree(root).write(out / "robot.urdf", encoding="utf-8", xml_declaration=True)
-    return {"urdf": "robot.urdf", "meshes": sorted(mapping.values())}

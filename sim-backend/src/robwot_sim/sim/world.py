@@ -25,7 +25,7 @@ from robwot_sim.sim.pathcheck import check_joint_path
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
 from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _locked
 from robwot_sim.sim.world_scene import WorldScene
-from robwot_sim.urdf import export_urdf
+from robwot_sim.sim.export import export_urdf
 
 __all__ = ["World"]
 

@@ -1,0 +1,67 @@
+"""Self-contained copy of a robot: ``robot.urdf`` with relative mesh paths and the meshes beside it.
+
+Meshes keep their folder layout below their common folder (``meshes/collision/link0.obj``,
+``meshes/visual/link0.dae``), so names never clash; OBJ material libraries (``mtllib``) and COLLADA
+images (``<init_from>``) found next to a mesh are copied too, so the viewer sees the same materials.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from robwot_sim.urdf import parse_urdf, resolve_mesh
+
+_MTLLIB = re.compile(rb"^\s*mtllib\s+(.+?)\s*$", re.MULTILINE)
+_MAPS = re.compile(rb"^\s*(?:map_\w+|bump|disp|decal)\s+(?:-\S+\s+\S+\s+)*(\S.*?)\s*$", re.MULTILINE)
+_INIT_FROM = re.compile(rb"<init_from>\s*([^<]+?\.(?:png|jpe?g|bmp|tga|tiff?))\s*</init_from>", re.IGNORECASE)
+
+
+def _companions(mesh: Path) -> list[Path]:
+    """Files a mesh refers to (OBJ mtllib and its texture maps, DAE images) below the mesh's folder."""
+    pattern = {".obj": _MTLLIB, ".mtl": _MAPS, ".dae": _INIT_FROM}.get(mesh.suffix.lower())
+    if pattern is None:
+        return []
+    out = []
+    for raw in pattern.findall(mesh.read_bytes()):
+        name = raw.decode("utf-8", "replace").removeprefix("file://")
+        p = Path(os.path.normpath(mesh.parent / name))
+        if p.is_file() and mesh.parent in p.parents:
+            out += [p, *(_companions(p) if p.suffix.lower() == ".mtl" else [])]
+    return out
+
+
+def export_urdf(
+    path: str | Path, out_dir: str | Path, package_roots: Mapping[str, str | Path] | None = None
+) -> dict[str, Any]:
+    """Write ``out_dir/robot.urdf`` with meshes copied under ``out_dir/meshes/`` and relative filenames.
+
+    Returns ``{"urdf": "robot.urdf", "meshes": [relative paths]}`` (meshes referenced by the URDF).
+    """
+    doc = parse_urdf(path)
+    out = Path(out_dir)
+    root = ET.fromstring(ET.tostring(doc.root))
+    sources: dict[str, Path] = {}
+    for el in root.iter("mesh"):
+        fn = el.get("filename", "")
+        if fn not in sources:
+            sources[fn] = resolve_mesh(fn, doc.file.parent, package_roots, urdf=str(doc.file))
+    mapping: dict[str, str] = {}
+    if sources:
+        common = Path(os.path.commonpath([str(p.parent) for p in sources.values()]))
+        for fn, src in sources.items():
+            mapping[fn] = (Path("meshes") / src.relative_to(common)).as_posix()
+            for extra in [src, *_companions(src)]:
+                dst = out / "meshes" / extra.relative_to(common)
+                dst.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(extra, dst)
+    for el in root.iter("mesh"):
+        el.set("filename", mapping[el.get("filename", "")])
+    out.mkdir(parents=True, exist_ok=True)
+    ET.ElementTree(root).write(out / "robot.urdf", encoding="utf-8", xml_declaration=True)
+    return {"urdf": "robot.urdf", "meshes": sorted(set(mapping.values()))}
