@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.sim import validate as v
+from robwot_sim.sim.export import export_urdf
 from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
 from robwot_sim.sim.motion import check_speed_dt, plan_joint_path
@@ -25,7 +26,6 @@ from robwot_sim.sim.pathcheck import check_joint_path
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
 from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _locked
 from robwot_sim.sim.world_scene import WorldScene
-from robwot_sim.sim.export import export_urdf
 
 __all__ = ["World"]
 
