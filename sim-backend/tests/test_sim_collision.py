@@ -103,12 +103,12 @@ def _brute_force_free(w: World, robot_id: str, q: np.ndarray) -> bool:
     return True
 
 
-@pytest.mark.parametrize("urdf", [KUKA, PANDA, XARM])
-def test_fast_batch_agrees_with_check_collision_and_brute_force(urdf: str) -> None:
-    """collision_free_batch == check_collision == exhaustive pairs on 150 random configs, 66 obstacles."""
+@pytest.mark.parametrize(("urdf", "scene"), [(KUKA, 66), (PANDA, 66), (XARM, 66), (KUKA, 239)])
+def test_fast_batch_agrees_with_check_collision_and_brute_force(urdf: str, scene: int) -> None:
+    """collision_free_batch == check_collision == exhaustive pairs on 150 random configs."""
     with World() as w:
         m = w.load_robot(urdf)
-        w.load_scene(SCENES / "obstacles-66.json")
+        w.load_scene(SCENES / f"obstacles-{scene}.json")
         e = w._robots[m.id]
         qs = e.bound.random_q(np.random.default_rng(5), 150)
         before = w.get_joint_positions(m.id)

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from simhelp import KUKA, SCENES
+from simhelp import KUKA, MODELS, SCENES
 
 from robwot_sim import scenegen
 from robwot_sim.errors import FileNotFound, SceneError
@@ -117,3 +117,25 @@ def test_table_scene_and_round_trip() -> None:
             assert w2.list() == w.list()
             assert np.allclose(w2.get_joint_positions("kuka"), w.get_joint_positions("kuka"))
             assert w2.fk("kuka") == w.fk("kuka")
+
+
+def test_relative_mesh_obstacle_resolved_against_scene_folder(tmp_path) -> None:
+    """A mesh obstacle's relative file is found next to the scene file; a missing one is FileNotFound."""
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "cube.obj").write_bytes((MODELS / "meshes" / "cube.obj").read_bytes())
+    doc = {
+        "version": 1,
+        "obstacles": [
+            {"name": "m", "shape": {"type": "mesh", "file": "parts/cube.obj"}, "position": [0.5, 0, 0.5]}
+        ],
+    }
+    (tmp_path / "s.json").write_text(json.dumps(doc))
+    with World() as w:
+        w.load_scene(tmp_path / "s.json")
+        assert w.list()["obstacles"][0]["shape"]["file"] == str(tmp_path / "parts" / "cube.obj")
+        doc["obstacles"][0]["shape"]["file"] = "parts/none.obj"
+        doc["obstacles"][0]["name"] = "n"
+        (tmp_path / "t.json").write_text(json.dumps(doc))
+        with pytest.raises(FileNotFound):
+            w.load_scene(tmp_path / "t.json")
+        assert [o["name"] for o in w.list()["obstacles"]] == ["m"]
