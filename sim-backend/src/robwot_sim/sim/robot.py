@@ -195,6 +195,8 @@ class BoundRobot:
         js = [joints[n] for n in self.ctrl_names]
         self.lower = np.array([j.lower for j in js], dtype=np.float64)
         self.upper = np.array([j.upper for j in js], dtype=np.float64)
+        self._lower: list[float] = self.lower.tolist()
+        self._upper: list[float] = self.upper.tolist()
         self.continuous = np.array([j.type == "continuous" for j in js], dtype=bool)
         self.ee_link = ee_link
         self.ee_index = self.link_index[ee_link]
@@ -233,14 +235,14 @@ class BoundRobot:
 
     def validate(self, q: object, param: str = "positions") -> FloatArray:
         """Check a joint vector: a list of dof finite numbers within limits. Returns a float array."""
+        arr: FloatArray | None = None
         if isinstance(q, np.ndarray):
-            arr = q.astype(np.float64, copy=False).ravel() if q.ndim == 1 else None
+            if q.ndim == 1 and q.dtype.kind in "fiu":
+                arr = q.astype(np.float64, copy=False)
         elif isinstance(q, (list, tuple)) and all(
             isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) for v in q
         ):
             arr = np.array(q, dtype=np.float64)
-        else:
-            arr = None
         if arr is None:
             raise InvalidParams(
                 f"{param} must be an array of {self.dof} numbers",
@@ -255,21 +257,22 @@ class BoundRobot:
                 expected=self.dof,
                 got=int(arr.shape[0]),
             )
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise InvalidParams(
-                f"{param}[{k}] ({self.ctrl_names[k]}) is {arr[k]}, not a finite number",
-                param=f"{param}[{k}]",
-                expected="finite number",
-                got=float(arr[k]),
-                joint=self.ctrl_names[k],
-            )
-        out = (arr < self.lower - LIMIT_TOL) | (arr > self.upper + LIMIT_TOL)
-        if out.any():
-            k = int(np.argmax(out))
-            raise OutOfLimits(self.ctrl_names[k], float(arr[k]), float(self.lower[k]), float(self.upper[k]))
-        return np.clip(arr, self.lower, self.upper)
+        values: list[float] = arr.tolist()
+        clipped = False
+        for k, (x, lo, hi) in enumerate(zip(values, self._lower, self._upper, strict=True)):
+            if not lo <= x <= hi:  # also catches NaN
+                if not math.isfinite(x):
+                    raise InvalidParams(
+                        f"{param}[{k}] ({self.ctrl_names[k]}) is {x}, not a finite number",
+                        param=f"{param}[{k}]",
+                        expected="finite number",
+                        got=x,
+                        joint=self.ctrl_names[k],
+                    )
+                if x < lo - LIMIT_TOL or x > hi + LIMIT_TOL:
+                    raise OutOfLimits(self.ctrl_names[k], x, lo, hi)
+                clipped = True
+        return np.clip(arr, self.lower, self.upper) if clipped else arr.copy()
 
     def random_q(self, rng: np.random.Generator, n: int | None = None) -> FloatArray:
         if n is None:
