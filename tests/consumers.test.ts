@@ -21,11 +21,12 @@ interface ScenarioRun {
   result: any;
 }
 
-function runScenario(name: string, args: string[], timeoutMs = 90_000): Promise<ScenarioRun> {
+function runScenario(name: string, args: string[], extraEnv: Record<string, string> = {}, timeoutMs = 90_000): Promise<ScenarioRun> {
   return new Promise((resolve, reject) => {
     const env = { ...process.env };
     delete env["ROBWOT_TD"];
     delete env["ROBWOT_AUTH"];
+    Object.assign(env, extraEnv);
     const child = spawn(process.execPath, [join(DIST, `${name}.js`), ...args, "--json"], { cwd: REPO, env, stdio: ["ignore", "pipe", "pipe"] });
     let stdout = "";
     let stderr = "";
@@ -51,12 +52,13 @@ let fast: RunningServient; // realtime 0: joint move, pick-and-place
 let live: RunningServient; // realtime 1: live observation
 let physical: RunningServient; // the "physical robot", placed elsewhere
 let virtual: RunningServient; // relays to `physical`
+let secured: RunningServient; // --auth basic
 
 beforeAll(async () => {
   // the demo setup (kuka_iiwa on a table with a box and a can), generated once (cached by the
   // helper), then four private copies
   const fastDir = await generateTwin("kuka_iiwa", 3000, SCENE);
-  const [liveDir, virtualDir, physicalDir] = await Promise.all([1, 2, 3].map(() => generateTwin("kuka_iiwa", 3000, SCENE)));
+  const [liveDir, virtualDir, physicalDir, securedDir] = await Promise.all([1, 2, 3, 4].map(() => generateTwin("kuka_iiwa", 3000, SCENE)));
   // The physical stand-in: same robot, base moved and turned, alone (no obstacles). Its workspace
   // files describe the original placement, so they are removed (a physical robot has none); it
   // validates by IK and path.
@@ -68,16 +70,17 @@ beforeAll(async () => {
   writeFileSync(manifestPath, JSON.stringify(manifest, null, 2));
   for (const f of ["workspace.stl", "workspace.csv"]) rmSync(join(physicalDir as string, f));
 
-  [fast, live, physical] = await Promise.all([
+  [fast, live, physical, secured] = await Promise.all([
     startServient({ twins: [fastDir], port: 0, realtime: 0 }),
     startServient({ twins: [liveDir as string], port: 0, realtime: 1 }),
     startServient({ twins: [physicalDir as string], port: 0, realtime: 0 }),
+    startServient({ twins: [securedDir as string], port: 0, realtime: 0, auth: { scheme: "basic", user: "alice", password: "s3cret" } }),
   ]);
   virtual = await startServient({ twins: [virtualDir as string], port: 0, realtime: 0, relay: physical.things[0]!.tdUrl });
 });
 
 afterAll(async () => {
-  await Promise.all([virtual, physical, live, fast].map((s) => s?.stop()));
+  await Promise.all([virtual, physical, live, fast, secured].map((s) => s?.stop()));
 });
 
 const tdUrl = (s: RunningServient): string => s.things[0]!.tdUrl;
@@ -106,6 +109,19 @@ describe("read-and-move-joints", () => {
     const run = await runScenario("read-and-move-joints", ["http://127.0.0.1:9/nothing"]);
     expect(run.code).toBe(1);
     expect(run.stderr).toContain("http://127.0.0.1:9/nothing");
+  });
+
+  it("uses ROBWOT_AUTH credentials for node-wot, files and the live WebSocket of a secured twin", async () => {
+    const denied = await runScenario("read-and-move-joints", [tdUrl(secured)]);
+    expect(denied.code).toBe(1);
+    expect(denied.stderr).toMatch(/401.*ROBWOT_AUTH/);
+    const env = { ROBWOT_AUTH: "basic:alice:s3cret" };
+    const moved = await runScenario("read-and-move-joints", [tdUrl(secured)], env);
+    expect(moved.code, moved.stderr).toBe(0);
+    expect(moved.result.maxError).toBeLessThan(1e-3);
+    const observed = await runScenario("observe-joints", [tdUrl(secured), "--seconds", "0.5", "--quiet", "--via", "ws"], env);
+    expect(observed.code, observed.stderr).toBe(0);
+    expect(observed.result.observers[0].total).toBeGreaterThan(0);
   });
 
   it("rejects a bad option with the usage (exit 2)", async () => {

@@ -49,7 +49,8 @@ export async function fetchOk(url: string, auth: Auth | undefined): Promise<Resp
   }
   if (!res.ok) {
     const body = (await res.text()).slice(0, 300);
-    throw new Error(`GET ${url} answered ${res.status} ${res.statusText}${body ? `: ${body}` : ""}`);
+    const hint = res.status === 401 ? (auth === undefined ? " (set ROBWOT_AUTH=basic:USER:PASS or bearer:TOKEN)" : " (check ROBWOT_AUTH)") : "";
+    throw new Error(`GET ${url} answered ${res.status} ${res.statusText}${body ? `: ${body}` : ""}${hint}`);
   }
   return res;
 }
