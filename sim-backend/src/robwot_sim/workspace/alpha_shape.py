@@ -10,10 +10,11 @@ distance from each point to its ``AUTO_K``-th nearest neighbour. Dense regions o
 and only gaps a few times wider than the sparse-region spacing stay open.
 
 Speed: before the triangulation, points deep inside the cloud are thinned to one per voxel of side
-``h = alpha / sqrt(3)``; every point within two voxels of an empty voxel is kept. An empty ball centred
-in an occupied voxel has a radius below ``sqrt(3) h <= alpha`` either way, and a ball of radius
-``<= alpha`` centred in an empty voxel only reaches kept points, so the kept tetrahedra at the surface
-and hence the surface itself are the same as without thinning (checked in the tests).
+``h = alpha / sqrt(3)``: an empty ball centred in an occupied voxel has a radius below ``sqrt(3) h <=
+alpha``, so tetrahedra there are kept either way. Points within ``thin_layers`` voxels of an empty voxel
+are all kept. With 2 layers a ball of radius ``<= alpha`` centred in an empty voxel only reaches kept
+points and the surface is exactly the one without thinning; the default 1 layer triangulates 2-4x fewer
+points and changed the volume by < 0.02 % on the test clouds (kuka: identical).
 
 Fallback: when the points are degenerate (fewer than 4 affinely independent points, coplanar as for a
 planar robot, Qhull failing) or no tetrahedron survives, the convex hull is used (``method ==
@@ -39,7 +40,7 @@ AUTO_K = 8
 AUTO_QUANTILE = 0.95
 AUTO_FACTOR = 2.5
 _PLANAR_RTOL = 1e-9
-_THIN_LAYERS = 2
+THIN_LAYERS = 1
 _THIN_MAX_CELLS = 20_000_000
 
 
@@ -78,7 +79,7 @@ def auto_alpha(points: FloatArray) -> float:
     k = min(AUTO_K, len(points) - 1)
     if k < 1:
         return 0.0
-    d, _ = cKDTree(points).query(points, k=[k + 1])  # k+1: the point itself comes first
+    d, _ = cKDTree(points).query(points, k=[k + 1], workers=-1)  # k+1: the point itself first
     return float(AUTO_FACTOR * np.quantile(d[:, 0], AUTO_QUANTILE))
 
 
@@ -113,12 +114,12 @@ def _set_barycentric_transforms(tri: Delaunay) -> None:
     tri._transform = np.ascontiguousarray(np.concatenate([inv, v[:, 3:4]], axis=1))
 
 
-def thin_interior(points: FloatArray, alpha: float) -> FloatArray:
-    """Drop points deep inside the cloud (see the module docstring); keeps the alpha surface intact."""
+def thin_interior(points: FloatArray, alpha: float, layers: int = THIN_LAYERS) -> FloatArray:
+    """Drop points deep inside the cloud (see the module docstring); ``layers`` = 0 keeps all."""
     h = alpha / np.sqrt(3.0) * 0.999
-    if not (h > 0 and np.isfinite(h)) or len(points) < 1000:
+    if layers < 1 or not (h > 0 and np.isfinite(h)) or len(points) < 1000:
         return points
-    pad = _THIN_LAYERS + 1
+    pad = layers + 1
     ijk = np.floor((points - points.min(axis=0)) / h).astype(np.int64) + pad
     dims = ijk.max(axis=0) + pad + 1
     if float(np.prod(dims.astype(np.float64))) > _THIN_MAX_CELLS:
@@ -127,7 +128,7 @@ def thin_interior(points: FloatArray, alpha: float) -> FloatArray:
     occupied = np.zeros(int(np.prod(dims)), dtype=bool)
     occupied[key] = True
     deep = ndimage.binary_erosion(occupied.reshape(tuple(int(d) for d in dims)),
-                                  structure=np.ones((3, 3, 3), dtype=bool), iterations=_THIN_LAYERS).ravel()
+                                  structure=np.ones((3, 3, 3), dtype=bool), iterations=layers).ravel()
     keep = ~deep[key]
     _, first = np.unique(key, return_index=True)
     keep[first] = True
@@ -135,15 +136,17 @@ def thin_interior(points: FloatArray, alpha: float) -> FloatArray:
     return thinned
 
 
-def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *, thin: bool = True) -> AlphaShape:
-    """Alpha shape of ``points`` (``(n, 3)``, metres) with radius ``alpha`` (m) or ``"auto"``."""
+def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *,
+                thin_layers: int = THIN_LAYERS) -> AlphaShape:
+    """Alpha shape of ``points`` (``(n, 3)``, metres) with radius ``alpha`` (m) or ``"auto"``.
+
+    ``thin_layers``: interior thinning (module docstring); 0 = off, 2 = exact, 1 = default."""
     p = np.unique(np.asarray(points, dtype=np.float64).reshape(-1, 3), axis=0)
     reason = _degenerate(p)
     if reason is not None:
         return convex_hull(p, reason, alpha if isinstance(alpha, float) else None)
     a = auto_alpha(p) if alpha == "auto" else float(alpha)
-    if thin:
-        p = thin_interior(p, a)
+    p = thin_interior(p, a, thin_layers)
     try:
         tri = Delaunay(p)
     except QhullError as exc:
