@@ -6,7 +6,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from robwot_sim.errors import InvalidParams, SimError, UnknownObject
+from robwot_sim.errors import InvalidParams, UnknownObject
 from robwot_sim.scene import normalise_obstacle, read_scene
 from robwot_sim.sim import validate as v
 from robwot_sim.sim.client import quat_from_rpy
@@ -51,7 +51,7 @@ class WorldScene(WorldBase):
                 added_rob.append(model.id)
                 if "positions" in r:
                     self.set_joint_positions(model.id, r["positions"])
-        except SimError:
+        except Exception:  # all or nothing: undo what this scene added
             for rid in added_rob:
                 self.remove_robot(rid)
             for name in added_obs:
