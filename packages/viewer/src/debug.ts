@@ -10,6 +10,8 @@ export interface DebugState {
   joints: Record<string, number>;
   /** Number of joint frames applied to the model (display-rate updates). */
   framesApplied: number;
+  /** End-effector link position of the displayed model, URDF world frame (m), for cross-checks. */
+  ee: { x: number; y: number; z: number } | null;
   liveConnected: boolean;
   liveMessages: number;
   lastStatus: unknown;
@@ -28,6 +30,7 @@ export const debugState: DebugState = {
   thing: null,
   joints: {},
   framesApplied: 0,
+  ee: null,
   liveConnected: false,
   liveMessages: 0,
   lastStatus: null,

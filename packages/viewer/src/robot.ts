@@ -29,7 +29,11 @@ export function loadRobot(url: string): Promise<LoadedRobot> {
     // finish (next macrotask) before resolving.
     manager.onLoad = () =>
       window.setTimeout(() => {
-        if (robot) resolve({ robot, meshErrors });
+        if (!robot) return;
+        robot.traverse((o) => {
+          if (o instanceof Mesh && o.material instanceof Material && !hasUrdfMaterial(o.material)) o.material = DEFAULT_MATERIAL;
+        });
+        resolve({ robot, meshErrors });
       }, 0);
     const loader = new URDFLoader(manager);
     loader.parseCollision = false;
@@ -50,6 +54,13 @@ export function loadRobot(url: string): Promise<LoadedRobot> {
       (err: unknown) => reject(new ViewerError("E_URDF", `cannot load URDF ${url}: ${errText(err)}`, { file: url })),
     );
   });
+}
+
+/** Visuals (meshes and primitives) without a URDF <material> get a neutral grey, not urdf-loader's plain white. */
+const DEFAULT_MATERIAL = new MeshPhongMaterial({ color: 0xb8bec8, specular: 0x333333, shininess: 40 });
+
+function hasUrdfMaterial(m: Material): boolean {
+  return !(m instanceof MeshPhongMaterial && m.name === "" && m.color.getHex() === 0xffffff && m.map === null);
 }
 
 async function loadMesh(path: string, manager: LoadingManager, material: Material): Promise<Object3D> {

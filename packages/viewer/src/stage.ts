@@ -34,9 +34,9 @@ export class Stage {
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     container.append(this.renderer.domElement);
     this.scene.background = new Color(0xf4f6f9);
-    this.scene.add(new HemisphereLight(0xffffff, 0x8899aa, 1.6));
-    this.scene.add(new AmbientLight(0xffffff, 0.4));
-    const sun = new DirectionalLight(0xffffff, 2.2);
+    this.scene.add(new HemisphereLight(0xffffff, 0x667788, 1.1));
+    this.scene.add(new AmbientLight(0xffffff, 0.15));
+    const sun = new DirectionalLight(0xffffff, 1.8);
     sun.position.copy(urdfToThree([2, 1.5, 4]));
     this.scene.add(sun);
     // The floor grid lives in three.js's own frame: its XZ plane is the URDF's XY plane (z = 0).
@@ -57,6 +57,14 @@ export class Stage {
 
   invalidate(): void {
     this.dirty = true;
+  }
+
+  /** Origin of `obj`'s frame in URDF world coordinates (through worldRoot, see frames.ts). */
+  positionInWorld(obj: Object3D | null): { x: number; y: number; z: number } | null {
+    if (!obj) return null;
+    this.scene.updateMatrixWorld(true);
+    const p = this.worldRoot.worldToLocal(obj.getWorldPosition(new Vector3()));
+    return { x: p.x, y: p.y, z: p.z };
   }
 
   setVisible(obj: Object3D, visible: boolean): void {

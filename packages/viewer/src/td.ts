@@ -21,6 +21,8 @@ export interface TwinTd {
   raw: Record<string, unknown>;
   joints: JointLimit[];
   links: { model: string; pointCloud: string | null; workspace: string | null; scene: string | null };
+  /** End-effector link (`robwot:eeLink`), if the TD names one. */
+  eeLink: string | null;
   /** Live WebSocket endpoint from the TD's forms carrying `robwot:subscribe` (Contract 4), if any. */
   live: string | null;
 }
@@ -52,6 +54,7 @@ export async function loadTd(slug: string): Promise<TwinTd> {
       scene: link("scene") ?? new URL("scene.json", base).href,
     },
     live: liveUrl(raw),
+    eeLink: typeof raw["robwot:eeLink"] === "string" ? raw["robwot:eeLink"] : null,
   };
 }
 

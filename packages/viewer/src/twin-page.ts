@@ -53,6 +53,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     }
     joints.showActual(latest);
     debugState.joints = { ...debugState.joints, ...latest };
+    debugState.ee = td.eeLink ? stage.positionInWorld(robot.links[td.eeLink] ?? null) : null;
     debugState.framesApplied++;
     publishDebug();
     latest = null;
