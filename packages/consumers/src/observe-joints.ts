@@ -10,7 +10,7 @@
  * observer, measured while the robot was moving, is printed.
  *
  *   node packages/consumers/dist/observe-joints.js [TD URL] [--seconds 5] [--speed 1] [--via ws|poll|both]
- *        [--quiet] [--json]
+ *        [--no-move] [--quiet] [--json]
  */
 import { numberOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
 import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
@@ -21,7 +21,7 @@ import { acceptedTargets, spreadTargets, type Joints } from "./lib/targets.js";
 import { jointLimits } from "./lib/td.js";
 import type { MoveResult } from "./lib/types.js";
 
-const USAGE = "observe-joints [TD URL] [--seconds N] [--speed 0..1] [--via ws|poll|both] [--quiet] [--json]";
+const USAGE = "observe-joints [TD URL] [--seconds N] [--speed 0..1] [--via ws|poll|both] [--no-move] [--quiet] [--json]";
 
 interface Update {
   source: "ws" | "poll";
@@ -43,6 +43,7 @@ async function main(): Promise<void> {
     speed: "value",
     via: "value",
     quiet: "flag",
+    "no-move": "flag",
     json: "flag",
   });
   const url = args.positional[0] ?? defaultTdUrl();
@@ -72,7 +73,8 @@ async function main(): Promise<void> {
     const twin = await session.connect(url);
     console.log(`Observing "${twin.td.title ?? "?"}" (${url}) for ${seconds} s via ${via}`);
     const start = await read<Joints>(twin, "getJointPosition");
-    const [away] = await acceptedTargets(twin, spreadTargets(jointLimits(twin.td), 0.4, 8), 1, start);
+    const move = !args.options.has("no-move");
+    const [away] = move ? await acceptedTargets(twin, spreadTargets(jointLimits(twin.td), 0.4, 8), 1, start) : [start];
     if (away === undefined) throw new Error("no joint target accepted by validateJointPosition to move to");
 
     t0 = performance.now(); // observation starts now
@@ -84,6 +86,7 @@ async function main(): Promise<void> {
           twin,
           (msg) => {
             if (msg.type === "joints" && msg.joints !== undefined) record("ws", msg.joints);
+            else if (msg.type === "status" && !quiet) console.log(`[+${fmt(now())} s] ws   status ${String(msg["state"])}`);
           },
           fail("ws"),
         );
@@ -106,11 +109,16 @@ async function main(): Promise<void> {
           )
         : undefined;
 
-    // The mover: back and forth between the start pose and `away` until time is up.
+    // The mover: back and forth between the start pose and `away` until time is up (with --no-move,
+    // just watch: someone else, e.g. the viewer, moves the robot; rates are over the whole window).
     const deadline = seconds;
     let toward: Joints = away;
     let simulated = 0; // s of motion, by the twin's clock
-    while (now() < deadline) {
+    if (!move) {
+      await new Promise((r) => setTimeout(r, seconds * 1000));
+      moves.push([0, now()]);
+    }
+    while (move && now() < deadline) {
       const a = now();
       const result = await invoke<MoveResult>(twin, "moveToJointPosition", { joints: toward, speed });
       moves.push([a, now()]);
@@ -131,16 +139,22 @@ async function main(): Promise<void> {
         const r = rateWithin(mine, moves);
         return { source: s, total: mine.length, ...r };
       });
-    console.log(`\n${moves.length} moves (${fmt(simulated)} s of motion), move requests open ${fmt(moves.reduce((s, [a, b]) => s + b - a, 0))} s of ${fmt(now())} s`);
+    const moveCount = move ? moves.length : 0;
+    const open = moves.reduce((s, [a, b]) => s + b - a, 0);
+    console.log(
+      move
+        ? `\n${moveCount} moves (${fmt(simulated)} s of motion), move requests open ${fmt(open)} s of ${fmt(now())} s`
+        : `\nwatched ${fmt(open)} s without moving the robot`,
+    );
     console.log(
       table(
-        ["observer", "updates", "during motion", "rate (Hz)"],
+        ["observer", "updates", move ? "during motion" : "in window", "rate (Hz)"],
         rows.map((r) => [r.source, String(r.total), String(r.count), fmt(r.hz, 1)]),
       ),
     );
     if (args.options.has("json")) {
       const last = (src: Update["source"]): Update | null => updates.filter((u) => u.source === src).pop() ?? null;
-      printJsonSummary({ moves: moves.length, motionSeconds: simulated, observers: rows, lastWs: last("ws"), lastPoll: last("poll") });
+      printJsonSummary({ moves: moveCount, motionSeconds: simulated, observers: rows, lastWs: last("ws"), lastPoll: last("poll") });
     }
   } finally {
     await live?.close();
