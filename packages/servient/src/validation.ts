@@ -2,6 +2,7 @@
  * Simulation-in-the-loop validation (the original's key idea): before a move, and for the validate*
  * actions, check joint limits, the workspace surface (workspace.stl), the point-cloud score
  * (workspace.csv), IK reachability and collision along the whole path in the current scene.
+ * Cheapest first: when the workspace checks fail, IK and path are not run (absent from `checks`).
  * Nothing here moves the twin.
  */
 import type { Contact, Quaternion, ValidationReport, Vec3 } from "@robwot/core";
@@ -106,6 +107,9 @@ export async function validateCartesian(
   }
   let target: number[] = [];
   let positionError = Infinity;
+  // cheapest first: outside the sampled workspace the move is refused anyway, and IK on an unreachable
+  // target is the slowest check (random restarts, ~0.3 s): skip IK and path then
+  if (reasons.length > 0) return { report: { valid: false, reasons, checks }, target, virtual, positionError };
   try {
     const params: Record<string, unknown> = { robot: twin.robotId, position: virtual, seed: twin.q, collisionFree: true };
     if (orientation) params.orientation = quatArr(twin.frames.quatToVirtual(orientation));
