@@ -1,7 +1,7 @@
 /**
  * The workspace point cloud (`workspace.csv`: x,y,z,collision_free[,joint...], metres, world frame):
  * collision-free points blue, colliding points red, like the original's figures. Large clouds are
- * subsampled (uniform stride, both classes kept in proportion) to keep the page fluid.
+ * subsampled (seeded random draw, both classes kept in proportion) to keep the page fluid.
  */
 import { BufferGeometry, Float32BufferAttribute, Points, PointsMaterial } from "three";
 import { ViewerError } from "./errors.js";
@@ -25,8 +25,12 @@ export function parseWorkspaceCsv(text: string, maxPoints = MAX_POINTS, source =
   if (head.length > 0 && !/^[-+\d.]/.test(head)) first = 1; // header row
   const rows: number[] = [];
   for (let i = first; i < lines.length; i++) if ((lines[i] ?? "").trim().length > 0) rows.push(i);
-  const stride = Math.max(1, Math.ceil(rows.length / maxPoints));
-  const kept = Math.ceil(rows.length / stride);
+  // Subsample with a seeded pseudo-random Bernoulli draw (no aliasing with periodic row orders, the
+  // same points on every load).
+  const p = Math.min(1, maxPoints / Math.max(1, rows.length));
+  const rand = mulberry32(1);
+  const keep = rows.map(() => p >= 1 || rand() < p);
+  const kept = keep.reduce((n, k) => n + (k ? 1 : 0), 0);
   const positions = new Float32Array(kept * 3);
   const free = new Uint8Array(kept);
   let collisionFree = 0;
@@ -38,7 +42,7 @@ export function parseWorkspaceCsv(text: string, maxPoints = MAX_POINTS, source =
     const y = Number(cols[1]);
     const z = Number(cols[2]);
     const f = Number(cols[3]);
-    if (![x, y, z].every(Number.isFinite) || (f !== 0 && f !== 1)) {
+    if (cols.length < 4 || cols.slice(0, 4).some((c) => c.trim() === "") || ![x, y, z].every(Number.isFinite) || (f !== 0 && f !== 1)) {
       throw new ViewerError("E_CSV", `${source} line ${lineNo + 1}: expected x,y,z,collision_free(0|1)`, {
         file: source,
         line: lineNo + 1,
@@ -46,7 +50,7 @@ export function parseWorkspaceCsv(text: string, maxPoints = MAX_POINTS, source =
       });
     }
     if (f === 1) collisionFree++;
-    if (r % stride !== 0) continue;
+    if (!keep[r]) continue;
     positions.set([x, y, z], k * 3);
     free[k] = f;
     k++;
@@ -64,4 +68,16 @@ export function buildPointCloud(cloud: ParsedCloud): Points {
   const points = new Points(geometry, new PointsMaterial({ size: 0.012, vertexColors: true, sizeAttenuation: true }));
   points.name = "workspace point cloud";
   return points;
+}
+
+/** Small seeded PRNG (mulberry32), uniform in [0, 1). */
+function mulberry32(seed: number): () => number {
+  let a = seed >>> 0;
+  return () => {
+    a = (a + 0x6d2b79f5) >>> 0;
+    let t = a;
+    t = Math.imul(t ^ (t >>> 15), t | 1);
+    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
+    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
+  };
 }
