@@ -126,7 +126,11 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     t_submit = time.perf_counter()
     job = Labelling(spec, robot_id, qs, n_workers)
     t1 = time.perf_counter()
-    positions = fk.positions(qs)
+    try:
+        positions = fk.positions(qs)
+    except BaseException:
+        job.abandon()
+        raise
     t_sample = (t_submit - t0) + (time.perf_counter() - t1)
     report("sample", samples, samples)
     report("collide", 0, samples)

@@ -19,7 +19,7 @@ import multiprocessing
 import os
 import threading
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, CancelledError, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
@@ -37,8 +37,8 @@ CHUNKS_PER_WORKER = 8
 _PRELOAD = ["robwot_sim.workspace.labelling", "robwot_sim.sim.world"]
 
 _pool_lock = threading.Lock()
-_pool: ProcessPoolExecutor | None = None
-_pool_size = 0
+_pools: dict[int, ProcessPoolExecutor] = {}  # by worker count
+_active: dict[int, int] = {}  # running labellings per pool
 
 # worker-process state: (spec key, World)
 _worker_world: tuple[str, Any] | None = None
@@ -80,35 +80,35 @@ def _ping() -> int:
     return os.getpid()
 
 
-def _get_pool(workers: int) -> ProcessPoolExecutor:
-    global _pool, _pool_size
+def _acquire_pool(workers: int) -> ProcessPoolExecutor:
+    """The pool of ``workers`` processes (started on first use). Idle pools of other sizes are stopped;
+    busy ones are left to finish. Pair with ``_release_pool``."""
     with _pool_lock:
-        if _pool is not None and _pool_size != workers:
-            _pool.shutdown(wait=False, cancel_futures=True)
-            _pool = None
-        if _pool is None:
+        for size in [k for k in _pools if k != workers and _active.get(k, 0) == 0]:
+            _pools.pop(size).shutdown(wait=False, cancel_futures=True)
+        pool = _pools.get(workers)
+        if pool is None:
             ctx = multiprocessing.get_context("forkserver")
             ctx.set_forkserver_preload(_PRELOAD)
-            _pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-            _pool_size = workers
-        return _pool
+            pool = _pools[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+        _active[workers] = _active.get(workers, 0) + 1
+        return pool
 
 
-def _drop_pool() -> None:
-    global _pool
+def _release_pool(workers: int, broken: bool = False) -> None:
     with _pool_lock:
-        if _pool is not None:
-            _pool.shutdown(wait=False, cancel_futures=True)
-            _pool = None
+        _active[workers] = max(0, _active.get(workers, 0) - 1)
+        if broken and workers in _pools:
+            _pools.pop(workers).shutdown(wait=False, cancel_futures=True)
 
 
 def shutdown_pool() -> None:
-    """Stop the worker processes (also registered with ``atexit``)."""
-    global _pool
+    """Stop every worker process (also registered with ``atexit``)."""
     with _pool_lock:
-        if _pool is not None:
-            _pool.shutdown(wait=True, cancel_futures=True)
-            _pool = None
+        pools = list(_pools.values())
+        _pools.clear()
+    for pool in pools:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 atexit.register(shutdown_pool)
@@ -116,9 +116,13 @@ atexit.register(shutdown_pool)
 
 def warm_up(workers: int | None = None) -> None:
     """Start the forkserver and the worker processes now (e.g. at backend start), without waiting."""
-    pool = _get_pool(workers or os.cpu_count() or 1)
-    for _ in range(workers or os.cpu_count() or 1):
-        pool.submit(_ping)
+    n = workers or os.cpu_count() or 1
+    pool = _acquire_pool(n)
+    try:
+        for _ in range(n):
+            pool.submit(_ping)
+    finally:
+        _release_pool(n)
 
 
 def chunk_size(n: int, workers: int) -> int:
@@ -130,22 +134,36 @@ class Labelling:
 
     def __init__(self, spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int) -> None:
         self.n = len(qs)
-        self.pool = _get_pool(workers)
+        self.workers = workers
+        self.pool = _acquire_pool(workers)
         key = spec_key(spec)
         size = chunk_size(self.n, workers)
-        self.bounds = [(i, min(i + size, self.n)) for i in range(0, self.n, size)]
+        self.futures: dict[Future[Any], tuple[int, int]] = {}
         try:
-            self.futures: dict[Future[Any], tuple[int, int]] = {
-                self.pool.submit(_worker_label, key, spec, robot_id, np.ascontiguousarray(qs[a:b])): (a, b)
-                for a, b in self.bounds}
+            for a in range(0, self.n, size):
+                b = min(a + size, self.n)
+                chunk = np.ascontiguousarray(qs[a:b])
+                self.futures[self.pool.submit(_worker_label, key, spec, robot_id, chunk)] = (a, b)
         except (BrokenProcessPool, RuntimeError):
-            _drop_pool()
+            self._cancel()
+            _release_pool(workers, broken=True)
             raise InternalError("the collision worker pool could not start") from None
 
+    def _cancel(self) -> None:
+        for f in self.futures:
+            f.cancel()
+
+    def abandon(self) -> None:
+        """Cancel the chunks not started yet and release the pool (instead of ``result``)."""
+        self._cancel()
+        _release_pool(self.workers)
+
     def result(self, progress: Callable[[int, int], None] | None = None) -> BoolArray:
+        """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool."""
         out = np.zeros(self.n, dtype=bool)
         done = 0
         pending = set(self.futures)
+        broken = False
         try:
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -158,12 +176,13 @@ class Labelling:
                     done += b - a
                 if progress is not None:
                     progress(done, self.n)
-        except BrokenProcessPool:
-            _drop_pool()
-            raise InternalError("a collision worker process died (PyBullet crash or out of memory)") from None
+        except (BrokenProcessPool, CancelledError):
+            broken = True
+            raise InternalError("a collision worker process died (PyBullet crash, out of memory or "
+                                "shutdown)") from None
         finally:
-            for f in pending:
-                f.cancel()
+            self._cancel()
+            _release_pool(self.workers, broken)
         return out
 
 

@@ -1,0 +1,47 @@
+"""Parallel collision labelling (robwot_sim.workspace.labelling) against the in-process World."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robwot_sim.errors import SimError
+from robwot_sim.sim.world import World
+from robwot_sim.workspace.labelling import chunk_size, label_configurations, spec_key
+from robwot_sim.workspace.sampling import sample_configurations
+
+
+def test_parallel_labels_equal_serial() -> None:
+    """1 and 2 worker processes give exactly World.collision_free_batch's labels, scene included."""
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
+        w.add_obstacle({"name": "wall", "shape": {"type": "box", "size": [0.1, 1.0, 1.0]},
+                        "position": [0.5, 0.0, 0.5]})
+        lo, hi = w.robot_model("kuka").limits()
+        qs = sample_configurations(lo, hi, 1500, seed=4)
+        serial = w.collision_free_batch("kuka", qs)
+        spec = w.scene_spec()
+    assert 0.1 < serial.mean() < 0.95  # the wall and self-collision both matter here
+    for workers in (2, 1):
+        assert np.array_equal(label_configurations(spec, "kuka", qs, workers), serial)
+
+
+def test_worker_error_is_structured() -> None:
+    """An error inside a worker comes back as a SimError with its code and fields."""
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
+        spec = w.scene_spec()
+    with pytest.raises(SimError) as exc:
+        label_configurations(spec, "other", np.zeros((10, 7)), 2)
+    assert exc.value.code == "E_UNKNOWN_ROBOT" and exc.value.rpc_code == -32001
+    assert exc.value.data["available"] == ["kuka"]
+
+
+def test_chunks_and_keys() -> None:
+    """Chunks stay within bounds; the spec key ignores dict order and sees every change."""
+    assert chunk_size(80_000, 2) == 4000 and chunk_size(100, 2) == 500 and chunk_size(40_000, 2) == 2500
+    a = {"version": 1, "obstacles": [{"name": "b", "position": [0, 0, 1]}], "robots": []}
+    b = {"robots": [], "obstacles": [{"position": [0, 0, 1], "name": "b"}], "version": 1}
+    assert spec_key(a) == spec_key(b)
+    b["obstacles"][0]["position"] = [0, 0, 1.001]  # type: ignore[index]
+    assert spec_key(a) != spec_key(b)
