@@ -40,6 +40,8 @@ export async function openBrowser(viewport = { width: 1280, height: 800 }): Prom
     viewport,
   });
   const page = context.pages()[0] ?? (await context.newPage());
+  // Two shared cores and software WebGL: be patient (waits still end as soon as the condition holds).
+  page.setDefaultTimeout(60_000);
   const problems: string[] = [];
   page.on("console", (msg) => {
     if (msg.type() === "error") problems.push(`console.error: ${msg.text()} (${msg.location().url})`);
