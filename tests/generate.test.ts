@@ -129,24 +129,29 @@ describe.each([
   });
 });
 
-describe("workspace determinism and obstacles (kuka_iiwa)", () => {
+describe("determinism, obstacles, replacement, placement", () => {
   const rowsOf = (dir: string): number[][] => readCsv(join(dir, "workspace.csv")).rows;
 
-  it("same seed gives an identical workspace.csv; another seed gives bounds within a few cm", async () => {
+  it("same seed gives an identical workspace.csv", async () => {
     const a = join(work, "seed-a");
     const b = join(work, "seed-b");
-    const c = join(work, "seed-c");
-    const n = ["--samples", "10000"];
-    await runCli(["generate", "kuka_iiwa", "--out", a, "--seed", "7", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
-    await runCli(["generate", "kuka_iiwa", "--out", b, "--seed", "7", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
-    await runCli(["generate", "kuka_iiwa", "--out", c, "--seed", "8", ...n]).then((r) => expect(r.code, r.stderr).toBe(0));
+    await generate("kuka_iiwa", a, ["--seed", "7"]);
+    await generate("kuka_iiwa", b, ["--seed", "7"]);
     expect(readFileSync(join(a, "workspace.csv")).equals(readFileSync(join(b, "workspace.csv")))).toBe(true);
-    expect(readFileSync(join(a, "workspace.csv")).equals(readFileSync(join(c, "workspace.csv")))).toBe(false);
-    const sa = json(join(a, "workspace.json")) as Summary;
-    const sc = json(join(c, "workspace.json")) as Summary;
+    expect(readFileSync(join(a, "workspace.stl")).equals(readFileSync(join(b, "workspace.stl")))).toBe(true);
+  });
+
+  it("different seeds give other samples but bounds within a few cm", async () => {
+    const runs = [join(work, "seed-c"), join(work, "seed-d")];
+    for (const [i, out] of runs.entries()) {
+      const r = await runCli(["generate", "kuka_iiwa", "--out", out, "--seed", String(8 + i), "--samples", "10000"]);
+      expect(r.code, r.stderr).toBe(0);
+    }
+    const [c, d] = runs.map((dir) => json(join(dir, "workspace.json")) as Summary) as [Summary, Summary];
+    expect(readFileSync(join(runs[0]!, "workspace.csv")).equals(readFileSync(join(runs[1]!, "workspace.csv")))).toBe(false);
     for (let k = 0; k < 3; k++) {
-      expect(Math.abs(sa.bounds.min[k]! - sc.bounds.min[k]!)).toBeLessThan(0.05);
-      expect(Math.abs(sa.bounds.max[k]! - sc.bounds.max[k]!)).toBeLessThan(0.05);
+      expect(Math.abs(c.bounds.min[k]! - d.bounds.min[k]!)).toBeLessThan(0.05);
+      expect(Math.abs(c.bounds.max[k]! - d.bounds.max[k]!)).toBeLessThan(0.05);
     }
   });
 
