@@ -5,6 +5,7 @@
  * its effect on the twin (read back independently over HTTP).
  */
 import { spawn } from "node:child_process";
+import { createServer, type AddressInfo } from "node:net";
 import { rmSync, readFileSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
@@ -43,6 +44,16 @@ function runScenario(name: string, args: string[], extraEnv: Record<string, stri
 }
 
 const SCENE = ["--scene", join(REPO, "examples", "scenes", "table.json")];
+
+/** A port nothing listens on (bound, then released). */
+function freePort(): Promise<number> {
+  return new Promise((resolve) => {
+    const srv = createServer().listen(0, "127.0.0.1", () => {
+      const { port } = srv.address() as AddressInfo;
+      srv.close(() => resolve(port));
+    });
+  });
+}
 
 /** Physical stand-in placement: x_real = R_z(25°) x_virtual + (0.3, -0.2, 0.05). */
 const YAW = (25 * Math.PI) / 180;
@@ -106,9 +117,10 @@ describe("read-and-move-joints", () => {
   });
 
   it("fails clearly (exit 1, names the URL) when no twin answers", async () => {
-    const run = await runScenario("read-and-move-joints", ["http://127.0.0.1:9/nothing"]);
+    const port = await freePort();
+    const run = await runScenario("read-and-move-joints", [`http://127.0.0.1:${port}/nothing`]);
     expect(run.code).toBe(1);
-    expect(run.stderr).toContain("http://127.0.0.1:9/nothing");
+    expect(run.stderr).toContain(`cannot reach http://127.0.0.1:${port}/nothing: connect ECONNREFUSED`);
   });
 
   it("uses ROBWOT_AUTH credentials for node-wot, files and the live WebSocket of a secured twin", async () => {
