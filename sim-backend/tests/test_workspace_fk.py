@@ -106,3 +106,11 @@ def test_sampling_refuses_bad_limits() -> None:
         sample_configurations([0.0], [np.inf], 10, seed=1)
     with pytest.raises(InvalidParams):
         sample_configurations([1.0], [0.0], 10, seed=1)
+
+
+def test_fk_blocks_equal_one_pass() -> None:
+    """Block-wise FK (bounded memory) gives the same positions as one pass."""
+    root = read_urdf(MODELS / "chain_mimic.urdf")
+    fk = ChainFK.from_urdf(root, "tool", ["base_yaw", "spin", "slide"])
+    qs = sample_configurations([-2.5, -3.14, -0.1], [2.5, 3.14, 0.2], 2500, seed=9)
+    assert np.array_equal(fk.positions(qs, block=1000), fk.poses(qs)[0])

@@ -202,3 +202,18 @@ def test_bad_input_changes_nothing(tmp_path: Path) -> None:
             generate_workspace(w, "planar", samples=100, out_dir=blocker / "sub")
         assert exc2.value.data["param"] == "outDir"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+def test_no_collision_free_sample(tmp_path: Path) -> None:
+    """A robot buried in a box: zero free samples, hull fallback with a warning, null bounds, empty STL."""
+    with World() as w:
+        w.load_robot(MODELS / "shell.urdf", robot_id="shell", base_position=BASE.tolist())
+        w.add_obstacle({"name": "crate", "shape": {"type": "box", "size": [1.0, 1.0, 1.0]},
+                        "position": BASE.tolist()})
+        summary = generate_workspace(w, "shell", samples=500, seed=1, workers=1, out_dir=tmp_path)
+    assert summary["collisionFree"] == 0 and summary["volume"] == 0.0
+    assert summary["method"] == "convex-hull" and "0 distinct points" in summary["warning"]
+    assert summary["bounds"] == {"min": None, "max": None}
+    assert len(read_stl(tmp_path / "workspace.stl")[0]) == 0
+    _, rows = read_csv(tmp_path / "workspace.csv")
+    assert rows.shape == (500, 4) and not rows[:, 3].any()

@@ -145,9 +145,12 @@ class ChainFK:
                 r = r @ _axis_angle(axis, v)
         return p, r
 
-    def positions(self, qs: npt.ArrayLike) -> FloatArray:
-        """End-link frame positions ``(n, 3)`` in metres, world frame."""
-        return self.poses(qs)[0]
+    def positions(self, qs: npt.ArrayLike, block: int = 100_000) -> FloatArray:
+        """End-link frame positions ``(n, 3)`` in metres, world frame (in blocks to bound memory)."""
+        q = np.asarray(qs, dtype=np.float64)
+        if q.ndim != 2 or len(q) <= block:
+            return self.poses(q)[0]
+        return np.concatenate([self.poses(q[a:a + block])[0] for a in range(0, len(q), block)])
 
 
 def _axis_angle(axis: FloatArray, angle: FloatArray) -> FloatArray:
