@@ -3,27 +3,14 @@
  * is persisted in calibration.json and applied to Cartesian inputs and outputs; relay to a second twin
  * standing in for the physical robot, placed with a known rotation and offset.
  */
-import { readFileSync, writeFileSync } from "node:fs";
+import { readFileSync } from "node:fs";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
-import { parseStl, parseWorkspaceCsv, transformBounds, writeStl, writeWorkspaceCsv, type Vec3 } from "../packages/core/src/index.js";
+import type { Vec3 } from "../packages/core/src/index.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { gauss, generateTwin, http, invoke, kukaPose, rng } from "./serve-helpers.js";
+import { apply, gauss, generateTwin, http, invoke, kukaPose, placeTwin, rng, rotZ, type Rigid } from "./serve-helpers.js";
 
 type Xyz = { x: number; y: number; z: number };
-interface Rigid {
-  s: number;
-  R: number[][];
-  t: Vec3;
-}
-
-function rotZ(a: number): number[][] {
-  return [
-    [Math.cos(a), -Math.sin(a), 0],
-    [Math.sin(a), Math.cos(a), 0],
-    [0, 0, 1],
-  ];
-}
 function rotX(a: number): number[][] {
   return [
     [1, 0, 0],
@@ -32,7 +19,6 @@ function rotX(a: number): number[][] {
   ];
 }
 const mul = (A: number[][], B: number[][]): number[][] => A.map((r) => [0, 1, 2].map((j) => r[0]! * B[0]![j]! + r[1]! * B[1]![j]! + r[2]! * B[2]![j]!));
-const apply = (T: Rigid, p: Vec3): Vec3 => [0, 1, 2].map((i) => T.s * (T.R[i]![0]! * p[0] + T.R[i]![1]! * p[1] + T.R[i]![2]! * p[2]) + T.t[i]!) as Vec3;
 const xyz = (v: readonly number[]): Xyz => ({ x: v[0]!, y: v[1]!, z: v[2]! });
 const dist = (a: Xyz, b: Xyz): number => Math.hypot(a.x - b.x, a.y - b.y, a.z - b.z);
 
@@ -119,34 +105,6 @@ describe("calibrate", () => {
     expect(r.body.rms).toBeLessThan(0.003);
   });
 });
-
-/** A copy of the twin whose robot stands at `pose` (rotation about z, then offset): the "physical" robot. */
-function placeTwin(src: string, yaw: number, offset: Vec3): void {
-  const T: Rigid = { s: 1, R: rotZ(yaw), t: offset };
-  const twinJson = JSON.parse(readFileSync(join(src, "twin.json"), "utf8"));
-  twinJson.robot.basePosition = offset;
-  twinJson.robot.baseOrientation = [0, 0, Math.sin(yaw / 2), Math.cos(yaw / 2)];
-  writeFileSync(join(src, "twin.json"), JSON.stringify(twinJson));
-  const cloud = parseWorkspaceCsv(readFileSync(join(src, "workspace.csv"), "utf8"));
-  for (let i = 0; i < cloud.points.length; i += 3) cloud.points.set(apply(T, [cloud.points[i]!, cloud.points[i + 1]!, cloud.points[i + 2]!]), i);
-  writeFileSync(join(src, "workspace.csv"), writeWorkspaceCsv(cloud));
-  const stl = parseStl(readFileSync(join(src, "workspace.stl")));
-  for (let i = 0; i < stl.triangles.length; i += 3) stl.triangles.set(apply(T, [stl.triangles[i]!, stl.triangles[i + 1]!, stl.triangles[i + 2]!]), i);
-  writeFileSync(join(src, "workspace.stl"), writeStl(stl.triangles));
-  const summary = JSON.parse(readFileSync(join(src, "workspace.json"), "utf8"));
-  const bounds = transformBounds(summary.bounds, { scale: 1, rotation: T.R, translation: T.t });
-  summary.bounds = bounds;
-  writeFileSync(join(src, "workspace.json"), JSON.stringify(summary));
-  const td = JSON.parse(readFileSync(join(src, "td.json"), "utf8"));
-  for (const name of ["moveToCartesianPosition", "validateCartesianPosition"]) {
-    const p = td.actions[name].input.properties;
-    ["x", "y", "z"].forEach((k, i) => {
-      p[k].minimum = bounds.min[i];
-      p[k].maximum = bounds.max[i];
-    });
-  }
-  writeFileSync(join(src, "td.json"), JSON.stringify(td));
-}
 
 describe("relay to a second twin standing in for the physical robot", () => {
   let physical: RunningServient;

@@ -2,12 +2,13 @@
  * Shared helpers of the servient end-to-end tests: twin folders made by the real CLI, a node-wot
  * consumer, plain fetch and /live WebSocket clients.
  */
-import { cpSync, existsSync, mkdtempSync } from "node:fs";
+import { cpSync, existsSync, mkdtempSync, readFileSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import WebSocket from "ws";
 import { Servient } from "@node-wot/core";
 import { HttpClientFactory } from "@node-wot/binding-http";
+import { parseStl, parseWorkspaceCsv, transformBounds, writeStl, writeWorkspaceCsv, type Vec3 } from "../packages/core/src/index.js";
 import { runCli } from "./cli-run.js";
 
 const cache = new Map<string, string>();
@@ -126,3 +127,49 @@ export function rng(seed: number): () => number {
 export function gauss(u: () => number): number {
   return Math.sqrt(-2 * Math.log(1 - u())) * Math.cos(2 * Math.PI * u());
 }
+
+export interface Rigid {
+  s: number;
+  R: number[][];
+  t: Vec3;
+}
+
+export function rotZ(a: number): number[][] {
+  return [
+    [Math.cos(a), -Math.sin(a), 0],
+    [Math.sin(a), Math.cos(a), 0],
+    [0, 0, 1],
+  ];
+}
+
+export const apply = (T: Rigid, p: Vec3): Vec3 =>
+  [0, 1, 2].map((i) => T.s * (T.R[i]![0]! * p[0] + T.R[i]![1]! * p[1] + T.R[i]![2]! * p[2]) + T.t[i]!) as Vec3;
+
+/** A copy of the twin whose robot stands at `pose` (rotation about z, then offset): the "physical" robot. */
+export function placeTwin(src: string, yaw: number, offset: Vec3): void {
+  const T: Rigid = { s: 1, R: rotZ(yaw), t: offset };
+  const twinJson = JSON.parse(readFileSync(join(src, "twin.json"), "utf8"));
+  twinJson.robot.basePosition = offset;
+  twinJson.robot.baseOrientation = [0, 0, Math.sin(yaw / 2), Math.cos(yaw / 2)];
+  writeFileSync(join(src, "twin.json"), JSON.stringify(twinJson));
+  const cloud = parseWorkspaceCsv(readFileSync(join(src, "workspace.csv"), "utf8"));
+  for (let i = 0; i < cloud.points.length; i += 3) cloud.points.set(apply(T, [cloud.points[i]!, cloud.points[i + 1]!, cloud.points[i + 2]!]), i);
+  writeFileSync(join(src, "workspace.csv"), writeWorkspaceCsv(cloud));
+  const stl = parseStl(readFileSync(join(src, "workspace.stl")));
+  for (let i = 0; i < stl.triangles.length; i += 3) stl.triangles.set(apply(T, [stl.triangles[i]!, stl.triangles[i + 1]!, stl.triangles[i + 2]!]), i);
+  writeFileSync(join(src, "workspace.stl"), writeStl(stl.triangles));
+  const summary = JSON.parse(readFileSync(join(src, "workspace.json"), "utf8"));
+  const bounds = transformBounds(summary.bounds, { scale: 1, rotation: T.R, translation: T.t });
+  summary.bounds = bounds;
+  writeFileSync(join(src, "workspace.json"), JSON.stringify(summary));
+  const td = JSON.parse(readFileSync(join(src, "td.json"), "utf8"));
+  for (const name of ["moveToCartesianPosition", "validateCartesianPosition"]) {
+    const p = td.actions[name].input.properties;
+    ["x", "y", "z"].forEach((k, i) => {
+      p[k].minimum = bounds.min[i];
+      p[k].maximum = bounds.max[i];
+    });
+  }
+  writeFileSync(join(src, "td.json"), JSON.stringify(td));
+}
+

@@ -81,6 +81,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   const folders = opts.twins.map(loadTwinFolder);
   const twins = new Map<string, Twin>();
   const slugs = new Set<string>();
+  const ids = new Set<string>();
   const connector = opts.backendUrl ? urlConnector(opts.backendUrl) : launchConnector({ python: opts.python });
   // the world is built from the twins below; restore runs only at start()
   const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call));
@@ -89,6 +90,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     let slug = base;
     for (let n = 2; slugs.has(slug); n++) slug = `${base}_${n}`;
     slugs.add(slug);
+    // the same robot in the same scene has the same id: node-wot needs one id per Thing
+    if (folder.td.id && ids.has(folder.td.id)) folder.td.id = `${folder.td.id}:${slug}`;
+    if (folder.td.id) ids.add(folder.td.id);
     twins.set(slug, new Twin(slug, folder, backend));
   }
   const world = new World([...twins.values()]);
