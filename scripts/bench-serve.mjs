@@ -1,0 +1,111 @@
+#!/usr/bin/env node
+/**
+ * `npm run bench:serve`: the servient's HTTP performance on this machine.
+ * - property read (getJointPosition) latency p50/p99 and reads/s with 1 and 16 concurrent clients
+ * - moveToCartesianPosition round trip at realtime 0 (validation + IK + path check + motion + FK)
+ * Twin: `robwot generate kuka_iiwa --samples 3000` into a temp folder (or ROBWOT_BENCH_TWIN=<folder>).
+ * Prints a table. Options: --reads N (default 4000), --moves N (default 30).
+ */
+import { spawnSync } from "node:child_process";
+import { mkdtempSync, rmSync } from "node:fs";
+import { Agent, request } from "node:http";
+import { tmpdir } from "node:os";
+import { dirname, join } from "node:path";
+import { fileURLToPath } from "node:url";
+
+const repo = join(dirname(fileURLToPath(import.meta.url)), "..");
+const arg = (name, def) => {
+  const i = process.argv.indexOf(`--${name}`);
+  return i > 0 ? Number(process.argv[i + 1]) : def;
+};
+const READS = arg("reads", 4000);
+const MOVES = arg("moves", 30);
+
+let tmp = null;
+let twin = process.env.ROBWOT_BENCH_TWIN;
+if (!twin) {
+  tmp = mkdtempSync(join(tmpdir(), "robwot-bench-serve-"));
+  twin = join(tmp, "kuka");
+  const r = spawnSync(process.execPath, [join(repo, "packages/cli/dist/main.js"), "generate", "kuka_iiwa", "--samples", "3000", "--out", twin], {
+    stdio: ["ignore", "ignore", "inherit"],
+  });
+  if (r.status !== 0) process.exit(r.status ?? 1);
+}
+
+const { startServient } = await import(join(repo, "packages/servient/dist/index.js"));
+const s = await startServient({ twins: [twin], port: 0, realtime: 0 });
+const base = new URL(`${s.url}/${s.things[0].slug}`);
+const agent = new Agent({ keepAlive: true, maxSockets: 64 });
+
+function call(method, path, body) {
+  return new Promise((resolve, reject) => {
+    const data = body === undefined ? undefined : Buffer.from(JSON.stringify(body));
+    const req = request(
+      { host: base.hostname, port: base.port, path, method, agent, headers: data ? { "content-type": "application/json", "content-length": data.length } : {} },
+      (res) => {
+        const chunks = [];
+        res.on("data", (c) => chunks.push(c));
+        res.on("end", () => resolve({ status: res.statusCode, body: Buffer.concat(chunks).toString() }));
+      },
+    );
+    req.on("error", reject);
+    req.end(data);
+  });
+}
+
+const pct = (xs, p) => {
+  const a = [...xs].sort((x, y) => x - y);
+  return a[Math.min(a.length - 1, Math.floor((p / 100) * a.length))];
+};
+
+async function reads(clients) {
+  const path = `${base.pathname}/properties/getJointPosition`;
+  for (let i = 0; i < 200; i++) await call("GET", path); // warm-up
+  const lat = [];
+  let left = READS;
+  const t0 = performance.now();
+  await Promise.all(
+    Array.from({ length: clients }, async () => {
+      while (left-- > 0) {
+        const t = performance.now();
+        const r = await call("GET", path);
+        if (r.status !== 200) throw new Error(`read answered ${r.status}`);
+        lat.push(performance.now() - t);
+      }
+    }),
+  );
+  const secs = (performance.now() - t0) / 1000;
+  return { what: `property read, ${clients} client${clients > 1 ? "s" : ""}`, n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
+}
+
+async function moves() {
+  const targets = [
+    { x: 0.45, y: 0.1, z: 0.6 },
+    { x: 0.35, y: -0.25, z: 0.7 },
+  ];
+  const lat = [];
+  const t0 = performance.now();
+  for (let i = 0; i < MOVES; i++) {
+    const t = performance.now();
+    const r = await call("POST", `${base.pathname}/actions/moveToCartesianPosition`, targets[i % 2]);
+    if (r.status !== 200) throw new Error(`move answered ${r.status}: ${r.body}`);
+    lat.push(performance.now() - t);
+  }
+  const secs = (performance.now() - t0) / 1000;
+  return { what: "moveToCartesianPosition, realtime 0", n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
+}
+
+try {
+  const rows = [await reads(1), await reads(16), await moves()];
+  const head = ["measurement", "n", "p50 ms", "p99 ms", "per s"];
+  const cells = rows.map((r) => [r.what, String(r.n), r.p50.toFixed(2), r.p99.toFixed(2), r.rate.toFixed(0)]);
+  const w = head.map((h, i) => Math.max(h.length, ...cells.map((c) => c[i].length)));
+  const line = (c) => `| ${c.map((x, i) => (i === 0 ? x.padEnd(w[i]) : x.padStart(w[i]))).join(" | ")} |`;
+  console.log(line(head));
+  console.log(`|${w.map((n, i) => (i === 0 ? "-".repeat(n + 2) : `${"-".repeat(n + 1)}:`)).join("|")}|`);
+  for (const c of cells) console.log(line(c));
+} finally {
+  agent.destroy();
+  await s.stop();
+  if (tmp) rmSync(tmp, { recursive: true, force: true });
+}
