@@ -128,6 +128,8 @@ def test_batch_rejects_bad_arrays() -> None:
         m = w.load_robot(KUKA)
         with pytest.raises(InvalidParams):
             w.collision_free_batch(m.id, np.zeros((4, 6)))
+        with pytest.raises(InvalidParams):
+            w.collision_free_batch(m.id, [[0.0] * 7, ["x"] * 7])  # type: ignore[arg-type]
         bad = np.zeros((4, 7))
         bad[2, 3] = np.nan
         with pytest.raises(InvalidParams):

@@ -94,7 +94,10 @@ class World(WorldScene):
     def collision_free_batch(self, robot_id: str, qs: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
         """Collision-free flag per configuration (rows of ``qs`` [n, dof]); restores the state."""
         e = self._entry(robot_id)
-        arr = np.asarray(qs, dtype=np.float64)
+        try:
+            arr = np.asarray(qs, dtype=np.float64)
+        except (TypeError, ValueError):
+            arr = np.zeros((0,))
         if arr.ndim != 2 or arr.shape[1] != e.bound.dof:
             raise InvalidParams(
                 f"expected an array [n, {e.bound.dof}]",
