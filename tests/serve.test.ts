@@ -3,6 +3,9 @@
  * Every affordance, the served files and TD, bad input (400 JSON, state unchanged), busy (409),
  * stop mid-motion, validation against obstacles (422) and a collision mid-motion.
  */
+import { mkdirSync, mkdtempSync, writeFileSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, type LiveClient } from "./serve-helpers.js";
@@ -15,7 +18,11 @@ const BENT = kukaPose([0.3, 0.5, 0, -1.2, 0, 0.6, 0]);
 
 beforeAll(async () => {
   const dir = await generateTwin("kuka_iiwa", 3000);
-  s = await startServient({ twins: [dir], port: 0, realtime: 1 });
+  const viewerDir = mkdtempSync(join(tmpdir(), "robwot-viewer-"));
+  mkdirSync(join(viewerDir, "assets"));
+  writeFileSync(join(viewerDir, "index.html"), "<!doctype html><title>viewer</title>");
+  writeFileSync(join(viewerDir, "assets", "app.js"), "export {};");
+  s = await startServient({ twins: [dir], port: 0, realtime: 1, viewerDir });
   slug = s.things[0]!.slug;
   base = `${s.url}/${slug}`;
 });
@@ -65,6 +72,22 @@ describe("TD and files", () => {
   });
 });
 
+describe("viewer bundle", () => {
+  it.each([
+    ["/viewer/", "text/html"],
+    ["/viewer/assets/app.js", "text/javascript"],
+  ])("serves %s as %s", async (p, type) => {
+    const r = await fetch(`${s.url}${p}`);
+    expect(r.status).toBe(200);
+    expect(r.headers.get("content-type")).toContain(type);
+  });
+  it("keeps requests inside the bundle folder", async () => {
+    expect((await fetch(`${s.url}/viewer/..%2f..%2fetc%2fpasswd`)).status).toBe(404);
+    expect((await fetch(`${s.url}/viewer/nope.js`)).status).toBe(404);
+    expect((await fetch(`${s.url}/viewer?thing=${slug}`, { redirect: "manual" })).headers.get("location")).toBe(`/viewer/?thing=${slug}`);
+  });
+});
+
 describe("affordances through a node-wot consumer", () => {
   it("reads every property and invokes the moves and validations", async () => {
     const c = await consumer();
@@ -97,6 +120,24 @@ describe("affordances through a node-wot consumer", () => {
       expect(cart.duration).toBeGreaterThan(0);
       const stop = (await (await thing.invokeAction("stop"))!.value()) as any;
       expect(stop).toEqual({ stopped: false });
+    } finally {
+      await c.stop();
+    }
+  });
+
+  it("delivers joint updates to a node-wot long-poll observer while moving", async () => {
+    const c = await consumer();
+    try {
+      const thing = await c.wot.consume(await c.wot.requestThingDescription(base));
+      const seen: Record<string, number>[] = [];
+      const sub = await thing.observeProperty("getJointPosition", async (d) => void seen.push((await d.value()) as Record<string, number>));
+      await sleep(200);
+      const r = await invoke(base, "moveToJointPosition", { joints: kukaPose([-0.8, 0.3, 0, -1.0, 0, 0.5, 0]), speed: 0.1 });
+      expect(r.status).toBe(200);
+      await sleep(300);
+      await sub.stop();
+      expect(seen.length).toBeGreaterThanOrEqual(2);
+      expect(seen.some((j) => j.lbr_iiwa_joint_1! < -0.05 && j.lbr_iiwa_joint_1! > -0.79)).toBe(true);
     } finally {
       await c.stop();
     }
