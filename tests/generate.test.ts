@@ -210,4 +210,33 @@ describe("determinism, obstacles, replacement, placement", () => {
     expect(summary.bounds.min[0]).toBeGreaterThan(0.45);
     expect(summary.bounds.max[0]).toBeLessThan(1.55);
   });
+
+  it("--package-root resolves package:// meshes, which are copied into the folder", async () => {
+    // outside the URDF's folder, so only --package-root can find it
+    const pkg = join(mkdtempSync(join(tmpdir(), "robwot-pkg-")), "tinypkg");
+    mkdirSync(join(pkg, "meshes"), { recursive: true });
+    // a binary STL tetrahedron (1 dm) as the forearm's collision mesh
+    const v = [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]];
+    const faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    const stl = Buffer.alloc(84 + 50 * faces.length);
+    stl.writeUInt32LE(faces.length, 80);
+    faces.forEach((f, i) => f.forEach((vi, k) => v[vi]!.forEach((c, j) => stl.writeFloatLE(c, 84 + 50 * i + 12 + 12 * k + 4 * j))));
+    writeFileSync(join(pkg, "meshes", "tip.stl"), stl);
+    const urdf = TINY_URDF.replace(
+      '<link name="tip">',
+      '<link name="tip"><collision><geometry><mesh filename="package://tinypkg/meshes/tip.stl"/></geometry></collision>',
+    );
+    writeFileSync(join(work, "tiny-mesh.urdf"), urdf);
+    const out = join(work, "with-mesh");
+    const missing = await runCli(["generate", join(work, "tiny-mesh.urdf"), "--out", out, "--samples", "1000"]);
+    expect(missing.code).not.toBe(0);
+    expect(missing.stderr).toMatch(/robwot: error: .*tinypkg/);
+    expect(existsSync(out)).toBe(false);
+    await generate(join(work, "tiny-mesh.urdf"), out, ["--package-root", `tinypkg=${pkg}`]);
+    const exported = readFileSync(join(out, "robot.urdf"), "utf8");
+    const mesh = /<mesh\b[^>]*\bfilename="([^"]+)"/.exec(exported)?.[1];
+    expect(mesh).toMatch(/^meshes\/.*tip\.stl$/);
+    expect(readFileSync(join(out, mesh!)).equals(stl)).toBe(true);
+    rmSync(join(pkg, ".."), { recursive: true, force: true });
+  });
 });

@@ -131,13 +131,15 @@ export async function generateTwin(
     },
     (p) => progress.update(p.stage, p.done, p.total),
   );
+  // Abandoned (and rejected when the backend stops) if the early TD check below fails.
+  generating.catch(() => undefined);
   // While the backend samples: validate the TD's structure (placeholder bounds). This loads the official
-  // validator (~1 s) off the critical path and reports a bad model before the long part ends.
-  const early = await buildTd(model, placeholderSummary(opts), scene, opts.baseUrl)
-    .validate()
-    .catch((err: unknown) => [String(err)]);
-  const summary = await generating;
+  // validator (~1 s) off the critical path, and a model that cannot make a valid TD fails fast.
+  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl).validate())().catch(
+    (err: unknown) => [err instanceof Error ? err.message : String(err)],
+  );
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
+  const summary = await generating;
   writeJson(join(staged.tmp, "workspace.json"), summary);
   if (summary.method === "convex-hull") {
     progress.info("the alpha shape degenerated (planar robot or too few points): workspace.stl is the convex hull");
