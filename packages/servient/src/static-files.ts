@@ -85,9 +85,4 @@ export function notFound(res: ServerResponse, what: string): void {
   sendJson(res, 404, { code: "E_NOT_FOUND", message: `${what} not found`, details: { path: what } });
 }
 
-/** Viewer bundle under `/viewer/` (index.html for the folder itself). */
-export function viewerPath(viewerDir: string, rel: string): string | null {
-  return confine(viewerDir, rel === "" ? "index.html" : rel) ?? (rel === "" ? null : null);
-}
-
 export const defaultViewerDir = (here: string): string => join(here, "..", "..", "viewer", "dist");
