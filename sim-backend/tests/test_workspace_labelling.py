@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from robwot_sim.errors import SimError
@@ -21,9 +22,17 @@ def test_parallel_labels_equal_serial() -> None:
         qs = sample_configurations(lo, hi, 1500, seed=4)
         serial = w.collision_free_batch("kuka", qs)
         spec = w.scene_spec()
-    assert 0.1 < serial.mean() < 0.95  # the wall and self-collision both matter here
-    for workers in (2, 1):
-        assert np.array_equal(label_configurations(spec, "kuka", qs, workers), serial)
+        assert 0.1 < serial.mean() < 0.95  # the wall and self-collision both matter here
+        for workers in (2, 1):
+            assert np.array_equal(label_configurations(spec, "kuka", qs, workers), serial)
+        helped: list[int] = []
+
+        def helper(q: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+            helped.append(len(q))
+            return w.collision_free_batch("kuka", q)
+
+        assert np.array_equal(label_configurations(spec, "kuka", qs, 2, helper=helper), serial)
+        assert sum(helped) > 0  # the caller labelled chunks while the workers started
 
 
 def test_worker_error_is_structured() -> None:
@@ -39,7 +48,7 @@ def test_worker_error_is_structured() -> None:
 
 def test_chunks_and_keys() -> None:
     """Chunks stay within bounds; the spec key ignores dict order and sees every change."""
-    assert chunk_size(80_000, 2) == 4000 and chunk_size(100, 2) == 500 and chunk_size(40_000, 2) == 2500
+    assert chunk_size(80_000, 2) == 2500 and chunk_size(100, 2) == 500 and chunk_size(200_000, 2) == 4000
     a = {"version": 1, "obstacles": [{"name": "b", "position": [0, 0, 1]}], "robots": []}
     b = {"robots": [], "obstacles": [{"position": [0, 0, 1], "name": "b"}], "version": 1}
     assert spec_key(a) == spec_key(b)

@@ -134,7 +134,8 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     t_sample = (t_submit - t0) + (time.perf_counter() - t1)
     report("sample", samples, samples)
     report("collide", 0, samples)
-    free = job.result(lambda done, total: report("collide", done, total))
+    free = job.result(lambda done, total: report("collide", done, total),
+                      helper=lambda q: world.collision_free_batch(robot_id, q))
     t_collide = time.perf_counter() - t_submit
 
     t2 = time.perf_counter()

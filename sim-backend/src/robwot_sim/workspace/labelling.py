@@ -6,7 +6,8 @@ worker from it costs milliseconds instead of a fresh interpreter's import time. 
 between calls; each worker rebuilds its world from the main world's ``scene_spec()`` (obstacles and
 every robot, with their base poses and joint positions) and keeps it while the spec is unchanged, so a
 second generation in the same backend skips the rebuild. Work is split in chunks for progress
-reporting and load balance.
+reporting and load balance; the calling process may label chunks too (``helper``) while it would
+otherwise wait, which hides the workers' start-up.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ BoolArray = npt.NDArray[np.bool_]
 
 MIN_CHUNK = 500
 MAX_CHUNK = 4000
-CHUNKS_PER_WORKER = 8
+CHUNKS_PER_WORKER = 16
+HELPER_STEP = 250
 _PRELOAD = ["robwot_sim.workspace.labelling", "robwot_sim.sim.world"]
 
 _pool_lock = threading.Lock()
@@ -134,16 +136,19 @@ class Labelling:
 
     def __init__(self, spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int) -> None:
         self.n = len(qs)
+        self.qs = qs
         self.workers = workers
         self.pool = _acquire_pool(workers)
         key = spec_key(spec)
         size = chunk_size(self.n, workers)
         self.futures: dict[Future[Any], tuple[int, int]] = {}
+        self.order: list[Future[Any]] = []
         try:
             for a in range(0, self.n, size):
                 b = min(a + size, self.n)
                 chunk = np.ascontiguousarray(qs[a:b])
                 self.futures[self.pool.submit(_worker_label, key, spec, robot_id, chunk)] = (a, b)
+            self.order = list(self.futures)
         except (BrokenProcessPool, RuntimeError):
             self._cancel()
             _release_pool(workers, broken=True)
@@ -158,15 +163,39 @@ class Labelling:
         self._cancel()
         _release_pool(self.workers)
 
-    def result(self, progress: Callable[[int, int], None] | None = None) -> BoolArray:
-        """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool."""
+    def _steal(self, pending: set[Future[Any]]) -> Future[Any] | None:
+        """The last submitted chunk no worker has started (cancelled so that no worker will)."""
+        for fut in self.order[::-1]:
+            if fut in pending and fut.cancel():
+                return fut
+        return None
+
+    def result(self, progress: Callable[[int, int], None] | None = None,
+               helper: Callable[[FloatArray], BoolArray] | None = None) -> BoolArray:
+        """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool.
+
+        ``helper`` (e.g. the calling process's own ``World.collision_free_batch``) labels chunks that no
+        worker has started yet, from the end, in steps of ``HELPER_STEP`` rows: the caller works while
+        the workers start up instead of waiting.
+        """
         out = np.zeros(self.n, dtype=bool)
         done = 0
         pending = set(self.futures)
         broken = False
         try:
             while pending:
-                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                stolen = self._steal(pending) if helper is not None else None
+                if stolen is not None and helper is not None:
+                    pending.discard(stolen)
+                    a, b = self.futures[stolen]
+                    for s in range(a, b, HELPER_STEP):
+                        e = min(s + HELPER_STEP, b)
+                        out[s:e] = helper(self.qs[s:e])
+                    done += b - a
+                    finished = {f for f in pending if f.done()}
+                    pending -= finished
+                else:
+                    finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for f in finished:
                     a, b = self.futures[f]
                     res = f.result()
@@ -196,6 +225,7 @@ def _rebuild_error(res: dict[str, Any]) -> SimError:
 
 
 def label_configurations(spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int,
-                         progress: Callable[[int, int], None] | None = None) -> BoolArray:
+                         progress: Callable[[int, int], None] | None = None,
+                         helper: Callable[[FloatArray], BoolArray] | None = None) -> BoolArray:
     """Collision-free flag per row of ``qs`` (controllable joint order) in the world described by ``spec``."""
-    return Labelling(spec, robot_id, qs, workers).result(progress)
+    return Labelling(spec, robot_id, qs, workers).result(progress, helper)
