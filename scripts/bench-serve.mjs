@@ -3,10 +3,11 @@
  * `npm run bench:serve`: the servient's HTTP performance on this machine.
  * - property read (getJointPosition) latency p50/p99 and reads/s with 1 and 16 concurrent clients
  * - moveToCartesianPosition round trip at realtime 0 (validation + IK + path check + motion + FK)
- * Twin: `robwot generate kuka_iiwa --samples 3000` into a temp folder (or ROBWOT_BENCH_TWIN=<folder>).
+ * Twin: `robwot generate kuka_iiwa --samples 3000` into a temp folder (or ROBWOT_BENCH_TWIN=<folder>),
+ * served by `robwot serve --port 0 --realtime 0` in its own process (the load generator is this one).
  * Prints a table. Options: --reads N (default 4000), --moves N (default 30).
  */
-import { spawnSync } from "node:child_process";
+import { spawn, spawnSync } from "node:child_process";
 import { mkdtempSync, rmSync } from "node:fs";
 import { Agent, request } from "node:http";
 import { tmpdir } from "node:os";
@@ -32,9 +33,19 @@ if (!twin) {
   if (r.status !== 0) process.exit(r.status ?? 1);
 }
 
-const { startServient } = await import(join(repo, "packages/servient/dist/index.js"));
-const s = await startServient({ twins: [twin], port: 0, realtime: 0 });
-const base = new URL(`${s.url}/${s.things[0].slug}`);
+const server = spawn(process.execPath, [join(repo, "packages/cli/dist/main.js"), "serve", twin, "--port", "0", "--realtime", "0", "--json"], {
+  stdio: ["ignore", "pipe", "inherit"],
+});
+const info = await new Promise((resolve, reject) => {
+  let out = "";
+  server.stdout.on("data", (d) => {
+    out += d.toString();
+    const nl = out.indexOf("\n");
+    if (nl >= 0) resolve(JSON.parse(out.slice(0, nl)));
+  });
+  server.once("exit", (code) => reject(new Error(`robwot serve exited with ${code}`)));
+});
+const base = new URL(info.things[0].tdUrl);
 const agent = new Agent({ keepAlive: true, maxSockets: 64 });
 
 function call(method, path, body) {
@@ -106,6 +117,7 @@ try {
   for (const c of cells) console.log(line(c));
 } finally {
   agent.destroy();
-  await s.stop();
+  server.kill("SIGINT");
+  await new Promise((r) => server.once("exit", r));
   if (tmp) rmSync(tmp, { recursive: true, force: true });
 }
