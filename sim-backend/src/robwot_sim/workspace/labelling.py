@@ -116,15 +116,23 @@ def shutdown_pool() -> None:
 atexit.register(shutdown_pool)
 
 
-def warm_up(workers: int | None = None) -> None:
-    """Start the forkserver and the worker processes now (e.g. at backend start), without waiting."""
+def warm_up(workers: int | None = None) -> threading.Thread:
+    """Start the forkserver and ``workers`` (default: cores) worker processes in a background thread,
+    e.g. when the backend starts, so the first generation does not pay for it. Returns the thread."""
     n = workers or os.cpu_count() or 1
-    pool = _acquire_pool(n)
-    try:
-        for _ in range(n):
-            pool.submit(_ping)
-    finally:
-        _release_pool(n)
+
+    def run() -> None:
+        pool = _acquire_pool(n)
+        try:
+            wait([pool.submit(_ping) for _ in range(n)])
+        except (BrokenProcessPool, RuntimeError):
+            pass  # a later generation reports the problem
+        finally:
+            _release_pool(n)
+
+    thread = threading.Thread(target=run, name="robwot-workspace-warm-up", daemon=True)
+    thread.start()
+    return thread
 
 
 def chunk_size(n: int, workers: int) -> int:
