@@ -7,6 +7,7 @@ import { mkdirSync, mkdtempSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { validateThingDescription } from "../packages/core/src/index.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, type LiveClient } from "./serve-helpers.js";
 
@@ -45,6 +46,9 @@ describe("TD and files", () => {
     const wsForms = td.properties.getJointPosition.forms.filter((f: any) => f.href.startsWith("ws:"));
     expect(wsForms[0].href).toBe(s.liveUrl);
     expect(td.securityDefinitions[td.security].scheme).toBe("nosec");
+    const official = await validateThingDescription(td);
+    expect(official.errors).toEqual([]);
+    expect(official.valid).toBe(true);
     const index = await http(`${s.url}/robwot.json`);
     expect(index.body.things[0].tdUrl).toBe(base);
     expect(index.body.live).toBe(s.liveUrl);
