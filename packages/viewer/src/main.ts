@@ -13,7 +13,7 @@ async function main(): Promise<void> {
   if (!content || !view) throw new Error("index.html lacks #content or #view");
   const slug = new URLSearchParams(location.search).get("thing");
   if (slug === null || slug === "") {
-    renderTwinList(content, await fetchTwinIndex());
+    renderTwinList(view, await fetchTwinIndex());
     return;
   }
   await showTwin(slug, view, content);

@@ -33,10 +33,26 @@ export function renderTwinList(parent: HTMLElement, twins: TwinEntry[]): void {
   debugState.phase = "list";
   debugState.twins = twins.map((t) => t.slug);
   publishDebug();
+  document.body.classList.add("list");
   const ul = el("ul", { class: "twins" });
   for (const t of twins) {
-    const href = `/viewer/?thing=${encodeURIComponent(t.slug)}`;
-    ul.append(el("li", {}, el("a", { href }, t.title), ` (${t.slug})`));
+    ul.append(
+      el(
+        "li",
+        {},
+        el("a", { href: `/viewer/?thing=${encodeURIComponent(t.slug)}`, class: "twin" }, t.title),
+        " ",
+        el("a", { href: `/${encodeURIComponent(t.slug)}`, class: "td", title: "Thing Description" }, "TD"),
+      ),
+    );
   }
-  parent.append(el("h2", { text: "Twins served here" }), twins.length > 0 ? ul : el("p", { text: "No twin is served." }));
+  parent.append(
+    el(
+      "div",
+      { class: "card" },
+      el("h1", { text: "RobWoT digital twins" }),
+      twins.length > 0 ? ul : el("p", { text: "No twin is served here." }),
+      el("p", { class: "hint", text: "Each twin: a live 3D view with its workspace, joint and Cartesian control." }),
+    ),
+  );
 }
