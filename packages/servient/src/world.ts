@@ -4,6 +4,7 @@
  * edits. `restore` rebuilds it on a fresh backend (start and after a crash), putting every robot back
  * at its last known joint state.
  */
+import { isAbsolute, join } from "node:path";
 import type { BackendSupervisor, SimCall } from "./backend.js";
 import { ServientError } from "./errors.js";
 import type { SceneObstacle } from "./twin-folder.js";
@@ -12,6 +13,13 @@ import type { Twin } from "./twin.js";
 interface FkResult {
   position: number[];
   orientation: number[];
+}
+
+/** Mesh obstacle files in scene.json are relative to the twin folder (copied there by generate). */
+function withAbsoluteMesh(ob: SceneObstacle, dir: string): SceneObstacle {
+  const file = ob.shape.file;
+  if (ob.shape.type !== "mesh" || typeof file !== "string" || isAbsolute(file)) return ob;
+  return { ...ob, shape: { ...ob.shape, file: join(dir, file) } };
 }
 
 export class World {
@@ -24,7 +32,9 @@ export class World {
     const robotKeys = new Set<string>();
     const twinIds = new Set(twins.map((t) => t.robotId));
     for (const t of twins) {
-      for (const ob of t.folder.scene.obstacles ?? []) if (!this.obstacles.has(ob.name)) this.obstacles.set(ob.name, ob);
+      for (const ob of t.folder.scene.obstacles ?? []) {
+        if (!this.obstacles.has(ob.name)) this.obstacles.set(ob.name, withAbsoluteMesh(ob, t.folder.dir));
+      }
       for (const r of (t.folder.scene.robots ?? []) as Record<string, unknown>[]) {
         const key = JSON.stringify([r.id ?? null, r.urdf, r.basePosition ?? null]);
         if (robotKeys.has(key) || (typeof r.id === "string" && twinIds.has(r.id))) continue;

@@ -1,0 +1,42 @@
+/**
+ * End to end: the scene of a twin folder (generated with `--scene`) is loaded into the served world, and
+ * scene edits change the validation answers; oversized bodies are refused without harm.
+ */
+import { join } from "node:path";
+import { afterAll, beforeAll, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { REPO } from "./cli-run.js";
+import { generateTwin, invoke, kukaPose } from "./serve-helpers.js";
+
+let s: RunningServient;
+let base: string;
+beforeAll(async () => {
+  const dir = await generateTwin("kuka_iiwa", 3000, ["--scene", join(REPO, "examples", "scenes", "table.json")]);
+  s = await startServient({ twins: [dir], port: 0, realtime: 0 });
+  base = s.things[0]!.tdUrl;
+});
+afterAll(async () => s?.stop());
+
+it("validates against the folder's scene and its run-time edits", async () => {
+  const down = kukaPose([0, 2.0, 0, 0, 0, 0, 0]);
+  const r = await invoke(base, "validateJointPosition", { joints: down });
+  expect(r.body.valid).toBe(false);
+  const bodies = r.body.checks.path.contacts.flatMap((c: { a: { body: string }; b: { body: string } }) => [c.a.body, c.b.body]);
+  expect(bodies).toContain("table");
+  const below = await invoke(base, "validateCartesianPosition", { x: 0.5, y: 0, z: -0.02 });
+  expect(below.body.valid).toBe(false);
+  expect(below.body.checks.insideWorkspace.ok).toBe(false);
+
+  const removed = await invoke(base, "removeObstacle", { name: "table" });
+  expect(removed.status).toBe(200);
+  const again = await invoke(base, "validateJointPosition", { joints: kukaPose([0, 1.0, 0, 0, 0, 0, 0]) });
+  expect(again.body.valid).toBe(true);
+});
+
+it("refuses a body over 1 MB with 413 JSON and keeps serving", async () => {
+  const big = JSON.stringify({ x: 0.5, y: 0, z: 0.5, pad: "x".repeat(1_100_000) });
+  const r = await invoke(base, "validateCartesianPosition", big);
+  expect(r.status).toBe(413);
+  expect(r.body.code).toBe("E_TOO_LARGE");
+  expect((await invoke(base, "stop", "")).status).toBe(200);
+});
