@@ -110,6 +110,12 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
       this.session = null;
       throw err;
     }
+    if (this.stopping) {
+      // stop() was called while this (re)start was under way: do not leave a backend behind
+      this.session = null;
+      await s.close().catch(() => undefined);
+      return;
+    }
     this.up = true;
     void s.closed.then(() => this.onClosed(s));
   }
@@ -130,6 +136,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
       attempt++;
       try {
         await this.open();
+        if (this.stopping) return;
         this.restarts++;
         this.emit("up", this.restarts);
         return;
