@@ -34,8 +34,10 @@ if (!twin) {
 }
 
 const server = spawn(process.execPath, [join(repo, "packages/cli/dist/main.js"), "serve", twin, "--port", "0", "--realtime", "0", "--json"], {
-  stdio: ["ignore", "pipe", "inherit"],
+  stdio: ["ignore", "pipe", "pipe"],
 });
+let serverErr = "";
+server.stderr.on("data", (d) => (serverErr += d.toString()));
 const info = await new Promise((resolve, reject) => {
   let out = "";
   server.stdout.on("data", (d) => {
@@ -43,7 +45,7 @@ const info = await new Promise((resolve, reject) => {
     const nl = out.indexOf("\n");
     if (nl >= 0) resolve(JSON.parse(out.slice(0, nl)));
   });
-  server.once("exit", (code) => reject(new Error(`robwot serve exited with ${code}`)));
+  server.once("exit", (code) => reject(new Error(`robwot serve exited with ${code}: ${serverErr}`)));
 });
 const base = new URL(info.things[0].tdUrl);
 const agent = new Agent({ keepAlive: true, maxSockets: 64 });
