@@ -10,18 +10,14 @@ import math
 import os
 import time
 from collections.abc import Callable
-from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy
 
 import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.urdf import read_urdf
-from robwot_sim.workspace import alpha_shape as _alpha
-from robwot_sim.workspace.alpha_shape import AlphaShape
 from robwot_sim.workspace.fk import ChainFK
 from robwot_sim.workspace.io import write_csv, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
@@ -30,13 +26,18 @@ from robwot_sim.workspace.sampling import sample_configurations
 if TYPE_CHECKING:
     from robwot_sim.sim.world import World
 
-__all__ = ["AlphaShape", "ChainFK", "chain_fk", "generate_workspace", "warm_up"]
+# scipy (alpha shape) is imported on first use: worker processes import this package and need only
+# the labelling, and they start faster without it.
+__all__ = ["ChainFK", "chain_fk", "generate_workspace", "warm_up"]
 
 Progress = Callable[[str, int, int], None]
 
 
 def versions() -> dict[str, str]:
     """Versions of the tools that produced a workspace."""
+    from importlib import metadata
+
+    import scipy
     try:
         pybullet = metadata.version("pybullet")
     except metadata.PackageNotFoundError:  # pragma: no cover - pybullet is a dependency
@@ -140,7 +141,9 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
 
     t2 = time.perf_counter()
     report("alpha", 0, 1)
-    shape = _alpha.alpha_shape(positions[free], alpha_arg)
+    from robwot_sim.workspace.alpha_shape import alpha_shape
+
+    shape = alpha_shape(positions[free], alpha_arg)
     report("alpha", 1, 1)
     t3 = time.perf_counter()
 

@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 from scipy.spatial import ConvexHull, Delaunay, QhullError, cKDTree
 
 from robwot_sim.workspace.mesh import boundary_faces, fill_nonmanifold_edges
@@ -114,6 +113,22 @@ def _set_barycentric_transforms(tri: Delaunay) -> None:
     tri._transform = np.ascontiguousarray(np.concatenate([inv, v[:, 3:4]], axis=1))
 
 
+def _erode(grid: BoolArray, iterations: int) -> BoolArray:
+    """Binary erosion by the 3x3x3 cube (a cell stays when its 26 neighbours are set); the border of the
+    grid is padded with empty cells by the caller."""
+    out = grid
+    for _ in range(iterations):
+        g = out
+        core = g[1:-1, 1:-1, 1:-1].copy()
+        for dx in (0, 1, 2):
+            for dy in (0, 1, 2):
+                for dz in (0, 1, 2):
+                    core &= g[dx:dx + g.shape[0] - 2, dy:dy + g.shape[1] - 2, dz:dz + g.shape[2] - 2]
+        out = np.zeros_like(g)
+        out[1:-1, 1:-1, 1:-1] = core
+    return out
+
+
 def thin_interior(points: FloatArray, alpha: float, layers: int = THIN_LAYERS) -> FloatArray:
     """Drop points deep inside the cloud (see the module docstring); ``layers`` = 0 keeps all."""
     h = alpha / np.sqrt(3.0) * 0.999
@@ -127,8 +142,7 @@ def thin_interior(points: FloatArray, alpha: float, layers: int = THIN_LAYERS) -
     key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
     occupied = np.zeros(int(np.prod(dims)), dtype=bool)
     occupied[key] = True
-    deep = ndimage.binary_erosion(occupied.reshape(tuple(int(d) for d in dims)),
-                                  structure=np.ones((3, 3, 3), dtype=bool), iterations=layers).ravel()
+    deep = _erode(occupied.reshape(tuple(int(d) for d in dims)), layers).ravel()
     keep = ~deep[key]
     _, first = np.unique(key, return_index=True)
     keep[first] = True

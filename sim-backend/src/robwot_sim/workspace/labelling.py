@@ -140,77 +140,116 @@ def chunk_size(n: int, workers: int) -> int:
 
 
 class Labelling:
-    """Collision labelling submitted to the pool; ``result()`` waits and reports progress per chunk."""
+    """One labelling job. The pool is started and the chunks submitted by a background thread, so the
+    caller can compute FK and label chunks itself (``result(helper=...)``) in the meantime: chunks are
+    claimed from the end by the caller, submitted from the start to the workers. If the pool fails to
+    start, a helping caller labels everything itself."""
 
     def __init__(self, spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int) -> None:
-        self.n = len(qs)
-        self.qs = qs
-        self.workers = workers
-        self.pool = _acquire_pool(workers)
-        key = spec_key(spec)
+        self.n, self.qs, self.workers = len(qs), qs, workers
+        self.spec, self.robot_id, self.key = spec, robot_id, spec_key(spec)
         size = chunk_size(self.n, workers)
-        self.futures: dict[Future[Any], tuple[int, int]] = {}
-        self.order: list[Future[Any]] = []
-        try:
-            for a in range(0, self.n, size):
-                b = min(a + size, self.n)
-                chunk = np.ascontiguousarray(qs[a:b])
-                self.futures[self.pool.submit(_worker_label, key, spec, robot_id, chunk)] = (a, b)
-            self.order = list(self.futures)
-        except (BrokenProcessPool, RuntimeError):
-            self._cancel()
-            _release_pool(workers, broken=True)
-            raise InternalError("the collision worker pool could not start") from None
+        self.chunks = [(a, min(a + size, self.n)) for a in range(0, self.n, size)]
+        self._lock = threading.Lock()
+        self._taken: set[int] = set()  # claimed by the caller
+        self._futures: dict[int, Future[Any]] = {}  # submitted to the pool (not cancelled)
+        self._stopped = False
+        self._error: BaseException | None = None
+        self.pool = _acquire_pool(workers)
+        self._released = False
+        self._submitter = threading.Thread(target=self._submit_all, name="robwot-labelling-submit",
+                                           daemon=True)
+        self._submitter.start()
 
-    def _cancel(self) -> None:
-        for f in self.futures:
-            f.cancel()
+    def _submit_all(self) -> None:
+        try:
+            self.pool.submit(_ping)  # starts the forkserver and the workers: the slow part
+            for i, (a, b) in enumerate(self.chunks):
+                with self._lock:
+                    if self._stopped:
+                        return
+                    if i not in self._taken:
+                        self._futures[i] = self.pool.submit(_worker_label, self.key, self.spec, self.robot_id,
+                                                            np.ascontiguousarray(self.qs[a:b]))
+        except (BrokenProcessPool, RuntimeError) as e:
+            self._error = e
+
+    def _claim(self) -> int | None:
+        """The last chunk no worker has started, now the caller's (cancelled in the pool if queued)."""
+        with self._lock:
+            for i in range(len(self.chunks) - 1, -1, -1):
+                if i in self._taken:
+                    continue
+                f = self._futures.get(i)
+                if f is None or f.cancel():
+                    self._futures.pop(i, None)
+                    self._taken.add(i)
+                    return i
+        return None
+
+    def _stop(self, broken: bool = False) -> None:
+        with self._lock:
+            self._stopped = True
+            for f in self._futures.values():
+                f.cancel()
+        if not self._released:
+            self._released = True
+            _release_pool(self.workers, broken)
 
     def abandon(self) -> None:
-        """Cancel the chunks not started yet and release the pool (instead of ``result``)."""
-        self._cancel()
-        _release_pool(self.workers)
-
-    def _steal(self, pending: set[Future[Any]]) -> Future[Any] | None:
-        """The last submitted chunk no worker has started (cancelled so that no worker will)."""
-        for fut in self.order[::-1]:
-            if fut in pending and fut.cancel():
-                return fut
-        return None
+        """Stop submitting, cancel what no worker has started and release the pool."""
+        self._stop()
 
     def result(self, progress: Callable[[int, int], None] | None = None,
                helper: Callable[[FloatArray], BoolArray] | None = None) -> BoolArray:
         """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool.
 
         ``helper`` (e.g. the calling process's own ``World.collision_free_batch``) labels chunks that no
-        worker has started yet, from the end, in steps of ``HELPER_STEP`` rows: the caller works while
-        the workers start up instead of waiting.
+        worker has started, from the end, ``HELPER_STEP`` rows per call (short lock holds).
         """
         out = np.zeros(self.n, dtype=bool)
+        collected: set[int] = set()
         done = 0
-        pending = set(self.futures)
         broken = False
+
+        def collect(futures: dict[int, Future[Any]]) -> int:
+            got = 0
+            for i, f in futures.items():
+                if i in collected or not f.done():
+                    continue
+                res = f.result()
+                if isinstance(res, dict):
+                    raise _rebuild_error(res)
+                a, b = self.chunks[i]
+                out[a:b] = res
+                collected.add(i)
+                got += b - a
+            return got
+
         try:
+            while helper is not None:
+                i = self._claim()
+                if i is None:
+                    break
+                a, b = self.chunks[i]
+                for s in range(a, b, HELPER_STEP):
+                    e = min(s + HELPER_STEP, b)
+                    out[s:e] = helper(self.qs[s:e])
+                done += b - a
+                with self._lock:
+                    snapshot = dict(self._futures)
+                done += collect(snapshot)
+                if progress is not None:
+                    progress(done, self.n)
+            self._submitter.join()
+            missing = [i for i in range(len(self.chunks)) if i not in self._taken and i not in self._futures]
+            if missing:
+                broken = True
+                raise InternalError(f"the collision worker pool could not start ({self._error!r})")
+            pending = {f for i, f in self._futures.items() if i not in collected}
             while pending:
-                stolen = self._steal(pending) if helper is not None else None
-                if stolen is not None and helper is not None:
-                    pending.discard(stolen)
-                    a, b = self.futures[stolen]
-                    for s in range(a, b, HELPER_STEP):
-                        e = min(s + HELPER_STEP, b)
-                        out[s:e] = helper(self.qs[s:e])
-                    done += b - a
-                    finished = {f for f in pending if f.done()}
-                    pending -= finished
-                else:
-                    finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for f in finished:
-                    a, b = self.futures[f]
-                    res = f.result()
-                    if isinstance(res, dict):
-                        raise _rebuild_error(res)
-                    out[a:b] = res
-                    done += b - a
+                _, pending = wait(pending, return_when=FIRST_COMPLETED)
+                done += collect(self._futures)
                 if progress is not None:
                     progress(done, self.n)
         except (BrokenProcessPool, CancelledError):
@@ -218,8 +257,7 @@ class Labelling:
             raise InternalError("a collision worker process died (PyBullet crash, out of memory or "
                                 "shutdown)") from None
         finally:
-            self._cancel()
-            _release_pool(self.workers, broken)
+            self._stop(broken)
         return out
 
 
