@@ -163,12 +163,12 @@ export class Mover {
         speed,
         realtime: this.realtime,
       });
+      await twin.refresh(res.positions);
     } catch (err) {
       const e = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
       twin.setStatus({ state: "stopped", lastError: { code: e.code, message: e.message } });
       throw e;
     }
-    await twin.refresh(res.positions);
     if (res.status === "collision" && !twin.collisionSeen) twin.onCollision(res.contacts ?? [], res.positions);
     const pose = twin.realPose();
     const result: RelayedMoveResult = {
