@@ -105,6 +105,9 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     """Sample ``samples`` configurations (seeded), label them in ``workers`` processes, build the alpha
     shape of the collision-free end-effector positions and write ``workspace.csv``/``workspace.stl``.
 
+    While the worker pool starts, the calling thread computes FK and then labels chunks no worker has
+    started with ``world`` itself (short calls, so other requests on ``world`` are only briefly held).
+
     Returns the WorkspaceSummary; ``bounds`` are those of the collision-free points (``None`` when there
     is none); ``timings`` in seconds: ``sample`` = sampling + FK, ``collide`` = wall time of the parallel
     labelling (FK runs in the meantime), ``alpha``, ``write``. A ``warning`` key appears when the
