@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import numpy.typing as npt
 import pytest
@@ -55,6 +57,16 @@ def test_chunks_and_keys() -> None:
     assert spec_key(a) == spec_key(b)
     b["obstacles"][0]["position"] = [0, 0, 1.001]  # type: ignore[index]
     assert spec_key(a) != spec_key(b)
+
+
+def test_key_sees_edited_urdf(tmp_path: Path) -> None:
+    """Rewriting a robot's URDF file (same path) changes the key, so workers rebuild their world."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text("<robot name='a'/>")
+    spec = {"version": 1, "obstacles": [], "robots": [{"id": "r", "urdf": str(urdf)}]}
+    before = spec_key(spec)
+    urdf.write_text("<robot name='ab'/>")
+    assert spec_key(spec) != before
 
 
 def test_warm_up_starts_workers() -> None:

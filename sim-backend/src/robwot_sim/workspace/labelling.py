@@ -46,9 +46,24 @@ _active: dict[int, int] = {}  # running labellings per pool
 _worker_world: tuple[str, Any] | None = None
 
 
+def _file_stamps(spec: dict[str, Any]) -> list[list[Any]]:
+    """(path, size, mtime) of the URDF and mesh files a scene refers to: an edited file is a new world."""
+    paths = [str(r.get("urdf", "")) for r in spec.get("robots", [])]
+    paths += [str(o["shape"]["file"]) for o in spec.get("obstacles", [])
+              if isinstance(o.get("shape"), dict) and "file" in o["shape"]]
+    stamps: list[list[Any]] = []
+    for p in paths:
+        try:
+            st = os.stat(p)
+            stamps.append([p, st.st_size, st.st_mtime_ns])
+        except OSError:
+            stamps.append([p, None, None])
+    return stamps
+
+
 def spec_key(spec: dict[str, Any]) -> str:
-    """Stable digest of a scene document (identifies a worker's cached world)."""
-    text = json.dumps(spec, sort_keys=True, separators=(",", ":"), default=str)
+    """Stable digest of a scene document and its files' stamps (identifies a worker's cached world)."""
+    text = json.dumps([spec, _file_stamps(spec)], sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
