@@ -173,3 +173,14 @@ export function placeTwin(src: string, yaw: number, offset: Vec3): void {
   writeFileSync(join(src, "td.json"), JSON.stringify(td));
 }
 
+
+/** Polls motionStatus until `state` (e.g. "moving" once validation is done and the motion runs). */
+export async function waitState(thingBase: string, state: string, timeoutMs = 30_000, headers: Record<string, string> = {}): Promise<void> {
+  const end = Date.now() + timeoutMs;
+  while (Date.now() < end) {
+    const r = await http(`${thingBase}/properties/motionStatus`, { headers });
+    if (r.body?.state === state) return;
+    await sleep(25);
+  }
+  throw new Error(`motionStatus did not become "${state}" within ${timeoutMs} ms`);
+}

@@ -5,7 +5,7 @@
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, sleep, waitState } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -22,7 +22,8 @@ it("recovers from a backend killed mid-motion", async () => {
   expect((await invoke(base, "validateJointPosition", { joints: blocked })).body.valid).toBe(false);
 
   const move = invoke(base, "moveToJointPosition", { joints: kukaPose([-1.5, 0.4, 0, -0.8, 0, 0.4, 0]), speed: 0.05 });
-  await sleep(600);
+  await waitState(base, "moving");
+  await sleep(400);
   const pid = s.backend.pid;
   expect(pid).toBeTypeOf("number");
   process.kill(pid!, "SIGKILL");

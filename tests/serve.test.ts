@@ -9,7 +9,7 @@ import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { validateThingDescription } from "../packages/core/src/index.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, type LiveClient } from "./serve-helpers.js";
+import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, waitState, type LiveClient } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -211,7 +211,8 @@ describe("motion control", () => {
   it("refuses a second move while moving (409) and stops mid-motion", async () => {
     await invoke(base, "moveToJointPosition", { joints: HOME });
     const long = invoke(base, "moveToJointPosition", { joints: kukaPose([2.5, 0, 0, 0, 0, 0, 0]), speed: 0.05 });
-    await sleep(400);
+    await waitState(base, "moving");
+    await sleep(200);
     const busy = await invoke(base, "moveToJointPosition", { joints: BENT });
     expect(busy.status).toBe(409);
     expect(busy.body.code).toBe("E_BUSY");
@@ -263,7 +264,8 @@ describe("motion control", () => {
       await thing.subscribeEvent("collision", async (d) => void events.push(await d.value()));
       const target = kukaPose([0, 1.2, 0, -0.4, 0, 0.4, 0]);
       const move = invoke(base, "moveToJointPosition", { joints: target, speed: 0.05 });
-      await sleep(500);
+      await waitState(base, "moving");
+      await sleep(300);
       const add = await invoke(base, "addObstacle", { name: "intruder", shape: { type: "box", size: [0.2, 0.6, 0.2] }, position: [0.55, 0, 0.75] });
       expect(add.status).toBe(200);
       const r = await move;

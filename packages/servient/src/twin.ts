@@ -49,6 +49,8 @@ export class Twin extends EventEmitter<TwinEvents> {
   collisionSeen = false;
   private fkInFlight = false;
   private fkPending: number[] | null = null;
+  /** bumped by every exact pose (applyPose): FK answers started before it are stale */
+  private poseEpoch = 0;
 
   constructor(
     slug: string,
@@ -114,17 +116,23 @@ export class Twin extends EventEmitter<TwinEvents> {
   }
 
   applyPose(q: number[], fk: FkResult): void {
+    this.poseEpoch++;
     this.q = [...q];
     this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
     this.orientation = quat(fk.orientation);
     this.emit("joints", this.liveJoints());
   }
 
-  /** `robot.state` notification: joints now, pose by a self-throttled FK (one call in flight). */
+  /**
+   * `robot.state` notification: the joints are streamed at once (at the notification rate) with the
+   * most recent end-effector pose; the pose follows by a self-throttled FK (one call in flight), so it
+   * may lag one message. The final state of a motion is emitted with its exact pose by `refresh`.
+   */
   onState(params: { positions?: number[]; time?: number }): void {
     if (!Array.isArray(params.positions)) return;
     if (typeof params.time === "number") this.time = params.time;
     this.q = [...params.positions];
+    this.emit("joints", this.liveJoints());
     if (this.fkInFlight) {
       this.fkPending = this.q;
       return;
@@ -134,12 +142,13 @@ export class Twin extends EventEmitter<TwinEvents> {
 
   private runFk(q: number[]): void {
     this.fkInFlight = true;
+    const epoch = this.poseEpoch;
     this.backend
       .call<FkResult>("robot.fk", { robot: this.robotId, positions: q })
       .then((fk) => {
+        if (epoch !== this.poseEpoch) return;
         this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
         this.orientation = quat(fk.orientation);
-        this.emit("joints", { ...this.liveJoints(), joints: this.jointsRecord(q) });
       })
       .catch(() => undefined /* backend down: the supervisor reports it; the next state retries */)
       .finally(() => {
