@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -82,3 +84,24 @@ def test_warm_up_starts_workers() -> None:
         assert np.array_equal(label_configurations(w.scene_spec(), "kuka", qs, 2),
                               w.collision_free_batch("kuka", qs))
     assert labelling._pools[2] is pool
+
+
+def test_caller_finishes_when_workers_cannot_start() -> None:
+    """With __main__ read from stdin, spawned workers cannot start: the caller labels everything."""
+    script = """
+import numpy as np
+from robwot_sim.sim.world import World
+from robwot_sim.workspace.labelling import label_configurations
+from robwot_sim.workspace.sampling import sample_configurations
+w = World()
+w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
+lo, hi = w.robot_model("kuka").limits()
+qs = sample_configurations(lo, hi, 2000, seed=3)
+got = label_configurations(w.scene_spec(), "kuka", qs, 2,
+                           helper=lambda q: w.collision_free_batch("kuka", q))
+print("SAME" if np.array_equal(got, w.collision_free_batch("kuka", qs)) else "DIFFERENT")
+"""
+    run = subprocess.run([sys.executable, "-"], input=script, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "SAME" in run.stdout
+    assert "<stdin>" in run.stderr  # the workers really failed to start

@@ -162,7 +162,7 @@ def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *,
     a = auto_alpha(p) if alpha == "auto" else float(alpha)
     p = thin_interior(p, a, thin_layers)
     try:
-        tri = Delaunay(p)
+        tri = _delaunay(p)
     except QhullError as exc:
         return convex_hull(p, f"Delaunay triangulation failed ({str(exc).splitlines()[0]})", a)
     simplices = np.asarray(tri.simplices, dtype=np.int64)
@@ -174,6 +174,14 @@ def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *,
     kept = fill_nonmanifold_edges(simplices, neighbors, kept)
     faces = boundary_faces(p, simplices, neighbors, kept)
     return AlphaShape(p, faces, float(vol[kept].sum()), a, "alpha-shape", None, tri, kept)
+
+
+def _delaunay(p: FloatArray) -> Delaunay:
+    """Delaunay tetrahedralisation; on a Qhull precision failure retried with joggled input (``QJ``)."""
+    try:
+        return Delaunay(p)
+    except QhullError:
+        return Delaunay(p, qhull_options="QJ")
 
 
 def _degenerate(p: FloatArray) -> str | None:

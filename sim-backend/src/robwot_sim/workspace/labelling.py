@@ -220,57 +220,63 @@ class Labelling:
         """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool.
 
         ``helper`` (e.g. the calling process's own ``World.collision_free_batch``) labels chunks that no
-        worker has started, from the end, ``HELPER_STEP`` rows per call (short lock holds).
+        worker has started, from the end, ``HELPER_STEP`` rows per call (short lock holds). If the pool
+        breaks (a worker crashed, or workers cannot start, e.g. ``__main__`` read from stdin), the
+        helper labels the remaining chunks; without a helper that is an ``InternalError``.
         """
         out = np.zeros(self.n, dtype=bool)
-        collected: set[int] = set()
-        done = 0
-        broken = False
+        finished: set[int] = set()  # chunks whose labels are in ``out``
+        progress = progress or (lambda _d, _t: None)
 
-        def collect(futures: dict[int, Future[Any]]) -> int:
-            got = 0
+        def own(i: int) -> None:
+            assert helper is not None
+            a, b = self.chunks[i]
+            for s in range(a, b, HELPER_STEP):
+                e = min(s + HELPER_STEP, b)
+                out[s:e] = helper(self.qs[s:e])
+            finished.add(i)
+
+        def collect(futures: dict[int, Future[Any]]) -> None:
             for i, f in futures.items():
-                if i in collected or not f.done():
+                if i in finished or not f.done():
                     continue
                 res = f.result()
                 if isinstance(res, dict):
                     raise _rebuild_error(res)
                 a, b = self.chunks[i]
                 out[a:b] = res
-                collected.add(i)
-                got += b - a
-            return got
+                finished.add(i)
 
+        def count() -> int:
+            return sum(self.chunks[i][1] - self.chunks[i][0] for i in finished)
+
+        broken = False
         try:
-            while helper is not None:
-                i = self._claim()
-                if i is None:
-                    break
-                a, b = self.chunks[i]
-                for s in range(a, b, HELPER_STEP):
-                    e = min(s + HELPER_STEP, b)
-                    out[s:e] = helper(self.qs[s:e])
-                done += b - a
-                with self._lock:
-                    snapshot = dict(self._futures)
-                done += collect(snapshot)
-                if progress is not None:
-                    progress(done, self.n)
-            self._submitter.join()
-            missing = [i for i in range(len(self.chunks)) if i not in self._taken and i not in self._futures]
-            if missing:
+            try:
+                while helper is not None and (i := self._claim()) is not None:
+                    own(i)
+                    with self._lock:
+                        snapshot = dict(self._futures)
+                    collect(snapshot)
+                    progress(count(), self.n)
+                self._submitter.join()
+                if any(i not in self._taken and i not in self._futures for i in range(len(self.chunks))):
+                    raise BrokenProcessPool(f"the collision worker pool could not start ({self._error!r})")
+                pending = {f for i, f in self._futures.items() if i not in finished}
+                while pending:
+                    _, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    collect(self._futures)
+                    progress(count(), self.n)
+            except (BrokenProcessPool, CancelledError) as e:
                 broken = True
-                raise InternalError(f"the collision worker pool could not start ({self._error!r})")
-            pending = {f for i, f in self._futures.items() if i not in collected}
-            while pending:
-                _, pending = wait(pending, return_when=FIRST_COMPLETED)
-                done += collect(self._futures)
-                if progress is not None:
-                    progress(done, self.n)
-        except (BrokenProcessPool, CancelledError):
-            broken = True
-            raise InternalError("a collision worker process died (PyBullet crash, out of memory or "
-                                "shutdown)") from None
+                if helper is None:
+                    raise InternalError(f"collision workers failed ({e}); PyBullet crash, out of memory or "
+                                        "shutdown") from None
+                self._stop(broken)
+                for i in range(len(self.chunks)):
+                    if i not in finished:
+                        own(i)
+                        progress(count(), self.n)
         finally:
             self._stop(broken)
         return out
