@@ -52,6 +52,7 @@ describe("TD and files", () => {
     const index = await http(`${s.url}/robwot.json`);
     expect(index.body.things[0].tdUrl).toBe(base);
     expect(index.body.live).toBe(s.liveUrl);
+    expect(index.body.security).toBe("nosec");
   });
 
   it.each([

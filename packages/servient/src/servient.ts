@@ -125,7 +125,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     auth: opts.auth,
     things: served,
     viewerDir: existsSync(viewerDir) ? viewerDir : null,
-    index: () => ({ url, live: liveUrl, viewer: `${url}/viewer/`, things: infos() }),
+    index: () => ({ url, live: liveUrl, viewer: `${url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: infos() }),
   });
   const http = new HttpServer({ port: opts.port ?? 8080, address: host, middleware });
   Object.assign(process.env, Object.fromEntries(Object.entries(saved).filter(([, v]) => v !== undefined)));
