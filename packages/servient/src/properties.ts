@@ -34,5 +34,11 @@ export function registerProperties(thing: WoT.ExposedThing, twin: Twin): void {
     else timer = setTimeout(emitPose, wait);
   });
   twin.on("status", () => change("motionStatus"));
-  twin.on("collision", (e) => thing.emitEvent("collision", e as unknown as WoT.InteractionInput));
+  twin.on("collision", (e) => {
+    try {
+      thing.emitEvent("collision", e as unknown as WoT.InteractionInput);
+    } catch {
+      /* a failing long-poll subscriber must not take the notification path down */
+    }
+  });
 }
