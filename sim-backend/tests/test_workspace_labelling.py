@@ -12,7 +12,7 @@ import pytest
 
 from robwot_sim.errors import SimError
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import labelling
+from robwot_sim.workspace import pool as workspace_pool
 from robwot_sim.workspace.labelling import chunk_size, label_configurations, spec_key, warm_up
 from robwot_sim.workspace.sampling import sample_configurations
 
@@ -76,14 +76,14 @@ def test_warm_up_starts_workers() -> None:
     thread = warm_up(2)
     thread.join(timeout=120)
     assert not thread.is_alive()
-    pool = labelling._pools[2]
+    pool = workspace_pool._pools[2]
     assert len(pool._processes) == 2  # type: ignore[attr-defined]
     with World() as w:
         w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
         qs = np.zeros((3, 7))
         assert np.array_equal(label_configurations(w.scene_spec(), "kuka", qs, 2),
                               w.collision_free_batch("kuka", qs))
-    assert labelling._pools[2] is pool
+    assert workspace_pool._pools[2] is pool
 
 
 def test_caller_finishes_when_workers_cannot_start() -> None:

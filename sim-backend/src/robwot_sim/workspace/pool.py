@@ -1,0 +1,142 @@
+"""The worker process pool for collision labelling, and what runs inside a worker.
+
+PyBullet clients cannot be shared across ``fork``, so workers come from a ``forkserver`` (a clean
+process, started once, that has already imported numpy, pybullet and the simulation core): forking a
+worker from it costs milliseconds instead of a fresh interpreter's import time. Pools (one per worker
+count) stay alive between calls; each worker rebuilds its world from the main world's ``scene_spec()``
+(obstacles and every robot, with base poses and joint positions) and keeps it while the spec and its
+files are unchanged, so a second generation in the same backend skips the rebuild.
+"""
+
+from __future__ import annotations
+
+import atexit
+import hashlib
+import json
+import multiprocessing
+import os
+import threading
+from concurrent.futures import ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from robwot_sim.errors import SimError
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+_PRELOAD = ["robwot_sim.workspace.pool", "robwot_sim.sim.world"]
+
+_pool_lock = threading.Lock()
+_pools: dict[int, ProcessPoolExecutor] = {}  # by worker count
+_active: dict[int, int] = {}  # running labellings per pool
+
+# worker-process state: (spec key, World)
+_worker_world: tuple[str, Any] | None = None
+
+
+def _file_stamps(spec: dict[str, Any]) -> list[list[Any]]:
+    """(path, size, mtime) of the URDF and mesh files a scene refers to: an edited file is a new world."""
+    paths = [str(r.get("urdf", "")) for r in spec.get("robots", [])]
+    paths += [str(o["shape"]["file"]) for o in spec.get("obstacles", [])
+              if isinstance(o.get("shape"), dict) and "file" in o["shape"]]
+    stamps: list[list[Any]] = []
+    for p in paths:
+        try:
+            st = os.stat(p)
+            stamps.append([p, st.st_size, st.st_mtime_ns])
+        except OSError:
+            stamps.append([p, None, None])
+    return stamps
+
+
+def spec_key(spec: dict[str, Any]) -> str:
+    """Stable digest of a scene document and its files' stamps (identifies a worker's cached world)."""
+    text = json.dumps([spec, _file_stamps(spec)], sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray) -> Any:
+    """Runs in a worker: label ``qs`` in the cached world (built from ``spec`` when the key changed).
+
+    Returns the flag array, or an error dict (``SimError`` subclasses do not all survive pickling).
+    """
+    global _worker_world
+    try:
+        if _worker_world is None or _worker_world[0] != key:
+            from robwot_sim.sim.world import World
+
+            if _worker_world is not None:
+                _worker_world[1].close()
+                _worker_world = None
+            world = World()
+            try:
+                world.load_scene(spec)
+            except BaseException:
+                world.close()
+                raise
+            _worker_world = (key, world)
+        flags: BoolArray = _worker_world[1].collision_free_batch(robot_id, qs)
+        return flags
+    except SimError as e:
+        return {"error": e.to_json(), "type": type(e).__name__}
+
+
+def _ping() -> int:
+    return os.getpid()
+
+
+def _acquire_pool(workers: int) -> ProcessPoolExecutor:
+    """The pool of ``workers`` processes (started on first use). Idle pools of other sizes are stopped;
+    busy ones are left to finish. Pair with ``_release_pool``."""
+    with _pool_lock:
+        for size in [k for k in _pools if k != workers and _active.get(k, 0) == 0]:
+            _pools.pop(size).shutdown(wait=False, cancel_futures=True)
+        pool = _pools.get(workers)
+        if pool is None:
+            ctx = multiprocessing.get_context("forkserver")
+            ctx.set_forkserver_preload(_PRELOAD)
+            pool = _pools[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+        _active[workers] = _active.get(workers, 0) + 1
+        return pool
+
+
+def _release_pool(workers: int, broken: bool = False) -> None:
+    with _pool_lock:
+        _active[workers] = max(0, _active.get(workers, 0) - 1)
+        if broken and workers in _pools:
+            _pools.pop(workers).shutdown(wait=False, cancel_futures=True)
+
+
+def shutdown_pool() -> None:
+    """Stop every worker process (also registered with ``atexit``)."""
+    with _pool_lock:
+        pools = list(_pools.values())
+        _pools.clear()
+    for pool in pools:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+atexit.register(shutdown_pool)
+
+
+def warm_up(workers: int | None = None) -> threading.Thread:
+    """Start the forkserver and ``workers`` (default: cores) worker processes in a background thread,
+    e.g. when the backend starts, so the first generation does not pay for it. Returns the thread."""
+    n = workers or os.cpu_count() or 1
+
+    def run() -> None:
+        pool = _acquire_pool(n)
+        try:
+            wait([pool.submit(_ping) for _ in range(n)])
+        except (BrokenProcessPool, RuntimeError):
+            pass  # a later generation reports the problem
+        finally:
+            _release_pool(n)
+
+    thread = threading.Thread(target=run, name="robwot-workspace-warm-up", daemon=True)
+    thread.start()
+    return thread
