@@ -61,6 +61,7 @@ describe("TD and files", () => {
     ["workspace.stl", "model/stl"],
     ["workspace.json", "application/json"],
     ["scene.json", "application/json"],
+    ["twin.json", "application/json"],
   ])("serves %s as %s at the TD's link href", async (file, type) => {
     const td = (await http(base)).body;
     const link = td.links.find((l: any) => l.href === file);
@@ -71,7 +72,7 @@ describe("TD and files", () => {
     expect((await r.arrayBuffer()).byteLength).toBeGreaterThan(10);
   });
 
-  it.each(["/%2e%2e/%2e%2e/etc/passwd", "/..%2ftwin.json", "/twin.json", "/meshes/../../../etc/passwd"])("refuses %s outside the allowed files", async (p) => {
+  it.each(["/%2e%2e/%2e%2e/etc/passwd", "/..%2ftwin.json", "/calibration.json", "/td.json", "/meshes/../../../etc/passwd"])("refuses %s outside the allowed files", async (p) => {
     const r = await fetch(`${base}${p}`);
     expect([400, 404]).toContain(r.status);
   });

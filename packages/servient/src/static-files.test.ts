@@ -35,7 +35,8 @@ describe("static files", () => {
   it("serves only the linked files of a twin folder", () => {
     expect(isTwinFile("robot.urdf", "robot.urdf")).toBe(true);
     expect(isTwinFile("meshes/x.stl", "robot.urdf")).toBe(true);
-    expect(isTwinFile("twin.json", "robot.urdf")).toBe(false);
+    expect(isTwinFile("twin.json", "robot.urdf")).toBe(true);
+    expect(isTwinFile("td.json", "robot.urdf")).toBe(false);
     expect(isTwinFile("calibration.json", "robot.urdf")).toBe(false);
   });
 });

@@ -51,7 +51,7 @@ export function confine(root: string, rel: string): string | null {
   return statSync(real).isFile() ? real : null;
 }
 
-/** Twin-folder files served at `/<slug>/<rel>` (Contract 4). */
+/** Twin-folder files served at `/<slug>/<rel>` (Contract 4; twin.json gives the viewer the base pose). */
 export function isTwinFile(rel: string, urdfName: string): boolean {
   return (
     rel === urdfName ||
@@ -59,6 +59,7 @@ export function isTwinFile(rel: string, urdfName: string): boolean {
     rel === "workspace.stl" ||
     rel === "workspace.json" ||
     rel === "scene.json" ||
+    rel === "twin.json" ||
     rel.startsWith("meshes/")
   );
 }
