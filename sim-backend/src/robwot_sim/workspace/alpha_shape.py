@@ -5,9 +5,13 @@ from the kept tetrahedron's fourth vertex). Edges where the kept set touches its
 (non-manifold) are repaired by also keeping the tetrahedra around that edge, so the surface is closed
 and every edge is shared by exactly two faces. The volume is the sum of the kept tetrahedra's volumes.
 
-``alpha="auto"`` rule: ``alpha = AUTO_FACTOR * q``, where ``q`` is the ``AUTO_QUANTILE`` quantile of the
-distance from each point to its ``AUTO_K``-th nearest neighbour. Dense regions of the cloud then fill in
-and only gaps a few times wider than the sparse-region spacing stay open.
+``alpha="auto"`` rule: ``alpha = 2.5 * q95``, where ``q95`` is the 95th percentile over the points of the
+distance from a point to its 8th nearest neighbour (``AUTO_FACTOR``, ``AUTO_QUANTILE``, ``AUTO_K``). The
+sparse regions of a joint-space-uniform cloud then fill in, and only gaps a few times wider than their
+spacing stay open (e.g. the 5 cm cavity of the shell test robot at 80,000 samples: alpha = 4.3 cm).
+Accuracy: samples never reach the true boundary and alpha carves a thin layer there, so volumes come
+out slightly low: -4.0 % for that shell at 80,000 samples; on kuka the volume grows by < 2 % when
+alpha is doubled.
 
 Speed: before the triangulation, points deep inside the cloud are thinned to one per voxel of side
 ``h = alpha / sqrt(3)``: an empty ball centred in an occupied voxel has a radius below ``sqrt(3) h <=
