@@ -6,7 +6,7 @@
  * test-artifacts/.
  */
 import { spawn } from "node:child_process";
-import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync } from "node:fs";
+import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
@@ -18,6 +18,12 @@ const ROOT = resolve(import.meta.dirname, "..");
 const CLI = join(ROOT, "packages/cli/dist/main.js");
 const ARTIFACTS = join(ROOT, "test-artifacts");
 const J1 = "lbr_iiwa_joint_1";
+const SCENE = {
+  version: 1,
+  name: "viewer-test",
+  obstacles: [{ name: "block", shape: { type: "box", size: [0.2, 0.2, 0.3] }, position: [-0.5, 0.5, 0.15], rpy: [0, 0, 0.4] }],
+  robots: [{ id: "kuka", urdf: "kuka_iiwa/model.urdf", basePosition: [0.4, -0.3, 0.05], baseOrientation: [0, 0, Math.sin(Math.PI / 8), Math.cos(Math.PI / 8)] }],
+};
 
 type Joints = Record<string, number>;
 type Xyz = { x: number; y: number; z: number };
@@ -30,6 +36,7 @@ type Debug = {
   liveMessages: number;
   pointCloud: { shown: number; total: number; collisionFree: number } | null;
   workspaceTriangles: number;
+  obstacles: string[];
   errors: string[];
   twins: string[];
   lastStatus: { state?: string } | null;
@@ -82,7 +89,10 @@ describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
     }
     dir = mkdtempSync(join(tmpdir(), "robwot-viewer-"));
     const out = join(dir, "kuka");
-    await run(process.execPath, [CLI, "generate", "kuka_iiwa", "--samples", "3000", "--out", out]);
+    // The robot stands off the origin, turned 45 degrees, next to one obstacle: the page must place it.
+    const scene = join(dir, "scene.json");
+    writeFileSync(scene, JSON.stringify(SCENE));
+    await run(process.execPath, [CLI, "generate", "kuka_iiwa", "--scene", scene, "--samples", "3000", "--out", out]);
     servient = await startServient({ twins: [out], port: 0, host: "127.0.0.1" });
     base = servient.url.endsWith("/") ? servient.url : `${servient.url}/`;
     slug = servient.things[0]?.slug ?? "";
@@ -121,6 +131,7 @@ describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
     expect(d.pointCloud?.total).toBe(3000);
     expect(d.pointCloud?.collisionFree).toBeGreaterThan(0);
     expect(d.workspaceTriangles).toBeGreaterThan(10);
+    expect(d.obstacles).toEqual(["block"]);
     const state = await read<Joints>(twin, "getJointPosition");
     expect(maxDiff(state, d.joints)).toBeLessThan(1e-6);
     // Frames, base pose and joint application agree with the simulation: the displayed model's
