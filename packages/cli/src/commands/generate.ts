@@ -19,7 +19,8 @@ Options:
   --samples N             random joint configurations (default ${DEFAULT_SAMPLES})
   --seed N                random seed (default 1; same seed => same workspace.csv)
   --ee LINK               end-effector link (default: the last link of the chain)
-  --out DIR, -o DIR       output folder (default twins/<robot-name>); replaced only on success
+  --out DIR, -o DIR       output folder (default twins/<example name or URDF robot name>);
+                          an existing twin there is replaced only on success
   --base-url URL          base URL of the servient for the TD (default ${DEFAULT_BASE_URL})
   --alpha auto|R          alpha-shape radius in metres (default auto)
   --workers N             collision-checking processes (default: number of cores)
