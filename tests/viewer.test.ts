@@ -30,6 +30,7 @@ type Xyz = { x: number; y: number; z: number };
 type Debug = {
   phase: string;
   ee: Xyz | null;
+  target: { position: [number, number, number]; valid: boolean | null } | null;
   joints: Joints;
   framesApplied: number;
   liveConnected: boolean;
@@ -164,15 +165,27 @@ describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
   it("a motion started by a node-wot consumer moves the model in the page", async () => {
     const start = await debug();
     const q = await read<Joints>(twin, "getJointPosition");
-    const target: Joints = { ...q, lbr_iiwa_joint_2: 0.5, lbr_iiwa_joint_4: -1.0, lbr_iiwa_joint_6: 0.6 };
-    const result = await invoke<{ status: string; joints: Joints; position: Xyz }>(twin, "moveToJointPosition", { joints: target, speed: 1 });
+    const J4 = "lbr_iiwa_joint_4";
+    const target: Joints = { ...q, lbr_iiwa_joint_2: 0.5, [J4]: -1.0, lbr_iiwa_joint_6: 0.6 };
+    // A slow motion (~2 s at 5 % of the velocity limits); meanwhile record what the page displays.
+    const motion = invoke<{ status: string; joints: Joints; position: Xyz }>(twin, "moveToJointPosition", { joints: target, speed: 0.05 });
+    let done = false;
+    motion.finally(() => (done = true)).catch(() => undefined);
+    const shown: number[] = [];
+    while (!done) {
+      shown.push((await debug()).joints[J4] ?? NaN);
+      await new Promise((r) => setTimeout(r, 50));
+    }
+    const result = await motion;
     expect(result.status).toBe("reached");
     const seen = await until("the page model to reach the consumer's target", async () => {
       const d = await debug();
       return maxDiff(target, d.joints) < 1e-3 ? d : null;
     });
-    // The live stream delivered intermediate states, applied frame by frame.
-    expect(seen.framesApplied - start.framesApplied).toBeGreaterThan(2);
+    // The live stream moved the model through intermediate states, not just to the end pose.
+    const from = q[J4] ?? NaN;
+    expect(shown.some((v) => Math.min(v - -1.0, from - v) > 0.05)).toBe(true);
+    expect(seen.framesApplied).toBeGreaterThan(start.framesApplied + 1);
     expect(dist(seen.ee as Xyz, result.position)).toBeLessThan(1e-4);
     expect(seen.liveMessages).toBeGreaterThan(start.liveMessages);
     await browser.page.screenshot({ path: join(ARTIFACTS, "viewer-after-consumer-move.png") });
@@ -196,6 +209,10 @@ describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
     });
     expect(text?.startsWith(report.valid ? "✔ valid" : "✘ rejected")).toBe(true);
     await expect(move.isDisabled()).resolves.toBe(!report.valid);
+    // The target is marked in the view with the same verdict (no calibration: world frame = input).
+    const marked = (await debug()).target;
+    expect(marked?.valid).toBe(report.valid);
+    expect(marked?.position[2]).toBeCloseTo(Number(target.z.toFixed(3)), 6);
     expect(report.valid).toBe(true); // 5 cm below a collision-free pose of the kuka, in the free workspace
     await move.click();
     await until("the end effector to reach the Cartesian target", async () => {
@@ -230,9 +247,9 @@ describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
     const before = (await debug()).collisions;
     // Start a slow motion back to `a`, then put an obstacle where the end effector will be: the path was
     // validated before the obstacle existed, so the motion runs into it and stops on contact.
-    const motion = invoke<{ status: string }>(twin, "moveToJointPosition", { joints: a, speed: 0.1 });
+    const motion = invoke<{ status: string }>(twin, "moveToJointPosition", { joints: a, speed: 0.05 });
     motion.catch(() => undefined); // awaited below
-    await browser.page.waitForFunction(() => (window as unknown as { __robwot: Debug }).__robwot.lastStatus?.state === "moving");
+    await until("the motion to start", async () => (await read<{ state: string }>(twin, "motionStatus")).state === "moving");
     await invoke(twin, "addObstacle", { name: "probe", shape: { type: "sphere", radius: 0.06 }, position: [p.x, p.y, p.z] });
     try {
       await expect(motion).resolves.toMatchObject({ status: "collision" });

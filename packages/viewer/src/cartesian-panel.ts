@@ -17,9 +17,13 @@ export class CartesianPanel {
   private validated: string | null = null;
   private edited = false;
 
+  private readonly heading = el("h2", { text: "Cartesian target (world frame)" });
+
   constructor(
     parent: HTMLElement,
     private readonly commander: Commander,
+    /** The target and its verdict (null: not validated, e.g. edited since), to mark it in the view. */
+    private readonly onVerdict: (target: Target, valid: boolean | null) => void = () => undefined,
   ) {
     const input = (axis: keyof Target): HTMLInputElement => {
       const i = el("input", { type: "number", step: "0.01", name: axis, "aria-label": `${axis} (m)`, value: "0" });
@@ -39,12 +43,17 @@ export class CartesianPanel {
       el(
         "section",
         { id: "cartesian" },
-        el("h2", { text: "Cartesian target (world frame)" }),
+        this.heading,
         row,
         el("div", { class: "row" }, this.validateButton, this.moveButton),
         this.verdict,
       ),
     );
+  }
+
+  /** Cartesian inputs are in the real frame while a calibration is active. */
+  setCalibrated(active: boolean): void {
+    this.heading.textContent = active ? "Cartesian target (real frame, calibrated)" : "Cartesian target (world frame)";
   }
 
   /** Pre-fill with the current end-effector position until the user edits the form. */
@@ -64,6 +73,8 @@ export class CartesianPanel {
     this.validated = null;
     this.moveButton.disabled = true;
     this.verdict.hidden = true;
+    const t = this.target();
+    if (t) this.onVerdict(t, null);
   }
 
   private async validate(): Promise<void> {
@@ -79,6 +90,7 @@ export class CartesianPanel {
       this.show(valid, describeReport(report));
       this.validated = valid ? JSON.stringify(t) : null;
       this.moveButton.disabled = !valid;
+      this.onVerdict(t, valid);
     } catch (err) {
       showError("validateCartesianPosition", err);
       this.invalidate();

@@ -12,6 +12,8 @@ export interface DebugState {
   framesApplied: number;
   /** End-effector link position of the displayed model, URDF world frame (m), for cross-checks. */
   ee: { x: number; y: number; z: number } | null;
+  /** The Cartesian target marked in the view (virtual/world frame) and its verdict (null: not validated). */
+  target: { position: [number, number, number]; valid: boolean | null } | null;
   liveConnected: boolean;
   liveMessages: number;
   lastStatus: unknown;
@@ -31,6 +33,7 @@ export const debugState: DebugState = {
   joints: {},
   framesApplied: 0,
   ee: null,
+  target: null,
   liveConnected: false,
   liveMessages: 0,
   lastStatus: null,

@@ -10,9 +10,12 @@ import {
   DirectionalLight,
   GridHelper,
   HemisphereLight,
+  Mesh,
+  MeshPhongMaterial,
   type Object3D,
   PerspectiveCamera,
   Scene,
+  SphereGeometry,
   Vector3,
   WebGLRenderer,
 } from "three";
@@ -123,5 +126,23 @@ export class Stage {
     this.camera.aspect = w / h;
     this.camera.updateProjectionMatrix();
     this.invalidate();
+  }
+}
+
+/** A small sphere marking the Cartesian target: grey until validated, then green (valid) or red. */
+export class TargetMarker {
+  private readonly mesh = new Mesh(new SphereGeometry(0.025, 24, 12), new MeshPhongMaterial({ color: 0x888888 }));
+
+  constructor(private readonly stage: Stage) {
+    this.mesh.name = "cartesian target";
+    this.mesh.visible = false;
+    stage.add(this.mesh);
+  }
+
+  show(p: readonly [number, number, number], valid: boolean | null): void {
+    this.mesh.position.set(p[0], p[1], p[2]);
+    (this.mesh.material as MeshPhongMaterial).color.setHex(valid === null ? 0x888888 : valid ? 0x2a9d4b : 0xd03030);
+    this.mesh.visible = true;
+    this.stage.invalidate();
   }
 }

@@ -4,6 +4,7 @@
  */
 import { Mesh, MeshBasicMaterial, type Object3D, SphereGeometry } from "three";
 import type { URDFRobot } from "urdf-loader";
+import { parseCalibration, realToVirtual, type Calibration } from "./calibration.js";
 import { CartesianPanel } from "./cartesian-panel.js";
 import { Commander } from "./commander.js";
 import { debugState, publishDebug } from "./debug.js";
@@ -14,7 +15,7 @@ import { JointPanel } from "./joint-panel.js";
 import { LiveClient } from "./live.js";
 import { MotionPanel } from "./motion-panel.js";
 import { applyJoints, highlightLink, loadRobot } from "./robot.js";
-import { Stage } from "./stage.js";
+import { Stage, TargetMarker } from "./stage.js";
 import { loadTd, readProperty, type TwinTd } from "./td.js";
 import { loadBasePose, loadCloud, loadScene, loadSurface } from "./twin-data.js";
 
@@ -39,7 +40,19 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     error: (action, err) => showError(action, err),
   });
   const joints = new JointPanel(content, td.joints, (target) => commander.moveJoints(target));
-  const cartesian = new CartesianPanel(content, commander);
+  let calibration: Calibration | null = null;
+  const marker = new TargetMarker(stage);
+  const cartesian = new CartesianPanel(content, commander, (t, valid) => {
+    const position = calibration ? realToVirtual(calibration, t) : ([t.x, t.y, t.z] as [number, number, number]);
+    marker.show(position, valid);
+    debugState.target = { position, valid };
+    publishDebug();
+  });
+  const showCalibration = (c: unknown): void => {
+    calibration = parseCalibration(c);
+    motion.showCalibration(c);
+    cartesian.setCalibrated(calibration !== null);
+  };
 
   let robot: URDFRobot | null = null;
   let latest: Record<string, number> | null = null;
@@ -80,7 +93,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   const sceneTask = loadScene(td, stage, motion);
   const cloudTask = loadCloud(td, stage, motion);
   const surfaceTask = loadSurface(td, stage, motion);
-  const stateTask = loadState(td, motion, cartesian).then((q) => (latest ??= q));
+  const stateTask = loadState(td, motion, cartesian, showCalibration).then((q) => (latest ??= q));
 
   startLive(td, slug, {
     joints: (q, msg) => {
@@ -92,7 +105,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
       motion.showStatus(msg);
       debugState.lastStatus = msg;
       publishDebug();
-      if (msg["state"] !== "moving") readProperty(td, "calibration").then((c) => motion.showCalibration(c), (e: unknown) => showError("calibration", e));
+      if (msg["state"] !== "moving") readProperty(td, "calibration").then(showCalibration, (e: unknown) => showError("calibration", e));
     },
     collision: (msg) => {
       debugState.collisions++;
@@ -115,7 +128,12 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   publishDebug();
 }
 
-async function loadState(td: TwinTd, motion: MotionPanel, cartesian: CartesianPanel): Promise<Record<string, number>> {
+async function loadState(
+  td: TwinTd,
+  motion: MotionPanel,
+  cartesian: CartesianPanel,
+  showCalibration: (c: unknown) => void,
+): Promise<Record<string, number>> {
   const [q, pose, status, calibration] = await Promise.all([
     readProperty(td, "getJointPosition"),
     readProperty(td, "getCartesianPosition"),
@@ -123,7 +141,7 @@ async function loadState(td: TwinTd, motion: MotionPanel, cartesian: CartesianPa
     readProperty(td, "calibration"),
   ]);
   if (isRecord(status)) motion.showStatus(status);
-  motion.showCalibration(calibration);
+  showCalibration(calibration);
   if (isRecord(pose) && typeof pose["x"] === "number") cartesian.showCurrent(pose as { x: number; y: number; z: number });
   if (!isRecord(q) || !Object.values(q).every((v) => typeof v === "number")) {
     throw new Error(`getJointPosition answered ${JSON.stringify(q)}`);

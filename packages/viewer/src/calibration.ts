@@ -1,0 +1,35 @@
+/**
+ * The twin's active calibration (Contract 3 `calibration` property): x_real = s·R·x_virtual + t. Cartesian
+ * inputs and outputs of the TD are in the real frame when it is active; the 3D view is in the virtual
+ * (simulation) frame, so markers placed from Cartesian inputs go through `realToVirtual`.
+ */
+import { isRecord } from "./http.js";
+
+export interface Calibration {
+  scale: number;
+  /** 3x3 row-major */
+  rotation: number[][];
+  translation: [number, number, number];
+}
+
+export function parseCalibration(c: unknown): Calibration | null {
+  if (!isRecord(c) || c["active"] !== true) return null;
+  const { scale, rotation, translation } = c;
+  const row = (r: unknown): r is number[] => Array.isArray(r) && r.length === 3 && r.every((v) => typeof v === "number");
+  if (typeof scale !== "number" || !(scale > 0) || !Array.isArray(rotation) || rotation.length !== 3 || !rotation.every(row) || !row(translation)) {
+    return null;
+  }
+  return { scale, rotation, translation: [translation[0] as number, translation[1] as number, translation[2] as number] };
+}
+
+/** x_virtual = Rᵀ (x_real − t) / s */
+export function realToVirtual(c: Calibration, p: { x: number; y: number; z: number }): [number, number, number] {
+  const d = [p.x - c.translation[0], p.y - c.translation[1], p.z - c.translation[2]];
+  const out: [number, number, number] = [0, 0, 0];
+  for (let i = 0; i < 3; i++) {
+    let v = 0;
+    for (let j = 0; j < 3; j++) v += (c.rotation[j]?.[i] ?? 0) * (d[j] ?? 0);
+    out[i] = v / c.scale;
+  }
+  return out;
+}
