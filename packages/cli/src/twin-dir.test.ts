@@ -1,4 +1,4 @@
-import { existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync, writeFileSync } from "node:fs";
+import { existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterEach, beforeEach, describe, expect, it } from "vitest";
@@ -19,6 +19,7 @@ describe("StagedDir", () => {
     s.commit();
     expect(readFileSync(join(out, "twin.json"), "utf8")).toBe("new");
     expect(readdirSync(parent)).toEqual(["twin"]);
+    expect(statSync(out).mode & 0o777).toBe(0o755);
   });
 
   it("replaces an existing twin only on commit, and leaves it intact on discard", () => {

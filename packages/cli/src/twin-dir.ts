@@ -4,7 +4,7 @@
  * is replaced only after the new one is complete: rename old away, rename new in, delete old.
  */
 import { randomBytes } from "node:crypto";
-import { existsSync, mkdirSync, mkdtempSync, renameSync, rmSync, statSync, readdirSync } from "node:fs";
+import { chmodSync, existsSync, mkdirSync, mkdtempSync, renameSync, rmSync, statSync, readdirSync } from "node:fs";
 import { basename, dirname, join, resolve } from "node:path";
 import { CliError } from "./errors.js";
 
@@ -56,6 +56,8 @@ export class StagedDir {
   /** Moves the finished folder into place, replacing a previous output only now. */
   commit(): void {
     if (this.done) throw new Error("StagedDir already committed or discarded");
+    // mkdtemp made it private (0700); a twin folder is meant to be read and served
+    chmodSync(this.tmp, 0o755);
     let old: string | null = null;
     if (existsSync(this.out)) {
       old = join(dirname(this.out), `.${basename(this.out)}.old-${randomBytes(4).toString("hex")}`);
