@@ -2,7 +2,6 @@
  * Example robots usable by name instead of a URDF path: URDFs shipped in PyBullet's `pybullet_data`
  * (located through the backend's `ping`), plus small robots bundled with the CLI under `robots/`.
  */
-import { existsSync } from "node:fs";
 import { dirname, join } from "node:path";
 import { fileURLToPath } from "node:url";
 
@@ -35,12 +34,9 @@ export function findExample(name: string): ExampleRobot | undefined {
   return EXAMPLE_ROBOTS.find((r) => r.name === name);
 }
 
-/**
- * Does `arg` name an example rather than a file? A bare word without a path separator or a `.urdf`
- * suffix, which does not exist as a file, is taken as an example name.
- */
+/** A bare word (no path separator, no `.urdf`/`.xml` suffix) is meant as an example name. */
 export function looksLikeExampleName(arg: string): boolean {
-  return !/[\\/]/.test(arg) && !/\.(urdf|xml)$/i.test(arg) && !existsSync(arg);
+  return !/[\\/]/.test(arg) && !/\.(urdf|xml)$/i.test(arg);
 }
 
 /** Absolute URDF path of an example; `pybulletData` comes from the backend's `ping`. */

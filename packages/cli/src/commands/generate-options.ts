@@ -2,7 +2,7 @@
  * `robwot generate` options: parsed with node's `util.parseArgs` and fully validated before anything is
  * started (no backend, no folder), so a typo costs milliseconds and leaves nothing behind.
  */
-import { readFileSync } from "node:fs";
+import { existsSync, readFileSync, statSync } from "node:fs";
 import { basename, join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { existingFile, parseAlpha, parseInteger, parsePackageRoots, parseUrl, usageError } from "../args.js";
@@ -63,6 +63,10 @@ function urdfRobotName(file: string): string | undefined {
   }
 }
 
+function isFile(path: string): boolean {
+  return existsSync(path) && statSync(path).isFile();
+}
+
 function parseSceneFile(path: string): string {
   const abs = existingFile("scene file", path);
   let text: string;
@@ -97,13 +101,13 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const robotArg = positionals[0] as string;
   let urdfFile: string | undefined;
   let example: ExampleRobot | undefined;
-  if (looksLikeExampleName(robotArg)) {
-    example = findExample(robotArg);
-    if (!example) {
-      throw new CliError(`unknown example robot "${robotArg}" and no such file (examples: ${EXAMPLE_NAMES.join(", ")})`);
-    }
-  } else {
+  const known = findExample(robotArg);
+  if (known && !isFile(robotArg)) {
+    example = known;
+  } else if (isFile(robotArg) || !looksLikeExampleName(robotArg)) {
     urdfFile = existingFile("URDF file", robotArg);
+  } else {
+    throw new CliError(`unknown example robot "${robotArg}" and no such file (examples: ${EXAMPLE_NAMES.join(", ")})`);
   }
   const samples = parseInteger("samples", values.samples, DEFAULT_SAMPLES, 100, 10_000_000);
   const seed = parseInteger("seed", values.seed, 1, 0, 2 ** 32 - 1);
