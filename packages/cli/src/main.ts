@@ -29,6 +29,11 @@ ${exampleHelp()}
 
 async function main(argv: string[]): Promise<number> {
   silenceAjvFormatNoise();
+  // `robwot ... | head`: a closed pipe is not an error worth a stack trace
+  process.stdout.on("error", (err: NodeJS.ErrnoException) => {
+    if (err.code === "EPIPE") process.exit(0);
+    throw err;
+  });
   const [command, ...rest] = argv;
   if (command === undefined || command === "help" || command === "--help" || command === "-h") {
     process.stdout.write(HELP);
