@@ -31,7 +31,7 @@ async function main(argv: string[]): Promise<number> {
   silenceAjvFormatNoise();
   // `robwot ... | head`: a closed pipe is not an error worth a stack trace
   process.stdout.on("error", (err: NodeJS.ErrnoException) => {
-    if (err.code === "EPIPE") process.exit(0);
+    if (err.code === "EPIPE") return; // keep going: clean-up must still run
     throw err;
   });
   const [command, ...rest] = argv;
