@@ -162,6 +162,23 @@ describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
     expect(browser.problems).toEqual([]);
   });
 
+  it("a new slider target while the twin moves replaces the old one (newest wins)", async () => {
+    const { page } = browser;
+    await page.locator("#motion input[name=speed]").fill("0.05");
+    const slider = page.locator(`input[data-joint="${J1}"]`);
+    await slider.fill("1.2");
+    await until("the first slider motion to start", async () => (await read<{ state: string }>(twin, "motionStatus")).state === "moving");
+    await slider.fill("-0.3");
+    const q = await until("joint 1 to settle on the newest target", async () => {
+      const status = await read<{ state: string }>(twin, "motionStatus");
+      const j = await read<Joints>(twin, "getJointPosition");
+      return status.state !== "moving" && Math.abs((j[J1] ?? NaN) + 0.3) < 1e-3 ? j : null;
+    });
+    expect(q[J1]).toBeCloseTo(-0.3, 3);
+    expect((await debug()).errors).toEqual([]);
+    await page.locator("#motion input[name=speed]").fill("0.5");
+  });
+
   it("a motion started by a node-wot consumer moves the model in the page", async () => {
     const start = await debug();
     const q = await read<Joints>(twin, "getJointPosition");
