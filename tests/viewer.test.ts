@@ -74,7 +74,8 @@ async function until<T>(what: string, probe: () => Promise<T | undefined | null 
 const dist = (a: Xyz, b: Xyz): number => Math.hypot(a.x - b.x, a.y - b.y, a.z - b.z);
 const maxDiff = (a: Joints, b: Joints): number => Math.max(...Object.keys(a).map((k) => Math.abs((a[k] ?? NaN) - (b[k] ?? NaN))));
 
-describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
+// Opt out explicitly (ROBWOT_SKIP_BROWSER=1); a missing browser otherwise fails loudly instead of skipping.
+describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless Chromium", () => {
   let dir: string;
   let servient: Awaited<ReturnType<typeof startServient>>;
   let base: string;
@@ -85,6 +86,9 @@ describe.skipIf(!existsSync(CHROMIUM))("viewer in headless Chromium", () => {
   const debug = (): Promise<Debug> => browser.page.evaluate(() => (window as unknown as { __robwot: Debug }).__robwot);
 
   beforeAll(async () => {
+    if (!existsSync(CHROMIUM)) {
+      throw new Error(`no Chromium at ${CHROMIUM}: apt-get install chromium, or set ROBWOT_CHROMIUM (ROBWOT_SKIP_BROWSER=1 skips)`);
+    }
     if (!existsSync(join(ROOT, "packages/viewer/dist/viewer.js"))) {
       throw new Error("packages/viewer/dist is missing: run `npm run build` (it bundles the viewer) first");
     }
