@@ -6,14 +6,12 @@
  *   pointing at this servient's `/live`, the security required (`securityFor`), and the Cartesian
  *   bounds in the real frame when a calibration is active.
  */
-import { securityFor, type Bounds, type ThingDescription } from "@robwot/core";
+import { securityFor, TD_CONTEXT_V10, type Bounds, type ThingDescription } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
 import type { FrameMap } from "./frames.js";
 import type { TdDocument } from "./twin-folder.js";
 
 type Json = Record<string, unknown>;
-
-const TD10 = "https://www.w3.org/2019/wot/td/v1";
 
 const clone = <T>(v: T): T => structuredClone(v);
 
@@ -30,7 +28,7 @@ export function produceInit(td: TdDocument): WoT.ExposedThingInit {
   eachAffordance(init, (a) => delete a.forms);
   // node-wot 0.9.2 validates the init against the TD 1.0 schema: its context URL only
   const ctx = Array.isArray(init["@context"]) ? (init["@context"] as unknown[]) : [];
-  init["@context"] = [TD10, ...ctx.filter((c) => typeof c === "object")];
+  init["@context"] = [TD_CONTEXT_V10, ...ctx.filter((c) => typeof c === "object")];
   dropBounds(init.properties?.getCartesianPosition);
   init.securityDefinitions = { nosec_sc: { scheme: "nosec" } };
   init.security = "nosec_sc";
@@ -71,10 +69,6 @@ export interface ServeTdOptions {
 
 export function servedTd(td: TdDocument, o: ServeTdOptions): TdDocument {
   const out = clone(td);
-  // node-wot 0.9.2 consumers validate against a schema that wants the TD 1.0 context first; TD 1.1
-  // allows [v1, v1.1, ...] for exactly this compatibility
-  const ctx = Array.isArray(out["@context"]) ? (out["@context"] as unknown[]) : [out["@context"]];
-  if (ctx[0] !== TD10) out["@context"] = [TD10, ...ctx.filter((c) => c !== TD10)];
   out.base = `${o.url}/${o.slug}/`;
   eachAffordance(out, (a) => {
     for (const f of (a.forms ?? []) as Json[]) {

@@ -20,8 +20,9 @@ describe("buildThingDescription", () => {
   });
 
   it("has context, stable id, base, nosec security and the contract's links", () => {
-    expect(td["@context"][0]).toBe("https://www.w3.org/2022/wot/td/v1.1");
-    expect(td["@context"][1]).toMatchObject({ "@language": "en", robwot: "https://robwot.dev/ns#" });
+    expect(td["@context"][0]).toBe("https://www.w3.org/2019/wot/td/v1");
+    expect(td["@context"][1]).toBe("https://www.w3.org/2022/wot/td/v1.1");
+    expect(td["@context"][2]).toMatchObject({ "@language": "en", robwot: "https://robwot.dev/ns#" });
     expect(td.id).toMatch(/^urn:robwot:lbr_iiwa:[0-9a-f]{16}$/);
     expect(buildThingDescription({ model, summary, sceneId: "scene-a" }).id).toBe(td.id);
     expect(buildThingDescription({ model, summary, sceneId: "scene-b" }).id).not.toBe(td.id);

@@ -11,6 +11,11 @@ import { canonicalJson, fnv1a64, thingSlug } from "./hash.js";
 import type { ActionAffordance, EventAffordance, Form, Link, PropertyAffordance, ThingDescription } from "./types.js";
 
 export const TD_CONTEXT_V11 = "https://www.w3.org/2022/wot/td/v1.1";
+/**
+ * TD 1.1 allows `[v1, v1.1, ...]` for backward compatibility; node-wot 0.9.2 consumers validate TDs
+ * against the TD 1.0 schema, which wants the v1 context first, so every TD we write starts with both.
+ */
+export const TD_CONTEXT_V10 = "https://www.w3.org/2019/wot/td/v1";
 export const ROBWOT_NS = "https://robwot.dev/ns#";
 export const DEFAULT_BASE_URL = "http://localhost:8080/";
 const JSON_TYPE = "application/json";
@@ -171,7 +176,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     { rel: "scene", href: "scene.json", type: JSON_TYPE },
   ];
   const td: ThingDescription = {
-    "@context": [TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],
+    "@context": [TD_CONTEXT_V10, TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],
     "@type": ["Thing", "robwot:RobotArmTwin"],
     id: options.id ?? thingId(model, slug, options.sceneId),
     title,
