@@ -201,16 +201,6 @@ class Busy(SimError):
         )
 
 
-class CollisionError(SimError):
-    rpc_code = -32009
-    code = "E_COLLISION"
-
-    def __init__(self, contacts: Sequence[dict[str, Any]], message: str | None = None) -> None:
-        super().__init__(
-            message or f"configuration in collision ({len(contacts)} contacts)", contacts=list(contacts)
-        )
-
-
 class NameTaken(SimError):
     rpc_code = -32010
     code = "E_NAME_TAKEN"
