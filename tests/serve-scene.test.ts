@@ -1,12 +1,13 @@
 /**
  * End to end: the scene of a twin folder (generated with `--scene`) is loaded into the served world, and
- * scene edits change the validation answers; oversized bodies are refused without harm.
+ * scene edits change the validation answers and reach /live subscribers as `scene` messages; oversized
+ * bodies are refused without harm.
  */
 import { join } from "node:path";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { REPO } from "./cli-run.js";
-import { generateTwin, invoke, kukaPose } from "./serve-helpers.js";
+import { generateTwin, invoke, kukaPose, live } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -16,6 +17,42 @@ beforeAll(async () => {
   base = s.things[0]!.tdUrl;
 });
 afterAll(async () => s?.stop());
+
+it("pushes the scene over /live: a snapshot on subscribe, then every add, move and remove", async () => {
+  const slug = s.things[0]!.slug;
+  const ws = await live(s.liveUrl);
+  try {
+    ws.ws.send(JSON.stringify({ subscribe: slug }));
+    const names = (m: any): string[] => m.obstacles.map((o: { name: string }) => o.name);
+    const snap = await ws.waitFor((m) => m.type === "scene");
+    expect(snap.thing).toBe(slug);
+    expect(names(snap)).toContain("table");
+    const table = snap.obstacles.find((o: { name: string }) => o.name === "table");
+    expect(table.shape.type).toBeTypeOf("string");
+    expect(table.position).toHaveLength(3);
+
+    const crate = { name: "crate", shape: { type: "box", size: [0.1, 0.2, 0.3] }, position: [0.6, 0.4, 0.15] };
+    expect((await invoke(base, "addObstacle", crate)).status).toBe(200);
+    const added = await ws.waitFor((m) => m.type === "scene" && names(m).includes("crate"));
+    const c = added.obstacles.find((o: { name: string }) => o.name === "crate");
+    expect(c.shape).toEqual(crate.shape);
+    expect(c.position).toEqual(crate.position);
+
+    expect((await invoke(base, "moveObstacle", { name: "crate", position: [0.6, -0.4, 0.15] })).status).toBe(200);
+    const moved = await ws.waitFor((m) => m.type === "scene" && m.obstacles.some((o: any) => o.name === "crate" && o.position[1] === -0.4));
+    expect(names(moved)).toContain("table");
+
+    // a refused edit changes nothing and sends nothing
+    const before = ws.messages.filter((m) => m.type === "scene").length;
+    expect((await invoke(base, "removeObstacle", { name: "nope" })).status).toBe(404);
+    expect((await invoke(base, "removeObstacle", { name: "crate" })).status).toBe(200);
+    const removed = await ws.waitFor((m) => m.type === "scene" && !names(m).includes("crate"));
+    expect(names(removed)).toContain("table");
+    expect(ws.messages.filter((m) => m.type === "scene").length).toBe(before + 1);
+  } finally {
+    ws.close();
+  }
+});
 
 it("validates against the folder's scene and its run-time edits", async () => {
   const down = kukaPose([0, 2.0, 0, 0, 0, 0, 0]);

@@ -4,14 +4,16 @@
  * `ws://host:port/live?thing=<slug>` subscribes at once. Server -> client:
  * `{thing, type: "joints", time, joints, position, orientation}` (>= 30 Hz of simulated time while moving),
  * `{thing, type: "status", ...motionStatus}`, `{thing, type: "collision", ...collision event}`,
- * `{type: "error", code, message, details}` for a bad message. A snapshot (joints + status) follows
- * every subscription.
+ * `{thing, type: "scene", obstacles}` (the shared world's obstacles in scene.json's shape, after every
+ * scene edit), `{type: "error", code, message, details}` for a bad message. A snapshot (joints, status,
+ * scene) follows every subscription.
  */
 import type { IncomingMessage, Server } from "node:http";
 import type { Duplex } from "node:stream";
 import { WebSocketServer, WebSocket } from "ws";
 import { isAuthorized, type AuthConfig } from "./auth.js";
 import type { Twin } from "./twin.js";
+import type { World } from "./world.js";
 
 const MAX_BUFFERED = 1 << 20;
 
@@ -20,7 +22,7 @@ export interface LiveServer {
   clients(): number;
 }
 
-export function attachLive(server: Server, twins: Map<string, Twin>, auth: AuthConfig | undefined): LiveServer {
+export function attachLive(server: Server, twins: Map<string, Twin>, world: World, auth: AuthConfig | undefined): LiveServer {
   const wss = new WebSocketServer({ noServer: true, maxPayload: 64 * 1024 });
   const subs = new Map<WebSocket, Set<string>>();
 
@@ -32,7 +34,12 @@ export function attachLive(server: Server, twins: Map<string, Twin>, auth: AuthC
   const broadcast = (slug: string, msg: unknown, droppable: boolean): void => {
     for (const [ws, set] of subs) if (set.has(slug)) send(ws, msg, droppable);
   };
-  const detach: (() => void)[] = [];
+  const sceneOf = (slug: string): object => ({ thing: slug, type: "scene", obstacles: world.sceneObstacles() });
+  const onScene = (): void => {
+    for (const slug of twins.keys()) broadcast(slug, sceneOf(slug), false);
+  };
+  world.on("scene", onScene);
+  const detach: (() => void)[] = [() => world.off("scene", onScene)];
   for (const [slug, twin] of twins) {
     const onJoints = (m: unknown): void => broadcast(slug, m, true);
     const onStatus = (s: object): void => broadcast(slug, { thing: slug, type: "status", ...s }, false);
@@ -60,6 +67,7 @@ export function attachLive(server: Server, twins: Map<string, Twin>, auth: AuthC
       set.add(s);
       send(ws, twin.liveJoints(), false);
       send(ws, { thing: s, type: "status", ...twin.status }, false);
+      send(ws, sceneOf(s), false);
     }
   };
 

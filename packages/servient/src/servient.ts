@@ -166,7 +166,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       served.set(slug, entry);
       if (twin.folder.td.id) served.set(encodeURIComponent(twin.folder.td.id), entry);
     }
-    live = attachLive(http.getServer() as import("node:http").Server, twins, opts.auth);
+    live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth);
   } catch (err) {
     await servient.shutdown().catch(() => undefined);
     await backend.stop();

@@ -2,8 +2,9 @@
  * The one simulation world every twin of a `serve` shares: the union of the twins' scenes (obstacles
  * and other robots), each twin's robot (robots see each other as obstacles), and run-time scene
  * edits. `restore` rebuilds it on a fresh backend (start and after a crash), putting every robot back
- * at its last known joint state.
+ * at its last known joint state. Emits `scene` after every run-time edit (the /live `scene` message).
  */
+import { EventEmitter } from "node:events";
 import { isAbsolute, join } from "node:path";
 import type { BackendSupervisor, SimCall } from "./backend.js";
 import { ServientError } from "./errors.js";
@@ -22,18 +23,32 @@ function withAbsoluteMesh(ob: SceneObstacle, dir: string): SceneObstacle {
   return { ...ob, shape: { ...ob.shape, file: join(dir, file) } };
 }
 
-export class World {
+/** Scene-file mesh obstacles as clients see them: relative files become `/<slug>/<file>` URLs. */
+function withServedMesh(ob: SceneObstacle, slug: string): SceneObstacle | null {
+  const file = ob.shape.file;
+  if (ob.shape.type !== "mesh" || typeof file !== "string" || isAbsolute(file)) return null;
+  const rel = file.split(/[\\/]+/).filter((p) => p !== "" && p !== ".");
+  return { ...ob, shape: { ...ob.shape, file: `/${encodeURIComponent(slug)}/${rel.map(encodeURIComponent).join("/")}` } };
+}
+
+export class World extends EventEmitter<{ scene: [] }> {
   /** current obstacles by name (scene files + run-time edits), world frame */
   readonly obstacles = new Map<string, SceneObstacle>();
+  /** mesh files of scene-file obstacles as URLs of the twin folder that holds them */
+  private readonly meshUrls = new Map<string, unknown>();
   /** robots of the scene files that are not twins */
   private readonly sceneRobots: Record<string, unknown>[] = [];
 
   constructor(private readonly twins: Twin[]) {
+    super();
     const robotKeys = new Set<string>();
     const twinIds = new Set(twins.map((t) => t.robotId));
     for (const t of twins) {
       for (const ob of t.folder.scene.obstacles ?? []) {
-        if (!this.obstacles.has(ob.name)) this.obstacles.set(ob.name, withAbsoluteMesh(ob, t.folder.dir));
+        if (this.obstacles.has(ob.name)) continue;
+        this.obstacles.set(ob.name, withAbsoluteMesh(ob, t.folder.dir));
+        const served = withServedMesh(ob, t.slug);
+        if (served) this.meshUrls.set(ob.name, served.shape.file);
       }
       for (const r of (t.folder.scene.robots ?? []) as Record<string, unknown>[]) {
         const key = JSON.stringify([r.id ?? null, r.urdf, r.basePosition ?? null]);
@@ -42,6 +57,14 @@ export class World {
         this.sceneRobots.push(r);
       }
     }
+  }
+
+  /** The current obstacles in scene.json's shape (Contract 2), mesh files as URLs where they are served. */
+  sceneObstacles(): SceneObstacle[] {
+    return [...this.obstacles.values()].map((ob) => {
+      const url = this.meshUrls.get(ob.name);
+      return url === undefined ? ob : { ...ob, shape: { ...ob.shape, file: url } };
+    });
   }
 
   /** Builds the world on a (new) backend connection. */
@@ -74,6 +97,7 @@ export class World {
     }
     const out = await backend.call<SceneObstacle>("obstacle.add", spec);
     this.obstacles.set(spec.name, { ...spec, ...(out ?? {}) });
+    this.emit("scene");
     return out;
   }
 
@@ -87,6 +111,7 @@ export class World {
     if (pose.orientation) next.orientation = pose.orientation;
     if (pose.rpy) next.rpy = pose.rpy;
     this.obstacles.set(pose.name, { ...next, ...(out ?? {}) });
+    this.emit("scene");
     return out;
   }
 
@@ -94,6 +119,8 @@ export class World {
     if (!this.obstacles.has(name)) throw this.unknown(name);
     await backend.call("obstacle.remove", { name });
     this.obstacles.delete(name);
+    this.meshUrls.delete(name);
+    this.emit("scene");
     return {};
   }
 
