@@ -50,4 +50,14 @@ describe("StagedDir", () => {
     expect(() => StagedDir.create(join(parent, "file", "sub"))).toThrow(/cannot create output folder/);
     expect(existsSync(join(out, "thesis.tex"))).toBe(true);
   });
+
+  it("removes the parent folders it created when the run fails, and keeps ones that were there", () => {
+    const staged = StagedDir.create(join(parent, "twins", "nested", "kuka"));
+    expect(existsSync(join(parent, "twins", "nested"))).toBe(true);
+    staged.discard();
+    expect(readdirSync(parent)).toEqual([]);
+    mkdirSync(join(parent, "mine"));
+    StagedDir.create(join(parent, "mine", "kuka")).discard();
+    expect(readdirSync(parent)).toEqual(["mine"]);
+  });
 });

@@ -4,7 +4,7 @@
  * is replaced only after the new one is complete: rename old away, rename new in, delete old.
  */
 import { randomBytes } from "node:crypto";
-import { chmodSync, existsSync, mkdirSync, mkdtempSync, renameSync, rmSync, statSync, readdirSync } from "node:fs";
+import { chmodSync, existsSync, mkdirSync, mkdtempSync, renameSync, rmdirSync, rmSync, statSync, readdirSync } from "node:fs";
 import { basename, dirname, join, resolve } from "node:path";
 import { CliError } from "./errors.js";
 
@@ -15,10 +15,13 @@ export class StagedDir {
   readonly out: string;
   readonly tmp: string;
   private done = false;
+  /** The outermost folder this run had to create for the output's parent (removed again on failure). */
+  private readonly createdRoot: string | undefined;
 
-  private constructor(out: string, tmp: string) {
+  private constructor(out: string, tmp: string, createdRoot: string | undefined) {
     this.out = out;
     this.tmp = tmp;
+    this.createdRoot = createdRoot;
   }
 
   /**
@@ -39,8 +42,9 @@ export class StagedDir {
       }
     }
     const parent = dirname(out);
+    let createdRoot: string | undefined;
     try {
-      mkdirSync(parent, { recursive: true });
+      createdRoot = mkdirSync(parent, { recursive: true });
     } catch (err) {
       throw new CliError(`cannot create output folder ${parent}: ${(err as Error).message}`, "E_OUTPUT");
     }
@@ -50,7 +54,7 @@ export class StagedDir {
     } catch (err) {
       throw new CliError(`output folder ${parent} is not writable: ${(err as Error).message}`, "E_OUTPUT");
     }
-    return new StagedDir(out, tmp);
+    return new StagedDir(out, tmp, createdRoot);
   }
 
   /** Moves the finished folder into place, replacing a previous output only now. */
@@ -78,5 +82,15 @@ export class StagedDir {
     if (this.done) return;
     this.done = true;
     rmSync(this.tmp, { recursive: true, force: true });
+    // a failed run leaves nothing behind: also the (still empty) parent folders it created
+    if (this.createdRoot === undefined) return;
+    for (let dir = dirname(this.tmp); ; dir = dirname(dir)) {
+      try {
+        rmdirSync(dir);
+      } catch {
+        return; // not empty (someone else's files): keep it
+      }
+      if (dir === this.createdRoot) return;
+    }
   }
 }
