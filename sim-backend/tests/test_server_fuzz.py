@@ -20,13 +20,6 @@ VALUES: list[Any] = [None, "NaN", float("inf"), "x", "", -1, 0, 0.5, 1, 3.5, 1e3
                      {"a": 1}, "kuka", "ball", "../../../../etc/passwd", "kuka_iiwa/model.urdf"]
 
 
-@pytest.fixture(scope="module")
-def backend() -> Iterator[BackendProcess]:
-    proc = BackendProcess()
-    yield proc
-    assert proc.stop() == 0
-
-
 @pytest.fixture
 def client(backend: BackendProcess) -> Iterator[RpcClient]:
     c = backend.client()

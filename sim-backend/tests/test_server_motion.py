@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Iterator
 
 import pytest
 from rpc_backend import BackendProcess, RpcClient
@@ -13,20 +12,6 @@ KUKA = "kuka_iiwa/model.urdf"
 ZERO = [0.0] * 7
 
 
-@pytest.fixture(scope="module")
-def backend() -> Iterator[BackendProcess]:
-    proc = BackendProcess()
-    yield proc
-    assert proc.stop() == 0
-
-
-@pytest.fixture
-def client(backend: BackendProcess) -> Iterator[RpcClient]:
-    c = backend.client()
-    c.call("world.reset")
-    c.call("robot.load", {"urdf": KUKA, "id": "kuka"})
-    yield c
-    c.close()
 
 
 def _wall_in_path(c: RpcClient) -> None:

@@ -3,27 +3,10 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from rpc_backend import BackendProcess, RpcClient
-
-
-@pytest.fixture(scope="module")
-def backend() -> Iterator[BackendProcess]:
-    proc = BackendProcess()
-    yield proc
-    assert proc.stop() == 0
-
-
-@pytest.fixture
-def client(backend: BackendProcess) -> Iterator[RpcClient]:
-    c = backend.client()
-    c.call("world.reset")
-    c.call("robot.load", {"urdf": "kuka_iiwa/model.urdf", "id": "kuka"})
-    yield c
-    c.close()
 
 
 def test_generate_streams_progress_and_serves_meanwhile(backend: BackendProcess, client: RpcClient,
