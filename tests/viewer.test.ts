@@ -152,6 +152,30 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     await page.screenshot({ path: join(ARTIFACTS, "viewer.png") });
   });
 
+  it("obstacles added, moved and removed through the servient appear in the page (live scene)", async () => {
+    const { page, problems } = browser;
+    problems.length = 0;
+    const crate = { name: "crate", shape: { type: "box", size: [0.1, 0.1, 0.1] }, position: [-0.9, -1.1, 0.05] };
+    await invoke(twin, "addObstacle", crate);
+    try {
+      await until("the page to draw the added obstacle", async () => {
+        const names = (await debug()).obstacles;
+        return names.length === 2 && names.includes("block") && names.includes("crate");
+      });
+      await invoke(twin, "moveObstacle", { name: "crate", position: [-0.9, -1.2, 0.05] });
+      await invoke(twin, "addObstacle", { name: "ball", shape: { type: "sphere", radius: 0.05 }, position: [-1.0, -1.0, 0.05] });
+      await until("the page to draw the second one", async () => (await debug()).obstacles.includes("ball"));
+      expect((await debug()).obstacles).toEqual(["block", "crate", "ball"]);
+    } finally {
+      await invoke(twin, "removeObstacle", { name: "crate" }).catch(() => undefined);
+      await invoke(twin, "removeObstacle", { name: "ball" }).catch(() => undefined);
+    }
+    await until("the page to drop the removed obstacles", async () => JSON.stringify((await debug()).obstacles) === '["block"]');
+    const d = await debug();
+    expect(d.errors).toEqual([]);
+    expect(problems).toEqual([]);
+  });
+
   it("moving a joint slider moves the twin on the servient", async () => {
     const before = await read<Joints>(twin, "getJointPosition");
     const target = (before[J1] ?? 0) > 0.3 ? -0.4 : 0.6;

@@ -1,6 +1,6 @@
 /**
  * Live state over the servient's `/live` WebSocket (Contract 4): send `{"subscribe": slug}`, receive
- * `{thing, type: "joints" | "status" | "collision", ...}`. The newest joint message wins; the render loop
+ * `{thing, type: "joints" | "status" | "collision" | "scene", ...}`. The newest joint message wins; the render loop
  * picks it up at display rate. Reconnects with back-off and reports the connection state.
  */
 import { ViewerError } from "./errors.js";
@@ -10,6 +10,8 @@ export interface LiveHandlers {
   joints(joints: Record<string, number>, msg: Record<string, unknown>): void;
   status(msg: Record<string, unknown>): void;
   collision(msg: Record<string, unknown>): void;
+  /** `{type: "scene", obstacles}`: the shared world's obstacles after a run-time edit (and on subscribe). */
+  scene(msg: Record<string, unknown>): void;
   connection(open: boolean): void;
   error(err: ViewerError): void;
 }
@@ -81,6 +83,9 @@ export class LiveClient {
         return;
       case "collision":
         this.handlers.collision(msg);
+        return;
+      case "scene":
+        this.handlers.scene(msg);
         return;
       case "error":
         this.handlers.error(new ViewerError("E_LIVE", String(msg["message"] ?? "live error"), { msg }));

@@ -28,21 +28,22 @@ export interface BuiltObstacles {
 export async function buildObstacles(scene: unknown, base: string): Promise<BuiltObstacles> {
   const group = new Group();
   group.name = "obstacles";
-  const names: string[] = [];
   const errors: ViewerError[] = [];
   const list = isRecord(scene) && Array.isArray(scene["obstacles"]) ? scene["obstacles"] : [];
-  await Promise.all(
+  const meshes = await Promise.all(
     list.map(async (spec: unknown, i: number) => {
       try {
-        const mesh = await buildOne(spec, base, i);
-        group.add(mesh);
-        names.push(mesh.name);
+        return await buildOne(spec, base, i);
       } catch (err) {
         errors.push(err instanceof ViewerError ? err : new ViewerError("E_SCENE", String(err), { index: i }));
+        return null;
       }
     }),
   );
-  return { group, names, errors };
+  // in the scene's order, whatever order the mesh files arrived in
+  const built = meshes.filter((m): m is Mesh => m !== null);
+  for (const m of built) group.add(m);
+  return { group, names: built.map((m) => m.name), errors };
 }
 
 async function buildOne(spec: unknown, base: string, index: number): Promise<Mesh> {

@@ -4,11 +4,11 @@
  */
 import type { Object3D } from "three";
 import { debugState } from "./debug.js";
-import { showError, ViewerError } from "./errors.js";
+import { ViewerError } from "./errors.js";
 import type { QuatXyzw, Vec3 } from "./frames.js";
 import { fetchBuffer, fetchJson, fetchText, isRecord } from "./http.js";
 import type { MotionPanel } from "./motion-panel.js";
-import { buildObstacles } from "./obstacles.js";
+import type { ObstacleLayer } from "./scene-layer.js";
 import { buildPointCloud, parseWorkspaceCsv } from "./pointcloud.js";
 import type { Stage } from "./stage.js";
 import type { TwinTd } from "./td.js";
@@ -33,13 +33,9 @@ export async function loadBasePose(td: TwinTd): Promise<{ position: Vec3; orient
   return { position: [p[0] as number, p[1] as number, p[2] as number], orientation: [q[0] as number, q[1] as number, q[2] as number, q[3] as number] };
 }
 
-export async function loadScene(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<void> {
+export async function loadScene(td: TwinTd, layer: ObstacleLayer): Promise<void> {
   if (!td.links.scene) return;
-  const built = await buildObstacles(await fetchJson(td.links.scene), td.base);
-  for (const e of built.errors) showError("scene.json", e);
-  stage.add(built.group);
-  debugState.obstacles = built.names;
-  if (built.names.length > 0) motion.addLayer(`obstacles (${built.names.length})`, true, (v) => stage.setVisible(built.group, v));
+  await layer.show(await fetchJson(td.links.scene), false);
 }
 
 export async function loadCloud(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<Object3D | null> {

@@ -15,6 +15,7 @@ import { JointPanel } from "./joint-panel.js";
 import { LiveClient } from "./live.js";
 import { MotionPanel } from "./motion-panel.js";
 import { applyJoints, highlightLink, loadRobot } from "./robot.js";
+import { ObstacleLayer } from "./scene-layer.js";
 import { Stage, TargetMarker } from "./stage.js";
 import { loadTd, readProperty, type TwinTd } from "./td.js";
 import { loadBasePose, loadCloud, loadScene, loadSurface } from "./twin-data.js";
@@ -90,7 +91,8 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     motion.addLayer("robot", true, (v) => stage.setVisible(r, v));
     return r;
   });
-  const sceneTask = loadScene(td, stage, motion);
+  const obstacles = new ObstacleLayer(stage, motion, td.base);
+  const sceneTask = loadScene(td, obstacles);
   const cloudTask = loadCloud(td, stage, motion);
   const surfaceTask = loadSurface(td, stage, motion);
   const stateTask = loadState(td, motion, cartesian, showCalibration).then((q) => (latest ??= q));
@@ -107,6 +109,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
       publishDebug();
       if (msg["state"] !== "moving") readProperty(td, "calibration").then(showCalibration, (e: unknown) => showError("calibration", e));
     },
+    scene: (msg) => obstacles.show(msg, true).catch((e: unknown) => showError("scene (live)", e)),
     collision: (msg) => {
       debugState.collisions++;
       publishDebug();
@@ -152,7 +155,7 @@ async function loadState(
 function startLive(
   td: TwinTd,
   slug: string,
-  on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision">,
+  on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision" | "scene">,
 ): void {
   const url = td.live ?? `${location.protocol === "https:" ? "wss:" : "ws:"}//${location.host}/live`;
   const badge = document.getElementById("connection");
@@ -167,6 +170,7 @@ function startLive(
     joints: counted(on.joints),
     status: counted(on.status),
     collision: counted(on.collision),
+    scene: counted(on.scene),
     connection: (open) => {
       debugState.liveConnected = open;
       publishDebug();
