@@ -6,7 +6,7 @@
  * test-artifacts/.
  */
 import { spawn } from "node:child_process";
-import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
+import { cpSync, existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
@@ -38,6 +38,7 @@ type Debug = {
   pointCloud: { shown: number; total: number; collisionFree: number } | null;
   workspaceTriangles: number;
   obstacles: string[];
+  otherRobots: Record<string, { base: number[]; joints: Joints }>;
   errors: string[];
   twins: string[];
   lastStatus: { state?: string } | null;
@@ -308,6 +309,57 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     } finally {
       await invoke(twin, "removeObstacle", { name: "probe" });
     }
+  });
+
+  describe("two twins in one world", () => {
+    let shared: Awaited<ReturnType<typeof startServient>>;
+    let sharedBase: string;
+    let slugs: string[];
+    beforeAll(async () => {
+      // Two copies of the generated twin, the second one standing 2 m away along +y.
+      const a = join(dir, "kuka-a");
+      const b = join(dir, "kuka-b");
+      cpSync(join(dir, "kuka"), a, { recursive: true });
+      cpSync(join(dir, "kuka"), b, { recursive: true });
+      const manifest = JSON.parse(readFileSync(join(b, "twin.json"), "utf8"));
+      manifest.robot.basePosition = [0.4, 1.7, 0.05];
+      manifest.robot.baseOrientation = [0, 0, 0, 1];
+      writeFileSync(join(b, "twin.json"), JSON.stringify(manifest));
+      shared = await startServient({ twins: [a, b], port: 0, host: "127.0.0.1" });
+      sharedBase = `${shared.url}/`;
+      slugs = shared.things.map((t) => t.slug);
+    });
+    afterAll(async () => shared?.stop());
+
+    it("draws the other twin's robot at its base pose and moves it with its live joints", async () => {
+      const { page, problems } = browser;
+      const [mine, other] = slugs as [string, string];
+      problems.length = 0;
+      await page.goto(`${sharedBase}viewer/?thing=${encodeURIComponent(mine)}`);
+      const drawn = await until("the other robot to be drawn", async () => {
+        const d = await debug();
+        return d.phase === "ready" && d.otherRobots[other] && Object.keys(d.otherRobots[other].joints).length === 7 ? d : null;
+      });
+      expect(Object.keys(drawn.otherRobots)).toEqual([other]);
+      expect(drawn.otherRobots[other]?.base).toEqual([0.4, 1.7, 0.05]);
+      const otherSession = await openSession();
+      try {
+        const otherTwin = await otherSession.connect(`${sharedBase}${other}`);
+        const q = await read<Joints>(otherTwin, "getJointPosition");
+        const target: Joints = { ...q, [J1]: (q[J1] ?? 0) > 0.3 ? -0.5 : 0.7, lbr_iiwa_joint_4: -0.8 };
+        const result = await invoke<{ status: string }>(otherTwin, "moveToJointPosition", { joints: target, speed: 1 });
+        expect(result.status).toBe("reached");
+        await until("the page to show the other robot's new joints", async () => maxDiff(target, (await debug()).otherRobots[other]?.joints ?? {}) < 1e-3);
+      } finally {
+        await otherSession.close();
+      }
+      // This twin's own model did not take the other robot's joints.
+      const mineNow = await read<Joints>(await session.connect(`${sharedBase}${mine}`), "getJointPosition");
+      expect(maxDiff(mineNow, (await debug()).joints)).toBeLessThan(1e-6);
+      expect((await debug()).errors).toEqual([]);
+      expect(problems).toEqual([]);
+      await page.screenshot({ path: join(ARTIFACTS, "viewer-two-robots.png") });
+    });
   });
 
   it("reports a missing mesh in the page and still shows the rest", async () => {

@@ -23,6 +23,8 @@ export interface DebugState {
   pointCloud: { shown: number; total: number; collisionFree: number } | null;
   workspaceTriangles: number;
   obstacles: string[];
+  /** Robots of the other twins sharing this world: base position (URDF world, m) and joints shown. */
+  otherRobots: Record<string, { base: number[]; joints: Record<string, number> }>;
   errors: string[];
   twins: string[];
 }
@@ -42,6 +44,7 @@ export const debugState: DebugState = {
   pointCloud: null,
   workspaceTriangles: 0,
   obstacles: [],
+  otherRobots: {},
   errors: [],
   twins: [],
 };

@@ -14,6 +14,7 @@ import { isRecord } from "./http.js";
 import { JointPanel } from "./joint-panel.js";
 import { LiveClient } from "./live.js";
 import { MotionPanel } from "./motion-panel.js";
+import { showOtherRobots } from "./other-robots.js";
 import { applyJoints, highlightLink, loadRobot } from "./robot.js";
 import { ObstacleLayer } from "./scene-layer.js";
 import { Stage, TargetMarker } from "./stage.js";
@@ -97,7 +98,9 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   const surfaceTask = loadSurface(td, stage, motion);
   const stateTask = loadState(td, motion, cartesian, showCalibration).then((q) => (latest ??= q));
 
-  startLive(td, slug, {
+  const liveUrl = td.live ?? `${location.protocol === "https:" ? "wss:" : "ws:"}//${location.host}/live`;
+  const othersTask = showOtherRobots(slug, stage, motion, liveUrl);
+  startLive(liveUrl, slug, {
     joints: (q, msg) => {
       latest = q;
       const p = msg["position"];
@@ -117,8 +120,8 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     },
   });
 
-  const results = await Promise.allSettled([robotTask, sceneTask, cloudTask, surfaceTask, stateTask]);
-  const labels = ["model", "scene", "workspace.csv", "workspace.stl", "state"];
+  const results = await Promise.allSettled([robotTask, sceneTask, cloudTask, surfaceTask, stateTask, othersTask]);
+  const labels = ["model", "scene", "workspace.csv", "workspace.stl", "state", "other robots of this world"];
   results.forEach((r, i) => {
     if (r.status === "rejected") showError(labels[i] ?? "load", r.reason);
   });
@@ -126,6 +129,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   if (results[0].status === "fulfilled") framed.push(results[0].value);
   if (results[3].status === "fulfilled" && results[3].value) framed.push(results[3].value);
   else if (results[2].status === "fulfilled" && results[2].value) framed.push(results[2].value);
+  if (results[5].status === "fulfilled" && results[5].value) framed.push(results[5].value);
   stage.frame(framed);
   debugState.phase = results[0].status === "fulfilled" ? "ready" : "error";
   publishDebug();
@@ -153,11 +157,10 @@ async function loadState(
 }
 
 function startLive(
-  td: TwinTd,
+  url: string,
   slug: string,
   on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision" | "scene">,
 ): void {
-  const url = td.live ?? `${location.protocol === "https:" ? "wss:" : "ws:"}//${location.host}/live`;
   const badge = document.getElementById("connection");
   // Count every message so tests and users can see the stream is flowing.
   const counted =
