@@ -24,6 +24,8 @@ export interface Backend {
   listWorld(): Promise<WorldList>;
   resetWorld(): Promise<void>;
   exportRobot(params: { robot: string; outDir: string }): Promise<void>;
+  /** Starts the backend's collision workers ahead of `generateWorkspace` (an optimisation: never fails). */
+  warmUp(workers?: number): Promise<void>;
   generateWorkspace(
     params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
     onProgress: (p: Progress) => void,
@@ -64,6 +66,9 @@ class SimBackend implements Backend {
   }
   async exportRobot(params: { robot: string; outDir: string }): Promise<void> {
     await this.client.exportRobot(params.robot, params.outDir);
+  }
+  async warmUp(workers?: number): Promise<void> {
+    await this.client.warmUp(workers).catch(() => undefined);
   }
   generateWorkspace(
     params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },

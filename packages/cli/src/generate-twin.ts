@@ -98,6 +98,8 @@ export async function generateTwin(
   const t0 = performance.now();
   progress.stage("load");
   const urdf = urdfPath(opts, backend.pybulletData);
+  // The backend starts its collision workers (and loads the alpha-shape code) while it loads the scene.
+  await backend.warmUp(opts.workers);
   const model = await loadRobotInScene(opts, backend, urdf);
   const world = await backend.listWorld();
   const obstacles = world.obstacles;

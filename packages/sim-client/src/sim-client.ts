@@ -186,6 +186,11 @@ export class SimClient {
   }
 
   // ---- workspace ----
+  /** Starts the backend's collision worker pool in the background (returns at once), so a coming
+   * `generateWorkspace` with the same `workers` count does not wait for it. */
+  warmUp(workers?: number): Promise<{ workers: number }> {
+    return this.call("workspace.warmUp", workers === undefined ? {} : { workers });
+  }
   /** Blocking generation on the backend (no timeout unless given); progress via `onProgress`. */
   async generateWorkspace(params: GenerateWorkspaceParams, options: GenerateOptions = {}): Promise<WorkspaceSummary> {
     const { onProgress, ...callOptions } = options;

@@ -1,4 +1,5 @@
-"""`workspace.generate`: blocking generation in a worker thread, progress as notifications."""
+"""`workspace.generate`: blocking generation in a worker thread, progress as notifications.
+`workspace.warmUp`: start the collision worker pool (and load the alpha-shape code) ahead of time."""
 
 from __future__ import annotations
 
@@ -9,10 +10,17 @@ from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params, invalid_param
 from robwot_sim.rpc.services import Services
-from robwot_sim.workspace import generate_workspace
+from robwot_sim.workspace import generate_workspace, warm_up
 
 
 def register(d: Dispatcher, s: Services) -> None:
+    @d.method("workspace.warmUp", ("workers",),
+              "start the collision worker pool in the background, so a coming generation does not wait")
+    async def warm(p: Params, call: Call) -> dict[str, Any]:
+        workers = p.integer("workers", os.cpu_count() or 1, minimum=1, maximum=256)
+        warm_up(workers, preload=True)
+        return {"workers": workers}
+
     @d.method("workspace.generate",
               ("robot", "samples", "seed", "workers", "alpha", "outDir", "csvJoints"),
               "sample the reachable, collision-free workspace; write workspace.csv and workspace.stl")
