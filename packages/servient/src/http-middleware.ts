@@ -12,6 +12,8 @@ import { requestContext, type RequestContext } from "./request-context.js";
 import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
 
 const MAX_BODY = 1 << 20;
+/** URL segment after `/<slug>/` → affordance kind named in a 404 */
+const AFFORDANCE_KINDS: Record<string, string> = { properties: "property", actions: "action", events: "event" };
 
 export interface ServedThing {
   slug: string;
@@ -99,11 +101,23 @@ export function createMiddleware(env: MiddlewareEnv) {
         const file = confine(thing.dir, rest);
         return file ? sendFile(req, res, file) : notFound(res, path);
       }
+      const kind = AFFORDANCE_KINDS[segments[1] ?? ""];
+      if (kind && segments.length >= 3) {
+        const available = Object.keys((thing.td()[segments[1] as string] ?? {}) as object);
+        const name = segments[2] as string;
+        if (!available.includes(name)) {
+          throw new ServientError(404, "E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
+        }
+      }
       const ctx: RequestContext = { hasBody: false };
       if (segments[1] === "actions" && segments.length === 3 && method === "POST") {
         const name = segments[2] as string;
         const schema = thing.actionInput(name);
         if (schema !== null) {
+          const type = req.headers["content-type"];
+          if (type !== undefined && !/json/i.test(type)) {
+            throw new ServientError(415, "E_UNSUPPORTED_MEDIA_TYPE", `action bodies are JSON: send Content-Type: application/json (got ${type})`, { contentType: type });
+          }
           const body = parseBody(await readBody(req), schema !== undefined, name);
           validateInput(schema, body, name);
           ctx.body = body;

@@ -1,0 +1,47 @@
+/**
+ * End to end: mistakes a newcomer makes with curl get a JSON answer that says what is wrong:
+ * an unknown affordance name (404 naming the available ones) and a non-JSON content type on an
+ * action (415 naming the header to send), instead of node-wot's bare 404 / 415.
+ */
+import { afterAll, beforeAll, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { generateTwin, http } from "./serve-helpers.js";
+
+let s: RunningServient;
+let base: string;
+beforeAll(async () => {
+  s = await startServient({ twins: [await generateTwin("kuka_iiwa", 500)], port: 0, realtime: 0 });
+  base = `${s.url}/${s.things[0]!.slug}`;
+});
+afterAll(async () => s?.stop());
+
+it("an unknown property, action or event answers 404 JSON listing the available names", async () => {
+  const p = await http(`${base}/properties/jointPosition`);
+  expect(p.status).toBe(404);
+  expect(p.body).toMatchObject({ code: "E_NOT_FOUND", message: expect.stringContaining("jointPosition") });
+  expect(p.body.details.available).toContain("getJointPosition");
+  const a = await http(`${base}/actions/movetoCartesianPosition`, {
+    method: "POST",
+    headers: { "content-type": "application/json" },
+    body: JSON.stringify({ x: 0.4, y: 0.1, z: 0.5 }),
+  });
+  expect(a.status).toBe(404);
+  expect(a.body.details.available).toContain("moveToCartesianPosition");
+  const e = await http(`${base}/events/collisions`);
+  expect(e.status).toBe(404);
+  expect(e.body.details.available).toEqual(["collision"]);
+  // known names still work
+  expect((await http(`${base}/properties/getJointPosition`)).status).toBe(200);
+}, 300_000);
+
+it("an action body sent as a form (curl -d without a content type) answers 415 JSON naming the header", async () => {
+  const before = (await http(`${base}/properties/getJointPosition`)).body;
+  const r = await http(`${base}/actions/moveToCartesianPosition`, {
+    method: "POST",
+    headers: { "content-type": "application/x-www-form-urlencoded" },
+    body: JSON.stringify({ x: 0.4, y: 0.1, z: 0.5 }),
+  });
+  expect(r.status).toBe(415);
+  expect(r.body).toMatchObject({ code: "E_UNSUPPORTED_MEDIA_TYPE", message: expect.stringContaining("application/json") });
+  expect((await http(`${base}/properties/getJointPosition`)).body).toEqual(before);
+}, 300_000);
