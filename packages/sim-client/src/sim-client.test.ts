@@ -126,9 +126,10 @@ describe("SimClient against the real backend", () => {
     expect((await sim.ping()).pybullet).toBe("3.2.7");
   });
 
-  it("generates a workspace with progress callbacks", async () => {
+  it("warms up the workers, then generates a workspace with progress callbacks", async () => {
     const out = mkdtempSync(join(tmpdir(), "robwot-ws-"));
     const stages: string[] = [];
+    expect(await sim.warmUp(1)).toEqual({ workers: 1 });
     const summary = await sim.generateWorkspace(
       { robot: "kuka", outDir: out, samples: 2000, seed: 3, workers: 1 },
       { onProgress: (p) => stages.push(p.stage) },
