@@ -69,7 +69,34 @@ export function existingFile(what: string, path: string): string {
   return abs;
 }
 
-/** node's `parseArgs` errors span several lines: one line, pointing at the command's help. */
-export function usageError(err: unknown, command: string): CliError {
-  return new CliError(`${(err as Error).message.replace(/\s*\n\s*/g, " ")} (see robwot ${command} --help)`);
+/** Edit distance (insert, delete, substitute, swap of neighbours) between two short strings. */
+function distance(a: string, b: string): number {
+  const d = Array.from({ length: a.length + 1 }, (_, i) => Array.from({ length: b.length + 1 }, (_, j) => (i === 0 ? j : j === 0 ? i : 0)));
+  for (let i = 1; i <= a.length; i++) {
+    for (let j = 1; j <= b.length; j++) {
+      const row = d[i]!;
+      const cost = a[i - 1] === b[j - 1] ? 0 : 1;
+      row[j] = Math.min(d[i - 1]![j]! + 1, row[j - 1]! + 1, d[i - 1]![j - 1]! + cost);
+      if (i > 1 && j > 1 && a[i - 1] === b[j - 2] && a[i - 2] === b[j - 1]) row[j] = Math.min(row[j]!, d[i - 2]![j - 2]! + 1);
+    }
+  }
+  return d[a.length]![b.length]!;
+}
+
+/**
+ * node's `parseArgs` errors span several lines: one line, pointing at the command's help. An unknown
+ * option (`--sampels`) is named with the closest of `known` (the command's option names) when one is close.
+ */
+export function usageError(err: unknown, command: string, known: string[] = []): CliError {
+  const message = (err as Error).message;
+  const unknown = /^Unknown option '(-{1,2}[^']+)'/.exec(message)?.[1];
+  if (unknown !== undefined) {
+    const name = unknown.replace(/^-+/, "").split("=")[0] ?? "";
+    const best = known.map((k) => ({ k, d: distance(name, k) })).sort((x, y) => x.d - y.d)[0];
+    const prefixed = name.length >= 3 ? known.find((k) => k.startsWith(name)) : undefined;
+    const close = best && best.d <= Math.max(1, Math.floor(name.length / 3)) ? best.k : prefixed;
+    const guess = close !== undefined ? `did you mean --${close}?; ` : "";
+    return new CliError(`unknown option ${unknown} (${guess}see robwot ${command} --help)`);
+  }
+  return new CliError(`${message.replace(/\s*\n\s*/g, " ")} (see robwot ${command} --help)`);
 }

@@ -65,7 +65,7 @@ export async function run(argv: string[]): Promise<number> {
       strict: true,
     }));
   } catch (err) {
-    throw usageError(err, "demo");
+    throw usageError(err, "demo", ["out", "samples", "regenerate", "port", "host", "realtime", "no-serve"]);
   }
   const out = resolve(values.out ?? join("twins", "demo-kuka"));
   const samples = parseInteger("samples", values.samples, 80_000, 100, 10_000_000);

@@ -88,7 +88,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   try {
     parsed = parseArgs({ args: argv, options: GENERATE_OPTIONS, allowPositionals: true, strict: true });
   } catch (err) {
-    throw usageError(err, "generate");
+    throw usageError(err, "generate", Object.keys(GENERATE_OPTIONS));
   }
   const { values, positionals } = parsed;
   if (positionals.length !== 1) {

@@ -62,7 +62,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   try {
     parsed = parseArgs({ args: argv, options: SERVE_OPTIONS, allowPositionals: true, strict: true });
   } catch (err) {
-    throw usageError(err, "serve");
+    throw usageError(err, "serve", Object.keys(SERVE_OPTIONS));
   }
   const { values, positionals } = parsed;
   if (positionals.length === 0) throw new CliError("missing twin folder (robwot serve <twin-folder>...)");
