@@ -10,6 +10,7 @@ import math
 import os
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -110,7 +111,8 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
 
     Returns the WorkspaceSummary; ``bounds`` are those of the collision-free points (``None`` when there
     is none); ``timings`` in seconds: ``sample`` = sampling + FK, ``collide`` = wall time of the parallel
-    labelling (FK runs in the meantime), ``alpha``, ``write``. A ``warning`` key appears when the
+    labelling (FK runs in the meantime), ``alpha``, ``write`` (after the alpha shape: the CSV is written
+    during it, by a second thread). A ``warning`` key appears when the
     alpha shape fell back to the convex hull.
     """
     n_workers, alpha_arg = _check(samples, seed, workers, alpha)
@@ -146,12 +148,19 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     report("alpha", 0, 1)
     from robwot_sim.workspace.alpha_shape import alpha_shape
 
-    shape = alpha_shape(positions[free], alpha_arg)
-    report("alpha", 1, 1)
-    t3 = time.perf_counter()
-
-    report("write", 0, 2)
-    write_csv(out / "workspace.csv", positions, free, qs if csv_joints else None, model.controllable)
+    # The CSV is written by a second thread while Qhull (which releases the GIL) triangulates.
+    with ThreadPoolExecutor(1, thread_name_prefix="robwot-write-csv") as writer:
+        csv = writer.submit(write_csv, out / "workspace.csv", positions, free, qs if csv_joints else None,
+                            model.controllable)
+        try:
+            shape = alpha_shape(positions[free], alpha_arg)
+        except BaseException:
+            csv.cancel()
+            raise
+        report("alpha", 1, 1)
+        t3 = time.perf_counter()
+        report("write", 0, 2)
+        csv.result()
     report("write", 1, 2)
     write_stl(out / "workspace.stl", shape.vertices, shape.triangles)
     report("write", 2, 2)
