@@ -109,6 +109,13 @@ export function createMiddleware(env: MiddlewareEnv) {
           throw new ServientError(404, "E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
         }
       }
+      if (get && kind === "property" && segments[3] === "observable") {
+        // node-wot 0.9.2 unsubscribes a long-poll observer on 'finish' only: one that went away first
+        // would have every later value piped into its dead response (listener leak)
+        res.on("close", () => {
+          if (!res.writableFinished) res.emit("finish");
+        });
+      }
       const ctx: RequestContext = { hasBody: false };
       if (segments[1] === "actions" && segments.length === 3 && method === "POST") {
         const name = segments[2] as string;
