@@ -104,6 +104,21 @@ export async function generateTwin(
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
 
+  // Generation starts first: the backend serves the export (and the CLI writes its files) meanwhile.
+  const generating = backend.generateWorkspace(
+    {
+      robot: model.id,
+      samples: opts.samples,
+      seed: opts.seed,
+      ...(opts.workers !== undefined ? { workers: opts.workers } : {}),
+      alpha: opts.alpha,
+      outDir: staged.tmp,
+      csvJoints: opts.csvJoints,
+    },
+    (p) => progress.update(p.stage, p.done, p.total),
+  );
+  // Abandoned (and rejected when the backend stops) if the export or the early TD check below fails.
+  generating.catch(() => undefined);
   await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
   const scene = sceneDocument(world, model.id, staged.tmp, opts.scene);
   writeJson(join(staged.tmp, "scene.json"), scene);
@@ -121,20 +136,6 @@ export async function generateTwin(
     tool: `robwot ${VERSION}`,
   });
 
-  const generating = backend.generateWorkspace(
-    {
-      robot: model.id,
-      samples: opts.samples,
-      seed: opts.seed,
-      ...(opts.workers !== undefined ? { workers: opts.workers } : {}),
-      alpha: opts.alpha,
-      outDir: staged.tmp,
-      csvJoints: opts.csvJoints,
-    },
-    (p) => progress.update(p.stage, p.done, p.total),
-  );
-  // Abandoned (and rejected when the backend stops) if the early TD check below fails.
-  generating.catch(() => undefined);
   // While the backend samples: validate the TD's structure (placeholder bounds). This loads the official
   // validator (~1 s) off the critical path, and a model that cannot make a valid TD fails fast.
   const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl).validate())().catch(
