@@ -43,4 +43,8 @@ describe("serve options", () => {
     expect(() => parseServeArgs([join(dir, "twin"), "--relay", "ftp://x"])).toThrow(/--relay must use http or https/);
     expect(() => parseServeArgs([])).toThrow(/missing twin folder/);
   });
+
+  it("refuses a folder given twice (two robots on one base: every pose would collide)", () => {
+    expect(() => parseServeArgs([join(dir, "twin"), join(dir, ".", "twin") + "/"])).toThrow(/twin folder given twice: .*twin \(copy the folder/);
+  });
 });

@@ -67,6 +67,10 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   const { values, positionals } = parsed;
   if (positionals.length === 0) throw new CliError("missing twin folder (robwot serve <twin-folder>...)");
   const folders = positionals.map(checkTwinFolder);
+  const twice = folders.find((f, i) => folders.indexOf(f) !== i);
+  if (twice !== undefined) {
+    throw new CliError(`twin folder given twice: ${twice} (copy the folder to serve a second robot; place it in its twin.json)`);
+  }
   const host = values.host ?? "127.0.0.1";
   if (host.trim() === "") throw new CliError("--host must not be empty");
   const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
