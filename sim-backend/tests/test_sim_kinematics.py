@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -158,3 +159,22 @@ def test_continuous_joint_range_and_ik() -> None:
         r = w.ik(m.id, target.position, seed=[-3.0, 0.0])
         assert -math.pi <= r.positions[0] <= math.pi
         assert r.position_error < 1e-3
+
+
+def test_ik_same_request_same_answer() -> None:
+    """The same state and target always get the same IK solution (validate-then-move must agree), even
+    when random restarts are needed; the world's other calls in between do not change it."""
+    scene = Path(__file__).resolve().parents[2] / "examples" / "scenes" / "obstacles-4.json"
+    with World() as w:
+        w.load_scene(scene)
+        m = w.load_robot("franka_panda/panda.urdf")
+        targets = [(-0.385, 0.003, 0.357), (-0.3, -0.4, 0.2), (0.1, -0.5, 0.6), (-0.5, 0.2, 0.5)]
+        for t in targets:
+            answers = set()
+            for _ in range(4):
+                try:
+                    answers.add(tuple(np.round(w.ik(m.id, t).positions, 12)))
+                except Unreachable as e:
+                    answers.add(("unreachable", round(float(e.data["positionError"]), 12)))
+                w.ik(m.id, (0.4, 0.1, 0.5))  # an unrelated request in between
+            assert len(answers) == 1, f"target {t}: {len(answers)} different answers"

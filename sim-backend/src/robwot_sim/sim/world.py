@@ -8,6 +8,7 @@ collision, motion planning, export).
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -28,6 +29,16 @@ from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _locked
 from robwot_sim.sim.world_scene import WorldScene
 
 __all__ = ["World"]
+
+
+def _request_rng(salt: int, *parts: Sequence[float] | npt.NDArray[np.float64] | None) -> np.random.Generator:
+    """IK restarts seeded from the request itself (state, target, orientation): the same question always
+    gets the same answer, so a target validated as reachable and collision-free is solved the same way
+    when the move follows; different requests still get independent restarts."""
+    h = hashlib.blake2b(digest_size=16)
+    for p in parts:
+        h.update(b"-" if p is None else np.ascontiguousarray(p, dtype=np.float64).tobytes())
+    return np.random.default_rng([salt, *np.frombuffer(h.digest(), dtype=np.uint32).tolist()])
 
 
 class World(WorldScene):
@@ -69,7 +80,8 @@ class World(WorldScene):
             return e.checker.is_free()
 
         try:
-            res = solve_ik(b, pos, quat, start, self._rng, is_free if want_free else None)
+            rng = _request_rng(self._ik_salt, pos, quat, start)
+            res = solve_ik(b, pos, quat, start, rng, is_free if want_free else None)
             if not want_free:
                 res = replace(res, collision_free=is_free(np.array(res.positions)))
             return res

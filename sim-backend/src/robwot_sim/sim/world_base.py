@@ -45,7 +45,7 @@ class WorldBase:
         self.table = BodyTable()
         self._robots: dict[str, RobotEntry] = {}
         self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
-        self._rng = np.random.default_rng(ik_seed)
+        self._ik_salt = ik_seed  # salts the per-request IK restart seeds (see World.ik)
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
 
     def __enter__(self) -> Self:
