@@ -136,8 +136,8 @@ export async function generateTwin(
     tool: `robwot ${VERSION}`,
   });
 
-  // While the backend samples: validate the TD's structure (placeholder bounds). This loads the official
-  // validator (~1 s) off the critical path, and a model that cannot make a valid TD fails fast.
+  // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
+  // make a valid TD fails fast (the validator was loaded and warmed while the backend started).
   const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl).validate())().catch(
     (err: unknown) => [err instanceof Error ? err.message : String(err)],
   );
