@@ -27,7 +27,7 @@ class WorldScene(WorldBase):
             )
         roots = v.string_map("packageRoots", package_roots)
         doc, base, _file = read_scene(scene)
-        specs = [normalise_obstacle(o, base) for o in doc.get("obstacles", [])]
+        specs = [normalise_obstacle(o, base, checked=True) for o in doc.get("obstacles", [])]
         for s in specs:
             self._check_free_name(s["name"])
         added_obs: list[str] = []
