@@ -68,6 +68,8 @@ class SimBackend implements Backend {
     await this.client.exportRobot(params.robot, params.outDir);
   }
   async warmUp(workers?: number): Promise<void> {
+    // only a head start for the worker pool: if it fails, workspace.generate starts the pool itself and
+    // reports any real failure (an older backend without workspace.warmUp also lands here)
     await this.client.warmUp(workers).catch(() => undefined);
   }
   generateWorkspace(

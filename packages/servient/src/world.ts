@@ -82,6 +82,8 @@ export class World extends EventEmitter<{ scene: [] }> {
       })) as Twin["model"];
       twin.model = model;
       if (model && twin.q.length === model.controllable.length) {
+        // best effort: if the last state cannot be restored, the loop below reads back the state the
+        // backend really has, so the twin never reports joints the simulation does not hold
         await call("robot.setJointPositions", { robot: twin.robotId, positions: twin.q }).catch(() => undefined);
       }
     }
