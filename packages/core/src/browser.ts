@@ -21,3 +21,4 @@ export { loadWorkspaceFromUrls } from "./workspace/load-url.js";
 export type { FetchLike } from "./workspace/load-url.js";
 export { solveCalibration, applyCalibration, invertCalibration, COLLINEAR_RATIO, COINCIDENT_SPREAD } from "./calibration.js";
 export type { Calibration, CalibrationPair, PointLike } from "./calibration.js";
+export { gaussian, mulberry32 } from "./random.js";

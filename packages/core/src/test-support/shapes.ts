@@ -1,21 +1,11 @@
 /** Generated test geometry: icospheres, boxes, shells, seeded random points. */
 
-/** Mulberry32: small seeded PRNG in [0, 1). */
-export function rng(seed: number): () => number {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
+import { gaussian, mulberry32 } from "../random.js";
 
+/** Seeded uniform numbers in [0, 1) (mulberry32). */
+export const rng = mulberry32;
 /** Standard normal sample (Box-Muller). */
-export function gauss(r: () => number): number {
-  return Math.sqrt(-2 * Math.log(1 - r())) * Math.cos(2 * Math.PI * r());
-}
+export const gauss = gaussian;
 
 /** Icosphere (outward, counter-clockwise seen from outside); subdivisions s gives 20·4^s triangles. */
 export function icosphere(subdivisions: number, radius = 1, center: readonly number[] = [0, 0, 0]): Float64Array {
