@@ -4,6 +4,8 @@
  * Quaternions as tuples are `[x, y, z, w]`; as objects `{x, y, z, w}`.
  */
 
+import type { Calibration } from "./calibration.js";
+
 export type Vec3 = [number, number, number];
 /** Quaternion `[x, y, z, w]`. */
 export type QuatXyzw = [number, number, number, number];
@@ -148,12 +150,4 @@ export interface CollisionEvent {
 }
 
 /** `calibration.json` (Contract 2): x_real = scale · rotation · x_virtual + translation. */
-export interface CalibrationFile {
-  scale: number;
-  rotation: number[][];
-  translation: Vec3;
-  rms: number;
-  pairs: number;
-  withScale: boolean;
-  createdAt: string;
-}
+export type CalibrationFile = Omit<Calibration, "residuals"> & { createdAt: string };
