@@ -42,7 +42,8 @@ export function registerActions(thing: WoT.ExposedThing, d: ActionDeps): void {
   on<CartesianInput>("moveToCartesianPosition", (i) => d.mover.moveCartesian(i));
   on<JointInput>("validateJointPosition", (i) => d.mover.validateJoints(i));
   on<CartesianInput>("validateCartesianPosition", (i) => d.mover.validateCartesian(i));
-  on("stop", () => d.mover.stop());
+  // a stop is never refused, not even while the backend restarts: it cancels a pending move
+  on("stop", () => d.mover.stop(), false);
   on<CalibrateInput>(
     "calibrate",
     (i) => {

@@ -3,6 +3,11 @@
  * twin's state and motion status current, relay to the physical robot when configured.
  * A move while the twin is moving answers 409 `E_BUSY`; a rejected target 422 `E_REJECTED` with the
  * validation report in `details`; the twin does not move in either case.
+ *
+ * A stop always wins: from the moment a move is accepted (before validation, IK and the path check)
+ * it holds a `PendingMove`; `stop` cancels it, so a move stopped before its motion started answers
+ * `status: "stopped"` without moving, and one stopped during its motion is stopped by the backend
+ * (`robot.stop` follows `robot.move` on the same ordered connection, so it cannot overtake it).
  */
 import type { Contact, MoveResult, Quaternion, Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "./backend.js";
@@ -61,7 +66,14 @@ export function cartesianTarget(input: CartesianInput): { real: Vec3; orientatio
   return { real: vec(input) };
 }
 
+/** A move from its acceptance to its end; `cancelled` is set by `stop`. */
+interface PendingMove {
+  cancelled: boolean;
+}
+
 export class Mover {
+  private pending: PendingMove | null = null;
+
   constructor(
     private readonly backend: BackendSupervisor,
     private readonly twin: Twin,
@@ -83,11 +95,13 @@ export class Mover {
   async moveJoints(input: JointInput): Promise<RelayedMoveResult> {
     const q = this.twin.jointsVector(input.joints);
     const speed = speedOf(input);
-    return this.guarded(async () => {
+    return this.guarded(async (move) => {
       const plan = await validateJoints(this.backend, this.twin, q, speed);
+      if (move.cancelled) return this.cancelled();
       this.reject(plan);
       const result = await this.execute(plan.target, speed);
-      if (result.status === "reached" && this.relay) {
+      // a stop that came after the simulated motion ended still keeps the command from the physical robot
+      if (result.status === "reached" && this.relay && !move.cancelled) {
         result.relay = await this.relay.forward("moveToJointPosition", { joints: this.twin.jointsRecord(q), speed });
         this.reportRelay(result.relay);
       }
@@ -98,13 +112,15 @@ export class Mover {
   async moveCartesian(input: CartesianInput): Promise<RelayedMoveResult> {
     const t = cartesianTarget(input);
     const speed = speedOf(input);
-    return this.guarded(async () => {
+    return this.guarded(async (move) => {
       const plan = await validateCartesian(this.backend, this.twin, this.ws, t.real, t.orientation, speed);
+      if (move.cancelled) return this.cancelled();
       this.reject(plan);
       const result = await this.execute(plan.target, speed);
       const p = result.position;
       result.positionError = Math.hypot(p.x - t.real[0], p.y - t.real[1], p.z - t.real[2]);
-      if (result.status === "reached" && this.relay) {
+      // a stop that came after the simulated motion ended still keeps the command from the physical robot
+      if (result.status === "reached" && this.relay && !move.cancelled) {
         const cmd: Record<string, unknown> = { x: t.real[0], y: t.real[1], z: t.real[2], speed };
         if (t.orientation) cmd.orientation = t.orientation;
         result.relay = await this.relay.forward("moveToCartesianPosition", cmd);
@@ -114,15 +130,23 @@ export class Mover {
     });
   }
 
+  /**
+   * Cancels the pending move (whatever stage it is in) and stops the backend's motion; `stopped` is
+   * true when a move was pending or the backend or the physical robot stopped one. A stop is never
+   * refused: with the backend down the pending move is still cancelled.
+   */
   async stop(): Promise<{ stopped: boolean }> {
-    const r = await this.backend.call<{ stopped: boolean }>("robot.stop", { robot: this.twin.robotId });
+    const move = this.pending;
+    if (move) move.cancelled = true;
+    let backendStopped = false;
+    if (this.backend.isUp) backendStopped = (await this.backend.call<{ stopped: boolean }>("robot.stop", { robot: this.twin.robotId })).stopped;
     let relayed = false;
     if (this.relay) relayed = (await this.relay.forward("stop", undefined)).ok;
-    return { stopped: r.stopped || relayed };
+    return { stopped: move !== null || backendStopped || relayed };
   }
 
-  /** One move at a time per twin: the busy flag is taken before validation starts. */
-  private async guarded(run: () => Promise<RelayedMoveResult>): Promise<RelayedMoveResult> {
+  /** One move at a time per twin: the busy flag and the pending move are taken before validation starts. */
+  private async guarded(run: (move: PendingMove) => Promise<RelayedMoveResult>): Promise<RelayedMoveResult> {
     if (this.twin.busy) {
       throw new ServientError(409, "E_BUSY", `${this.twin.slug} is already moving; call stop first or wait for the motion to end`, {
         thing: this.twin.slug,
@@ -130,11 +154,23 @@ export class Mover {
       });
     }
     this.twin.busy = true;
+    const move: PendingMove = { cancelled: false };
+    this.pending = move;
     try {
-      return await run();
+      return await run(move);
     } finally {
+      this.pending = null;
       this.twin.busy = false;
     }
+  }
+
+  /** The answer of a move stopped before its motion started: the twin has not moved. */
+  private cancelled(): RelayedMoveResult {
+    const twin = this.twin;
+    const pose = twin.realPose();
+    const result: RelayedMoveResult = { status: "stopped", joints: twin.jointsRecord(), position: pose.position, orientation: pose.orientation, duration: 0 };
+    twin.setStatus({ state: "stopped", lastError: { code: "E_STOPPED", message: "stopped before the motion started" }, lastResult: result });
+    return result;
   }
 
   private reject(plan: JointPlan): void {

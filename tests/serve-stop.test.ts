@@ -1,0 +1,80 @@
+/**
+ * A stop always wins: whenever it arrives after a move was accepted — during validation, IK, the path
+ * check or the motion — the move answers `stopped`, `stop` answers `{stopped: true}` and the twin does
+ * not go on moving. Real servient, real backend, real HTTP.
+ */
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+
+let s: RunningServient;
+let base: string;
+const HOME = kukaPose([0, 0, 0, 0, 0, 0, 0]);
+const FAR = kukaPose([1.5, 0.4, 0, -1.0, 0, 0.5, 0]);
+
+beforeAll(async () => {
+  s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 1 });
+  base = `${s.url}/${s.things[0]!.slug}`;
+});
+afterAll(async () => s?.stop());
+
+/** Resolves as soon as the servient has accepted the move (busy from acceptance until the answer). */
+async function accepted(): Promise<void> {
+  const twin = [...s.twins.values()][0]!;
+  const end = Date.now() + 10_000;
+  while (!twin.busy) {
+    if (Date.now() > end) throw new Error("the move was not accepted within 10 s");
+    await new Promise((r) => setImmediate(r));
+  }
+}
+
+const joints = async (): Promise<Record<string, number>> => (await http(`${base}/properties/getJointPosition`)).body;
+
+/** Cartesian position of FAR, read from the twin itself (so the target is reachable). */
+async function farPosition(): Promise<{ x: number; y: number; z: number }> {
+  expect((await invoke(base, "moveToJointPosition", { joints: FAR })).body.status).toBe("reached");
+  const p = (await http(`${base}/properties/getCartesianPosition`)).body;
+  return { x: p.x, y: p.y, z: p.z };
+}
+
+describe("stop during any stage of a move", () => {
+  const delays = [0, 1, 3, 10, 30, 100, 300];
+
+  it.each(delays)("joint move, stop %i ms after acceptance: stopped, and the twin stays where the move answered", async (delay) => {
+    expect((await invoke(base, "moveToJointPosition", { joints: HOME })).body.status).toBe("reached");
+    const move = invoke(base, "moveToJointPosition", { joints: FAR, speed: 0.2 });
+    await accepted();
+    await sleep(delay);
+    const stop = await invoke(base, "stop", "");
+    const r = await move;
+    expect(stop.body).toEqual({ stopped: true });
+    expect(r.status).toBe(200);
+    expect(r.body.status).toBe("stopped");
+    await sleep(150);
+    const after = await joints();
+    for (const [name, v] of Object.entries(r.body.joints as Record<string, number>)) expect(after[name]).toBeCloseTo(v, 9);
+    expect(after.lbr_iiwa_joint_1).toBeLessThan(1.49);
+    expect((await http(`${base}/properties/motionStatus`)).body.state).toBe("stopped");
+  });
+
+  it.each(delays)("Cartesian move, stop %i ms after acceptance: stopped before reaching the target", async (delay) => {
+    const target = await farPosition();
+    expect((await invoke(base, "moveToJointPosition", { joints: HOME })).body.status).toBe("reached");
+    const move = invoke(base, "moveToCartesianPosition", { ...target, speed: 0.2 });
+    await accepted();
+    await sleep(delay);
+    const stop = await invoke(base, "stop", "");
+    const r = await move;
+    expect(stop.body).toEqual({ stopped: true });
+    expect(r.status).toBe(200);
+    expect(r.body.status).toBe("stopped");
+    await sleep(150);
+    const p = (await http(`${base}/properties/getCartesianPosition`)).body;
+    expect(Math.hypot(p.x - r.body.position.x, p.y - r.body.position.y, p.z - r.body.position.z)).toBeLessThan(1e-9);
+    expect(Math.hypot(p.x - target.x, p.y - target.y, p.z - target.z)).toBeGreaterThan(0.01);
+  });
+
+  it("a stop with nothing pending answers {stopped: false}", async () => {
+    expect((await invoke(base, "stop", "")).body).toEqual({ stopped: false });
+  });
+});
