@@ -6,7 +6,7 @@
 //   npm run bench:generate -- --runs 1 --samples 20000 --robots kuka_iiwa,ur3
 //   options: --runs N, --samples N, --robots a,b, --scenes 4,66,135,239, --workers N, --json FILE
 import { spawnSync } from "node:child_process";
-import { existsSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
+import { existsSync, mkdtempSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { dirname, join } from "node:path";
 import { fileURLToPath } from "node:url";

@@ -154,7 +154,7 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
   });
 
   it("obstacles added, moved and removed through the servient appear in the page (live scene)", async () => {
-    const { page, problems } = browser;
+    const { problems } = browser;
     problems.length = 0;
     const crate = { name: "crate", shape: { type: "box", size: [0.1, 0.1, 0.1] }, position: [-0.9, -1.1, 0.05] };
     await invoke(twin, "addObstacle", crate);

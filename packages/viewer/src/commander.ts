@@ -30,7 +30,8 @@ export class Commander {
     }
     if (!this.stopping) {
       this.stopping = true;
-      this.stop().finally(() => (this.stopping = false));
+      // stop() reports its own failures through hooks.error and never rejects
+      void this.stop().finally(() => (this.stopping = false));
     }
   }
 

@@ -112,7 +112,9 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
       publishDebug();
       if (msg["state"] !== "moving") readProperty(td, "calibration").then(showCalibration, (e: unknown) => showError("calibration", e));
     },
-    scene: (msg) => obstacles.show(msg, true).catch((e: unknown) => showError("scene (live)", e)),
+    scene: (msg) => {
+      obstacles.show(msg, true).catch((e: unknown) => showError("scene (live)", e));
+    },
     collision: (msg) => {
       debugState.collisions++;
       publishDebug();
