@@ -140,8 +140,8 @@ function ensureSlash(u: string): string {
 }
 
 /**
- * Links and forms may name another interface address of this same servient (PITFALLS: node-wot forms
- * point at every local interface). The servient that served this page serves them too: keep the path.
+ * Links and forms may name another interface address of this same servient (node-wot 0.9.2 writes forms
+ * for every local interface). The servient that served this page serves them too: keep the path.
  */
 function sameOrigin(href: string): string {
   const u = new URL(href);

@@ -4,7 +4,7 @@
  * `@node-wot/core` and `@node-wot/binding-http` 0.9.2 are CommonJS whose named exports Node's ESM
  * loader cannot all detect (`HttpClientFactory` is missing from `import *`), so they are loaded with
  * `createRequire`. At load time ajv prints dozens of `unknown format "iri-reference" ignored` warnings
- * (PITFALLS.md); those exact lines are filtered out of `console.warn`/`console.log`, nothing else.
+ * (ajv 8 does not know the format); those exact lines are filtered out of `console.warn`/`console.log`, nothing else.
  */
 import { createRequire } from "node:module";
 import type * as NodeWotCore from "@node-wot/core";

@@ -1,6 +1,6 @@
 """Self and environment collision of a robot, with pair names and penetration depth.
 
-How (see PITFALLS.md): moving links go through Bullet's broadphase (``performCollisionDetection`` +
+How: moving links go through Bullet's broadphase (``performCollisionDetection`` +
 ``getContactPoints``). Links that never move (the fixed base and links fixed to it) are static to Bullet,
 which never pairs them with static obstacles, so they are checked with ``getClosestPoints(distance=0)``
 once per world change and cached. Moving links without mass (static to Bullet too) use

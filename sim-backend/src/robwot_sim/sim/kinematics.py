@@ -1,6 +1,7 @@
 """Forward and inverse kinematics of a bound robot (end-effector *link frame*, world frame).
 
-IK (see PITFALLS.md): PyBullet damped least squares with a small damping (1e-3) and ~100 iterations,
+IK: PyBullet damped least squares with a small damping (1e-3) and ~100 iterations (the defaults stop
+several cm off; measured <0.01 mm this way),
 the result clipped to the limits (continuous joints wrapped) and re-solved from there (chained), then
 random restarts. Solutions are always within limits; collision-free when a checker is given and one is
 found; otherwise the best colliding solution is returned flagged, or ``Unreachable`` with the best error.

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.errors import InternalError, SimError
-from robwot_sim.workspace.pool import _acquire_pool, _ping, _release_pool, _worker_label, spec_key, warm_up
+from robwot_sim.workspace.pool import acquire_pool, ping, release_pool, spec_key, warm_up, worker_label
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -49,7 +49,7 @@ class Labelling:
         self._futures: dict[int, Future[Any]] = {}  # submitted to the pool (not cancelled)
         self._stopped = False
         self._error: BaseException | None = None
-        self.pool = _acquire_pool(workers)
+        self.pool = acquire_pool(workers)
         self._released = False
         self._submitter = threading.Thread(target=self._submit_all, name="robwot-labelling-submit",
                                            daemon=True)
@@ -57,13 +57,13 @@ class Labelling:
 
     def _submit_all(self) -> None:
         try:
-            self.pool.submit(_ping)  # starts the forkserver and the workers: the slow part
+            self.pool.submit(ping)  # starts the forkserver and the workers: the slow part
             for i, (a, b) in enumerate(self.chunks):
                 with self._lock:
                     if self._stopped:
                         return
                     if i not in self._taken:
-                        self._futures[i] = self.pool.submit(_worker_label, self.key, self.spec, self.robot_id,
+                        self._futures[i] = self.pool.submit(worker_label, self.key, self.spec, self.robot_id,
                                                             np.ascontiguousarray(self.qs[a:b]))
         except (BrokenProcessPool, RuntimeError) as e:
             self._error = e
@@ -88,7 +88,7 @@ class Labelling:
                 f.cancel()
         if not self._released:
             self._released = True
-            _release_pool(self.workers, broken)
+            release_pool(self.workers, broken)
 
     def abandon(self) -> None:
         """Stop submitting, cancel what no worker has started and release the pool."""

@@ -61,7 +61,7 @@ def spec_key(spec: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray) -> Any:
+def worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray) -> Any:
     """Runs in a worker: label ``qs`` in the cached world (built from ``spec`` when the key changed).
 
     Returns the flag array, or an error dict (``SimError`` subclasses do not all survive pickling).
@@ -108,13 +108,13 @@ def _no_problem(doc: Any) -> tuple[str, str] | None:
     return None
 
 
-def _ping() -> int:
+def ping() -> int:
     return os.getpid()
 
 
-def _acquire_pool(workers: int) -> ProcessPoolExecutor:
+def acquire_pool(workers: int) -> ProcessPoolExecutor:
     """The pool of ``workers`` processes (started on first use). Idle pools of other sizes are stopped;
-    busy ones are left to finish. Pair with ``_release_pool``."""
+    busy ones are left to finish. Pair with ``release_pool``."""
     with _pool_lock:
         for size in [k for k in _pools if k != workers and _active.get(k, 0) == 0]:
             _pools.pop(size).shutdown(wait=False, cancel_futures=True)
@@ -127,7 +127,7 @@ def _acquire_pool(workers: int) -> ProcessPoolExecutor:
         return pool
 
 
-def _release_pool(workers: int, broken: bool = False) -> None:
+def release_pool(workers: int, broken: bool = False) -> None:
     with _pool_lock:
         _active[workers] = max(0, _active.get(workers, 0) - 1)
         if broken and workers in _pools:
@@ -154,16 +154,16 @@ def warm_up(workers: int | None = None, preload: bool = False) -> threading.Thre
     n = workers or os.cpu_count() or 1
 
     def run() -> None:
-        pool = _acquire_pool(n)
+        pool = acquire_pool(n)
         try:
-            futures = [pool.submit(_ping) for _ in range(n)]
+            futures = [pool.submit(ping) for _ in range(n)]
             if preload:
                 import robwot_sim.workspace.alpha_shape  # noqa: F401
             wait(futures)
         except (BrokenProcessPool, RuntimeError):
             pass  # a later generation reports the problem
         finally:
-            _release_pool(n)
+            release_pool(n)
 
     thread = threading.Thread(target=run, name="robwot-workspace-warm-up", daemon=True)
     thread.start()
