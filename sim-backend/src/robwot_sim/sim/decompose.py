@@ -1,0 +1,171 @@
+"""Convex decomposition of concave collision meshes, cached by content.
+
+PyBullet turns every ``<collision><mesh>`` of a moving link into ONE convex hull: a UR forearm's hull
+then touches the wrist's hull in a third of all configurations where the real meshes are apart. A link
+with several ``<collision>`` elements becomes a compound shape instead, so a concave mesh is replaced by
+its approximate convex decomposition (V-HACD, through the ``vhacdx`` bindings: ~0.5 s for a 1,000-triangle
+mesh, deterministic), one ``<collision>`` per part. A mesh that is already convex (every vertex and
+triangle centroid within ``CONVEX_TOLERANCE`` of its hull's surface) is kept as it is: its hull is exact.
+
+Parts are OBJ files under ``cache_dir/<key>/`` where the key is a digest of the mesh bytes, the scale
+and the decomposition parameters, so a cache (the twin folder's ``collision/``) is reused only for the
+same input and written atomically (temp folder + rename).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib.metadata import version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import ConvexHull, QhullError
+
+FloatArray = npt.NDArray[np.float64]
+IndexArray = npt.NDArray[np.uint32]
+MeshReader = Callable[[Path], "tuple[FloatArray, IndexArray] | None"]
+
+#: V-HACD parameters (vhacdx keyword names). 16 hulls and a 100,000-voxel grid keep UR/Panda link
+#: shapes within ~1 mm of the meshes at ~0.5 s per mesh.
+VHACD_PARAMS: dict[str, Any] = {"maxConvexHulls": 16, "resolution": 100_000, "maxNumVerticesPerCH": 64,
+                                "minimumVolumePercentErrorAllowed": 1.0, "maxRecursionDepth": 10,
+                                "shrinkWrap": True, "fillMode": "flood", "asyncACD": False}
+#: A mesh whose vertices all lie within this fraction of its size from its hull's surface is convex.
+CONVEX_TOLERANCE = 1e-3
+MANIFEST = "parts.json"
+
+
+@dataclass(frozen=True)
+class Decomposition:
+    """The convex parts of one mesh (OBJ files, in the mesh's own units), or none when it is convex."""
+
+    convex: bool
+    parts: tuple[Path, ...]
+
+
+def cache_key(mesh_bytes: bytes, scale: tuple[float, float, float]) -> str:
+    """Digest of what determines the parts: mesh content, scale, parameters and the V-HACD version."""
+    h = hashlib.sha256(mesh_bytes)
+    h.update(json.dumps({"scale": scale, "params": VHACD_PARAMS, "vhacdx": version("vhacdx")},
+                        sort_keys=True).encode())
+    return h.hexdigest()[:24]
+
+
+def is_convex(vertices: FloatArray, faces: IndexArray) -> bool:
+    """True when every vertex and triangle centroid lies on (within tolerance of) the hull's surface."""
+    size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
+    if size == 0.0:
+        return True
+    try:
+        hull = ConvexHull(vertices)
+    except QhullError:
+        return True  # flat or degenerate: PyBullet's hull of it is the shape itself
+    probes = np.vstack([vertices, vertices[faces].mean(axis=1)])
+    # hull.equations: n·x + d <= 0 inside; the distance to the surface is -max over facets
+    depth = -np.max(probes @ hull.equations[:, :3].T + hull.equations[:, 3], axis=1)
+    return bool(np.all(depth <= CONVEX_TOLERANCE * size))
+
+
+def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path) -> Decomposition:
+    """The cached decomposition of a mesh (``vertices`` [n, 3] already scaled, ``faces`` [m, 3])."""
+    folder = cache_dir / key
+    cached = _read_manifest(folder)
+    if cached is not None:
+        return cached
+    if is_convex(vertices, faces):
+        _write(folder, [])
+    else:
+        import vhacdx  # imported here: loading it costs ~50 ms and most robots have only convex meshes
+
+        hulls = vhacdx.compute_vhacd(np.ascontiguousarray(vertices, dtype=np.float64),
+                                     np.ascontiguousarray(faces, dtype=np.uint32), **VHACD_PARAMS)
+        _write(folder, [(np.asarray(v, dtype=np.float64), np.asarray(f)) for v, f in hulls])
+    written = _read_manifest(folder)
+    if written is None:
+        raise OSError(f"convex decomposition cache {folder} could not be read back")
+    return written
+
+
+def _write(folder: Path, hulls: list[tuple[FloatArray, npt.NDArray[Any]]]) -> None:
+    """Writes the parts and the manifest into a temp folder, then renames it into place."""
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}-", dir=folder.parent))
+    try:
+        names = []
+        for i, (v, f) in enumerate(hulls):
+            name = f"part{i:03d}.obj"
+            lines = [f"v {a:.9g} {b:.9g} {c:.9g}\n" for a, b, c in v]
+            lines += [f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f]
+            (tmp / name).write_text("".join(lines))
+            names.append(name)
+        (tmp / MANIFEST).write_text(json.dumps({"convex": not hulls, "parts": names}))
+        try:
+            os.rename(tmp, folder)
+        except OSError:
+            if not (folder / MANIFEST).is_file():  # another process wrote the same key first: keep theirs
+                raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _read_manifest(folder: Path) -> Decomposition | None:
+    try:
+        doc = json.loads((folder / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return None
+    parts = tuple(folder / str(p) for p in doc.get("parts", []))
+    if not all(p.is_file() for p in parts):
+        return None
+    return Decomposition(convex=bool(doc.get("convex")), parts=parts)
+
+
+def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader) -> dict[str, int]:
+    """Replaces, in a URDF tree whose mesh filenames are absolute, every ``<collision>`` holding a concave
+    mesh by one ``<collision>`` per convex part (same origin and name). ``read_mesh`` gives a mesh's
+    vertices and triangles, or None for a format that is kept as it is. Returns parts per mesh file."""
+    counts: dict[str, int] = {}
+    for link in root.iter("link"):
+        for col in list(link.findall("collision")):
+            mesh = col.find("geometry/mesh")
+            if mesh is None:
+                continue
+            path = Path(mesh.get("filename", ""))
+            scale = _scale(mesh.get("scale"))
+            read = read_mesh(path)
+            if read is None:
+                continue
+            vertices, faces = read
+            key = cache_key(path.read_bytes(), scale)
+            parts = decompose(vertices * np.asarray(scale), faces, key, cache_dir)
+            counts[str(path)] = len(parts.parts) or 1
+            if parts.convex:
+                continue
+            at = list(link).index(col)
+            link.remove(col)
+            for i, part in enumerate(parts.parts):
+                piece = ET.Element("collision", {k: v for k, v in col.attrib.items() if k != "name"})
+                if col.get("name"):
+                    piece.set("name", f"{col.get('name')}_{i}")
+                origin = col.find("origin")
+                if origin is not None:
+                    piece.append(ET.Element("origin", dict(origin.attrib)))
+                geometry = ET.SubElement(piece, "geometry")
+                ET.SubElement(geometry, "mesh", {"filename": str(part)})
+                link.insert(at + i, piece)
+    return counts
+
+
+def _scale(text: str | None) -> tuple[float, float, float]:
+    values = [float(v) for v in (text or "1 1 1").split()]
+    if len(values) == 1:
+        values *= 3
+    return (values[0], values[1], values[2])

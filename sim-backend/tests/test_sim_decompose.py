@@ -1,0 +1,93 @@
+"""Convex decomposition of collision meshes: concave meshes split, convex ones kept, results cached."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from robwot_sim.sim.decompose import cache_key, decompose, is_convex
+
+
+def box(lo: list[float], hi: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    """Closed triangle mesh of an axis-aligned box."""
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    return corners, ConvexHull(corners).simplices.astype(np.uint32)
+
+
+def u_shape() -> tuple[np.ndarray, np.ndarray]:
+    """A closed U (0.3 m wide and high, arms 0.05 m thick): a U-shaped polygon in x-z extruded 0.1 m in y."""
+    poly = [(0, 0), (0.3, 0), (0.3, 0.3), (0.25, 0.3), (0.25, 0.05), (0.05, 0.05), (0.05, 0.3), (0, 0.3)]
+    v = np.array([[x, y, z] for y in (0.0, 0.1) for x, z in poly])
+    cap = [(0, 1, 4), (1, 2, 3), (1, 3, 4), (0, 4, 5), (0, 5, 6), (0, 6, 7)]
+    faces = list(cap) + [(a + 8, c + 8, b + 8) for a, b, c in cap]  # outward normals
+    for i in range(8):
+        j = (i + 1) % 8
+        faces += [(i, j + 8, j), (i, i + 8, j + 8)]
+    return subdivide(*subdivide(v, np.array(faces, dtype=np.uint32)))
+
+
+def subdivide(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle into four (V-HACD voxelises large flat triangles poorly)."""
+    verts = [tuple(p) for p in v]
+    index = {p: i for i, p in enumerate(verts)}
+    out = []
+
+    def mid(a: int, b: int) -> int:
+        p = tuple((np.array(verts[a]) + np.array(verts[b])) / 2)
+        if p not in index:
+            index[p] = len(verts)
+            verts.append(p)
+        return index[p]
+
+    for a, b, c in f:
+        ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+        out += [(a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca)]
+    return np.array(verts), np.array(out, dtype=np.uint32)
+
+
+def inside_any(p: np.ndarray, parts: list[np.ndarray], tol: float = 2e-3) -> bool:
+    for v in parts:
+        eq = ConvexHull(v, qhull_options="QJ").equations
+        if np.all(p @ eq[:, :3].T + eq[:, 3] <= tol):
+            return True
+    return False
+
+
+def read_obj(path: Path) -> np.ndarray:
+    lines = path.read_text().splitlines()
+    return np.array([[float(x) for x in ln.split()[1:4]] for ln in lines if ln.startswith("v ")])
+
+
+def test_convex_mesh_is_kept(tmp_path: Path) -> None:
+    """A box is convex: no parts, PyBullet's hull of it is exact."""
+    v, f = box([0, 0, 0], [0.2, 0.1, 0.3])
+    assert is_convex(v, f)
+    d = decompose(v, f, "box", tmp_path)
+    assert d.convex and d.parts == ()
+
+
+def test_concave_mesh_is_split_into_parts_that_leave_the_gap_free(tmp_path: Path) -> None:
+    """A U splits into several convex parts, all within the U's arms and bar: the inside of the U, which
+    its single hull would fill, stays free."""
+    v, f = u_shape()
+    assert not is_convex(v, f)
+    d = decompose(v, f, "u", tmp_path)
+    assert not d.convex and len(d.parts) >= 3
+    parts = [read_obj(p) for p in d.parts]
+    gap = [np.array([x, 0.05, z]) for x in (0.08, 0.15, 0.22) for z in (0.1, 0.2, 0.28)]
+    assert not any(inside_any(p, parts, tol=0.0) for p in gap)
+    assert inside_any(np.array([0.15, 0.05, 0.2]), [v])  # ... which the U's hull holds
+
+
+def test_cache_is_reused_and_keyed_by_content_and_scale(tmp_path: Path) -> None:
+    """A second call reads the parts back without recomputing; content or scale changes change the key."""
+    v, f = u_shape()
+    first = decompose(v, f, "k", tmp_path)
+    stamp = [p.stat().st_mtime_ns for p in first.parts]
+    again = decompose(v, f, "k", tmp_path)
+    assert again == first and [p.stat().st_mtime_ns for p in again.parts] == stamp
+    assert cache_key(b"abc", (1, 1, 1)) != cache_key(b"abd", (1, 1, 1))
+    assert cache_key(b"abc", (1, 1, 1)) != cache_key(b"abc", (0.001, 0.001, 0.001))
+    assert not list(tmp_path.glob(".*"))  # no temp folder left behind
