@@ -1,0 +1,102 @@
+"""An independent collision reference for measuring the twin's verdicts: Pinocchio + Coal.
+
+Coal checks the robots' own collision meshes exactly (BVH of the non-convex triangles), with none of
+PyBullet's convex hulls. Pairs of geometries on the same rigid body (links joined by fixed joints) or on
+adjacent bodies (joined by one joint) are not checked: they touch at their joint by design, and every
+tool (PyBullet's self-collision, MoveIt's "Adjacent" SRDF entries) leaves them out too. With an SRDF its
+``<disable_collisions>`` pairs are removed as well.
+
+Needs the ``reference`` extra (``pin``, ``example-robot-data``); used by tests and ``bench_fidelity``,
+never by the twin itself.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+
+def example_robot_data() -> Path:
+    """The ``share/example-robot-data`` folder of the ``example-robot-data`` wheel."""
+    for base in [Path(p) for p in sys.path] + [Path(sys.prefix)]:
+        for cand in (base / "cmeel.prefix/share/example-robot-data",
+                     base / "lib/python3.11/site-packages/cmeel.prefix/share/example-robot-data"):
+            if (cand / "robots").is_dir():
+                return cand
+    raise FileNotFoundError("example-robot-data is not installed (pip install example-robot-data)")
+
+
+@dataclass(frozen=True)
+class ExampleRobot:
+    """A robot of example-robot-data as published for ROS/MoveIt: URDF with mesh collision geometry."""
+
+    name: str
+    urdf: Path
+    srdf: Path | None
+    package_roots: dict[str, str]
+
+
+def example_robot(name: str) -> ExampleRobot:
+    """``ur10``, ``ur5``, ``ur3`` or ``panda`` from example-robot-data (``package://example-robot-data/...``)."""
+    root = example_robot_data()
+    files = {
+        "ur10": ("ur_description/urdf/ur10_robot.urdf", None),
+        "ur5": ("ur_description/urdf/ur5_robot.urdf", "ur_description/srdf/ur5.srdf"),
+        "ur3": ("ur_description/urdf/ur3_robot.urdf", None),
+        "panda": ("panda_description/urdf/panda.urdf", "panda_description/srdf/panda.srdf"),
+    }
+    urdf, srdf = files[name]
+    return ExampleRobot(name, root / "robots" / urdf, root / "robots" / srdf if srdf else None,
+                        {"example-robot-data": str(root)})
+
+
+class ExactReference:
+    """Self-collision of one robot on its exact meshes, for joint vectors in the twin's joint order."""
+
+    def __init__(self, urdf: Path, package_roots: dict[str, str], joint_names: Sequence[str],
+                 srdf: Path | None = None) -> None:
+        import pinocchio as pin
+
+        self._pin = pin
+        roots = list(package_roots.values())
+        dirs = [str(urdf.parent), *roots, *(str(Path(d).parent) for d in roots)]
+        self.model, self.geometry, _ = pin.buildModelsFromUrdf(str(urdf), package_dirs=dirs)
+        self.geometry.addAllCollisionPairs()
+        parents = self.model.parents
+        for k in reversed(range(len(self.geometry.collisionPairs))):
+            pair = self.geometry.collisionPairs[k]
+            a = self.geometry.geometryObjects[pair.first].parentJoint
+            b = self.geometry.geometryObjects[pair.second].parentJoint
+            if a == b or parents[a] == b or parents[b] == a:
+                self.geometry.removeCollisionPair(pair)
+        if srdf is not None:
+            pin.removeCollisionPairs(self.model, self.geometry, str(srdf))
+        self.pairs = len(self.geometry.collisionPairs)
+        self._data = self.model.createData()
+        self._gdata = pin.GeometryData(self.geometry)
+        self._slots: list[tuple[int, int]] = []
+        for name in joint_names:
+            joint = self.model.joints[self.model.getJointId(name)]
+            self._slots.append((joint.idx_q, joint.nq))
+
+    def configuration(self, q: Sequence[float]) -> npt.NDArray[np.float64]:
+        """Pinocchio's q for a twin joint vector (continuous joints as cos, sin)."""
+        out: npt.NDArray[np.float64] = self._pin.neutral(self.model)
+        for (idx, nq), v in zip(self._slots, q, strict=True):
+            if nq == 2:
+                out[idx:idx + 2] = (np.cos(v), np.sin(v))
+            else:
+                out[idx] = v
+        return out
+
+    def collision_free(self, qs: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+        """Collision-free flag per row of ``qs`` [n, dof]."""
+        pin: Any = self._pin
+        return np.array([not pin.computeCollisions(self.model, self._data, self.geometry, self._gdata,
+                                                   self.configuration(q), True) for q in qs], dtype=bool)
