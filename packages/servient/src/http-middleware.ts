@@ -9,6 +9,7 @@ import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
 import { ServientError } from "./errors.js";
 import { parseBody, validateInput } from "./input-validation.js";
 import { requestContext, type RequestContext } from "./request-context.js";
+import { isJsonMediaType, RequestGuard } from "./request-guard.js";
 import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
 
 const MAX_BODY = 1 << 20;
@@ -27,7 +28,9 @@ export interface ServedThing {
 
 export interface MiddlewareEnv {
   auth?: AuthConfig | undefined;
-  /** by slug and by encoded Thing id */
+  /** Host, Origin and CORS policy */
+  guard: RequestGuard;
+  /** by slug (the one route of each Thing) */
   things: Map<string, ServedThing>;
   viewerDir: string | null;
   index(): unknown;
@@ -75,7 +78,9 @@ export function createMiddleware(env: MiddlewareEnv) {
         throw new ServientError(400, "E_BAD_PATH", `malformed URL path ${url.pathname}`, { path: url.pathname });
       }
       const method = req.method ?? "GET";
-      if (method === "OPTIONS") return next(); // CORS preflight carries no credentials
+      env.guard.checkHost(req);
+      if (method === "OPTIONS") return env.guard.preflight(req, res); // preflights carry no credentials
+      env.guard.applyCors(res, env.guard.checkOrigin(req, RequestGuard.stateChanging(method)));
       if (env.auth && !isAuthorized(req, env.auth)) return challenge(res, env.auth);
       const get = method === "GET" || method === "HEAD";
 
@@ -94,7 +99,9 @@ export function createMiddleware(env: MiddlewareEnv) {
       }
       const segments = path.split("/").filter((s) => s.length > 0);
       const thing = env.things.get(segments[0] ?? "");
-      if (!thing) return next();
+      // nothing but our routes reaches node-wot: its second route per Thing (`/<url-encoded id>`) would
+      // skip every check above and below
+      if (!thing) return notFound(res, path);
       if (segments.length === 1 && get) return sendJson(res, 200, thing.td(), "application/td+json");
       const rest = segments.slice(1).join("/");
       if (get && isTwinFile(rest, thing.urdfName)) {
@@ -122,9 +129,12 @@ export function createMiddleware(env: MiddlewareEnv) {
         const schema = thing.actionInput(name);
         if (schema !== null) {
           const type = req.headers["content-type"];
-          if (type !== undefined && !/json/i.test(type)) {
-            throw new ServientError(415, "E_UNSUPPORTED_MEDIA_TYPE", `action bodies are JSON: send Content-Type: application/json (got ${type})`, { contentType: type });
+          const hasBody = Number(req.headers["content-length"] ?? 0) > 0 || req.headers["transfer-encoding"] !== undefined;
+          if ((schema !== undefined || hasBody) && !isJsonMediaType(type)) {
+            throw new ServientError(415, "E_UNSUPPORTED_MEDIA_TYPE", `action bodies are JSON: send Content-Type: application/json (got ${type ?? "none"})`, { contentType: type ?? null });
           }
+          // node-wot knows `application/json` only: any JSON media type accepted here is JSON to it
+          if (type !== undefined) req.headers["content-type"] = "application/json";
           const body = parseBody(await readBody(req), schema !== undefined, name);
           validateInput(schema, body, name);
           ctx.body = body;

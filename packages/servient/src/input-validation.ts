@@ -7,6 +7,10 @@
 import AjvModule from "ajv";
 import type { ErrorObject, ValidateFunction } from "ajv";
 import { badInput, ServientError } from "./errors.js";
+import { jsonDepth } from "./request-guard.js";
+
+/** Deepest array/object nesting accepted in an action body (the deepest TD input schema needs 3). */
+export const MAX_JSON_DEPTH = 32;
 
 const Ajv = AjvModule.default;
 const ajv = new Ajv({ strict: false, allErrors: true, validateFormats: false, useDefaults: false });
@@ -60,6 +64,10 @@ export function parseBody(text: string, hasInput: boolean, action: string): unkn
   if (text.trim().length === 0) {
     if (hasInput) throw new ServientError(400, "E_MISSING_BODY", `action ${action} needs a JSON body`, { action });
     return undefined;
+  }
+  const depth = jsonDepth(text);
+  if (depth > MAX_JSON_DEPTH) {
+    throw new ServientError(400, "E_TOO_DEEP", `request body nests ${depth} levels deep (at most ${MAX_JSON_DEPTH})`, { action, limit: MAX_JSON_DEPTH });
   }
   try {
     return JSON.parse(text);

@@ -12,6 +12,8 @@ import type { IncomingMessage, Server } from "node:http";
 import type { Duplex } from "node:stream";
 import { WebSocketServer, WebSocket } from "ws";
 import { isAuthorized, type AuthConfig } from "./auth.js";
+import { ServientError } from "./errors.js";
+import type { RequestGuard } from "./request-guard.js";
 import type { Twin } from "./twin.js";
 import type { World } from "./world.js";
 
@@ -22,7 +24,7 @@ export interface LiveServer {
   clients(): number;
 }
 
-export function attachLive(server: Server, twins: Map<string, Twin>, world: World, auth: AuthConfig | undefined): LiveServer {
+export function attachLive(server: Server, twins: Map<string, Twin>, world: World, auth: AuthConfig | undefined, guard: RequestGuard): LiveServer {
   const wss = new WebSocketServer({ noServer: true, maxPayload: 64 * 1024 });
   const subs = new Map<WebSocket, Set<string>>();
 
@@ -75,6 +77,16 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
     const url = new URL(req.url ?? "/", "http://localhost");
     if (url.pathname !== "/live") {
       socket.end("HTTP/1.1 404 Not Found\r\nConnection: close\r\n\r\n");
+      return;
+    }
+    try {
+      // a page of another origin must not even watch (it could time its commands on what it sees)
+      guard.checkHost(req);
+      guard.checkOrigin(req, true);
+    } catch (err) {
+      const e = err as ServientError;
+      const body = JSON.stringify(e.toJSON());
+      socket.end(`HTTP/1.1 ${e.status} ${e.code}\r\nContent-Type: application/json\r\nContent-Length: ${Buffer.byteLength(body)}\r\nConnection: close\r\n\r\n${body}`);
       return;
     }
     if (auth && !isAuthorized(req, auth)) {

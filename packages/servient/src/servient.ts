@@ -18,6 +18,7 @@ import { registerProperties } from "./properties.js";
 import { Relay } from "./relay.js";
 import { launchConnector, urlConnector } from "./sim-connector.js";
 import { defaultViewerDir } from "./static-files.js";
+import { RequestGuard } from "./request-guard.js";
 import { produceInit, servedTd } from "./thing-td.js";
 import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
 import { Twin } from "./twin.js";
@@ -47,6 +48,10 @@ export interface ServientOptions {
   python?: string;
   /** viewer bundle (default packages/viewer/dist) */
   viewerDir?: string;
+  /** browser origins (e.g. a dashboard's `https://dash.example:3000`) granted CORS and allowed to send commands */
+  corsOrigins?: string[];
+  /** extra names accepted in the `Host` header (e.g. the machine's DNS name when bound to 0.0.0.0) */
+  allowedHosts?: string[];
 }
 
 export interface ThingInfo {
@@ -121,8 +126,11 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   let url = "";
   let liveUrl = "";
   const viewerDir = opts.viewerDir ?? defaultViewerDir(dirname(fileURLToPath(import.meta.url)));
+  let port = 0;
+  const guard = new RequestGuard({ host, port: () => port, corsOrigins: opts.corsOrigins ?? [], allowedHosts: opts.allowedHosts ?? [] });
   const middleware = createMiddleware({
     auth: opts.auth,
+    guard,
     things: served,
     viewerDir: existsSync(viewerDir) ? viewerDir : null,
     index: () => ({ url, live: liveUrl, viewer: `${url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: infos() }),
@@ -135,6 +143,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   let live: LiveServer | null = null;
   try {
     const wot = await servient.start();
+    port = http.getPort();
     const urlHost = host === "0.0.0.0" || host === "::" ? "127.0.0.1" : host.includes(":") ? `[${host}]` : host;
     url = `http://${urlHost}:${http.getPort()}`;
     liveUrl = `ws://${urlHost}:${http.getPort()}/live`;
@@ -164,9 +173,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         },
       };
       served.set(slug, entry);
-      if (twin.folder.td.id) served.set(encodeURIComponent(twin.folder.td.id), entry);
     }
-    live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth);
+    live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth, guard);
   } catch (err) {
     await servient.shutdown().catch(() => undefined);
     await backend.stop();

@@ -66,7 +66,7 @@ export function isTwinFile(rel: string, urdfName: string): boolean {
 
 export function sendFile(req: IncomingMessage, res: ServerResponse, path: string): void {
   const size = statSync(path).size;
-  res.writeHead(200, { "Content-Type": contentType(path), "Content-Length": size, "Access-Control-Allow-Origin": "*" });
+  res.writeHead(200, { "Content-Type": contentType(path), "Content-Length": size });
   if (req.method === "HEAD") {
     res.end();
     return;
@@ -78,7 +78,7 @@ export function sendFile(req: IncomingMessage, res: ServerResponse, path: string
 
 export function sendJson(res: ServerResponse, status: number, body: unknown, type = "application/json"): void {
   const text = JSON.stringify(body);
-  res.writeHead(status, { "Content-Type": type, "Content-Length": Buffer.byteLength(text), "Access-Control-Allow-Origin": "*" });
+  res.writeHead(status, { "Content-Type": type, "Content-Length": Buffer.byteLength(text) });
   res.end(text);
 }
 

@@ -10,6 +10,7 @@ import { parseInteger, parseNumber, usageError } from "../args.js";
 import { findExample } from "../examples.js";
 import { DEFAULT_BASE_URL, type GenerateOptions } from "./generate-options.js";
 import { runGenerate } from "./generate.js";
+import { parseAllowedHosts, parseCorsOrigins } from "./serve-options.js";
 import { serve } from "./serve.js";
 
 export const USAGE = `Usage: robwot demo [options]
@@ -22,6 +23,7 @@ Options:
   --samples N        workspace samples when generating (default 80000)
   --regenerate       generate even if the folder is complete
   --port N, --host ADDR, --realtime F   as for robwot serve (default 8080, 127.0.0.1, 1)
+  --cors-origin ORIGIN, --allowed-host NAME   as for robwot serve (repeatable)
   --no-serve         only generate (or check) the twin
 `;
 
@@ -60,12 +62,14 @@ export async function run(argv: string[]): Promise<number> {
         port: { type: "string" },
         host: { type: "string" },
         realtime: { type: "string" },
+        "cors-origin": { type: "string", multiple: true },
+        "allowed-host": { type: "string", multiple: true },
         "no-serve": { type: "boolean" },
       },
       strict: true,
     }));
   } catch (err) {
-    throw usageError(err, "demo", ["out", "samples", "regenerate", "port", "host", "realtime", "no-serve"]);
+    throw usageError(err, "demo", ["out", "samples", "regenerate", "port", "host", "realtime", "cors-origin", "allowed-host", "no-serve"]);
   }
   const out = resolve(values.out ?? join("twins", "demo-kuka"));
   const samples = parseInteger("samples", values.samples, 80_000, 100, 10_000_000);
@@ -95,5 +99,7 @@ export async function run(argv: string[]): Promise<number> {
     process.stdout.write(`robwot: reusing the demo twin in ${out} (--regenerate to rebuild it)\n`);
   }
   if (values["no-serve"]) return 0;
-  return serve({ folders: [out], port, host, realtime, json: false });
+  const corsOrigins = parseCorsOrigins(values["cors-origin"]);
+  const allowedHosts = parseAllowedHosts(values["allowed-host"]);
+  return serve({ folders: [out], port, host, realtime, corsOrigins, allowedHosts, json: false });
 }

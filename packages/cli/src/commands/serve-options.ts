@@ -16,6 +16,10 @@ export interface ServeOptions {
   relay?: string;
   auth?: AuthOption;
   backend?: string;
+  /** browser origins granted CORS and allowed to send commands (--cors-origin, repeatable) */
+  corsOrigins: string[];
+  /** extra names accepted in the Host header (--allowed-host, repeatable) */
+  allowedHosts: string[];
   json: boolean;
 }
 
@@ -26,8 +30,34 @@ export const SERVE_OPTIONS = {
   relay: { type: "string" },
   auth: { type: "string" },
   backend: { type: "string" },
+  "cors-origin": { type: "string", multiple: true },
+  "allowed-host": { type: "string", multiple: true },
   json: { type: "boolean" },
 } as const;
+
+/** `--cors-origin` values: absolute http(s) origins (scheme://host[:port], nothing after). */
+export function parseCorsOrigins(values: readonly string[] | undefined): string[] {
+  return (values ?? []).map((v) => {
+    let u: URL | null = null;
+    try {
+      u = new URL(v);
+    } catch {
+      u = null;
+    }
+    if (!u || !["http:", "https:"].includes(u.protocol) || u.origin !== v.replace(/\/$/, "")) {
+      throw new CliError(`--cors-origin must be an origin such as https://dashboard.example:3000 (scheme, host, optional port), got "${v}"`);
+    }
+    return u.origin;
+  });
+}
+
+/** `--allowed-host` values: host names or addresses, no scheme, port or path. */
+export function parseAllowedHosts(values: readonly string[] | undefined): string[] {
+  return (values ?? []).map((v) => {
+    if (!/^(\[[0-9a-fA-F:.]+\]|[A-Za-z0-9.-]+)$/.test(v)) throw new CliError(`--allowed-host must be a host name or address without port, got "${v}"`);
+    return v;
+  });
+}
 
 export function parseAuth(value: string | undefined): AuthOption | undefined {
   if (value === undefined) return undefined;
@@ -84,6 +114,8 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     ...(relay ? { relay } : {}),
     ...(auth ? { auth } : {}),
     ...(backend ? { backend } : {}),
+    corsOrigins: parseCorsOrigins(values["cors-origin"]),
+    allowedHosts: parseAllowedHosts(values["allowed-host"]),
     json: values.json ?? false,
   };
 }

@@ -15,6 +15,10 @@ Options:
   --relay URL                  TD URL of the physical robot's Thing: validated commands are relayed there
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one
+  --cors-origin ORIGIN         let a web page of this origin (e.g. https://dash.example:3000) call the twin;
+                               repeatable. Default: no other origin may send commands or read via CORS
+  --allowed-host NAME          accept this name in the Host header besides the bound address (e.g. the
+                               machine's DNS name with --host 0.0.0.0); repeatable
   --json                       print the URLs as JSON on stdout
 `;
 
@@ -55,6 +59,8 @@ export async function serve(opts: ServeOptions): Promise<number> {
     ...(opts.relay ? { relay: opts.relay } : {}),
     ...(opts.auth ? { auth: opts.auth } : {}),
     ...(opts.backend ? { backendUrl: opts.backend } : {}),
+    corsOrigins: opts.corsOrigins,
+    allowedHosts: opts.allowedHosts,
   });
   onCleanup(() => running.stop());
   printServing(running, opts.json);

@@ -1,0 +1,207 @@
+/**
+ * The web surface refuses what a hostile page or a rebound DNS name can send: foreign Origin (403),
+ * wrong Host (421), non-JSON action bodies (415), CORS for other origins, /live upgrades from other
+ * origins, node-wot's second route per Thing (404), bodies nested too deep (400). A configured
+ * `--cors-origin` still works. Real servient, real backend, raw HTTP (to set Host) and real `ws`.
+ */
+import { request } from "node:http";
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import WebSocket from "ws";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { generateTwin, http, kukaPose } from "./serve-helpers.js";
+
+let s: RunningServient;
+let port: number;
+let slug: string;
+const DASHBOARD = "https://dash.example:3000";
+const FAR = kukaPose([0.4, 0.2, 0, -0.5, 0, 0.3, 0]);
+
+beforeAll(async () => {
+  s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, corsOrigins: [DASHBOARD] });
+  port = Number(new URL(s.url).port);
+  slug = s.things[0]!.slug;
+});
+afterAll(async () => s?.stop());
+
+interface Raw {
+  status: number;
+  headers: Record<string, string | string[] | undefined>;
+  body: any;
+}
+
+/** One HTTP request with exactly the given headers (fetch forbids setting Host). */
+function raw(method: string, path: string, headers: Record<string, string>, body?: string): Promise<Raw> {
+  return new Promise((resolve, reject) => {
+    const req = request({ host: "127.0.0.1", port, method, path, headers: { host: `127.0.0.1:${port}`, ...headers } }, (res) => {
+      const chunks: Buffer[] = [];
+      res.on("data", (c: Buffer) => chunks.push(c));
+      res.on("end", () => {
+        const text = Buffer.concat(chunks).toString("utf8");
+        let parsed: unknown = text;
+        try {
+          parsed = JSON.parse(text);
+        } catch {
+          /* not JSON */
+        }
+        resolve({ status: res.statusCode ?? 0, headers: res.headers, body: parsed });
+      });
+    });
+    req.on("error", reject);
+    if (body !== undefined) req.write(body);
+    req.end();
+  });
+}
+
+const joints = async (): Promise<Record<string, number>> => (await http(`${s.url}/${slug}/properties/getJointPosition`)).body;
+const move = (headers: Record<string, string>, body = JSON.stringify({ joints: FAR })): Promise<Raw> =>
+  raw("POST", `/${slug}/actions/moveToJointPosition`, headers, body);
+
+describe("browsers of other origins", () => {
+  it("a preflight from another origin is refused and grants nothing", async () => {
+    const r = await raw("OPTIONS", `/${slug}/actions/moveToJointPosition`, {
+      origin: "http://evil.example",
+      "access-control-request-method": "POST",
+      "access-control-request-headers": "content-type",
+    });
+    expect(r.status).toBe(403);
+    expect(r.headers["access-control-allow-origin"]).toBeUndefined();
+  });
+
+  it("no response grants CORS to any origin (node-wot's `*` is gone)", async () => {
+    for (const path of [`/${slug}`, `/${slug}/properties/getJointPosition`, "/"]) {
+      const r = await raw("GET", path, { origin: "http://evil.example" });
+      expect(r.status).toBe(200);
+      expect(r.headers["access-control-allow-origin"]).toBeUndefined();
+    }
+  });
+
+  it.each([
+    ["application/json", JSON.stringify({ joints: FAR })],
+    ["text/plain;charset=UTF-8", JSON.stringify({ joints: FAR })],
+  ])("a command from another origin (%s) answers 403 and the twin does not move", async (type, body) => {
+    const before = await joints();
+    const r = await move({ origin: "http://evil.example", "content-type": type }, body);
+    expect(r.status).toBe(403);
+    expect(r.body.code).toBe("E_FORBIDDEN_ORIGIN");
+    expect(await joints()).toEqual(before);
+  });
+
+  it("the opaque origin `null` (sandboxed frames, file://) is refused too", async () => {
+    expect((await move({ origin: "null", "content-type": "application/json" })).status).toBe(403);
+  });
+
+  it("stop from another origin is refused as well", async () => {
+    const r = await raw("POST", `/${slug}/actions/stop`, { origin: "http://evil.example" });
+    expect(r.status).toBe(403);
+  });
+});
+
+describe("action bodies are JSON by media type", () => {
+  it.each([
+    ["text/plain;charset=json"],
+    ["text/plain"],
+    ["application/x-www-form-urlencoded"],
+    ["multipart/form-data; boundary=x"],
+    ["application/jsonp"],
+  ])("Content-Type %s answers 415 and the twin does not move", async (type) => {
+    const before = await joints();
+    const r = await move({ "content-type": type });
+    expect(r.status).toBe(415);
+    expect(r.body.code).toBe("E_UNSUPPORTED_MEDIA_TYPE");
+    expect(await joints()).toEqual(before);
+  });
+
+  it("a body without Content-Type answers 415", async () => {
+    expect((await move({})).status).toBe(415);
+  });
+
+  it("application/json with a charset and +json types are JSON", async () => {
+    const r = await raw("POST", `/${slug}/actions/validateJointPosition`, { "content-type": "application/json; charset=utf-8" }, JSON.stringify({ joints: FAR }));
+    expect(r.status).toBe(200);
+    const t = await raw("POST", `/${slug}/actions/validateJointPosition`, { "content-type": "application/vnd.robwot+json" }, JSON.stringify({ joints: FAR }));
+    expect(t.status).toBe(200);
+  });
+});
+
+describe("Host must name the address served (DNS rebinding)", () => {
+  it.each([["evil.example"], [`evil.example:${0}`], ["127.0.0.1:1"], ["localhost.evil.example"]])("Host %s answers 421 and nothing moves", async (host) => {
+    const before = await joints();
+    const r = await move({ host: host.replace(":0", `:${port}`), "content-type": "application/json" });
+    expect(r.status).toBe(421);
+    expect(r.body.code).toBe("E_MISDIRECTED");
+    expect((await raw("GET", `/${slug}`, { host: host.replace(":0", `:${port}`) })).status).toBe(421);
+    expect(await joints()).toEqual(before);
+  });
+
+  it.each([[`localhost:${"P"}`], [`127.0.0.1:${"P"}`], [`[::1]:${"P"}`]])("loopback names (%s) are served", async (host) => {
+    const r = await raw("GET", `/${slug}`, { host: host.replace("P", String(port)) });
+    expect(r.status).toBe(200);
+  });
+});
+
+describe("/live WebSocket", () => {
+  const open = (headers: Record<string, string>, origin?: string): Promise<{ ok: boolean; status?: number }> =>
+    new Promise((resolve) => {
+      const ws = new WebSocket(`ws://127.0.0.1:${port}/live`, { headers, ...(origin ? { origin } : {}) });
+      ws.once("open", () => {
+        ws.close();
+        resolve({ ok: true });
+      });
+      ws.once("unexpected-response", (_req, res) => resolve({ ok: false, status: res.statusCode }));
+      ws.once("error", () => resolve({ ok: false }));
+    });
+
+  it("refuses an upgrade from another origin and from a foreign Host, accepts its own and plain clients", async () => {
+    expect(await open({}, "http://evil.example")).toEqual({ ok: false, status: 403 });
+    expect(await open({ host: "evil.example" })).toEqual({ ok: false, status: 421 });
+    expect(await open({}, `http://127.0.0.1:${port}`)).toEqual({ ok: true });
+    expect(await open({}, DASHBOARD)).toEqual({ ok: true });
+    expect(await open({})).toEqual({ ok: true });
+  });
+});
+
+describe("one HTTP surface per Thing", () => {
+  it("node-wot's route under the Thing's id answers 404 JSON for the TD, properties and actions", async () => {
+    const id = encodeURIComponent((await http(`${s.url}/${slug}`)).body.id);
+    for (const [method, path] of [
+      ["GET", `/${id}`],
+      ["GET", `/${id}/properties/getJointPosition`],
+      ["POST", `/${id}/actions/moveToJointPosition`],
+    ] as const) {
+      const r = await raw(method, path, { "content-type": "application/json" }, method === "POST" ? JSON.stringify({ joints: FAR }) : undefined);
+      expect(r.status).toBe(404);
+      expect(r.body.code).toBe("E_NOT_FOUND");
+    }
+  });
+});
+
+describe("values", () => {
+  it("a body nested 20,000 deep answers 400 E_TOO_DEEP", async () => {
+    const deep = "[".repeat(20_000) + "]".repeat(20_000);
+    const r = await move({ "content-type": "application/json" }, deep);
+    expect(r.status).toBe(400);
+    expect(r.body.code).toBe("E_TOO_DEEP");
+    expect((await http(`${s.url}/${slug}/properties/motionStatus`)).status).toBe(200);
+  });
+});
+
+describe("--cors-origin", () => {
+  it("grants CORS and commands to the configured dashboard", async () => {
+    const pre = await raw("OPTIONS", `/${slug}/actions/moveToJointPosition`, {
+      origin: DASHBOARD,
+      "access-control-request-method": "POST",
+      "access-control-request-headers": "content-type",
+    });
+    expect(pre.status).toBe(204);
+    expect(pre.headers["access-control-allow-origin"]).toBe(DASHBOARD);
+    const r = await move({ origin: DASHBOARD, "content-type": "application/json" });
+    expect(r.status).toBe(200);
+    expect(r.headers["access-control-allow-origin"]).toBe(DASHBOARD);
+    expect(r.body.status).toBe("reached");
+  });
+
+  it("the twin's own origin (the viewer) may send commands", async () => {
+    const r = await raw("POST", `/${slug}/actions/validateJointPosition`, { origin: `http://127.0.0.1:${port}`, "content-type": "application/json" }, JSON.stringify({ joints: FAR }));
+    expect(r.status).toBe(200);
+  });
+});
