@@ -1,7 +1,7 @@
 """Drive the robwot_sim backend with a plain WebSocket client: no project code, only `websockets`.
 
     python plain_client.py                      # starts `python -m robwot_sim serve --port 0` itself
-    python plain_client.py ws://127.0.0.1:8765  # uses a running server
+    ROBWOT_BACKEND_TOKEN=... python plain_client.py ws://127.0.0.1:8765  # uses a running server (its token)
 
 Loads the KUKA iiwa from pybullet_data, computes forward kinematics, moves joint 1 while printing the
 streamed `robot.state` notifications, and shows a structured error reply.
@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
+import os
 import subprocess
 import sys
 from typing import Any
@@ -38,8 +39,9 @@ async def call(ws: ClientConnection, method: str, params: dict[str, Any] | None 
             return dict(message)
 
 
-async def session(url: str) -> None:
-    async with connect(url) as ws:
+async def session(url: str, token: str) -> None:
+    # the backend serves only clients presenting its token
+    async with connect(url, additional_headers={"Authorization": f"Bearer {token}"}) as ws:
         ping = await call(ws, "ping")
         print("ping:", ping["result"])
         await call(ws, "world.reset")
@@ -57,15 +59,16 @@ async def session(url: str) -> None:
 
 
 def main() -> int:
-    if len(sys.argv) > 1:
-        asyncio.run(session(sys.argv[1]))
+    if len(sys.argv) > 1:  # a running backend: its token comes from the environment
+        asyncio.run(session(sys.argv[1], os.environ["ROBWOT_BACKEND_TOKEN"]))
         return 0
     server = subprocess.Popen([sys.executable, "-m", "robwot_sim", "serve", "--port", "0"],
                               stdout=subprocess.PIPE, text=True)
     try:
         assert server.stdout is not None
-        ready = json.loads(server.stdout.readline())  # {"event":"ready","port":N}
-        asyncio.run(session(f"ws://127.0.0.1:{ready['port']}"))
+        # started without ROBWOT_BACKEND_TOKEN, the server makes a token and names it in its ready line
+        ready = json.loads(server.stdout.readline())  # {"event":"ready","port":N,"token":"..."}
+        asyncio.run(session(f"ws://127.0.0.1:{ready['port']}", ready["token"]))
     finally:
         server.terminate()
         server.wait(10)

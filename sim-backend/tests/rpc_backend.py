@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
 import signal
 import subprocess
 import sys
@@ -21,10 +22,11 @@ class BackendProcess:
 
     def __init__(self, *args: str, stdin: int = subprocess.DEVNULL) -> None:
         self.stderr_file = tempfile.TemporaryFile()  # noqa: SIM115 - lives as long as the process
+        self.token = secrets.token_urlsafe(16)
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "robwot_sim", "serve", "--port", "0", *args],
             stdout=subprocess.PIPE, stderr=self.stderr_file, stdin=stdin,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+            env={**os.environ, "PYTHONUNBUFFERED": "1", "ROBWOT_BACKEND_TOKEN": self.token},
         )
         assert self.proc.stdout is not None
         line = self.proc.stdout.readline().decode()
@@ -39,7 +41,7 @@ class BackendProcess:
         return self.stderr_file.read().decode(errors="replace")[-4000:]
 
     def client(self) -> RpcClient:
-        return RpcClient(self.url)
+        return RpcClient(self.url, self.token)
 
     def stop(self, sig: int = signal.SIGTERM, timeout: float = 15.0) -> int:
         if self.proc.poll() is None:
@@ -62,8 +64,10 @@ class RpcError(Exception):
 class RpcClient:
     """Plain JSON-RPC over a sync WebSocket; keeps the notifications seen while waiting for replies."""
 
-    def __init__(self, url: str) -> None:
-        self.ws: ClientConnection = connect(url, max_size=None, open_timeout=20, legacy=True)
+    def __init__(self, url: str, token: str) -> None:
+        auth = {"Authorization": f"Bearer {token}"}
+        self.ws: ClientConnection = connect(url, max_size=None, open_timeout=20, additional_headers=auth,
+                                            legacy=True)
         self.notifications: list[tuple[str, dict[str, Any]]] = []
         self.replies: dict[Any, dict[str, Any]] = {}
         self._next = 1

@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 import pytest
-from rpc_backend import BackendProcess
+from rpc_backend import BackendProcess, RpcClient
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
@@ -88,3 +88,43 @@ def test_exit_on_stdin_eof() -> None:
     assert backend.proc.stdin is not None
     backend.proc.stdin.close()
     assert backend.proc.wait(15) == 0
+
+
+def test_only_the_owner_is_served() -> None:
+    """Without the token, with a wrong one, or from a browser (Origin header) the upgrade is refused
+    (401/403) and no method runs; with the token the connection works."""
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    backend = BackendProcess()
+    try:
+        cases = [({}, 401), ({"Authorization": "Bearer wrong"}, 401),
+                 ({"Authorization": f"Bearer {backend.token}", "Origin": "http://evil.example"}, 403)]
+        for headers, status in cases:
+            with pytest.raises(InvalidStatus) as info:
+                connect(backend.url, additional_headers=headers, open_timeout=10)
+            assert info.value.response.status_code == status
+        client = backend.client()
+        assert client.call("ping")["version"]
+        client.close()
+    finally:
+        backend.stop()
+
+
+def test_a_backend_started_without_token_makes_one_and_names_it_in_the_ready_line() -> None:
+    """`python -m robwot_sim serve` by hand: a random token, given once on stdout to whoever started it."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "ROBWOT_BACKEND_TOKEN"}
+    proc = subprocess.Popen([sys.executable, "-m", "robwot_sim", "serve", "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env)
+    try:
+        assert proc.stdout is not None
+        ready = json.loads(proc.stdout.readline())
+        assert len(ready["token"]) >= 32
+        client = RpcClient(f"ws://127.0.0.1:{ready['port']}", ready["token"])
+        assert client.call("ping")["version"]
+        client.close()
+    finally:
+        proc.terminate()
+        proc.wait(15)

@@ -35,10 +35,10 @@ describe("launchBackend", () => {
     await backend.stop(); // idempotent
   });
 
-  it("lets a second client connect to the same backend by URL", async () => {
+  it("lets a second client with the backend's token connect to the same backend by URL", async () => {
     const backend = await launchBackend();
     started.push(backend);
-    const other = await connect(backend.url);
+    const other = await connect(backend.url, { token: backend.token });
     await backend.client.loadRobot({ urdf: "kuka_iiwa/model.urdf", id: "shared" });
     const world = await other.listWorld();
     expect(world.robots.map((r) => r.id)).toEqual(["shared"]);

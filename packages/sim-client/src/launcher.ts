@@ -4,10 +4,15 @@
  * (SIGTERM, then SIGKILL after a grace period) and killed when this Node process exits; should this
  * process die without cleaning up, the backend sees its stdin pipe close and exits by itself.
  *
+ * The backend accepts only its owner: a fresh random token is handed to the child in its environment
+ * (`ROBWOT_BACKEND_TOKEN`, never on the command line, which every local user can read) and presented
+ * on every connection.
+ *
  * Python interpreter, in order: `options.python`, env `ROBWOT_PYTHON`, `<repo>/sim-backend/.venv/bin/python`
  * (the repo root is `../../` from this package, i.e. `../../../` from `src/` or `dist/`).
  */
 import { spawn, type ChildProcess } from "node:child_process";
+import { randomBytes } from "node:crypto";
 import { EventEmitter } from "node:events";
 import { existsSync } from "node:fs";
 import { fileURLToPath } from "node:url";
@@ -73,6 +78,8 @@ export class LaunchedBackend extends EventEmitter<BackendEvents> {
   constructor(
     readonly url: string,
     readonly port: number,
+    /** the secret every connection to this backend presents (share it only with trusted code) */
+    readonly token: string,
     readonly client: SimClient,
     readonly process: ChildProcess,
     private readonly stderrTail: () => string,
@@ -134,9 +141,10 @@ export async function launchBackend(options: LaunchOptions = {}): Promise<Launch
   const host = options.host ?? "127.0.0.1";
   // --exit-on-stdin-eof: the backend ends when our end of its stdin pipe closes, even if we are SIGKILLed
   const args = ["-m", "robwot_sim", "serve", "--host", host, "--port", String(options.port ?? 0), "--exit-on-stdin-eof"];
+  const token = randomBytes(32).toString("base64url");
   const child = spawn(python, args, {
     stdio: ["pipe", "pipe", "pipe"],
-    env: { ...process.env, PYTHONUNBUFFERED: "1", ...options.env },
+    env: { ...process.env, PYTHONUNBUFFERED: "1", ...options.env, ROBWOT_BACKEND_TOKEN: token },
     ...(options.cwd ? { cwd: options.cwd } : {}),
   });
   child.stdin?.on("error", () => undefined); // EPIPE once the child is gone: nothing is ever written
@@ -161,12 +169,12 @@ export async function launchBackend(options: LaunchOptions = {}): Promise<Launch
   const url = `ws://${host.includes(":") ? `[${host}]` : host}:${port}`;
   let client: SimClient;
   try {
-    client = await SimClient.connect(url, options);
+    client = await SimClient.connect(url, { ...options, token });
   } catch (err) {
     child.kill("SIGKILL");
     throw new BackendStartError(`backend reported ready on ${url} but the connection failed: ${String(err)}`, stderrTail());
   }
-  return new LaunchedBackend(url, port, client, child, stderrTail, options.stopTimeoutMs ?? 5_000);
+  return new LaunchedBackend(url, port, token, client, child, stderrTail, options.stopTimeoutMs ?? 5_000);
 }
 
 function waitReady(child: ChildProcess, timeoutMs: number, stderrTail: () => string): Promise<number> {

@@ -11,6 +11,9 @@ export interface RpcConnectionOptions {
   requestTimeoutMs?: number;
   /** timeout of the WebSocket opening handshake in ms (default 10 000) */
   connectTimeoutMs?: number;
+  /** the backend's secret, sent as `Authorization: Bearer <token>` on the upgrade (default: env
+   *  ROBWOT_BACKEND_TOKEN); a backend refuses connections without it */
+  token?: string | undefined;
 }
 
 export interface CallOptions {
@@ -62,10 +65,15 @@ export class RpcConnection extends EventEmitter<RpcConnectionEvents> {
   /** Opens a connection to `url` (`ws://127.0.0.1:PORT`). */
   static open(url: string, options: RpcConnectionOptions = {}): Promise<RpcConnection> {
     return new Promise((resolve, reject) => {
-      const ws = new WebSocket(url, { handshakeTimeout: options.connectTimeoutMs ?? 10_000 });
+      const token = options.token ?? process.env.ROBWOT_BACKEND_TOKEN;
+      const ws = new WebSocket(url, {
+        handshakeTimeout: options.connectTimeoutMs ?? 10_000,
+        ...(token ? { headers: { Authorization: `Bearer ${token}` } } : {}),
+      });
       const onError = (err: Error): void => {
         ws.off("open", onOpen);
-        reject(new ConnectionClosedError(`cannot connect to ${url}: ${err.message}`, url));
+        const hint = /401|403/.test(err.message) ? " (the backend needs its token: set ROBWOT_BACKEND_TOKEN)" : "";
+        reject(new ConnectionClosedError(`cannot connect to ${url}: ${err.message}${hint}`, url));
       };
       const onOpen = (): void => {
         ws.off("error", onError);

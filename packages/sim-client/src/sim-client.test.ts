@@ -3,6 +3,7 @@ import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, beforeEach, describe, expect, it } from "vitest";
 import {
+  connect,
   launchBackend,
   RpcError,
   RpcTimeoutError,
@@ -147,5 +148,27 @@ describe("SimClient against the real backend", () => {
     expect(result.meshes.length).toBeGreaterThan(0);
     const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
     expect(urdf).toContain("meshes/");
+  });
+});
+
+describe("the backend serves only its owner", () => {
+  it("a local client without the launcher's token, or a browser page, gets no connection", async () => {
+    const { default: WebSocket } = await import("ws");
+    const attempt = (opts: object): Promise<number | "open"> =>
+      new Promise((resolve) => {
+        const ws = new WebSocket(backend.url, opts);
+        ws.once("open", () => {
+          ws.close();
+          resolve("open");
+        });
+        ws.once("unexpected-response", (_req, res) => resolve(res.statusCode ?? 0));
+        ws.once("error", () => undefined);
+      });
+    expect(await attempt({})).toBe(401);
+    expect(await attempt({ headers: { Authorization: "Bearer guess" } })).toBe(401);
+    expect(await attempt({ origin: "http://evil.example" })).toBe(403);
+    await expect(connect(backend.url, { token: "guess" })).rejects.toThrow(/401.*ROBWOT_BACKEND_TOKEN/);
+    // the owner's client still works
+    expect((await sim.ping()).version).toBeTruthy();
   });
 });

@@ -2,6 +2,11 @@
 
 Stdout carries exactly one line, `{"event":"ready","port":N}`, once the server listens: everything else
 (logs, Bullet's own printf output) is redirected to stderr. SIGTERM/SIGINT stop the server cleanly.
+
+Every connection must present the backend's token (`Authorization: Bearer <token>`). The token comes
+from the environment variable `ROBWOT_BACKEND_TOKEN` (how launchers hand it over: never on the command
+line, which every local user can read); without it a random one is made and printed in the ready line
+(`{"event":"ready","port":N,"token":"..."}`), which only the process that started the server reads.
 """
 
 from __future__ import annotations
@@ -11,6 +16,7 @@ import asyncio
 import json
 import logging
 import os
+import secrets
 import sys
 
 from robwot_sim.rpc.protocol import DEFAULT_MAX_MESSAGE_BYTES
@@ -41,14 +47,20 @@ def main(argv: list[str] | None = None) -> int:
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     from robwot_sim.server import run_server
 
+    given = os.environ.pop("ROBWOT_BACKEND_TOKEN", "")
+    token = given or secrets.token_urlsafe(32)
+
     def ready(port: int) -> None:
-        line = json.dumps({"event": "ready", "port": port}, separators=(",", ":")) + "\n"
+        doc: dict[str, object] = {"event": "ready", "port": port}
+        if not given:
+            doc["token"] = token
+        line = json.dumps(doc, separators=(",", ":")) + "\n"
         os.write(ready_fd, line.encode())
         os.close(ready_fd)
 
     try:
-        asyncio.run(run_server(args.host, args.port, max_message_bytes=args.max_message, on_ready=ready,
-                               exit_on_stdin_eof=args.exit_on_stdin_eof))
+        asyncio.run(run_server(args.host, args.port, token=token, max_message_bytes=args.max_message,
+                               on_ready=ready, exit_on_stdin_eof=args.exit_on_stdin_eof))
     except OSError as exc:
         print(f"robwot_sim: cannot serve on {args.host}:{args.port}: {exc}", file=sys.stderr)
         return 1

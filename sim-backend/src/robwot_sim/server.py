@@ -11,16 +11,19 @@ to the caller. Frames above the message limit are answered with E_TOO_LARGE; fra
 from __future__ import annotations
 
 import asyncio
+import hmac
 import logging
 import os
 import signal
 import sys
 import threading
 from collections.abc import Callable
+from http import HTTPStatus
 from typing import Any, TypeVar
 
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request, Response
 
 from robwot_sim.motion_runner import MotionRunner
 from robwot_sim.rpc.dispatch import Dispatcher
@@ -143,6 +146,26 @@ class Backend:
             task.cancel()
 
 
+def owner_check(token: str) -> Callable[[ServerConnection, Request], Response | None]:
+    """The upgrade check: only a client presenting ``Authorization: Bearer <token>`` gets a connection.
+
+    An upgrade carrying an ``Origin`` header comes from a web page (browsers always send one, scripts and
+    the servient never do) and is refused before the token is even looked at.
+    """
+    expected = f"Bearer {token}".encode()
+
+    def check(conn: ServerConnection, request: Request) -> Response | None:
+        if request.headers.get("Origin") is not None:
+            return conn.respond(HTTPStatus.FORBIDDEN, "browser origins may not connect to the backend\n")
+        given = request.headers.get("Authorization", "").encode()
+        if not hmac.compare_digest(given, expected):
+            return conn.respond(HTTPStatus.UNAUTHORIZED, "the backend's token is required "
+                                "(Authorization: Bearer <ROBWOT_BACKEND_TOKEN>)\n")
+        return None
+
+    return check
+
+
 def _watch_stdin(loop: asyncio.AbstractEventLoop, stop: asyncio.Event) -> None:
     """Set `stop` when stdin reaches end of file (the parent process died or closed the pipe)."""
     stdin_fd = sys.stdin.fileno()
@@ -159,11 +182,13 @@ def _watch_stdin(loop: asyncio.AbstractEventLoop, stop: asyncio.Event) -> None:
     threading.Thread(target=wait_eof, name="robwot-stdin-watch", daemon=True).start()
 
 
-async def run_server(host: str = "127.0.0.1", port: int = 0, *,
+async def run_server(host: str = "127.0.0.1", port: int = 0, *, token: str,
                      max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
                      on_ready: Callable[[int], None] | None = None,
                      stop: asyncio.Event | None = None, exit_on_stdin_eof: bool = False) -> None:
     """Serve until `stop` is set (or SIGTERM/SIGINT when `stop` is None); `on_ready(port)` once listening.
+
+    Only clients presenting `token` (see `owner_check`) are served.
 
     With `exit_on_stdin_eof`, also stop when stdin closes: a launcher that keeps a pipe to our stdin thus
     takes the server down with it even when it is killed without a chance to clean up.
@@ -178,7 +203,8 @@ async def run_server(host: str = "127.0.0.1", port: int = 0, *,
     with World() as world:
         backend = Backend(world, max_message_bytes)
         hard_cap = max(4 * max_message_bytes, max_message_bytes + 1024 * 1024)
-        async with serve(backend.handle_connection, host, port, max_size=hard_cap, ping_timeout=60) as server:
+        async with serve(backend.handle_connection, host, port, max_size=hard_cap, ping_timeout=60,
+                         process_request=owner_check(token)) as server:
             bound = next(iter(server.sockets)).getsockname()[1]
             if on_ready is not None:
                 on_ready(int(bound))
