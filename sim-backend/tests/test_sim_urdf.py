@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 from simhelp import DATA, MODELS, PANDA, XARM
 
-from robwot_sim.errors import FileNotFound, Forbidden, NoMovableJoint, PathEscape, UrdfError
+from robwot_sim.errors import FileNotFound, Forbidden, MeshError, NoMovableJoint, PathEscape, UrdfError
 from robwot_sim.sim.world import World
 from robwot_sim.urdf import read_urdf, resolve_mesh
 
@@ -87,8 +88,30 @@ def test_symlink_out_of_root_refused(tmp_path) -> None:
         resolve_mesh("link.stl", tmp_path / "robot", None)
 
 
+def test_package_uris_never_name_the_filesystem_root_or_a_mere_folder(tmp_path: Path) -> None:
+    """An empty package name, a folder that only has the package's name (no package.xml naming it) and
+    `..` out of a package root are refused: no file outside the allowed roots is reachable."""
+    (tmp_path / "tmp" / "robot").mkdir(parents=True)
+    (tmp_path / "tmp" / "secret.stl").write_bytes(b"x")
+    udir = tmp_path / "tmp" / "robot"
+    for bad in ("package:///etc/hostname", f"package:///{tmp_path}/tmp/secret.stl", "package://../tmp/secret.stl"):
+        with pytest.raises(PathEscape):
+            resolve_mesh(bad, udir)
+    # a folder named like the package is searched only inside the allowed roots, never as a root itself
+    for manifest in (None, "<package><name>other</name></package>"):
+        if manifest:
+            (tmp_path / "tmp" / "package.xml").write_text(manifest)
+        with pytest.raises(FileNotFound) as ei:
+            resolve_mesh("package://tmp/secret.stl", udir)
+        assert str(tmp_path / "tmp" / "secret.stl") not in ei.value.data["searched"]
+    (tmp_path / "shared").mkdir()
+    with pytest.raises((PathEscape, FileNotFound)):  # `..` may only lead to places inside the roots
+        resolve_mesh("package://shared/../tmp/secret.stl", udir, {"shared": str(tmp_path / "shared")})
+
+
 def test_package_uris_resolved() -> None:
-    """package:// resolves via user roots, URDF ancestors named like the package and pybullet_data layouts."""
+    """package:// resolves via user roots, the ROS package holding the URDF (package.xml) and pybullet_data
+    layouts."""
     udir = MODELS / "pkgtest" / "urdf"
     assert (
         resolve_mesh("package://pkgtest/meshes/cube.stl", udir) == MODELS / "pkgtest" / "meshes" / "cube.stl"
@@ -122,7 +145,7 @@ def test_stl_obj_dae_meshes_load_as_collision_shapes() -> None:
 
 
 def test_unreadable_mesh_is_an_error(tmp_path) -> None:
-    """A mesh PyBullet silently drops (garbage OBJ) is reported instead of loading a robot without it."""
+    """A mesh PyBullet would silently drop (garbage OBJ) is refused by our parser, naming URDF and line."""
     (tmp_path / "bad.obj").write_text("this is not an obj file\n")
     (tmp_path / "r.urdf").write_text(
         (MODELS / "mesh_formats.urdf").read_text().replace("meshes/cube.obj", "bad.obj")
@@ -131,7 +154,8 @@ def test_unreadable_mesh_is_an_error(tmp_path) -> None:
     for f in ("cube.stl", "cube.dae"):
         (tmp_path / "meshes" / f).write_bytes((MODELS / "meshes" / f).read_bytes())
     with World() as w:
-        with pytest.raises(UrdfError) as ei:
+        with pytest.raises(MeshError) as ei:
             w.load_robot(tmp_path / "r.urdf")
-        assert "bad.obj" in ei.value.message
+        assert "bad.obj" in ei.value.message and ei.value.data["reason"] == "OBJ without any face"
+        assert ei.value.data["urdf"] == str((tmp_path / "r.urdf").resolve()) and ei.value.data["line"]
         assert w.list()["robots"] == []

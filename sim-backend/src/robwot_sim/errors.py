@@ -155,11 +155,14 @@ class PathEscape(Forbidden):
 
     code = "E_PATH_ESCAPE"
 
-    def __init__(self, file: str, roots: Sequence[str], *, urdf: str | None = None) -> None:
+    def __init__(self, file: str, roots: Sequence[str], *, urdf: str | None = None,
+                 reason: str | None = None) -> None:
+        why = reason or f"outside the allowed roots: {', '.join(str(r) for r in roots)}"
         super().__init__(
-            f"path {file} is outside the allowed roots: {', '.join(str(r) for r in roots)}",
+            f"path {file} is refused: {why}",
             file=file,
             roots=roots,
+            reason=why,
             **({"urdf": urdf} if urdf else {}),
         )
 
@@ -199,6 +202,13 @@ class Busy(SimError):
         super().__init__(
             f"a motion is already running for robot {robot!r}; call robot.stop first", robot=robot
         )
+
+
+class MeshError(SimError):
+    """A mesh file our parser refuses (PyBullet would crash or silently drop it): ``file``, ``reason``."""
+
+    rpc_code = -32011
+    code = "E_MESH"
 
 
 class NameTaken(SimError):

@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import struct
 import tempfile
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
@@ -22,7 +21,8 @@ from typing import Any
 
 import pybullet_data
 
-from robwot_sim.errors import FileNotFound, Forbidden, PathEscape, UrdfError
+from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UrdfError
+from robwot_sim.meshcheck import check_mesh
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
 MESH_SUFFIXES = (".stl", ".obj", ".dae")
@@ -118,6 +118,21 @@ def _inside(p: Path, roots: list[Path]) -> bool:
     return any(p == r or r in p.parents for r in roots)
 
 
+def _enclosing_package(udir: Path, name: str) -> Path | None:
+    """The ancestor of ``udir`` that is the ROS package ``name`` (its package.xml says so), if any."""
+    for anc in [udir, *udir.parents]:
+        if anc.name != name:
+            continue
+        manifest = anc / "package.xml"
+        data = manifest.read_bytes()[:65536] if manifest.is_file() else b""
+        try:
+            declared = None if not data or _FORBIDDEN.search(data) else ET.fromstring(data).findtext("name")
+        except ET.ParseError:
+            declared = None
+        return anc if declared is not None and declared.strip() == name else None
+    return None
+
+
 def resolve_mesh(
     filename: str,
     urdf_dir: str | Path,
@@ -127,10 +142,12 @@ def resolve_mesh(
 ) -> Path:
     """Resolve a URDF mesh filename to an existing absolute path inside the allowed roots.
 
-    ``package://NAME/rest`` is looked up in ``package_roots[NAME]``, then in ancestors of the URDF folder
-    named NAME, then ``pybullet_data/NAME``, then the URDF folder (PyBullet's own rule, used by
-    pybullet_data's panda). ``file://`` and absolute paths are taken as is; others are relative to the
-    URDF folder. Raises PathEscape when the result leaves the allowed roots, FileNotFound when missing.
+    ``package://NAME/rest`` (NAME must not be empty) is looked up in ``package_roots[NAME]``, then in the
+    ROS package NAME that holds the URDF (an ancestor folder with a ``package.xml`` naming NAME: a folder
+    that merely has the name, such as ``/tmp``, is not a package), then ``pybullet_data/NAME``, then the
+    URDF folder (PyBullet's own rule, used by pybullet_data's panda). ``file://`` and absolute paths are
+    taken as is; others are relative to the URDF folder. Raises PathEscape when the result leaves the
+    allowed roots (``..``, symlinks), FileNotFound when missing.
     """
     udir = Path(urdf_dir).resolve()
     roots = allowed_roots(udir, package_roots)
@@ -140,13 +157,15 @@ def resolve_mesh(
     if filename.startswith("package://"):
         rest = filename[len("package://") :]
         name, _, sub = rest.partition("/")
+        if not name or name in (".", ".."):
+            raise PathEscape(filename, [str(r) for r in roots], urdf=urdf,
+                             reason="package:// needs a package name (package://NAME/path)")
         if name in pkg_roots:
             candidates.append(pkg_roots[name] / sub)
-        for anc in [udir, *udir.parents]:
-            if anc.name == name:
-                candidates.append(anc / sub)
-                extra_roots.append(anc)
-                break
+        package = _enclosing_package(udir, name)
+        if package is not None:
+            candidates.append(package / sub)
+            extra_roots.append(package)
         candidates.append(pybullet_data_path() / name / sub)
         candidates.append(udir / name / sub)
         candidates.append(udir / sub)
@@ -183,7 +202,7 @@ class PreparedUrdf:
 
     doc: UrdfDoc
     bullet_path: Path
-    meshes: dict[str, Path]  # original filename -> resolved absolute path
+    meshes: dict[str, Path]  # original filename -> checked absolute path PyBullet loads
     tmpdir: str
 
     def cleanup(self) -> None:
@@ -213,68 +232,17 @@ def prepare_urdf(
                     file=str(doc.file),
                     line=doc.line_of(el),
                 )
-            _check_mesh_content(resolved, str(doc.file), doc.line_of(el))
-            meshes[fn] = resolved
+            try:  # PyBullet crashes on some broken meshes: our parser reads each one first
+                meshes[fn] = check_mesh(resolved)
+            except MeshError as e:
+                raise MeshError(f"{doc.file}:{doc.line_of(el)}: {e.message}", urdf=str(doc.file),
+                                line=doc.line_of(el), **e.data) from None
     for link in root.iter("link"):
         for vis in list(link.findall("visual")):
             link.remove(vis)
     tmpdir = tempfile.mkdtemp(prefix="robwot-urdf-")
-    try:
-        for k, (fn, src) in enumerate(sorted(meshes.items())):
-            if src.suffix.lower() == ".stl" and not _is_binary_stl(src):  # PyBullet reads binary STL only
-                meshes[fn] = ascii_stl_to_binary(src, Path(tmpdir) / f"mesh{k}.stl", str(doc.file))
-    except BaseException:
-        shutil.rmtree(tmpdir, ignore_errors=True)
-        raise
     for el in root.iter("mesh"):
         el.set("filename", str(meshes[el.get("filename", "")]))
     out = Path(tmpdir) / "robot.urdf"
     ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
     return PreparedUrdf(doc, out, meshes, tmpdir)
-
-
-def _check_mesh_content(path: Path, urdf: str, line: int | None) -> None:
-    """Refuse meshes PyBullet would silently drop: an OBJ without vertices, an empty STL."""
-    suffix = path.suffix.lower()
-    if suffix == ".obj":
-        with path.open("rb") as f:
-            ok = sum(1 for ln in f if ln.startswith(b"v ")) >= 3
-    elif suffix == ".stl":
-        ok = path.stat().st_size > 84 or b"vertex" in path.read_bytes()
-    else:
-        ok = path.stat().st_size > 0
-    if not ok:
-        raise UrdfError(
-            f"mesh {path} has no geometry (unreadable {suffix[1:].upper()})",
-            file=urdf,
-            line=line,
-            mesh=str(path),
-        )
-
-
-def _is_binary_stl(path: Path) -> bool:
-    size = path.stat().st_size
-    with path.open("rb") as f:
-        head = f.read(84)
-    return len(head) == 84 and 84 + 50 * struct.unpack_from("<I", head, 80)[0] == size
-
-
-def ascii_stl_to_binary(src: Path, dst: Path, urdf: str) -> Path:
-    """Rewrite an ASCII STL as binary STL (normals left zero: Bullet recomputes what it needs)."""
-    verts = [
-        ln.split()[1:4]
-        for ln in src.read_text(encoding="utf-8", errors="replace").splitlines()
-        if ln.strip().startswith("vertex")
-    ]
-    if not verts or len(verts) % 3:
-        raise UrdfError(f"mesh {src} is neither a binary nor a valid ASCII STL", file=urdf, mesh=str(src))
-    try:
-        flat = [float(x) for v in verts for x in v]
-    except ValueError:
-        raise UrdfError(f"mesh {src}: bad ASCII STL vertex", file=urdf, mesh=str(src)) from None
-    n = len(verts) // 3
-    out = bytearray(b"robwot: converted from ASCII STL".ljust(80, b" ")) + struct.pack("<I", n)
-    for t in range(n):
-        out += struct.pack("<12fH", 0.0, 0.0, 0.0, *flat[9 * t : 9 * t + 9], 0)
-    dst.write_bytes(bytes(out))
-    return dst

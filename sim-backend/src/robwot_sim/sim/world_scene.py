@@ -6,7 +6,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from robwot_sim.errors import InvalidParams, UnknownObject
+from robwot_sim.errors import InvalidParams, MeshError, UnknownObject
+from robwot_sim.meshcheck import check_mesh
 from robwot_sim.scene import normalise_obstacle, read_scene
 from robwot_sim.sim import validate as v
 from robwot_sim.sim.client import quat_from_rpy
@@ -61,8 +62,15 @@ class WorldScene(WorldBase):
 
     def _add_obstacle(self, spec: dict[str, Any]) -> dict[str, Any]:
         self._check_free_name(spec["name"])
+        shape = spec["shape"]
+        if shape["type"] == "mesh":  # PyBullet crashes on some broken meshes: our parser reads it first
+            try:
+                shape = {**shape, "file": str(check_mesh(Path(shape["file"])))}
+            except MeshError as e:
+                name = spec["name"]
+                raise MeshError(f"obstacle {name!r}: {e.message}", obstacle=name, **e.data) from None
         try:
-            body = self.bullet.create_static(spec["shape"], spec["position"], spec["orientation"])
+            body = self.bullet.create_static(shape, spec["position"], spec["orientation"])
         except Exception as e:  # a mesh PyBullet cannot read
             raise InvalidParams(
                 f"obstacle {spec['name']!r}: {e}", param="shape", expected="loadable shape", got=spec["shape"]
