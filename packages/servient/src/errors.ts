@@ -57,7 +57,7 @@ const RPC_STATUS: Record<string, number> = {
   E_SCENE: 400,
   E_UNREACHABLE: 422,
   E_BUSY: 409,
-  E_COLLISION: 422,
+  E_MESH: 422,
   E_NAME_TAKEN: 409,
 };
 

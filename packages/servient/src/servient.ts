@@ -52,6 +52,8 @@ export interface ServientOptions {
   corsOrigins?: string[];
   /** extra names accepted in the `Host` header (e.g. the machine's DNS name when bound to 0.0.0.0) */
   allowedHosts?: string[];
+  /** folders (besides the twin folders) that run-time mesh obstacles (`addObstacle`) may come from */
+  meshRoots?: string[];
 }
 
 export interface ThingInfo {
@@ -100,7 +102,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     if (folder.td.id) ids.add(folder.td.id);
     twins.set(slug, new Twin(slug, folder, backend));
   }
-  const world = new World([...twins.values()]);
+  const world = new World([...twins.values()], opts.meshRoots ?? []);
   backend.on("notification", (method, p) => {
     const twin = twins.get(String(p.robot));
     if (!twin) return;

@@ -120,7 +120,7 @@ export async function validateCartesian(
     checks.ik = { ok, positionError: ik.positionError };
     if (!ok) reasons.push(`IK found no collision-free solution within ${IK_TOLERANCE} m of ${where} (error ${fmt(ik.positionError)} m)`);
   } catch (err) {
-    if (!(err instanceof ServientError) || (err.code !== "E_UNREACHABLE" && err.code !== "E_COLLISION")) throw err;
+    if (!(err instanceof ServientError) || err.code !== "E_UNREACHABLE") throw err;
     const pe = typeof err.details.positionError === "number" ? err.details.positionError : Infinity;
     checks.ik = { ok: false, positionError: Number.isFinite(pe) ? pe : -1 };
     reasons.push(`target ${where} is not reachable by IK: ${err.message}`);

@@ -5,9 +5,10 @@
  * at its last known joint state. Emits `scene` after every run-time edit (the /live `scene` message).
  */
 import { EventEmitter } from "node:events";
-import { isAbsolute, join } from "node:path";
+import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import type { BackendSupervisor, SimCall } from "./backend.js";
 import { ServientError } from "./errors.js";
+import { confine } from "./static-files.js";
 import type { SceneObstacle } from "./twin-folder.js";
 import type { Twin } from "./twin.js";
 
@@ -39,8 +40,15 @@ export class World extends EventEmitter<{ scene: [] }> {
   /** robots of the scene files that are not twins */
   private readonly sceneRobots: Record<string, unknown>[] = [];
 
-  constructor(private readonly twins: Twin[]) {
+  /** folders run-time mesh obstacles may come from: the twin folders, then `--mesh-root` folders */
+  readonly meshRoots: string[];
+
+  constructor(
+    private readonly twins: Twin[],
+    meshRoots: readonly string[] = [],
+  ) {
     super();
+    this.meshRoots = [...twins.map((t) => t.folder.dir), ...meshRoots].map((d) => resolve(d));
     const robotKeys = new Set<string>();
     const twinIds = new Set(twins.map((t) => t.robotId));
     for (const t of twins) {
@@ -93,10 +101,35 @@ export class World extends EventEmitter<{ scene: [] }> {
     }
   };
 
-  async addObstacle(backend: BackendSupervisor, spec: SceneObstacle): Promise<unknown> {
-    if (this.obstacles.has(spec.name) || this.twins.some((t) => t.robotId === spec.name)) {
-      throw new ServientError(409, "E_NAME_TAKEN", `an object named '${spec.name}' already exists`, { name: spec.name });
+  /**
+   * The file of a run-time mesh obstacle: a path relative to a mesh root (first match), or an absolute
+   * path inside one. Anything else is refused before the file system is asked, so the answer never tells
+   * whether a file exists outside the roots.
+   */
+  meshFile(file: string): string {
+    const rels = isAbsolute(file)
+      ? this.meshRoots.map((root) => [root, relative(root, file)] as const).filter(([, rel]) => rel !== "" && !rel.startsWith("..") && !isAbsolute(rel))
+      : this.meshRoots.map((root) => [root, file] as const);
+    const lexicallyInside = rels.filter(([, rel]) => !rel.split(/[\\/]/).some((p) => p === ".."));
+    if (lexicallyInside.length === 0) {
+      throw new ServientError(403, "E_PATH_ESCAPE", `mesh files of run-time obstacles must lie in the twin folder or a --mesh-root folder (${this.meshRoots.join(", ")})`, {
+        file,
+        roots: this.meshRoots,
+      });
     }
+    for (const [root, rel] of lexicallyInside) {
+      const found = confine(root, rel.split(sep).join("/"));
+      if (found) return found;
+    }
+    throw new ServientError(404, "E_FILE_NOT_FOUND", `mesh file ${file} not found in ${lexicallyInside.map(([r]) => r).join(", ")}`, { file });
+  }
+
+  async addObstacle(backend: BackendSupervisor, input: SceneObstacle): Promise<unknown> {
+    if (this.obstacles.has(input.name) || this.twins.some((t) => t.robotId === input.name)) {
+      throw new ServientError(409, "E_NAME_TAKEN", `an object named '${input.name}' already exists`, { name: input.name });
+    }
+    const file = input.shape.file;
+    const spec: SceneObstacle = input.shape.type === "mesh" && typeof file === "string" ? { ...input, shape: { ...input.shape, file: this.meshFile(file) } } : input;
     const out = await backend.call<SceneObstacle>("obstacle.add", spec);
     this.obstacles.set(spec.name, { ...spec, ...(out ?? {}) });
     this.emit("scene");

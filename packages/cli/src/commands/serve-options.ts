@@ -20,6 +20,8 @@ export interface ServeOptions {
   corsOrigins: string[];
   /** extra names accepted in the Host header (--allowed-host, repeatable) */
   allowedHosts: string[];
+  /** folders run-time mesh obstacles may come from besides the twin folders (--mesh-root, repeatable) */
+  meshRoots?: string[];
   json: boolean;
 }
 
@@ -32,6 +34,7 @@ export const SERVE_OPTIONS = {
   backend: { type: "string" },
   "cors-origin": { type: "string", multiple: true },
   "allowed-host": { type: "string", multiple: true },
+  "mesh-root": { type: "string", multiple: true },
   json: { type: "boolean" },
 } as const;
 
@@ -116,6 +119,11 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     ...(backend ? { backend } : {}),
     corsOrigins: parseCorsOrigins(values["cors-origin"]),
     allowedHosts: parseAllowedHosts(values["allowed-host"]),
+    meshRoots: (values["mesh-root"] ?? []).map((d) => {
+      const dir = resolve(d);
+      if (!existsSync(dir) || !statSync(dir).isDirectory()) throw new CliError(`--mesh-root: folder not found: ${dir}`);
+      return dir;
+    }),
     json: values.json ?? false,
   };
 }

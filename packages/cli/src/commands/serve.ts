@@ -17,6 +17,8 @@ Options:
   --backend ws://HOST:PORT     use a running backend instead of starting one
   --cors-origin ORIGIN         let a web page of this origin (e.g. https://dash.example:3000) call the twin;
                                repeatable. Default: no other origin may send commands or read via CORS
+  --mesh-root DIR              folder that addObstacle mesh files may come from, besides the twin folders;
+                               repeatable (any other path is refused with 403)
   --allowed-host NAME          accept this name in the Host header besides the bound address (e.g. the
                                machine's DNS name with --host 0.0.0.0); repeatable
   --json                       print the URLs as JSON on stdout
@@ -61,6 +63,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
     ...(opts.backend ? { backendUrl: opts.backend } : {}),
     corsOrigins: opts.corsOrigins,
     allowedHosts: opts.allowedHosts,
+    meshRoots: opts.meshRoots ?? [],
   });
   onCleanup(() => running.stop());
   printServing(running, opts.json);
