@@ -34,6 +34,9 @@ export interface Backend {
   close(): Promise<void>;
 }
 
+/** A backend silent this long during a generation has hung (ms). */
+const WATCHDOG_DEAD_MS = 30_000;
+
 /** Generous per-request timeout: loading a mesh-heavy robot or a large scene can take a while. */
 const REQUEST_TIMEOUT_MS = 120_000;
 
@@ -72,11 +75,39 @@ class SimBackend implements Backend {
     // reports any real failure (an older backend without workspace.warmUp also lands here)
     await this.client.warmUp(workers).catch(() => undefined);
   }
-  generateWorkspace(
+  /**
+   * Runs workspace.generate under a watchdog: the backend answers ping from its event loop while the
+   * generation runs in its threads, so a backend that leaves a ping unanswered for WATCHDOG_DEAD_MS has
+   * hung (or was stopped): the command fails instead of waiting forever.
+   */
+  async generateWorkspace(
     params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
     onProgress: (p: Progress) => void,
   ): Promise<WorkspaceSummary> {
-    return this.client.generateWorkspace(params, { onProgress }) as Promise<WorkspaceSummary>;
+    let timer: NodeJS.Timeout | undefined;
+    const watchdog = new Promise<never>((_, reject) => {
+      let pending = false;
+      timer = setInterval(() => {
+        if (pending) return;
+        pending = true;
+        this.client
+          .ping({ timeoutMs: WATCHDOG_DEAD_MS })
+          .then(
+            () => undefined,
+            (err: unknown) => {
+              if ((err as { code?: unknown }).code === "E_TIMEOUT") {
+                reject(new CliError(`the simulation backend stopped answering (no reply to ping within ${WATCHDOG_DEAD_MS / 1000} s)`, "E_BACKEND", 1));
+              }
+            },
+          )
+          .finally(() => (pending = false));
+      }, 2_000);
+    });
+    try {
+      return (await Promise.race([this.client.generateWorkspace(params, { onProgress }), watchdog])) as WorkspaceSummary;
+    } finally {
+      clearInterval(timer);
+    }
   }
   close(): Promise<void> {
     this.closing ??= (async () => {

@@ -3,13 +3,20 @@
  * whole world. When the connection or the process dies the supervisor marks the backend down (calls
  * answer 503 `E_BACKEND_DOWN`), reconnects / relaunches it, lets the world restore robots, scene and
  * the last joint state (`restore` hook), and marks it up again.
+ *
+ * Deadlines: a backend that stops answering (hung, SIGSTOPped) is declared dead — the heartbeat `ping`
+ * gets no answer within `deadAfterMs`, or any call times out — and is killed (a launched process) or
+ * dropped (an external URL); every call in flight then fails with 503 and the restart above follows.
+ * Because the world is rebuilt from the servient's record of confirmed operations, an operation that
+ * timed out is never half-applied: the backend that might have applied it late is gone.
  */
 import { EventEmitter } from "node:events";
 import { backendDown, fromBackendError } from "./errors.js";
 
 /** One live connection to a backend. */
 export interface SimSession {
-  call(method: string, params?: Record<string, unknown>): Promise<unknown>;
+  /** `timeoutMs` overrides the method's default deadline */
+  call(method: string, params?: Record<string, unknown>, timeoutMs?: number): Promise<unknown>;
   /** Registers a listener for server notifications (`robot.state`, `robot.collision`, ...). */
   onNotification(cb: (method: string, params: Record<string, unknown>) => void): void;
   /** Resolves when the connection (or the process behind it) is gone. */
@@ -17,7 +24,18 @@ export interface SimSession {
   /** pid of the backend process when we launched it */
   readonly pid?: number | undefined;
   close(): Promise<void>;
+  /** Ends a backend that does not answer, at once (SIGKILL a launched process, drop a connection). */
+  kill(): void;
 }
+
+export interface Deadlines {
+  /** heartbeat period in ms (default 1 000) */
+  heartbeatMs: number;
+  /** a backend that leaves a ping unanswered this long (ms) is dead (default 5 000) */
+  deadAfterMs: number;
+}
+
+export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: 1_000, deadAfterMs: 5_000 };
 
 export type SimConnector = () => Promise<SimSession>;
 export type SimCall = (method: string, params?: Record<string, unknown>) => Promise<unknown>;
@@ -34,6 +52,8 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private up = false;
   private stopping = false;
   private recovering: Promise<void> | null = null;
+  private heartbeat: NodeJS.Timeout | null = null;
+  private deadReason: string | null = null;
   /** number of successful restarts since start */
   restarts = 0;
 
@@ -41,6 +61,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     private readonly connect: SimConnector,
     private readonly restore: (call: SimCall) => Promise<void>,
     private readonly retryDelayMs = 250,
+    private readonly deadlines: Deadlines = DEFAULT_DEADLINES,
   ) {
     super();
   }
@@ -64,8 +85,37 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     try {
       return (await s.call(method, params)) as T;
     } catch (err) {
-      throw fromBackendError(err);
+      const e = fromBackendError(err);
+      if (e.code === "E_BACKEND_TIMEOUT") {
+        // the backend may still apply the call later: only a restart from the record keeps state consistent
+        this.declareDead(s, `${method} got no answer in time`);
+        throw backendDown(`simulation backend did not answer ${method} in time; restarting it`, { method });
+      }
+      throw e;
     }
+  }
+
+  /** Kills a backend that stopped answering; the close handler then restarts it. */
+  private declareDead(s: SimSession, reason: string): void {
+    if (this.session !== s || this.deadReason !== null) return;
+    this.deadReason = reason;
+    this.up = false;
+    s.kill();
+  }
+
+  private startHeartbeat(s: SimSession): void {
+    let pending = false;
+    this.heartbeat = setInterval(() => {
+      if (pending || this.session !== s) return;
+      pending = true;
+      s.call("ping", undefined, this.deadlines.deadAfterMs)
+        .catch((err: unknown) => {
+          // a closed connection is handled by onClosed; anything else means no answer in time
+          if (fromBackendError(err).code !== "E_BACKEND_DOWN") this.declareDead(s, `no answer to ping within ${this.deadlines.deadAfterMs} ms`);
+        })
+        .finally(() => (pending = false));
+    }, this.deadlines.heartbeatMs);
+    this.heartbeat.unref();
   }
 
   /** Resolves when the backend is up (or rejects after `timeoutMs`). */
@@ -87,6 +137,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   async stop(): Promise<void> {
     this.stopping = true;
     this.up = false;
+    if (this.heartbeat) clearInterval(this.heartbeat);
     const s = this.session;
     this.session = null;
     if (s) await s.close().catch(() => undefined);
@@ -117,14 +168,17 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
       return;
     }
     this.up = true;
+    this.deadReason = null;
+    this.startHeartbeat(s);
     void s.closed.then(() => this.onClosed(s));
   }
 
   private onClosed(s: SimSession): void {
     if (this.session !== s || this.stopping) return;
+    if (this.heartbeat) clearInterval(this.heartbeat);
     this.up = false;
     this.session = null;
-    this.emit("down", "backend connection closed");
+    this.emit("down", this.deadReason ?? "backend connection closed");
     this.recovering ??= this.recover().finally(() => {
       this.recovering = null;
     });

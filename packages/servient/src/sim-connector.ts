@@ -8,13 +8,18 @@ import type { SimConnector, SimSession } from "./backend.js";
 /** Methods that last as long as a motion: no request timeout. */
 const LONG = new Set(["robot.move", "workspace.generate"]);
 
-function session(conn: RpcConnection, extra: { pid?: number | undefined; closed?: Promise<unknown>; close?: () => Promise<void> }): SimSession {
+function session(
+  conn: RpcConnection,
+  extra: { pid?: number | undefined; closed?: Promise<unknown>; close?: () => Promise<void>; kill?: () => void },
+): SimSession {
   return {
-    call: (method, params) => conn.call(method, params, LONG.has(method) ? { timeoutMs: 0 } : {}),
+    // long calls have no request deadline of their own: the supervisor's heartbeat bounds them
+    call: (method, params, timeoutMs) => conn.call(method, params, timeoutMs !== undefined ? { timeoutMs } : LONG.has(method) ? { timeoutMs: 0 } : {}),
     onNotification: (cb) => void conn.onNotification("*", cb),
     closed: Promise.race([conn.closed, extra.closed ?? new Promise<never>(() => undefined)]).then(() => undefined),
     pid: extra.pid,
     close: extra.close ?? (() => conn.close()),
+    kill: extra.kill ?? (() => conn.terminate()),
   };
 }
 
@@ -22,7 +27,15 @@ export function launchConnector(options: { python?: string | undefined } = {}): 
   return async () => {
     const b = await launchBackend({ requestTimeoutMs: 60_000, ...(options.python ? { python: options.python } : {}) });
     const conn = b.client.connection;
-    return session(conn, { pid: b.pid, closed: b.exited, close: () => b.stop() });
+    return session(conn, {
+      pid: b.pid,
+      closed: b.exited,
+      close: () => b.stop(),
+      kill: () => {
+        b.process.kill("SIGKILL"); // works on a stopped (SIGSTOP) process too
+        conn.terminate();
+      },
+    });
   };
 }
 

@@ -120,6 +120,12 @@ export class RpcConnection extends EventEmitter<RpcConnectionEvents> {
     return () => this.off("notification", wrapped);
   }
 
+  /** Drops the socket at once (no closing handshake, for a peer that does not answer); pending requests
+   *  reject with ConnectionClosedError. */
+  terminate(): void {
+    this.ws.terminate();
+  }
+
   /** Closes the socket; pending requests reject with ConnectionClosedError. */
   async close(): Promise<void> {
     if (this.ws.readyState === WebSocket.CLOSED) return;
