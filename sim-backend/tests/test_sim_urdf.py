@@ -159,3 +159,22 @@ def test_unreadable_mesh_is_an_error(tmp_path) -> None:
         assert "bad.obj" in ei.value.message and ei.value.data["reason"] == "OBJ without any face"
         assert ei.value.data["urdf"] == str((tmp_path / "r.urdf").resolve()) and ei.value.data["line"]
         assert w.list()["robots"] == []
+
+
+@pytest.mark.parametrize(("limit", "reason"), [
+    ('lower="-1e308" upper="1e308" velocity="1"', "beyond"),
+    ('lower="-1" upper="1" velocity="1e-300"', "velocity limit"),
+    ('lower="-1" upper="1" velocity="1e300"', "velocity limit"),
+    ('lower="-1e400" upper="1" velocity="1"', "not finite"),
+])
+def test_absurd_joint_limits_are_refused_naming_the_joint(tmp_path: Path, limit: str, reason: str) -> None:
+    """Limits that would overflow the planner (+-1e308, velocities of 1e-300 or 1e300) are refused at load
+    with the file, line and joint."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(f"""<robot name="r"><link name="a"/><link name="b"/>
+<joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+<limit {limit} effort="1"/></joint></robot>""")
+    with World() as w, pytest.raises(UrdfError) as ei:
+        w.load_robot(urdf)
+    assert reason in ei.value.message and ei.value.data["line"] == 3
+    assert ei.value.data.get("joint", "j") == "j"

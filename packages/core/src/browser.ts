@@ -5,6 +5,7 @@ export type * from "./td/types.js";
 export { buildThingDescription, thingId, transformBounds, DEFAULT_BASE_URL, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
 export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/build.js";
 export { securityFor } from "./td/security.js";
+export { MIN_SPEED } from "./td/schemas.js";
 export type { AuthScheme } from "./td/security.js";
 export { thingSlug, fnv1a64, canonicalJson } from "./td/hash.js";
 export { parseWorkspaceCsv, writeWorkspaceCsv } from "./workspace/csv.js";
@@ -19,6 +20,16 @@ export { Workspace } from "./workspace/workspace.js";
 export type { WorkspacePointCheck } from "./workspace/workspace.js";
 export { loadWorkspaceFromUrls } from "./workspace/load-url.js";
 export type { FetchLike } from "./workspace/load-url.js";
-export { solveCalibration, applyCalibration, invertCalibration, COLLINEAR_RATIO, COINCIDENT_SPREAD } from "./calibration.js";
+export {
+  solveCalibration,
+  checkCalibration,
+  applyCalibration,
+  invertCalibration,
+  COLLINEAR_RATIO,
+  COINCIDENT_SPREAD,
+  CALIBRATION_SCALE_RANGE,
+  MAX_CALIBRATION_COORDINATE,
+  MAX_CALIBRATION_RMS,
+} from "./calibration.js";
 export type { Calibration, CalibrationPair, PointLike } from "./calibration.js";
 export { gaussian, mulberry32 } from "./random.js";

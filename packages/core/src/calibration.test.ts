@@ -1,6 +1,6 @@
 import { Matrix, determinant } from "ml-matrix";
 import { describe, expect, it } from "vitest";
-import { applyCalibration, invertCalibration, solveCalibration, type CalibrationPair } from "./calibration.js";
+import { applyCalibration, checkCalibration, invertCalibration, solveCalibration, type CalibrationPair } from "./calibration.js";
 import { RobwotError } from "./errors.js";
 import { gauss, rng } from "./test-support/shapes.js";
 import type { Vec3 } from "./types.js";
@@ -105,15 +105,21 @@ describe("solveCalibration", () => {
     }
   });
 
-  it("never returns a reflection, even when the data are mirrored", () => {
+  it("never returns a reflection: mirrored data fit no proper rotation and are refused", () => {
     const r = rng(77);
     const pairs = Array.from({ length: 8 }, () => {
       const v = randomPoint(r);
       return { virtual: v, real: [-v[0], v[1], v[2]] as Vec3 };
     });
-    const cal = solveCalibration(pairs);
-    expectOrthonormal(cal.rotation);
-    expect(cal.rms).toBeGreaterThan(0.05); // no proper rotation fits a mirror image
+    expect(() => solveCalibration(pairs)).toThrow(/RMS residual|scale/);
+  });
+
+  it("checkCalibration accepts a solved calibration and refuses absurd stored ones", () => {
+    const t = truth(5);
+    expect(() => checkCalibration(t)).not.toThrow();
+    expect(() => checkCalibration({ ...t, scale: Infinity })).toThrow(/scale/);
+    expect(() => checkCalibration({ ...t, rotation: [[1, 0, 0], [0, 1, 0], [0, 0, -1]] })).toThrow(/not a rotation/);
+    expect(() => checkCalibration({ ...t, translation: [0, 0, 1e9] })).toThrow(/translation/);
   });
 
   it("inverts: invertCalibration(applyCalibration(p)) = p", () => {

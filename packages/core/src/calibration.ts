@@ -33,11 +33,25 @@ export interface Calibration {
 export const COLLINEAR_RATIO = 1e-3;
 /** RMS spread (m) below which a point set counts as coincident. */
 export const COINCIDENT_SPREAD = 1e-9;
+/** Largest |coordinate| (m) of a calibration point: a robot cell is metres, not kilometres. */
+export const MAX_CALIBRATION_COORDINATE = 1e3;
+/** Accepted similarity scale: outside, the real points are in other units (mm?) or mismatched. */
+export const CALIBRATION_SCALE_RANGE = [0.5, 2] as const;
+/** Largest RMS residual (m) of an accepted fit: above, the pairs do not describe one rigid placement. */
+export const MAX_CALIBRATION_RMS = 0.05;
 
 function toVec3(p: PointLike, where: string): Vec3 {
   const v: unknown[] = Array.isArray(p) ? p : p && typeof p === "object" ? [p.x, p.y, p.z] : [];
   if (v.length !== 3 || !v.every((x) => typeof x === "number" && Number.isFinite(x))) {
     throw new CalibrationError(`${where} must be 3 finite numbers, got ${JSON.stringify(p)}`, { where, got: p ?? null });
+  }
+  if (v.some((x) => Math.abs(x as number) > MAX_CALIBRATION_COORDINATE)) {
+    throw new CalibrationError(`${where} lies beyond ${MAX_CALIBRATION_COORDINATE} m (coordinates are metres)`, {
+      reason: "out-of-range",
+      where,
+      got: p ?? null,
+      limit: MAX_CALIBRATION_COORDINATE,
+    });
   }
   return v as Vec3;
 }
@@ -108,7 +122,49 @@ export function solveCalibration(pairs: readonly CalibrationPair[], options: { w
     return Math.hypot(q[0] - r[0], q[1] - r[1], q[2] - r[2]);
   });
   const rms = Math.sqrt(residuals.reduce((a, e) => a + e * e, 0) / n);
+  const [lo, hi] = CALIBRATION_SCALE_RANGE;
+  if (scale < lo || scale > hi) {
+    throw new CalibrationError(`the fitted scale ${scale.toPrecision(4)} is outside [${lo}, ${hi}]: are the real points in metres, and paired with the right virtual points?`, {
+      reason: "scale-out-of-range",
+      scale,
+      range: [lo, hi],
+    });
+  }
+  if (rms > MAX_CALIBRATION_RMS) {
+    throw new CalibrationError(`the pairs do not fit one placement: RMS residual ${rms.toPrecision(3)} m > ${MAX_CALIBRATION_RMS} m (check the pairing order and the measurements)`, {
+      reason: "residual",
+      rms,
+      limit: MAX_CALIBRATION_RMS,
+      residuals,
+    });
+  }
   return { scale, rotation, translation, rms, pairs: n, withScale, residuals };
+}
+
+/**
+ * Checks a stored calibration (calibration.json) before it is used: finite values, scale within
+ * CALIBRATION_SCALE_RANGE, a proper rotation (orthonormal, determinant +1, within 1e-6), translation
+ * within MAX_CALIBRATION_COORDINATE. Throws CalibrationError naming the offending field.
+ */
+export function checkCalibration(cal: unknown): Transform {
+  const c = (cal ?? {}) as Partial<Record<"scale" | "rotation" | "translation", unknown>>;
+  const fail = (field: string, why: string): never => {
+    throw new CalibrationError(`${field} ${why}`, { reason: "bad-file", field });
+  };
+  const [lo, hi] = CALIBRATION_SCALE_RANGE;
+  if (typeof c.scale !== "number" || !Number.isFinite(c.scale) || c.scale < lo || c.scale > hi) fail("scale", `must be a number in [${lo}, ${hi}], got ${JSON.stringify(c.scale ?? null)}`);
+  const R = c.rotation;
+  if (!Array.isArray(R) || R.length !== 3 || !R.every((r) => Array.isArray(r) && r.length === 3 && r.every((x) => typeof x === "number" && Number.isFinite(x)))) {
+    fail("rotation", "must be a 3x3 matrix of finite numbers");
+  }
+  const m = new Matrix(R as number[][]);
+  const err = m.transpose().mmul(m).sub(Matrix.eye(3)).abs().max();
+  if (err > 1e-6 || determinant(m) < 0) fail("rotation", `is not a rotation (|RᵀR - I| = ${err.toExponential(2)}, det ${determinant(m).toFixed(3)})`);
+  const t = c.translation;
+  if (!Array.isArray(t) || t.length !== 3 || !t.every((x) => typeof x === "number" && Number.isFinite(x) && Math.abs(x) <= MAX_CALIBRATION_COORDINATE)) {
+    fail("translation", `must be 3 finite numbers within ${MAX_CALIBRATION_COORDINATE} m`);
+  }
+  return { scale: c.scale as number, rotation: R as number[][], translation: t as Vec3 };
 }
 
 type Transform = Pick<Calibration, "scale" | "rotation" | "translation">;

@@ -9,7 +9,7 @@
  * `status: "stopped"` without moving, and one stopped during its motion is stopped by the backend
  * (`robot.stop` follows `robot.move` on the same ordered connection, so it cannot overtake it).
  */
-import type { Contact, MoveResult, Quaternion, Vec3 } from "@robwot/core";
+import { MIN_SPEED, type Contact, type MoveResult, type Quaternion, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput, ServientError } from "./errors.js";
 import { vec } from "./frames.js";
@@ -43,8 +43,8 @@ export interface CartesianInput {
 
 export function speedOf(input: { speed?: unknown }): number {
   const s = input.speed ?? 1;
-  if (typeof s !== "number" || !Number.isFinite(s) || s <= 0 || s > 1) {
-    throw badInput(`speed must be a number in (0, 1], got ${JSON.stringify(s)}`, { param: "speed", value: s ?? null });
+  if (typeof s !== "number" || !Number.isFinite(s) || s < MIN_SPEED || s > 1) {
+    throw badInput(`speed must be a number in [${MIN_SPEED}, 1], got ${JSON.stringify(s)}`, { param: "speed", value: s ?? null });
   }
   return s;
 }

@@ -4,7 +4,7 @@
  */
 import { existsSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import type { CalibrationFile, TwinManifest, WorkspaceSummary } from "@robwot/core";
+import { checkCalibration, type CalibrationFile, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
 import { ServientError } from "./errors.js";
 
 /** The TD document as generated (forms are replaced when served). */
@@ -78,6 +78,14 @@ export function loadTwinFolder(folder: string): TwinFolder {
   const scene = readJson<SceneDoc>(dir, manifest.scene || "scene.json", false) ?? {};
   const workspace = readJson<WorkspaceSummary>(dir, "workspace.json", false);
   const calibration = readJson<CalibrationFile>(dir, "calibration.json", false);
+  if (calibration !== null) {
+    try {
+      checkCalibration(calibration);
+    } catch (err) {
+      const file = join(dir, "calibration.json");
+      throw new ServientError(400, "E_TWIN_FOLDER", `${file}: ${(err as Error).message} (fix or delete the file; calibrate writes it)`, { folder: dir, file: "calibration.json" });
+    }
+  }
   return {
     dir,
     td,

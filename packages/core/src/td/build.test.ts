@@ -55,7 +55,7 @@ describe("buildThingDescription", () => {
     const input = td.actions.moveToCartesianPosition?.input as DataSchema;
     expect(input.required).toEqual(["x", "y", "z"]);
     expect(input.properties?.z).toMatchObject({ unit: "m", minimum: -0.3, maximum: 1.31 });
-    expect(input.properties?.speed).toMatchObject({ exclusiveMinimum: 0, maximum: 1 });
+    expect(input.properties?.speed).toMatchObject({ minimum: 0.001, maximum: 1 });
     expect(td.properties.getCartesianPosition?.properties?.x).toMatchObject({ minimum: -1.1, maximum: 1.1 });
   });
 

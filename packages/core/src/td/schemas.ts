@@ -64,10 +64,14 @@ export function xyzSchema(description: string, bounds: Bounds | null = null): Da
   };
 }
 
+/** Slowest speed fraction accepted: a move at 0.001 takes 1,000 times its full-speed duration; below,
+ *  durations overflow (the backend refuses the same range). */
+export const MIN_SPEED = 0.001;
+
 export const speedSchema = (): DataSchema => ({
   type: "number",
-  description: "Fraction of the URDF joint velocity limits (0 < speed <= 1)",
-  exclusiveMinimum: 0,
+  description: `Fraction of the URDF joint velocity limits (${MIN_SPEED} <= speed <= 1)`,
+  minimum: MIN_SPEED,
   maximum: 1,
   default: 1,
 });

@@ -10,10 +10,12 @@ from robwot_sim.rpc.params import MISSING, Params, invalid_param
 from robwot_sim.rpc.services import Services
 
 DEFAULT_DT = 1.0 / 240.0
+#: slowest speed fraction (a move then takes 1,000 times its full-speed duration); the TD says the same
+MIN_SPEED = 1e-3
 
 
 def _timing(p: Params) -> tuple[float, float]:
-    speed = p.number("speed", 1.0, minimum=0.0, maximum=1.0, exclusive_minimum=True)
+    speed = p.number("speed", 1.0, minimum=MIN_SPEED, maximum=1.0)
     dt = p.number("dt", DEFAULT_DT, minimum=0.0, maximum=0.1, exclusive_minimum=True)
     return float(speed), float(dt)
 

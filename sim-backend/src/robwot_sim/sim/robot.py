@@ -17,6 +17,12 @@ MOVABLE = ("revolute", "continuous", "prismatic")
 LIMIT_TOL = 1e-9
 
 
+#: largest joint limit accepted, rad (revolute: 16 turns) or m (prismatic)
+MAX_LIMIT = 100.0
+#: accepted URDF velocity limits (rad/s or m/s); 0 or absent means 1
+MIN_VELOCITY, MAX_VELOCITY = 1e-6, 1e4
+
+
 def _float(el: ET.Element | None, attr: str, default: float, doc: UrdfDoc) -> float:
     if el is None or el.get(attr) is None:
         return default
@@ -113,6 +119,14 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
                     f"{jtype} joint {name!r} needs <limit lower=... upper=...>", file=f, line=line, joint=name
                 )
             lower, upper = _float(lim, "lower", 0.0, doc), _float(lim, "upper", 0.0, doc)
+            if max(abs(lower), abs(upper)) > MAX_LIMIT:
+                unit = "rad" if jtype == "revolute" else "m"
+                raise UrdfError(
+                    f"joint {name!r}: limits [{lower:g}, {upper:g}] {unit} beyond +-{MAX_LIMIT:g} {unit}",
+                    file=f,
+                    line=doc.line_of(lim),
+                    joint=name,
+                )
             if lower > upper:
                 raise UrdfError(
                     f"joint {name!r}: lower limit {lower} > upper limit {upper}",
@@ -124,6 +138,15 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
             lower, upper = -math.pi, math.pi
         else:
             lower = upper = 0.0
+        velocity = _float(lim, "velocity", 0.0, doc)
+        if not (velocity <= 0 or MIN_VELOCITY <= velocity <= MAX_VELOCITY):
+            raise UrdfError(
+                f"joint {name!r}: velocity limit {velocity:g} outside [{MIN_VELOCITY:g}, {MAX_VELOCITY:g}] "
+                "(0 or absent: 1 rad/s or m/s)",
+                file=f,
+                line=doc.line_of(lim) if lim is not None else line,
+                joint=name,
+            )
         mel = el.find("mimic")
         mimic = None
         if mel is not None and jtype in MOVABLE:
@@ -138,7 +161,7 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
                 child,
                 lower,
                 upper,
-                _float(lim, "velocity", 0.0, doc),
+                velocity,
                 _float(lim, "effort", 0.0, doc),
                 mimic,
             )

@@ -1,0 +1,78 @@
+/**
+ * Hostile values never become state: absurd or non-fitting calibrations answer 400 and save nothing, a
+ * calibration.json with absurd values is refused at load naming the file, and every number the TD's
+ * schemas allow is handled (no 500). Real servient, real backend, real HTTP.
+ */
+import { existsSync, writeFileSync } from "node:fs";
+import { join } from "node:path";
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { generateTwin, http, invoke, kukaPose } from "./serve-helpers.js";
+
+let s: RunningServient;
+let base: string;
+let dir: string;
+
+beforeAll(async () => {
+  dir = await generateTwin("kuka_iiwa", 3000);
+  s = await startServient({ twins: [dir], port: 0, realtime: 0 });
+  base = s.things[0]!.tdUrl;
+});
+afterAll(async () => s?.stop());
+
+const P = [
+  [0.1, 0.2, 0.3],
+  [0.5, -0.1, 0.4],
+  [-0.3, 0.4, 0.2],
+  [0.2, 0.1, 0.9],
+];
+const xyz = (v: number[]): { x: number; y: number; z: number } => ({ x: v[0]!, y: v[1]!, z: v[2]! });
+
+describe("calibrate refuses what is not a calibration, and saves nothing", () => {
+  it.each([
+    ["real points of 1e308", P.map((v) => ({ real: xyz(v.map((c) => c * 1e308)), virtual: xyz(v) })), /beyond 1000 m/],
+    ["real points in millimetres (scale 1000)", P.map((v) => ({ real: xyz(v.map((c) => c * 1000)), virtual: xyz(v) })), /scale .* outside/],
+    ["pairs in the wrong order (rms of metres)", P.map((v, i) => ({ real: xyz(P[(i + 1) % 4]!.map((c) => c * 3)), virtual: xyz(v) })), /RMS residual|scale/],
+  ])("%s: 400, no calibration.json, TD bounds unchanged", async (_what, pairs, message) => {
+    const tdBefore = (await http(base)).body;
+    const r = await invoke(base, "calibrate", { pairs });
+    expect(r.status).toBe(400);
+    expect(r.body.code).toBe("E_CALIBRATION");
+    expect(r.body.message).toMatch(message);
+    expect(existsSync(join(dir, "calibration.json"))).toBe(false);
+    expect((await http(`${base}/properties/calibration`)).body).toEqual({ active: false });
+    expect((await http(base)).body.actions.moveToCartesianPosition.input).toEqual(tdBefore.actions.moveToCartesianPosition.input);
+  });
+});
+
+describe("numbers the schema allows are handled", () => {
+  it("a speed of 1e-300 is refused by the schema (400), the documented minimum 0.001 works", async () => {
+    const joints = kukaPose([0.1, 0, 0, 0, 0, 0, 0]);
+    const tiny = await invoke(base, "validateJointPosition", { joints, speed: 1e-300 });
+    expect(tiny.status).toBe(400);
+    expect((await http(base)).body.actions.moveToJointPosition.input.properties.speed.minimum).toBe(0.001);
+    const slow = await invoke(base, "validateJointPosition", { joints, speed: 0.001 });
+    expect(slow.status).toBe(200);
+    expect(slow.body.valid).toBe(true);
+  });
+});
+
+describe("calibration.json is checked at load", () => {
+  it.each([
+    ["a scale of 1e400 (Infinity)", '{"scale": 1e400, "rotation": [[1,0,0],[0,1,0],[0,0,1]], "translation": [0,0,0]}', /scale/],
+    ["a rotation that is not one", '{"scale": 1, "rotation": [[2,0,0],[0,1,0],[0,0,1]], "translation": [0,0,0]}', /rotation/],
+    ["a translation of 1e9 m", '{"scale": 1, "rotation": [[1,0,0],[0,1,0],[0,0,1]], "translation": [1e9,0,0]}', /translation/],
+  ])("%s: serve refuses the folder naming the file", async (_what, text, message) => {
+    const bad = await generateTwin("kuka_iiwa", 3000);
+    writeFileSync(join(bad, "calibration.json"), text);
+    const err = await startServient({ twins: [bad], port: 0 }).then(
+      async (other) => {
+        await other.stop();
+        return null;
+      },
+      (e: unknown) => e as Error,
+    );
+    expect(err?.message).toContain(join(bad, "calibration.json"));
+    expect(err?.message).toMatch(message);
+  });
+});
