@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import sys
 from collections.abc import Iterator, Sequence
@@ -48,6 +49,10 @@ def stdout_to_stderr() -> Iterator[None]:
         os.close(saved)
 
 
+#: where removed static bodies wait for reuse (m): far beyond any workspace
+PARKING = 1.0e5
+
+
 class Bullet:
     """One PyBullet physics client in DIRECT mode. Use as a context manager or call ``close()``."""
 
@@ -55,6 +60,10 @@ class Bullet:
         self.cid: int = pb.connect(pb.DIRECT)
         if self.cid < 0:
             raise RuntimeError("could not start a PyBullet DIRECT client")
+        # PyBullet never gives back the memory of a removed body (~3.5 KB each): removed static bodies
+        # are parked far away, out of every check, and reused for the next obstacle of the same shape
+        self._static_key: dict[int, str] = {}  # live static body -> its shape key
+        self._parked: dict[str, list[int]] = {}  # shape key -> parked bodies
 
     def close(self) -> None:
         if self.cid >= 0:
@@ -82,7 +91,16 @@ class Bullet:
             )
 
     def remove_body(self, body: int) -> None:
-        pb.removeBody(body, physicsClientId=self.cid)
+        """Remove a body; a static body of ``create_static`` is parked for reuse instead (see __init__).
+        Callers must forget a removed body: parked bodies are far away but still exist."""
+        key = self._static_key.pop(body, None)
+        if key is None:
+            pb.removeBody(body, physicsClientId=self.cid)
+            return
+        parked = self._parked.setdefault(key, [])
+        parked.append(body)
+        far = PARKING + 10.0 * (len(self._static_key) + sum(len(v) for v in self._parked.values()))
+        pb.resetBasePositionAndOrientation(body, [far, far, -far], [0, 0, 0, 1], physicsClientId=self.cid)
 
     def body_name(self, body: int) -> tuple[str, str]:
         """(base link name, body name)."""
@@ -180,6 +198,13 @@ class Bullet:
         self, shape: dict[str, Any], position: Sequence[float], quat_xyzw: Sequence[float]
     ) -> int:
         """A mass-0 body with one collision shape, no visual (``shape`` as in Contract 1, file resolved)."""
+        key = json.dumps(shape, sort_keys=True)
+        parked = self._parked.get(key)
+        if parked:
+            body = parked.pop()
+            self.reset_base(body, position, quat_xyzw)
+            self._static_key[body] = key
+            return body
         t = shape["type"]
         if t == "box":
             col = pb.createCollisionShape(
@@ -202,7 +227,7 @@ class Bullet:
                 raise RuntimeError(f"PyBullet could not read the mesh {shape['file']}")
         if col < 0:
             raise RuntimeError(f"PyBullet could not create the collision shape {shape}")
-        return int(
+        body = int(
             pb.createMultiBody(
                 baseMass=0,
                 baseCollisionShapeIndex=col,
@@ -212,6 +237,8 @@ class Bullet:
                 physicsClientId=self.cid,
             )
         )
+        self._static_key[body] = key
+        return body
 
 
 def quat_from_rpy(rpy: Sequence[float]) -> Quat:
