@@ -155,7 +155,8 @@ def test_obstacle_add_remove_does_not_grow_the_backend() -> None:
         assert grown < 1500, f"backend grew {grown} KB over 2,000 add/remove pairs"
         # a parked obstacle takes no part in checks; a re-added one does
         assert client.call("robot.checkCollision", {"robot": "kuka"})["collisionFree"]
-        client.call("obstacle.add", {**box, "position": [0, 0, 0.5], "shape": {"type": "box", "size": [0.3] * 3}})
+        big = {"type": "box", "size": [0.3] * 3}
+        client.call("obstacle.add", {**box, "position": [0, 0, 0.5], "shape": big})
         assert not client.call("robot.checkCollision", {"robot": "kuka"})["collisionFree"]
     finally:
         client.close()
