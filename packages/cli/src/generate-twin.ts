@@ -3,7 +3,7 @@
  * temporary folder and moved into place only when everything, TD validation included, succeeded.
  * Shared by `robwot generate` and `robwot demo`.
  */
-import { existsSync, realpathSync, writeFileSync } from "node:fs";
+import { existsSync, readFileSync, realpathSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
@@ -59,6 +59,29 @@ function samePath(a: string, b: string): boolean {
     return realpathSync(a) === realpathSync(b);
   } catch {
     return resolve(a) === resolve(b);
+  }
+}
+
+/**
+ * A twin whose collision-free workspace has no surface (no collision-free sample, or only a point or a
+ * line of end-effector positions) could never validate a Cartesian target, and serve would refuse it:
+ * it is not written. Exit 1 with what to check.
+ */
+function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
+  if (summary.collisionFree === 0) {
+    throw new CliError(
+      `no collision-free configuration in ${summary.samples} samples: the robot touches itself or the scene everywhere (check the scene, the base pose and the URDF's collision geometry)`,
+      "E_WORKSPACE",
+      1,
+    );
+  }
+  const triangles = statSync(join(dir, "workspace.stl")).size > 84 ? readFileSync(join(dir, "workspace.stl")).readUInt32LE(80) : 0;
+  if (triangles === 0) {
+    throw new CliError(
+      `the collision-free workspace is degenerate (no surface through the collision-free points): the end effector reaches a point or a line only; check --ee (the end-effector link) and the joint limits`,
+      "E_WORKSPACE",
+      1,
+    );
   }
 }
 
@@ -143,6 +166,7 @@ export async function generateTwin(
   );
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
   const summary = await generating;
+  refuseDegenerate(summary, staged.tmp);
   writeJson(join(staged.tmp, "workspace.json"), summary);
   if (summary.method === "convex-hull") {
     progress.info("the alpha shape degenerated (planar robot or too few points): workspace.stl is the convex hull");

@@ -1,6 +1,7 @@
 /**
  * Clean-up on the way out: stop the backend, remove temporary folders. Runs the registered actions (in
- * reverse order) on normal completion, on errors, and on SIGINT/SIGTERM, each at most once.
+ * reverse order) on normal completion, on errors, and on SIGINT/SIGTERM/SIGHUP, each at most once;
+ * the process then exits with 128 + the signal number.
  */
 
 type Cleanup = () => void | Promise<void>;
@@ -38,14 +39,16 @@ export function wasInterrupted(): boolean {
 function installSignalHandlers(): void {
   if (installed) return;
   installed = true;
-  for (const sig of ["SIGINT", "SIGTERM"] as const) {
+  const codes = { SIGHUP: 129, SIGINT: 130, SIGTERM: 143 } as const;
+  for (const sig of ["SIGINT", "SIGTERM", "SIGHUP"] as const) {
     process.on(sig, () => {
-      if (interrupted) process.exit(130);
+      const code = codes[sig];
+      if (interrupted) process.exit(code);
       interrupted = true;
-      process.stderr.write(`\nrobwot: ${sig === "SIGINT" ? "interrupted" : "terminated"}, cleaning up\n`);
-      const force = setTimeout(() => process.exit(130), 5000);
+      process.stderr.write(`\nrobwot: ${sig === "SIGINT" ? "interrupted" : sig === "SIGHUP" ? "hung up" : "terminated"}, cleaning up\n`);
+      const force = setTimeout(() => process.exit(code), 5000);
       force.unref();
-      void runCleanups().finally(() => process.exit(130));
+      void runCleanups().finally(() => process.exit(code));
     });
   }
 }

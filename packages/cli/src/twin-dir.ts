@@ -5,11 +5,32 @@
  */
 import { randomBytes } from "node:crypto";
 import { chmodSync, existsSync, mkdirSync, mkdtempSync, renameSync, rmdirSync, rmSync, statSync, readdirSync } from "node:fs";
-import { basename, dirname, join, resolve } from "node:path";
+import { homedir } from "node:os";
+import { basename, dirname, join, parse, relative, resolve } from "node:path";
 import { CliError } from "./errors.js";
 
 /** A file every complete twin folder contains; an existing folder without it is not ours to replace. */
 export const TWIN_MARKER = "twin.json";
+
+const contains = (dir: string, path: string): boolean => {
+  const rel = relative(dir, path);
+  return rel === "" || (!rel.startsWith("..") && !parse(rel).root);
+};
+
+/**
+ * Refuses, before any work, outputs whose replacement would destroy what is not a twin: the file system
+ * root, the home folder, the working folder or one of its ancestors, and any folder holding an input
+ * (URDF, scene, package roots), whatever `--force` says. Usage errors (exit 2).
+ */
+function checkNotAbsurd(out: string, inputs: readonly string[]): void {
+  const refuse = (why: string): never => {
+    throw new CliError(`refusing --out ${out}: ${why}; choose a folder of its own, e.g. --out twins/<name>`, "E_USAGE");
+  };
+  if (out === parse(out).root) refuse("it is the file system root");
+  if (out === resolve(homedir())) refuse("it is your home folder");
+  if (contains(out, process.cwd())) refuse("it holds the working folder");
+  for (const input of inputs) if (contains(out, resolve(input))) refuse(`it holds the input ${resolve(input)}`);
+}
 
 export class StagedDir {
   readonly out: string;
@@ -28,8 +49,9 @@ export class StagedDir {
    * Checks that `out` can be (re)placed and creates the temporary folder. Throws a `CliError`
    * (`E_OUTPUT`) naming the path when the destination is not writable or not replaceable.
    */
-  static create(outArg: string, opts: { force?: boolean } = {}): StagedDir {
+  static create(outArg: string, opts: { force?: boolean; inputs?: readonly string[] } = {}): StagedDir {
     const out = resolve(outArg);
+    checkNotAbsurd(out, opts.inputs ?? []);
     if (existsSync(out)) {
       const st = statSync(out);
       if (!st.isDirectory()) throw new CliError(`output ${out} exists and is not a directory`, "E_OUTPUT");

@@ -117,8 +117,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       t.setStatus({ state: t.busy ? t.status.state : "idle", lastError: { code: "E_BACKEND_RESTARTED", message: `simulation backend restarted (${n}); state restored` } });
     }
   });
-  await backend.start();
+  // the twin folders are checked completely before a backend is started for them
   const checks = new Map(await Promise.all([...twins].map(async ([s, t]) => [s, await loadWorkspaceChecks(t.folder.dir)] as const)));
+  await backend.start();
 
   // node-wot reads PORT / WOT_PORT from the environment before its config: keep them out
   const saved = { PORT: process.env.PORT, WOT_PORT: process.env.WOT_PORT };

@@ -5,6 +5,7 @@
 import { existsSync } from "node:fs";
 import { join } from "node:path";
 import { loadWorkspace, type Vec3, type Workspace } from "@robwot/core";
+import { ServientError } from "./errors.js";
 
 export interface WorkspaceChecks {
   inside(p: Vec3): boolean;
@@ -21,8 +22,22 @@ export function workspaceChecks(ws: Workspace): WorkspaceChecks {
   };
 }
 
-/** Loads workspace.stl + workspace.csv of a twin folder; null when the folder has none. */
-export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks | null> {
-  if (!existsSync(join(dir, "workspace.stl")) || !existsSync(join(dir, "workspace.csv"))) return null;
-  return workspaceChecks(await loadWorkspace(dir));
+/**
+ * Loads workspace.stl + workspace.csv of a twin folder. A folder without them (or with files that do not
+ * load) is refused naming them: serving it with the Cartesian checks silently off would accept targets
+ * the twin cannot vouch for.
+ */
+export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks> {
+  const missing = ["workspace.stl", "workspace.csv"].filter((f) => !existsSync(join(dir, f)));
+  if (missing.length > 0) {
+    throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir} has no ${missing.join(" and ")} (the Cartesian checks need them): regenerate it with robwot generate`, {
+      folder: dir,
+      missing,
+    });
+  }
+  try {
+    return workspaceChecks(await loadWorkspace(dir));
+  } catch (err) {
+    throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir}: its workspace files do not load: ${(err as Error).message} (regenerate it with robwot generate)`, { folder: dir });
+  }
 }

@@ -53,7 +53,8 @@ function printHuman(r: GenerateResult, seconds: number): void {
 export async function runGenerate(opts: GenerateOptions): Promise<number> {
   const t0 = performance.now();
   const progress = createProgress({ silent: opts.json });
-  const staged = StagedDir.create(opts.out, { force: opts.force });
+  const inputs = [opts.urdfFile, opts.scene, ...Object.values(opts.packageRoots)].filter((f): f is string => f !== undefined);
+  const staged = StagedDir.create(opts.out, { force: opts.force, inputs });
   const dropStaged = onCleanup(() => staged.discard());
   try {
     progress.stage("backend");

@@ -1,0 +1,96 @@
+/**
+ * `robwot generate` never destroys what is not a twin and never leaves debris: absurd outputs (the file
+ * system root, the home folder, the working folder, a folder holding the input) are refused before any
+ * work even with --force, and a run interrupted by SIGHUP, SIGTERM or SIGINT removes its temporary
+ * folder. Real CLI processes, real backend.
+ */
+import { spawn } from "node:child_process";
+import { existsSync, mkdirSync, mkdtempSync, readdirSync, rmSync, writeFileSync } from "node:fs";
+import { homedir, tmpdir } from "node:os";
+import { join } from "node:path";
+import { describe, expect, it } from "vitest";
+import { CLI, REPO, runCli, TINY_URDF } from "./cli-run.js";
+
+describe("absurd outputs are refused before any work", () => {
+  const urdfIn = (): { dir: string; urdf: string } => {
+    const dir = mkdtempSync(join(tmpdir(), "robwot-in-"));
+    const urdf = join(dir, "arm.urdf");
+    writeFileSync(urdf, TINY_URDF);
+    return { dir, urdf };
+  };
+
+  it.each([
+    ["the file system root", () => "/", /file system root/],
+    ["the home folder", () => homedir(), /home folder/],
+    ["the working folder", () => REPO, /working folder/],
+  ])("--out %s --force: exit 2 at once", async (_what, out, message) => {
+    const { urdf } = urdfIn();
+    const r = await runCli(["generate", urdf, "--out", out(), "--force", "--samples", "500"], { timeoutMs: 20_000 });
+    expect(r.code).toBe(2);
+    expect(r.stderr).toMatch(message);
+    expect(r.stderr).not.toMatch(/backend|labelling|sampling/i);
+  });
+
+  it("--force on the folder holding the input URDF is refused and the URDF survives", async () => {
+    const { dir, urdf } = urdfIn();
+    mkdirSync(join(dir, "meshes"));
+    const r = await runCli(["generate", urdf, "--out", dir, "--force", "--samples", "500"], { timeoutMs: 20_000 });
+    expect(r.code).toBe(2);
+    expect(r.stderr).toContain(`holds the input ${urdf}`);
+    expect(existsSync(urdf)).toBe(true);
+    expect(readdirSync(dir).sort()).toEqual(["arm.urdf", "meshes"]);
+  });
+});
+
+describe("an interrupted generate leaves nothing behind", () => {
+  it.each([
+    ["SIGHUP", 129],
+    ["SIGTERM", 143],
+    ["SIGINT", 130],
+  ] as const)("%s during the run: exit %i, no temporary folder, no output", async (signal, code) => {
+    const parent = mkdtempSync(join(tmpdir(), "robwot-sig-"));
+    const child = spawn(process.execPath, [CLI, "generate", "kuka_iiwa", "--samples", "400000", "--out", join(parent, "twin")], {
+      cwd: REPO,
+      stdio: ["ignore", "pipe", "pipe"],
+    });
+    let stderr = "";
+    child.stderr.on("data", (d: Buffer) => (stderr += d.toString()));
+    const exited = new Promise<number | null>((r) => child.on("close", (c) => r(c)));
+    // wait until the run is under way (the staged folder exists), then signal
+    const t0 = Date.now();
+    while (!readdirSync(parent).some((f) => f.includes(".tmp-")) && Date.now() - t0 < 30_000) await new Promise((r) => setTimeout(r, 20));
+    await new Promise((r) => setTimeout(r, 1500));
+    child.kill(signal);
+    expect(await exited).toBe(code);
+    expect(readdirSync(parent)).toEqual([]);
+    expect(stderr).toMatch(/cleaning up/);
+  });
+});
+
+describe("twins that could not be served are not written, and folders missing workspace files are not served", () => {
+  it("a robot whose end effector reaches one point only: generate exits 1 with the reason, nothing written", async () => {
+    const dir = mkdtempSync(join(tmpdir(), "robwot-point-"));
+    const urdf = join(dir, "spinner.urdf");
+    writeFileSync(
+      urdf,
+      `<robot name="spinner"><link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+<link name="tip"><collision><geometry><sphere radius="0.01"/></geometry></collision></link>
+<joint name="spin" type="revolute"><parent link="base"/><child link="tip"/><origin xyz="0 0 0.3"/>
+<axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>`,
+    );
+    const r = await runCli(["generate", urdf, "--samples", "500", "--out", join(dir, "twin")], { timeoutMs: 120_000 });
+    expect(r.code).toBe(1);
+    expect(r.stderr).toMatch(/degenerate.*point or a line/);
+    expect(readdirSync(dir)).toEqual(["spinner.urdf"]);
+  });
+
+  it("serve refuses a twin folder without workspace.stl, naming it, and starts no backend", async () => {
+    const parent = mkdtempSync(join(tmpdir(), "robwot-nows-"));
+    const out = join(parent, "twin");
+    expect((await runCli(["generate", "two_joint", "--samples", "2000", "--out", out], { timeoutMs: 120_000 })).code).toBe(0);
+    rmSync(join(out, "workspace.stl"));
+    const r = await runCli(["serve", out, "--port", "0"], { timeoutMs: 60_000 });
+    expect(r.code).toBe(1);
+    expect(r.stderr).toContain("has no workspace.stl");
+  });
+});
