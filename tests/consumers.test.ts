@@ -6,12 +6,13 @@
  */
 import { spawn } from "node:child_process";
 import { createServer, type AddressInfo } from "node:net";
-import { rmSync, readFileSync, writeFileSync } from "node:fs";
+import { writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { REPO } from "./cli-run.js";
-import { generateTwin, http } from "./serve-helpers.js";
+import type { Vec3 } from "../packages/core/src/index.js";
+import { generateTwin, http, placeTwin } from "./serve-helpers.js";
 
 const DIST = join(REPO, "packages", "consumers", "dist");
 
@@ -70,16 +71,10 @@ beforeAll(async () => {
   // helper), then four private copies
   const fastDir = await generateTwin("kuka_iiwa", 3000, SCENE);
   const [liveDir, virtualDir, physicalDir] = await Promise.all([1, 2, 3].map(() => generateTwin("kuka_iiwa", 3000, SCENE)));
-  // The physical stand-in: same robot, base moved and turned, alone (no obstacles). Its workspace
-  // files describe the original placement, so they are removed (a physical robot has none); it
-  // validates by IK and path.
+  // The physical stand-in: same robot, base moved and turned (its workspace files moved with it),
+  // alone (no obstacles).
   writeFileSync(join(physicalDir as string, "scene.json"), JSON.stringify({ version: 1, name: "physical", obstacles: [] }));
-  const manifestPath = join(physicalDir as string, "twin.json");
-  const manifest = JSON.parse(readFileSync(manifestPath, "utf8"));
-  manifest.robot.basePosition = OFFSET;
-  manifest.robot.baseOrientation = [0, 0, Math.sin(YAW / 2), Math.cos(YAW / 2)];
-  writeFileSync(manifestPath, JSON.stringify(manifest, null, 2));
-  for (const f of ["workspace.stl", "workspace.csv"]) rmSync(join(physicalDir as string, f));
+  placeTwin(physicalDir as string, YAW, OFFSET as Vec3);
 
   [fast, live, physical] = await Promise.all([
     startServient({ twins: [fastDir], port: 0, realtime: 0 }),

@@ -46,7 +46,8 @@ function installSignalHandlers(): void {
       if (interrupted) process.exit(code);
       interrupted = true;
       process.stderr.write(`\nrobwot: ${sig === "SIGINT" ? "interrupted" : sig === "SIGHUP" ? "hung up" : "terminated"}, cleaning up\n`);
-      const force = setTimeout(() => process.exit(code), 5000);
+      // an own backend gets 5 s to stop before SIGKILL: leave time for the clean-ups after it
+      const force = setTimeout(() => process.exit(code), 15_000);
       force.unref();
       void runCleanups().finally(() => process.exit(code));
     });

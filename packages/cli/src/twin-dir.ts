@@ -36,6 +36,7 @@ export class StagedDir {
   readonly out: string;
   readonly tmp: string;
   private done = false;
+  private committed = false;
   /** The outermost folder this run had to create for the output's parent (removed again on failure). */
   private readonly createdRoot: string | undefined;
 
@@ -96,12 +97,14 @@ export class StagedDir {
       throw new CliError(`cannot move ${this.tmp} to ${this.out}: ${(err as Error).message}`, "E_OUTPUT");
     }
     this.done = true;
+    this.committed = true;
     if (old !== null) rmSync(old, { recursive: true, force: true });
   }
 
-  /** Removes the temporary folder (idempotent; a committed folder is left alone). */
+  /** Removes the temporary folder (a committed folder is left alone). Safe to call again: a backend
+   *  still writing when it was first called may have created files since. */
   discard(): void {
-    if (this.done) return;
+    if (this.committed) return;
     this.done = true;
     rmSync(this.tmp, { recursive: true, force: true });
     // a failed run leaves nothing behind: also the (still empty) parent folders it created

@@ -60,6 +60,9 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
     progress.stage("backend");
     const backend = await openBackend(opts.backend);
     const dropBackend = onCleanup(() => backend.close());
+    // on a signal the staged folder goes first (cheap), then the backend stops, then it goes again
+    // (the backend may have written into it meanwhile)
+    const dropEarly = onCleanup(() => staged.discard());
     try {
       const result = await generateTwin(opts, backend, staged, progress);
       const seconds = (performance.now() - t0) / 1000;
@@ -67,6 +70,7 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
       else printHuman(result, seconds);
       return 0;
     } finally {
+      dropEarly();
       dropBackend();
       await backend.close();
     }
