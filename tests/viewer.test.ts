@@ -268,6 +268,8 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
   });
 
   it("the Stop button stops a running motion", async () => {
+    // the previous test's move may still be answering (its pose was reached first): a move now would be 409
+    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
     const q = await read<Joints>(twin, "getJointPosition");
     // Turning the last (wrist) joint is collision-free whatever the rest of the arm does.
     const J7 = "lbr_iiwa_joint_7";
