@@ -3,7 +3,7 @@
  * temporary folder and moved into place only when everything, TD validation included, succeeded.
  * Shared by `robwot generate` and `robwot demo`.
  */
-import { existsSync, readFileSync, realpathSync, statSync, writeFileSync } from "node:fs";
+import { copyFileSync, existsSync, readFileSync, realpathSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
@@ -92,10 +92,11 @@ function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
  */
 async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: string): Promise<RobotModel> {
   const packageRoots = opts.packageRoots;
-  if (!opts.scene) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots });
+  const srdf = opts.srdf !== undefined ? { srdf: opts.srdf } : {};
+  if (!opts.scene) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf });
   await backend.loadScene({ path: opts.scene, packageRoots });
   const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf));
-  if (!placed) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots });
+  if (!placed) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf });
   await backend.removeRobot(placed.id);
   return backend.loadRobot({
     urdf,
@@ -104,6 +105,7 @@ async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: s
     baseOrientation: placed.baseOrientation,
     eeLink: opts.ee ?? placed.eeLink,
     packageRoots,
+    ...srdf,
   });
 }
 
@@ -143,6 +145,7 @@ export async function generateTwin(
   // Abandoned (and rejected when the backend stops) if the export or the early TD check below fails.
   generating.catch(() => undefined);
   await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
+  if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, "robot.srdf"));
   const scene = sceneDocument(world, model.id, staged.tmp, opts.scene);
   writeJson(join(staged.tmp, "scene.json"), scene);
   writeJson(join(staged.tmp, "twin.json"), {
@@ -153,6 +156,7 @@ export async function generateTwin(
       basePosition: model.basePosition ?? [0, 0, 0],
       baseOrientation: model.baseOrientation ?? [0, 0, 0, 1],
       name: model.name,
+      ...(opts.srdf !== undefined ? { srdf: "robot.srdf" } : {}),
     },
     scene: "scene.json",
     generatedAt: new Date().toISOString(),

@@ -9,7 +9,7 @@ export interface BuiltTd {
 }
 
 export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unknown, baseUrl: string): BuiltTd {
-  const td = buildThingDescription({ model, summary, baseUrl, sceneId: fnv1a64(canonicalJson(scene)) });
+  const td = buildThingDescription({ model, summary, baseUrl, sceneId: fnv1a64(canonicalJson(scene)), srdf: model.srdf !== undefined });
   return {
     td,
     async validate() {

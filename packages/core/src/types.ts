@@ -87,7 +87,8 @@ export interface WorkspaceSummary {
 /** `twin.json` (Contract 2). */
 export interface TwinManifest {
   version: 1;
-  robot: { urdf: string; eeLink: string; basePosition: Vec3; baseOrientation: QuatXyzw; name: string };
+  /** `srdf`: the robot's SRDF copied into the folder (its disabled collision pairs are never checked) */
+  robot: { urdf: string; eeLink: string; basePosition: Vec3; baseOrientation: QuatXyzw; name: string; srdf?: string };
   scene: string;
   generatedAt: string;
   tool: string;

@@ -9,6 +9,7 @@ import { extname, join, resolve, sep } from "node:path";
 
 const TYPES: Record<string, string> = {
   ".urdf": "application/urdf+xml",
+  ".srdf": "application/xml",
   ".csv": "text/csv",
   ".stl": "model/stl",
   ".json": "application/json",
@@ -59,6 +60,7 @@ export function isTwinFile(rel: string, urdfName: string): boolean {
     rel === "workspace.stl" ||
     rel === "workspace.json" ||
     rel === "scene.json" ||
+    rel === "robot.srdf" ||
     rel === "twin.json" ||
     rel.startsWith("meshes/")
   );

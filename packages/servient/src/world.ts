@@ -87,6 +87,7 @@ export class World extends EventEmitter<{ scene: [] }> {
         basePosition: m.basePosition,
         baseOrientation: m.baseOrientation,
         eeLink: m.eeLink,
+        ...(m.srdf ? { srdf: join(twin.folder.dir, m.srdf) } : {}),
       })) as Twin["model"];
       twin.model = model;
       if (model && twin.q.length === model.controllable.length) {

@@ -31,6 +31,8 @@ export interface LoadRobotParams {
   baseOrientation?: QuatXyzw;
   eeLink?: string;
   packageRoots?: Record<string, string>;
+  /** SRDF file: its `<disable_collisions>` pairs are never checked */
+  srdf?: string;
 }
 
 export type LoadSceneParams =

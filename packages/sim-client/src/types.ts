@@ -45,6 +45,8 @@ export interface RobotModel {
   filteredPairs: [string, string][];
   basePosition: Vec3;
   baseOrientation: QuatXyzw;
+  /** the SRDF whose disabled pairs are in filteredPairs (absolute path), when loaded with one */
+  srdf?: string;
 }
 
 export type ObstacleShape =

@@ -20,25 +20,27 @@ from robwot_sim.sim.world import World
 from robwot_sim.urdf import pybullet_data_path
 
 
-def measure(name: str, samples: int, seed: int) -> dict[str, float | int | str]:
-    """One row: label agreement of the twin with the reference for one robot."""
+def measure(name: str, samples: int, seed: int, with_srdf: bool = False) -> dict[str, float | int | str]:
+    """One row: label agreement of the twin with the reference for one robot (both with its SRDF or not)."""
     if name == "kuka":
         urdf, srdf, roots = pybullet_data_path() / "kuka_iiwa/model.urdf", None, {}
     else:
         r = example_robot(name)
         urdf, srdf, roots = r.urdf, r.srdf, r.package_roots
+    srdf = srdf if with_srdf else None
     with World() as world:
-        model = world.load_robot(str(urdf), package_roots=roots)
+        model = world.load_robot(str(urdf), package_roots=roots, srdf=srdf)
         lo, hi = model.limits()
         qs = np.random.default_rng(seed).uniform(lo, hi, size=(samples, len(lo)))
         t0 = time.perf_counter()
         ours = world.collision_free_batch(model.id, qs)
         ours_s = time.perf_counter() - t0
-    ref = ExactReference(urdf, roots, model.controllable)
+    ref = ExactReference(urdf, roots, model.controllable, srdf)
     truth = ref.collision_free(qs)
     free = int(truth.sum())
     false_reject = int(np.sum(~ours & truth))
-    return {"robot": name, "srdf": "no", "samples": samples, "ref_free": free, "ours_free": int(ours.sum()),
+    return {"robot": name, "srdf": "yes" if srdf else "no", "samples": samples, "ref_free": free,
+            "ours_free": int(ours.sum()),
             "false_accept": int(np.sum(ours & ~truth)), "false_reject": false_reject,
             "false_reject_pct": 100.0 * false_reject / max(1, free), "ms_per_config": 1e3 * ours_s / samples,
             "srdf_file": str(srdf) if srdf else ""}
@@ -52,13 +54,15 @@ def main() -> None:
     args = ap.parse_args()
     print(f"labels vs exact-mesh reference (Pinocchio + Coal), {args.samples} uniform random configurations, "
           f"seed {args.seed}, self-collision, adjacent links excluded on both sides")
-    head = (f"{'robot':<7}{'ref free':>10}{'twin free':>11}{'false accept':>14}{'false reject':>14}"
-            f"{'% of free':>11}{'ms/config':>11}")
+    head = (f"{'robot':<7}{'srdf':>5}{'ref free':>10}{'twin free':>11}{'false accept':>14}"
+            f"{'false reject':>14}{'% of free':>11}{'ms/config':>11}")
     print(head)
     print("-" * len(head))
-    for name in args.robots.split(","):
-        r = measure(name, args.samples, args.seed)
-        print(f"{r['robot']:<7}{r['ref_free']:>10}{r['ours_free']:>11}{r['false_accept']:>14}"
+    rows = [(name, False) for name in args.robots.split(",")]
+    rows += [(name, True) for name in args.robots.split(",") if name in ("ur5", "panda")]  # ship an SRDF
+    for name, with_srdf in rows:
+        r = measure(name, args.samples, args.seed, with_srdf)
+        print(f"{r['robot']:<7}{r['srdf']:>5}{r['ref_free']:>10}{r['ours_free']:>11}{r['false_accept']:>14}"
               f"{r['false_reject']:>14}{r['false_reject_pct']:>10.1f}%{r['ms_per_config']:>11.3f}")
 
 

@@ -117,6 +117,12 @@ class UrdfError(SimError):
         super().__init__(f"{where}: {message}", code=code, file=file, line=line, column=column, **data)
 
 
+class SrdfError(UrdfError):
+    """Malformed SRDF, or a ``<disable_collisions>`` pair naming a link the URDF does not have."""
+
+    code = "E_SRDF"
+
+
 class NoMovableJoint(UrdfError):
     code = "E_NO_MOVABLE_JOINT"
 

@@ -21,6 +21,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+#: contacts shallower than this (m) are surfaces touching, not interpenetrating
+TOUCH_DEPTH = 1e-6
+
 
 def example_robot_data() -> Path:
     """The ``share/example-robot-data`` folder of the ``example-robot-data`` wheel."""
@@ -96,7 +99,16 @@ class ExactReference:
         return out
 
     def collision_free(self, qs: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
-        """Collision-free flag per row of ``qs`` [n, dof]."""
+        """Collision-free flag per row of ``qs`` [n, dof]. Surfaces that touch with zero depth (below
+        ``TOUCH_DEPTH``: closed gripper fingers resting on each other) do not count as a collision."""
         pin: Any = self._pin
-        return np.array([not pin.computeCollisions(self.model, self._data, self.geometry, self._gdata,
-                                                   self.configuration(q), True) for q in qs], dtype=bool)
+        out = np.ones(len(qs), dtype=bool)
+        for i, q in enumerate(qs):
+            if not pin.computeCollisions(self.model, self._data, self.geometry, self._gdata,
+                                         self.configuration(q), False):
+                continue
+            out[i] = not any(
+                abs(c.penetration_depth) > TOUCH_DEPTH
+                for r in self._gdata.collisionResults if r.isCollision() for c in r.getContacts()
+            )
+        return out

@@ -26,13 +26,11 @@ def disabled_pairs(path: str | Path, links: Collection[str]) -> frozenset[tuple[
         a, b = el.get("link1"), el.get("link2")
         line = doc.line_of(el)
         if not a or not b:
-            raise SrdfError(f"{doc.file}:{line}: <disable_collisions> needs link1 and link2",
-                            file=str(doc.file), line=line)
+            raise SrdfError("<disable_collisions> needs link1 and link2", file=str(doc.file), line=line)
         for name in (a, b):
             if name not in links:
                 raise SrdfError(
-                    f"{doc.file}:{line}: link {name!r} is not a link of the robot "
-                    f"(links: {', '.join(sorted(links))})",
+                    f"link {name!r} is not a link of the robot (links: {', '.join(sorted(links))})",
                     file=str(doc.file), line=line, link=name,
                 )
         if a != b:

@@ -22,7 +22,8 @@ from typing import Any
 import pybullet_data
 
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UrdfError
-from robwot_sim.meshcheck import check_mesh
+from robwot_sim.meshcheck import check_mesh, read_mesh
+from robwot_sim.sim.decompose import FloatArray, IndexArray, collision_cache, split_collisions
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
 MESH_SUFFIXES = (".stl", ".obj", ".dae")
@@ -49,21 +50,22 @@ class _Refused(Exception):
     pass
 
 
-def parse_urdf(path: str | Path) -> UrdfDoc:
-    """Read and parse a URDF file safely. Raises FileNotFound, Forbidden or UrdfError."""
+def parse_xml(path: str | Path, *, root_tag: str, error: type[UrdfError], what: str) -> UrdfDoc:
+    """Read and parse a robot description file (URDF, SRDF) safely: no DTD, no entities, a size limit,
+    the expected root element. Raises FileNotFound, Forbidden or ``error`` (with file, line, column)."""
     p = Path(path).expanduser()
     if not p.is_file():
-        raise FileNotFound(str(p), what="URDF file")
+        raise FileNotFound(str(p), what=what)
     p = p.resolve()
     data = p.read_bytes()
     if len(data) > MAX_URDF_BYTES:
-        raise UrdfError(f"file larger than {MAX_URDF_BYTES} bytes", file=str(p))
+        raise error(f"file larger than {MAX_URDF_BYTES} bytes", file=str(p))
     m = _FORBIDDEN.search(data)
     if m is not None:
         line = data.count(b"\n", 0, m.start()) + 1
         raise Forbidden(
             f"{p}:{line}: XML {m.group(1).decode().upper()} declarations are refused "
-            "(no DTD or entities in URDF)",
+            f"(no DTD or entities in a {what})",
             file=str(p),
             line=line,
         )
@@ -93,14 +95,24 @@ def parse_urdf(path: str | Path) -> UrdfDoc:
             line=parser.CurrentLineNumber,
         ) from None
     except xml.parsers.expat.ExpatError as e:
-        raise UrdfError(
+        raise error(
             xml.parsers.expat.ErrorString(e.code), file=str(p), line=e.lineno, column=e.offset + 1
         ) from None
-    if root.tag != "robot":
-        raise UrdfError(
-            f"root element is <{root.tag}>, expected <robot>", file=str(p), line=lines.get(id(root))
+    if root.tag != root_tag:
+        raise error(
+            f"root element is <{root.tag}>, expected <{root_tag}>", file=str(p), line=lines.get(id(root))
         )
     return UrdfDoc(root, p, lines)
+
+
+def _triangles(path: Path) -> tuple[FloatArray, IndexArray] | None:
+    mesh = read_mesh(path)
+    return None if mesh is None else (mesh.vertices, mesh.faces)
+
+
+def parse_urdf(path: str | Path) -> UrdfDoc:
+    """Read and parse a URDF file safely. Raises FileNotFound, Forbidden or UrdfError."""
+    return parse_xml(path, root_tag="robot", error=UrdfError, what="URDF file")
 
 
 def read_urdf(path: str | Path) -> ET.Element:
@@ -204,6 +216,7 @@ class PreparedUrdf:
     bullet_path: Path
     meshes: dict[str, Path]  # original filename -> checked absolute path PyBullet loads
     tmpdir: str
+    collision_parts: tuple[Path, ...] = ()  # convex decomposition cache folders used (see decompose.py)
 
     def cleanup(self) -> None:
         shutil.rmtree(self.tmpdir, ignore_errors=True)
@@ -243,6 +256,8 @@ def prepare_urdf(
     tmpdir = tempfile.mkdtemp(prefix="robwot-urdf-")
     for el in root.iter("mesh"):
         el.set("filename", str(meshes[el.get("filename", "")]))
+    # PyBullet would turn each concave collision mesh into one convex hull: split it into convex parts
+    parts = split_collisions(root, collision_cache(udir), _triangles)
     out = Path(tmpdir) / "robot.urdf"
     ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
-    return PreparedUrdf(doc, out, meshes, tmpdir)
+    return PreparedUrdf(doc, out, meshes, tmpdir, parts)

@@ -14,6 +14,8 @@ export interface GenerateOptions {
   urdfFile?: string;
   example?: ExampleRobot;
   scene?: string;
+  /** SRDF file (absolute): its disabled collision pairs are never checked; copied into the twin */
+  srdf?: string;
   samples: number;
   seed: number;
   ee?: string;
@@ -30,6 +32,7 @@ export interface GenerateOptions {
 
 export const GENERATE_OPTIONS = {
   scene: { type: "string" },
+  srdf: { type: "string" },
   samples: { type: "string" },
   seed: { type: "string" },
   ee: { type: "string" },
@@ -125,6 +128,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(urdfFile ? { urdfFile } : {}),
     ...(example ? { example } : {}),
     ...(scene ? { scene } : {}),
+    ...(values.srdf !== undefined ? { srdf: existingFile("SRDF file", values.srdf) } : {}),
     samples,
     seed,
     ...(values.ee !== undefined ? { ee: values.ee } : {}),

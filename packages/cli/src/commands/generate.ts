@@ -16,6 +16,7 @@ scene.json, workspace.csv (labelled point cloud), workspace.stl (alpha shape), w
 
 Options:
   --scene FILE            scene JSON with obstacles (default: none)
+  --srdf FILE             the robot's SRDF (MoveIt): its <disable_collisions> pairs are never checked
   --samples N             random joint configurations (default ${DEFAULT_SAMPLES})
   --seed N                random seed (default 1; same seed => same workspace.csv)
   --ee LINK               end-effector link (default: the last link of the chain)
@@ -53,7 +54,7 @@ function printHuman(r: GenerateResult, seconds: number): void {
 export async function runGenerate(opts: GenerateOptions): Promise<number> {
   const t0 = performance.now();
   const progress = createProgress({ silent: opts.json });
-  const inputs = [opts.urdfFile, opts.scene, ...Object.values(opts.packageRoots)].filter((f): f is string => f !== undefined);
+  const inputs = [opts.urdfFile, opts.scene, opts.srdf, ...Object.values(opts.packageRoots)].filter((f): f is string => f !== undefined);
   const staged = StagedDir.create(opts.out, { force: opts.force, inputs });
   const dropStaged = onCleanup(() => staged.discard());
   try {

@@ -46,6 +46,8 @@ export interface BuildThingDescriptionOptions {
   calibration?: SimilarityTransform | null;
   /** Live WebSocket endpoint (Contract 4); default ws(s)://<host of baseUrl>/live; null: no WebSocket forms. */
   liveUrl?: string | null;
+  /** The twin folder holds robot.srdf (linked with rel "srdf"). */
+  srdf?: boolean;
 }
 
 function controllableJoints(model: RobotModelLike): JointSpec[] {
@@ -174,6 +176,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     { rel: "workspace", href: "workspace.stl", type: "model/stl" },
     { rel: "workspace-summary", href: "workspace.json", type: JSON_TYPE },
     { rel: "scene", href: "scene.json", type: JSON_TYPE },
+    ...(options.srdf ? [{ rel: "srdf", href: "robot.srdf", type: "application/xml" }] : []),
   ];
   const td: ThingDescription = {
     "@context": [TD_CONTEXT_V10, TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],

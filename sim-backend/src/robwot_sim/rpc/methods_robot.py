@@ -25,8 +25,9 @@ def joint_vector(p: Params, name: str, model: RobotModel, default: Any = None) -
 
 
 def register(d: Dispatcher, s: Services) -> None:
-    @d.method("robot.load", ("urdf", "id", "basePosition", "baseOrientation", "eeLink", "packageRoots"),
-              "load a robot from a URDF file")
+    @d.method("robot.load",
+              ("urdf", "id", "basePosition", "baseOrientation", "eeLink", "packageRoots", "srdf"),
+              "load a robot from a URDF file (and its SRDF's disabled collision pairs)")
     async def load(p: Params, call: Call) -> dict[str, Any]:
         urdf = p.string("urdf")
         robot_id = p.string("id", None)
@@ -34,8 +35,10 @@ def register(d: Dispatcher, s: Services) -> None:
         base_orientation = p.quaternion("baseOrientation", [0.0, 0.0, 0.0, 1.0])
         ee_link = p.string("eeLink", None)
         roots = p.string_map("packageRoots", None)
+        srdf = p.string("srdf", None)
         model = s.world.load_robot(urdf, robot_id=robot_id, base_position=base_position,
-                                   base_orientation=base_orientation, ee_link=ee_link, package_roots=roots)
+                                   base_orientation=base_orientation, ee_link=ee_link, package_roots=roots,
+                                   srdf=srdf)
         return model.to_json()
 
     @d.method("robot.remove", ("robot",), "remove a robot (stops its motion first)")

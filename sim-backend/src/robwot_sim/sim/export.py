@@ -11,7 +11,7 @@ import os
 import re
 import shutil
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +37,13 @@ def _companions(mesh: Path) -> list[Path]:
 
 
 def export_urdf(
-    path: str | Path, out_dir: str | Path, package_roots: Mapping[str, str | Path] | None = None
+    path: str | Path,
+    out_dir: str | Path,
+    package_roots: Mapping[str, str | Path] | None = None,
+    collision_parts: Sequence[Path] = (),
 ) -> dict[str, Any]:
-    """Write ``out_dir/robot.urdf`` with meshes copied under ``out_dir/meshes/`` and relative filenames.
+    """Write ``out_dir/robot.urdf`` with meshes copied under ``out_dir/meshes/`` and relative filenames,
+    and the robot's convex decompositions under ``out_dir/collision/`` (the cache a twin is loaded with).
 
     Returns ``{"urdf": "robot.urdf", "meshes": [relative paths]}`` (meshes referenced by the URDF).
     """
@@ -63,5 +67,7 @@ def export_urdf(
     for el in root.iter("mesh"):
         el.set("filename", mapping[el.get("filename", "")])
     out.mkdir(parents=True, exist_ok=True)
+    for folder in collision_parts:
+        shutil.copytree(folder, out / "collision" / folder.name, dirs_exist_ok=True)
     ET.ElementTree(root).write(out / "robot.urdf", encoding="utf-8", xml_declaration=True)
     return {"urdf": "robot.urdf", "meshes": sorted(set(mapping.values()))}

@@ -14,6 +14,7 @@ from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
 from robwot_sim.sim.robot import BoundRobot, parse_model
 from robwot_sim.sim.types import RobotModel
+from robwot_sim.srdf import disabled_pairs
 from robwot_sim.urdf import UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
 
 FILTER_SEED = 12345
@@ -26,6 +27,7 @@ class RobotEntry:
     checker: CollisionChecker
     urdf_path: Path
     package_roots: dict[str, str]
+    collision_parts: tuple[Path, ...] = ()
 
 
 def resolve_urdf_path(urdf: str | Path, base: Path | None = None) -> Path:
@@ -66,8 +68,11 @@ def load_robot_body(
     ee_link: str | None,
     package_roots: Mapping[str, str],
     base_dir: Path | None = None,
+    srdf: str | Path | None = None,
 ) -> RobotEntry:
-    """Check the URDF completely, then create the body. Nothing is left in the client on error."""
+    """Check the URDF (and SRDF) completely, then create the body. Nothing is left in the client on error.
+
+    The SRDF's ``<disable_collisions>`` pairs join the filtered pairs: never checked anywhere."""
     path = resolve_urdf_path(urdf, base_dir)
     for name, folder in package_roots.items():
         if not Path(folder).expanduser().is_dir():
@@ -77,6 +82,8 @@ def load_robot_body(
     ee = ee_link if ee_link is not None else urdf_model.default_ee()
     if ee not in urdf_model.links:
         raise UnknownLink(ee, urdf_model.links)
+    srdf_path = Path(srdf).expanduser().resolve() if srdf is not None else None
+    srdf_pairs = disabled_pairs(srdf_path, urdf_model.links) if srdf_path is not None else frozenset()
     prepared = prepare_urdf(path, package_roots, doc)
     try:
         flags = pb.URDF_USE_SELF_COLLISION
@@ -91,6 +98,7 @@ def load_robot_body(
         _check_collision_shapes(bullet, bound, doc, prepared.meshes)
         rng = np.random.default_rng(FILTER_SEED)
         filtered = find_always_colliding(bound, rng)
+        filtered += [(bound.link_index[a], bound.link_index[b]) for a, b in sorted(srdf_pairs)]
         checker = CollisionChecker(bound, table, filtered)
     except Exception:
         bullet.remove_body(body)
@@ -108,5 +116,6 @@ def load_robot_body(
         base_position=(base_position[0], base_position[1], base_position[2]),
         base_orientation=(base_orientation[0], base_orientation[1], base_orientation[2], base_orientation[3]),
         package_roots=dict(package_roots),
+        srdf=str(srdf_path) if srdf_path is not None else None,
     )
-    return RobotEntry(model, bound, checker, path, dict(package_roots))
+    return RobotEntry(model, bound, checker, path, dict(package_roots), prepared.collision_parts)

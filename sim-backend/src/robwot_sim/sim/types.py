@@ -177,6 +177,8 @@ class RobotModel:
     base_position: tuple[float, float, float]
     base_orientation: tuple[float, float, float, float]
     package_roots: dict[str, str] = field(default_factory=dict)
+    #: the SRDF whose ``<disable_collisions>`` pairs are in ``filtered_pairs`` (absolute path), if any
+    srdf: str | None = None
 
     @property
     def dof(self) -> int:
@@ -216,4 +218,5 @@ class RobotModel:
             "filteredPairs": [list(p) for p in self.filtered_pairs],
             "basePosition": _floats(self.base_position),
             "baseOrientation": _floats(self.base_orientation),
+            **({"srdf": self.srdf} if self.srdf else {}),
         }

@@ -190,4 +190,4 @@ class World(WorldScene):
             raise InvalidParams(
                 "outDir must be a folder path", param="outDir", expected="string", got=out_dir
             )
-        return export_urdf(e.urdf_path, out_dir, e.package_roots)
+        return export_urdf(e.urdf_path, out_dir, e.package_roots, e.collision_parts)

@@ -83,6 +83,7 @@ class WorldBase:
         base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
         ee_link: str | None = None,
         package_roots: Mapping[str, str] | None = None,
+        srdf: str | Path | None = None,
         _base_dir: Path | None = None,
     ) -> RobotModel:
         """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model."""
@@ -96,7 +97,11 @@ class WorldBase:
         quat = v.quaternion("baseOrientation", base_orientation)
         roots = v.string_map("packageRoots", package_roots)
         tmp_id = robot_id or "robot"
-        entry = load_robot_body(self.bullet, self.table, urdf, tmp_id, pos, quat, ee_link, roots, _base_dir)
+        if srdf is not None and (not isinstance(srdf, (str, Path)) or not str(srdf)):
+            raise InvalidParams("srdf must be a file path", param="srdf", expected="string", got=srdf)
+        entry = load_robot_body(
+            self.bullet, self.table, urdf, tmp_id, pos, quat, ee_link, roots, _base_dir, srdf
+        )
         if robot_id is None:
             base, k, rid = entry.model.name or "robot", 2, entry.model.name or "robot"
             while rid in self._robots or rid in self._obstacles:

@@ -8,7 +8,7 @@ from typing import Any
 
 from robwot_sim.errors import InvalidParams, MeshError, UnknownObject
 from robwot_sim.meshcheck import check_mesh
-from robwot_sim.scene import normalise_obstacle, read_scene
+from robwot_sim.scene import normalise_obstacle, read_scene, resolve_file
 from robwot_sim.sim import validate as v
 from robwot_sim.sim.client import quat_from_rpy
 from robwot_sim.sim.world_base import Quat, Vec3, WorldBase, _locked
@@ -47,6 +47,7 @@ class WorldScene(WorldBase):
                     base_orientation=quat,
                     ee_link=r.get("eeLink"),
                     package_roots={**roots, **r.get("packageRoots", {})},
+                    srdf=resolve_file(r["srdf"], base, what="SRDF file") if "srdf" in r else None,
                     _base_dir=base,
                 )
                 added_rob.append(model.id)
@@ -153,6 +154,8 @@ class WorldScene(WorldBase):
                 "eeLink": e.model.ee_link,
                 "positions": [float(x) for x in e.bound.q],
             }
+            if e.model.srdf:
+                r["srdf"] = e.model.srdf
             if e.package_roots:
                 r["packageRoots"] = {
                     k: str(Path(p).expanduser().resolve()) for k, p in e.package_roots.items()
