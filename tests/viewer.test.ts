@@ -168,6 +168,7 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
       await until("the page to draw the second one", async () => (await debug()).obstacles.includes("ball"));
       expect((await debug()).obstacles).toEqual(["block", "crate", "ball"]);
     } finally {
+      // clean-up: the obstacles may already be gone when the test failed early
       await invoke(twin, "removeObstacle", { name: "crate" }).catch(() => undefined);
       await invoke(twin, "removeObstacle", { name: "ball" }).catch(() => undefined);
     }

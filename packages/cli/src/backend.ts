@@ -22,7 +22,6 @@ export interface Backend {
   removeRobot(id: string): Promise<void>;
   loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void>;
   listWorld(): Promise<WorldList>;
-  resetWorld(): Promise<void>;
   exportRobot(params: { robot: string; outDir: string }): Promise<void>;
   /** Starts the backend's collision workers ahead of `generateWorkspace` (an optimisation: never fails). */
   warmUp(workers?: number): Promise<void>;
@@ -63,9 +62,6 @@ class SimBackend implements Backend {
   }
   listWorld(): Promise<WorldList> {
     return this.client.listWorld();
-  }
-  async resetWorld(): Promise<void> {
-    await this.client.resetWorld();
   }
   async exportRobot(params: { robot: string; outDir: string }): Promise<void> {
     await this.client.exportRobot(params.robot, params.outDir);
@@ -116,6 +112,7 @@ class SimBackend implements Backend {
       } else {
         // A shared backend: leave its world empty, as we found it.
         await this.client.resetWorld().catch(() => undefined);
+        // closing a connection that already dropped has nothing left to do
         await this.client.close().catch(() => undefined);
       }
     })();
@@ -174,6 +171,7 @@ export async function openBackend(url?: string): Promise<Backend> {
     }
     return new SimBackend(client, null, ping.pybulletData);
   } catch (err) {
+    // the connection is being abandoned after an error that is reported instead
     await client.close().catch(() => undefined);
     throw err;
   }

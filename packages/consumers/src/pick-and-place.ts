@@ -86,6 +86,7 @@ export function sceneTargets(obstacles: SceneObstacle[]): Target[] {
 
 async function fetchSceneObstacles(twin: Twin): Promise<SceneObstacle[]> {
   const url = new URL("scene.json", twin.td.base ?? `${twin.url}/`).toString();
+  // an unreachable file is reported below as "not available" (res undefined), not thrown
   const res = await fetch(url, { headers: authHeaders(twin.auth) }).catch(() => undefined);
   if (res === undefined || !res.ok) return [];
   const scene = (await res.json()) as { obstacles?: SceneObstacle[] };

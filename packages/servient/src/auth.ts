@@ -1,7 +1,8 @@
 /**
  * Authentication for every affordance, file and the /live socket. node-wot 0.9.2's producer-side
- * bearer check is broken (PITFALLS.md), so both schemes are enforced here, before node-wot sees the
- * request; node-wot itself runs with nosec and the served TD says what is required.
+ * bearer check answers 401 to every request (a case mismatch in its checkCredentials), so both schemes
+ * are enforced here, before node-wot sees the request; node-wot itself runs with nosec and the served TD
+ * says what is required.
  */
 import { timingSafeEqual } from "node:crypto";
 import type { IncomingMessage, ServerResponse } from "node:http";

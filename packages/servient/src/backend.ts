@@ -140,6 +140,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     if (this.heartbeat) clearInterval(this.heartbeat);
     const s = this.session;
     this.session = null;
+    // stopping: a session whose connection is already gone needs no closing
     if (s) await s.close().catch(() => undefined);
   }
 
@@ -157,6 +158,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     try {
       await this.restore(call);
     } catch (err) {
+      // the restore error is what matters (rethrown); closing the half-set-up session is best effort
       await s.close().catch(() => undefined);
       this.session = null;
       throw err;
@@ -164,7 +166,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     if (this.stopping) {
       // stop() was called while this (re)start was under way: do not leave a backend behind
       this.session = null;
-      await s.close().catch(() => undefined);
+      await s.close().catch(() => undefined); // best effort: we are stopping anyway
       return;
     }
     this.up = true;

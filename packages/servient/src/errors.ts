@@ -39,7 +39,6 @@ export const backendDown = (message: string, details: Details = {}): ServientErr
 /** Shape of a JSON-RPC error as thrown by the sim-client (error.code, error.data.code, data fields). */
 interface RpcLikeError {
   code?: unknown;
-  rpcCode?: unknown;
   message?: unknown;
   data?: unknown;
 }

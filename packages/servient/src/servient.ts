@@ -179,6 +179,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     }
     live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth, guard);
   } catch (err) {
+    // start-up failed: the original error is rethrown below, a failing shutdown adds nothing to it
     await servient.shutdown().catch(() => undefined);
     await backend.stop();
     throw err;
@@ -204,6 +205,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     stop: () =>
       (stopping ??= (async () => {
         await live?.close();
+        // stopping: node-wot failing to unregister a Thing changes nothing, the server closes anyway
         const shut = servient.shutdown().catch(() => undefined);
         // long-poll observers (node-wot) hold requests open: close() alone would wait for them forever
         (http.getServer() as import("node:http").Server).closeAllConnections();

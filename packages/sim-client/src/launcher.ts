@@ -117,6 +117,7 @@ export class LaunchedBackend extends EventEmitter<BackendEvents> {
   /** Closes the client, sends SIGTERM and waits for exit (SIGKILL after the grace period). Idempotent. */
   stop(): Promise<void> {
     this.stopping ??= (async () => {
+      // the process is stopped next whatever the connection does
       await this.client.close().catch(() => undefined);
       if (!this.running) return;
       this.process.kill("SIGTERM");
