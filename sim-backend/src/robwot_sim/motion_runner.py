@@ -2,7 +2,8 @@
 
 `robot.move` asks the world for the interpolated plan (`World.plan_motion`, velocity limits x speed,
 fixed dt), then for every step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with
-realtime 0 it only yields to the loop), checks the step for collision and, when free, teleports the robot
+realtime 0 it only yields to the loop), checks the way to the step (`World.check_step`: subdivided so no
+point travels more than 4 mm unchecked, other bodies kept 2 mm away) and, when free, teleports the robot
 there. A colliding step ends the motion at the last collision-free state (`status: "collision"`, a
 `robot.collision` notification). `robot.state` notifications go out at every step whose simulated time
 crosses a 1/60 s boundary, plus the final state (`moving: false`). One motion per robot: a second
@@ -101,6 +102,7 @@ class MotionRunner:
         reached_time = 0.0
         status = "reached"
         contacts: list[dict[str, Any]] = []
+        clearance = self._world.motion_clearance(robot)
         for i in range(1, len(plan)):
             sim_time = i * dt
             await motion.pause(t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0)
@@ -111,7 +113,7 @@ class MotionRunner:
                 status = "stopped"
                 break
             q = plan[i]
-            report = self._world.check_collision(robot, q)
+            report = self._world.check_step(robot, reached, q, clearance)
             if not report.collision_free:
                 status = "collision"
                 contacts = [c.to_json() for c in report.contacts]

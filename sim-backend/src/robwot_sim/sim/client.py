@@ -124,6 +124,16 @@ class Bullet:
     def has_collision_shape(self, body: int, link: int) -> bool:
         return bool(pb.getCollisionShapeData(body, link, physicsClientId=self.cid))
 
+    def link_radius(self, body: int, link: int) -> float:
+        """Largest distance (m) from a link's frame origin to a corner of its collision bounding box
+        (0 without collision shape): the box holds the shape, so no point of it is farther."""
+        if not self.has_collision_shape(body, link):
+            return 0.0
+        lo, hi = pb.getAABB(body, link, physicsClientId=self.cid)
+        o = self.link_frame(body, link)[0]
+        corners = [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        return float(max(sum((c[i] - o[i]) ** 2 for i in range(3)) ** 0.5 for c in corners))
+
     def link_masses(self, body: int, links: Sequence[int]) -> list[float]:
         return [float(pb.getDynamicsInfo(body, ln, physicsClientId=self.cid)[0]) for ln in links]
 

@@ -95,13 +95,15 @@ class CollisionChecker:
             a, b = self.table.side(c.body_a, c.link_a), self.table.side(c.body_b, c.link_b)
         return Contact(a, b, max(0.0, -c.distance), c.position_on_a)
 
-    def _closest_links(self, links: Iterable[int]) -> list[ContactPoint]:
+    def _closest_links(self, links: Iterable[int], clearance: float = TOUCH) -> list[ContactPoint]:
         bl = self.robot.bullet
         out: list[ContactPoint] = []
         for other in self._others():
             for ln in links:
                 out += [
-                    c for c in bl.closest(self.robot.body, other, TOUCH, link_a=ln) if c.distance <= TOUCH
+                    c
+                    for c in bl.closest(self.robot.body, other, clearance, link_a=ln)
+                    if c.distance <= clearance
                 ]
         return out
 
@@ -125,26 +127,35 @@ class CollisionChecker:
             self._static_version = self.table.version
         return self._static
 
-    def contacts(self) -> list[Contact]:
-        """Every contact at the robot's current state, one per pair (deepest), deepest first."""
+    def contacts(self, clearance: float = TOUCH) -> list[Contact]:
+        """Every contact at the robot's current state, one per pair (deepest), deepest first; other bodies
+        closer than ``clearance`` (m) count as contacts (self-contacts at distance <= 0 only)."""
         bl = self.robot.bullet
         bl.detect()
-        pts = [c for c in bl.contacts(self.robot.body) if c.distance <= TOUCH and self._pair_ok(c)]
+        pts = [
+            c
+            for c in bl.contacts(self.robot.body)
+            if c.distance <= (TOUCH if c.body_a == c.body_b else clearance) and self._pair_ok(c)
+        ]
         if self.massless_moving:
-            pts += self._closest_links(self.massless_moving)
+            pts += self._closest_links(self.massless_moving, clearance)
         return _dedupe([*self.static_contacts(), *(self._contact(c) for c in pts)])
 
-    def is_free(self) -> bool:
-        """Fast check at the current state (no contact details)."""
+    def is_free(self, clearance: float = TOUCH) -> bool:
+        """Fast check at the current state (no contact details): no self-contact, and no other body
+        closer than ``clearance`` (m) to a moving link."""
         if self.static_contacts():
             return False
         bl = self.robot.bullet
         bl.detect()
         body = self.robot.body
         for c in bl.contacts_raw(body):
-            if c[8] <= TOUCH and (c[1] != c[2] or (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered):
+            if c[1] != c[2]:
+                if c[8] <= clearance:
+                    return False
+            elif c[8] <= TOUCH and (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered:
                 return False
-        return not (self.massless_moving and self._closest_links(self.massless_moving))
+        return not (self.massless_moving and self._closest_links(self.massless_moving, clearance))
 
     def batch(self, qs: FloatArray, progress: Callable[[int], None] | None = None) -> np.ndarray:
         """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state."""

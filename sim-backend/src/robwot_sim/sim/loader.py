@@ -13,7 +13,8 @@ from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
 from robwot_sim.sim.robot import BoundRobot, parse_model
-from robwot_sim.sim.types import RobotModel
+from robwot_sim.sim.sweep import joint_reach
+from robwot_sim.sim.types import FloatArray, RobotModel
 from robwot_sim.srdf import disabled_pairs
 from robwot_sim.urdf import UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
 
@@ -27,7 +28,9 @@ class RobotEntry:
     checker: CollisionChecker
     urdf_path: Path
     package_roots: dict[str, str]
-    collision_parts: tuple[Path, ...] = ()
+    collision_parts: tuple[Path, ...]
+    #: per controllable joint, how far the farthest collision point travels per unit of motion (sweep.py)
+    reach: FloatArray
 
 
 def resolve_urdf_path(urdf: str | Path, base: Path | None = None) -> Path:
@@ -118,4 +121,5 @@ def load_robot_body(
         package_roots=dict(package_roots),
         srdf=str(srdf_path) if srdf_path is not None else None,
     )
-    return RobotEntry(model, bound, checker, path, dict(package_roots), prepared.collision_parts)
+    return RobotEntry(model, bound, checker, path, dict(package_roots), prepared.collision_parts,
+                      joint_reach(bound))

@@ -1,22 +1,62 @@
-"""Checking a planned joint path for collision at every step, without changing the world."""
+"""Checking a planned joint path for collision, without changing the world.
+
+Between the planned states (one per ``dt``) the path is subdivided so that no point of the robot travels
+more than ``MAX_SWEEP`` between two checked states, and other bodies must stay ``CLEARANCE`` away: then
+no contact can hide between checked states, at any speed (see ``sweep.py``). A path that starts within
+the clearance (e.g. after a motion stopped on contact) is checked for contact only, so the robot can
+always move away.
+"""
 
 from __future__ import annotations
 
-from robwot_sim.sim.collision import CollisionChecker
+import numpy as np
+
+from robwot_sim.sim.collision import TOUCH, CollisionChecker
 from robwot_sim.sim.robot import BoundRobot
+from robwot_sim.sim.sweep import CLEARANCE, substeps
 from robwot_sim.sim.types import FirstCollision, FloatArray, PathReport
 
 
-def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatArray, dt: float) -> PathReport:
-    """Check each state of ``path`` (row k at time k * dt); report the first one in collision."""
+def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArray) -> float:
+    """The clearance a path from ``start`` keeps: CLEARANCE, or contact only when the start is closer."""
+    saved = robot.q.copy()
+    try:
+        robot.apply(start)
+        return CLEARANCE if checker.is_free(CLEARANCE) else TOUCH
+    finally:
+        robot.apply(saved)
+
+
+def first_contact(robot: BoundRobot, checker: CollisionChecker, q0: FloatArray, q1: FloatArray,
+                  reach: FloatArray, clearance: float) -> tuple[float, FloatArray] | None:
+    """The first state between ``q0`` (excluded) and ``q1`` (included) closer than ``clearance`` to
+    anything, as (fraction of the segment, state), or None. Leaves the robot at the last state checked."""
+    n = substeps(q0, q1, reach)
+    for i in range(1, n + 1):
+        q = q0 + (q1 - q0) * (i / n)
+        robot.apply(q)
+        if not checker.is_free(clearance):
+            return i / n, q
+    return None
+
+
+def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatArray, dt: float,
+                     reach: FloatArray) -> PathReport:
+    """Check ``path`` (row k at time k * dt) and the sweep between its rows; report the first contact."""
     saved = robot.q.copy()
     duration = (len(path) - 1) * dt
     try:
-        for k, q in enumerate(path):
-            robot.apply(q)
-            if not checker.is_free():
-                contacts = tuple(checker.contacts())
-                first = FirstCollision(k * dt, tuple(float(x) for x in q), contacts)
+        clearance = path_clearance(robot, checker, path[0])
+        robot.apply(path[0])
+        if not checker.is_free():
+            start = FirstCollision(0.0, tuple(float(x) for x in path[0]), tuple(checker.contacts()))
+            return PathReport(False, duration, len(path), start)
+        for k in range(1, len(path)):
+            hit = first_contact(robot, checker, path[k - 1], path[k], reach, clearance)
+            if hit is not None:
+                frac, q = hit
+                first = FirstCollision((k - 1 + frac) * dt, tuple(float(x) for x in np.asarray(q)),
+                                       tuple(checker.contacts(clearance)))
                 return PathReport(False, duration, len(path), first)
     finally:
         robot.apply(saved)

@@ -23,7 +23,7 @@ from robwot_sim.sim.export import export_urdf
 from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
 from robwot_sim.sim.motion import check_speed_dt, plan_joint_path
-from robwot_sim.sim.pathcheck import check_joint_path
+from robwot_sim.sim.pathcheck import check_joint_path, first_contact, path_clearance
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
 from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _locked
 from robwot_sim.sim.world_scene import WorldScene
@@ -103,6 +103,28 @@ class World(WorldScene):
         return CollisionReport(not contacts, tuple(contacts))
 
     @_locked
+    def motion_clearance(self, robot_id: str) -> float:
+        """The clearance (m) a motion from the current state keeps (see pathcheck.path_clearance)."""
+        e = self._entry(robot_id)
+        return path_clearance(e.bound, e.checker, e.bound.q.copy())
+
+    @_locked
+    def check_step(
+        self, robot_id: str, q_from: JointVector, q_to: JointVector, clearance: float
+    ) -> CollisionReport:
+        """Contacts on the way from ``q_from`` to ``q_to`` (subdivided so no point travels more than
+        MAX_SWEEP unchecked; other bodies closer than ``clearance`` count). No state change."""
+        e = self._entry(robot_id)
+        saved = e.bound.q.copy()
+        try:
+            hit = first_contact(e.bound, e.checker, np.asarray(q_from, dtype=np.float64),
+                                np.asarray(q_to, dtype=np.float64), e.reach, clearance)
+            contacts = e.checker.contacts(clearance) if hit is not None else []
+        finally:
+            e.bound.apply(saved)
+        return CollisionReport(hit is None, tuple(contacts))
+
+    @_locked
     def collision_free_batch(self, robot_id: str, qs: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
         """Collision-free flag per configuration (rows of ``qs`` [n, dof]); restores the state."""
         e = self._entry(robot_id)
@@ -180,7 +202,7 @@ class World(WorldScene):
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
         path = self.plan_motion(robot_id, target, start, speed, dt)
         e = self._entry(robot_id)
-        return check_joint_path(e.bound, e.checker, path, float(dt))
+        return check_joint_path(e.bound, e.checker, path, float(dt), e.reach)
 
     @_locked
     def export_robot(self, robot_id: str, out_dir: str | Path) -> dict[str, Any]:
