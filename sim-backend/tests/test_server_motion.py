@@ -88,6 +88,18 @@ def test_realtime_one_follows_the_wall_clock(client: RpcClient) -> None:
     assert states[-1]["positions"] == pytest.approx([1.0, 0, 0, 0, 0, 0, 0])
 
 
+def test_state_notifications_carry_the_end_effector_pose(client: RpcClient) -> None:
+    """Each robot.state has the end-effector pose of its own joint state (what robot.fk answers for it)."""
+    client.call("robot.move", {"robot": "kuka", "target": [0.8, 0.3, 0, -0.5, 0, 0.4, 0], "speed": 0.5,
+                               "realtime": 0})
+    states = [p for m, p in client.notifications if m == "robot.state" and p["robot"] == "kuka"]
+    assert len(states) >= 3
+    for st in (states[0], states[len(states) // 2], states[-1]):
+        fk = client.call("robot.fk", {"robot": "kuka", "positions": st["positions"]})
+        assert st["position"] == pytest.approx(fk["position"], abs=1e-9)
+        assert st["orientation"] == pytest.approx(fk["orientation"], abs=1e-9)
+
+
 def test_realtime_zero_is_much_faster(client: RpcClient) -> None:
     """Real-time factor 0 runs the same 1 s motion as fast as possible (well under its duration)."""
     result = client.call("robot.move", {"robot": "kuka", "target": [1.0, 0, 0, 0, 0, 0, 0], "speed": 0.1,

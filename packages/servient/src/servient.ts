@@ -106,7 +106,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   backend.on("notification", (method, p) => {
     const twin = twins.get(String(p.robot));
     if (!twin) return;
-    if (method === "robot.state") twin.onState(p as { positions?: number[]; time?: number });
+    if (method === "robot.state") twin.onState(p as Parameters<Twin["onState"]>[0]);
     else if (method === "robot.collision") twin.onCollision((p.contacts ?? []) as never[], (p.positions ?? twin.q) as number[]);
   });
   backend.on("down", (reason) => {

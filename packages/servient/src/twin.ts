@@ -47,10 +47,6 @@ export class Twin extends EventEmitter<TwinEvents> {
   busy = false;
   /** set when a collision event was emitted for the current motion */
   collisionSeen = false;
-  private fkInFlight = false;
-  private fkPending: number[] | null = null;
-  /** bumped by every exact pose (applyPose): FK answers started before it are stale */
-  private poseEpoch = 0;
 
   constructor(
     slug: string,
@@ -116,7 +112,6 @@ export class Twin extends EventEmitter<TwinEvents> {
   }
 
   applyPose(q: number[], fk: FkResult): void {
-    this.poseEpoch++;
     this.q = [...q];
     this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
     this.orientation = quat(fk.orientation);
@@ -124,39 +119,18 @@ export class Twin extends EventEmitter<TwinEvents> {
   }
 
   /**
-   * `robot.state` notification: the joints are streamed at once (at the notification rate) with the
-   * most recent end-effector pose; the pose follows by a self-throttled FK (one call in flight), so it
-   * may lag one message. The final state of a motion is emitted with its exact pose by `refresh`.
+   * `robot.state` notification: joints and the end-effector pose of the same simulated instant (the
+   * backend computes the pose with the state: no FK round trip per notification).
    */
-  onState(params: { positions?: number[]; time?: number }): void {
+  onState(params: { positions?: number[]; time?: number; position?: number[]; orientation?: number[] }): void {
     if (!Array.isArray(params.positions)) return;
     if (typeof params.time === "number") this.time = params.time;
-    this.q = [...params.positions];
-    this.emit("joints", this.liveJoints());
-    if (this.fkInFlight) {
-      this.fkPending = this.q;
+    if (Array.isArray(params.position) && Array.isArray(params.orientation)) {
+      this.applyPose(params.positions, { position: params.position, orientation: params.orientation });
       return;
     }
-    this.runFk(this.q);
-  }
-
-  private runFk(q: number[]): void {
-    this.fkInFlight = true;
-    const epoch = this.poseEpoch;
-    this.backend
-      .call<FkResult>("robot.fk", { robot: this.robotId, positions: q })
-      .then((fk) => {
-        if (epoch !== this.poseEpoch) return;
-        this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
-        this.orientation = quat(fk.orientation);
-      })
-      .catch(() => undefined /* backend down: the supervisor reports it; the next state retries */)
-      .finally(() => {
-        this.fkInFlight = false;
-        const next = this.fkPending;
-        this.fkPending = null;
-        if (next) this.runFk(next);
-      });
+    this.q = [...params.positions];
+    this.emit("joints", this.liveJoints());
   }
 
   /** A motion stopped on contact: emits the `collision` event once per motion. */

@@ -93,6 +93,12 @@ class MotionRunner:
             del self._active[robot]
             motion.done.set()
 
+    def _state(self, robot: str, time: float, q: Any, moving: bool) -> dict[str, Any]:
+        """A ``robot.state`` notification: joints and the end-effector pose at the robot's current state
+        (``q``, just applied), so no client needs an FK round trip per notification."""
+        return {"robot": robot, "time": time, "positions": _floats(q), "moving": moving,
+                **_pose_json(self._world, robot)}
+
     async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float,
                    dt: float) -> dict[str, Any]:
         loop = asyncio.get_running_loop()
@@ -124,14 +130,17 @@ class MotionRunner:
             self._world.set_joint_positions(robot, q)
             reached, reached_time = q, sim_time
             if math.floor(sim_time / STATE_PERIOD + 1e-9) > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9):
-                self._broadcast("robot.state", {
-                    "robot": robot, "time": sim_time, "positions": _floats(q), "moving": True})
+                self._broadcast("robot.state", self._state(robot, sim_time, q, True))
         wall = loop.time() - t0
         if robot in self._world.robot_ids():
-            self._broadcast("robot.state", {
-                "robot": robot, "time": reached_time, "positions": _floats(reached), "moving": False})
+            self._broadcast("robot.state", self._state(robot, reached_time, reached, False))
         return {"status": status, "positions": _floats(reached), "duration": reached_time,
                 "wallTime": wall, "contacts": contacts}
+
+
+def _pose_json(world: World, robot: str) -> dict[str, Any]:
+    pose = world.fk(robot)
+    return {"position": _floats(pose.position), "orientation": _floats(pose.quat_xyzw)}
 
 
 def require_robot(world: World, robot: str) -> None:
