@@ -4,7 +4,7 @@
  * work even with --force, and a run interrupted by SIGHUP, SIGTERM or SIGINT removes its temporary
  * folder. Real CLI processes, real backend.
  */
-import { spawn } from "node:child_process";
+import { execFileSync, spawn } from "node:child_process";
 import { existsSync, mkdirSync, mkdtempSync, readdirSync, rmSync, writeFileSync } from "node:fs";
 import { homedir, tmpdir } from "node:os";
 import { join } from "node:path";
@@ -92,5 +92,32 @@ describe("twins that could not be served are not written, and folders missing wo
     const r = await runCli(["serve", out, "--port", "0"], { timeoutMs: 60_000 });
     expect(r.code).toBe(1);
     expect(r.stderr).toContain("has no workspace.stl");
+  });
+});
+
+describe("a generate whose backend stops answering", () => {
+  it("fails with a clear error within the deadline and leaves nothing behind (SIGSTOPped backend)", async () => {
+    const parent = mkdtempSync(join(tmpdir(), "robwot-hung-"));
+    const child = spawn(process.execPath, [CLI, "generate", "kuka_iiwa", "--samples", "2000000", "--out", join(parent, "twin")], {
+      cwd: REPO,
+      env: { ...process.env, ROBWOT_BACKEND_DEADLINE_MS: "3000" },
+      stdio: ["ignore", "pipe", "pipe"],
+    });
+    let stderr = "";
+    child.stderr.on("data", (d: Buffer) => (stderr += d.toString()));
+    const exited = new Promise<number | null>((r) => child.on("close", (c) => r(c)));
+    const t0 = Date.now();
+    while (!/collide|sample/.test(stderr) && Date.now() - t0 < 60_000) await new Promise((r) => setTimeout(r, 50));
+    const backendPid = Number(execFileSync("ps", ["--ppid", String(child.pid), "-o", "pid=", "-o", "comm="], { encoding: "utf8" })
+      .split("\n").find((l) => /python/.test(l))?.trim().split(/\s+/)[0]);
+    expect(backendPid).toBeGreaterThan(0);
+    process.kill(backendPid, "SIGSTOP");
+    const stoppedAt = Date.now();
+    const code = await exited;
+    expect(code).toBe(1);
+    expect(Date.now() - stoppedAt).toBeLessThan(30_000);
+    expect(stderr).toMatch(/stopped answering/);
+    expect(readdirSync(parent)).toEqual([]);
+    expect(() => process.kill(backendPid, 0)).toThrow(); // the hung backend was killed, not left stopped
   });
 });

@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription, type WorkspaceSummary as CoreWorkspaceSummary } from "@robwot/core";
-import { connect, launchBackend, type LaunchedBackend, type LoadRobotParams, type RobotModel as SimRobotModel, type SimClient, type WorldList as SimWorldList } from "@robwot/sim-client";
+import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type LoadRobotParams, type RobotModel as SimRobotModel, type SimClient, type WorldList as SimWorldList } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type WorkspaceSummary = CoreWorkspaceSummary;
@@ -33,8 +33,8 @@ export interface Backend {
   close(): Promise<void>;
 }
 
-/** A backend silent this long during a generation has hung (ms). */
-const WATCHDOG_DEAD_MS = 30_000;
+/** A backend silent this long during a generation has hung (ms; `ROBWOT_BACKEND_DEADLINE_MS` overrides). */
+const WATCHDOG_DEAD_MS = deadlineFromEnv(30_000);
 
 /** Generous per-request timeout: loading a mesh-heavy robot or a large scene can take a while. */
 const REQUEST_TIMEOUT_MS = 120_000;

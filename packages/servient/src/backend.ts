@@ -11,6 +11,7 @@
  * timed out is never half-applied: the backend that might have applied it late is gone.
  */
 import { EventEmitter } from "node:events";
+import { deadlineFromEnv } from "@robwot/sim-client";
 import { backendDown, fromBackendError } from "./errors.js";
 
 /** One live connection to a backend. */
@@ -35,7 +36,9 @@ export interface Deadlines {
   deadAfterMs: number;
 }
 
-export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: 1_000, deadAfterMs: 5_000 };
+/** `ROBWOT_BACKEND_DEADLINE_MS` overrides the 5 s a backend may leave a ping unanswered. */
+export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: 1_000, deadAfterMs: deadlineFromEnv(5_000) };
+
 
 export type SimConnector = () => Promise<SimSession>;
 export type SimCall = (method: string, params?: Record<string, unknown>) => Promise<unknown>;

@@ -11,7 +11,7 @@ export type {
   MoveParams,
   ObstaclePose,
 } from "./sim-client.js";
-export { connect, defaultPython, launchBackend, LaunchedBackend, resolvePython } from "./launcher.js";
+export { connect, deadlineFromEnv, defaultPython, launchBackend, LaunchedBackend, resolvePython } from "./launcher.js";
 export type { BackendEvents, ExitInfo, LaunchOptions } from "./launcher.js";
 export { BackendStartError, ConnectionClosedError, isRpcError, RpcError, RpcTimeoutError } from "./errors.js";
 export type { RpcErrorData } from "./errors.js";

@@ -49,6 +49,13 @@ export interface BackendEvents {
 
 const STDERR_TAIL_BYTES = 8_192;
 
+/** How long (ms) a backend may leave a request unanswered before its owner declares it dead:
+ *  `ROBWOT_BACKEND_DEADLINE_MS` when set (>= 100), else `fallback`. */
+export function deadlineFromEnv(fallback: number): number {
+  const v = Number(process.env.ROBWOT_BACKEND_DEADLINE_MS);
+  return Number.isFinite(v) && v >= 100 ? v : fallback;
+}
+
 /** The repository's venv interpreter, located relative to this package. */
 export function defaultPython(): string {
   return fileURLToPath(new URL("../../../sim-backend/.venv/bin/python", import.meta.url));
