@@ -3,17 +3,16 @@
  * non-zero exit code; the message names the file, line, joint, link or value involved.
  */
 
-/** An error whose message is ready to show to the user. */
-export class CliError extends Error {
+import { RobwotError } from "@robwot/core";
+
+/** An error whose message is ready to show to the user: a RobwotError (string `code`: `E_USAGE`,
+ *  `E_OUTPUT`, or the backend's `E_...` code) with the process exit code (2 usage, 1 otherwise). */
+export class CliError extends RobwotError {
   override name = "CliError";
-  constructor(
-    message: string,
-    /** Stable string code (`E_USAGE`, `E_OUTPUT`, or the backend's `E_...` code). */
-    readonly code: string = "E_USAGE",
-    /** Process exit code: 2 for usage errors, 1 for everything else. */
-    readonly exitCode: number = code === "E_USAGE" ? 2 : 1,
-  ) {
-    super(message);
+  readonly exitCode: number;
+  constructor(message: string, code = "E_USAGE", exitCode: number = code === "E_USAGE" ? 2 : 1) {
+    super(code, message);
+    this.exitCode = exitCode;
   }
 }
 

@@ -10,23 +10,18 @@
  * - 422 the target was rejected by simulation-in-the-loop validation (`E_REJECTED`)
  * - 503 the simulation backend is down or restarting (`E_BACKEND_DOWN`)
  */
+import { RobwotError } from "@robwot/core";
+
 export type Details = Record<string, unknown>;
 
-export class ServientError extends Error {
+/** A RobwotError (the one TypeScript error base: string `code`, `details`, `toJSON`) with its HTTP status. */
+export class ServientError extends RobwotError {
   override name = "ServientError";
   readonly status: number;
-  readonly code: string;
-  readonly details: Details;
 
   constructor(status: number, code: string, message: string, details: Details = {}) {
-    super(message);
+    super(code, message, details);
     this.status = status;
-    this.code = code;
-    this.details = details;
-  }
-
-  toJSON(): { code: string; message: string; details: Details } {
-    return { code: this.code, message: this.message, details: this.details };
   }
 }
 

@@ -1,4 +1,5 @@
-/** Errors of the sim-client. Each class sets `name`; the non-RPC ones carry a stable string `code`. */
+/** Errors of the sim-client, all RobwotErrors (one base in TypeScript): a stable string `code`, `details`. */
+import { RobwotError } from "@robwot/core/browser";
 
 /** `error.data` of a JSON-RPC error: a stable string `code` (`E_UNKNOWN_ROBOT`, ...) plus fields. */
 export interface RpcErrorData {
@@ -6,16 +7,17 @@ export interface RpcErrorData {
   [field: string]: unknown;
 }
 
-/** A JSON-RPC error answered by the backend: numeric `code` (-326xx / -320xx) and structured `data`. */
-export class RpcError extends Error {
+/** A JSON-RPC error answered by the backend: `code` = `data.code` (`E_UNKNOWN_ROBOT`, ...), the
+ *  JSON-RPC number in `rpcCode` (-326xx / -320xx), the structured `data` also as `details`. */
+export class RpcError extends RobwotError {
   override readonly name = "RpcError";
-  readonly code: number;
+  readonly rpcCode: number;
   readonly data: RpcErrorData;
   readonly method: string;
 
-  constructor(code: number, message: string, data: RpcErrorData, method: string) {
-    super(message);
-    this.code = code;
+  constructor(rpcCode: number, message: string, data: RpcErrorData, method: string) {
+    super(data.code, message, data);
+    this.rpcCode = rpcCode;
     this.data = data;
     this.method = method;
   }
@@ -27,39 +29,36 @@ export class RpcError extends Error {
 }
 
 /** No answer within the request timeout (the request may still complete on the backend). */
-export class RpcTimeoutError extends Error {
+export class RpcTimeoutError extends RobwotError {
   override readonly name = "RpcTimeoutError";
-  readonly code = "E_TIMEOUT";
   constructor(
     readonly method: string,
     readonly timeoutMs: number,
   ) {
-    super(`no answer to ${method} within ${timeoutMs} ms`);
+    super("E_TIMEOUT", `no answer to ${method} within ${timeoutMs} ms`, { method, timeoutMs });
   }
 }
 
 /** The WebSocket closed (or could not open) while a request was pending. */
-export class ConnectionClosedError extends Error {
+export class ConnectionClosedError extends RobwotError {
   override readonly name = "ConnectionClosedError";
-  readonly code = "E_CONNECTION_CLOSED";
   constructor(
     message: string,
     readonly url: string,
   ) {
-    super(message);
+    super("E_CONNECTION_CLOSED", message, { url });
   }
 }
 
 /** The backend process could not be started or did not report ready in time. */
-export class BackendStartError extends Error {
+export class BackendStartError extends RobwotError {
   override readonly name = "BackendStartError";
-  readonly code = "E_BACKEND_START";
   constructor(
     message: string,
     readonly stderrTail: string,
     readonly exitCode: number | null = null,
   ) {
-    super(stderrTail ? `${message}\n--- backend stderr (tail) ---\n${stderrTail}` : message);
+    super("E_BACKEND_START", stderrTail ? `${message}\n--- backend stderr (tail) ---\n${stderrTail}` : message, { exitCode });
   }
 }
 

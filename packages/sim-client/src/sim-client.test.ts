@@ -100,13 +100,14 @@ describe("SimClient against the real backend", () => {
 
   it("surfaces JSON-RPC errors as RpcError with code and data.code", async () => {
     const unknown = await rpcError(sim.fk("nope"));
-    expect(unknown.code).toBe(-32001);
+    expect(unknown.rpcCode).toBe(-32001);
+    expect(unknown.code).toBe("E_UNKNOWN_ROBOT");
     expect(unknown.data.code).toBe("E_UNKNOWN_ROBOT");
     expect(unknown.dataCode).toBe("E_UNKNOWN_ROBOT");
     expect(unknown.data.available).toEqual(["kuka"]);
     expect(unknown.method).toBe("robot.fk");
     const limits = await rpcError(sim.setJointPositions("kuka", [0, 3, 0, 0, 0, 0, 0]));
-    expect(limits.code).toBe(-32002);
+    expect(limits.rpcCode).toBe(-32002);
     expect(limits.data).toMatchObject({ code: "E_OUT_OF_LIMITS", joint: "lbr_iiwa_joint_2", value: 3 });
     const params = await rpcError(sim.setJointPositions("kuka", [0, 0]));
     expect(params.data).toMatchObject({ code: "E_INVALID_PARAMS", param: "positions" });

@@ -1,15 +1,9 @@
 import { debugState, publishDebug } from "./debug.js";
+import { RobwotError } from "@robwot/core/browser";
 
 /** An error the viewer shows to the user; `code` is stable, `details` structured. */
-export class ViewerError extends Error {
+export class ViewerError extends RobwotError {
   override name = "ViewerError";
-  constructor(
-    readonly code: string,
-    message: string,
-    readonly details: Record<string, unknown> = {},
-  ) {
-    super(message);
-  }
 }
 
 function describe(err: unknown): string {

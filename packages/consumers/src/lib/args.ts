@@ -2,14 +2,18 @@
  * Tiny command-line parsing shared by the scenarios: positional arguments (TD URLs) and
  * `--name value` / `--flag` options. Unknown options are an error naming the valid ones.
  */
+import { RobwotError } from "@robwot/core";
+
 export interface ParsedArgs {
   positional: string[];
   options: Map<string, string | true>;
 }
 
-export class UsageError extends Error {
+export class UsageError extends RobwotError {
   override name = "UsageError";
-  readonly code = "E_USAGE";
+  constructor(message: string) {
+    super("E_USAGE", message);
+  }
 }
 
 export function parseArgs(argv: string[], known: Record<string, "value" | "flag">): ParsedArgs {

@@ -9,6 +9,7 @@
 import type * as WoTTypes from "wot-typescript-definitions";
 import { loadNodeWot, silenceAjvFormatWarnings } from "./node-wot.js";
 import type { SchemaLike, ThingDescriptionLike } from "./td.js";
+import { RobwotError } from "@robwot/core";
 
 /** The Thing slug `npm start` / `robwot demo` serves (the bundled kuka_iiwa, TD title "lbr_iiwa"). */
 export const DEMO_SLUG = "lbr_iiwa";
@@ -144,14 +145,13 @@ export async function invoke<T>(twin: Twin, name: string, input?: unknown): Prom
   return (out === undefined ? undefined : await out.value()) as T;
 }
 
-export class ActionError extends Error {
+export class ActionError extends RobwotError {
   override name = "ActionError";
-  readonly code = "E_ACTION";
   constructor(
     readonly action: string,
     readonly url: string,
     cause: unknown,
   ) {
-    super(`${action} on ${url} failed: ${cause instanceof Error ? cause.message : String(cause)}`, { cause });
+    super("E_ACTION", `${action} on ${url} failed: ${cause instanceof Error ? cause.message : String(cause)}`, { action, url }, { cause });
   }
 }

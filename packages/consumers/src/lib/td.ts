@@ -3,6 +3,8 @@
  * joint limits from `getJointPosition`'s schema, Cartesian bounds from `getCartesianPosition`'s
  * schema, the linked workspace files, and the live WebSocket endpoint (Contract 4).
  */
+import { RobwotError } from "@robwot/core";
+
 export interface SchemaLike {
   type?: string;
   minimum?: number;
@@ -39,9 +41,11 @@ export interface ThingDescriptionLike {
   [key: string]: unknown;
 }
 
-export class TdError extends Error {
+export class TdError extends RobwotError {
   override name = "TdError";
-  readonly code = "E_TD";
+  constructor(message: string, details: Record<string, unknown> = {}) {
+    super("E_TD", message, details);
+  }
 }
 
 export interface JointLimit {
