@@ -39,9 +39,17 @@ const WATCHDOG_DEAD_MS = deadlineFromEnv(30_000);
 /** Generous per-request timeout: loading a mesh-heavy robot or a large scene can take a while. */
 const REQUEST_TIMEOUT_MS = 120_000;
 
+/**
+ * The backend as the commands use it, under a watchdog for the whole session: the backend answers ping
+ * from its event loop even while a generation runs in its threads, so one that leaves a ping unanswered
+ * for WATCHDOG_DEAD_MS has hung (or was stopped). It is then killed (an own backend) or dropped (a
+ * shared one), which fails every pending call at once; they fail with that reason instead of waiting.
+ */
 class SimBackend implements Backend {
   private closing: Promise<void> | null = null;
   private readonly own: LaunchedBackend | null;
+  private readonly watchdog: NodeJS.Timeout;
+  private dead: CliError | null = null;
 
   constructor(
     private readonly client: SimClient,
@@ -49,63 +57,63 @@ class SimBackend implements Backend {
     readonly pybulletData: string,
   ) {
     this.own = own;
+    let pending = false;
+    this.watchdog = setInterval(() => {
+      if (pending || this.dead) return;
+      pending = true;
+      this.client
+        .ping({ timeoutMs: WATCHDOG_DEAD_MS })
+        .then(
+          () => undefined,
+          (err: unknown) => {
+            if ((err as { code?: unknown }).code !== "E_TIMEOUT") return; // closed: the calls report it
+            this.dead = new CliError(`the simulation backend stopped answering (no reply to ping within ${WATCHDOG_DEAD_MS / 1000} s)`, "E_BACKEND", 1);
+            this.own?.process.kill("SIGKILL"); // works on a stopped (SIGSTOP) process too
+            this.client.connection.terminate();
+          },
+        )
+        .finally(() => (pending = false));
+    }, Math.min(2_000, WATCHDOG_DEAD_MS / 2));
+    this.watchdog.unref();
+  }
+
+  /** A call that fails with the watchdog's reason when the backend was declared dead meanwhile. */
+  private async guard<T>(call: Promise<T>): Promise<T> {
+    try {
+      return await call;
+    } catch (err) {
+      throw this.dead ?? err;
+    }
   }
 
   loadRobot(params: LoadRobotParams): Promise<RobotModel> {
-    return this.client.loadRobot(params);
+    return this.guard(this.client.loadRobot(params));
   }
   async removeRobot(id: string): Promise<void> {
-    await this.client.removeRobot(id);
+    await this.guard(this.client.removeRobot(id));
   }
   async loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void> {
-    await this.client.loadScene(params);
+    await this.guard(this.client.loadScene(params));
   }
   listWorld(): Promise<WorldList> {
-    return this.client.listWorld();
+    return this.guard(this.client.listWorld());
   }
   async exportRobot(params: { robot: string; outDir: string }): Promise<void> {
-    await this.client.exportRobot(params.robot, params.outDir);
+    await this.guard(this.client.exportRobot(params.robot, params.outDir));
   }
   async warmUp(workers?: number): Promise<void> {
     // only a head start for the worker pool: if it fails, workspace.generate starts the pool itself and
     // reports any real failure (an older backend without workspace.warmUp also lands here)
     await this.client.warmUp(workers).catch(() => undefined);
   }
-  /**
-   * Runs workspace.generate under a watchdog: the backend answers ping from its event loop while the
-   * generation runs in its threads, so a backend that leaves a ping unanswered for WATCHDOG_DEAD_MS has
-   * hung (or was stopped): the command fails instead of waiting forever.
-   */
-  async generateWorkspace(
+  generateWorkspace(
     params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
     onProgress: (p: Progress) => void,
   ): Promise<WorkspaceSummary> {
-    let timer: NodeJS.Timeout | undefined;
-    const watchdog = new Promise<never>((_, reject) => {
-      let pending = false;
-      timer = setInterval(() => {
-        if (pending) return;
-        pending = true;
-        this.client
-          .ping({ timeoutMs: WATCHDOG_DEAD_MS })
-          .then(
-            () => undefined,
-            (err: unknown) => {
-              if ((err as { code?: unknown }).code === "E_TIMEOUT") {
-                reject(new CliError(`the simulation backend stopped answering (no reply to ping within ${WATCHDOG_DEAD_MS / 1000} s)`, "E_BACKEND", 1));
-              }
-            },
-          )
-          .finally(() => (pending = false));
-      }, 2_000);
-    });
-    try {
-      return (await Promise.race([this.client.generateWorkspace(params, { onProgress }), watchdog])) as WorkspaceSummary;
-    } finally {
-      clearInterval(timer);
-    }
+    return this.guard(this.client.generateWorkspace(params, { onProgress })) as Promise<WorkspaceSummary>;
   }
   close(): Promise<void> {
+    clearInterval(this.watchdog);
     this.closing ??= (async () => {
       if (this.own) {
         await this.own.stop();
