@@ -131,8 +131,11 @@ export interface MotionStatus {
 
 /** Output of validateJointPosition / validateCartesianPosition (Contract 3). */
 export interface ValidationReport {
+  /** the simulation's verdict: IK reach within limits and a collision-free path in the current scene */
   valid: boolean;
   reasons: string[];
+  /** static checks (workspace.stl, point cloud) that disagree with or add to the verdict; never a veto */
+  notes?: string[];
   checks: {
     limits?: { ok: boolean; violations?: { joint: string; value: number; lower: number; upper: number }[] };
     insideWorkspace?: { ok: boolean };

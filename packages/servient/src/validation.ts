@@ -2,8 +2,12 @@
  * Simulation-in-the-loop validation (the original's key idea): before a move, and for the validate*
  * actions, check joint limits, the workspace surface (workspace.stl), the point-cloud score
  * (workspace.csv), IK reachability and collision along the whole path in the current scene.
- * Cheapest first: when the workspace checks fail, IK and path are not run (absent from `checks`).
- * Nothing here moves the twin.
+ *
+ * Policy: the simulation decides. `valid` is the verdict of the strongest checks — reachable by IK within
+ * limits and a collision-free path (with clearance) in the current scene. The static checks on the
+ * linked files (inside workspace.stl, point-cloud score) are the evidence a consumer without the twin
+ * has; they are computed and reported in `checks` (and, when they disagree with the simulation, in
+ * `notes`), but a weaker check never vetoes a stronger one. Nothing here moves the twin.
  */
 import type { Contact, Quaternion, ValidationReport, Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "./backend.js";
@@ -91,15 +95,16 @@ export async function validateCartesian(
   speed: number,
 ): Promise<CartesianPlan> {
   const reasons: string[] = [];
+  const evidence: string[] = [];
   const checks: ValidationReport["checks"] = {};
   const virtual = twin.frames.pointToVirtual(real);
   const where = `(${virtual.map(fmt).join(", ")}) m in the twin frame`;
   if (ws) {
     checks.insideWorkspace = { ok: ws.inside(virtual) };
-    if (!checks.insideWorkspace.ok) reasons.push(`target ${where} is outside the workspace surface (workspace.stl)`);
+    if (!checks.insideWorkspace.ok) evidence.push(`target ${where} is outside the workspace surface (workspace.stl)`);
     checks.pointCloud = ws.score(virtual);
     if (!checks.pointCloud.ok) {
-      reasons.push(
+      evidence.push(
         `point-cloud score ${fmt(checks.pointCloud.score)} > threshold ${checks.pointCloud.threshold} ` +
           `(share of colliding samples among the ${checks.pointCloud.k} nearest in workspace.csv)`,
       );
@@ -107,9 +112,6 @@ export async function validateCartesian(
   }
   let target: number[] = [];
   let positionError = Infinity;
-  // cheapest first: outside the sampled workspace the move is refused anyway, and IK on an unreachable
-  // target is the slowest check (random restarts, ~0.3 s): skip IK and path then
-  if (reasons.length > 0) return { report: { valid: false, reasons, checks }, target, virtual, positionError };
   try {
     const params: Record<string, unknown> = { robot: twin.robotId, position: virtual, seed: twin.q, collisionFree: true };
     if (orientation) params.orientation = quatArr(twin.frames.quatToVirtual(orientation));
@@ -133,5 +135,8 @@ export async function validateCartesian(
       if (!checks.path.ok) reasons.push(`the path to the target collides${describeContact(checks.path.contacts[0])}`);
     }
   }
-  return { report: { valid: reasons.length === 0, reasons, checks }, target, virtual, positionError };
+  const valid = reasons.length === 0;
+  // the static evidence, where it disagrees with the simulation's verdict (it never vetoes it)
+  const notes = valid ? evidence.map((s) => `${s}; the simulation reaches it collision-free, so it is accepted`) : evidence;
+  return { report: { valid, reasons, checks, ...(notes.length > 0 ? { notes } : {}) }, target, virtual, positionError };
 }

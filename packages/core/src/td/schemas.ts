@@ -148,9 +148,13 @@ export function validationReportSchema(): DataSchema {
   const ok = { type: "boolean" } as const;
   return {
     type: "object",
+    description:
+      "The simulation decides: valid = reachable by IK within the joint limits and a collision-free path (with clearance) in the current scene. " +
+      "The static checks on the linked files (insideWorkspace, pointCloud) are reported in checks and notes, never a veto.",
     properties: {
-      valid: { type: "boolean" },
-      reasons: { type: "array", items: { type: "string" } },
+      valid: { type: "boolean", description: "the simulation-in-the-loop verdict" },
+      reasons: { type: "array", items: { type: "string" }, description: "why the target is refused (empty when valid)" },
+      notes: { type: "array", items: { type: "string" }, description: "static checks that disagree with the verdict" },
       checks: {
         type: "object",
         properties: {
