@@ -96,8 +96,8 @@ def main() -> None:
         print(f"{r['robot']:<7}{r['srdf']:>5}{r['ref_free']:>10}{r['ours_free']:>11}{r['false_accept']:>14}"
               f"{r['false_reject']:>14}{r['false_reject_pct']:>10.1f}%{r['ms_per_config']:>11.3f}")
 
-    print(f"\nverdicts on {args.targets} reachable targets (reference-free configurations, SRDF where published), "
-          "position only, from the home pose")
+    print(f"\nverdicts on {args.targets} reachable targets (reference-free configurations, SRDF where "
+          "published), position only, from the home pose")
     print(f"{'robot':<7}{'accepted':>10}{'false reject':>14}")
     for name in ("ur10", "panda"):
         if name in args.robots.split(","):
