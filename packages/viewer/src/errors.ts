@@ -7,7 +7,7 @@ export class ViewerError extends RobwotError {
 }
 
 function describe(err: unknown): string {
-  if (err instanceof ViewerError) {
+  if (err instanceof RobwotError) {
     const extra = Object.keys(err.details).length > 0 ? `\n${JSON.stringify(err.details)}` : "";
     return `${err.code}: ${err.message}${extra}`;
   }

@@ -1,9 +1,9 @@
 import { describe, expect, it } from "vitest";
-import { ViewerError } from "./errors.js";
+import { RobwotError } from "@robwot/core/browser";
 import { parseWorkspaceCsv } from "./pointcloud.js";
 
-function csv(rows: number, withHeader = true, extra = ""): string {
-  const lines = withHeader ? [`x,y,z,collision_free${extra ? ",j1" : ""}`] : [];
+function csv(rows: number, extra = ""): string {
+  const lines = [`x,y,z,collision_free${extra ? ",j1" : ""}`];
   for (let i = 0; i < rows; i++) lines.push(`${i * 0.001},${-i * 0.002},${0.5},${i % 4 === 0 ? 0 : 1}${extra}`);
   return `${lines.join("\n")}\n`;
 }
@@ -11,8 +11,7 @@ function csv(rows: number, withHeader = true, extra = ""): string {
 describe("parseWorkspaceCsv", () => {
   it.each([
     ["with header", csv(10), 10],
-    ["without header", csv(10, false), 10],
-    ["with joint columns", csv(10, true, ",0.25"), 10],
+    ["with joint columns", csv(10, ",0.25"), 10],
   ])("reads every point %s", (_label, text, n) => {
     const cloud = parseWorkspaceCsv(text);
     expect(cloud.total).toBe(n);
@@ -34,8 +33,9 @@ describe("parseWorkspaceCsv", () => {
   it.each([
     ["a non-numeric coordinate", "x,y,z,collision_free\n0,0,0,1\n0,abc,0,1\n", 3],
     ["a label other than 0/1", "x,y,z,collision_free\n0,0,0,1\n0,0,0,1\n0,0,0,2\n", 4],
-    ["a missing column", "0,0,0,1\n0,0\n", 2],
-    ["an empty coordinate", "0,0,0,1\n0,,0,1\n", 2],
+    ["a missing column", "x,y,z,collision_free\n0,0,0,1\n0,0\n", 3],
+    ["an empty coordinate", "x,y,z,collision_free\n0,0,0,1\n0,,0,1\n", 3],
+    ["a missing header", "0,0,0,1\n0,0,0,1\n", 1],
   ])("names the file and line of %s", (_label, text, line) => {
     let err: unknown;
     try {
@@ -43,8 +43,8 @@ describe("parseWorkspaceCsv", () => {
     } catch (e) {
       err = e;
     }
-    expect(err).toBeInstanceOf(ViewerError);
-    expect((err as ViewerError).code).toBe("E_CSV");
-    expect((err as ViewerError).details).toMatchObject({ file: "twin/workspace.csv", line });
+    expect(err).toBeInstanceOf(RobwotError);
+    expect((err as RobwotError).code).toBe("E_BAD_CSV");
+    expect((err as RobwotError).details).toMatchObject({ file: "twin/workspace.csv", line });
   });
 });

@@ -4,7 +4,7 @@
  * subsampled (seeded random draw, both classes kept in proportion) to keep the page fluid.
  */
 import { BufferGeometry, Float32BufferAttribute, Points, PointsMaterial } from "three";
-import { ViewerError } from "./errors.js";
+import { mulberry32, parseWorkspaceCsv as parseCloud } from "@robwot/core/browser";
 
 export const FREE_COLOUR = [0.16, 0.45, 0.85] as const;
 export const COLLIDING_COLOUR = [0.86, 0.2, 0.16] as const;
@@ -18,44 +18,31 @@ export interface ParsedCloud {
   collisionFree: number;
 }
 
+/**
+ * Reads workspace.csv with core's parser (line-numbered `CsvError`s) and keeps at most `maxPoints` of it:
+ * a seeded Bernoulli draw (core's mulberry32: the same points on every load, no aliasing with periodic
+ * row orders), both classes in proportion.
+ */
 export function parseWorkspaceCsv(text: string, maxPoints = MAX_POINTS, source = "workspace.csv"): ParsedCloud {
-  const lines = text.split("\n");
-  let first = 0;
-  const head = lines[0]?.trim() ?? "";
-  if (head.length > 0 && !/^[-+\d.]/.test(head)) first = 1; // header row
-  const rows: number[] = [];
-  for (let i = first; i < lines.length; i++) if ((lines[i] ?? "").trim().length > 0) rows.push(i);
-  // Subsample with a seeded pseudo-random Bernoulli draw (no aliasing with periodic row orders, the
-  // same points on every load).
-  const p = Math.min(1, maxPoints / Math.max(1, rows.length));
+  const cloud = parseCloud(text, { file: source });
+  const total = cloud.collisionFree.length;
+  const p = Math.min(1, maxPoints / Math.max(1, total));
   const rand = mulberry32(1);
-  const keep = rows.map(() => p >= 1 || rand() < p);
+  const keep = Array.from({ length: total }, () => p >= 1 || rand() < p);
   const kept = keep.reduce((n, k) => n + (k ? 1 : 0), 0);
   const positions = new Float32Array(kept * 3);
   const free = new Uint8Array(kept);
   let collisionFree = 0;
   let k = 0;
-  for (let r = 0; r < rows.length; r++) {
-    const lineNo = rows[r] as number;
-    const cols = (lines[lineNo] as string).split(",");
-    const x = Number(cols[0]);
-    const y = Number(cols[1]);
-    const z = Number(cols[2]);
-    const f = Number(cols[3]);
-    if (cols.length < 4 || cols.slice(0, 4).some((c) => c.trim() === "") || ![x, y, z].every(Number.isFinite) || (f !== 0 && f !== 1)) {
-      throw new ViewerError("E_CSV", `${source} line ${lineNo + 1}: expected x,y,z,collision_free(0|1)`, {
-        file: source,
-        line: lineNo + 1,
-        got: (lines[lineNo] as string).slice(0, 80),
-      });
-    }
-    if (f === 1) collisionFree++;
+  for (let r = 0; r < total; r++) {
+    const f = cloud.collisionFree[r] as number;
+    collisionFree += f;
     if (!keep[r]) continue;
-    positions.set([x, y, z], k * 3);
+    positions.set(cloud.points.subarray(3 * r, 3 * r + 3), k * 3);
     free[k] = f;
     k++;
   }
-  return { positions, free, total: rows.length, collisionFree };
+  return { positions, free, total, collisionFree };
 }
 
 export function buildPointCloud(cloud: ParsedCloud): Points {
@@ -68,16 +55,4 @@ export function buildPointCloud(cloud: ParsedCloud): Points {
   const points = new Points(geometry, new PointsMaterial({ size: 0.012, vertexColors: true, sizeAttenuation: true }));
   points.name = "workspace point cloud";
   return points;
-}
-
-/** Small seeded PRNG (mulberry32), uniform in [0, 1). */
-function mulberry32(seed: number): () => number {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
 }
