@@ -161,3 +161,10 @@ def test_obstacle_add_remove_does_not_grow_the_backend() -> None:
     finally:
         client.close()
         backend.stop()
+
+
+def test_help_explains_the_token() -> None:
+    """`serve --help` says how the token is given (environment) and where a made one is printed."""
+    out = subprocess.run([sys.executable, "-m", "robwot_sim", "serve", "--help"], capture_output=True,
+                         text=True, check=True).stdout
+    assert "ROBWOT_BACKEND_TOKEN" in out and "ready line" in out and "Origin" in out

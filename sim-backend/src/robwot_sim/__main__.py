@@ -1,7 +1,8 @@
 """`python -m robwot_sim serve [--host 127.0.0.1] [--port 0] [--max-message BYTES]`.
 
-Stdout carries exactly one line, `{"event":"ready","port":N}`, once the server listens: everything else
-(logs, Bullet's own printf output) is redirected to stderr. SIGTERM/SIGINT stop the server cleanly.
+Stdout carries exactly one line once the server listens, `{"event":"ready","port":N}` (plus `"token"`
+when the server made its own token, see below): everything else (logs, Bullet's own printf output) is
+redirected to stderr. SIGTERM/SIGINT stop the server cleanly.
 
 Every connection must present the backend's token (`Authorization: Bearer <token>`). The token comes
 from the environment variable `ROBWOT_BACKEND_TOKEN` (how launchers hand it over: never on the command
@@ -25,7 +26,13 @@ from robwot_sim.rpc.protocol import DEFAULT_MAX_MESSAGE_BYTES
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m robwot_sim", description="RobWoT simulation backend")
     sub = parser.add_subparsers(dest="command", required=True)
-    serve = sub.add_parser("serve", help="serve JSON-RPC 2.0 over WebSocket")
+    serve = sub.add_parser(
+        "serve", help="serve JSON-RPC 2.0 over WebSocket",
+        epilog="Only the owner is served: every connection must send 'Authorization: Bearer <token>'. "
+               "The token is read from the environment variable ROBWOT_BACKEND_TOKEN (never pass it on "
+               "the command line); without it a random token is made and printed in the ready line "
+               '{"event":"ready","port":N,"token":"..."}. Upgrades carrying an Origin header (browsers) '
+               "are refused.")
     serve.add_argument("--host", default="127.0.0.1", help="interface to bind (default: loopback)")
     serve.add_argument("--port", type=int, default=0, help="TCP port, 0 = any free port (default)")
     serve.add_argument("--max-message", type=int, default=DEFAULT_MAX_MESSAGE_BYTES,
