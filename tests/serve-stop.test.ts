@@ -37,40 +37,37 @@ async function farPosition(): Promise<{ x: number; y: number; z: number }> {
   return { x: p.x, y: p.y, z: p.z };
 }
 
+/** From home, starts `action` at speed 0.2, stops it `delay` ms after acceptance; checks both answers. */
+async function stopAfter(action: string, input: object, delay: number): Promise<any> {
+  expect((await invoke(base, "moveToJointPosition", { joints: HOME })).body.status).toBe("reached");
+  const move = invoke(base, action, { ...input, speed: 0.2 });
+  await accepted();
+  await sleep(delay);
+  const stop = await invoke(base, "stop", "");
+  const r = await move;
+  expect(stop.body).toEqual({ stopped: true });
+  expect(r.status).toBe(200);
+  expect(r.body.status).toBe("stopped");
+  await sleep(150);
+  return r.body;
+}
+
 describe("stop during any stage of a move", () => {
   const delays = [0, 1, 3, 10, 30, 100, 300];
 
   it.each(delays)("joint move, stop %i ms after acceptance: stopped, and the twin stays where the move answered", async (delay) => {
-    expect((await invoke(base, "moveToJointPosition", { joints: HOME })).body.status).toBe("reached");
-    const move = invoke(base, "moveToJointPosition", { joints: FAR, speed: 0.2 });
-    await accepted();
-    await sleep(delay);
-    const stop = await invoke(base, "stop", "");
-    const r = await move;
-    expect(stop.body).toEqual({ stopped: true });
-    expect(r.status).toBe(200);
-    expect(r.body.status).toBe("stopped");
-    await sleep(150);
+    const r = await stopAfter("moveToJointPosition", { joints: FAR }, delay);
     const after = await joints();
-    for (const [name, v] of Object.entries(r.body.joints as Record<string, number>)) expect(after[name]).toBeCloseTo(v, 9);
+    for (const [name, v] of Object.entries(r.joints as Record<string, number>)) expect(after[name]).toBeCloseTo(v, 9);
     expect(after.lbr_iiwa_joint_1).toBeLessThan(1.49);
     expect((await http(`${base}/properties/motionStatus`)).body.state).toBe("stopped");
   });
 
   it.each(delays)("Cartesian move, stop %i ms after acceptance: stopped before reaching the target", async (delay) => {
     const target = await farPosition();
-    expect((await invoke(base, "moveToJointPosition", { joints: HOME })).body.status).toBe("reached");
-    const move = invoke(base, "moveToCartesianPosition", { ...target, speed: 0.2 });
-    await accepted();
-    await sleep(delay);
-    const stop = await invoke(base, "stop", "");
-    const r = await move;
-    expect(stop.body).toEqual({ stopped: true });
-    expect(r.status).toBe(200);
-    expect(r.body.status).toBe("stopped");
-    await sleep(150);
+    const r = await stopAfter("moveToCartesianPosition", target, delay);
     const p = (await http(`${base}/properties/getCartesianPosition`)).body;
-    expect(Math.hypot(p.x - r.body.position.x, p.y - r.body.position.y, p.z - r.body.position.z)).toBeLessThan(1e-9);
+    expect(Math.hypot(p.x - r.position.x, p.y - r.position.y, p.z - r.position.z)).toBeLessThan(1e-9);
     expect(Math.hypot(p.x - target.x, p.y - target.y, p.z - target.z)).toBeGreaterThan(0.01);
   });
 

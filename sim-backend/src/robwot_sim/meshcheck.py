@@ -24,21 +24,18 @@ import os
 import re
 import struct
 import tempfile
-import xml.etree.ElementTree as ET
-import xml.parsers.expat
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from robwot_sim import xmlsafe
 from robwot_sim.errors import MeshError
 
 MAX_MESH_BYTES = 256 * 1024 * 1024
 MAX_TRIANGLES = 5_000_000
 _STL_DTYPE = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
-_FORBIDDEN = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
 _FLOAT = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _ASCII_VERTEX = re.compile(rb"^\s*vertex\s+(" + _FLOAT.encode() + rb")\s+(" + _FLOAT.encode() + rb")\s+("
                            + _FLOAT.encode() + rb")\s*$", re.MULTILINE)
@@ -201,27 +198,10 @@ def _parse_obj(path: Path, data: bytes) -> MeshData:
 
 
 def _check_dae(path: Path, data: bytes) -> None:
-    m = _FORBIDDEN.search(data)
-    if m is not None:
-        line = data.count(b"\n", 0, m.start()) + 1
-        raise _refuse(path, f"line {line}: XML {m.group(1).decode().upper()} declarations are refused")
-    parser = xml.parsers.expat.ParserCreate()
-    builder = ET.TreeBuilder()
-    parser.StartElementHandler = builder.start
-    parser.EndElementHandler = builder.end
-    parser.CharacterDataHandler = builder.data
-
-    def refuse(*_: Any) -> Any:
-        raise _refuse(path, "XML DTD/entity refused")
-
-    parser.StartDoctypeDeclHandler = refuse
-    parser.EntityDeclHandler = refuse
-    parser.ExternalEntityRefHandler = refuse
     try:
-        parser.Parse(data, True)
-        root = builder.close()
-    except xml.parsers.expat.ExpatError as e:
-        raise _refuse(path, f"line {e.lineno}: {xml.parsers.expat.ErrorString(e.code)}") from None
+        root, _ = xmlsafe.parse(data)
+    except (xmlsafe.XmlRefused, xmlsafe.XmlMalformed) as e:
+        raise _refuse(path, str(e)) from None
     if not root.tag.endswith("COLLADA"):
         raise _refuse(path, f"root element is <{root.tag}>, expected <COLLADA>")
     largest = 0

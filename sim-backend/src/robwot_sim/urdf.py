@@ -9,25 +9,22 @@
 from __future__ import annotations
 
 import os
-import re
 import shutil
 import tempfile
 import xml.etree.ElementTree as ET
-import xml.parsers.expat
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import pybullet_data
 
+from robwot_sim import xmlsafe
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UrdfError
 from robwot_sim.meshcheck import check_mesh, read_mesh
 from robwot_sim.sim.decompose import FloatArray, IndexArray, collision_cache, split_collisions
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
 MESH_SUFFIXES = (".stl", ".obj", ".dae")
-_FORBIDDEN = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
 
 
 def pybullet_data_path() -> Path:
@@ -46,10 +43,6 @@ class UrdfDoc:
         return self.lines.get(id(el))
 
 
-class _Refused(Exception):
-    pass
-
-
 def parse_xml(path: str | Path, *, root_tag: str, error: type[UrdfError], what: str) -> UrdfDoc:
     """Read and parse a robot description file (URDF, SRDF) safely: no DTD, no entities, a size limit,
     the expected root element. Raises FileNotFound, Forbidden or ``error`` (with file, line, column)."""
@@ -60,44 +53,16 @@ def parse_xml(path: str | Path, *, root_tag: str, error: type[UrdfError], what: 
     data = p.read_bytes()
     if len(data) > MAX_URDF_BYTES:
         raise error(f"file larger than {MAX_URDF_BYTES} bytes", file=str(p))
-    m = _FORBIDDEN.search(data)
-    if m is not None:
-        line = data.count(b"\n", 0, m.start()) + 1
-        raise Forbidden(
-            f"{p}:{line}: XML {m.group(1).decode().upper()} declarations are refused "
-            f"(no DTD or entities in a {what})",
-            file=str(p),
-            line=line,
-        )
-    builder = ET.TreeBuilder()
-    parser = xml.parsers.expat.ParserCreate()
-    lines: dict[int, int] = {}
-
-    def start(tag: str, attrs: dict[str, str]) -> None:
-        lines[id(builder.start(tag, attrs))] = parser.CurrentLineNumber
-
-    def refuse(*_: Any) -> Any:
-        raise _Refused
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = builder.end
-    parser.CharacterDataHandler = builder.data
-    parser.StartDoctypeDeclHandler = refuse
-    parser.EntityDeclHandler = refuse
-    parser.ExternalEntityRefHandler = refuse
     try:
-        parser.Parse(data, True)
-        root = builder.close()
-    except _Refused:
+        root, lines = xmlsafe.parse(data)
+    except xmlsafe.XmlRefused as e:
         raise Forbidden(
-            f"{p}:{parser.CurrentLineNumber}: XML DTD/entity refused",
+            f"{p}:{e.line}: XML {e.what} declarations are refused (no DTD or entities in a {what})",
             file=str(p),
-            line=parser.CurrentLineNumber,
+            line=e.line,
         ) from None
-    except xml.parsers.expat.ExpatError as e:
-        raise error(
-            xml.parsers.expat.ErrorString(e.code), file=str(p), line=e.lineno, column=e.offset + 1
-        ) from None
+    except xmlsafe.XmlMalformed as e:
+        raise error(e.reason, file=str(p), line=e.line, column=e.column) from None
     if root.tag != root_tag:
         raise error(
             f"root element is <{root.tag}>, expected <{root_tag}>", file=str(p), line=lines.get(id(root))
@@ -138,9 +103,9 @@ def _enclosing_package(udir: Path, name: str) -> Path | None:
         manifest = anc / "package.xml"
         data = manifest.read_bytes()[:65536] if manifest.is_file() else b""
         try:
-            declared = None if not data or _FORBIDDEN.search(data) else ET.fromstring(data).findtext("name")
-        except ET.ParseError:
-            declared = None
+            declared = xmlsafe.parse(data)[0].findtext("name") if data else None
+        except (xmlsafe.XmlRefused, xmlsafe.XmlMalformed):
+            declared = None  # not a readable manifest: not a package
         return anc if declared is not None and declared.strip() == name else None
     return None
 
