@@ -5,10 +5,10 @@
  * folder. Real CLI processes, real backend.
  */
 import { execFileSync, spawn } from "node:child_process";
-import { existsSync, mkdirSync, mkdtempSync, readdirSync, rmSync, writeFileSync } from "node:fs";
+import { cpSync, existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync, symlinkSync, writeFileSync } from "node:fs";
 import { homedir, tmpdir } from "node:os";
-import { join } from "node:path";
-import { describe, expect, it } from "vitest";
+import { basename, join } from "node:path";
+import { beforeAll, describe, expect, it } from "vitest";
 import { CLI, REPO, runCli, TINY_URDF } from "./cli-run.js";
 
 describe("absurd outputs are refused before any work", () => {
@@ -39,6 +39,39 @@ describe("absurd outputs are refused before any work", () => {
     expect(r.stderr).toContain(`holds the input ${urdf}`);
     expect(existsSync(urdf)).toBe(true);
     expect(readdirSync(dir).sort()).toEqual(["arm.urdf", "meshes"]);
+  });
+
+  it("--force on the folder holding the input, reached through a symbolic link, is refused and the URDF survives", async () => {
+    const { dir, urdf } = urdfIn();
+    const links = mkdtempSync(join(tmpdir(), "robwot-links-"));
+    symlinkSync(join(dir, ".."), join(links, "up"));
+    const out = join(links, "up", basename(dir));
+    const r = await runCli(["generate", urdf, "--out", out, "--force", "--samples", "500"], { timeoutMs: 60_000 });
+    expect(r.code).toBe(2);
+    expect(r.stderr).toContain(`holds the input ${urdf}`);
+    expect(readdirSync(dir)).toEqual(["arm.urdf"]);
+  });
+
+  it("--force on the root of a repository is refused, the repository untouched", async () => {
+    const { urdf } = urdfIn();
+    const repo = mkdtempSync(join(tmpdir(), "robwot-repo-"));
+    mkdirSync(join(repo, ".git"));
+    writeFileSync(join(repo, "main.c"), "int main(void) { return 0; }\n");
+    const r = await runCli(["generate", urdf, "--out", repo, "--force", "--samples", "500"], { timeoutMs: 60_000 });
+    expect(r.code).toBe(2);
+    expect(r.stderr).toMatch(/root of a repository/);
+    expect(readdirSync(repo).sort()).toEqual([".git", "main.c"]);
+  });
+
+  it("an existing folder that is not a twin, without --force: exit 2 at once, untouched", async () => {
+    const { urdf } = urdfIn();
+    const docs = mkdtempSync(join(tmpdir(), "robwot-docs-"));
+    writeFileSync(join(docs, "thesis.tex"), "precious");
+    const r = await runCli(["generate", urdf, "--out", docs, "--samples", "500"], { timeoutMs: 60_000 });
+    expect(r.code).toBe(2);
+    expect(r.stderr).toMatch(/is not a twin folder/);
+    expect(r.stderr).not.toMatch(/backend|labelling|sampling/i);
+    expect(readFileSync(join(docs, "thesis.tex"), "utf8")).toBe("precious");
   });
 });
 
@@ -84,14 +117,44 @@ describe("twins that could not be served are not written, and folders missing wo
     expect(readdirSync(dir)).toEqual(["spinner.urdf"]);
   });
 
-  it("serve refuses a twin folder without workspace.stl, naming it, and starts no backend", async () => {
-    const parent = mkdtempSync(join(tmpdir(), "robwot-nows-"));
-    const out = join(parent, "twin");
-    expect((await runCli(["generate", "two_joint", "--samples", "2000", "--out", out], { timeoutMs: 120_000 })).code).toBe(0);
-    rmSync(join(out, "workspace.stl"));
+  let planar: string;
+  beforeAll(async () => {
+    planar = join(mkdtempSync(join(tmpdir(), "robwot-planar-")), "twin");
+    const r = await runCli(["generate", "two_joint", "--samples", "2000", "--out", planar], { timeoutMs: 120_000 });
+    expect(r.code, r.stderr).toBe(0);
+  });
+
+  const allColliding = (csv: string): string => csv.replace(/,1$/gm, ",0");
+  it.each([
+    ["without workspace.stl", (d: string) => rmSync(join(d, "workspace.stl")), "has no workspace.stl"],
+    ["without workspace.json", (d: string) => rmSync(join(d, "workspace.json")), "has no workspace.json"],
+    ["whose workspace.csv has no collision-free point", (d: string) => writeFileSync(join(d, "workspace.csv"), allColliding(readFileSync(join(d, "workspace.csv"), "utf8"))), "workspace.csv has no collision-free point"],
+    ["whose workspace.json bounds are 1e400", (d: string) => writeFileSync(join(d, "workspace.json"), readFileSync(join(d, "workspace.json"), "utf8").replace(/"max": \[\s*[-\d.e]+/, '"max": [1e400')), "workspace.json: bounds must be"],
+  ])("serve refuses a twin folder %s, naming the file (exit 1)", async (_what, spoil, message) => {
+    const out = join(mkdtempSync(join(tmpdir(), "robwot-spoilt-")), "twin");
+    cpSync(planar, out, { recursive: true });
+    spoil(out);
     const r = await runCli(["serve", out, "--port", "0"], { timeoutMs: 60_000 });
     expect(r.code).toBe(1);
-    expect(r.stderr).toContain("has no workspace.stl");
+    expect(r.stderr).toContain(message);
+  });
+
+  it("the planar two_joint twin (a convex-hull workspace) is served", async () => {
+    const child = spawn(process.execPath, [CLI, "serve", planar, "--port", "0"], { cwd: REPO, stdio: ["ignore", "pipe", "pipe"] });
+    let stdout = "";
+    child.stdout.on("data", (d: Buffer) => (stdout += d.toString()));
+    const exited = new Promise<number | null>((r) => child.on("close", (c) => r(c)));
+    const t0 = Date.now();
+    while (!stdout.includes("serving 1 twin") && child.exitCode === null && Date.now() - t0 < 60_000) await new Promise((r) => setTimeout(r, 50));
+    expect(stdout).toContain("serving 1 twin");
+    child.kill("SIGINT");
+    await exited;
+  });
+
+  it("serve --realtime 0.001 (the backend refuses factors below 0.01) is a usage error, not a 400 on every move", async () => {
+    const r = await runCli(["serve", planar, "--port", "0", "--realtime", "0.001"], { timeoutMs: 60_000 });
+    expect(r.code).toBe(2);
+    expect(r.stderr).toMatch(/--realtime must be 0 \(as fast as possible\) or between 0\.01 and 1000, got 0\.001/);
   });
 });
 

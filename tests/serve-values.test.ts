@@ -7,7 +7,7 @@ import { existsSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, live } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -30,14 +30,14 @@ const xyz = (v: number[]): { x: number; y: number; z: number } => ({ x: v[0]!, y
 
 describe("calibrate refuses what is not a calibration, and saves nothing", () => {
   it.each([
-    ["real points of 1e308", P.map((v) => ({ real: xyz(v.map((c) => c * 1e308)), virtual: xyz(v) })), /beyond 1000 m/],
-    ["real points in millimetres (scale 1000)", P.map((v) => ({ real: xyz(v.map((c) => c * 1000)), virtual: xyz(v) })), /scale .* outside/],
-    ["pairs in the wrong order (rms of metres)", P.map((v, i) => ({ real: xyz(P[(i + 1) % 4]!.map((c) => c * 3)), virtual: xyz(v) })), /RMS residual|scale/],
-  ])("%s: 400, no calibration.json, TD bounds unchanged", async (_what, pairs, message) => {
+    ["real points of 1e308", P.map((v) => ({ real: xyz(v.map((c) => c * 1e308)), virtual: xyz(v) })), "E_BAD_INPUT", /real\/x must be <= 1000/],
+    ["real points in millimetres (scale 1000)", P.map((v) => ({ real: xyz(v.map((c) => c * 1000)), virtual: xyz(v) })), "E_CALIBRATION", /scale .* outside/],
+    ["pairs in the wrong order (rms of metres)", P.map((v, i) => ({ real: xyz(P[(i + 1) % 4]!.map((c) => c * 3)), virtual: xyz(v) })), "E_CALIBRATION", /RMS residual|scale/],
+  ])("%s: 400, no calibration.json, TD bounds unchanged", async (_what, pairs, code, message) => {
     const tdBefore = (await http(base)).body;
     const r = await invoke(base, "calibrate", { pairs });
     expect(r.status).toBe(400);
-    expect(r.body.code).toBe("E_CALIBRATION");
+    expect(r.body.code).toBe(code);
     expect(r.body.message).toMatch(message);
     expect(existsSync(join(dir, "calibration.json"))).toBe(false);
     expect((await http(`${base}/properties/calibration`)).body).toEqual({ active: false });
@@ -54,6 +54,47 @@ describe("numbers the schema allows are handled", () => {
     const slow = await invoke(base, "validateJointPosition", { joints, speed: 0.001 });
     expect(slow.status).toBe(200);
     expect(slow.body.valid).toBe(true);
+  });
+});
+
+describe("obstacle numbers: the TD states the range the backend accepts", () => {
+  it("addObstacle and moveObstacle bound positions, angles and sizes to 1e4; calibrate bounds points to 1000 m", async () => {
+    const { actions } = (await http(base)).body;
+    const add = actions.addObstacle.input.properties;
+    expect(add.position.items).toMatchObject({ minimum: -1e4, maximum: 1e4 });
+    expect(add.rpy.items).toMatchObject({ minimum: -1e4, maximum: 1e4 });
+    expect(actions.moveObstacle.input.properties.position.items).toMatchObject({ minimum: -1e4, maximum: 1e4 });
+    const box = add.shape.oneOf.find((o: { properties: { type: { const: string } } }) => o.properties.type.const === "box");
+    expect(box.properties.size.items).toMatchObject({ exclusiveMinimum: 0, maximum: 1e4 });
+    const pair = actions.calibrate.input.properties.pairs.items.properties;
+    expect(pair.real.properties.x).toMatchObject({ minimum: -1000, maximum: 1000 });
+  });
+
+  it("moveObstacle to 1e308 m: 400, the obstacle stays where it was", async () => {
+    const box = { name: "far", shape: { type: "box", size: [0.1, 0.1, 0.1] }, position: [2, 0, 0] };
+    expect((await invoke(base, "addObstacle", box)).status).toBe(200);
+    const r = await invoke(base, "moveObstacle", { name: "far", position: [1e308, 0, 0] });
+    expect(r.status).toBe(400);
+    expect(JSON.stringify(r.body)).toMatch(/position/);
+    const c = await live(s.liveUrl);
+    c.ws.send(JSON.stringify({ subscribe: s.things[0]!.slug }));
+    const scene = await c.waitFor((m) => m.type === "scene");
+    c.close();
+    expect(scene.obstacles.find((o: { name: string }) => o.name === "far").position).toEqual([2, 0, 0]);
+    expect((await invoke(base, "removeObstacle", { name: "far" })).status).toBe(200);
+  });
+});
+
+describe("the realtime option", () => {
+  it("a factor the backend refuses (0.001) stops startServient, instead of a 400 on every move", async () => {
+    const err = await startServient({ twins: [dir], port: 0, realtime: 0.001 }).then(
+      async (other) => {
+        await other.stop();
+        return null;
+      },
+      (e: unknown) => e as Error,
+    );
+    expect(err?.message).toMatch(/realtime must be 0 \(as fast as possible\) or in \[0\.01, 1000\], got 0\.001/);
   });
 });
 

@@ -37,7 +37,7 @@ def test_request_without_id_is_a_notification() -> None:
     [
         ("not json", PARSE_ERROR, "E_PARSE", None),
         ("{", PARSE_ERROR, "E_PARSE", None),
-        ("[" * 100_000, PARSE_ERROR, "E_PARSE", None),
+        ("[" * 100_000, INVALID_REQUEST, "E_TOO_DEEP", None),
         ('[{"jsonrpc":"2.0","id":1,"method":"ping"}]', INVALID_REQUEST, "E_INVALID_REQUEST", None),
         ("42", INVALID_REQUEST, "E_INVALID_REQUEST", None),
         ('{"jsonrpc":"1.0","id":3,"method":"ping"}', INVALID_REQUEST, "E_INVALID_REQUEST", 3),

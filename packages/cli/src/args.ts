@@ -19,6 +19,13 @@ export function parseNumber(option: string, value: string | undefined, fallback:
   return n;
 }
 
+/** `--realtime`: 0 (as fast as possible) or a factor in [0.01, 1000] (the servient and backend agree). */
+export function parseRealtime(value: string | undefined): number {
+  const n = parseNumber("realtime", value, 1, 0, 1000);
+  if (n > 0 && n < 0.01) throw new CliError(`--realtime must be 0 (as fast as possible) or between 0.01 and 1000, got ${n}`);
+  return n;
+}
+
 export function parseAlpha(value: string | undefined): "auto" | number {
   if (value === undefined || value === "auto") return "auto";
   const n = Number(value);

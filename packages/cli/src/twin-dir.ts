@@ -4,7 +4,7 @@
  * is replaced only after the new one is complete: rename old away, rename new in, delete old.
  */
 import { randomBytes } from "node:crypto";
-import { chmodSync, existsSync, mkdirSync, mkdtempSync, renameSync, rmdirSync, rmSync, statSync, readdirSync } from "node:fs";
+import { chmodSync, existsSync, mkdirSync, mkdtempSync, readdirSync, realpathSync, renameSync, rmdirSync, rmSync, statSync } from "node:fs";
 import { homedir } from "node:os";
 import { basename, dirname, join, parse, relative, resolve } from "node:path";
 import { CliError } from "./errors.js";
@@ -17,19 +17,35 @@ const contains = (dir: string, path: string): boolean => {
   return rel === "" || (!rel.startsWith("..") && !parse(rel).root);
 };
 
+/** The path with every symbolic link resolved, also when its last parts do not exist yet. */
+function realPath(path: string): string {
+  const abs = resolve(path);
+  try {
+    return realpathSync.native(abs);
+  } catch {
+    // not there (yet): resolve the folder above and keep the name
+    const parent = dirname(abs);
+    return parent === abs ? abs : join(realPath(parent), basename(abs));
+  }
+}
+
 /**
  * Refuses, before any work, outputs whose replacement would destroy what is not a twin: the file system
- * root, the home folder, the working folder or one of its ancestors, and any folder holding an input
- * (URDF, scene, package roots), whatever `--force` says. Usage errors (exit 2).
+ * root, the home folder, the working folder or one of its ancestors, a repository root (it holds .git),
+ * and any folder holding an input (URDF, scene, SRDF, package roots), whatever `--force` says, also when
+ * reached through a symbolic link. Usage errors (exit 2).
  */
 function checkNotAbsurd(out: string, inputs: readonly string[]): void {
+  const real = realPath(out);
   const refuse = (why: string): never => {
-    throw new CliError(`refusing --out ${out}: ${why}; choose a folder of its own, e.g. --out twins/<name>`, "E_USAGE");
+    const via = real === out ? "" : ` (${real})`;
+    throw new CliError(`refusing --out ${out}${via}: ${why}; choose a folder of its own, e.g. --out twins/<name>`, "E_USAGE");
   };
-  if (out === parse(out).root) refuse("it is the file system root");
-  if (out === resolve(homedir())) refuse("it is your home folder");
-  if (contains(out, process.cwd())) refuse("it holds the working folder");
-  for (const input of inputs) if (contains(out, resolve(input))) refuse(`it holds the input ${resolve(input)}`);
+  if (real === parse(real).root) refuse("it is the file system root");
+  if (real === realPath(homedir())) refuse("it is your home folder");
+  if (contains(real, realPath(process.cwd()))) refuse("it holds the working folder");
+  if (existsSync(join(real, ".git"))) refuse("it is the root of a repository (it holds .git)");
+  for (const input of inputs) if (contains(real, realPath(input))) refuse(`it holds the input ${resolve(input)}`);
 }
 
 export class StagedDir {
@@ -61,6 +77,7 @@ export class StagedDir {
         throw new CliError(
           `output ${out} exists and is not a twin folder (no ${TWIN_MARKER}); refusing to replace it (use --force, or another --out)`,
           "E_OUTPUT",
+          2,
         );
       }
     }

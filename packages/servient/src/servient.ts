@@ -80,7 +80,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   if (opts.twins.length === 0) throw new Error("startServient: no twin folder given");
   const host = opts.host ?? "127.0.0.1";
   const realtime = opts.realtime ?? 1;
-  if (!Number.isFinite(realtime) || realtime < 0) throw new Error(`realtime must be >= 0, got ${realtime}`);
+  // the backend refuses a factor in (0, 0.01): every move would answer 400 for the server's own option
+  if (!(realtime === 0 || (realtime >= 0.01 && realtime <= 1000))) throw new Error(`realtime must be 0 (as fast as possible) or in [0.01, 1000], got ${realtime}`);
   if (!isLoopback(host) && !opts.auth) {
     process.emitWarning(`robwot serve: binding ${host} without --auth exposes the robot to the network`, { code: "ROBWOT_NO_AUTH" });
   }

@@ -23,7 +23,7 @@ export interface TwinFolder {
   manifest: TwinManifest;
   /** scene document (obstacles, other robots), as written by generate */
   scene: SceneDoc;
-  workspace: WorkspaceSummary | null;
+  workspace: WorkspaceSummary;
   calibration: CalibrationFile | null;
   urdfPath: string;
   stlPath: string;
@@ -62,6 +62,18 @@ function readJson<T>(dir: string, file: string, required: boolean): T | null {
   }
 }
 
+/** workspace.json's bounds become the TD's Cartesian limits (after a calibration): finite, min <= max. */
+function checkBounds(dir: string, ws: WorkspaceSummary): void {
+  const { min, max } = (ws?.bounds ?? {}) as Partial<WorkspaceSummary["bounds"]>;
+  const ok = [min, max].every((v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === "number" && Number.isFinite(x)));
+  if (!ok || min!.some((m, i) => m > max![i]!)) {
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "workspace.json")}: bounds must be {min, max} of 3 finite numbers with min <= max, got ${JSON.stringify(ws?.bounds ?? null)} (regenerate it with robwot generate)`, {
+      folder: dir,
+      file: "workspace.json",
+    });
+  }
+}
+
 export function loadTwinFolder(folder: string): TwinFolder {
   const dir = resolve(folder);
   if (!existsSync(dir)) {
@@ -76,7 +88,8 @@ export function loadTwinFolder(folder: string): TwinFolder {
     throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "twin.json")}: no robot.urdf`, { folder: dir, file: "twin.json" });
   }
   const scene = readJson<SceneDoc>(dir, manifest.scene || "scene.json", false) ?? {};
-  const workspace = readJson<WorkspaceSummary>(dir, "workspace.json", false);
+  const workspace = readJson<WorkspaceSummary>(dir, "workspace.json", true) as WorkspaceSummary;
+  checkBounds(dir, workspace);
   const calibration = readJson<CalibrationFile>(dir, "calibration.json", false);
   if (calibration !== null) {
     try {

@@ -23,9 +23,10 @@ export function workspaceChecks(ws: Workspace): WorkspaceChecks {
 }
 
 /**
- * Loads workspace.stl + workspace.csv of a twin folder. A folder without them (or with files that do not
- * load) is refused naming them: serving it with the Cartesian checks silently off would accept targets
- * the twin cannot vouch for.
+ * Loads workspace.stl + workspace.csv of a twin folder. A folder without them, with files that do not
+ * load, or whose workspace.csv has no collision-free point (generate never writes one) is refused naming
+ * them: serving it with the Cartesian checks silently off or degenerate would report on evidence that
+ * is not there.
  */
 export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks> {
   const missing = ["workspace.stl", "workspace.csv"].filter((f) => !existsSync(join(dir, f)));
@@ -35,9 +36,17 @@ export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks>
       missing,
     });
   }
+  let ws: Workspace;
   try {
-    return workspaceChecks(await loadWorkspace(dir));
+    ws = await loadWorkspace(dir);
   } catch (err) {
     throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir}: its workspace files do not load: ${(err as Error).message} (regenerate it with robwot generate)`, { folder: dir });
   }
+  if (!ws.cloud.collisionFree.includes(1)) {
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "workspace.csv")} has no collision-free point: the workspace is empty (regenerate it with robwot generate)`, {
+      folder: dir,
+      file: "workspace.csv",
+    });
+  }
+  return workspaceChecks(ws);
 }

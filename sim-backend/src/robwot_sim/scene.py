@@ -17,6 +17,7 @@ import jsonschema
 
 from robwot_sim.errors import FileNotFound, InvalidParams, SceneError
 from robwot_sim.sim.client import quat_from_rpy
+from robwot_sim.sim.validate import MIN_QUATERNION_NORM, unit_quaternion
 from robwot_sim.urdf import pybullet_data_path
 
 MAX_SCENE_BYTES = 50 * 1024 * 1024
@@ -71,8 +72,8 @@ def schema_errors(doc: Any) -> tuple[str, str] | None:
         names.add(ob["name"])
     for kind, key in (("obstacles", "orientation"), ("robots", "baseOrientation")):
         for i, ob in enumerate(doc.get(kind, [])):
-            if key in ob and sum(v * v for v in ob[key]) < 1e-12:
-                return f"/{kind}/{i}/{key}", "quaternion has zero norm"
+            if key in ob and unit_quaternion(ob[key]) is None:
+                return f"/{kind}/{i}/{key}", f"quaternion has zero norm (< {MIN_QUATERNION_NORM:g})"
     return None
 
 
@@ -117,9 +118,10 @@ def normalise_obstacle(spec: Any, base: Path | None = None, *, checked: bool = F
     if shape["type"] == "mesh":
         shape["file"] = str(resolve_file(shape["file"], base or Path.cwd(), what="mesh file"))
     if "orientation" in spec:
-        q = [float(v) for v in spec["orientation"]]
-        n = math.sqrt(sum(v * v for v in q))
-        quat = [v / n for v in q]
+        quat = unit_quaternion([float(v) for v in spec["orientation"]])
+        if quat is None:  # schema_errors refuses it; reached only with checked=True on a bad document
+            raise InvalidParams("obstacle/orientation: quaternion has zero norm", param="/orientation",
+                                expected="Obstacle", got=None)
     elif "rpy" in spec:
         quat = list(quat_from_rpy(spec["rpy"]))
     else:

@@ -6,7 +6,7 @@
 import { existsSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
-import { parseInteger, parseNumber, usageError } from "../args.js";
+import { parseInteger, parseRealtime, usageError } from "../args.js";
 import { findExample } from "../examples.js";
 import { DEFAULT_BASE_URL, type GenerateOptions } from "./generate-options.js";
 import { runGenerate } from "./generate.js";
@@ -75,7 +75,7 @@ export async function run(argv: string[]): Promise<number> {
   const samples = parseInteger("samples", values.samples, 80_000, 100, 10_000_000);
   const port = parseInteger("port", values.port, 8080, 0, 65535);
   const host = values.host ?? "127.0.0.1";
-  const realtime = parseNumber("realtime", values.realtime, 1, 0, 1000);
+  const realtime = parseRealtime(values.realtime);
   if (values.regenerate || !twinComplete(out)) {
     const example = findExample("kuka_iiwa");
     if (!example) throw new Error("kuka_iiwa example missing");

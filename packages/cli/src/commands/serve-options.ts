@@ -3,7 +3,7 @@ import { existsSync, statSync } from "node:fs";
 import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
-import { parseInteger, parseNumber, parseUrl, usageError } from "../args.js";
+import { parseInteger, parseRealtime, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 
 export type AuthOption = { scheme: "basic"; user: string; password: string } | { scheme: "bearer"; token: string };
@@ -113,7 +113,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     folders,
     port: parseInteger("port", values.port, 8080, 0, 65535),
     host,
-    realtime: parseNumber("realtime", values.realtime, 1, 0, 1000),
+    realtime: parseRealtime(values.realtime),
     ...(relay ? { relay } : {}),
     ...(auth ? { auth } : {}),
     ...(backend ? { backend } : {}),

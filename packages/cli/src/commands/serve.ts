@@ -11,7 +11,7 @@ Serves twin folders (made by robwot generate) as node-wot Things over HTTP, with
 Options:
   --port N, -p N               HTTP port (default 8080; 0 = any free port)
   --host ADDR                  interface to bind (default 127.0.0.1)
-  --realtime F                 motion speed vs wall clock (default 1; 0 = as fast as possible)
+  --realtime F                 motion speed vs wall clock (default 1; 0 = as fast as possible, else 0.01-1000)
   --relay URL                  TD URL of the physical robot's Thing: validated commands are relayed there
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one

@@ -1,4 +1,5 @@
 /** The affordances of a RobWoT twin (Contract 3), without forms. */
+import { MAX_CALIBRATION_COORDINATE as C } from "../calibration.js";
 import type { Bounds, JointSpec } from "../types.js";
 import { moveObstacleSchema, obstacleSchema, removeObstacleSchema } from "./obstacle-schemas.js";
 import {
@@ -16,6 +17,9 @@ import {
 import type { ActionAffordance, DataSchema, EventAffordance, PropertyAffordance } from "./types.js";
 
 type NoForms<T> = Omit<T, "forms">;
+
+/** Calibration points lie within MAX_CALIBRATION_COORDINATE (m) of the origin on every axis. */
+const CALIBRATION_BOX: Bounds = { min: [-C, -C, -C], max: [C, C, C] };
 
 export function propertyAffordances(joints: JointSpec[], bounds: Bounds | null): Record<string, NoForms<PropertyAffordance>> {
   const cartesian = xyzSchema("End-effector link frame position (calibrated real frame when a calibration is active)", bounds);
@@ -118,7 +122,7 @@ export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): R
             minItems: 3,
             items: {
               type: "object",
-              properties: { real: xyzSchema("point in the real robot's frame"), virtual: xyzSchema("same point in the twin's frame") },
+              properties: { real: xyzSchema("point in the real robot's frame", CALIBRATION_BOX), virtual: xyzSchema("same point in the twin's frame", CALIBRATION_BOX) },
               required: ["real", "virtual"],
             },
           },

@@ -2,7 +2,22 @@
 import { UNIT_M, vec3Schema } from "./schemas.js";
 import type { DataSchema } from "./types.js";
 
-const positive = (description: string): DataSchema => ({ type: "number", unit: UNIT_M, exclusiveMinimum: 0, description });
+/** Largest |coordinate| (m) of a position, |angle| (rad) of an rpy triple, and largest size, radius,
+ *  length or mesh scale: a robot cell is metres (the backend refuses the same range). */
+export const MAX_WORLD_COORDINATE = 1e4;
+
+const positive = (description: string, unit: string | null = UNIT_M): DataSchema => ({
+  type: "number",
+  ...(unit === null ? {} : { unit }),
+  exclusiveMinimum: 0,
+  maximum: MAX_WORLD_COORDINATE,
+  description,
+});
+
+const bounded = (description: string, unit: string): DataSchema => ({
+  ...vec3Schema(description),
+  items: { type: "number", unit, minimum: -MAX_WORLD_COORDINATE, maximum: MAX_WORLD_COORDINATE },
+});
 
 export function shapeSchema(): DataSchema {
   return {
@@ -10,7 +25,7 @@ export function shapeSchema(): DataSchema {
     oneOf: [
       {
         type: "object",
-        properties: { type: { type: "string", const: "box" }, size: { ...vec3Schema("full extents x, y, z"), items: { type: "number", unit: UNIT_M, exclusiveMinimum: 0 } } },
+        properties: { type: { type: "string", const: "box" }, size: { ...vec3Schema("full extents x, y, z"), items: positive("extent") } },
         required: ["type", "size"],
       },
       {
@@ -28,7 +43,7 @@ export function shapeSchema(): DataSchema {
         properties: {
           type: { type: "string", const: "mesh" },
           file: { type: "string", minLength: 1 },
-          scale: { oneOf: [{ type: "number", exclusiveMinimum: 0 }, vec3Schema("per-axis scale", null)] },
+          scale: { oneOf: [positive("uniform scale", null), { ...vec3Schema("per-axis scale", null), items: positive("scale", null) }] },
         },
         required: ["type", "file"],
       },
@@ -38,9 +53,9 @@ export function shapeSchema(): DataSchema {
 
 function placement(): Record<string, DataSchema> {
   return {
-    position: vec3Schema("position in the world frame"),
-    orientation: { type: "array", items: { type: "number" }, minItems: 4, maxItems: 4, description: "quaternion [x, y, z, w]" },
-    rpy: { type: "array", items: { type: "number", unit: "rad" }, minItems: 3, maxItems: 3, description: "roll, pitch, yaw (alternative to orientation)" },
+    position: bounded("position in the world frame", UNIT_M),
+    orientation: { type: "array", items: { type: "number" }, minItems: 4, maxItems: 4, description: "quaternion [x, y, z, w], normalised; its norm must be >= 1e-6" },
+    rpy: { ...bounded("roll, pitch, yaw (alternative to orientation)", "rad") },
   };
 }
 

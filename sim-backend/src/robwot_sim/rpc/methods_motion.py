@@ -12,11 +12,13 @@ from robwot_sim.rpc.services import Services
 DEFAULT_DT = 1.0 / 240.0
 #: slowest speed fraction (a move then takes 1,000 times its full-speed duration); the TD says the same
 MIN_SPEED = 1e-3
+#: shortest time step (s): below, even a short motion needs more steps than the motion planner allows
+MIN_DT = 1e-4
 
 
 def _timing(p: Params) -> tuple[float, float]:
     speed = p.number("speed", 1.0, minimum=MIN_SPEED, maximum=1.0)
-    dt = p.number("dt", DEFAULT_DT, minimum=0.0, maximum=0.1, exclusive_minimum=True)
+    dt = p.number("dt", DEFAULT_DT, minimum=MIN_DT, maximum=0.1)
     return float(speed), float(dt)
 
 

@@ -11,6 +11,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any, Final
 
 from robwot_sim.rpc.protocol import INVALID_PARAMS, Fault
+from robwot_sim.sim.validate import MIN_QUATERNION_NORM, unit_quaternion
 
 
 class _Missing:
@@ -157,15 +158,14 @@ class Params:
         return check_vector(name, value, length)
 
     def quaternion(self, name: str, default: Any = MISSING) -> Any:
-        """`[x, y, z, w]` with non-zero norm, returned normalised."""
+        """`[x, y, z, w]` of norm >= MIN_QUATERNION_NORM, returned normalised."""
         value = self._get(name, default)
         if value is default and default is not MISSING:
             return value
-        quat = check_vector(name, value, 4)
-        norm = math.sqrt(sum(c * c for c in quat))
-        if norm < 1e-9:
-            raise invalid_param(name, "a quaternion [x, y, z, w] with non-zero norm", value)
-        return [c / norm for c in quat]
+        quat = unit_quaternion(check_vector(name, value, 4))
+        if quat is None:
+            raise invalid_param(name, f"a quaternion [x, y, z, w] of norm >= {MIN_QUATERNION_NORM:g}", value)
+        return quat
 
     def obj(self, name: str, default: Any = MISSING) -> Any:
         value = self._get(name, default)

@@ -18,6 +18,9 @@ INVALID_PARAMS = -32602
 INTERNAL_ERROR = -32603
 
 DEFAULT_MAX_MESSAGE_BYTES = 4 * 1024 * 1024
+#: Deepest array/object nesting accepted in a frame (a request carrying a scene document needs 6), so
+#: no handler ever walks a structure deep enough to exhaust Python's recursion limit.
+MAX_DEPTH = 64
 
 RequestId = str | int | None
 
@@ -73,6 +76,24 @@ def invalid_request(message: str, req_id: RequestId = None, **data: Any) -> Reje
     return Rejected(Fault(INVALID_REQUEST, message, {"code": "E_INVALID_REQUEST", **data}), req_id)
 
 
+def _too_deep() -> Rejected:
+    fault = Fault(INVALID_REQUEST, f"message nests arrays/objects deeper than {MAX_DEPTH} levels",
+                  {"code": "E_TOO_DEEP", "limit": MAX_DEPTH})
+    return Rejected(fault, None)
+
+
+def _deeper_than(doc: Any, limit: int) -> bool:
+    """True when ``doc`` nests arrays/objects more than ``limit`` levels (the top level is 1); iterative."""
+    stack: list[tuple[Any, int]] = [(doc, 1)] if isinstance(doc, dict | list) else []
+    while stack:
+        value, depth = stack.pop()
+        children = value.values() if isinstance(value, dict) else value
+        if depth > limit:
+            return True
+        stack.extend((c, depth + 1) for c in children if isinstance(c, dict | list))
+    return False
+
+
 def parse_frame(frame: str | bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Request | Rejected:
     """Turn one WebSocket frame into a `Request`, or a `Rejected` to answer with an error."""
     if isinstance(frame, bytes | bytearray | memoryview):
@@ -88,8 +109,12 @@ def parse_frame(frame: str | bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) 
     try:
         # NaN/Infinity literals are accepted here so that param validation can name the param.
         doc = json.loads(frame)
-    except (ValueError, RecursionError) as exc:
+    except RecursionError:
+        return _too_deep()
+    except ValueError as exc:
         return Rejected(Fault(PARSE_ERROR, f"not valid JSON: {exc}", {"code": "E_PARSE"}), None)
+    if frame.count("[") + frame.count("{") > MAX_DEPTH and _deeper_than(doc, MAX_DEPTH):
+        return _too_deep()
     if isinstance(doc, list):
         return invalid_request("batch requests are not supported: send one JSON object per frame")
     if not isinstance(doc, dict):

@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from robwot_sim.errors import InvalidParams
+
+#: Largest |coordinate| (m) of a position in the world, and largest |angle| (rad) of an rpy triple; the
+#: scene schema says the same. A robot cell is metres; at 1e308 the collision checks compute inf - inf.
+MAX_COORDINATE = 1e4
+#: Quaternions whose norm is below this count as zero (no orientation); the servient uses the same bound.
+MIN_QUATERNION_NORM = 1e-6
 
 
 def _is_number(v: object) -> bool:
@@ -42,13 +48,44 @@ def vector(name: str, value: Any, n: int) -> list[float]:
     return [float(v) for v in items]
 
 
+def position(name: str, value: Any) -> list[float]:
+    """Three finite numbers within +-MAX_COORDINATE (a position in m, or rpy angles in rad)."""
+    p = vector(name, value, 3)
+    for k, c in enumerate(p):
+        if abs(c) > MAX_COORDINATE:
+            raise InvalidParams(
+                f"{name}[{k}] is {c:g}, beyond +-{MAX_COORDINATE:g}",
+                param=f"{name}[{k}]",
+                expected=f"number within +-{MAX_COORDINATE:g}",
+                got=c,
+            )
+    return p
+
+
+def unit_quaternion(q: Sequence[float]) -> list[float] | None:
+    """``q`` (finite) normalised, or None when its norm is below MIN_QUATERNION_NORM. Components beyond
+    ~1e154 (whose squares overflow) are scaled by the largest one first."""
+    norm = math.sqrt(sum(c * c for c in q))
+    if math.isinf(norm):
+        big = max(abs(c) for c in q)
+        q = [c / big for c in q]
+        norm = math.sqrt(sum(c * c for c in q))
+    if norm < MIN_QUATERNION_NORM:
+        return None
+    return [c / norm for c in q]
+
+
 def quaternion(name: str, value: Any) -> list[float]:
-    """A non-zero quaternion [x, y, z, w], returned normalised."""
-    q = vector(name, value, 4)
-    norm = math.sqrt(sum(v * v for v in q))
-    if norm < 1e-9:
-        raise InvalidParams(f"{name} has zero norm", param=name, expected="unit quaternion [x,y,z,w]", got=q)
-    return [v / norm for v in q]
+    """A quaternion [x, y, z, w] of norm >= MIN_QUATERNION_NORM, returned normalised."""
+    q = unit_quaternion(vector(name, value, 4))
+    if q is None:
+        raise InvalidParams(
+            f"{name} has zero norm (< {MIN_QUATERNION_NORM:g})",
+            param=name,
+            expected="quaternion [x,y,z,w] with a non-zero norm",
+            got=value,
+        )
+    return q
 
 
 def name(param: str, value: Any) -> str:

@@ -69,7 +69,7 @@ class World(WorldScene):
         """Joint positions putting the end-effector frame at ``position`` (+ ``quat_xyzw``). Read-only."""
         e = self._entry(robot_id)
         b = e.bound
-        pos = v.vector("position", position, 3)
+        pos = v.position("position", position)
         quat = None if quat_xyzw is None else v.quaternion("orientation", quat_xyzw)
         start = b.q.copy() if seed is None else b.validate(seed, "seed")
         want_free = v.flag("collisionFree", collision_free)

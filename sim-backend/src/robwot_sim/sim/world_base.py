@@ -93,7 +93,7 @@ class WorldBase:
             v.name("eeLink", ee_link)
         if not isinstance(urdf, (str, Path)) or not str(urdf):
             raise InvalidParams("urdf must be a file path", param="urdf", expected="string", got=urdf)
-        pos = v.vector("basePosition", base_position, 3)
+        pos = v.position("basePosition", base_position)
         quat = v.quaternion("baseOrientation", base_orientation)
         roots = v.string_map("packageRoots", package_roots)
         tmp_id = robot_id or "robot"

@@ -92,7 +92,7 @@ class WorldScene(WorldBase):
     ) -> dict[str, Any]:
         if name not in self._obstacles:
             raise UnknownObject(str(name), self._obstacles)
-        pos = v.vector("position", position, 3)
+        pos = v.position("position", position)
         if orientation is not None and rpy is not None:
             raise InvalidParams(
                 "give orientation or rpy, not both", param="rpy", expected="one of them", got=rpy
@@ -101,7 +101,7 @@ class WorldScene(WorldBase):
         if orientation is not None:
             quat = v.quaternion("orientation", orientation)
         elif rpy is not None:
-            quat = list(quat_from_rpy(v.vector("rpy", rpy, 3)))
+            quat = list(quat_from_rpy(v.position("rpy", rpy)))
         else:
             quat = list(spec["orientation"])
         self.bullet.reset_base(body, pos, quat)
