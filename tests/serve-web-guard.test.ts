@@ -175,6 +175,47 @@ describe("one HTTP surface per Thing", () => {
   });
 });
 
+describe("only node-wot's affordance routes reach it, with their methods", () => {
+  it.each([
+    ["PUT", "properties/getJointPosition", "GET, HEAD"],
+    ["PUT", "properties", "GET, HEAD"],
+    ["POST", "", "GET, HEAD"],
+    ["POST", "twin.json", "GET, HEAD"],
+    ["POST", "events/collision", "GET, HEAD"],
+    ["DELETE", "actions/stop", "POST"],
+    ["PUT", "actions/moveToJointPosition", "POST"],
+  ])("%s /<slug>/%s answers 405 JSON (Allow: %s) and nothing moves", async (method, rest, allow) => {
+    const before = await joints();
+    const r = await raw(method, `/${slug}/${rest}`, { "content-type": "application/json" }, JSON.stringify({ joints: FAR }));
+    expect(r.status).toBe(405);
+    expect(r.body.code).toBe("E_METHOD_NOT_ALLOWED");
+    expect(r.headers["allow"]).toBe(allow);
+    expect(await joints()).toEqual(before);
+  });
+
+  it.each([["actions"], ["actions/moveToJointPosition/.."], ["actions/stop/now"], ["events"], ["properties/motionStatus/x"]])(
+    "POST /<slug>/%s (no such route) answers 404 JSON",
+    async (rest) => {
+      const r = await raw("POST", `/${slug}/${rest}`, { "content-type": "text/plain" }, "{}");
+      expect(r.status).toBe(404);
+      expect(r.body.code).toBe("E_NOT_FOUND");
+    },
+  );
+
+  it("GET /<slug>/properties (readallproperties) still reaches node-wot, PUT does not (observe: serve.test.ts)", async () => {
+    expect((await raw("GET", `/${slug}/properties`, {})).body.motionStatus.state).toBe("idle");
+    expect((await raw("PUT", `/${slug}/properties`, { "content-type": "application/json" }, "{}")).body.code).toBe("E_METHOD_NOT_ALLOWED");
+  });
+});
+
+describe("framing", () => {
+  it("every page, the viewer included, may be framed only by the twin's own pages and --cors-origin pages", async () => {
+    for (const path of ["/viewer/", `/${slug}`, `/${slug}/properties/motionStatus`]) {
+      expect((await raw("GET", path, {})).headers["content-security-policy"]).toBe(`frame-ancestors 'self' ${DASHBOARD}`);
+    }
+  });
+});
+
 describe("values", () => {
   it("a body nested 20,000 deep answers 400 E_TOO_DEEP", async () => {
     const deep = "[".repeat(20_000) + "]".repeat(20_000);
