@@ -2,7 +2,8 @@
  * A web page of another origin, opened in real headless Chromium, tries every way a browser lets a page
  * reach a local server: fetch (CORS), fetch no-cors with text/plain, a Blob POST, sendBeacon and a
  * WebSocket to /live. None moves the twin or reads its state; a page of the twin's own origin still
- * drives it. (The viewer's own controls are exercised by viewer.test.ts.)
+ * drives it. Neither can it frame the viewer (clickjacking its Move and STOP buttons); the twin's own
+ * pages can. (The viewer's own controls are exercised by viewer.test.ts.)
  */
 import { createServer, type Server } from "node:http";
 import { existsSync } from "node:fs";
@@ -90,5 +91,28 @@ describe.skipIf(!existsSync(CHROMIUM))("a page of another origin in Chromium", (
     );
     expect(status).toBe("reached");
     expect((await joints()).lbr_iiwa_joint_1).toBeCloseTo(0.6, 6);
+  });
+
+  it("cannot frame the viewer (clickjacking), while a page of the twin's own origin can", async () => {
+    const { page } = browser;
+    const framed: Record<string, { url: string; title: string }> = {};
+    for (const [who, at] of [["other", attackerUrl], ["own", `${s.url}/robwot.json`]] as const) {
+      await page.goto(at);
+      await page.evaluate(
+        (src) =>
+          new Promise<void>((loaded) => {
+            const f = document.createElement("iframe");
+            f.src = src;
+            f.onload = () => loaded();
+            document.body.appendChild(f);
+          }),
+        s.things[0]!.viewerUrl,
+      );
+      const frame = page.frames().find((f) => f !== page.mainFrame())!;
+      framed[who] = { url: frame.url(), title: await frame.evaluate(() => document.title) };
+    }
+    expect(framed["other"]!.url).toMatch(/^chrome-error:/);
+    expect(framed["other"]!.title).not.toBe("RobWoT viewer");
+    expect(framed["own"]).toEqual({ url: s.things[0]!.viewerUrl, title: "RobWoT viewer" });
   });
 });

@@ -4,20 +4,26 @@
  * origins, node-wot's second route per Thing (404), bodies nested too deep (400). A configured
  * `--cors-origin` still works. Real servient, real backend, raw HTTP (to set Host) and real `ws`.
  */
+import { existsSync, mkdtempSync, rmSync } from "node:fs";
 import { request } from "node:http";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import WebSocket from "ws";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { runCli } from "./cli-run.js";
 import { generateTwin, http, kukaPose } from "./serve-helpers.js";
 
 let s: RunningServient;
 let port: number;
 let slug: string;
+let twinDir: string;
 const DASHBOARD = "https://dash.example:3000";
 const FAR = kukaPose([0.4, 0.2, 0, -0.5, 0, 0.3, 0]);
 
 beforeAll(async () => {
-  s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, corsOrigins: [DASHBOARD] });
+  twinDir = await generateTwin("kuka_iiwa", 3000);
+  s = await startServient({ twins: [twinDir], port: 0, realtime: 0, corsOrigins: [DASHBOARD], allowedHosts: ["robot.lab"] });
   port = Number(new URL(s.url).port);
   slug = s.things[0]!.slug;
 });
@@ -133,9 +139,16 @@ describe("Host must name the address served (DNS rebinding)", () => {
     expect(await joints()).toEqual(before);
   });
 
-  it.each([[`localhost:${"P"}`], [`127.0.0.1:${"P"}`], [`[::1]:${"P"}`]])("loopback names (%s) are served", async (host) => {
+  it.each([[`localhost:${"P"}`], [`127.0.0.1:${"P"}`], [`[::1]:${"P"}`], [`robot.lab:${"P"}`]])("loopback and --allowed-host names (%s) are served", async (host) => {
     const r = await raw("GET", `/${slug}`, { host: host.replace("P", String(port)) });
     expect(r.status).toBe(200);
+  });
+
+  it("an --allowed-host name is the twin's own origin too, on the served port only", async () => {
+    const own = { host: `robot.lab:${port}`, origin: `http://robot.lab:${port}`, "content-type": "application/json" };
+    expect((await raw("POST", `/${slug}/actions/validateJointPosition`, own, JSON.stringify({ joints: FAR }))).status).toBe(200);
+    expect((await raw("GET", `/${slug}`, { host: "robot.lab:1" })).status).toBe(421);
+    expect((await move({ ...own, origin: "http://robot.lab:1" })).status).toBe(403);
   });
 });
 
@@ -175,6 +188,47 @@ describe("one HTTP surface per Thing", () => {
   });
 });
 
+describe("only node-wot's affordance routes reach it, with their methods", () => {
+  it.each([
+    ["PUT", "properties/getJointPosition", "GET, HEAD"],
+    ["PUT", "properties", "GET, HEAD"],
+    ["POST", "", "GET, HEAD"],
+    ["POST", "twin.json", "GET, HEAD"],
+    ["POST", "events/collision", "GET, HEAD"],
+    ["DELETE", "actions/stop", "POST"],
+    ["PUT", "actions/moveToJointPosition", "POST"],
+  ])("%s /<slug>/%s answers 405 JSON (Allow: %s) and nothing moves", async (method, rest, allow) => {
+    const before = await joints();
+    const r = await raw(method, `/${slug}/${rest}`, { "content-type": "application/json" }, JSON.stringify({ joints: FAR }));
+    expect(r.status).toBe(405);
+    expect(r.body.code).toBe("E_METHOD_NOT_ALLOWED");
+    expect(r.headers["allow"]).toBe(allow);
+    expect(await joints()).toEqual(before);
+  });
+
+  it.each([["actions"], ["actions/moveToJointPosition/.."], ["actions/stop/now"], ["events"], ["properties/motionStatus/x"]])(
+    "POST /<slug>/%s (no such route) answers 404 JSON",
+    async (rest) => {
+      const r = await raw("POST", `/${slug}/${rest}`, { "content-type": "text/plain" }, "{}");
+      expect(r.status).toBe(404);
+      expect(r.body.code).toBe("E_NOT_FOUND");
+    },
+  );
+
+  it("GET /<slug>/properties (readallproperties) still reaches node-wot, PUT does not (observe: serve.test.ts)", async () => {
+    expect((await raw("GET", `/${slug}/properties`, {})).body.motionStatus.state).toBe("idle");
+    expect((await raw("PUT", `/${slug}/properties`, { "content-type": "application/json" }, "{}")).body.code).toBe("E_METHOD_NOT_ALLOWED");
+  });
+});
+
+describe("framing", () => {
+  it("every page, the viewer included, may be framed only by the twin's own pages and --cors-origin pages", async () => {
+    for (const path of ["/viewer/", `/${slug}`, `/${slug}/properties/motionStatus`]) {
+      expect((await raw("GET", path, {})).headers["content-security-policy"]).toBe(`frame-ancestors 'self' ${DASHBOARD}`);
+    }
+  });
+});
+
 describe("values", () => {
   it("a body nested 20,000 deep answers 400 E_TOO_DEEP", async () => {
     const deep = "[".repeat(20_000) + "]".repeat(20_000);
@@ -203,5 +257,23 @@ describe("--cors-origin", () => {
   it("the twin's own origin (the viewer) may send commands", async () => {
     const r = await raw("POST", `/${slug}/actions/validateJointPosition`, { origin: `http://127.0.0.1:${port}`, "content-type": "application/json" }, JSON.stringify({ joints: FAR }));
     expect(r.status).toBe(200);
+  });
+});
+
+describe("command line", () => {
+  it.each([
+    ["serve", "--cors-origin", "dash.example", /--cors-origin must be an origin/],
+    ["serve", "--allowed-host", "robot.lab:80", /--allowed-host must be a host name/],
+    ["demo", "--cors-origin", "https://dash.example/x", /--cors-origin must be an origin/],
+    ["demo", "--allowed-host", "http://robot.lab", /--allowed-host must be a host name/],
+  ])("%s %s %s exits 2 before any work", async (command, option, value, message) => {
+    const tmp = mkdtempSync(join(tmpdir(), "robwot-web-guard-"));
+    const out = join(tmp, "twin");
+    const args = command === "serve" ? [twinDir, "--port", "0"] : ["--out", out, "--samples", "100"];
+    const r = await runCli([command, ...args, option, value]);
+    expect(r.code).toBe(2);
+    expect(r.stderr).toMatch(message);
+    expect(existsSync(out)).toBe(false);
+    rmSync(tmp, { recursive: true, force: true });
   });
 });

@@ -5,7 +5,7 @@
  * Status codes (Contract 4, documented in the README):
  * - 400 schema violation / malformed JSON / degenerate calibration input (`E_BAD_INPUT`, `E_BAD_JSON`, ...)
  * - 401 missing or wrong credentials (`E_UNAUTHORIZED`)
- * - 404 unknown obstacle / file (`E_NOT_FOUND`)
+ * - 404 unknown obstacle / file (`E_NOT_FOUND`); 405 a method the route does not serve (`E_METHOD_NOT_ALLOWED`)
  * - 409 a move while the twin is moving (`E_BUSY`), obstacle name taken (`E_NAME_TAKEN`)
  * - 422 the target was rejected by simulation-in-the-loop validation (`E_REJECTED`)
  * - 503 the simulation backend is down or restarting (`E_BACKEND_DOWN`)

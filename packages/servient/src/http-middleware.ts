@@ -3,6 +3,8 @@
  * auth for everything; `/robwot.json`; the viewer at `/viewer/`; the TDs at `/` and `/<slug>` (with
  * the real base, live URL and security); the twin folder files at `/<slug>/...`; action bodies parsed
  * and validated against the TD (400 JSON); handler errors mapped to their status with a JSON body.
+ * Only node-wot's affordance routes of a served slug reach node-wot, with their methods (404/405 JSON
+ * otherwise).
  */
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
@@ -34,6 +36,24 @@ export interface MiddlewareEnv {
   things: Map<string, ServedThing>;
   viewerDir: string | null;
   index(): unknown;
+}
+
+const READ = ["GET", "HEAD"] as const;
+
+/** Methods of node-wot's affordance routes under `/<slug>/...` (null: no such route, 404). Only these
+ *  reach node-wot, each after the checks of its kind. */
+function affordanceMethods(segments: string[]): readonly string[] | null {
+  const [, dir, name, sub, ...more] = segments;
+  if (more.length > 0) return null;
+  if (dir === "properties") return sub === undefined || sub === "observable" ? READ : null; // no name: readallproperties
+  if (name === undefined || sub !== undefined) return null;
+  if (dir === "events") return READ;
+  return dir === "actions" ? ["POST"] : null;
+}
+
+function methodNotAllowed(res: ServerResponse, method: string, path: string, allow: readonly string[]): ServientError {
+  res.setHeader("Allow", allow.join(", "));
+  return new ServientError(405, "E_METHOD_NOT_ALLOWED", `${method} is not allowed on ${path} (allowed: ${allow.join(", ")})`, { method, path, allow });
 }
 
 async function readBody(req: IncomingMessage): Promise<string> {
@@ -80,7 +100,7 @@ export function createMiddleware(env: MiddlewareEnv) {
       const method = req.method ?? "GET";
       env.guard.checkHost(req);
       if (method === "OPTIONS") return env.guard.preflight(req, res); // preflights carry no credentials
-      env.guard.applyCors(res, env.guard.checkOrigin(req, RequestGuard.stateChanging(method)));
+      env.guard.applyHeaders(res, env.guard.checkOrigin(req, RequestGuard.stateChanging(method)));
       if (env.auth && !isAuthorized(req, env.auth)) return challenge(res, env.auth);
       const get = method === "GET" || method === "HEAD";
 
@@ -102,12 +122,15 @@ export function createMiddleware(env: MiddlewareEnv) {
       // nothing but our routes reaches node-wot: its second route per Thing (`/<url-encoded id>`) would
       // skip every check above and below
       if (!thing) return notFound(res, path);
-      if (segments.length === 1 && get) return sendJson(res, 200, thing.td(), "application/td+json");
       const rest = segments.slice(1).join("/");
-      if (get && isTwinFile(rest, thing.urdfName)) {
+      if (segments.length === 1 || isTwinFile(rest, thing.urdfName)) {
+        if (!get) throw methodNotAllowed(res, method, path, READ);
+        if (segments.length === 1) return sendJson(res, 200, thing.td(), "application/td+json");
         const file = confine(thing.dir, rest);
         return file ? sendFile(req, res, file) : notFound(res, path);
       }
+      const allow = affordanceMethods(segments);
+      if (!allow) return notFound(res, path);
       const kind = AFFORDANCE_KINDS[segments[1] ?? ""];
       if (kind && segments.length >= 3) {
         const available = Object.keys((thing.td()[segments[1] as string] ?? {}) as object);
@@ -116,7 +139,8 @@ export function createMiddleware(env: MiddlewareEnv) {
           throw new ServientError(404, "E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
         }
       }
-      if (get && kind === "property" && segments[3] === "observable") {
+      if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
+      if (segments[3] === "observable") {
         // node-wot 0.9.2 unsubscribes a long-poll observer on 'finish' only: one that went away first
         // would have every later value piped into its dead response (listener leak)
         res.on("close", () => {
@@ -124,7 +148,7 @@ export function createMiddleware(env: MiddlewareEnv) {
         });
       }
       const ctx: RequestContext = { hasBody: false };
-      if (segments[1] === "actions" && segments.length === 3 && method === "POST") {
+      if (kind === "action") {
         const name = segments[2] as string;
         const schema = thing.actionInput(name);
         if (schema !== null) {

@@ -12,6 +12,8 @@
  *   including `no-cors` fetches, form posts and `sendBeacon`; clients outside a browser send none.
  * - CORS is granted to the `--cors-origin` origins only, never `*`: node-wot's own CORS headers are
  *   removed and ours written instead; preflights from other origins answer 403.
+ * - Framing (clickjacking: a page overlays the viewer's Move/STOP buttons in an invisible frame): every
+ *   response says `Content-Security-Policy: frame-ancestors 'self' <--cors-origin...>`.
  * - Action bodies must be JSON by media type (`application/json`, `application/<x>+json`), see
  *   `isJsonMediaType`; a "simple" browser request (`text/plain`, forms) can then never carry a command.
  */
@@ -115,12 +117,14 @@ export class RequestGuard {
     return !SAFE_METHODS.has(method);
   }
 
-  /** CORS headers for an allowed cross-origin request; node-wot's own `Access-Control-*` headers are dropped. */
-  applyCors(res: ServerResponse, origin: string | null): void {
+  /** CORS headers for an allowed cross-origin request (node-wot's own `Access-Control-*` headers are
+   *  dropped) and the framing policy: only the twin's own pages and `--cors-origin` pages may frame it. */
+  applyHeaders(res: ServerResponse, origin: string | null): void {
     const setHeader = res.setHeader.bind(res);
     res.setHeader = ((name: string, value: number | string | readonly string[]) =>
       name.toLowerCase().startsWith("access-control-") ? res : setHeader(name, value)) as typeof res.setHeader;
     setHeader("Vary", "Origin");
+    setHeader("Content-Security-Policy", ["frame-ancestors 'self'", ...this.cors].join(" "));
     if (origin !== null && this.cors.has(origin)) {
       setHeader("Access-Control-Allow-Origin", origin);
       setHeader("Access-Control-Allow-Credentials", "true");

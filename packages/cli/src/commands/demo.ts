@@ -76,6 +76,9 @@ export async function run(argv: string[]): Promise<number> {
   const port = parseInteger("port", values.port, 8080, 0, 65535);
   const host = values.host ?? "127.0.0.1";
   const realtime = parseRealtime(values.realtime);
+  // every option is checked before the (long) generation
+  const corsOrigins = parseCorsOrigins(values["cors-origin"]);
+  const allowedHosts = parseAllowedHosts(values["allowed-host"]);
   if (values.regenerate || !twinComplete(out)) {
     const example = findExample("kuka_iiwa");
     if (!example) throw new Error("kuka_iiwa example missing");
@@ -99,7 +102,5 @@ export async function run(argv: string[]): Promise<number> {
     process.stdout.write(`robwot: reusing the demo twin in ${out} (--regenerate to rebuild it)\n`);
   }
   if (values["no-serve"]) return 0;
-  const corsOrigins = parseCorsOrigins(values["cors-origin"]);
-  const allowedHosts = parseAllowedHosts(values["allowed-host"]);
   return serve({ folders: [out], port, host, realtime, corsOrigins, allowedHosts, json: false });
 }
