@@ -8,5 +8,7 @@ export default defineConfig({
     // Tests start real Python backends and servients; two cores: keep files sequential-ish.
     fileParallelism: true,
     maxWorkers: 2,
+    // backends started by the tests check every result against their contract (E_INTERNAL otherwise)
+    env: { ROBWOT_CHECK_RESULTS: "1" },
   },
 });

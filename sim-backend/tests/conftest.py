@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 
 import pytest
 from rpc_backend import BackendProcess, RpcClient
+
+# every backend started by the tests checks each of its results against the contract (a result that
+# contradicts schemas/protocol.openrpc.json is answered as E_INTERNAL, failing the test)
+os.environ["ROBWOT_CHECK_RESULTS"] = "1"
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,8 @@ from typing import Any
 
 from websockets.sync.client import ClientConnection, connect
 
+from robwot_sim.rpc.contract import contract
+
 READY_TIMEOUT = 60.0
 
 
@@ -53,6 +55,18 @@ class BackendProcess:
         return code
 
 
+def _check_error(reply: dict[str, Any]) -> None:
+    """An error reply carries a data.code the contract lists, under its JSON-RPC number."""
+    error = reply.get("error")
+    if error is None:
+        return
+    known = contract().document["components"]["errors"]
+    code = error.get("data", {}).get("code")
+    assert code in known, f"error code {code!r} is not in the contract"
+    expected = known[code]["code"]
+    assert expected == error["code"], f"{code} answered as {error['code']}, contract: {expected}"
+
+
 class RpcError(Exception):
     def __init__(self, error: dict[str, Any]) -> None:
         super().__init__(error.get("message"))
@@ -75,6 +89,12 @@ class RpcClient:
     def close(self) -> None:
         self.ws.close()
 
+    def _notified(self, doc: dict[str, Any]) -> None:
+        """Keep a notification, after checking it against the contract's `x-notifications`."""
+        problem = contract().check_notification(doc["method"], doc["params"])
+        assert problem is None, f"{doc['method']} contradicts the contract: {problem}"
+        self.notifications.append((doc["method"], doc["params"]))
+
     def send(self, method: str, params: dict[str, Any] | None = None) -> int:
         req_id = self._next
         self._next += 1
@@ -94,8 +114,9 @@ class RpcClient:
         while True:
             doc = json.loads(self.ws.recv(timeout=max(0.01, deadline - time.monotonic())))
             if "id" in doc:
+                _check_error(doc)
                 return dict(doc)
-            self.notifications.append((doc["method"], doc["params"]))
+            self._notified(doc)
 
     def wait(self, req_id: int, timeout: float = 60.0) -> dict[str, Any]:
         """The reply to `req_id` (raises RpcError on an error reply)."""
@@ -132,4 +153,4 @@ class RpcClient:
             if "id" in doc:
                 self.replies[doc["id"]] = doc
             else:
-                self.notifications.append((doc["method"], doc["params"]))
+                self._notified(doc)

@@ -4,6 +4,7 @@ its plain-WebSocket example runs."""
 from __future__ import annotations
 
 import ast
+import json
 import re
 import subprocess
 import sys
@@ -74,3 +75,30 @@ def test_example_runs() -> None:
     assert "move: reached" in proc.stdout
     assert "robot.state" in proc.stdout
     assert "E_OUT_OF_LIMITS" in proc.stdout
+
+
+def test_generated_files_are_fresh() -> None:
+    """PROTOCOL.md and sim-client's contract.ts are what `npm run gen:contract` makes of the contract."""
+    script = ROOT.parent / "scripts" / "gen-contract.mjs"
+    proc = subprocess.run(["node", str(script), "--check"], capture_output=True, text=True, timeout=120,
+                          check=False)
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_the_contract_is_a_valid_openrpc_document_of_what_the_server_serves(registered: set[str]) -> None:
+    """Every method the server registers is in the contract and vice versa; every error a method may
+    answer and every `$ref` resolves; every param schema is a valid JSON Schema (draft 7)."""
+    from jsonschema import Draft7Validator
+
+    from robwot_sim.rpc.contract import contract
+
+    doc = contract().document
+    assert doc["openrpc"].startswith("1.")
+    assert {m["name"] for m in doc["methods"]} == registered
+    assert {n["name"] for n in doc["x-notifications"]} == NOTIFICATIONS
+    refs = re.findall(r'"\$ref": "#/components/(\w+)/(\w+)"', json.dumps(doc))
+    for section, name in refs:
+        assert name in doc["components"][section], f"dangling $ref {section}/{name}"
+    for m in doc["methods"]:
+        for p in m["params"]:
+            Draft7Validator.check_schema(p["schema"])

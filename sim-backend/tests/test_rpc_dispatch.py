@@ -7,18 +7,32 @@ import json
 from typing import Any
 
 from robwot_sim.errors import OutOfLimits
+from robwot_sim.rpc.contract import Contract
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 
+NUMBER = {"type": "number"}
+CONTRACT = Contract({"methods": [
+    {"name": "echo", "params": [{"name": "x", "schema": NUMBER, "required": True}],
+     "result": {"name": "r", "schema": {"type": "object", "properties": {"x": NUMBER}}}},
+    {"name": "limits", "params": [], "result": {"name": "r", "schema": {}}},
+    {"name": "bug", "params": [], "result": {"name": "r", "schema": {}}},
+    {"name": "liar", "params": [], "result": {"name": "r", "schema": {"type": "object", "required": ["x"]}}},
+]})
 
-def _dispatcher() -> tuple[Dispatcher, list[tuple[str, dict[str, Any]]]]:
-    d = Dispatcher(max_message_bytes=10_000)
+
+def _dispatcher(check_results: bool = False) -> tuple[Dispatcher, list[tuple[str, dict[str, Any]]]]:
+    d = Dispatcher(max_message_bytes=10_000, contract=CONTRACT, check_results=check_results)
     sent: list[tuple[str, dict[str, Any]]] = []
 
-    @d.method("echo", ("x",))
+    @d.method("echo")
     async def echo(p: Params, call: Call) -> Any:
-        call.notify("echo.seen", {"x": p.number("x")})
-        return {"x": p.number("x")}
+        call.notify("echo.seen", {"x": float(p["x"])})
+        return {"x": float(p["x"])}
+
+    @d.method("liar")
+    async def liar(p: Params, call: Call) -> Any:
+        return {"y": 1}
 
     @d.method("limits")
     async def limits(p: Params, call: Call) -> Any:
@@ -50,7 +64,7 @@ def test_unknown_method_lists_available() -> None:
     reply = _handle(d, '{"jsonrpc":"2.0","id":2,"method":"nope"}', sent)
     assert reply["error"]["code"] == -32601
     assert reply["error"]["data"] == {"code": "E_METHOD_NOT_FOUND", "method": "nope",
-                                      "available": ["bug", "echo", "limits"]}
+                                      "available": ["bug", "echo", "liar", "limits"]}
 
 
 def test_sim_error_maps_to_its_codes() -> None:
@@ -97,3 +111,23 @@ def test_oversized_frame_is_answered() -> None:
     reply = _handle(d, json.dumps({"jsonrpc": "2.0", "id": 1, "method": "echo", "pad": "x" * 20_000}), sent)
     assert reply["error"]["data"]["code"] == "E_TOO_LARGE"
     assert reply["error"]["data"]["limit"] == 10_000
+
+
+def test_results_checked_against_the_contract_when_asked() -> None:
+    """With check_results a result the contract does not allow is -32603 naming the method (a bug)."""
+    d, sent = _dispatcher()
+    assert _handle(d, '{"jsonrpc":"2.0","id":1,"method":"liar"}', sent)["result"] == {"y": 1}
+    d, sent = _dispatcher(check_results=True)
+    reply = _handle(d, '{"jsonrpc":"2.0","id":1,"method":"liar"}', sent)
+    assert reply["error"]["code"] == -32603 and "contradicts the contract" in reply["error"]["message"]
+
+
+def test_only_contract_methods_can_be_registered() -> None:
+    """A handler for a method the contract does not describe is a programming error."""
+    d, _ = _dispatcher()
+    try:
+        d.register("secret", Call)  # type: ignore[arg-type]
+    except ValueError as exc:
+        assert "not in the contract" in str(exc)
+    else:
+        raise AssertionError("registered a method outside the contract")

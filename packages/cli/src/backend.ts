@@ -2,13 +2,11 @@
  * The CLI's view of the simulation backend: starts the Python backend through `@robwot/sim-client` (or
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
-import { validateThingDescription, type WorkspaceSummary as CoreWorkspaceSummary } from "@robwot/core";
-import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type LoadRobotParams, type RobotModel as SimRobotModel, type SimClient, type WorldList as SimWorldList } from "@robwot/sim-client";
+import { validateThingDescription } from "@robwot/core";
+import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type RobotLoadParams, type RobotModel, type SimClient, type WorkspaceSummary, type WorldList } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
-export type WorkspaceSummary = CoreWorkspaceSummary;
-export type RobotModel = SimRobotModel;
-export type WorldList = SimWorldList;
+export type { RobotModel, WorkspaceSummary, WorldList };
 export interface Progress {
   stage: string;
   done: number;
@@ -18,7 +16,7 @@ export interface Progress {
 export interface Backend {
   /** `pybullet_data.getDataPath()` of the backend (for example robots). */
   readonly pybulletData: string;
-  loadRobot(params: LoadRobotParams): Promise<RobotModel>;
+  loadRobot(params: RobotLoadParams): Promise<RobotModel>;
   removeRobot(id: string): Promise<void>;
   loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void>;
   listWorld(): Promise<WorldList>;
@@ -86,7 +84,7 @@ class SimBackend implements Backend {
     }
   }
 
-  loadRobot(params: LoadRobotParams): Promise<RobotModel> {
+  loadRobot(params: RobotLoadParams): Promise<RobotModel> {
     return this.guard(this.client.loadRobot(params));
   }
   async removeRobot(id: string): Promise<void> {
@@ -110,7 +108,7 @@ class SimBackend implements Backend {
     params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
     onProgress: (p: Progress) => void,
   ): Promise<WorkspaceSummary> {
-    return this.guard(this.client.generateWorkspace(params, { onProgress })) as Promise<WorkspaceSummary>;
+    return this.guard(this.client.generateWorkspace(params, { onProgress }));
   }
   close(): Promise<void> {
     clearInterval(this.watchdog);

@@ -36,6 +36,7 @@ function placeholderSummary(opts: GenerateOptions): WorkspaceSummary {
     volume: 0,
     seed: opts.seed,
     timings: { sample: 0, collide: 0, alpha: 0, write: 0 },
+    versions: {},
   };
 }
 

@@ -1,15 +1,14 @@
 /**
- * Shared value types (structural; compatible with the sim-client's RPC types, see ARCHITECTURE.md
- * Contracts 1-3). Units: metres, radians, seconds. Frame: simulation world frame, Z up.
+ * Shared value types. The backend's (Vec3, Contact, WorkspaceSummary, ...) come from the generated
+ * `backend-contract.ts` (ARCHITECTURE.md Contract 1); the rest are the twin's (Contracts 2-3). Units: metres, radians, seconds. Frame: simulation world frame, Z up.
  * Quaternions as tuples are `[x, y, z, w]`; as objects `{x, y, z, w}`.
  */
 
+import type * as Backend from "./backend-contract.js";
 import type { Calibration } from "./calibration.js";
+import type { Contact, MoveStatus, QuatXyzw, Vec3 } from "./backend-contract.js";
 
-export type Vec3 = [number, number, number];
-/** Quaternion `[x, y, z, w]`. */
-export type QuatXyzw = [number, number, number, number];
-
+export type { Bounds, Contact, JointType, MoveStatus, QuatXyzw, Vec3, WorkspaceSummary } from "./backend-contract.js";
 export interface Xyz {
   x: number;
   y: number;
@@ -28,28 +27,8 @@ export interface Pose {
   orientation: QuatXyzw;
 }
 
-export type JointType = "revolute" | "continuous" | "prismatic" | "fixed";
-
-export interface MimicSpec {
-  joint: string;
-  multiplier: number;
-  offset: number;
-}
-
-export interface JointSpec {
-  name: string;
-  type: JointType;
-  /** rad (revolute/continuous: continuous joints report -pi) or m (prismatic) */
-  lower: number;
-  upper: number;
-  /** rad/s or m/s */
-  velocity: number;
-  /** N·m or N */
-  effort: number;
-  parent?: string;
-  child?: string;
-  mimic?: MimicSpec;
-}
+/** A joint as the backend's `RobotModel` reports it (parent/child optional for hand-made models). */
+export type JointSpec = Omit<Backend.JointModel, "parent" | "child"> & Partial<Pick<Backend.JointModel, "parent" | "child">>;
 
 /** The subset of the backend's `RobotModel` the core needs. */
 export interface RobotModelLike {
@@ -64,26 +43,6 @@ export interface RobotModelLike {
   baseOrientation?: QuatXyzw;
 }
 
-export interface Bounds {
-  min: Vec3;
-  max: Vec3;
-}
-
-/** `workspace.json` (Contract 2). */
-export interface WorkspaceSummary {
-  samples: number;
-  collisionFree: number;
-  bounds: Bounds;
-  alpha: number | null;
-  method: "alpha-shape" | "convex-hull";
-  /** m^3 */
-  volume: number;
-  seed: number;
-  /** seconds per stage */
-  timings: { sample: number; collide: number; alpha: number; write: number };
-  versions?: Record<string, string>;
-}
-
 /** `twin.json` (Contract 2). */
 export interface TwinManifest {
   version: 1;
@@ -93,23 +52,6 @@ export interface TwinManifest {
   generatedAt: string;
   tool: string;
 }
-
-export interface ContactSide {
-  /** robot id or obstacle name */
-  body: string;
-  /** link name, or null for an obstacle / base */
-  link: string | null;
-}
-
-export interface Contact {
-  a: ContactSide;
-  b: ContactSide;
-  /** penetration depth, m, >= 0 */
-  depth: number;
-  position: Vec3;
-}
-
-export type MoveStatus = "reached" | "stopped" | "collision";
 
 /** Output of the move actions (Contract 3). */
 export interface MoveResult {
@@ -147,7 +89,7 @@ export interface ValidationReport {
 
 /** `collision` event data (Contract 3). */
 export interface CollisionEvent {
-  pair: { a: ContactSide; b: ContactSide };
+  pair: { a: Backend.BodyLink; b: Backend.BodyLink };
   position: Xyz;
   depth: number;
   joints: Record<string, number>;

@@ -3,6 +3,7 @@
  * handlers re-check what the schema cannot (speed > 0, unknown joints, quaternion norm, calibration
  * geometry) and throw ServientErrors that the middleware answers as JSON with their status.
  */
+import type { ObstacleMoveParams } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./backend.js";
 import { calibrate, type CalibrateInput } from "./calibration.js";
 import { badInput, backendDown } from "./errors.js";
@@ -54,6 +55,6 @@ export function registerActions(thing: WoT.ExposedThing, d: ActionDeps): void {
     false,
   );
   on<SceneObstacle>("addObstacle", (i) => d.world.addObstacle(d.backend, i));
-  on<{ name: string; position: number[]; orientation?: number[]; rpy?: number[] }>("moveObstacle", (i) => d.world.moveObstacle(d.backend, i));
+  on<ObstacleMoveParams>("moveObstacle", (i) => d.world.moveObstacle(d.backend, i));
   on<{ name: string }>("removeObstacle", (i) => d.world.removeObstacle(d.backend, i.name));
 }

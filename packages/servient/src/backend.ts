@@ -11,20 +11,15 @@
  * timed out is never half-applied: the backend that might have applied it late is gone.
  */
 import { EventEmitter } from "node:events";
-import { deadlineFromEnv } from "@robwot/sim-client";
+import { deadlineFromEnv, SimClient, type CallOptions, type RpcCaller } from "@robwot/sim-client";
 import { backendDown, fromBackendError } from "./errors.js";
 
 /** One live connection to a backend. */
-export interface SimSession {
-  /** `timeoutMs` overrides the method's default deadline */
-  call(method: string, params?: Record<string, unknown>, timeoutMs?: number): Promise<unknown>;
-  /** Registers a listener for server notifications (`robot.state`, `robot.collision`, ...). */
-  onNotification(cb: (method: string, params: Record<string, unknown>) => void): void;
+export interface SimSession extends RpcCaller {
   /** Resolves when the connection (or the process behind it) is gone. */
   readonly closed: Promise<void>;
   /** pid of the backend process when we launched it */
   readonly pid?: number | undefined;
-  close(): Promise<void>;
   /** Ends a backend that does not answer, at once (SIGKILL a launched process, drop a connection). */
   kill(): void;
 }
@@ -41,7 +36,6 @@ export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: 1_000, deadAfterMs: d
 
 
 export type SimConnector = () => Promise<SimSession>;
-export type SimCall = (method: string, params?: Record<string, unknown>) => Promise<unknown>;
 
 export interface SupervisorEvents {
   notification: [method: string, params: Record<string, unknown>];
@@ -60,9 +54,26 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   /** number of successful restarts since start */
   restarts = 0;
 
+  /**
+   * The typed client every caller uses: 503 `E_BACKEND_DOWN` while the backend is down or restarting,
+   * backend errors mapped to ServientError, a call that times out declares the backend dead.
+   */
+  readonly sim = new SimClient({
+    call: <T>(method: string, params?: object, options?: CallOptions) => this.call(method, params, options) as Promise<T>,
+    onNotification: (method, listener) => {
+      const forward = (m: string, p: Record<string, unknown>): void => {
+        if (method === "*" || m === method) listener(m, p);
+      };
+      this.on("notification", forward);
+      return () => void this.off("notification", forward);
+    },
+    close: () => this.stop(),
+  });
+
   constructor(
     private readonly connect: SimConnector,
-    private readonly restore: (call: SimCall) => Promise<void>,
+    /** builds the world on a fresh backend, through a client of that session alone */
+    private readonly restore: (sim: SimClient) => Promise<void>,
     private readonly retryDelayMs = 250,
     private readonly deadlines: Deadlines = DEFAULT_DEADLINES,
   ) {
@@ -81,12 +92,11 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     await this.open();
   }
 
-  /** Calls the backend; 503 when it is down, backend errors mapped to ServientError. */
-  async call<T = unknown>(method: string, params?: Record<string, unknown>): Promise<T> {
+  private async call(method: string, params?: object, options?: CallOptions): Promise<unknown> {
     const s = this.session;
     if (!s || !this.up) throw backendDown("simulation backend is restarting; retry shortly", { method });
     try {
-      return (await s.call(method, params)) as T;
+      return await s.call(method, params, options);
     } catch (err) {
       const e = fromBackendError(err);
       if (e.code === "E_BACKEND_TIMEOUT") {
@@ -111,7 +121,8 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     this.heartbeat = setInterval(() => {
       if (pending || this.session !== s) return;
       pending = true;
-      s.call("ping", undefined, this.deadlines.deadAfterMs)
+      new SimClient(s)
+        .ping({ timeoutMs: this.deadlines.deadAfterMs })
         .catch((err: unknown) => {
           // a closed connection is handled by onClosed; anything else means no answer in time
           if (fromBackendError(err).code !== "E_BACKEND_DOWN") this.declareDead(s, `no answer to ping within ${this.deadlines.deadAfterMs} ms`);
@@ -149,17 +160,21 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
 
   private async open(): Promise<void> {
     const s = await this.connect();
-    s.onNotification((method, params) => this.emit("notification", method, params));
+    s.onNotification("*", (method, params) => this.emit("notification", method, params));
     this.session = s;
-    const call: SimCall = async (method, params) => {
-      try {
-        return await s.call(method, params);
-      } catch (err) {
-        throw fromBackendError(err);
-      }
-    };
+    const direct = new SimClient({
+      call: async <T>(method: string, params?: object, options?: CallOptions): Promise<T> => {
+        try {
+          return await s.call<T>(method, params, options);
+        } catch (err) {
+          throw fromBackendError(err);
+        }
+      },
+      onNotification: (method, listener) => s.onNotification(method, listener),
+      close: () => s.close(),
+    });
     try {
-      await this.restore(call);
+      await this.restore(direct);
     } catch (err) {
       // the restore error is what matters (rethrown); closing the half-set-up session is best effort
       await s.close().catch(() => undefined);

@@ -9,7 +9,8 @@
  * `status: "stopped"` without moving, and one stopped during its motion is stopped by the backend
  * (`robot.stop` follows `robot.move` on the same ordered connection, so it cannot overtake it).
  */
-import { MIN_SPEED, type Contact, type MoveResult, type Quaternion, type Vec3 } from "@robwot/core";
+import type { MoveResult as BackendMoveResult } from "@robwot/sim-client";
+import { MIN_SPEED, type MoveResult, type Quaternion, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput, ServientError } from "./errors.js";
 import { vec } from "./frames.js";
@@ -17,14 +18,6 @@ import type { Relay, RelayReport } from "./relay.js";
 import type { Twin } from "./twin.js";
 import { validateCartesian, validateJoints, type JointPlan } from "./validation.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
-
-interface BackendMoveResult {
-  status: "reached" | "stopped" | "collision";
-  positions: number[];
-  duration: number;
-  wallTime?: number;
-  contacts?: Contact[];
-}
 
 export type RelayedMoveResult = MoveResult & { relay?: RelayReport };
 
@@ -139,7 +132,7 @@ export class Mover {
     const move = this.pending;
     if (move) move.cancelled = true;
     let backendStopped = false;
-    if (this.backend.isUp) backendStopped = (await this.backend.call<{ stopped: boolean }>("robot.stop", { robot: this.twin.robotId })).stopped;
+    if (this.backend.isUp) backendStopped = (await this.backend.sim.stop(this.twin.robotId)).stopped;
     let relayed = false;
     if (this.relay) relayed = (await this.relay.forward("stop", undefined)).ok;
     return { stopped: move !== null || backendStopped || relayed };
@@ -193,19 +186,14 @@ export class Mover {
     twin.setStatus({ state: "moving", lastError: null });
     let res: BackendMoveResult;
     try {
-      res = await this.backend.call<BackendMoveResult>("robot.move", {
-        robot: twin.robotId,
-        target,
-        speed,
-        realtime: this.realtime,
-      });
+      res = await this.backend.sim.move({ robot: twin.robotId, target, speed, realtime: this.realtime });
       await twin.refresh(res.positions);
     } catch (err) {
       const e = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
       twin.setStatus({ state: "stopped", lastError: { code: e.code, message: e.message } });
       throw e;
     }
-    if (res.status === "collision" && !twin.collisionSeen) twin.onCollision(res.contacts ?? [], res.positions);
+    if (res.status === "collision" && !twin.collisionSeen) twin.onCollision(res.contacts, res.positions);
     const pose = twin.realPose();
     const result: RelayedMoveResult = {
       status: res.status,

@@ -104,12 +104,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     twins.set(slug, new Twin(slug, folder, backend));
   }
   const world = new World([...twins.values()], opts.meshRoots ?? []);
-  backend.on("notification", (method, p) => {
-    const twin = twins.get(String(p.robot));
-    if (!twin) return;
-    if (method === "robot.state") twin.onState(p as Parameters<Twin["onState"]>[0]);
-    else if (method === "robot.collision") twin.onCollision((p.contacts ?? []) as never[], (p.positions ?? twin.q) as number[]);
-  });
+  backend.sim.on("robot.state", (p) => twins.get(p.robot)?.onState(p));
+  backend.sim.on("robot.collision", (p) => twins.get(p.robot)?.onCollision(p.contacts, p.positions));
   backend.on("down", (reason) => {
     for (const t of twins.values()) t.setStatus({ lastError: { code: "E_BACKEND_DOWN", message: `simulation backend down (${reason}); restarting` } });
   });

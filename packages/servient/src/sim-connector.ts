@@ -5,17 +5,14 @@
 import { launchBackend, RpcConnection } from "@robwot/sim-client";
 import type { SimConnector, SimSession } from "./backend.js";
 
-/** Methods that last as long as a motion: no request timeout. */
-const LONG = new Set(["robot.move", "workspace.generate"]);
-
 function session(
   conn: RpcConnection,
   extra: { pid?: number | undefined; closed?: Promise<unknown>; close?: () => Promise<void>; kill?: () => void },
 ): SimSession {
   return {
-    // long calls have no request deadline of their own: the supervisor's heartbeat bounds them
-    call: (method, params, timeoutMs) => conn.call(method, params, timeoutMs !== undefined ? { timeoutMs } : LONG.has(method) ? { timeoutMs: 0 } : {}),
-    onNotification: (cb) => void conn.onNotification("*", cb),
+    // long calls (SimClient gives them no request deadline) are bounded by the supervisor's heartbeat
+    call: (method, params, options) => conn.call(method, params, options),
+    onNotification: (method, listener) => conn.onNotification(method, listener),
     closed: Promise.race([conn.closed, extra.closed ?? new Promise<never>(() => undefined)]).then(() => undefined),
     pid: extra.pid,
     close: extra.close ?? (() => conn.close()),

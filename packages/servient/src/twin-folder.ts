@@ -2,6 +2,7 @@
  * Reading a twin folder (Contract 2): td.json, twin.json, scene.json, workspace.* and the optional
  * calibration.json. Errors name the folder and the file.
  */
+import type { ObstacleAddParams } from "@robwot/sim-client";
 import { existsSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { checkCalibration, type CalibrationFile, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
@@ -30,14 +31,8 @@ export interface TwinFolder {
   csvPath: string;
 }
 
-export interface SceneObstacle {
-  name: string;
-  shape: Record<string, unknown>;
-  position: number[];
-  orientation?: number[];
-  rpy?: number[];
-  [k: string]: unknown;
-}
+/** An obstacle of scene.json: what `obstacle.add` takes (the backend checks scene files the same way). */
+export type SceneObstacle = ObstacleAddParams;
 
 export interface SceneDoc {
   version?: number;

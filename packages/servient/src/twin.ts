@@ -5,6 +5,7 @@
  */
 import { EventEmitter } from "node:events";
 import type { CollisionEvent, Contact, MotionStatus, Quaternion, RobotModelLike, Vec3, Xyz } from "@robwot/core";
+import type { PoseResult, RobotStateNotification } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput } from "./errors.js";
 import { FrameMap, quat, toTransform, xyz } from "./frames.js";
@@ -23,11 +24,6 @@ export interface TwinEvents {
   joints: [msg: LiveJoints];
   status: [status: MotionStatus];
   collision: [event: CollisionEvent];
-}
-
-interface FkResult {
-  position: number[];
-  orientation: number[];
 }
 
 export class Twin extends EventEmitter<TwinEvents> {
@@ -106,12 +102,11 @@ export class Twin extends EventEmitter<TwinEvents> {
 
   /** Sets joints and pose from a finished FK call and notifies listeners. */
   async refresh(q?: number[]): Promise<void> {
-    const target = q ?? (await this.backend.call<{ positions: number[] }>("robot.getJointPositions", { robot: this.robotId })).positions;
-    const fk = await this.backend.call<FkResult>("robot.fk", { robot: this.robotId, positions: target });
-    this.applyPose(target, fk);
+    const target = q ?? (await this.backend.sim.getJointPositions(this.robotId)).positions;
+    this.applyPose(target, await this.backend.sim.fk(this.robotId, target));
   }
 
-  applyPose(q: number[], fk: FkResult): void {
+  applyPose(q: number[], fk: Pick<PoseResult, "position" | "orientation">): void {
     this.q = [...q];
     this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
     this.orientation = quat(fk.orientation);
@@ -122,15 +117,9 @@ export class Twin extends EventEmitter<TwinEvents> {
    * `robot.state` notification: joints and the end-effector pose of the same simulated instant (the
    * backend computes the pose with the state: no FK round trip per notification).
    */
-  onState(params: { positions?: number[]; time?: number; position?: number[]; orientation?: number[] }): void {
-    if (!Array.isArray(params.positions)) return;
-    if (typeof params.time === "number") this.time = params.time;
-    if (Array.isArray(params.position) && Array.isArray(params.orientation)) {
-      this.applyPose(params.positions, { position: params.position, orientation: params.orientation });
-      return;
-    }
-    this.q = [...params.positions];
-    this.emit("joints", this.liveJoints());
+  onState(params: RobotStateNotification): void {
+    this.time = params.time;
+    this.applyPose(params.positions, params);
   }
 
   /** A motion stopped on contact: emits the `collision` event once per motion. */

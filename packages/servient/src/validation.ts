@@ -30,19 +30,6 @@ export interface CartesianPlan extends JointPlan {
   positionError: number;
 }
 
-interface PathReport {
-  collisionFree: boolean;
-  duration: number;
-  firstCollision?: { time: number; positions: number[]; contacts: Contact[] };
-}
-
-interface IkResult {
-  positions: number[];
-  positionError: number;
-  orientationError?: number;
-  collisionFree?: boolean;
-}
-
 const fmt = (v: number): string => (Math.abs(v) >= 1e-3 || v === 0 ? v.toFixed(4) : v.toExponential(2));
 
 function limitsCheck(twin: Twin, q: number[]): NonNullable<ValidationReport["checks"]["limits"]> {
@@ -62,7 +49,7 @@ async function pathCheck(
   target: number[],
   speed: number,
 ): Promise<NonNullable<ValidationReport["checks"]["path"]>> {
-  const r = await backend.call<PathReport>("robot.checkPath", { robot: twin.robotId, target, from: twin.q, speed });
+  const r = await backend.sim.checkPath({ robot: twin.robotId, target, from: twin.q, speed });
   return { ok: r.collisionFree, contacts: r.firstCollision?.contacts ?? [] };
 }
 
@@ -113,12 +100,16 @@ export async function validateCartesian(
   let target: number[] = [];
   let positionError = Infinity;
   try {
-    const params: Record<string, unknown> = { robot: twin.robotId, position: virtual, seed: twin.q, collisionFree: true };
-    if (orientation) params.orientation = quatArr(twin.frames.quatToVirtual(orientation));
-    const ik = await backend.call<IkResult>("robot.ik", params);
+    const ik = await backend.sim.ik({
+      robot: twin.robotId,
+      position: virtual,
+      seed: twin.q,
+      collisionFree: true,
+      ...(orientation ? { orientation: quatArr(twin.frames.quatToVirtual(orientation)) } : {}),
+    });
     target = ik.positions;
     positionError = ik.positionError;
-    const ok = ik.positionError <= IK_TOLERANCE && ik.collisionFree !== false;
+    const ok = ik.positionError <= IK_TOLERANCE && ik.collisionFree;
     checks.ik = { ok, positionError: ik.positionError };
     if (!ok) reasons.push(`IK found no collision-free solution within ${IK_TOLERANCE} m of ${where} (error ${fmt(ik.positionError)} m)`);
   } catch (err) {

@@ -6,37 +6,31 @@
  */
 import { EventEmitter } from "node:events";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
-import type { BackendSupervisor, SimCall } from "./backend.js";
+import type { ObstacleMoveParams, SimClient } from "@robwot/sim-client";
+import type { BackendSupervisor } from "./backend.js";
 import { ServientError } from "./errors.js";
 import { confine } from "./static-files.js";
 import type { SceneObstacle } from "./twin-folder.js";
 import type { Twin } from "./twin.js";
 
-interface FkResult {
-  position: number[];
-  orientation: number[];
-}
-
 /** Mesh obstacle files in scene.json are relative to the twin folder (copied there by generate). */
 function withAbsoluteMesh(ob: SceneObstacle, dir: string): SceneObstacle {
-  const file = ob.shape.file;
-  if (ob.shape.type !== "mesh" || typeof file !== "string" || isAbsolute(file)) return ob;
-  return { ...ob, shape: { ...ob.shape, file: join(dir, file) } };
+  if (ob.shape.type !== "mesh" || isAbsolute(ob.shape.file)) return ob;
+  return { ...ob, shape: { ...ob.shape, file: join(dir, ob.shape.file) } };
 }
 
 /** Scene-file mesh obstacles as clients see them: relative files become `/<slug>/<file>` URLs. */
-function withServedMesh(ob: SceneObstacle, slug: string): SceneObstacle | null {
-  const file = ob.shape.file;
-  if (ob.shape.type !== "mesh" || typeof file !== "string" || isAbsolute(file)) return null;
-  const rel = file.split(/[\\/]+/).filter((p) => p !== "" && p !== ".");
-  return { ...ob, shape: { ...ob.shape, file: `/${encodeURIComponent(slug)}/${rel.map(encodeURIComponent).join("/")}` } };
+function servedMeshUrl(ob: SceneObstacle, slug: string): string | null {
+  if (ob.shape.type !== "mesh" || isAbsolute(ob.shape.file)) return null;
+  const rel = ob.shape.file.split(/[\\/]+/).filter((p) => p !== "" && p !== ".");
+  return `/${encodeURIComponent(slug)}/${rel.map(encodeURIComponent).join("/")}`;
 }
 
 export class World extends EventEmitter<{ scene: [] }> {
   /** current obstacles by name (scene files + run-time edits), world frame */
   readonly obstacles = new Map<string, SceneObstacle>();
   /** mesh files of scene-file obstacles as URLs of the twin folder that holds them */
-  private readonly meshUrls = new Map<string, unknown>();
+  private readonly meshUrls = new Map<string, string>();
   /** robots of the scene files that are not twins */
   private readonly sceneRobots: Record<string, unknown>[] = [];
 
@@ -55,8 +49,8 @@ export class World extends EventEmitter<{ scene: [] }> {
       for (const ob of t.folder.scene.obstacles ?? []) {
         if (this.obstacles.has(ob.name)) continue;
         this.obstacles.set(ob.name, withAbsoluteMesh(ob, t.folder.dir));
-        const served = withServedMesh(ob, t.slug);
-        if (served) this.meshUrls.set(ob.name, served.shape.file);
+        const url = servedMeshUrl(ob, t.slug);
+        if (url !== null) this.meshUrls.set(ob.name, url);
       }
       for (const r of (t.folder.scene.robots ?? []) as Record<string, unknown>[]) {
         const key = JSON.stringify([r.id ?? null, r.urdf, r.basePosition ?? null]);
@@ -71,34 +65,34 @@ export class World extends EventEmitter<{ scene: [] }> {
   sceneObstacles(): SceneObstacle[] {
     return [...this.obstacles.values()].map((ob) => {
       const url = this.meshUrls.get(ob.name);
-      return url === undefined ? ob : { ...ob, shape: { ...ob.shape, file: url } };
+      return url === undefined || ob.shape.type !== "mesh" ? ob : { ...ob, shape: { ...ob.shape, file: url } };
     });
   }
 
   /** Builds the world on a (new) backend connection. */
-  readonly restore = async (call: SimCall): Promise<void> => {
-    await call("world.reset");
-    await call("world.loadScene", { scene: { version: 1, obstacles: [...this.obstacles.values()], robots: this.sceneRobots } });
+  readonly restore = async (sim: SimClient): Promise<void> => {
+    await sim.resetWorld();
+    await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], robots: this.sceneRobots } });
     for (const twin of this.twins) {
       const m = twin.folder.manifest.robot;
-      const model = (await call("robot.load", {
+      const model = await sim.loadRobot({
         urdf: twin.folder.urdfPath,
         id: twin.robotId,
-        basePosition: m.basePosition,
-        baseOrientation: m.baseOrientation,
-        eeLink: m.eeLink,
+        ...(m.basePosition ? { basePosition: m.basePosition } : {}),
+        ...(m.baseOrientation ? { baseOrientation: m.baseOrientation } : {}),
+        ...(m.eeLink ? { eeLink: m.eeLink } : {}),
         ...(m.srdf ? { srdf: join(twin.folder.dir, m.srdf) } : {}),
-      })) as Twin["model"];
+      });
       twin.model = model;
-      if (model && twin.q.length === model.controllable.length) {
+      if (twin.q.length === model.controllable.length) {
         // best effort: if the last state cannot be restored, the loop below reads back the state the
         // backend really has, so the twin never reports joints the simulation does not hold
-        await call("robot.setJointPositions", { robot: twin.robotId, positions: twin.q }).catch(() => undefined);
+        await sim.setJointPositions(twin.robotId, twin.q).catch(() => undefined);
       }
     }
     for (const twin of this.twins) {
-      const q = ((await call("robot.getJointPositions", { robot: twin.robotId })) as { positions: number[] }).positions;
-      twin.applyPose(q, (await call("robot.fk", { robot: twin.robotId, positions: q })) as FkResult);
+      const { positions } = await sim.getJointPositions(twin.robotId);
+      twin.applyPose(positions, await sim.fk(twin.robotId, positions));
     }
   };
 
@@ -129,18 +123,17 @@ export class World extends EventEmitter<{ scene: [] }> {
     if (this.obstacles.has(input.name) || this.twins.some((t) => t.robotId === input.name)) {
       throw new ServientError(409, "E_NAME_TAKEN", `an object named '${input.name}' already exists`, { name: input.name });
     }
-    const file = input.shape.file;
-    const spec: SceneObstacle = input.shape.type === "mesh" && typeof file === "string" ? { ...input, shape: { ...input.shape, file: this.meshFile(file) } } : input;
-    const out = await backend.call<SceneObstacle>("obstacle.add", spec);
+    const spec: SceneObstacle = input.shape.type === "mesh" ? { ...input, shape: { ...input.shape, file: this.meshFile(input.shape.file) } } : input;
+    const out = await backend.sim.addObstacle(spec);
     this.obstacles.set(spec.name, { ...spec, ...(out ?? {}) });
     this.emit("scene");
     return out;
   }
 
-  async moveObstacle(backend: BackendSupervisor, pose: { name: string; position: number[]; orientation?: number[]; rpy?: number[] }): Promise<unknown> {
+  async moveObstacle(backend: BackendSupervisor, pose: ObstacleMoveParams): Promise<unknown> {
     const cur = this.obstacles.get(pose.name);
     if (!cur) throw this.unknown(pose.name);
-    const out = await backend.call<SceneObstacle>("obstacle.move", pose);
+    const out = await backend.sim.moveObstacle(pose);
     const next: SceneObstacle = { ...cur, position: pose.position };
     delete next.orientation;
     delete next.rpy;
@@ -153,7 +146,7 @@ export class World extends EventEmitter<{ scene: [] }> {
 
   async removeObstacle(backend: BackendSupervisor, name: string): Promise<Record<string, never>> {
     if (!this.obstacles.has(name)) throw this.unknown(name);
-    await backend.call("obstacle.remove", { name });
+    await backend.sim.removeObstacle(name);
     this.obstacles.delete(name);
     this.meshUrls.delete(name);
     this.emit("scene");

@@ -1,18 +1,10 @@
 export { RpcConnection } from "./rpc-connection.js";
 export type { CallOptions, NotificationListener, RpcConnectionOptions } from "./rpc-connection.js";
-export { SimClient } from "./sim-client.js";
-export type {
-  CheckPathParams,
-  GenerateOptions,
-  GenerateWorkspaceParams,
-  IkParams,
-  LoadRobotParams,
-  LoadSceneParams,
-  MoveParams,
-  ObstaclePose,
-} from "./sim-client.js";
+export { LONG_METHODS, SimClient } from "./sim-client.js";
+export type { GenerateOptions, RpcCaller } from "./sim-client.js";
 export { connect, deadlineFromEnv, defaultPython, launchBackend, LaunchedBackend, resolvePython } from "./launcher.js";
 export type { BackendEvents, ExitInfo, LaunchOptions } from "./launcher.js";
 export { BackendStartError, ConnectionClosedError, isRpcError, RpcError, RpcTimeoutError } from "./errors.js";
 export type { RpcErrorData } from "./errors.js";
-export type * from "./types.js";
+/** the backend contract's types (generated into core, which every package already depends on) */
+export type * from "@robwot/core/backend-contract";

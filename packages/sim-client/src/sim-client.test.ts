@@ -120,7 +120,7 @@ describe("SimClient against the real backend", () => {
   });
 
   it("times out a request and stays usable", async () => {
-    const move = sim.call("robot.move", { robot: "kuka", target: [2, ...ZERO.slice(1)], speed: 0.05 }, { timeoutMs: 100 });
+    const move = sim.request("robot.move", { robot: "kuka", target: [2, ...ZERO.slice(1)], speed: 0.05 }, { timeoutMs: 100 });
     const err = await move.catch((e: unknown) => e);
     expect(err).toBeInstanceOf(RpcTimeoutError);
     expect((err as RpcTimeoutError).code).toBe("E_TIMEOUT");

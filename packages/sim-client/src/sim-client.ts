@@ -1,204 +1,142 @@
 /**
- * Typed client of the simulation backend: one method per JSON-RPC method of Contract 1
- * (`sim-backend/PROTOCOL.md`). Joint vectors follow the robot model's `controllable` order.
+ * Typed client of the simulation backend: one method per JSON-RPC method of the contract
+ * (`sim-backend/src/robwot_sim/schemas/protocol.openrpc.json`; types generated into `contract.ts`,
+ * reference in `sim-backend/PROTOCOL.md`). Joint vectors follow the robot model's `controllable` order.
+ *
+ * It runs over anything that can call a method — a plain `RpcConnection`, or a supervisor that adds
+ * deadlines and restarts (the servient's) — so method names live here and nowhere else.
  */
 import { RpcConnection, type CallOptions, type RpcConnectionOptions } from "./rpc-connection.js";
-import type {
-  CollisionReport,
-  ExportResult,
-  IkResult,
-  JointPositions,
-  MoveResult,
-  NotificationMap,
-  Obstacle,
-  PathReport,
-  Ping,
-  PoseResult,
-  QuatXyzw,
-  RobotModel,
-  SceneLoaded,
-  Vec3,
-  WorkspaceProgressNotification,
-  WorkspaceSummary,
-  WorldList,
-} from "./types.js";
+import type { MethodName, Methods, Notifications, WorkspaceProgressNotification } from "@robwot/core/backend-contract";
 
-export interface LoadRobotParams {
-  /** URDF file path (absolute, or relative to the backend's working directory) */
-  urdf: string;
-  id?: string;
-  basePosition?: Vec3;
-  baseOrientation?: QuatXyzw;
-  eeLink?: string;
-  packageRoots?: Record<string, string>;
-  /** SRDF file: its `<disable_collisions>` pairs are never checked */
-  srdf?: string;
+/** What the client needs from a transport: call a method, listen to notifications. */
+export interface RpcCaller {
+  call<T = unknown>(method: string, params?: object, options?: CallOptions): Promise<T>;
+  /** `"*"` for every notification; returns the unsubscribe function */
+  onNotification(method: string, listener: (method: string, params: Record<string, unknown>) => void): () => void;
+  close(): Promise<void>;
 }
 
-export type LoadSceneParams =
-  | { path: string; packageRoots?: Record<string, string> }
-  | { scene: Record<string, unknown>; packageRoots?: Record<string, string> };
-
-export interface IkParams {
-  robot: string;
-  position: Vec3;
-  orientation?: QuatXyzw;
-  seed?: number[];
-  collisionFree?: boolean;
-}
-
-export interface CheckPathParams {
-  robot: string;
-  target: number[];
-  from?: number[];
-  /** fraction of the URDF velocity limits, (0, 1] */
-  speed?: number;
-  /** step in s (default 1/240) */
-  dt?: number;
-}
-
-export interface MoveParams {
-  robot: string;
-  target: number[];
-  speed?: number;
-  /** real-time factor: 1 = wall clock, 0 = as fast as possible */
-  realtime?: number;
-  dt?: number;
-}
-
-export interface ObstaclePose {
-  name: string;
-  position: Vec3;
-  orientation?: QuatXyzw;
-  rpy?: Vec3;
-}
-
-export interface GenerateWorkspaceParams {
-  robot: string;
-  outDir: string;
-  samples?: number;
-  seed?: number;
-  workers?: number;
-  alpha?: "auto" | number;
-  csvJoints?: boolean;
-}
+type Params<M extends MethodName> = Methods[M]["params"];
+type Result<M extends MethodName> = Promise<Methods[M]["result"]>;
 
 export interface GenerateOptions extends CallOptions {
   onProgress?: (progress: WorkspaceProgressNotification) => void;
 }
 
+/** Methods that last as long as a motion or a generation: no request timeout of their own. */
+export const LONG_METHODS: ReadonlySet<MethodName> = new Set<MethodName>(["robot.move", "workspace.generate"]);
+
 export class SimClient {
-  constructor(readonly connection: RpcConnection) {}
+  constructor(readonly rpc: RpcCaller) {}
 
   /** Connects to a running backend (`ws://127.0.0.1:PORT`). */
   static async connect(url: string, options: RpcConnectionOptions = {}): Promise<SimClient> {
     return new SimClient(await RpcConnection.open(url, options));
   }
 
-  get url(): string {
-    return this.connection.url;
+  /** The WebSocket connection, when the client runs directly over one. */
+  get connection(): RpcConnection {
+    if (!(this.rpc instanceof RpcConnection)) throw new Error("this SimClient does not run over its own connection");
+    return this.rpc;
   }
 
-  /** resolves when the connection is closed */
-  get closed(): Promise<void> {
-    return this.connection.closed;
+  close(): Promise<void> {
+    return this.rpc.close();
   }
 
-  /** Untyped call of any method. */
-  call<T = unknown>(method: string, params?: object, options?: CallOptions): Promise<T> {
-    return this.connection.call<T>(method, params, options);
+  /** Any method of the contract, typed by name. */
+  request<M extends MethodName>(method: M, params: Params<M>, options: CallOptions = {}): Result<M> {
+    const timeout = LONG_METHODS.has(method) ? { timeoutMs: 0 } : {};
+    return this.rpc.call(method, params, { ...timeout, ...options });
   }
 
   /** Typed notification listener; returns the unsubscribe function. */
-  on<K extends keyof NotificationMap>(method: K, listener: (params: NotificationMap[K]) => void): () => void {
-    return this.connection.onNotification(method, (_m, p) => listener(p as unknown as NotificationMap[K]));
+  on<K extends keyof Notifications>(method: K, listener: (params: Notifications[K]) => void): () => void {
+    return this.rpc.onNotification(method, (_m, p) => listener(p as unknown as Notifications[K]));
   }
 
   /** Every notification (method, params); returns the unsubscribe function. */
   onNotification(listener: (method: string, params: Record<string, unknown>) => void): () => void {
-    return this.connection.onNotification("*", listener);
-  }
-
-  close(): Promise<void> {
-    return this.connection.close();
+    return this.rpc.onNotification("*", listener);
   }
 
   // ---- world ----
-  ping(options?: CallOptions): Promise<Ping> {
-    return this.call("ping", undefined, options);
+  ping(options?: CallOptions): Result<"ping"> {
+    return this.request("ping", {}, options);
   }
-  resetWorld(): Promise<Record<string, never>> {
-    return this.call("world.reset");
+  resetWorld(): Result<"world.reset"> {
+    return this.request("world.reset", {});
   }
-  listWorld(): Promise<WorldList> {
-    return this.call("world.list");
+  listWorld(): Result<"world.list"> {
+    return this.request("world.list", {});
   }
-  loadScene(params: LoadSceneParams): Promise<SceneLoaded> {
-    return this.call("world.loadScene", params);
+  loadScene(params: Params<"world.loadScene">): Result<"world.loadScene"> {
+    return this.request("world.loadScene", params);
   }
 
   // ---- robots ----
-  loadRobot(params: LoadRobotParams): Promise<RobotModel> {
-    return this.call("robot.load", params);
+  loadRobot(params: Params<"robot.load">): Result<"robot.load"> {
+    return this.request("robot.load", params);
   }
-  removeRobot(robot: string): Promise<Record<string, never>> {
-    return this.call("robot.remove", { robot });
+  removeRobot(robot: string): Result<"robot.remove"> {
+    return this.request("robot.remove", { robot });
   }
-  robotModel(robot: string): Promise<RobotModel> {
-    return this.call("robot.model", { robot });
+  robotModel(robot: string): Result<"robot.model"> {
+    return this.request("robot.model", { robot });
   }
-  exportRobot(robot: string, outDir: string): Promise<ExportResult> {
-    return this.call("robot.export", { robot, outDir });
+  exportRobot(robot: string, outDir: string): Result<"robot.export"> {
+    return this.request("robot.export", { robot, outDir });
   }
-  getJointPositions(robot: string): Promise<JointPositions> {
-    return this.call("robot.getJointPositions", { robot });
+  getJointPositions(robot: string): Result<"robot.getJointPositions"> {
+    return this.request("robot.getJointPositions", { robot });
   }
-  setJointPositions(robot: string, positions: number[]): Promise<JointPositions> {
-    return this.call("robot.setJointPositions", { robot, positions });
+  setJointPositions(robot: string, positions: number[]): Result<"robot.setJointPositions"> {
+    return this.request("robot.setJointPositions", { robot, positions });
   }
-  fk(robot: string, positions?: number[]): Promise<PoseResult> {
-    return this.call("robot.fk", positions === undefined ? { robot } : { robot, positions });
+  fk(robot: string, positions?: number[]): Result<"robot.fk"> {
+    return this.request("robot.fk", positions === undefined ? { robot } : { robot, positions });
   }
-  ik(params: IkParams): Promise<IkResult> {
-    return this.call("robot.ik", params);
+  ik(params: Params<"robot.ik">): Result<"robot.ik"> {
+    return this.request("robot.ik", params);
   }
-  checkCollision(robot: string, positions?: number[]): Promise<CollisionReport> {
-    return this.call("robot.checkCollision", positions === undefined ? { robot } : { robot, positions });
+  checkCollision(robot: string, positions?: number[]): Result<"robot.checkCollision"> {
+    return this.request("robot.checkCollision", positions === undefined ? { robot } : { robot, positions });
   }
-  checkPath(params: CheckPathParams): Promise<PathReport> {
-    return this.call("robot.checkPath", params);
+  checkPath(params: Params<"robot.checkPath">): Result<"robot.checkPath"> {
+    return this.request("robot.checkPath", params);
   }
   /** Resolves when the motion ends (no timeout unless given). */
-  move(params: MoveParams, options: CallOptions = {}): Promise<MoveResult> {
-    return this.call("robot.move", params, { timeoutMs: 0, ...options });
+  move(params: Params<"robot.move">, options: CallOptions = {}): Result<"robot.move"> {
+    return this.request("robot.move", params, options);
   }
-  stop(robot: string): Promise<{ stopped: boolean }> {
-    return this.call("robot.stop", { robot });
+  stop(robot: string): Result<"robot.stop"> {
+    return this.request("robot.stop", { robot });
   }
 
   // ---- obstacles ----
-  addObstacle(obstacle: Obstacle): Promise<Obstacle> {
-    return this.call("obstacle.add", obstacle);
+  addObstacle(obstacle: Params<"obstacle.add">): Result<"obstacle.add"> {
+    return this.request("obstacle.add", obstacle);
   }
-  moveObstacle(pose: ObstaclePose): Promise<Obstacle> {
-    return this.call("obstacle.move", pose);
+  moveObstacle(pose: Params<"obstacle.move">): Result<"obstacle.move"> {
+    return this.request("obstacle.move", pose);
   }
-  removeObstacle(name: string): Promise<Record<string, never>> {
-    return this.call("obstacle.remove", { name });
+  removeObstacle(name: string): Result<"obstacle.remove"> {
+    return this.request("obstacle.remove", { name });
   }
 
   // ---- workspace ----
   /** Starts the backend's collision worker pool in the background (returns at once), so a coming
    * `generateWorkspace` with the same `workers` count does not wait for it. */
-  warmUp(workers?: number): Promise<{ workers: number }> {
-    return this.call("workspace.warmUp", workers === undefined ? {} : { workers });
+  warmUp(workers?: number): Result<"workspace.warmUp"> {
+    return this.request("workspace.warmUp", workers === undefined ? {} : { workers });
   }
   /** Blocking generation on the backend (no timeout unless given); progress via `onProgress`. */
-  async generateWorkspace(params: GenerateWorkspaceParams, options: GenerateOptions = {}): Promise<WorkspaceSummary> {
+  async generateWorkspace(params: Params<"workspace.generate">, options: GenerateOptions = {}): Result<"workspace.generate"> {
     const { onProgress, ...callOptions } = options;
     const off = onProgress ? this.on("workspace.progress", onProgress) : undefined;
     try {
-      return await this.call<WorkspaceSummary>("workspace.generate", params, { timeoutMs: 0, ...callOptions });
+      return await this.request("workspace.generate", params, callOptions);
     } finally {
       off?.();
     }

@@ -1,18 +1,21 @@
 """Method table and dispatch: frame in, reply frame out (sans-I/O: handlers are awaited, nothing else).
 
-Handlers receive validated `Params` (unknown param names refused) and a `Call` giving the id and a
-way to notify the calling connection. Exceptions become JSON-RPC errors:
-`Fault` as is, `SimError`-like objects (`rpc_code`, `code`, `data`) with their stable codes, anything
-else -32603 E_INTERNAL naming the method (and the traceback goes to the log, not the client).
+Handlers receive `Params` already checked against the method's params schema in the contract (unknown
+names, types, ranges; defaults filled in) and a `Call` giving the id and a way to notify the calling
+connection. With `check_results` every result is checked against the contract too (test suites).
+Exceptions become JSON-RPC errors: `Fault` as is, `SimError`-like objects (`rpc_code`, `code`, `data`)
+with their stable codes, anything else -32603 E_INTERNAL naming the method (and the traceback goes to
+the log, not the client).
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Awaitable, Callable, Iterable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Any
 
+from robwot_sim.rpc.contract import Contract, contract
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.protocol import (
     DEFAULT_MAX_MESSAGE_BYTES,
@@ -47,8 +50,6 @@ Handler = Callable[[Params, Call], Awaitable[Any]]
 class Method:
     name: str
     handler: Handler
-    params: tuple[str, ...]
-    summary: str
 
 
 def fault_from_exception(exc: BaseException, method: str) -> Fault:
@@ -74,24 +75,33 @@ def fault_from_exception(exc: BaseException, method: str) -> Fault:
 class Dispatcher:
     """Registered methods plus the frame -> reply logic."""
 
-    def __init__(self, max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> None:
+    def __init__(self, max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES, *,
+                 contract: Contract | None = None, check_results: bool = False) -> None:
         self.max_message_bytes = max_message_bytes
+        self.contract = contract or _own_contract()
+        self.check_results = check_results
         self._methods: dict[str, Method] = {}
 
-    def register(self, name: str, handler: Handler, params: Iterable[str] = (), summary: str = "") -> None:
+    def register(self, name: str, handler: Handler) -> None:
+        """Bind a handler to a method the contract describes."""
         if name in self._methods:
             raise ValueError(f"method {name!r} registered twice")
-        self._methods[name] = Method(name, handler, tuple(params), summary)
+        if name not in self.contract.methods:
+            raise ValueError(f"method {name!r} is not in the contract")
+        self._methods[name] = Method(name, handler)
 
-    def method(self, name: str, params: Iterable[str] = (),
-               summary: str = "") -> Callable[[Handler], Handler]:
+    def method(self, name: str) -> Callable[[Handler], Handler]:
         """Decorator form of `register`."""
 
         def wrap(handler: Handler) -> Handler:
-            self.register(name, handler, params, summary)
+            self.register(name, handler)
             return handler
 
         return wrap
+
+    def unbound(self) -> list[str]:
+        """Contract methods without a handler (none once every module has registered)."""
+        return sorted(set(self.contract.methods) - set(self._methods))
 
     @property
     def names(self) -> list[str]:
@@ -113,12 +123,20 @@ class Dispatcher:
                     f"unknown method {parsed.method!r}; available: {', '.join(self.names)}",
                     {"code": "E_METHOD_NOT_FOUND", "method": parsed.method, "available": self.names},
                 )
-            params = Params(parsed.params, method.params)
+            values = self.contract.validate_params(method.name, parsed.params)
+            params = Params(values, self.contract.methods[method.name].defaults)
             result = await method.handler(params, Call(parsed.id, parsed.method, notify))
+            result = {} if result is None else result
+            if self.check_results:
+                self.contract.check_result(method.name, result)
         except Exception as exc:
             if parsed.is_notification:
                 return None
             return error_message(parsed.id, fault_from_exception(exc, parsed.method))
         if parsed.is_notification:
             return None
-        return result_message(parsed.id, {} if result is None else result)
+        return result_message(parsed.id, result)
+
+
+def _own_contract() -> Contract:
+    return contract()

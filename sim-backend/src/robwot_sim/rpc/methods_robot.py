@@ -7,41 +7,30 @@ from typing import Any
 from robwot_sim.errors import Busy
 from robwot_sim.motion_runner import require_robot
 from robwot_sim.rpc.dispatch import Call, Dispatcher
-from robwot_sim.rpc.params import MISSING, Params
+from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.sim.types import RobotModel
 
 
 def robot_param(p: Params, s: Services) -> RobotModel:
     """The `robot` param, resolved to its model (UnknownRobot names the loaded ids)."""
-    robot = p.string("robot")
+    robot = str(p["robot"])
     require_robot(s.world, robot)
     return s.world.robot_model(robot)
 
 
-def joint_vector(p: Params, name: str, model: RobotModel, default: Any = None) -> Any:
-    """A joint vector param: one finite number per controllable joint (rad or m); optional by default."""
-    return p.vector(name, model.dof, default)
-
-
 def register(d: Dispatcher, s: Services) -> None:
-    @d.method("robot.load",
-              ("urdf", "id", "basePosition", "baseOrientation", "eeLink", "packageRoots", "srdf"),
-              "load a robot from a URDF file (and its SRDF's disabled collision pairs)")
+    @d.method("robot.load")
     async def load(p: Params, call: Call) -> dict[str, Any]:
-        urdf = p.string("urdf")
-        robot_id = p.string("id", None)
-        base_position = p.vector("basePosition", 3, [0.0, 0.0, 0.0])
-        base_orientation = p.quaternion("baseOrientation", [0.0, 0.0, 0.0, 1.0])
-        ee_link = p.string("eeLink", None)
-        roots = p.string_map("packageRoots", None)
-        srdf = p.string("srdf", None)
-        model = s.world.load_robot(urdf, robot_id=robot_id, base_position=base_position,
-                                   base_orientation=base_orientation, ee_link=ee_link, package_roots=roots,
-                                   srdf=srdf)
+        # both have defaults in the contract
+        base_position, base_orientation = p.floats("basePosition"), p.quaternion("baseOrientation")
+        assert base_position is not None and base_orientation is not None
+        model = s.world.load_robot(p["urdf"], robot_id=p["id"], base_position=base_position,
+                                   base_orientation=base_orientation, ee_link=p["eeLink"],
+                                   package_roots=p["packageRoots"], srdf=p["srdf"])
         return model.to_json()
 
-    @d.method("robot.remove", ("robot",), "remove a robot (stops its motion first)")
+    @d.method("robot.remove")
     async def remove(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
         await s.motions.stop_and_wait([model.id])
@@ -49,49 +38,47 @@ def register(d: Dispatcher, s: Services) -> None:
             s.world.remove_robot(model.id)
         return {}
 
-    @d.method("robot.model", ("robot",), "the joint model")
+    @d.method("robot.model")
     async def model(p: Params, call: Call) -> dict[str, Any]:
         return robot_param(p, s).to_json()
 
-    @d.method("robot.export", ("robot", "outDir"), "write a self-contained URDF + meshes")
+    @d.method("robot.export")
     async def export(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        return s.world.export_robot(model.id, p.string("outDir"))
+        return s.world.export_robot(model.id, p["outDir"])
 
-    @d.method("robot.getJointPositions", ("robot",), "current joint vector")
+    @d.method("robot.getJointPositions")
     async def get_joints(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
         q = s.world.get_joint_positions(model.id)
         return {"names": list(model.controllable), "positions": [float(v) for v in q]}
 
-    @d.method("robot.setJointPositions", ("robot", "positions"), "teleport (limits checked)")
+    @d.method("robot.setJointPositions")
     async def set_joints(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        q = joint_vector(p, "positions", model, MISSING)
+        q = p.joint_vector("positions", model.dof)
+        assert q is not None  # required by the contract
         if s.motions.is_moving(model.id):
             raise Busy(model.id)
         s.world.set_joint_positions(model.id, q)
         now = s.world.get_joint_positions(model.id)
         return {"names": list(model.controllable), "positions": [float(v) for v in now]}
 
-    @d.method("robot.fk", ("robot", "positions"), "end-effector link frame pose")
+    @d.method("robot.fk")
     async def fk(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        q = joint_vector(p, "positions", model)
-        return s.world.fk(model.id, q).to_json()
+        return s.world.fk(model.id, p.joint_vector("positions", model.dof)).to_json()
 
-    @d.method("robot.ik", ("robot", "position", "orientation", "seed", "collisionFree"),
-              "inverse kinematics for the end-effector link")
+    @d.method("robot.ik")
     async def ik(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        position = p.vector("position", 3)
-        orientation = p.quaternion("orientation", None)
-        seed = joint_vector(p, "seed", model)
-        collision_free = p.boolean("collisionFree", True)
-        return s.world.ik(model.id, position, orientation, seed=seed, collision_free=collision_free).to_json()
+        position = p.floats("position")
+        assert position is not None  # required by the contract
+        return s.world.ik(model.id, position, p.quaternion("orientation"),
+                          seed=p.joint_vector("seed", model.dof),
+                          collision_free=bool(p["collisionFree"])).to_json()
 
-    @d.method("robot.checkCollision", ("robot", "positions"), "self + environment collision check")
+    @d.method("robot.checkCollision")
     async def check(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        q = joint_vector(p, "positions", model)
-        return s.world.check_collision(model.id, q).to_json()
+        return s.world.check_collision(model.id, p.joint_vector("positions", model.dof)).to_json()

@@ -8,34 +8,28 @@ from typing import Any
 
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
-from robwot_sim.rpc.params import Params, invalid_param
+from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.workspace import generate_workspace, warm_up
 
 
+def _workers(p: Params) -> int:
+    return int(p["workers"] if p.has("workers") else min(os.cpu_count() or 1, 256))
+
+
 def register(d: Dispatcher, s: Services) -> None:
-    @d.method("workspace.warmUp", ("workers",),
-              "start the collision worker pool in the background, so a coming generation does not wait")
+    @d.method("workspace.warmUp")
     async def warm(p: Params, call: Call) -> dict[str, Any]:
-        workers = p.integer("workers", os.cpu_count() or 1, minimum=1, maximum=256)
+        workers = _workers(p)
         warm_up(workers, preload=True)
         return {"workers": workers}
 
-    @d.method("workspace.generate",
-              ("robot", "samples", "seed", "workers", "alpha", "outDir", "csvJoints"),
-              "sample the reachable, collision-free workspace; write workspace.csv and workspace.stl")
+    @d.method("workspace.generate")
     async def generate(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        samples = p.integer("samples", 80_000, minimum=1, maximum=10_000_000)
-        seed = p.integer("seed", 1, minimum=0, maximum=2**32 - 1)
-        workers = p.integer("workers", os.cpu_count() or 1, minimum=1, maximum=256)
-        alpha: float | str = "auto"
-        if p.has("alpha") and p.raw["alpha"] != "auto":
-            if isinstance(p.raw["alpha"], str):
-                raise invalid_param("alpha", '"auto" or a radius in metres > 0', p.raw["alpha"])
-            alpha = p.number("alpha", minimum=0.0, exclusive_minimum=True)
-        out_dir = p.string("outDir")
-        csv_joints = p.boolean("csvJoints", False)
+        samples, seed, workers = int(p["samples"]), int(p["seed"]), _workers(p)
+        alpha: float | str = p["alpha"] if p["alpha"] == "auto" else float(p["alpha"])
+        out_dir, csv_joints = str(p["outDir"]), bool(p["csvJoints"])
         progress = s.threadsafe(call.notify)
 
         def report(stage: str, done: int, total: int) -> None:

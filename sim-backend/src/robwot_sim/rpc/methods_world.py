@@ -8,8 +8,9 @@ from typing import Any
 import pybullet_data
 
 from robwot_sim import __version__
+from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
-from robwot_sim.rpc.params import Params, invalid_param
+from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 
 
@@ -21,26 +22,25 @@ def _pybullet_version() -> str:
 
 
 def register(d: Dispatcher, s: Services) -> None:
-    @d.method("ping", summary="liveness and versions")
+    @d.method("ping")
     async def ping(p: Params, call: Call) -> dict[str, Any]:
         return {"version": __version__, "pybullet": _pybullet_version(),
                 "pybulletData": pybullet_data.getDataPath()}
 
-    @d.method("world.reset", summary="remove every robot and obstacle (stops motions first)")
+    @d.method("world.reset")
     async def reset(p: Params, call: Call) -> dict[str, Any]:
         await s.motions.stop_and_wait()
         s.world.reset()
         return {}
 
-    @d.method("world.list", summary="robots and obstacles in the world")
+    @d.method("world.list")
     async def list_(p: Params, call: Call) -> dict[str, Any]:
         return s.world.list()
 
-    @d.method("world.loadScene", ("path", "scene", "packageRoots"), "load a scene file or document")
+    @d.method("world.loadScene")
     async def load_scene(p: Params, call: Call) -> dict[str, Any]:
         if p.has("path") == p.has("scene"):
             raise invalid_param("path", "exactly one of 'path' (string) or 'scene' (object)",
-                                p.raw.get("path"), missing=not p.has("path"))
-        roots = p.string_map("packageRoots", None)
-        source: dict[str, Any] | str = p.string("path") if p.has("path") else p.obj("scene")
-        return s.world.load_scene(source, package_roots=roots)
+                                p["path"], missing=not p.has("path"))
+        source: dict[str, Any] | str = p["path"] if p.has("path") else p["scene"]
+        return s.world.load_scene(source, package_roots=p["packageRoots"])

@@ -8,9 +8,12 @@ from robwot_sim.rpc.protocol import DEFAULT_MAX_MESSAGE_BYTES
 from robwot_sim.rpc.services import Services
 
 
-def build_dispatcher(services: Services, max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Dispatcher:
-    """A dispatcher with every backend method bound to `services`."""
-    d = Dispatcher(max_message_bytes)
+def build_dispatcher(services: Services, max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES, *,
+                     check_results: bool = False) -> Dispatcher:
+    """A dispatcher with every method of the contract bound to `services`."""
+    d = Dispatcher(max_message_bytes, check_results=check_results)
     for module in (methods_world, methods_robot, methods_motion, methods_obstacle, methods_workspace):
         module.register(d, services)
+    if d.unbound():
+        raise RuntimeError(f"contract methods without a handler: {d.unbound()}")
     return d
