@@ -20,24 +20,48 @@ def _wall_in_path(c: RpcClient) -> None:
     c.call("obstacle.add", {"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": p})
 
 
-def test_move_through_obstacle_stops_before_it(client: RpcClient) -> None:
-    """The motion stops at the last collision-free state and reports the robot/obstacle pair."""
+def test_move_through_obstacle_is_refused_by_its_plan(client: RpcClient) -> None:
+    """A move whose path collides is refused before anything moves, naming the robot/obstacle pair;
+    robot.plan gives the same verdict without moving."""
     _wall_in_path(client)
-    result = client.call("robot.move", {"robot": "kuka", "target": [0, 1.2, 0, 0, 0, 0, 0], "realtime": 0})
-    assert result["status"] == "collision"
-    assert 0.0 < result["positions"][1] < 0.6
-    pairs = {(c["a"]["body"], c["b"]["body"]) for c in result["contacts"]}
+    target = [0, 1.2, 0, 0, 0, 0, 0]
+    verdict = client.call("robot.plan", {"robot": "kuka", "target": target})
+    assert verdict["valid"] is False and verdict["checks"]["limits"]["ok"] is True
+    assert verdict["checks"]["path"]["ok"] is False and "collides" in verdict["reasons"][0]
+    err = client.error("robot.move", {"robot": "kuka", "target": target, "realtime": 0})
+    assert err.code == -32012 and err.data["code"] == "E_REJECTED"
+    pairs = {(c["a"]["body"], c["b"]["body"]) for c in err.data["checks"]["path"]["contacts"]}
     assert ("kuka", "wall") in pairs
-    assert all(c["depth"] >= 0 for c in result["contacts"])
-    assert all(c["a"]["link"].startswith("lbr_iiwa_link") for c in result["contacts"])
-    now = client.call("robot.getJointPositions", {"robot": "kuka"})["positions"]
-    assert now == pytest.approx(result["positions"])
-    assert client.call("robot.checkCollision", {"robot": "kuka"})["collisionFree"] is True
-    note = client.wait_notification("robot.collision")
-    assert note["robot"] == "kuka"
-    assert note["positions"] == pytest.approx(result["positions"])
-    assert note["contacts"] == result["contacts"]
-    assert note["time"] == pytest.approx(result["duration"])
+    assert client.call("robot.getJointPositions", {"robot": "kuka"})["positions"] == [0.0] * 7
+    free = client.call("robot.move", {"robot": "kuka", "target": [0.3, 0, 0, 0, 0, 0, 0], "realtime": 0})
+    assert free["status"] == "reached" and free["plan"]["valid"] is True
+
+
+def test_pose_target_takes_another_ik_solution_when_the_first_path_collides(client: RpcClient) -> None:
+    """A pose whose first IK solution's path is blocked is reached through another solution; the plan
+    says how many were tried. Out-of-limits joint targets are reported as a limits check."""
+    goal = [0.0, 1.2, 0.0, -1.0, 0.0, 0.8, 0.0]
+    pose = client.call("robot.fk", {"robot": "kuka", "positions": goal})
+    plan = client.call("robot.plan", {"robot": "kuka", "position": pose["position"]})
+    assert plan["valid"] is True and plan["checks"]["ik"]["solutions"] == 1
+    first = plan["target"]
+    # block the way to the first solution only: a ball at its elbow, half-way
+    half = [f / 2 for f in first]
+    elbow = client.call("robot.fk", {"robot": "kuka", "positions": half})["position"]
+    ball = {"name": "ball", "shape": {"type": "sphere", "radius": 0.05}, "position": elbow}
+    client.call("obstacle.add", ball)
+    blocked = client.call("robot.plan", {"robot": "kuka", "target": first})
+    if blocked["valid"]:
+        pytest.skip("the ball does not block the first solution's path on this PyBullet build")
+    moved = client.call("robot.move", {"robot": "kuka", "position": pose["position"], "realtime": 0})
+    assert moved["status"] == "reached"
+    assert moved["plan"]["checks"]["ik"]["solutions"] > 1
+    assert client.call("robot.fk", {"robot": "kuka"})["position"] == pytest.approx(pose["position"], abs=1e-3)
+    limits = client.call("robot.plan", {"robot": "kuka", "target": [0, 3.0, 0, 0, 0, 0, 0]})
+    assert limits["valid"] is False
+    assert limits["checks"]["limits"]["violations"][0]["joint"] == "lbr_iiwa_joint_2"
+    both = client.error("robot.plan", {"robot": "kuka", "target": goal, "position": [0.5, 0, 0.5]})
+    assert both.data["code"] == "E_INVALID_PARAMS"
 
 
 def test_obstacle_moved_into_path_during_motion_is_seen(client: RpcClient) -> None:

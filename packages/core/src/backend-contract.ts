@@ -122,6 +122,10 @@ export type RobotCheckCollisionResult = CollisionReport;
  */
 export type RobotCheckPathResult = PathReport;
 /**
+ * Result of `robot.plan`.
+ */
+export type RobotPlanResult = Plan;
+/**
  * Result of `robot.move`.
  */
 export type RobotMoveResult = MoveResult;
@@ -358,6 +362,51 @@ export interface MoveResult {
    * contacts that stopped the motion (status collision), else []
    */
   contacts: Contact[];
+  plan?: Plan;
+}
+/**
+ * the verdict on a target: valid when a joint target within the limits has a collision-free path from the current state
+ */
+export interface Plan {
+  valid: boolean;
+  target?: JointVector;
+  /**
+   * why it is not valid, in words
+   */
+  reasons: string[];
+  checks: PlanChecks;
+}
+/**
+ * the checks a plan made: IK (pose targets), joint limits, the path from the current state
+ */
+export interface PlanChecks {
+  ik?: {
+    ok: boolean;
+    /**
+     * m; -1 when no solution was found
+     */
+    positionError: number;
+    /**
+     * IK solutions tried (1 + alternatives from other start configurations)
+     */
+    solutions: number;
+  };
+  limits?: {
+    ok: boolean;
+    violations?: {
+      joint: string;
+      value: number;
+      lower: number;
+      upper: number;
+    }[];
+  };
+  path?: {
+    ok: boolean;
+    /**
+     * the first colliding state's contacts
+     */
+    contacts: Contact[];
+  };
 }
 export interface StopResult {
   /**
@@ -551,11 +600,24 @@ export interface RobotCheckPathParams {
   dt?: Dt;
 }
 /**
+ * Params of `robot.plan`.
+ */
+export interface RobotPlanParams {
+  robot: Name;
+  target?: JointVector;
+  position?: Position;
+  orientation?: QuatXyzw;
+  speed?: Speed;
+  dt?: Dt;
+}
+/**
  * Params of `robot.move`.
  */
 export interface RobotMoveParams {
   robot: Name;
-  target: JointVector;
+  target?: JointVector;
+  position?: Position;
+  orientation?: QuatXyzw;
   speed?: Speed;
   /**
    * real-time factor: 1 = wall clock, 2 = twice as fast, 0 = as fast as possible
@@ -645,6 +707,7 @@ export interface Methods {
   "robot.ik": { params: RobotIkParams; result: RobotIkResult };
   "robot.checkCollision": { params: RobotCheckCollisionParams; result: RobotCheckCollisionResult };
   "robot.checkPath": { params: RobotCheckPathParams; result: RobotCheckPathResult };
+  "robot.plan": { params: RobotPlanParams; result: RobotPlanResult };
   "robot.move": { params: RobotMoveParams; result: RobotMoveResult };
   "robot.stop": { params: RobotStopParams; result: RobotStopResult };
   "obstacle.add": { params: ObstacleAddParams; result: ObstacleAddResult };

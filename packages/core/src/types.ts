@@ -6,7 +6,7 @@
 
 import type * as Backend from "./backend-contract.js";
 import type { Calibration } from "./calibration.js";
-import type { Contact, MoveStatus, QuatXyzw, Vec3 } from "./backend-contract.js";
+import type { MoveStatus, QuatXyzw, Vec3 } from "./backend-contract.js";
 
 export type { Bounds, Contact, JointType, MoveStatus, QuatXyzw, Vec3, WorkspaceSummary } from "./backend-contract.js";
 export interface Xyz {
@@ -78,12 +78,10 @@ export interface ValidationReport {
   reasons: string[];
   /** static checks (workspace.stl, point cloud) that disagree with or add to the verdict; never a veto */
   notes?: string[];
-  checks: {
-    limits?: { ok: boolean; violations?: { joint: string; value: number; lower: number; upper: number }[] };
+  /** the backend plan's checks (limits, ik, path) and the static ones on the twin's files */
+  checks: Backend.PlanChecks & {
     insideWorkspace?: { ok: boolean };
     pointCloud?: { score: number; threshold: number; k: number; ok: boolean };
-    ik?: { ok: boolean; positionError: number };
-    path?: { ok: boolean; contacts: Contact[] };
   };
 }
 

@@ -50,6 +50,7 @@ const RPC_STATUS: Record<string, number> = {
   E_PATH_ESCAPE: 400,
   E_SCENE: 400,
   E_UNREACHABLE: 422,
+  E_REJECTED: 422,
   E_BUSY: 409,
   E_MESH: 422,
   E_NAME_TAKEN: 409,

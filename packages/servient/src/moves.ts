@@ -9,14 +9,14 @@
  * `status: "stopped"` without moving, and one stopped during its motion is stopped by the backend
  * (`robot.stop` follows `robot.move` on the same ordered connection, so it cannot overtake it).
  */
-import type { MoveResult as BackendMoveResult } from "@robwot/sim-client";
-import { MIN_SPEED, type MoveResult, type Quaternion, type Vec3 } from "@robwot/core";
+import type { MoveResult as BackendMoveResult, PlanChecks } from "@robwot/sim-client";
+import { MIN_SPEED, type MoveResult, type Quaternion, type ValidationReport, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput, ServientError } from "./errors.js";
 import { vec } from "./frames.js";
 import type { Relay, RelayReport } from "./relay.js";
 import type { Twin } from "./twin.js";
-import { validateCartesian, validateJoints, type JointPlan } from "./validation.js";
+import { poseTarget, report, staticChecks, validateCartesian, validateJoints, type PoseTarget } from "./validation.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
 
 export type RelayedMoveResult = MoveResult & { relay?: RelayReport };
@@ -75,24 +75,21 @@ export class Mover {
     private readonly relay: Relay | null,
   ) {}
 
-  async validateJoints(input: JointInput): Promise<JointPlan["report"]> {
+  async validateJoints(input: JointInput): Promise<ValidationReport> {
     const q = this.twin.jointsVector(input.joints);
-    return (await validateJoints(this.backend, this.twin, q, speedOf(input))).report;
+    return validateJoints(this.backend, this.twin, q, speedOf(input));
   }
 
-  async validateCartesian(input: CartesianInput): Promise<JointPlan["report"]> {
+  async validateCartesian(input: CartesianInput): Promise<ValidationReport> {
     const t = cartesianTarget(input);
-    return (await validateCartesian(this.backend, this.twin, this.ws, t.real, t.orientation, speedOf(input))).report;
+    return validateCartesian(this.backend, this.twin, this.ws, poseTarget(this.twin, t.real, t.orientation), speedOf(input));
   }
 
   async moveJoints(input: JointInput): Promise<RelayedMoveResult> {
     const q = this.twin.jointsVector(input.joints);
     const speed = speedOf(input);
     return this.guarded(async (move) => {
-      const plan = await validateJoints(this.backend, this.twin, q, speed);
-      if (move.cancelled) return this.cancelled();
-      this.reject(plan);
-      const result = await this.execute(plan.target, speed);
+      const result = await this.execute(move, { target: q }, speed, null);
       // a stop that came after the simulated motion ended still keeps the command from the physical robot
       if (result.status === "reached" && this.relay && !move.cancelled) {
         result.relay = await this.relay.forward("moveToJointPosition", { joints: this.twin.jointsRecord(q), speed });
@@ -105,11 +102,9 @@ export class Mover {
   async moveCartesian(input: CartesianInput): Promise<RelayedMoveResult> {
     const t = cartesianTarget(input);
     const speed = speedOf(input);
+    const target = poseTarget(this.twin, t.real, t.orientation);
     return this.guarded(async (move) => {
-      const plan = await validateCartesian(this.backend, this.twin, this.ws, t.real, t.orientation, speed);
-      if (move.cancelled) return this.cancelled();
-      this.reject(plan);
-      const result = await this.execute(plan.target, speed);
+      const result = await this.execute(move, target, speed, staticChecks(this.ws, target.position));
       const p = result.position;
       result.positionError = Math.hypot(p.x - t.real[0], p.y - t.real[1], p.z - t.real[2]);
       // a stop that came after the simulated motion ended still keeps the command from the physical robot
@@ -166,30 +161,41 @@ export class Mover {
     return result;
   }
 
-  private reject(plan: JointPlan): void {
-    if (plan.report.valid) return;
-    const err = new ServientError(422, "E_REJECTED", `target rejected by validation: ${plan.report.reasons.join("; ")}`, {
-      reasons: plan.report.reasons,
-      checks: plan.report.checks,
-    });
-    this.twin.setStatus({ lastError: { code: err.code, message: err.message } });
-    throw err;
-  }
-
   private reportRelay(r: RelayReport): void {
     if (!r.ok) this.twin.setStatus({ lastError: { code: "E_RELAY", message: `relay to the physical robot failed: ${r.error}` } });
   }
 
-  private async execute(target: number[], speed: number): Promise<RelayedMoveResult> {
+  /**
+   * The move as one backend operation (plan: limits, IK solutions, a collision-free path; then the
+   * motion), unless a stop came first. A refused plan answers 422 `E_REJECTED` with its reasons and
+   * checks (and the static checks of a Cartesian target beside them); the twin has not moved.
+   */
+  private async execute(
+    move: PendingMove,
+    target: { target: number[] } | PoseTarget,
+    speed: number,
+    statics: ReturnType<typeof staticChecks> | null,
+  ): Promise<RelayedMoveResult> {
+    if (move.cancelled) return this.cancelled();
     const twin = this.twin;
+    const before = twin.status.state;
     twin.collisionSeen = false;
     twin.setStatus({ state: "moving", lastError: null });
     let res: BackendMoveResult;
     try {
-      res = await this.backend.sim.move({ robot: twin.robotId, target, speed, realtime: this.realtime });
+      res = await this.backend.sim.move({ robot: twin.robotId, ...target, speed, realtime: this.realtime });
       await twin.refresh(res.positions);
     } catch (err) {
       const e = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
+      if (e.code === "E_REJECTED") {
+        const verdict = report({ valid: false, reasons: (e.details.reasons ?? []) as string[], checks: (e.details.checks ?? {}) as PlanChecks }, statics ?? undefined);
+        const rejected = new ServientError(422, "E_REJECTED", `target rejected by validation: ${verdict.reasons.join("; ")}`, {
+          reasons: verdict.reasons,
+          checks: verdict.checks,
+        });
+        twin.setStatus({ state: before === "moving" ? "idle" : before, lastError: { code: rejected.code, message: rejected.message } });
+        throw rejected;
+      }
       twin.setStatus({ state: "stopped", lastError: { code: e.code, message: e.message } });
       throw e;
     }

@@ -106,7 +106,12 @@ export class SimClient {
   checkPath(params: Params<"robot.checkPath">): Result<"robot.checkPath"> {
     return this.request("robot.checkPath", params);
   }
-  /** Resolves when the motion ends (no timeout unless given). */
+  /** The verdict `move` would reach on a joint (`target`) or pose (`position`) target, without moving. */
+  plan(params: Params<"robot.plan">): Result<"robot.plan"> {
+    return this.request("robot.plan", params);
+  }
+  /** Plans (refused with E_REJECTED when no valid plan) and moves; resolves when the motion ends (no
+   * timeout unless given). */
   move(params: Params<"robot.move">, options: CallOptions = {}): Result<"robot.move"> {
     return this.request("robot.move", params, options);
   }

@@ -210,6 +210,17 @@ class Busy(SimError):
         )
 
 
+class Rejected(SimError):
+    """A move whose plan is not valid (limits, no IK solution, every path collides): nothing moved.
+    ``reasons`` in words, ``checks`` as `robot.plan` reports them."""
+
+    rpc_code = -32012
+    code = "E_REJECTED"
+
+    def __init__(self, reasons: Sequence[str], checks: dict[str, Any]) -> None:
+        super().__init__(f"target rejected: {'; '.join(reasons)}", reasons=list(reasons), checks=checks)
+
+
 class MeshError(SimError):
     """A mesh file our parser refuses (PyBullet would crash or silently drop it): ``file``, ``reason``."""
 

@@ -1,7 +1,9 @@
-"""Executes robot motions on the asyncio loop: one plan step at a time, collision-checked, streamed.
+"""Executes robot motions on the asyncio loop: one operation per move — plan, then run — streamed.
 
-`robot.move` asks the world for the interpolated plan (`World.plan_motion`, velocity limits x speed,
-fixed dt), then for every step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with
+`robot.move` takes the robot (busy from here: `E_BUSY` for a second move, `stop` ends it), plans the
+target (`sim/planner.py`: limits, IK solutions, a collision-free path; `Rejected` when none), asks the
+world for the interpolated path (`World.plan_motion`, velocity limits x speed, fixed dt), then for every
+step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with
 realtime 0 it only yields to the loop), checks the way to the step (`World.check_step`: subdivided so no
 point travels more than 4 mm unchecked, other bodies kept 2 mm away) and, when free, teleports the robot
 there. A colliding step ends the motion at the last collision-free state (`status: "collision"`, a
@@ -24,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from robwot_sim.errors import Busy, UnknownRobot
+from robwot_sim.errors import Busy, Rejected, UnknownRobot
+from robwot_sim.sim.planner import Plan
 from robwot_sim.sim.world import World
 
 Broadcast = Callable[[str, dict[str, Any]], None]
@@ -79,16 +82,21 @@ class MotionRunner:
         for motion in motions:
             await motion.done.wait()
 
-    async def move(self, robot: str, target: Sequence[float], *, speed: float = 1.0,
+    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = 1.0,
                    realtime: float = 1.0, dt: float = 1.0 / 240.0) -> dict[str, Any]:
-        """Move `robot` to joint `target` (controllable order, rad/m); returns the MoveResult dict."""
+        """Plan with `planner` and move `robot` to the plan's joint target; returns the MoveResult dict
+        (with the plan). `Rejected` when the plan is not valid: nothing moved."""
         if robot in self._active:
             raise Busy(robot)
-        plan = self._world.plan_motion(robot, target, speed=speed, dt=dt)
         motion = _Motion(robot)
         self._active[robot] = motion
         try:
-            return await self._run(motion, np.asarray(plan, dtype=np.float64), realtime, dt)
+            plan = planner()
+            if not plan.valid or plan.target is None:
+                raise Rejected(plan.reasons, plan.checks)
+            path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt)
+            result = await self._run(motion, np.asarray(path, dtype=np.float64), realtime, dt)
+            return {**result, "plan": plan.to_json()}
         finally:
             del self._active[robot]
             motion.done.set()

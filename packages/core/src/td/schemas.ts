@@ -165,7 +165,14 @@ export function validationReportSchema(): DataSchema {
             description: "k nearest workspace.csv points: share of colliding ones against the threshold",
             properties: { score: { type: "number", minimum: 0, maximum: 1 }, threshold: { type: "number" }, k: { type: "integer" }, ok },
           },
-          ik: { type: "object", properties: { ok, positionError: { type: "number", unit: UNIT_M } } },
+          ik: {
+            type: "object",
+            properties: {
+              ok,
+              positionError: { type: "number", unit: UNIT_M },
+              solutions: { type: "integer", minimum: 1, description: "IK solutions tried until one had a collision-free path" },
+            },
+          },
           path: { type: "object", properties: { ok, contacts: { type: "array", items: contactSchema() } } },
         },
       },

@@ -1,14 +1,35 @@
-"""`robot.checkPath`, `robot.move`, `robot.stop`. Ranges of `speed`, `dt` and `realtime` are the
-contract's (`schemas/protocol.openrpc.json`)."""
+"""`robot.checkPath`, `robot.plan`, `robot.move`, `robot.stop`. Ranges of `speed`, `dt` and `realtime`
+are the contract's (`schemas/protocol.openrpc.json`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
+from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
+from robwot_sim.sim.planner import Plan, plan_joints, plan_pose
+
+
+def _planner(p: Params, s: Services) -> Callable[[], Plan]:
+    """The plan of a `target` (joints) or `position` (+ `orientation`) param: exactly one of them."""
+    model = robot_param(p, s)
+    if p.has("target") == p.has("position"):
+        raise invalid_param("target", "exactly one of 'target' (joints) or 'position' (pose)",
+                            p["target"], missing=not p.has("target"))
+    if p.has("orientation") and not p.has("position"):
+        raise invalid_param("orientation", "'orientation' only together with 'position'", p["orientation"])
+    speed, dt = float(p["speed"]), float(p["dt"])
+    target = p.joint_vector("target", model.dof)
+    if target is not None:
+        joints = target
+        return lambda: plan_joints(s.world, model.id, joints, speed, dt)
+    position, orientation = p.floats("position"), p.quaternion("orientation")
+    assert position is not None
+    return lambda: plan_pose(s.world, model.id, position, orientation, speed, dt)
 
 
 def register(d: Dispatcher, s: Services) -> None:
@@ -20,13 +41,15 @@ def register(d: Dispatcher, s: Services) -> None:
         return s.world.check_path(model.id, target, start=p.joint_vector("from", model.dof),
                                   speed=float(p["speed"]), dt=float(p["dt"])).to_json()
 
+    @d.method("robot.plan")
+    async def plan(p: Params, call: Call) -> dict[str, Any]:
+        return _planner(p, s)().to_json()
+
     @d.method("robot.move")
     async def move(p: Params, call: Call) -> dict[str, Any]:
-        model = robot_param(p, s)
-        target = p.joint_vector("target", model.dof)
-        assert target is not None  # required by the contract
-        return await s.motions.move(model.id, target, speed=float(p["speed"]), realtime=float(p["realtime"]),
-                                    dt=float(p["dt"]))
+        planner = _planner(p, s)
+        return await s.motions.move(str(p["robot"]), planner, speed=float(p["speed"]),
+                                    realtime=float(p["realtime"]), dt=float(p["dt"]))
 
     @d.method("robot.stop")
     async def stop(p: Params, call: Call) -> dict[str, Any]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Awaitable, Callable, Sequence
 from typing import Any, Protocol, TypeVar
 
+from robwot_sim.sim.planner import Plan
 from robwot_sim.sim.world import World
 
 T = TypeVar("T")
@@ -19,7 +20,7 @@ class Motions(Protocol):
 
     async def stop_and_wait(self, robots: Sequence[str] | None = None) -> None: ...
 
-    async def move(self, robot: str, target: Sequence[float], *, speed: float = 1.0,
+    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = 1.0,
                    realtime: float = 1.0, dt: float = 1.0 / 240.0) -> dict[str, Any]: ...
 
 

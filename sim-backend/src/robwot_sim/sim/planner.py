@@ -1,0 +1,150 @@
+"""How to reach a target: the one place where a move is validated and its joint target chosen.
+
+- A joint target: within the joint limits, then the straight joint-space path from the current state
+  checked as a motion would run it (`World.check_path`: subdivided, 2 mm clearance).
+- A pose target (end-effector position, optional orientation): an IK solution from the current state
+  first; when its path collides, further IK solutions from other start configurations (up to
+  `IK_ALTERNATIVES`, seeded from the target so the answer is reproducible) until one has a free path.
+
+The verdict names every check it made (`checks.ik`, `checks.limits`, `checks.path`) and, when invalid,
+the reasons in words. World coordinates (m, rad); the state of the world is not changed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robwot_sim.errors import Unreachable
+from robwot_sim.sim.types import Contact, RobotModel
+from robwot_sim.sim.world import World
+
+#: IK solutions tried from other start configurations when the first one's path collides
+IK_ALTERNATIVES = 8
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The verdict on a target, and the joint target a move would run to when valid."""
+
+    valid: bool
+    target: tuple[float, ...] | None
+    reasons: tuple[str, ...] = ()
+    checks: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"valid": self.valid, "reasons": list(self.reasons), "checks": self.checks}
+        if self.target is not None:
+            out["target"] = list(self.target)
+        return out
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.4f}" if abs(v) >= 1e-3 or v == 0 else f"{v:.2e}"
+
+
+def _contact_words(contacts: Sequence[Contact]) -> str:
+    if not contacts:
+        return ""
+    c = contacts[0]
+
+    def side(s: Any) -> str:
+        return f"{s.body}/{s.link}" if s.link else str(s.body)
+
+    return f" ({side(c.a)} touches {side(c.b)}, depth {_fmt(c.depth)} m)"
+
+
+def _limit_violations(model: RobotModel, q: Sequence[float]) -> list[dict[str, Any]]:
+    joints = {j.name: j for j in model.joints}
+    out = []
+    for name, value in zip(model.controllable, q, strict=True):
+        j = joints[name]
+        if value < j.lower - 1e-9 or value > j.upper + 1e-9:
+            out.append({"joint": name, "value": float(value), "lower": j.lower, "upper": j.upper})
+    return out
+
+
+def _path(world: World, robot: str, q: Sequence[float], speed: float,
+          dt: float) -> tuple[bool, list[Contact]]:
+    report = world.check_path(robot, q, None, speed, dt)
+    contacts = list(report.first_collision.contacts) if report.first_collision is not None else []
+    return report.collision_free, contacts
+
+
+def _path_check(ok: bool, contacts: Sequence[Contact]) -> dict[str, Any]:
+    return {"ok": ok, "contacts": [c.to_json() for c in contacts]}
+
+
+def plan_joints(world: World, robot: str, target: Sequence[float], speed: float, dt: float) -> Plan:
+    """The verdict on a joint target."""
+    model = world.robot_model(robot)
+    violations = _limit_violations(model, target)
+    limits: dict[str, Any] = {"ok": not violations}
+    if violations:
+        limits["violations"] = violations
+    checks: dict[str, Any] = {"limits": limits}
+    if violations:
+        reasons = tuple(f"joint {v['joint']} = {_fmt(v['value'])} outside its limits "
+                        f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}]" for v in violations)
+        return Plan(False, None, reasons, checks)
+    ok, contacts = _path(world, robot, target, speed, dt)
+    checks["path"] = _path_check(ok, contacts)
+    reasons = () if ok else (f"the path to the target collides{_contact_words(contacts)}",)
+    return Plan(ok, tuple(float(v) for v in target), reasons, checks)
+
+
+def _alternative_seeds(model: RobotModel, position: Sequence[float], orientation: Sequence[float] | None,
+                       count: int) -> list[list[float]]:
+    """`count` start configurations within the limits, the same for the same target."""
+    key = struct.pack(f"{3 + len(orientation or [])}d", *position, *(orientation or []))
+    rng = np.random.default_rng(int.from_bytes(hashlib.sha256(key).digest()[:8], "little"))
+    joints = {j.name: j for j in model.joints}
+    lower = np.array([joints[n].lower for n in model.controllable])
+    upper = np.array([joints[n].upper for n in model.controllable])
+    return [list(rng.uniform(lower, upper)) for _ in range(count)]
+
+
+def plan_pose(world: World, robot: str, position: Sequence[float], orientation: Sequence[float] | None,
+              speed: float, dt: float, alternatives: int = IK_ALTERNATIVES) -> Plan:
+    """The verdict on an end-effector pose: the first IK solution whose path is free."""
+    model = world.robot_model(robot)
+    where = f"({', '.join(_fmt(v) for v in position)}) m"
+    seeds: list[list[float] | None] = [None, *_alternative_seeds(model, position, orientation, alternatives)]
+    first: tuple[tuple[float, ...], float, list[Contact]] | None = None
+    tried = 0
+    best_error = float("inf")
+    for seed in seeds:
+        tried += 1
+        try:
+            ik = world.ik(robot, position, orientation, seed=seed, collision_free=True)
+        except Unreachable as exc:
+            best_error = min(best_error, float(exc.data.get("positionError", float("inf"))))
+            if seed is None:
+                # the solver's own restarts found nothing within tolerance: other seeds will not either
+                break
+            continue
+        best_error = min(best_error, ik.position_error)
+        if not ik.collision_free:
+            continue
+        ok, contacts = _path(world, robot, ik.positions, speed, dt)
+        if first is None:
+            first = (ik.positions, ik.position_error, contacts)
+        if ok:
+            checks = {"ik": {"ok": True, "positionError": ik.position_error, "solutions": tried},
+                      "limits": {"ok": True}, "path": _path_check(True, [])}
+            return Plan(True, ik.positions, (), checks)
+    if first is None:
+        error = best_error if best_error != float("inf") else -1.0
+        reason = (f"IK found no collision-free solution within 0.001 m of {where} (error {_fmt(error)} m)"
+                  if error >= 0 else f"target {where} is not reachable by IK")
+        return Plan(False, None, (reason,), {"ik": {"ok": False, "positionError": error, "solutions": tried}})
+    positions, error, contacts = first
+    checks = {"ik": {"ok": True, "positionError": error, "solutions": tried}, "limits": {"ok": True},
+              "path": _path_check(False, contacts)}
+    reason = f"the path to every IK solution tried ({tried}) collides{_contact_words(contacts)}"
+    return Plan(False, positions, (reason,), checks)
