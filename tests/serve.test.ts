@@ -231,16 +231,27 @@ describe("motion control", () => {
     expect((await readJoints()).lbr_iiwa_joint_1).toBeCloseTo(r.body.joints.lbr_iiwa_joint_1, 6);
   });
 
-  it("rejects a move into an obstacle (422) without moving, and accepts it once the obstacle is gone", async () => {
+  it("moves around an obstacle across its straight path (a detour), and refuses (422) a target the obstacle touches", async () => {
     await invoke(base, "moveToJointPosition", { joints: HOME });
     const target = kukaPose([0, 0.9, 0, -0.6, 0, 0.5, 0]);
-    const fk = (await invoke(base, "validateJointPosition", { joints: target })).body;
-    expect(fk.valid).toBe(true);
+    const free = (await invoke(base, "validateJointPosition", { joints: target })).body;
+    expect(free.valid).toBe(true);
+    expect(free.checks.path.planned).toBe("straight");
     // a box across the arm's way between home and the target
     const add = await invoke(base, "addObstacle", { name: "wall", shape: { type: "box", size: [0.1, 0.6, 0.1] }, position: [0.45, 0, 0.9] });
     expect(add.status).toBe(200);
     const dup = await invoke(base, "addObstacle", { name: "wall", shape: { type: "sphere", radius: 0.05 }, position: [2, 2, 2] });
     expect(dup.status).toBe(409);
+    const around = (await invoke(base, "validateJointPosition", { joints: target })).body;
+    expect(around.valid).toBe(true);
+    expect(around.checks.path.planned).toBe("detour");
+    const moved = await invoke(base, "moveToJointPosition", { joints: target });
+    expect(moved.status).toBe(200);
+    expect(moved.body).toMatchObject({ status: "reached", path: "detour" });
+    const tcp = (await http(`${base}/properties/getCartesianPosition`)).body;
+    expect((await invoke(base, "moveToJointPosition", { joints: HOME })).body.status).toBe("reached");
+    // now the target itself touches an obstacle: no path can help
+    expect((await invoke(base, "moveObstacle", { name: "wall", position: [tcp.x, tcp.y, tcp.z] })).status).toBe(200);
     const before = await readJoints();
     const v = (await invoke(base, "validateJointPosition", { joints: target })).body;
     expect(v.valid).toBe(false);

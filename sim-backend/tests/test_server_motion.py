@@ -20,11 +20,13 @@ def _wall_in_path(c: RpcClient) -> None:
     c.call("obstacle.add", {"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": p})
 
 
-def test_move_through_obstacle_is_refused_by_its_plan(client: RpcClient) -> None:
-    """A move whose path collides is refused before anything moves, naming the robot/obstacle pair;
-    robot.plan gives the same verdict without moving."""
-    _wall_in_path(client)
-    target = [0, 1.2, 0, 0, 0, 0, 0]
+def test_move_to_a_colliding_target_is_refused_by_its_plan(client: RpcClient) -> None:
+    """A move whose target configuration touches an obstacle is refused before anything moves, naming
+    the robot/obstacle pair; robot.plan gives the same verdict without moving."""
+    target = [0, 0.6, 0, 0, 0, 0, 0]
+    p = client.call("robot.fk", {"robot": "kuka", "positions": target})["position"]
+    wall = {"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": p}
+    client.call("obstacle.add", wall)
     verdict = client.call("robot.plan", {"robot": "kuka", "target": target})
     assert verdict["valid"] is False and verdict["checks"]["limits"]["ok"] is True
     assert verdict["checks"]["path"]["ok"] is False and "collides" in verdict["reasons"][0]
@@ -34,7 +36,24 @@ def test_move_through_obstacle_is_refused_by_its_plan(client: RpcClient) -> None
     assert ("kuka", "wall") in pairs
     assert client.call("robot.getJointPositions", {"robot": "kuka"})["positions"] == [0.0] * 7
     free = client.call("robot.move", {"robot": "kuka", "target": [0.3, 0, 0, 0, 0, 0, 0], "realtime": 0})
-    assert free["status"] == "reached" and free["plan"]["valid"] is True
+    assert free["status"] == "reached" and free["plan"]["checks"]["path"]["planned"] == "straight"
+
+
+def test_move_around_an_obstacle_in_the_straight_path(client: RpcClient) -> None:
+    """A wall across the straight joint path to a free target: the plan is a detour (RRT-Connect), the
+    move runs through its waypoints without touching anything and reaches the target."""
+    _wall_in_path(client)
+    target = [0, 1.2, 0, 0, 0, 0, 0]
+    straight = client.call("robot.checkPath", {"robot": "kuka", "target": target})
+    assert straight["collisionFree"] is False
+    plan = client.call("robot.plan", {"robot": "kuka", "target": target})
+    assert plan["valid"] is True and plan["checks"]["path"]["planned"] == "detour" and plan["via"]
+    again = client.call("robot.plan", {"robot": "kuka", "target": target})
+    assert again["via"] == plan["via"]  # seeded: the same request gets the same path
+    moved = client.call("robot.move", {"robot": "kuka", "target": target, "realtime": 0})
+    assert moved["status"] == "reached" and moved["contacts"] == []
+    assert moved["positions"] == pytest.approx(target)
+    assert not [n for n in client.notifications if n[0] == "robot.collision"]
 
 
 def test_pose_target_takes_another_ik_solution_when_the_first_path_collides(client: RpcClient) -> None:
@@ -50,8 +69,8 @@ def test_pose_target_takes_another_ik_solution_when_the_first_path_collides(clie
     elbow = client.call("robot.fk", {"robot": "kuka", "positions": half})["position"]
     ball = {"name": "ball", "shape": {"type": "sphere", "radius": 0.05}, "position": elbow}
     client.call("obstacle.add", ball)
-    blocked = client.call("robot.plan", {"robot": "kuka", "target": first})
-    if blocked["valid"]:
+    blocked = client.call("robot.checkPath", {"robot": "kuka", "target": first})
+    if blocked["collisionFree"]:
         pytest.skip("the ball does not block the first solution's path on this PyBullet build")
     moved = client.call("robot.move", {"robot": "kuka", "position": pose["position"], "realtime": 0})
     assert moved["status"] == "reached"

@@ -375,6 +375,10 @@ export interface Plan {
    */
   reasons: string[];
   checks: PlanChecks;
+  /**
+   * waypoints before `target` when the path is a detour (the robot rests at each)
+   */
+  via?: JointVector[];
 }
 /**
  * the checks a plan made: IK (pose targets), joint limits, the path from the current state
@@ -406,6 +410,10 @@ export interface PlanChecks {
      * the first colliding state's contacts
      */
     contacts: Contact[];
+    /**
+     * straight: the straight joint-space path; detour: a path planned around obstacles (RRT-Connect, shortcut), its waypoints in `via`
+     */
+    planned: "straight" | "detour";
   };
 }
 export interface StopResult {

@@ -63,6 +63,8 @@ export interface MoveResult {
   duration: number;
   /** m, Cartesian moves */
   positionError?: number;
+  /** the path the twin planned: the straight joint-space one, or a detour around obstacles */
+  path?: "straight" | "detour";
 }
 
 export interface MotionStatus {

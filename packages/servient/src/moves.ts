@@ -183,8 +183,9 @@ export class Mover {
     twin.setStatus({ state: "moving", lastError: null });
     let res: BackendMoveResult;
     try {
+      // the twin's joints and pose are already those of the motion's end: the backend sends its final
+      // robot.state (applied by Twin.onState) before it answers the move
       res = await this.backend.sim.move({ robot: twin.robotId, ...target, speed, realtime: this.realtime });
-      await twin.refresh(res.positions);
     } catch (err) {
       const e = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
       if (e.code === "E_REJECTED") {
@@ -207,6 +208,7 @@ export class Mover {
       position: pose.position,
       orientation: pose.orientation,
       duration: res.duration,
+      path: res.plan?.checks.path?.planned ?? "straight",
     };
     const state = res.status === "reached" ? "idle" : res.status;
     const lastError =

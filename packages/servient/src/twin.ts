@@ -100,12 +100,6 @@ export class Twin extends EventEmitter<TwinEvents> {
     this.emit("status", this.status);
   }
 
-  /** Sets joints and pose from a finished FK call and notifies listeners. */
-  async refresh(q?: number[]): Promise<void> {
-    const target = q ?? (await this.backend.sim.getJointPositions(this.robotId)).positions;
-    this.applyPose(target, await this.backend.sim.fk(this.robotId, target));
-  }
-
   applyPose(q: number[], fk: Pick<PoseResult, "position" | "orientation">): void {
     this.q = [...q];
     this.position = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];

@@ -60,7 +60,7 @@ def verdicts(name: str, targets: int, seed: int) -> dict[str, float | int | str]
         lo, hi = model.limits()
         home = world.get_joint_positions(model.id)
         rng = np.random.default_rng(seed)
-        accepted = tried = alternative = 0
+        accepted = tried = alternative = reached = 0
         while tried < targets:
             q = rng.uniform(lo, hi)
             if not ref.collision_free(q[None, :])[0]:
@@ -68,10 +68,14 @@ def verdicts(name: str, targets: int, seed: int) -> dict[str, float | int | str]
             tried += 1
             world.set_joint_positions(model.id, home)
             plan = plan_pose(world, model.id, world.fk(model.id, q).position, None, 1.0, 1.0 / 240.0)
-            if plan.valid:
+            if plan.valid and plan.target is not None:
                 accepted += 1
                 alternative += plan.checks["ik"]["solutions"] > 1
+                goal = world.fk(model.id, q).position
+                end = world.fk(model.id, plan.target).position
+                reached += float(np.linalg.norm(np.subtract(end, goal))) <= 1e-3
     return {"robot": name, "targets": targets, "accepted": accepted, "alternative": alternative,
+            "reached_pct": 100.0 * reached / targets,
             "false_reject_pct": 100.0 * (targets - accepted) / targets}
 
 
@@ -97,11 +101,12 @@ def main() -> None:
 
     print(f"\nverdicts on {args.targets} reachable targets (reference-free configurations, SRDF where "
           "published), position only, from the home pose")
-    print(f"{'robot':<7}{'accepted':>10}{'false reject':>14}{'other IK':>10}")
+    print(f"{'robot':<7}{'accepted':>10}{'false reject':>14}{'other IK':>10}{'reached ≤ 1 mm':>16}")
     for name in ("ur10", "panda"):
         if name in args.robots.split(","):
             v = verdicts(name, args.targets, args.seed)
-            print(f"{v['robot']:<7}{v['accepted']:>10}{v['false_reject_pct']:>13.1f}%{v['alternative']:>10}")
+            print(f"{v['robot']:<7}{v['accepted']:>10}{v['false_reject_pct']:>13.1f}%{v['alternative']:>10}"
+                  f"{v['reached_pct']:>15.1f}%")
 
 if __name__ == "__main__":
     main()

@@ -94,7 +94,7 @@ class MotionRunner:
             plan = planner()
             if not plan.valid or plan.target is None:
                 raise Rejected(plan.reasons, plan.checks)
-            path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt)
+            path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt, via=plan.via)
             result = await self._run(motion, np.asarray(path, dtype=np.float64), realtime, dt)
             return {**result, "plan": plan.to_json()}
         finally:

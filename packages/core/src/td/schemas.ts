@@ -139,6 +139,11 @@ export function moveResultSchema(joints: JointSpec[]): DataSchema {
       orientation: quaternionSchema("End-effector orientation at the end of the motion"),
       duration: { type: "number", unit: UNIT_S, minimum: 0 },
       positionError: { type: "number", unit: UNIT_M, minimum: 0, description: "Cartesian moves: distance to the target" },
+      path: {
+        type: "string",
+        enum: ["straight", "detour"],
+        description: "straight joint-space path, or a detour planned around obstacles (RRT-Connect) when no straight one was free",
+      },
     },
     required: ["status", "joints", "position", "orientation", "duration"],
   };
@@ -173,7 +178,14 @@ export function validationReportSchema(): DataSchema {
               solutions: { type: "integer", minimum: 1, description: "IK solutions tried until one had a collision-free path" },
             },
           },
-          path: { type: "object", properties: { ok, contacts: { type: "array", items: contactSchema() } } },
+          path: {
+            type: "object",
+            properties: {
+              ok,
+              planned: { type: "string", enum: ["straight", "detour"], description: "a detour is planned when no straight path is free" },
+              contacts: { type: "array", items: contactSchema() },
+            },
+          },
         },
       },
     },

@@ -5,6 +5,8 @@
 - A pose target (end-effector position, optional orientation): an IK solution from the current state
   first; when its path collides, further IK solutions from other start configurations (up to
   `IK_ALTERNATIVES`, seeded from the target so the answer is reproducible) until one has a free path.
+- When no straight path is free (to the joint target, or to any IK solution), a detour: RRT-Connect
+  around what blocks the way to the (first) target, every segment checked like a path (`detour.py`).
 
 The verdict names every check it made (`checks.ik`, `checks.limits`, `checks.path`) and, when invalid,
 the reasons in words. World coordinates (m, rad); the state of the world is not changed.
@@ -36,11 +38,15 @@ class Plan:
     target: tuple[float, ...] | None
     reasons: tuple[str, ...] = ()
     checks: dict[str, Any] = field(default_factory=dict)
+    #: waypoints before ``target`` (a detour); empty for a straight path
+    via: tuple[tuple[float, ...], ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"valid": self.valid, "reasons": list(self.reasons), "checks": self.checks}
         if self.target is not None:
             out["target"] = list(self.target)
+        if self.via:
+            out["via"] = [list(w) for w in self.via]
         return out
 
 
@@ -76,8 +82,17 @@ def _path(world: World, robot: str, q: Sequence[float], speed: float,
     return report.collision_free, contacts
 
 
-def _path_check(ok: bool, contacts: Sequence[Contact]) -> dict[str, Any]:
-    return {"ok": ok, "contacts": [c.to_json() for c in contacts]}
+def _path_check(ok: bool, contacts: Sequence[Contact], planned: str = "straight") -> dict[str, Any]:
+    return {"ok": ok, "planned": planned, "contacts": [c.to_json() for c in contacts]}
+
+
+def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str, Any]) -> Plan | None:
+    """A valid plan around what blocks the straight path to ``target``, or None."""
+    waypoints = world.detour(robot, target)
+    if waypoints is None:
+        return None
+    return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": _path_check(True, [], "detour")},
+                tuple(waypoints[:-1]))
 
 
 def plan_joints(world: World, robot: str, target: Sequence[float], speed: float, dt: float) -> Plan:
@@ -93,6 +108,10 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float,
                         f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}]" for v in violations)
         return Plan(False, None, reasons, checks)
     ok, contacts = _path(world, robot, target, speed, dt)
+    if not ok and world.check_collision(robot, target).collision_free:
+        detour = _detour(world, robot, target, checks)
+        if detour is not None:
+            return detour
     checks["path"] = _path_check(ok, contacts)
     reasons = () if ok else (f"the path to the target collides{_contact_words(contacts)}",)
     return Plan(ok, tuple(float(v) for v in target), reasons, checks)
@@ -144,7 +163,10 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
                   if error >= 0 else f"target {where} is not reachable by IK")
         return Plan(False, None, (reason,), {"ik": {"ok": False, "positionError": error, "solutions": tried}})
     positions, error, contacts = first
-    checks = {"ik": {"ok": True, "positionError": error, "solutions": tried}, "limits": {"ok": True},
-              "path": _path_check(False, contacts)}
+    checks = {"ik": {"ok": True, "positionError": error, "solutions": tried}, "limits": {"ok": True}}
+    detour = _detour(world, robot, positions, checks)
+    if detour is not None:
+        return detour
+    checks["path"] = _path_check(False, contacts)
     reason = f"the path to every IK solution tried ({tried}) collides{_contact_words(contacts)}"
     return Plan(False, positions, (reason,), checks)

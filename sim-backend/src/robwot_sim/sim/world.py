@@ -9,6 +9,7 @@ collision, motion planning, export).
 from __future__ import annotations
 
 import hashlib
+import itertools
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -19,6 +20,8 @@ import numpy.typing as npt
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.sim import validate as v
+from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
+from robwot_sim.sim.detour import find_detour
 from robwot_sim.sim.export import export_urdf
 from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
@@ -182,13 +185,18 @@ class World(WorldScene):
         start: JointVector | None = None,
         speed: float = 1.0,
         dt: float = 1.0 / 240.0,
+        via: Sequence[JointVector] = (),
     ) -> npt.NDArray[np.float64]:
-        """Joint states [steps + 1, dof] from ``start`` (default current) to ``target``, one per ``dt``."""
+        """Joint states [steps + 1, dof] from ``start`` (default current) through the waypoints ``via`` to
+        ``target``, one per ``dt``; each segment straight in joint space, at rest at every waypoint."""
         e = self._entry(robot_id)
         tgt = e.bound.validate(target, "target")
         st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
+        points = [st, *(e.bound.validate(w, f"via[{i}]") for i, w in enumerate(via)), tgt]
         sp, step = check_speed_dt(speed, dt)
-        return plan_joint_path(st, tgt, e.model.velocity_limits(), sp, step)
+        limits = e.model.velocity_limits()
+        segments = [plan_joint_path(a, b, limits, sp, step) for a, b in itertools.pairwise(points)]
+        return np.concatenate([segments[0], *(seg[1:] for seg in segments[1:])])
 
     @_locked
     def check_path(
@@ -198,11 +206,29 @@ class World(WorldScene):
         start: JointVector | None = None,
         speed: float = 1.0,
         dt: float = 1.0 / 240.0,
+        via: Sequence[JointVector] = (),
     ) -> PathReport:
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
-        path = self.plan_motion(robot_id, target, start, speed, dt)
+        path = self.plan_motion(robot_id, target, start, speed, dt, via)
         e = self._entry(robot_id)
         return check_joint_path(e.bound, e.checker, path, float(dt), e.reach)
+
+    @_locked
+    def detour(self, robot_id: str, target: JointVector,
+               budget: float = DETOUR_BUDGET) -> list[tuple[float, ...]] | None:
+        """Waypoints (ending at ``target``) of a collision-free path from the current state around what
+        blocks the straight one (RRT-Connect, each segment checked like a path), or None. World unchanged."""
+        e = self._entry(robot_id)
+        tgt = e.bound.validate(target, "target")
+        saved = e.bound.q.copy()
+        try:
+            clearance = path_clearance(e.bound, e.checker, saved)
+            digest = hashlib.sha256(np.concatenate([saved, tgt]).tobytes()).digest()
+            seed = int.from_bytes(digest[:4], "little")
+            found = find_detour(e.bound, e.checker, saved, tgt, e.reach, clearance, seed, budget)
+        finally:
+            e.bound.apply(saved)
+        return None if found is None else [tuple(float(x) for x in w) for w in found]
 
     @_locked
     def export_robot(self, robot_id: str, out_dir: str | Path) -> dict[str, Any]:

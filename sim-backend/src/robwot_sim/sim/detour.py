@@ -1,0 +1,78 @@
+"""A collision-free joint path around obstacles, for when no straight one exists.
+
+OMPL's RRT-Connect searches the robot's joint space (bounds = joint limits; a state is valid when the
+robot keeps the path clearance to everything), and OMPL's path simplifier shortcuts the result. OMPL
+only proposes: every segment of the final path is then checked by our own path check (no point of the
+robot travels more than 4 mm unchecked, clearance kept — `pathcheck.first_contact`), and a path that
+fails it is not used. The search is seeded, so the same request gets the same path.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Iterable
+
+import numpy as np
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from robwot_sim.sim.collision import CollisionChecker
+from robwot_sim.sim.pathcheck import first_contact
+from robwot_sim.sim.robot import BoundRobot
+from robwot_sim.sim.types import FloatArray
+
+#: seconds a detour search (planning and shortcutting) may take
+BUDGET = 2.0
+#: OMPL's own check spacing along a motion, as a fraction of the joint space's extent (its default is
+#: 0.01: ~0.1 rad on a 7-joint arm, too coarse to find gaps our check accepts)
+RESOLUTION = 0.002
+
+ou.setLogLevel(ou.LOG_WARN)
+
+
+def find_detour(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goal: FloatArray,
+                reach: FloatArray, clearance: float, seed: int,
+                budget: float = BUDGET) -> list[FloatArray] | None:
+    """Waypoints from ``start`` (excluded) to ``goal`` (included) whose segments all pass our path
+    check, or None when none was found within ``budget`` seconds. Moves the robot: the caller restores
+    its state."""
+    dof = len(start)
+    space = ob.RealVectorStateSpace(dof)
+    bounds = ob.RealVectorBounds(dof)
+    for i in range(dof):
+        bounds.setLow(i, float(robot.lower[i]))
+        bounds.setHigh(i, float(robot.upper[i]))
+    space.setBounds(bounds)
+    setup = og.SimpleSetup(space)
+
+    def valid(state: ob.State) -> bool:
+        robot.apply(np.array([state[i] for i in range(dof)], dtype=np.float64))
+        return checker.is_free(clearance)
+
+    setup.setStateValidityChecker(valid)
+    info = setup.getSpaceInformation()
+    info.setStateValidityCheckingResolution(RESOLUTION)
+    setup.setPlanner(og.RRTConnect(info))
+    begin, end = _state(space, start), _state(space, goal)
+    setup.setStartAndGoalStates(begin, end)
+    ou.RNG.setSeed(seed)
+    t0 = time.monotonic()
+    if not setup.solve(budget) or not setup.haveExactSolutionPath():
+        return None
+    setup.simplifySolution(max(0.05, budget - (time.monotonic() - t0)))
+    states = setup.getSolutionPath().getStates()
+    path = [np.array([s[i] for i in range(dof)], dtype=np.float64) for s in states]
+    path[0], path[-1] = start.copy(), goal.copy()
+    for a, b in itertools.pairwise(path):
+        if first_contact(robot, checker, a, b, reach, clearance) is not None:
+            return None
+    return path[1:]
+
+
+def _state(space: ob.RealVectorStateSpace, q: Iterable[float]) -> ob.State:
+    state = space.allocState()
+    for i, v in enumerate(q):
+        state[i] = float(v)
+    return state
