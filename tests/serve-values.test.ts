@@ -5,11 +5,13 @@
  */
 import { existsSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
+import AjvModule from "ajv";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { generateTwin, http, invoke, kukaPose, live } from "./serve-helpers.js";
 
 let s: RunningServient;
+const Ajv = AjvModule.default;
 let base: string;
 let dir: string;
 
@@ -68,6 +70,33 @@ describe("obstacle numbers: the TD states the range the backend accepts", () => 
     expect(box.properties.size.items).toMatchObject({ exclusiveMinimum: 0, maximum: 1e4 });
     const pair = actions.calibrate.input.properties.pairs.items.properties;
     expect(pair.real.properties.x).toMatchObject({ minimum: -1000, maximum: 1000 });
+  });
+
+  it("the TD's obstacle inputs accept exactly what the servient accepts (closed objects, orientation xor rpy)", async () => {
+    const { actions } = (await http(base)).body;
+    const ajv = new Ajv({ strict: false });
+    const box = { type: "box", size: [0.1, 0.1, 0.1] };
+    const cases: [string, Record<string, unknown>][] = [
+      ["plain", { name: "x1", shape: box, position: [3, 0, 0] }],
+      ["orientation", { name: "x2", shape: box, position: [3, 1, 0], orientation: [0, 0, 0, 1] }],
+      ["rpy", { name: "x3", shape: box, position: [3, 2, 0], rpy: [0, 0, 1] }],
+      ["both", { name: "x4", shape: box, position: [3, 3, 0], orientation: [0, 0, 0, 1], rpy: [0, 0, 1] }],
+      ["extra property", { name: "x5", shape: box, position: [3, 4, 0], mass: 2 }],
+      ["extra shape field", { name: "x6", shape: { ...box, radius: 1 }, position: [3, 5, 0] }],
+      ["colour", { name: "x7", shape: { type: "sphere", radius: 0.05 }, position: [3, 6, 0], color: [1, 0, 0] }],
+    ];
+    expect(actions.addObstacle.input.additionalProperties).toBe(false);
+    const accepts = ajv.compile(actions.addObstacle.input);
+    for (const [label, body] of cases) {
+      const r = await invoke(base, "addObstacle", body);
+      expect([label, r.status === 200], JSON.stringify(r.body)).toEqual([label, accepts(body)]);
+    }
+    expect(accepts(cases[3]![1])).toBe(false);
+    const moves = ajv.compile(actions.moveObstacle.input);
+    for (const body of [{ name: "x1", position: [3, 0, 1], rpy: [0, 0, 1] }, { name: "x1", position: [3, 0, 1], rpy: [0, 0, 1], orientation: [0, 0, 0, 1] }]) {
+      expect((await invoke(base, "moveObstacle", body)).status === 200).toBe(moves(body));
+    }
+    for (const n of ["x1", "x2", "x3", "x7"]) expect((await invoke(base, "removeObstacle", { name: n })).status).toBe(200);
   });
 
   it("moveObstacle to 1e308 m: 400, the obstacle stays where it was", async () => {

@@ -68,3 +68,45 @@ def test_grazing_plates_are_never_validated() -> None:
             w.remove_obstacle("plate")
     assert caught == grazes
     assert missed_before >= 1  # the planned states alone were not enough: this test has teeth
+
+
+def _gap(w: World, rid: str, other: str) -> float:
+    """Exact closest distance (m) between the robot and an obstacle, from PyBullet's distance query."""
+    import pybullet as pb
+
+    ids = {n: b for b, n in w.table.names.items()}
+    pts = pb.getClosestPoints(ids[rid], ids[other], 1.0, physicsClientId=w.bullet.cid)
+    return min(p[8] for p in pts)
+
+
+def test_the_clearance_is_kept_to_the_millimetre_and_can_be_configured() -> None:
+    """A sphere beside the end of a swing about joint 1: the path is refused when the exact closest
+    distance along it (PyBullet's distance query on 60 states) is below the robot's clearance (default
+    2 mm; 15 mm when loaded with it) and accepted when it is above."""
+    start = np.array([0, 0.6, 0, -0.6, 0, 0, 0], dtype=float)
+    target = np.array([0.8, 0.6, 0, -0.6, 0, 0, 0], dtype=float)
+    seen = {"refused": 0, "accepted": 0}
+    with World() as w:
+        for rid, clearance, base in (("k2", 0.002, 0.0), ("k15", 0.015, 5.0)):
+            w.load_robot("kuka_iiwa/model.urdf", robot_id=rid, clearance=clearance,
+                         base_position=(base, 0, 0))
+            assert w.robot_model(rid).clearance == clearance
+            p = np.array(w.fk(rid, target.tolist()).position)
+            out = (p - np.array([base, 0, 0])) * np.array([1, 1, 0])
+            out /= np.linalg.norm(out)
+            w.add_obstacle({"name": f"s{rid}", "shape": {"type": "sphere", "radius": 0.02},
+                            "position": (p + 0.3 * out).tolist()})
+            for d in (0.051, 0.0515, 0.052, 0.053, 0.055, 0.058, 0.062, 0.066, 0.07, 0.075, 0.08):
+                w.move_obstacle(f"s{rid}", (p + (0.02 + d) * out).tolist())
+                gaps = []
+                for t in np.linspace(0, 1, 60):
+                    w.set_joint_positions(rid, (start + t * (target - start)).tolist())
+                    gaps.append(_gap(w, rid, f"s{rid}"))
+                w.set_joint_positions(rid, start.tolist())
+                gap = min(gaps)
+                if gap <= 0 or abs(gap - clearance) < 3e-4:
+                    continue  # touching, or too close to the boundary for a 60-state reference
+                free = w.check_path(rid, target.tolist()).collision_free
+                assert free == (gap > clearance), (rid, gap)
+                seen["accepted" if free else "refused"] += 1
+    assert seen["refused"] >= 2 and seen["accepted"] >= 2, seen

@@ -93,7 +93,7 @@ function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
  */
 async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: string): Promise<RobotModel> {
   const packageRoots = opts.packageRoots;
-  const srdf = opts.srdf !== undefined ? { srdf: opts.srdf } : {};
+  const srdf = { ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}), clearance: opts.clearance };
   if (!opts.scene) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf });
   await backend.loadScene({ path: opts.scene, packageRoots });
   const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf));
@@ -158,6 +158,7 @@ export async function generateTwin(
       baseOrientation: model.baseOrientation ?? [0, 0, 0, 1],
       name: model.name,
       ...(opts.srdf !== undefined ? { srdf: "robot.srdf" } : {}),
+      clearance: model.clearance,
     },
     scene: "scene.json",
     generatedAt: new Date().toISOString(),

@@ -43,6 +43,10 @@ export type JointVector = number[];
  */
 export type Name = string;
 export type JointType = "revolute" | "continuous" | "prismatic" | "fixed";
+/**
+ * clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states
+ */
+export type Clearance = number;
 export type Positive = number;
 /**
  * box (full extents), sphere, cylinder (along local Z) or mesh
@@ -215,6 +219,7 @@ export interface RobotModel {
    * the SRDF whose disabled pairs are in filteredPairs (absolute path), when loaded with one
    */
   srdf?: string;
+  clearance: Clearance;
 }
 export interface BoxShape {
   type: "box";
@@ -414,6 +419,10 @@ export interface PlanChecks {
      * straight: the straight joint-space path; detour: a path planned around obstacles (RRT-Connect, shortcut), its waypoints in `via`
      */
     planned: "straight" | "detour";
+    /**
+     * m kept to other bodies along the path (the robot's clearance)
+     */
+    clearance: number;
   };
 }
 export interface StopResult {
@@ -534,6 +543,7 @@ export interface RobotLoadParams {
    * SRDF file
    */
   srdf?: string;
+  clearance?: Clearance;
 }
 /**
  * Params of `robot.remove`.

@@ -41,13 +41,15 @@ export interface RobotModelLike {
   links?: string[];
   basePosition?: Vec3;
   baseOrientation?: QuatXyzw;
+  /** m its checked paths and motions keep to other bodies */
+  clearance?: number;
 }
 
 /** `twin.json` (Contract 2). */
 export interface TwinManifest {
   version: 1;
   /** `srdf`: the robot's SRDF copied into the folder (its disabled collision pairs are never checked) */
-  robot: { urdf: string; eeLink: string; basePosition: Vec3; baseOrientation: QuatXyzw; name: string; srdf?: string };
+  robot: { urdf: string; eeLink: string; basePosition: Vec3; baseOrientation: QuatXyzw; name: string; srdf?: string; clearance?: number };
   scene: string;
   generatedAt: string;
   tool: string;

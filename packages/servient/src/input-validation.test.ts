@@ -1,6 +1,7 @@
 import { describe, expect, it } from "vitest";
 import { ServientError } from "./errors.js";
-import { closeSchema, parseBody, validateInput } from "./input-validation.js";
+import { closeSchema } from "@robwot/core";
+import { parseBody, validateInput } from "./input-validation.js";
 
 const schema = {
   type: "object",

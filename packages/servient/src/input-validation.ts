@@ -6,6 +6,7 @@
  */
 import AjvModule from "ajv";
 import type { ErrorObject, ValidateFunction } from "ajv";
+import { closeSchema } from "@robwot/core";
 import { badInput, ServientError } from "./errors.js";
 import { jsonDepth } from "./request-guard.js";
 
@@ -16,19 +17,10 @@ const Ajv = AjvModule.default;
 const ajv = new Ajv({ strict: false, allErrors: true, validateFormats: false, useDefaults: false });
 const cache = new WeakMap<object, ValidateFunction>();
 
-/** Deep copy of a data schema where every object schema with `properties` is closed. */
-export function closeSchema(schema: unknown): unknown {
-  if (Array.isArray(schema)) return schema.map(closeSchema);
-  if (schema === null || typeof schema !== "object") return schema;
-  const out: Record<string, unknown> = {};
-  for (const [k, v] of Object.entries(schema)) out[k] = k === "enum" || k === "const" || k === "default" ? v : closeSchema(v);
-  if (out.properties !== undefined && out.additionalProperties === undefined) out.additionalProperties = false;
-  return out;
-}
-
 function compile(schema: object): ValidateFunction {
   let fn = cache.get(schema);
   if (!fn) {
+    // generated TDs state their inputs closed already; closing again keeps older twin folders strict too
     fn = ajv.compile(closeSchema(schema) as object);
     cache.set(schema, fn);
   }

@@ -82,6 +82,7 @@ export class World extends EventEmitter<{ scene: [] }> {
         ...(m.baseOrientation ? { baseOrientation: m.baseOrientation } : {}),
         ...(m.eeLink ? { eeLink: m.eeLink } : {}),
         ...(m.srdf ? { srdf: join(twin.folder.dir, m.srdf) } : {}),
+        ...(m.clearance !== undefined ? { clearance: m.clearance } : {}),
       });
       twin.model = model;
       if (twin.q.length === model.controllable.length) {

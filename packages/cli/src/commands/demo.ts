@@ -8,7 +8,7 @@ import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { parseInteger, parseRealtime, usageError } from "../args.js";
 import { findExample } from "../examples.js";
-import { DEFAULT_BASE_URL, type GenerateOptions } from "./generate-options.js";
+import { DEFAULT_BASE_URL, DEFAULT_CLEARANCE, type GenerateOptions } from "./generate-options.js";
 import { runGenerate } from "./generate.js";
 import { parseAllowedHosts, parseCorsOrigins } from "./serve-options.js";
 import { serve } from "./serve.js";
@@ -87,6 +87,7 @@ export async function run(argv: string[]): Promise<number> {
       example,
       ...(scene ? { scene } : {}),
       samples,
+      clearance: DEFAULT_CLEARANCE,
       seed: 1,
       out,
       baseUrl: DEFAULT_BASE_URL,

@@ -5,8 +5,13 @@
 import { existsSync, readFileSync, statSync } from "node:fs";
 import { basename, join, resolve } from "node:path";
 import { parseArgs } from "node:util";
-import { existingFile, parseAlpha, parseInteger, parsePackageRoots, parseUrl, usageError } from "../args.js";
+import { existingFile, parseAlpha, parseInteger, parseNumber, parsePackageRoots, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
+
+/** The clearance (m) a robot keeps unless told (the backend's default), and the range it accepts. */
+export const DEFAULT_CLEARANCE = 0.002;
+const MIN_CLEARANCE = 0.0005;
+const MAX_CLEARANCE = 0.02;
 import { EXAMPLE_NAMES, type ExampleRobot, findExample, looksLikeExampleName } from "../examples.js";
 
 export interface GenerateOptions {
@@ -16,6 +21,8 @@ export interface GenerateOptions {
   scene?: string;
   /** SRDF file (absolute): its disabled collision pairs are never checked; copied into the twin */
   srdf?: string;
+  /** m kept to other bodies by checked paths, plans and motions */
+  clearance: number;
   samples: number;
   seed: number;
   ee?: string;
@@ -33,6 +40,7 @@ export interface GenerateOptions {
 export const GENERATE_OPTIONS = {
   scene: { type: "string" },
   srdf: { type: "string" },
+  clearance: { type: "string" },
   samples: { type: "string" },
   seed: { type: "string" },
   ee: { type: "string" },
@@ -116,6 +124,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const seed = parseInteger("seed", values.seed, 1, 0, 2 ** 32 - 1);
   const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, 1, 1, 256);
   const alpha = parseAlpha(values.alpha);
+  const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, MIN_CLEARANCE, MAX_CLEARANCE);
   const packageRoots = parsePackageRoots(values["package-root"]);
   const baseUrlObj = parseUrl("base-url", values["base-url"] ?? DEFAULT_BASE_URL, ["http", "https"]) as URL;
   const baseUrl = baseUrlObj.href.endsWith("/") ? baseUrlObj.href : `${baseUrlObj.href}/`;
@@ -129,6 +138,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(example ? { example } : {}),
     ...(scene ? { scene } : {}),
     ...(values.srdf !== undefined ? { srdf: existingFile("SRDF file", values.srdf) } : {}),
+    clearance,
     samples,
     seed,
     ...(values.ee !== undefined ? { ee: values.ee } : {}),

@@ -17,6 +17,8 @@ scene.json, workspace.csv (labelled point cloud), workspace.stl (alpha shape), w
 Options:
   --scene FILE            scene JSON with obstacles (default: none)
   --srdf FILE             the robot's SRDF (MoveIt): its <disable_collisions> pairs are never checked
+  --clearance M           metres every checked path, plan and motion keeps to other bodies
+                          (default 0.002, 0.0005 to 0.02); in twin.json and the TD
   --samples N             random joint configurations (default ${DEFAULT_SAMPLES})
   --seed N                random seed (default 1; same seed => same workspace.csv)
   --ee LINK               end-effector link (default: the last link of the chain)

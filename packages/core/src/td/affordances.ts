@@ -1,7 +1,7 @@
 /** The affordances of a RobWoT twin (Contract 3), without forms. */
 import { MAX_CALIBRATION_COORDINATE as C } from "../calibration.js";
 import type { Bounds, JointSpec } from "../types.js";
-import { moveObstacleSchema, obstacleSchema, removeObstacleSchema } from "./obstacle-schemas.js";
+import { moveObstacleSchema, obstacleOutputSchema, obstacleSchema, removeObstacleSchema } from "./obstacle-schemas.js";
 import {
   calibrationResultSchema,
   cartesianSchema,
@@ -134,8 +134,8 @@ export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): R
       safe: false,
       idempotent: true,
     },
-    addObstacle: { title: "Add an obstacle", input: obstacleSchema(), output: obstacleSchema(), safe: false, idempotent: false },
-    moveObstacle: { title: "Move an obstacle", input: moveObstacleSchema(), output: obstacleSchema(), safe: false, idempotent: true },
+    addObstacle: { title: "Add an obstacle", input: obstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: false },
+    moveObstacle: { title: "Move an obstacle", input: moveObstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: true },
     removeObstacle: { title: "Remove an obstacle", input: removeObstacleSchema(), output: { type: "object", properties: {} }, safe: false, idempotent: true },
   };
 }

@@ -8,7 +8,8 @@ import { ThingDescriptionError } from "../errors.js";
 import type { Bounds, JointSpec, RobotModelLike, Vec3, WorkspaceSummary } from "../types.js";
 import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
 import { canonicalJson, fnv1a64, thingSlug } from "./hash.js";
-import type { ActionAffordance, EventAffordance, Form, Link, PropertyAffordance, ThingDescription } from "./types.js";
+import { closeSchema } from "./schemas.js";
+import type { ActionAffordance, DataSchema, EventAffordance, Form, Link, PropertyAffordance, ThingDescription } from "./types.js";
 
 export const TD_CONTEXT_V11 = "https://www.w3.org/2022/wot/td/v1.1";
 /**
@@ -162,7 +163,8 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   }
   const actions: Record<string, ActionAffordance> = {};
   for (const [name, a] of Object.entries(actionAffordances(joints, bounds))) {
-    actions[name] = { ...a, forms: [{ href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST" }] };
+    // inputs are closed: the servient refuses a property the schema does not name, and the TD says so
+    actions[name] = { ...a, ...(a.input ? { input: closeSchema(a.input) as DataSchema } : {}), forms: [{ href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST" }] };
   }
   const events: Record<string, EventAffordance> = {};
   for (const [name, e] of Object.entries(eventAffordances(joints))) {
@@ -195,6 +197,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     "robwot:robot": model.name,
     "robwot:eeLink": model.eeLink,
     "robwot:controllableJoints": joints.map((j) => j.name),
+    ...(model.clearance !== undefined ? { "robwot:clearance": model.clearance } : {}),
   };
   if (summary) {
     td["robwot:workspace"] = {

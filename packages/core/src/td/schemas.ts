@@ -183,6 +183,7 @@ export function validationReportSchema(): DataSchema {
             properties: {
               ok,
               planned: { type: "string", enum: ["straight", "detour"], description: "a detour is planned when no straight path is free" },
+              clearance: { type: "number", unit: UNIT_M, description: "kept to other bodies along the path (the twin's --clearance)" },
               contacts: { type: "array", items: contactSchema() },
             },
           },
@@ -206,4 +207,15 @@ export function calibrationResultSchema(): DataSchema {
     },
     required: ["scale", "rotation", "translation", "rms", "pairs"],
   };
+}
+
+/** Deep copy of a data schema in which every object schema that names its `properties` is closed
+ * (`additionalProperties: false`): what the servient accepts as action input. */
+export function closeSchema(schema: unknown): unknown {
+  if (Array.isArray(schema)) return schema.map(closeSchema);
+  if (schema === null || typeof schema !== "object") return schema;
+  const out: Record<string, unknown> = {};
+  for (const [k, v] of Object.entries(schema)) out[k] = k === "enum" || k === "const" || k === "default" ? v : closeSchema(v);
+  if (out.properties !== undefined && out.additionalProperties === undefined) out.additionalProperties = false;
+  return out;
 }

@@ -27,7 +27,8 @@ def register(d: Dispatcher, s: Services) -> None:
         assert base_position is not None and base_orientation is not None
         model = s.world.load_robot(p["urdf"], robot_id=p["id"], base_position=base_position,
                                    base_orientation=base_orientation, ee_link=p["eeLink"],
-                                   package_roots=p["packageRoots"], srdf=p["srdf"])
+                                   package_roots=p["packageRoots"], srdf=p["srdf"],
+                                   clearance=float(p["clearance"]))
         return model.to_json()
 
     @d.method("robot.remove")

@@ -189,6 +189,16 @@ class Bullet:
         """Raw contact tuples (fast path: index 3/4 links, 2 body b, 8 distance)."""
         return pb.getContactPoints(body_a, physicsClientId=self.cid)
 
+    def bodies_near_links(self, body: int, links: Sequence[int], margin: float) -> set[int]:
+        """Other bodies whose bounding boxes come within ``margin`` of the given links' boxes."""
+        out: set[int] = set()
+        for ln in links:
+            lo, hi = pb.getAABB(body, ln, physicsClientId=self.cid)
+            hits = pb.getOverlappingObjects([v - margin for v in lo], [v + margin for v in hi],
+                                            physicsClientId=self.cid)
+            out.update(b for b, _ in hits or () if b != body)
+        return out
+
     def closest(
         self, body_a: int, body_b: int, distance: float, link_a: int | None = None, link_b: int | None = None
     ) -> list[ContactPoint]:

@@ -155,7 +155,22 @@ class CollisionChecker:
                     return False
             elif c[8] <= TOUCH and (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered:
                 return False
-        return not (self.massless_moving and self._closest_links(self.massless_moving, clearance))
+        if self.massless_moving and self._closest_links(self.massless_moving, clearance):
+            return False
+        # contacts are reported for touching shapes only: a gap below the clearance needs distance queries,
+        # asked only of the bodies whose boxes come that close to a moving link
+        return clearance <= TOUCH or not self._within(clearance)
+
+    def _within(self, clearance: float) -> bool:
+        """Another body closer than ``clearance`` (m) to a moving link."""
+        bl, body = self.robot.bullet, self.robot.body
+        others = set(self._others())
+        for other in bl.bodies_near_links(body, self.robot.moving_links, clearance) & others:
+            robot = self.table.robots.get(other)
+            if any(c.distance <= clearance for c in bl.closest(body, other, clearance)
+                   if robot is None or c.link_a in self.robot.moving_links):
+                return True
+        return False
 
     def batch(self, qs: FloatArray, progress: Callable[[int], None] | None = None) -> np.ndarray:
         """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state."""

@@ -3,8 +3,8 @@
 OMPL's RRT-Connect searches the robot's joint space (bounds = joint limits; a state is valid when the
 robot keeps the path clearance to everything), and OMPL's path simplifier shortcuts the result. OMPL
 only proposes: every segment of the final path is then checked by our own path check (no point of the
-robot travels more than 4 mm unchecked, clearance kept — `pathcheck.first_contact`), and a path that
-fails it is not used. The search is seeded, so the same request gets the same path.
+robot travels more than twice the clearance unchecked, clearance kept — `pathcheck.first_contact`), and
+a path that fails it is not used. The search is seeded, so the same request gets the same path.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from robwot_sim.sim.collision import CollisionChecker
-from robwot_sim.sim.pathcheck import first_contact
+from robwot_sim.sim.pathcheck import Guard, first_contact
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray
 
@@ -33,7 +33,7 @@ ou.setLogLevel(ou.LOG_WARN)
 
 
 def find_detour(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goal: FloatArray,
-                reach: FloatArray, clearance: float, seed: int,
+                guard: Guard, clearance: float, seed: int,
                 budget: float = BUDGET) -> list[FloatArray] | None:
     """Waypoints from ``start`` (excluded) to ``goal`` (included) whose segments all pass our path
     check, or None when none was found within ``budget`` seconds. Moves the robot: the caller restores
@@ -66,7 +66,7 @@ def find_detour(robot: BoundRobot, checker: CollisionChecker, start: FloatArray,
     path = [np.array([s[i] for i in range(dof)], dtype=np.float64) for s in states]
     path[0], path[-1] = start.copy(), goal.copy()
     for a, b in itertools.pairwise(path):
-        if first_contact(robot, checker, a, b, reach, clearance) is not None:
+        if first_contact(robot, checker, a, b, guard, clearance) is not None:
             return None
     return path[1:]
 

@@ -12,8 +12,9 @@ import pybullet as pb
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
+from robwot_sim.sim.pathcheck import Guard
 from robwot_sim.sim.robot import BoundRobot, parse_model
-from robwot_sim.sim.sweep import joint_reach
+from robwot_sim.sim.sweep import CLEARANCE, joint_reach
 from robwot_sim.sim.types import FloatArray, RobotModel
 from robwot_sim.srdf import disabled_pairs
 from robwot_sim.urdf import UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
@@ -31,6 +32,12 @@ class RobotEntry:
     collision_parts: tuple[Path, ...]
     #: per controllable joint, how far the farthest collision point travels per unit of motion (sweep.py)
     reach: FloatArray
+    #: clearance (m) its paths and motions keep to other bodies (pathcheck.Guard)
+    clearance: float = CLEARANCE
+
+    @property
+    def guard(self) -> Guard:
+        return Guard(self.reach, self.clearance)
 
 
 def resolve_urdf_path(urdf: str | Path, base: Path | None = None) -> Path:

@@ -1,13 +1,16 @@
 """Checking a planned joint path for collision, without changing the world.
 
 Between the planned states (one per ``dt``) the path is subdivided so that no point of the robot travels
-more than ``MAX_SWEEP`` between two checked states, and other bodies must stay ``CLEARANCE`` away: then
-no contact can hide between checked states, at any speed (see ``sweep.py``). A path that starts within
+more than twice the robot's clearance between two checked states, and other bodies must stay that
+clearance away (a `Guard`; 2 mm unless the robot was loaded with another): then no contact can hide
+between checked states, at any speed (see ``sweep.py``). A path that starts within
 the clearance (e.g. after a motion stopped on contact) is checked for contact only, so the robot can
 always move away.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -16,22 +19,40 @@ from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.sweep import CLEARANCE, substeps
 from robwot_sim.sim.types import FirstCollision, FloatArray, PathReport
 
+#: the clearance a robot may be loaded with (m): above 0 for the sweep bound to hold; at most Bullet's
+#: contact breaking threshold (2 cm), the farthest distance at which it reports other bodies
+MIN_CLEARANCE, MAX_CLEARANCE = 0.0005, 0.02
 
-def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArray) -> float:
-    """The clearance a path from ``start`` keeps: CLEARANCE, or contact only when the start is closer."""
+
+@dataclass(frozen=True)
+class Guard:
+    """What a path check of one robot keeps: ``clearance`` (m) to other bodies, no point travelling more
+    than twice that between checked states (``reach``: per joint, how far the farthest collision point
+    travels per unit of motion, from ``sweep.joint_reach``)."""
+
+    reach: FloatArray
+    clearance: float = CLEARANCE
+
+    @property
+    def max_sweep(self) -> float:
+        return 2.0 * self.clearance
+
+
+def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, guard: Guard) -> float:
+    """The clearance a path from ``start`` keeps: the guard's, or contact only when the start is closer."""
     saved = robot.q.copy()
     try:
         robot.apply(start)
-        return CLEARANCE if checker.is_free(CLEARANCE) else TOUCH
+        return guard.clearance if checker.is_free(guard.clearance) else TOUCH
     finally:
         robot.apply(saved)
 
 
 def first_contact(robot: BoundRobot, checker: CollisionChecker, q0: FloatArray, q1: FloatArray,
-                  reach: FloatArray, clearance: float) -> tuple[float, FloatArray] | None:
+                  guard: Guard, clearance: float) -> tuple[float, FloatArray] | None:
     """The first state between ``q0`` (excluded) and ``q1`` (included) closer than ``clearance`` to
     anything, as (fraction of the segment, state), or None. Leaves the robot at the last state checked."""
-    n = substeps(q0, q1, reach)
+    n = substeps(q0, q1, guard.reach, guard.max_sweep)
     for i in range(1, n + 1):
         q = q0 + (q1 - q0) * (i / n)
         robot.apply(q)
@@ -41,18 +62,18 @@ def first_contact(robot: BoundRobot, checker: CollisionChecker, q0: FloatArray, 
 
 
 def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatArray, dt: float,
-                     reach: FloatArray) -> PathReport:
+                     guard: Guard) -> PathReport:
     """Check ``path`` (row k at time k * dt) and the sweep between its rows; report the first contact."""
     saved = robot.q.copy()
     duration = (len(path) - 1) * dt
     try:
-        clearance = path_clearance(robot, checker, path[0])
+        clearance = path_clearance(robot, checker, path[0], guard)
         robot.apply(path[0])
         if not checker.is_free():
             start = FirstCollision(0.0, tuple(float(x) for x in path[0]), tuple(checker.contacts()))
             return PathReport(False, duration, len(path), start)
         for k in range(1, len(path)):
-            hit = first_contact(robot, checker, path[k - 1], path[k], reach, clearance)
+            hit = first_contact(robot, checker, path[k - 1], path[k], guard, clearance)
             if hit is not None:
                 frac, q = hit
                 first = FirstCollision((k - 1 + frac) * dt, tuple(float(x) for x in np.asarray(q)),

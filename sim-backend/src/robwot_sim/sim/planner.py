@@ -82,8 +82,9 @@ def _path(world: World, robot: str, q: Sequence[float], speed: float,
     return report.collision_free, contacts
 
 
-def _path_check(ok: bool, contacts: Sequence[Contact], planned: str = "straight") -> dict[str, Any]:
-    return {"ok": ok, "planned": planned, "contacts": [c.to_json() for c in contacts]}
+def _path_check(clearance: float, ok: bool, contacts: Sequence[Contact],
+                planned: str = "straight") -> dict[str, Any]:
+    return {"ok": ok, "planned": planned, "clearance": clearance, "contacts": [c.to_json() for c in contacts]}
 
 
 def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str, Any]) -> Plan | None:
@@ -91,8 +92,8 @@ def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str,
     waypoints = world.detour(robot, target)
     if waypoints is None:
         return None
-    return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": _path_check(True, [], "detour")},
-                tuple(waypoints[:-1]))
+    path = _path_check(world.robot_model(robot).clearance, True, [], "detour")
+    return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": path}, tuple(waypoints[:-1]))
 
 
 def plan_joints(world: World, robot: str, target: Sequence[float], speed: float, dt: float) -> Plan:
@@ -112,7 +113,7 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float,
         detour = _detour(world, robot, target, checks)
         if detour is not None:
             return detour
-    checks["path"] = _path_check(ok, contacts)
+    checks["path"] = _path_check(model.clearance, ok, contacts)
     reasons = () if ok else (f"the path to the target collides{_contact_words(contacts)}",)
     return Plan(ok, tuple(float(v) for v in target), reasons, checks)
 
@@ -155,7 +156,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
             first = (ik.positions, ik.position_error, contacts)
         if ok:
             checks = {"ik": {"ok": True, "positionError": ik.position_error, "solutions": tried},
-                      "limits": {"ok": True}, "path": _path_check(True, [])}
+                      "limits": {"ok": True}, "path": _path_check(model.clearance, True, [])}
             return Plan(True, ik.positions, (), checks)
     if first is None:
         error = best_error if best_error != float("inf") else -1.0
@@ -167,6 +168,6 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     detour = _detour(world, robot, positions, checks)
     if detour is not None:
         return detour
-    checks["path"] = _path_check(False, contacts)
+    checks["path"] = _path_check(model.clearance, False, contacts)
     reason = f"the path to every IK solution tried ({tried}) collides{_contact_words(contacts)}"
     return Plan(False, positions, (reason,), checks)

@@ -179,6 +179,8 @@ class RobotModel:
     package_roots: dict[str, str] = field(default_factory=dict)
     #: the SRDF whose ``<disable_collisions>`` pairs are in ``filtered_pairs`` (absolute path), if any
     srdf: str | None = None
+    #: clearance (m) its paths and motions keep to other bodies
+    clearance: float = 0.002
 
     @property
     def dof(self) -> int:
@@ -219,4 +221,5 @@ class RobotModel:
             "basePosition": _floats(self.base_position),
             "baseOrientation": _floats(self.base_orientation),
             **({"srdf": self.srdf} if self.srdf else {}),
+            "clearance": self.clearance,
         }

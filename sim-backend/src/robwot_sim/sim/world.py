@@ -109,7 +109,7 @@ class World(WorldScene):
     def motion_clearance(self, robot_id: str) -> float:
         """The clearance (m) a motion from the current state keeps (see pathcheck.path_clearance)."""
         e = self._entry(robot_id)
-        return path_clearance(e.bound, e.checker, e.bound.q.copy())
+        return path_clearance(e.bound, e.checker, e.bound.q.copy(), e.guard)
 
     @_locked
     def check_step(
@@ -121,7 +121,7 @@ class World(WorldScene):
         saved = e.bound.q.copy()
         try:
             hit = first_contact(e.bound, e.checker, np.asarray(q_from, dtype=np.float64),
-                                np.asarray(q_to, dtype=np.float64), e.reach, clearance)
+                                np.asarray(q_to, dtype=np.float64), e.guard, clearance)
             contacts = e.checker.contacts(clearance) if hit is not None else []
         finally:
             e.bound.apply(saved)
@@ -211,7 +211,7 @@ class World(WorldScene):
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
         path = self.plan_motion(robot_id, target, start, speed, dt, via)
         e = self._entry(robot_id)
-        return check_joint_path(e.bound, e.checker, path, float(dt), e.reach)
+        return check_joint_path(e.bound, e.checker, path, float(dt), e.guard)
 
     @_locked
     def detour(self, robot_id: str, target: JointVector,
@@ -222,10 +222,10 @@ class World(WorldScene):
         tgt = e.bound.validate(target, "target")
         saved = e.bound.q.copy()
         try:
-            clearance = path_clearance(e.bound, e.checker, saved)
+            clearance = path_clearance(e.bound, e.checker, saved, e.guard)
             digest = hashlib.sha256(np.concatenate([saved, tgt]).tobytes()).digest()
             seed = int.from_bytes(digest[:4], "little")
-            found = find_detour(e.bound, e.checker, saved, tgt, e.reach, clearance, seed, budget)
+            found = find_detour(e.bound, e.checker, saved, tgt, e.guard, clearance, seed, budget)
         finally:
             e.bound.apply(saved)
         return None if found is None else [tuple(float(x) for x in w) for w in found]

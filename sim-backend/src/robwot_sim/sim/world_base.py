@@ -18,6 +18,8 @@ from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.fastworld import FastWorld
 from robwot_sim.sim.loader import RobotEntry, load_robot_body
+from robwot_sim.sim.pathcheck import MAX_CLEARANCE, MIN_CLEARANCE
+from robwot_sim.sim.sweep import CLEARANCE
 from robwot_sim.sim.types import RobotModel
 
 Vec3 = Sequence[float]
@@ -84,9 +86,11 @@ class WorldBase:
         ee_link: str | None = None,
         package_roots: Mapping[str, str] | None = None,
         srdf: str | Path | None = None,
+        clearance: float = CLEARANCE,
         _base_dir: Path | None = None,
     ) -> RobotModel:
-        """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model."""
+        """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model.
+        ``clearance`` (m) is what its checked paths and motions keep to other bodies."""
         if robot_id is not None:
             self._check_free_name(v.name("id", robot_id))
         if ee_link is not None:
@@ -96,6 +100,10 @@ class WorldBase:
         pos = v.position("basePosition", base_position)
         quat = v.quaternion("baseOrientation", base_orientation)
         roots = v.string_map("packageRoots", package_roots)
+        if not (isinstance(clearance, float | int) and MIN_CLEARANCE <= clearance <= MAX_CLEARANCE):
+            raise InvalidParams(f"clearance must be in [{MIN_CLEARANCE}, {MAX_CLEARANCE}] m",
+                                param="clearance", expected=f"number in [{MIN_CLEARANCE}, {MAX_CLEARANCE}]",
+                                got=clearance)
         tmp_id = robot_id or "robot"
         if srdf is not None and (not isinstance(srdf, (str, Path)) or not str(srdf)):
             raise InvalidParams("srdf must be a file path", param="srdf", expected="string", got=srdf)
@@ -107,6 +115,8 @@ class WorldBase:
             while rid in self._robots or rid in self._obstacles:
                 rid, k = f"{base}-{k}", k + 1
             entry.model = replace(entry.model, id=rid)
+        entry.clearance = float(clearance)
+        entry.model = replace(entry.model, clearance=entry.clearance)
         rid = entry.model.id
         self._robots[rid] = entry
         self.table.names[entry.bound.body] = rid
