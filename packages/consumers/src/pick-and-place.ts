@@ -143,7 +143,7 @@ async function main(): Promise<void> {
             r.label,
             fmtXyz(toXyz(r.target), 3),
             yesNo(r.offline.inside),
-            `${fmt(r.offline.pointCloud.share, 2)} ${r.offline.pointCloud.ok ? "ok" : r.offline.pointCloud.share >= r.offline.pointCloud.threshold ? "colliding" : "no samples near"}`,
+            `${fmt(r.offline.pointCloud.nearestFree, 3)} m ${r.offline.pointCloud.ok ? "ok" : "no free sample near"}`,
             r.offline.ok ? "valid" : "invalid",
             yesNo(r.twin.checks.insideWorkspace?.ok),
             yesNo(r.twin.checks.pointCloud?.ok),

@@ -5,7 +5,7 @@ export type * from "./td/types.js";
 export { buildThingDescription, thingId, transformBounds, DEFAULT_BASE_URL, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
 export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/build.js";
 export { securityFor } from "./td/security.js";
-export { closeSchema, MIN_SPEED } from "./td/schemas.js";
+export { closeSchema, MIN_SPEED, tdContact } from "./td/schemas.js";
 export type { AuthScheme } from "./td/security.js";
 export { thingSlug, fnv1a64, canonicalJson } from "./td/hash.js";
 export { parseWorkspaceCsv, writeWorkspaceCsv } from "./workspace/csv.js";

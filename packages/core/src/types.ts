@@ -71,8 +71,10 @@ export interface MoveResult {
 
 export interface MotionStatus {
   state: "idle" | "moving" | "stopped" | "collision";
-  lastError: { code: string; message: string } | null;
-  lastResult: MoveResult | null;
+  /** absent when the last operation succeeded */
+  lastError?: { code: string; message: string };
+  /** absent before the first move */
+  lastResult?: MoveResult;
 }
 
 /** Output of validateJointPosition / validateCartesianPosition (Contract 3). */
@@ -85,7 +87,8 @@ export interface ValidationReport {
   /** the backend plan's checks (limits, ik, path) and the static ones on the twin's files */
   checks: Backend.PlanChecks & {
     insideWorkspace?: { ok: boolean };
-    pointCloud?: { score: number; threshold: number; k: number; ok: boolean };
+    /** a collision-free sample within maxGap (m); score = share of colliding among the k nearest (reported) */
+    pointCloud?: { score: number; k: number; nearestFree: number; maxGap: number; ok: boolean };
   };
 }
 

@@ -4,7 +4,7 @@
  * node-wot property observation.
  */
 import { EventEmitter } from "node:events";
-import type { CollisionEvent, Contact, MotionStatus, Quaternion, RobotModelLike, Vec3, Xyz } from "@robwot/core";
+import { tdContact, type CollisionEvent, type Contact, type MotionStatus, type Quaternion, type RobotModelLike, type Vec3, type Xyz } from "@robwot/core";
 import type { PoseResult, RobotStateNotification } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput } from "./errors.js";
@@ -37,7 +37,7 @@ export class Twin extends EventEmitter<TwinEvents> {
   position: Vec3 = [0, 0, 0];
   orientation: Quaternion = { x: 0, y: 0, z: 0, w: 1 };
   time = 0;
-  status: MotionStatus = { state: "idle", lastError: null, lastResult: null };
+  status: MotionStatus = { state: "idle" };
   frames: FrameMap;
   /** true from the moment a move is accepted for validation until it ends */
   busy = false;
@@ -95,8 +95,13 @@ export class Twin extends EventEmitter<TwinEvents> {
     return { thing: this.slug, type: "joints", time: this.time, joints: this.jointsRecord(), ...p };
   }
 
-  setStatus(patch: Partial<MotionStatus>): void {
-    this.status = { ...this.status, ...patch };
+  /** Updates the motion status; `lastError: null` clears the error (the field is then absent). */
+  setStatus(patch: Partial<Omit<MotionStatus, "lastError">> & { lastError?: MotionStatus["lastError"] | null }): void {
+    const { lastError, ...rest } = patch;
+    const next: MotionStatus = { ...this.status, ...rest };
+    if (lastError === null) delete next.lastError;
+    else if (lastError !== undefined) next.lastError = lastError;
+    this.status = next;
     this.emit("status", this.status);
   }
 
@@ -129,7 +134,7 @@ export class Twin extends EventEmitter<TwinEvents> {
     const c = [...contacts].sort((a, b) => b.depth - a.depth)[0];
     if (!c) return null;
     return {
-      pair: { a: c.a, b: c.b },
+      pair: (({ a, b }) => ({ a, b }))(tdContact(c)),
       position: xyz(this.frames.pointToReal(c.position)),
       depth: c.depth,
       joints: this.jointsRecord(positions),

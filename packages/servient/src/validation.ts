@@ -8,7 +8,7 @@
  * consumer without the twin has; they are reported in `checks` (and, when they disagree with the
  * simulation, in `notes`), but a weaker check never vetoes a stronger one. Nothing here moves the twin.
  */
-import type { Quaternion, ValidationReport, Vec3 } from "@robwot/core";
+import { tdContact, type Quaternion, type ValidationReport, type Vec3 } from "@robwot/core";
 import type { Plan, PlanChecks } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./backend.js";
 import { quatArr } from "./frames.js";
@@ -38,10 +38,8 @@ export function staticChecks(ws: WorkspaceChecks | null, virtual: Vec3): { check
   if (!checks.insideWorkspace.ok) evidence.push(`target ${where} is outside the workspace surface (workspace.stl)`);
   checks.pointCloud = ws.score(virtual);
   if (!checks.pointCloud.ok) {
-    evidence.push(
-      `point-cloud score ${fmt(checks.pointCloud.score)} > threshold ${checks.pointCloud.threshold} ` +
-        `(share of colliding samples among the ${checks.pointCloud.k} nearest in workspace.csv)`,
-    );
+    const nearest = checks.pointCloud.nearestFree < 0 ? "none at all" : `nearest ${fmt(checks.pointCloud.nearestFree)} m`;
+    evidence.push(`no collision-free sample of workspace.csv within ${fmt(checks.pointCloud.maxGap)} m of ${where} (${nearest})`);
   }
   return { checks, evidence };
 }
@@ -49,7 +47,8 @@ export function staticChecks(ws: WorkspaceChecks | null, virtual: Vec3): { check
 /** The report of a plan (valid or not) with the static checks beside it. */
 export function report(plan: Pick<Plan, "valid" | "reasons"> & { checks: PlanChecks }, statics = staticChecks(null, [0, 0, 0])): ValidationReport {
   const notes = plan.valid ? statics.evidence.map((s) => `${s}; the simulation reaches it collision-free, so it is accepted`) : statics.evidence;
-  return { valid: plan.valid, reasons: plan.reasons, checks: { ...statics.checks, ...plan.checks }, ...(notes.length > 0 ? { notes } : {}) };
+  const path = plan.checks.path ? { path: { ...plan.checks.path, contacts: plan.checks.path.contacts.map(tdContact) } } : {};
+  return { valid: plan.valid, reasons: plan.reasons, checks: { ...statics.checks, ...plan.checks, ...path }, ...(notes.length > 0 ? { notes } : {}) };
 }
 
 export async function validateJoints(backend: BackendSupervisor, twin: Twin, q: number[], speed: number): Promise<ValidationReport> {

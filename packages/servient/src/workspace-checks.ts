@@ -1,6 +1,6 @@
 /**
  * The twin's workspace checks, with the same core code any consumer runs offline on the linked files:
- * inside workspace.stl, and the k-nearest-neighbour point-cloud score of workspace.csv. Virtual frame.
+ * inside workspace.stl, and a collision-free sample of workspace.csv near the target. Virtual frame.
  */
 import { existsSync } from "node:fs";
 import { join } from "node:path";
@@ -9,7 +9,7 @@ import { ServientError } from "./errors.js";
 
 export interface WorkspaceChecks {
   inside(p: Vec3): boolean;
-  score(p: Vec3): { score: number; threshold: number; k: number; ok: boolean; nearestDistance: number };
+  score(p: Vec3): { score: number; k: number; nearestFree: number; maxGap: number; ok: boolean };
 }
 
 export function workspaceChecks(ws: Workspace): WorkspaceChecks {
@@ -17,7 +17,8 @@ export function workspaceChecks(ws: Workspace): WorkspaceChecks {
     inside: (p) => ws.contains(p),
     score: (p) => {
       const c = ws.cloudIndex.check(p);
-      return { score: c.share, threshold: c.threshold, k: c.k, ok: c.ok, nearestDistance: c.nearestDistance };
+      // a position with no collision-free sample at all reports -1 m (JSON has no Infinity)
+      return { score: c.share, k: c.k, nearestFree: Number.isFinite(c.nearestFree) ? c.nearestFree : -1, maxGap: c.maxGap, ok: c.ok };
     },
   };
 }

@@ -117,6 +117,8 @@ def normalise_obstacle(spec: Any, base: Path | None = None, *, checked: bool = F
     shape = dict(spec["shape"])
     if shape["type"] == "mesh":
         shape["file"] = str(resolve_file(shape["file"], base or Path.cwd(), what="mesh file"))
+        if isinstance(shape.get("scale"), int | float):  # a uniform scale, stored per axis
+            shape["scale"] = [float(shape["scale"])] * 3
     if "orientation" in spec:
         quat = unit_quaternion([float(v) for v in spec["orientation"]])
         if quat is None:  # schema_errors refuses it; reached only with checked=True on a bad document

@@ -25,7 +25,7 @@ export interface OfflineWorkspace {
   check(p: V3): OfflineVerdict;
 }
 
-export async function loadOfflineWorkspace(twin: Twin, options: { k?: number; threshold?: number } = {}): Promise<OfflineWorkspace> {
+export async function loadOfflineWorkspace(twin: Twin, options: { k?: number; maxGap?: number } = {}): Promise<OfflineWorkspace> {
   const stlUrl = linkUrl(twin.td, "workspace", twin.url);
   const csvUrl = linkUrl(twin.td, "workspace-pointcloud", twin.url);
   const headers = authHeaders(twin.auth);

@@ -41,14 +41,14 @@ export function propertyAffordances(joints: JointSpec[], bounds: Bounds | null):
       properties: {
         state: { type: "string", enum: ["idle", "moving", "stopped", "collision"] },
         lastError: {
-          oneOf: [
-            { type: "null" },
-            { type: "object", properties: { code: { type: "string" }, message: { type: "string" } }, required: ["code", "message"] },
-          ],
+          type: "object",
+          description: "why the last operation failed; absent when it succeeded",
+          properties: { code: { type: "string" }, message: { type: "string" } },
+          required: ["code", "message"],
         },
-        lastResult: { oneOf: [{ type: "null" }, moveResultSchema(joints)] },
+        lastResult: { ...moveResultSchema(joints), description: "result of the last move; absent before the first" },
       },
-      required: ["state", "lastError", "lastResult"],
+      required: ["state"],
     },
     calibration: {
       title: "Calibration",

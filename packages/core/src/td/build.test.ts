@@ -19,6 +19,25 @@ describe("buildThingDescription", () => {
     expect(res.report.additional).toBe("passed");
   });
 
+  it("gives every data schema a type (consumers such as wotpy build typed schemas from it)", () => {
+    const untyped: string[] = [];
+    const walk = (s: unknown, path: string): void => {
+      if (Array.isArray(s)) return s.forEach((x, i) => walk(x, `${path}[${i}]`));
+      if (s === null || typeof s !== "object") return;
+      const o = s as Record<string, unknown>;
+      if (o.type === undefined) untyped.push(path);
+      for (const k of ["items", "oneOf"] as const) if (o[k] !== undefined) walk(o[k], `${path}.${k}`);
+      for (const [n, x] of Object.entries((o.properties ?? {}) as Record<string, unknown>)) walk(x, `${path}.properties.${n}`);
+    };
+    for (const [n, p] of Object.entries(td.properties)) walk(p, `properties.${n}`);
+    for (const [n, a] of Object.entries(td.actions)) {
+      if (a.input) walk(a.input, `actions.${n}.input`);
+      if (a.output) walk(a.output, `actions.${n}.output`);
+    }
+    for (const [n, e] of Object.entries(td.events)) if (e.data) walk(e.data, `events.${n}.data`);
+    expect(untyped).toEqual([]);
+  });
+
   it("has context, stable id, base, nosec security and the contract's links", () => {
     expect(td["@context"][0]).toBe("https://www.w3.org/2019/wot/td/v1");
     expect(td["@context"][1]).toBe("https://www.w3.org/2022/wot/td/v1.1");

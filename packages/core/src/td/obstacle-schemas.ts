@@ -56,7 +56,7 @@ function shapeMembers(): (DataSchema & { properties: Record<string, DataSchema> 
       properties: {
         type: { type: "string", const: "mesh" },
         file: { type: "string", minLength: 1 },
-        scale: { oneOf: [positive("uniform scale", null), { ...vec3Schema("per-axis scale", null), items: positive("scale", null) }] },
+        scale: { ...vec3Schema("scale per axis x, y, z", null), items: positive("scale", null) },
       },
       required: ["type", "file"],
     },

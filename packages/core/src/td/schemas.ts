@@ -104,9 +104,9 @@ const contactSide = (): DataSchema => ({
   type: "object",
   properties: {
     body: { type: "string", description: "robot id or obstacle name" },
-    link: { oneOf: [{ type: "string" }, { type: "null" }], description: "link name, null for an obstacle" },
+    link: { type: "string", description: "link name; absent for an obstacle and a robot's base" },
   },
-  required: ["body", "link"],
+  required: ["body"],
 });
 
 export function contactSchema(): DataSchema {
@@ -167,8 +167,16 @@ export function validationReportSchema(): DataSchema {
           insideWorkspace: { type: "object", properties: { ok }, description: "inside workspace.stl" },
           pointCloud: {
             type: "object",
-            description: "k nearest workspace.csv points: share of colliding ones against the threshold",
-            properties: { score: { type: "number", minimum: 0, maximum: 1 }, threshold: { type: "number" }, k: { type: "integer" }, ok },
+            description:
+              "ok when a collision-free workspace.csv sample lies within maxGap of the target (the position is reachable collision-free); " +
+              "score (reported, not deciding) is the share of colliding samples among the k nearest",
+            properties: {
+              score: { type: "number", minimum: 0, maximum: 1 },
+              k: { type: "integer" },
+              nearestFree: { type: "number", unit: UNIT_M, description: "distance to the nearest collision-free sample; -1 when there is none" },
+              maxGap: { type: "number", unit: UNIT_M },
+              ok,
+            },
           },
           ik: {
             type: "object",
@@ -218,4 +226,10 @@ export function closeSchema(schema: unknown): unknown {
   for (const [k, v] of Object.entries(schema)) out[k] = k === "enum" || k === "const" || k === "default" ? v : closeSchema(v);
   if (out.properties !== undefined && out.additionalProperties === undefined) out.additionalProperties = false;
   return out;
+}
+
+/** A backend contact as the TD states it: a side without a link (obstacle, robot base) omits `link`. */
+export function tdContact<C extends { a: { body: string; link: string | null }; b: { body: string; link: string | null } }>(c: C): C {
+  const side = (s: { body: string; link: string | null }) => (s.link === null ? { body: s.body } : s);
+  return { ...c, a: side(c.a), b: side(c.b) } as C;
 }

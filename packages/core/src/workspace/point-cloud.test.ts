@@ -39,20 +39,22 @@ describe("PointCloudIndex", () => {
     expect(s.k).toBe(10);
     expect(s.share).toBe(share);
     expect(s.colliding).toBe(share * 10);
-    const c = index.check(p);
-    expect(c.ok).toBe(ok);
-    expect(c.threshold).toBe(0.5);
+    expect(index.check(p).ok).toBe(ok);
   });
 
-  it("applies the rule share < threshold && nearestDistance <= maxGap", () => {
-    const edge = [0.3, 0, 0]; // about half the neighbours collide
-    const s = index.score(edge, 40);
-    expect(s.share).toBeGreaterThan(0.2);
-    expect(s.share).toBeLessThan(0.8);
-    expect(index.check(edge, { k: 40, threshold: s.share }).ok).toBe(false);
-    expect(index.check(edge, { k: 40, threshold: Math.min(1, s.share + 0.01) }).ok).toBe(true);
-    const outside = [0, 0, 1.05];
-    const near = index.score(outside).nearestDistance;
+  it("decides by the nearest collision-free sample, not by how many colliding samples are near", () => {
+    // at the edge of the free region most neighbours collide, yet the position is reachable collision-free
+    const edge = [0.33, 0, 0];
+    const c = index.check(edge, { k: 40 });
+    expect(c.share).toBeGreaterThan(0.5);
+    expect(c.ok).toBe(true);
+    expect(c.nearestFree).toBeLessThan(c.maxGap);
+    // deep in the colliding region the nearest free sample is far: refused
+    const deep = index.check([0.8, 0, 0]);
+    expect(deep.nearestFree).toBeGreaterThan(0.4);
+    expect(deep.ok).toBe(false);
+    const outside = [-0.2, 0, 1.05];
+    const near = index.check(outside).nearestFree;
     expect(index.check(outside, { maxGap: near * 0.99 }).ok).toBe(false);
     expect(index.check(outside, { maxGap: near }).ok).toBe(true);
     // the default gap is of the order of the point spacing (~ (volume / n)^(1/3) ≈ 0.06 m)
@@ -65,7 +67,9 @@ describe("PointCloudIndex", () => {
     expect(tiny.score([0.2, 0, 0], 10)).toEqual({ k: 2, colliding: 1, share: 0.5, nearestDistance: 0.2 });
     expect(() => tiny.score([0, 0, NaN])).toThrow(/finite/);
     expect(() => tiny.score([0, 0, 0], 0)).toThrow(/k must be/);
-    expect(() => tiny.check([0, 0, 0], { threshold: 0 })).toThrow(/threshold/);
+    expect(tiny.check([0.9, 0, 0], { maxGap: 0.5 })).toMatchObject({ nearestFree: 0.9, ok: false });
+    const none = new PointCloudIndex(Float64Array.from([0, 0, 0]), Uint8Array.from([0]));
+    expect(none.check([0, 0, 0])).toMatchObject({ nearestFree: Infinity, ok: false });
     expect(() => new PointCloudIndex(new Float64Array(4), new Uint8Array(2))).toThrow(/3 × n/);
   });
 });

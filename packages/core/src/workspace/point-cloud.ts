@@ -1,11 +1,14 @@
 /**
- * k-nearest-neighbour scoring against the labelled workspace point cloud (`workspace.csv`), as in the
- * original RobWoT: a target is suspicious when many of its nearest sampled end-effector positions came
- * from colliding configurations, or when no sample lies near it at all. Uniform 3D grid, exact kNN. Pure.
+ * Nearest-neighbour checks against the labelled workspace point cloud (`workspace.csv`). Uniform 3D grid,
+ * exact kNN. Pure.
  *
- * Rule of `check`: ok = share < threshold && nearestDistance <= maxGap, where share = colliding / k over
- * the k nearest points and maxGap defaults to 2 × the 95th percentile of the nearest-neighbour spacing of
- * (a deterministic sample of up to 2,000) cloud points.
+ * Rule of `check`: a position is reachable collision-free when a collision-free sample lies near it:
+ * ok = nearestFree <= maxGap, where nearestFree is the distance to the nearest collision-free sample and
+ * maxGap defaults to 2 × the 95th percentile of the nearest-neighbour spacing of (a deterministic sample
+ * of up to 2,000) collision-free samples. The original's measure — the share of colliding samples among
+ * the k nearest (`share`) — is still reported, but it counts how many colliding configurations (often
+ * self-colliding ones of other arm postures) end near the position, not whether the position can be
+ * reached without collision, so it does not decide.
  */
 import { InvalidArgumentError } from "../errors.js";
 import { Grid3, type Dims } from "./grid3.js";
@@ -23,7 +26,8 @@ export interface PointCloudScore {
 
 export interface PointCloudCheck extends PointCloudScore {
   ok: boolean;
-  threshold: number;
+  /** distance (m) to the nearest collision-free sample (Infinity when there is none) */
+  nearestFree: number;
   maxGap: number;
 }
 
@@ -32,6 +36,7 @@ export class PointCloudIndex {
   private readonly grid: Grid3;
   private readonly order: Int32Array;
   private spacing: number | undefined;
+  private freeIndex: PointCloudIndex | null | undefined;
 
   constructor(readonly points: Float64Array, readonly collisionFree: Uint8Array) {
     const size = collisionFree.length;
@@ -134,14 +139,24 @@ export class PointCloudIndex {
     return this.spacing;
   }
 
-  /** See the rule in the module comment. */
-  check(p: readonly number[], options: { k?: number; threshold?: number; maxGap?: number } = {}): PointCloudCheck {
-    const threshold = options.threshold ?? 0.5;
-    if (!(threshold > 0 && threshold <= 1)) {
-      throw new InvalidArgumentError(`threshold must be in (0, 1], got ${threshold}`, { param: "threshold", got: threshold });
+  /** The collision-free samples alone (null when there are none). */
+  free(): PointCloudIndex | null {
+    if (this.freeIndex === undefined) {
+      const keep: number[] = [];
+      for (let i = 0; i < this.size; i++) if (this.collisionFree[i] === 1) keep.push(i);
+      const pts = new Float64Array(3 * keep.length);
+      keep.forEach((i, j) => pts.set(this.points.subarray(3 * i, 3 * i + 3), 3 * j));
+      this.freeIndex = keep.length === 0 ? null : keep.length === this.size ? this : new PointCloudIndex(pts, new Uint8Array(keep.length).fill(1));
     }
-    const maxGap = options.maxGap ?? 2 * this.typicalSpacing();
+    return this.freeIndex;
+  }
+
+  /** See the rule in the module comment. */
+  check(p: readonly number[], options: { k?: number; maxGap?: number } = {}): PointCloudCheck {
     const s = this.score(p, options.k ?? 10);
-    return { ...s, threshold, maxGap, ok: s.share < threshold && s.nearestDistance <= maxGap };
+    const free = this.free();
+    const nearestFree = free?.nearest(p, 1).distance[0] ?? Infinity;
+    const maxGap = options.maxGap ?? 2 * (free?.typicalSpacing() ?? 0);
+    return { ...s, nearestFree, maxGap, ok: nearestFree <= maxGap };
   }
 }

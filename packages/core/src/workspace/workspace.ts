@@ -28,7 +28,7 @@ export class Workspace {
     return this.mesh.contains(p);
   }
 
-  check(p: readonly number[], options: { k?: number; threshold?: number; maxGap?: number } = {}): WorkspacePointCheck {
+  check(p: readonly number[], options: { k?: number; maxGap?: number } = {}): WorkspacePointCheck {
     const insideWorkspace = this.mesh.contains(p);
     const pointCloud = this.cloudIndex.check(p, options);
     return { ok: insideWorkspace && pointCloud.ok, insideWorkspace, pointCloud };

@@ -139,6 +139,8 @@ class CollisionChecker:
         ]
         if self.massless_moving:
             pts += self._closest_links(self.massless_moving, clearance)
+        if clearance > TOUCH:
+            pts += self._near(clearance)
         return _dedupe([*self.static_contacts(), *(self._contact(c) for c in pts)])
 
     def is_free(self, clearance: float = TOUCH) -> bool:
@@ -163,14 +165,22 @@ class CollisionChecker:
 
     def _within(self, clearance: float) -> bool:
         """Another body closer than ``clearance`` (m) to a moving link."""
+        return bool(self._near(clearance, first=True))
+
+    def _near(self, clearance: float, first: bool = False) -> list[ContactPoint]:
+        """Points of other bodies closer than ``clearance`` (m) to a moving link (distance queries, asked
+        only of the bodies whose boxes come that close); just the first one found with ``first``."""
         bl, body = self.robot.bullet, self.robot.body
-        others = set(self._others())
-        for other in bl.bodies_near_links(body, self.robot.moving_links, clearance) & others:
-            robot = self.table.robots.get(other)
-            if any(c.distance <= clearance for c in bl.closest(body, other, clearance)
-                   if robot is None or c.link_a in self.robot.moving_links):
-                return True
-        return False
+        moving = set(self.robot.moving_links)
+        out: list[ContactPoint] = []
+        near = bl.bodies_near_links(body, self.robot.moving_links, clearance) & set(self._others())
+        for other in sorted(near):
+            for c in bl.closest(body, other, clearance):
+                if c.distance <= clearance and c.link_a in moving:
+                    out.append(c)
+                    if first:
+                        return out
+        return out
 
     def batch(self, qs: FloatArray, progress: Callable[[int], None] | None = None) -> np.ndarray:
         """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state."""
