@@ -2,11 +2,11 @@
  * The TD of a twin, two ways:
  * - `produceInit`: what node-wot's `WoT.produce` gets: the generated td.json without forms and base
  *   (node-wot adds its own forms for the real address), with nosec (auth is enforced by the middleware).
- * - `servedTd`: what `/<slug>` answers: td.json with `base` = `<url>/<slug>/`, the live WebSocket forms
+ * - `servedTd`: what `/<slug>` answers: td.json with `base` = `<url>/<slug>/`, the `robwot:live` link
  *   pointing at this servient's `/live`, the security required (`securityFor`), and the Cartesian
  *   bounds in the real frame when a calibration is active.
  */
-import { securityFor, TD_CONTEXT_V10, type Bounds, type ThingDescription } from "@robwot/core";
+import { LIVE_REL, securityFor, TD_CONTEXT_V10, type Bounds, type ThingDescription } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
 import type { FrameMap } from "./frames.js";
 import type { TdDocument } from "./twin-folder.js";
@@ -29,23 +29,9 @@ export function produceInit(td: TdDocument): WoT.ExposedThingInit {
   // node-wot 0.9.2 validates the init against the TD 1.0 schema: its context URL only
   const ctx = Array.isArray(init["@context"]) ? (init["@context"] as unknown[]) : [];
   init["@context"] = [TD_CONTEXT_V10, ...ctx.filter((c) => typeof c === "object")];
-  dropBounds(init.properties?.getCartesianPosition);
   init.securityDefinitions = { nosec_sc: { scheme: "nosec" } };
   init.security = "nosec_sc";
   return init as unknown as WoT.ExposedThingInit;
-}
-
-/**
- * The pose *reading* is not bounded by the sampled collision-free points (the home pose of a kuka is
- * above them): node-wot consumers validate readings against the schema, so the property has no
- * minimum/maximum; the Cartesian *inputs* keep them.
- */
-function dropBounds(schema: Json | undefined): void {
-  const props = schema?.properties as Record<string, Json> | undefined;
-  for (const axis of ["x", "y", "z"]) {
-    delete props?.[axis]?.minimum;
-    delete props?.[axis]?.maximum;
-  }
 }
 
 function setBounds(schema: Json | undefined, b: Bounds): void {
@@ -70,15 +56,7 @@ export interface ServeTdOptions {
 export function servedTd(td: TdDocument, o: ServeTdOptions): TdDocument {
   const out = clone(td);
   out.base = `${o.url}/${o.slug}/`;
-  eachAffordance(out, (a) => {
-    for (const f of (a.forms ?? []) as Json[]) {
-      if (typeof f.href === "string" && /^wss?:/.test(f.href)) {
-        f.href = o.liveUrl;
-        f["robwot:subscribe"] = o.slug;
-      }
-    }
-  });
-  dropBounds(out.properties?.getCartesianPosition);
+  for (const l of (out.links ?? []) as Json[]) if (l.rel === LIVE_REL) l.href = o.liveUrl;
   if (o.bounds && o.frames.transform) {
     const b = o.frames.boundsToReal(o.bounds);
     setBounds(out.actions?.moveToCartesianPosition?.input as Json | undefined, b);

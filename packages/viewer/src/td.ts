@@ -2,6 +2,7 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
+import { LIVE_REL } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
 
@@ -23,7 +24,7 @@ export interface TwinTd {
   links: { model: string; pointCloud: string | null; workspace: string | null; scene: string | null };
   /** End-effector link (`robwot:eeLink`), if the TD names one. */
   eeLink: string | null;
-  /** Live WebSocket endpoint from the TD's forms carrying `robwot:subscribe` (Contract 4), if any. */
+  /** Live WebSocket endpoint from the TD's link with rel `robwot:live` (Contract 4), if any. */
   live: string | null;
 }
 
@@ -74,19 +75,13 @@ function jointLimits(td: Record<string, unknown>): JointLimit[] {
 }
 
 function liveUrl(td: Record<string, unknown>): string | null {
-  for (const kind of ["properties", "events"]) {
-    const group = td[kind];
-    if (!isRecord(group)) continue;
-    for (const a of Object.values(group)) {
-      const forms = isRecord(a) && Array.isArray(a["forms"]) ? a["forms"] : [];
-      for (const f of forms) {
-        if (isRecord(f) && typeof f["href"] === "string" && f["robwot:subscribe"] !== undefined && /^wss?:/.test(f["href"])) {
-          // Same machine as the page: keep the advertised port and path, use the host name we reached.
-          const u = new URL(f["href"]);
-          u.hostname = location.hostname;
-          return u.href;
-        }
-      }
+  const links = Array.isArray(td["links"]) ? td["links"] : [];
+  for (const l of links) {
+    if (isRecord(l) && l["rel"] === LIVE_REL && typeof l["href"] === "string" && /^wss?:/.test(l["href"])) {
+      // Same machine as the page: keep the advertised port and path, use the host name we reached.
+      const u = new URL(l["href"]);
+      u.hostname = location.hostname;
+      return u.href;
     }
   }
   return null;

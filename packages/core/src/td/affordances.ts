@@ -21,8 +21,10 @@ type NoForms<T> = Omit<T, "forms">;
 /** Calibration points lie within MAX_CALIBRATION_COORDINATE (m) of the origin on every axis. */
 const CALIBRATION_BOX: Bounds = { min: [-C, -C, -C], max: [C, C, C] };
 
-export function propertyAffordances(joints: JointSpec[], bounds: Bounds | null): Record<string, NoForms<PropertyAffordance>> {
-  const cartesian = xyzSchema("End-effector link frame position (calibrated real frame when a calibration is active)", bounds);
+export function propertyAffordances(joints: JointSpec[]): Record<string, NoForms<PropertyAffordance>> {
+  // the pose *reading* has no bounds: the twin's own states (its home pose, a pose outside the sampled
+  // collision-free points) may lie beyond them, and consumers validate readings against the schema
+  const cartesian = xyzSchema("End-effector link frame position (calibrated real frame when a calibration is active)", null);
   cartesian.properties = { ...cartesian.properties, orientation: quaternionSchema("End-effector orientation quaternion") };
   cartesian.required = ["x", "y", "z", "orientation"];
   return {

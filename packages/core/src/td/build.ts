@@ -18,6 +18,8 @@ export const TD_CONTEXT_V11 = "https://www.w3.org/2022/wot/td/v1.1";
  */
 export const TD_CONTEXT_V10 = "https://www.w3.org/2019/wot/td/v1";
 export const ROBWOT_NS = "https://robwot.dev/ns#";
+/** Link relation of the servient's `/live` WebSocket stream (its own protocol, README Contract 4). */
+export const LIVE_REL = "robwot:live";
 export const DEFAULT_BASE_URL = "http://localhost:8080/";
 const JSON_TYPE = "application/json";
 
@@ -45,7 +47,7 @@ export interface BuildThingDescriptionOptions {
   description?: string;
   /** When given, Cartesian bounds are mapped into the real frame (axis-aligned box of the 8 corners). */
   calibration?: SimilarityTransform | null;
-  /** Live WebSocket endpoint (Contract 4); default ws(s)://<host of baseUrl>/live; null: no WebSocket forms. */
+  /** Live WebSocket endpoint (Contract 4), linked with rel LIVE_REL; default ws(s)://<host of baseUrl>/live; null: no link. */
   liveUrl?: string | null;
   /** The twin folder holds robot.srdf (linked with rel "srdf"). */
   srdf?: boolean;
@@ -131,11 +133,10 @@ export function thingId(model: RobotModelLike, slug: string, sceneId?: string): 
   return `urn:robwot:${slug}:${fnv1a64(canonicalJson({ robot, scene: sceneId ?? null }))}`;
 }
 
-function propertyForms(name: string, observable: boolean, live: string | null, slug: string): Form[] {
+function propertyForms(name: string, observable: boolean): Form[] {
   const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET" }];
   if (observable) {
     forms.push({ href: `properties/${name}/observable`, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], subprotocol: "longpoll" });
-    if (live) forms.push({ href: live, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], "robwot:subscribe": slug });
   }
   return forms;
 }
@@ -158,8 +159,8 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   if (bounds && options.calibration) bounds = transformBounds(bounds, options.calibration);
 
   const properties: Record<string, PropertyAffordance> = {};
-  for (const [name, p] of Object.entries(propertyAffordances(joints, bounds))) {
-    properties[name] = { ...p, forms: propertyForms(name, p.observable === true, live, slug) };
+  for (const [name, p] of Object.entries(propertyAffordances(joints))) {
+    properties[name] = { ...p, forms: propertyForms(name, p.observable === true) };
   }
   const actions: Record<string, ActionAffordance> = {};
   for (const [name, a] of Object.entries(actionAffordances(joints, bounds))) {
@@ -169,7 +170,6 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   const events: Record<string, EventAffordance> = {};
   for (const [name, e] of Object.entries(eventAffordances(joints))) {
     const forms: Form[] = [{ href: `events/${name}`, contentType: JSON_TYPE, op: ["subscribeevent", "unsubscribeevent"], subprotocol: "longpoll" }];
-    if (live) forms.push({ href: live, contentType: JSON_TYPE, op: ["subscribeevent", "unsubscribeevent"], "robwot:subscribe": slug });
     events[name] = { ...e, forms };
   }
   const links: Link[] = [
@@ -179,6 +179,9 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     { rel: "workspace-summary", href: "workspace.json", type: JSON_TYPE },
     { rel: "scene", href: "scene.json", type: JSON_TYPE },
     ...(options.srdf ? [{ rel: "srdf", href: "robot.srdf", type: "application/xml" }] : []),
+    // the servient's own WebSocket stream (all twins' joints, status, collisions, scene edits; protocol in
+    // the README, Contract 4): a link, not a form, since no standard operation speaks it
+    ...(live ? [{ rel: LIVE_REL, href: live, type: JSON_TYPE }] : []),
   ];
   const td: ThingDescription = {
     "@context": [TD_CONTEXT_V10, TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],
