@@ -6,7 +6,7 @@
  *   pointing at this servient's `/live`, the security required (`securityFor`), and the Cartesian
  *   bounds in the real frame when a calibration is active.
  */
-import { LIVE_REL, securityFor, TD_CONTEXT_V10, type Bounds, type ThingDescription } from "@robwot/core";
+import { LIVE_REL, securityFor, TD_CONTEXT_V10, withAbsoluteForms, type Bounds, type ThingDescription } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
 import type { FrameMap } from "./frames.js";
 import type { TdDocument } from "./twin-folder.js";
@@ -54,8 +54,8 @@ export interface ServeTdOptions {
 }
 
 export function servedTd(td: TdDocument, o: ServeTdOptions): TdDocument {
-  const out = clone(td);
-  out.base = `${o.url}/${o.slug}/`;
+  // forms absolute and moved to the served address (td.json of older versions had relative ones)
+  const out = withAbsoluteForms(clone(td), `${o.url}/${o.slug}/`);
   for (const l of (out.links ?? []) as Json[]) if (l.rel === LIVE_REL) l.href = o.liveUrl;
   if (o.bounds && o.frames.transform) {
     const b = o.frames.boundsToReal(o.bounds);

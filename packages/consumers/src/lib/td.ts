@@ -3,7 +3,7 @@
  * joint limits from `getJointPosition`'s schema, Cartesian bounds from `getCartesianPosition`'s
  * schema, the linked workspace files, and the live WebSocket endpoint (Contract 4).
  */
-import { RobwotError } from "@robwot/core";
+import { LIVE_REL, RobwotError } from "@robwot/core";
 
 export interface SchemaLike {
   type?: string;
@@ -77,13 +77,13 @@ export interface Bounds3 {
  * `moveToCartesianPosition` input schema (what the twin accepts), else of `getCartesianPosition`.
  */
 export function cartesianBounds(td: ThingDescriptionLike): Bounds3 {
-  const sources = [td.actions?.["moveToCartesianPosition"]?.input?.properties, td.properties?.["getCartesianPosition"]?.properties];
+  const sources = [td.actions?.["moveToCartesianPosition"]?.input?.properties];
   const axis = (k: "x" | "y" | "z"): [number, number] => {
     for (const props of sources) {
       const s = props?.[k];
       if (typeof s?.minimum === "number" && typeof s.maximum === "number") return [s.minimum, s.maximum];
     }
-    throw new TdError(`TD declares no numeric minimum/maximum for ${k} (moveToCartesianPosition input or getCartesianPosition)`);
+    throw new TdError(`TD declares no numeric minimum/maximum for ${k} (moveToCartesianPosition input)`);
   };
   const [x, y, z] = [axis("x"), axis("y"), axis("z")];
   return { min: [x[0], y[0], z[0]], max: [x[1], y[1], z[1]] };
@@ -108,18 +108,7 @@ export function slugOf(tdUrl: string): string {
   return decodeURIComponent(last);
 }
 
-/** Every WebSocket (`ws:`/`wss:`) form href in the TD: Thing-level, property, then event forms. */
-export function webSocketHrefs(td: ThingDescriptionLike): string[] {
-  const forms: FormLike[] = [...(td.forms ?? [])];
-  for (const group of [td.properties, td.events, td.actions]) {
-    for (const aff of Object.values(group ?? {})) forms.push(...(aff.forms ?? []));
-  }
-  const hrefs = forms.map((f) => f.href).filter((h) => /^wss?:/i.test(h));
-  return [...new Set(hrefs)];
-}
-
-/** The live endpoint: the TD's WebSocket form ending in `/live` (query kept), else any WS form. */
+/** The servient's live WebSocket stream: the TD's link with rel `robwot:live`. */
 export function liveUrl(td: ThingDescriptionLike): string | undefined {
-  const hrefs = webSocketHrefs(td);
-  return hrefs.find((h) => new URL(h).pathname.endsWith("/live")) ?? hrefs[0];
+  return td.links?.find((l) => l.rel === LIVE_REL && typeof l.href === "string")?.href;
 }

@@ -213,6 +213,33 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
       bounds: summary.bounds,
     };
   }
+  return withAbsoluteForms(td);
+}
+
+/**
+ * Every form's `href` resolved against `base`: TD 1.1 lets consumers resolve relative hrefs, but some
+ * (wotpy 0.18) do not. With `newBase`, forms under the old base move to the new one and `base` becomes
+ * it (the servient, for the address it serves on).
+ */
+export function withAbsoluteForms<T extends object>(td: T, newBase?: string): T {
+  const doc = td as Record<string, unknown>;
+  const base = typeof doc.base === "string" ? doc.base : undefined;
+  if (base === undefined) return td;
+  const target = newBase ?? base;
+  const fix = (forms: unknown): void => {
+    if (!Array.isArray(forms)) return;
+    for (const f of forms as { href?: unknown }[]) {
+      if (typeof f.href !== "string") continue;
+      // a form under the old base moves with it to the new one
+      const rel = f.href.startsWith(base) ? f.href.slice(base.length) : f.href;
+      f.href = new URL(rel, target).href;
+    }
+  };
+  fix(doc.forms);
+  for (const kind of ["properties", "actions", "events"]) {
+    for (const a of Object.values((doc[kind] ?? {}) as Record<string, { forms?: unknown }>)) fix(a.forms);
+  }
+  doc.base = target;
   return td;
 }
 
