@@ -12,9 +12,14 @@ import tempfile
 import time
 from typing import Any
 
+import websockets
 from websockets.sync.client import ClientConnection, connect
 
 from robwot_sim.rpc.contract import contract
+
+# websockets >= 16 asks direct connections to say so (no proxy lookup); 15.0.1, which wotpy's MQTT
+# dependency pins in the test environment, has no such flag
+LEGACY = {"legacy": True} if int(websockets.__version__.split(".")[0]) >= 16 else {}
 
 READY_TIMEOUT = 60.0
 
@@ -81,7 +86,7 @@ class RpcClient:
     def __init__(self, url: str, token: str) -> None:
         auth = {"Authorization": f"Bearer {token}"}
         self.ws: ClientConnection = connect(url, max_size=None, open_timeout=20, additional_headers=auth,
-                                            legacy=True)
+                                            **LEGACY)
         self.notifications: list[tuple[str, dict[str, Any]]] = []
         self.replies: dict[Any, dict[str, Any]] = {}
         self._next = 1
