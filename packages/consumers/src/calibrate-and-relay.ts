@@ -19,7 +19,8 @@
 import { numberOption, parseArgs } from "./lib/args.js";
 import { DEMO_SLUG, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
-import { axisAngle, centroid, invertSimilarity, norm, spreadOffLine, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
+import { invertCalibration } from "@robwot/core";
+import { axisAngle, centroid, norm, spreadOffLine, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
 import { runScenario } from "./lib/run.js";
 import { maxAbsDiff, spreadTargets, type Joints } from "./lib/targets.js";
 import { jointLimits } from "./lib/td.js";
@@ -70,7 +71,7 @@ async function main(): Promise<void> {
     const previous = await read<CalibrationState>(virtual, "calibration");
     const active = previous.active !== false && "rotation" in previous ? previous : undefined;
     if (active) console.log(`(an earlier calibration is active on the virtual twin; its outputs are un-mapped for the pairs)`);
-    const virtualPoint = (p: CartesianPose): V3 => (active ? invertSimilarity(active, toV3(p)) : toV3(p));
+    const virtualPoint = (p: CartesianPose): V3 => (active ? invertCalibration(active as Parameters<typeof invertCalibration>[0], toV3(p)) : toV3(p));
 
     // 1. Point pairs from four relayed joint moves.
     const pairs: { real: V3; virtual: V3; joints: Joints; relayError: number }[] = [];

@@ -16,7 +16,8 @@
 import { numberOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
 import { authHeaders, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
-import { invertSimilarity, norm, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
+import { invertCalibration } from "@robwot/core";
+import { norm, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
 import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
 import { runScenario } from "./lib/run.js";
 import { cartesianBounds, type Bounds3 } from "./lib/td.js";
@@ -122,7 +123,7 @@ async function main(): Promise<void> {
     // Targets are in the twin's Cartesian frame: the real frame when a calibration is active. The
     // workspace files are in the virtual frame, so map targets back for the offline check.
     const cal = await read<CalibrationState>(twin, "calibration");
-    const toVirtual = (p: V3): V3 => (cal.active !== false && "rotation" in cal ? invertSimilarity(cal, p) : p);
+    const toVirtual = (p: V3): V3 => (cal.active !== false && "rotation" in cal ? invertCalibration(cal as Parameters<typeof invertCalibration>[0], p) : p);
 
     const rows: { label: string; target: V3; offline: OfflineVerdict; twin: ValidationReport; moved: MoveResult | null }[] = [];
     for (const t of targets) {

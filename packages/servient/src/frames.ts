@@ -7,7 +7,7 @@
  *
  * Without a calibration both frames coincide. Positions in metres, quaternions {x, y, z, w}.
  */
-import type { Bounds, CalibrationFile, Quaternion, Vec3, Xyz } from "@robwot/core";
+import { applyCalibration, invertCalibration, transformBounds, type Bounds, type CalibrationFile, type Quaternion, type Vec3, type Xyz } from "@robwot/core";
 
 export type Mat3 = [Vec3, Vec3, Vec3];
 
@@ -22,18 +22,6 @@ export function toTransform(cal: Pick<CalibrationFile, "scale" | "rotation" | "t
   const row = (i: number): Vec3 => [r[i]?.[0] ?? 0, r[i]?.[1] ?? 0, r[i]?.[2] ?? 0];
   return { scale: cal.scale, rotation: [row(0), row(1), row(2)], translation: [...cal.translation] as Vec3 };
 }
-
-const matVec = (m: Mat3, v: Vec3): Vec3 => [
-  m[0][0] * v[0] + m[0][1] * v[1] + m[0][2] * v[2],
-  m[1][0] * v[0] + m[1][1] * v[1] + m[1][2] * v[2],
-  m[2][0] * v[0] + m[2][1] * v[1] + m[2][2] * v[2],
-];
-
-const transpose = (m: Mat3): Mat3 => [
-  [m[0][0], m[1][0], m[2][0]],
-  [m[0][1], m[1][1], m[2][1]],
-  [m[0][2], m[1][2], m[2][2]],
-];
 
 /** Rotation matrix -> unit quaternion (Shepperd's method). */
 export function matToQuat(m: Mat3): Quaternion {
@@ -95,18 +83,11 @@ export class FrameMap {
   }
 
   pointToReal(v: Vec3): Vec3 {
-    const t = this.transform;
-    if (!t) return [...v] as Vec3;
-    const r = matVec(t.rotation, v);
-    return [t.scale * r[0] + t.translation[0], t.scale * r[1] + t.translation[1], t.scale * r[2] + t.translation[2]];
+    return this.transform ? applyCalibration(this.transform, v) : ([...v] as Vec3);
   }
 
   pointToVirtual(p: Vec3): Vec3 {
-    const t = this.transform;
-    if (!t) return [...p] as Vec3;
-    const d: Vec3 = [p[0] - t.translation[0], p[1] - t.translation[1], p[2] - t.translation[2]];
-    const r = matVec(transpose(t.rotation), d);
-    return [r[0] / t.scale, r[1] / t.scale, r[2] / t.scale];
+    return this.transform ? invertCalibration(this.transform, p) : ([...p] as Vec3);
   }
 
   quatToReal(q: Quaternion): Quaternion {
@@ -119,17 +100,6 @@ export class FrameMap {
 
   /** Axis-aligned bounds of a virtual-frame box seen in the real frame (the 8 corners mapped). */
   boundsToReal(b: Bounds): Bounds {
-    if (!this.transform) return b;
-    const min: Vec3 = [Infinity, Infinity, Infinity];
-    const max: Vec3 = [-Infinity, -Infinity, -Infinity];
-    for (let i = 0; i < 8; i++) {
-      const c: Vec3 = [i & 1 ? b.max[0] : b.min[0], i & 2 ? b.max[1] : b.min[1], i & 4 ? b.max[2] : b.min[2]];
-      const r = this.pointToReal(c);
-      for (let k = 0; k < 3; k++) {
-        min[k] = Math.min(min[k] as number, r[k] as number);
-        max[k] = Math.max(max[k] as number, r[k] as number);
-      }
-    }
-    return { min, max };
+    return this.transform ? transformBounds(b, this.transform) : b;
   }
 }

@@ -3,6 +3,7 @@
  * inputs and outputs of the TD are in the real frame when it is active; the 3D view is in the virtual
  * (simulation) frame, so markers placed from Cartesian inputs go through `realToVirtual`.
  */
+import { invertCalibration } from "@robwot/core/browser";
 import { isRecord } from "./http.js";
 
 export interface Calibration {
@@ -22,14 +23,7 @@ export function parseCalibration(c: unknown): Calibration | null {
   return { scale, rotation, translation: [translation[0] as number, translation[1] as number, translation[2] as number] };
 }
 
-/** x_virtual = Rᵀ (x_real − t) / s */
+/** x_virtual = Rᵀ (x_real − t) / s (core's inverse of the calibration) */
 export function realToVirtual(c: Calibration, p: { x: number; y: number; z: number }): [number, number, number] {
-  const d = [p.x - c.translation[0], p.y - c.translation[1], p.z - c.translation[2]];
-  const out: [number, number, number] = [0, 0, 0];
-  for (let i = 0; i < 3; i++) {
-    let v = 0;
-    for (let j = 0; j < 3; j++) v += (c.rotation[j]?.[i] ?? 0) * (d[j] ?? 0);
-    out[i] = v / c.scale;
-  }
-  return out;
+  return invertCalibration(c, p);
 }

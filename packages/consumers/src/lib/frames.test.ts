@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { applySimilarity, axisAngle, invertSimilarity, spreadOffLine, type V3 } from "./frames.js";
+import { axisAngle, spreadOffLine } from "./frames.js";
 
 const yaw = (a: number): number[][] => [
   [Math.cos(a), -Math.sin(a), 0],
@@ -8,17 +8,6 @@ const yaw = (a: number): number[][] => [
 ];
 
 describe("frames", () => {
-  it.each([
-    [1, 0.4, [0.3, -0.2, 0.05]],
-    [1.7, -2.1, [0, 0, 0]],
-    [0.5, Math.PI / 2, [-1, 2, 3]],
-  ])("invertSimilarity undoes applySimilarity (s=%d, yaw=%d)", (scale, angle, t) => {
-    const c = { scale, rotation: yaw(angle), translation: t };
-    const x: V3 = [0.12, -0.7, 1.3];
-    const back = invertSimilarity(c, applySimilarity(c, x));
-    back.forEach((v, i) => expect(v).toBeCloseTo(x[i] as number, 12));
-  });
-
   it("axisAngle recovers a yaw", () => {
     const { angle, axis } = axisAngle(yaw(0.436));
     expect(angle).toBeCloseTo(0.436, 12);

@@ -31,32 +31,10 @@ export function spreadOffLine(points: V3[]): number {
   return Math.max(...points.map((p) => norm(cross(sub(p, best[0]), dir)) / bestD));
 }
 
-export interface Similarity {
-  scale: number;
-  rotation: number[][];
-  translation: number[];
-}
-
 function row(m: number[][], i: number): V3 {
   const r = m[i];
   if (r === undefined || r.length !== 3) throw new Error(`rotation row ${i} is not 3 numbers`);
   return [r[0] as number, r[1] as number, r[2] as number];
-}
-
-/** x_real = s R x + t */
-export function applySimilarity(c: Similarity, x: V3): V3 {
-  const [r0, r1, r2] = [row(c.rotation, 0), row(c.rotation, 1), row(c.rotation, 2)];
-  const t = c.translation;
-  const dot = (r: V3): number => r[0] * x[0] + r[1] * x[1] + r[2] * x[2];
-  return [c.scale * dot(r0) + (t[0] ?? 0), c.scale * dot(r1) + (t[1] ?? 0), c.scale * dot(r2) + (t[2] ?? 0)];
-}
-
-/** x_virtual = Rᵀ (x_real - t) / s */
-export function invertSimilarity(c: Similarity, xReal: V3): V3 {
-  const d = sub(xReal, [c.translation[0] ?? 0, c.translation[1] ?? 0, c.translation[2] ?? 0]);
-  const [r0, r1, r2] = [row(c.rotation, 0), row(c.rotation, 1), row(c.rotation, 2)];
-  const col = (j: 0 | 1 | 2): number => (r0[j] * d[0] + r1[j] * d[1] + r2[j] * d[2]) / c.scale;
-  return [col(0), col(1), col(2)];
 }
 
 /** Rotation angle (rad) and unit axis of a rotation matrix. */

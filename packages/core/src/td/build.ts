@@ -4,6 +4,7 @@
  * (longpoll observeproperty), `actions/<name>` (POST, invokeaction), `events/<name>` (longpoll
  * subscribeevent), and `properties` (readallproperties) at the Thing level.
  */
+import { applyCalibration } from "../calibration.js";
 import { ThingDescriptionError } from "../errors.js";
 import type { Bounds, JointSpec, RobotModelLike, Vec3, WorkspaceSummary } from "../types.js";
 import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
@@ -95,12 +96,10 @@ export function transformBounds(b: Bounds, t: SimilarityTransform): Bounds {
   const min: Vec3 = [Infinity, Infinity, Infinity];
   const max: Vec3 = [-Infinity, -Infinity, -Infinity];
   for (let c = 0; c < 8; c++) {
-    const p: Vec3 = [c & 1 ? b.max[0] : b.min[0], c & 2 ? b.max[1] : b.min[1], c & 4 ? b.max[2] : b.min[2]];
+    const p = applyCalibration(t, [c & 1 ? b.max[0] : b.min[0], c & 2 ? b.max[1] : b.min[1], c & 4 ? b.max[2] : b.min[2]]);
     for (let r = 0; r < 3; r++) {
-      const row = t.rotation[r] ?? [];
-      const v = t.scale * ((row[0] ?? 0) * p[0] + (row[1] ?? 0) * p[1] + (row[2] ?? 0) * p[2]) + t.translation[r]!;
-      min[r] = Math.min(min[r]!, v);
-      max[r] = Math.max(max[r]!, v);
+      min[r] = Math.min(min[r]!, p[r]!);
+      max[r] = Math.max(max[r]!, p[r]!);
     }
   }
   return { min, max };
