@@ -23,7 +23,7 @@ import { invertCalibration } from "@robwot/core";
 import { axisAngle, centroid, norm, spreadOffLine, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
 import { runScenario } from "./lib/run.js";
 import { maxAbsDiff, spreadTargets, type Joints } from "./lib/targets.js";
-import { jointLimits } from "./lib/td.js";
+import { jointLimits } from "@robwot/core";
 import type { CalibrationResult, CalibrationState, CartesianPose, MotionStatus, RelayedMoveResult, ValidationReport } from "./lib/types.js";
 
 const USAGE = "calibrate-and-relay [VIRTUAL TD URL] [PHYSICAL TD URL] [--speed 0..1] [--fraction 0..0.9] [--no-scale] [--timeout S] [--json]";

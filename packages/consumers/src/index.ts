@@ -6,7 +6,7 @@ export { openSession, read, invoke, defaultTdUrl, authFromEnv, authHeaders, DEMO
 export type { Session, Twin, Auth } from "./lib/connect.js";
 export { subscribeLive, resolveLiveUrl } from "./lib/live.js";
 export type { LiveMessage, LiveSubscription } from "./lib/live.js";
-export { jointLimits, cartesianBounds, linkUrl, liveUrl, slugOf, TdError } from "./lib/td.js";
-export type { JointLimit, ThingDescriptionLike } from "./lib/td.js";
+export { jointLimits, cartesianBounds, linkUrl, liveUrl, slugOf, TdError } from "@robwot/core";
+export type { JointLimit, ThingDescriptionLike } from "@robwot/core";
 export { spreadTargets, acceptedTargets, maxAbsDiff } from "./lib/targets.js";
 export { loadNodeWot } from "./lib/node-wot.js";

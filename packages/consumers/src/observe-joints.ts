@@ -18,7 +18,7 @@ import { fmt, fmtJoints, printJsonSummary, table } from "./lib/format.js";
 import { subscribeLive, type LiveSubscription } from "./lib/live.js";
 import { runScenario } from "./lib/run.js";
 import { acceptedTargets, spreadTargets, type Joints } from "./lib/targets.js";
-import { jointLimits } from "./lib/td.js";
+import { jointLimits } from "@robwot/core";
 import type { MoveResult } from "./lib/types.js";
 
 const USAGE = "observe-joints [TD URL] [--seconds N] [--speed 0..1] [--via ws|poll|both] [--no-move] [--quiet] [--json]";

@@ -20,7 +20,7 @@ import { invertCalibration } from "@robwot/core";
 import { norm, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
 import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
 import { runScenario } from "./lib/run.js";
-import { cartesianBounds, type Bounds3 } from "./lib/td.js";
+import { cartesianBounds, type Bounds3 } from "@robwot/core";
 import type { CalibrationState, MoveResult, ValidationReport } from "./lib/types.js";
 
 const USAGE = "pick-and-place [TD URL] [--targets \"x,y,z;x,y,z\"] [--speed 0..1] [--json]";

@@ -13,7 +13,7 @@ import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
 import { fmt, fmtJoints, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { runScenario } from "./lib/run.js";
 import { acceptedTargets, maxAbsDiff, spreadTargets } from "./lib/targets.js";
-import { jointLimits } from "./lib/td.js";
+import { jointLimits } from "@robwot/core";
 import type { CartesianPose, MotionStatus, MoveResult } from "./lib/types.js";
 
 const USAGE = "read-and-move-joints [TD URL] [--speed 0..1] [--fraction 0..0.9] [--json]";

@@ -6,6 +6,8 @@ export { buildThingDescription, thingId, transformBounds, withAbsoluteForms, DEF
 export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/build.js";
 export { securityFor } from "./td/security.js";
 export { closeSchema, MIN_SPEED, tdContact } from "./td/schemas.js";
+export { cartesianBounds, jointLimits, linkUrl, liveUrl, slugOf, TdError } from "./td/read.js";
+export type { AffordanceLike, Bounds3, FormLike, JointLimit, LinkLike, SchemaLike, ThingDescriptionLike } from "./td/read.js";
 export type { AuthScheme } from "./td/security.js";
 export { thingSlug, fnv1a64, canonicalJson } from "./td/hash.js";
 export { parseWorkspaceCsv, writeWorkspaceCsv } from "./workspace/csv.js";

@@ -2,7 +2,7 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
-import { LIVE_REL } from "@robwot/core/browser";
+import { jointLimits, liveUrl, RobwotError, type ThingDescriptionLike } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
 
@@ -47,44 +47,36 @@ export async function loadTd(slug: string): Promise<TwinTd> {
     url,
     base,
     raw,
-    joints: jointLimits(raw),
+    joints: readJointLimits(raw),
     links: {
       model,
       pointCloud: link("workspace-pointcloud"),
       workspace: link("workspace"),
       scene: link("scene") ?? new URL("scene.json", base).href,
     },
-    live: liveUrl(raw),
+    live: liveLink(raw),
     eeLink: typeof raw["robwot:eeLink"] === "string" ? raw["robwot:eeLink"] : null,
   };
 }
 
-function jointLimits(td: Record<string, unknown>): JointLimit[] {
-  const prop = affordance(td, "properties", "getJointPosition");
-  const props = prop && isRecord(prop["properties"]) ? prop["properties"] : null;
-  if (!props) throw new ViewerError("E_TD", "TD property getJointPosition has no per-joint schema");
-  return Object.entries(props).map(([name, schema]) => {
-    const s = isRecord(schema) ? schema : {};
-    const min = s["minimum"];
-    const max = s["maximum"];
-    if (typeof min !== "number" || typeof max !== "number") {
-      throw new ViewerError("E_TD", `joint ${name} has no minimum/maximum in the TD`, { joint: name });
-    }
-    return { name, minimum: min, maximum: max, unit: typeof s["unit"] === "string" ? s["unit"] : "rad" };
-  });
+
+/** The `/live` link of the TD, on the host name this page reached (same machine, advertised port). */
+function liveLink(td: Record<string, unknown>): string | null {
+  const href = liveUrl(td as ThingDescriptionLike);
+  if (href === undefined || !/^wss?:/.test(href)) return null;
+  const u = new URL(href);
+  u.hostname = location.hostname;
+  return u.href;
 }
 
-function liveUrl(td: Record<string, unknown>): string | null {
-  const links = Array.isArray(td["links"]) ? td["links"] : [];
-  for (const l of links) {
-    if (isRecord(l) && l["rel"] === LIVE_REL && typeof l["href"] === "string" && /^wss?:/.test(l["href"])) {
-      // Same machine as the page: keep the advertised port and path, use the host name we reached.
-      const u = new URL(l["href"]);
-      u.hostname = location.hostname;
-      return u.href;
-    }
+/** Joint limits (core's TD reading) in the viewer's terms; a TD without them is the viewer's E_TD. */
+function readJointLimits(td: Record<string, unknown>): JointLimit[] {
+  try {
+    return jointLimits(td as ThingDescriptionLike).map((j) => ({ name: j.name, minimum: j.lower, maximum: j.upper, unit: j.unit }));
+  } catch (err) {
+    if (err instanceof RobwotError) throw new ViewerError("E_TD", err.message, err.details);
+    throw err;
   }
-  return null;
 }
 
 function affordance(td: Record<string, unknown>, kind: string, name: string): Record<string, unknown> | null {

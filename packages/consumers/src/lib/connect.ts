@@ -8,7 +8,7 @@
  */
 import type * as WoTTypes from "wot-typescript-definitions";
 import { loadNodeWot, silenceAjvFormatWarnings } from "./node-wot.js";
-import type { SchemaLike, ThingDescriptionLike } from "./td.js";
+import type { SchemaLike, ThingDescriptionLike } from "@robwot/core";
 import { RobwotError } from "@robwot/core";
 
 /** The Thing slug `npm start` / `robwot demo` serves (the bundled kuka_iiwa, TD title "lbr_iiwa"). */

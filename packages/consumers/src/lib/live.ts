@@ -8,7 +8,7 @@
  */
 import WebSocket from "ws";
 import { authHeaders, fetchOk, type Twin } from "./connect.js";
-import { liveUrl, slugOf } from "./td.js";
+import { liveUrl, slugOf } from "@robwot/core";
 
 export interface LiveMessage {
   thing: string;

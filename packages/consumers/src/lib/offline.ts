@@ -6,7 +6,7 @@
  */
 import { loadWorkspaceFromUrls, type PointCloudCheck } from "@robwot/core";
 import { authHeaders, type Twin } from "./connect.js";
-import { linkUrl } from "./td.js";
+import { linkUrl } from "@robwot/core";
 import type { V3 } from "./frames.js";
 
 export interface OfflineVerdict {

@@ -4,7 +4,7 @@
  */
 import type { Twin } from "./connect.js";
 import { invoke } from "./connect.js";
-import type { JointLimit } from "./td.js";
+import type { JointLimit } from "@robwot/core";
 import type { ValidationReport } from "./types.js";
 
 export type Joints = Record<string, number>;

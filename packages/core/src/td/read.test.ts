@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { cartesianBounds, jointLimits, linkUrl, liveUrl, slugOf, type ThingDescriptionLike } from "./td.js";
+import { cartesianBounds, jointLimits, linkUrl, liveUrl, slugOf, type ThingDescriptionLike } from "./read.js";
 
 const td: ThingDescriptionLike = {
   title: "arm",

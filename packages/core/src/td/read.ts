@@ -1,9 +1,10 @@
 /**
- * Reading what a consumer needs out of a RobWoT Thing Description (ARCHITECTURE.md Contract 3):
- * joint limits from `getJointPosition`'s schema, Cartesian bounds from `getCartesianPosition`'s
- * schema, the linked workspace files, and the live WebSocket endpoint (Contract 4).
+ * Reading what a consumer needs out of a RobWoT Thing Description (ARCHITECTURE.md Contract 3): joint
+ * limits from `getJointPosition`'s schema, Cartesian bounds from the `moveToCartesianPosition` input, the
+ * linked files, and the live WebSocket endpoint (Contract 4). Shared by the consumers and the viewer.
  */
-import { LIVE_REL, RobwotError } from "@robwot/core";
+import { RobwotError } from "../errors.js";
+import { LIVE_REL } from "./build.js";
 
 export interface SchemaLike {
   type?: string;
