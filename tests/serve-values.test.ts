@@ -87,9 +87,14 @@ describe("obstacle numbers: the TD states the range the backend accepts", () => 
     ];
     expect(actions.addObstacle.input.additionalProperties).toBe(false);
     const accepts = ajv.compile(actions.addObstacle.input);
+    // every error answer has the body the forms declare (additionalResponses -> schemaDefinitions.error)
+    const td = (await http(base)).body;
+    expect(actions.addObstacle.forms[0].additionalResponses[0]).toMatchObject({ success: false, schema: "error" });
+    const errorBody = ajv.compile(td.schemaDefinitions.error);
     for (const [label, body] of cases) {
       const r = await invoke(base, "addObstacle", body);
       expect([label, r.status === 200], JSON.stringify(r.body)).toEqual([label, accepts(body)]);
+      if (r.status !== 200) expect(errorBody(r.body), JSON.stringify(r.body)).toBe(true);
     }
     expect(accepts(cases[3]![1])).toBe(false);
     const moves = ajv.compile(actions.moveObstacle.input);

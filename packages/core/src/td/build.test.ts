@@ -81,7 +81,13 @@ describe("buildThingDescription", () => {
 
   it("uses node-wot's form layout and ops", () => {
     expect(td.properties.getJointPosition?.forms.slice(0, 2)).toEqual([
-      { href: "http://localhost:8080/lbr_iiwa/properties/getJointPosition", contentType: "application/json", op: ["readproperty"], "htv:methodName": "GET" },
+      {
+        href: "http://localhost:8080/lbr_iiwa/properties/getJointPosition",
+        contentType: "application/json",
+        op: ["readproperty"],
+        "htv:methodName": "GET",
+        additionalResponses: [{ success: false, contentType: "application/json", schema: "error" }],
+      },
       {
         href: "http://localhost:8080/lbr_iiwa/properties/getJointPosition/observable",
         contentType: "application/json",
@@ -92,7 +98,16 @@ describe("buildThingDescription", () => {
     expect(td.properties.getJointPosition?.forms).toHaveLength(2);
     expect(td.links).toContainEqual({ rel: "robwot:live", href: "ws://localhost:8080/live", type: "application/json" });
     // absolute hrefs: consumers that do not resolve against base (wotpy) still reach them
-    expect(td.actions.stop?.forms).toEqual([{ href: "http://localhost:8080/lbr_iiwa/actions/stop", contentType: "application/json", op: ["invokeaction"], "htv:methodName": "POST" }]);
+    expect(td.actions.stop?.forms).toEqual([
+      {
+        href: "http://localhost:8080/lbr_iiwa/actions/stop",
+        contentType: "application/json",
+        op: ["invokeaction"],
+        "htv:methodName": "POST",
+        additionalResponses: [{ success: false, contentType: "application/json", schema: "error" }],
+      },
+    ]);
+    expect(td.schemaDefinitions?.["error"]).toMatchObject({ type: "object", required: ["code", "message", "details"] });
     expect(td.events.collision?.forms[0]).toMatchObject({ href: "http://localhost:8080/lbr_iiwa/events/collision", op: ["subscribeevent", "unsubscribeevent"] });
     const names = [...Object.keys(td.properties), ...Object.keys(td.actions), ...Object.keys(td.events)];
     for (const n of ["getJointPosition", "getCartesianPosition", "moveToJointPosition", "moveToCartesianPosition", "validateCartesianPosition", "calibrate", "collision", "motionStatus"]) {

@@ -132,8 +132,25 @@ export function thingId(model: RobotModelLike, slug: string, sceneId?: string): 
   return `urn:robwot:${slug}:${fnv1a64(canonicalJson({ robot, scene: sceneId ?? null }))}`;
 }
 
+/**
+ * The body of every error answer (400 bad input, 401 unauthorised, 403/421 refused, 404, 409 busy or
+ * name taken, 415, 422 rejected by validation, 503 backend down): `{code, message, details}`, declared on
+ * every form so that a consumer can tell an error body from a result.
+ */
+const ERROR_SCHEMA: DataSchema = {
+  type: "object",
+  description: "An error answer: stable code (E_...), readable message, structured details",
+  properties: {
+    code: { type: "string", description: "stable error code, e.g. E_BAD_INPUT, E_BUSY, E_REJECTED, E_BACKEND_DOWN" },
+    message: { type: "string" },
+    details: { type: "object", description: "structured fields of the error (param, reasons, checks, ...)" },
+  },
+  required: ["code", "message", "details"],
+};
+const ERROR_RESPONSES = [{ success: false, contentType: JSON_TYPE, schema: "error" }];
+
 function propertyForms(name: string, observable: boolean): Form[] {
-  const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET" }];
+  const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET", additionalResponses: ERROR_RESPONSES }];
   if (observable) {
     forms.push({ href: `properties/${name}/observable`, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], subprotocol: "longpoll" });
   }
@@ -164,7 +181,11 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   const actions: Record<string, ActionAffordance> = {};
   for (const [name, a] of Object.entries(actionAffordances(joints, bounds))) {
     // inputs are closed: the servient refuses a property the schema does not name, and the TD says so
-    actions[name] = { ...a, ...(a.input ? { input: closeSchema(a.input) as DataSchema } : {}), forms: [{ href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST" }] };
+    actions[name] = {
+      ...a,
+      ...(a.input ? { input: closeSchema(a.input) as DataSchema } : {}),
+      forms: [{ href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST", additionalResponses: ERROR_RESPONSES }],
+    };
   }
   const events: Record<string, EventAffordance> = {};
   for (const [name, e] of Object.entries(eventAffordances(joints))) {
@@ -190,6 +211,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     description: options.description ?? defaultDescription(model, joints, summary),
     base: `${base.href}${slug}/`,
     securityDefinitions: { nosec_sc: { scheme: "nosec" } },
+    schemaDefinitions: { error: ERROR_SCHEMA },
     security: "nosec_sc",
     properties,
     actions,
