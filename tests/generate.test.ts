@@ -111,6 +111,8 @@ describe.each([
     expect(byRel["model"]).toMatchObject({ href: "robot.urdf", type: "application/urdf+xml" });
     expect(byRel["workspace-pointcloud"]).toMatchObject({ href: "workspace.csv", type: "text/csv" });
     expect(byRel["workspace"]).toMatchObject({ href: "workspace.stl", type: "model/stl" });
+    expect(byRel["type"]).toMatchObject({ href: "robot-arm.tm.json", type: "application/tm+json" });
+    expect(json(join(out, "robot-arm.tm.json"))).toMatchObject({ "@type": "tm:ThingModel" });
     for (const l of links) if (l.rel !== "robwot:live") expect(existsSync(join(out, l.href)), l.href).toBe(true);
   });
 

@@ -5,6 +5,7 @@
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
+import { buildThingModel, THING_MODEL_FILE } from "@robwot/core";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
@@ -174,6 +175,7 @@ export async function generateTwin(
   const summary = await generating;
   refuseDegenerate(summary, staged.tmp);
   writeJson(join(staged.tmp, "workspace.json"), summary);
+  writeJson(join(staged.tmp, THING_MODEL_FILE), buildThingModel());
   if (summary.method === "convex-hull") {
     progress.info("the alpha shape degenerated (planar robot or too few points): workspace.stl is the convex hull");
   }

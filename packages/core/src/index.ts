@@ -1,5 +1,5 @@
 /** Public surface of @robwot/core (Node). The browser entry `./browser.js` holds the pure subset. */
 export * from "./browser.js";
-export { validateThingDescription } from "./td/validate.js";
+export { validateThingDescription, validateThingModel } from "./td/validate.js";
 export type { TdValidationResult } from "./td/validate.js";
 export { loadWorkspace } from "./workspace/load-fs.js";

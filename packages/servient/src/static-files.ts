@@ -6,6 +6,7 @@
 import { createReadStream, existsSync, realpathSync, statSync } from "node:fs";
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { extname, join, resolve, sep } from "node:path";
+import { THING_MODEL_FILE, THING_MODEL_TYPE } from "@robwot/core";
 
 const TYPES: Record<string, string> = {
   ".urdf": "application/urdf+xml",
@@ -30,6 +31,7 @@ const TYPES: Record<string, string> = {
 };
 
 export function contentType(path: string): string {
+  if (path.endsWith(".tm.json")) return THING_MODEL_TYPE;
   return TYPES[extname(path).toLowerCase()] ?? "application/octet-stream";
 }
 
@@ -62,6 +64,7 @@ export function isTwinFile(rel: string, urdfName: string): boolean {
     rel === "scene.json" ||
     rel === "robot.srdf" ||
     rel === "twin.json" ||
+    rel === THING_MODEL_FILE ||
     rel.startsWith("meshes/")
   );
 }

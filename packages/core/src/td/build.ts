@@ -19,6 +19,9 @@ export const TD_CONTEXT_V11 = "https://www.w3.org/2022/wot/td/v1.1";
  */
 export const TD_CONTEXT_V10 = "https://www.w3.org/2019/wot/td/v1";
 export const ROBWOT_NS = "https://robwot.dev/ns#";
+/** The Thing Model every twin's TD links with `rel: "type"` (`thing-model.ts`), a file of the twin folder. */
+export const THING_MODEL_FILE = "robot-arm.tm.json";
+export const THING_MODEL_TYPE = "application/tm+json";
 /** Link relation of the servient's `/live` WebSocket stream (its own protocol, README Contract 4). */
 export const LIVE_REL = "robwot:live";
 export const DEFAULT_BASE_URL = "http://localhost:8080/";
@@ -199,6 +202,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     { rel: "workspace-summary", href: "workspace.json", type: JSON_TYPE },
     { rel: "scene", href: "scene.json", type: JSON_TYPE },
     ...(options.srdf ? [{ rel: "srdf", href: "robot.srdf", type: "application/xml" }] : []),
+    { rel: "type", href: THING_MODEL_FILE, type: THING_MODEL_TYPE },
     // the servient's own WebSocket stream (all twins' joints, status, collisions, scene edits; protocol in
     // the README, Contract 4): a link, not a form, since no standard operation speaks it
     ...(live ? [{ rel: LIVE_REL, href: live, type: JSON_TYPE }] : []),

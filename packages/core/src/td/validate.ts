@@ -15,6 +15,7 @@ interface PlaygroundResult {
 }
 
 interface Playground {
+  tmValidator(tm: string, log: (message: unknown) => void, options: { checkDefaults?: boolean; checkJsonLd?: boolean }): Promise<PlaygroundResult>;
   tdValidator(
     td: string,
     log: (message: unknown) => void,
@@ -62,4 +63,18 @@ export async function validateThingDescription(td: unknown): Promise<TdValidatio
   }
   const valid = report.json === "passed" && report.schema === "passed" && report.additional !== "failed";
   return { valid, errors, warnings, report };
+}
+
+/** A Thing Model against the official TM JSON Schema and assertions (JSON-LD off). */
+export async function validateThingModel(tm: unknown): Promise<TdValidationResult> {
+  const log: string[] = [];
+  const result = await loadPlayground().tmValidator(typeof tm === "string" ? tm : JSON.stringify(tm), (m) => log.push(String(m)), {
+    checkDefaults: false,
+    checkJsonLd: false,
+  });
+  const errors: string[] = [];
+  if (result.report.json !== "passed") errors.push("not valid JSON");
+  if (result.report.schema === "failed") errors.push(`TM JSON Schema: ${log.filter((l) => l.startsWith(">")).map((l) => l.slice(2)).join("; ") || "failed"}`);
+  for (const [key, outcome] of Object.entries(result.details)) if (outcome === "failed") errors.push(`${key}: ${result.detailComments[key] ?? key}`);
+  return { valid: errors.length === 0, errors, warnings: [], report: result.report };
 }

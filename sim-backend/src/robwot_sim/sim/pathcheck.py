@@ -10,6 +10,7 @@ always move away.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,9 +62,20 @@ def first_contact(robot: BoundRobot, checker: CollisionChecker, q0: FloatArray, 
     return None
 
 
+def _vertices(path: FloatArray) -> list[int]:
+    """Indices of the rows where a path of straight segments starts, turns or ends: the rows between them
+    lie on the segment, so checking the segment (subdivided by travel) covers them, at any speed."""
+    if len(path) <= 2:
+        return list(range(len(path)))
+    bend = np.linalg.norm(path[2:] - 2 * path[1:-1] + path[:-2], axis=1)
+    scale = max(1.0, float(np.max(np.abs(path))))
+    return [0, *(np.nonzero(bend > 1e-9 * scale)[0] + 1).tolist(), len(path) - 1]
+
+
 def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatArray, dt: float,
                      guard: Guard) -> PathReport:
-    """Check ``path`` (row k at time k * dt) and the sweep between its rows; report the first contact."""
+    """Check ``path`` (row k at time k * dt, straight segments) and the sweep along it; report the first
+    contact. The cost depends on how far the robot travels, not on how slowly (the number of rows)."""
     saved = robot.q.copy()
     duration = (len(path) - 1) * dt
     try:
@@ -72,11 +84,11 @@ def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatAr
         if not checker.is_free():
             start = FirstCollision(0.0, tuple(float(x) for x in path[0]), tuple(checker.contacts()))
             return PathReport(False, duration, len(path), start)
-        for k in range(1, len(path)):
-            hit = first_contact(robot, checker, path[k - 1], path[k], guard, clearance)
+        for a, b in itertools.pairwise(_vertices(path)):
+            hit = first_contact(robot, checker, path[a], path[b], guard, clearance)
             if hit is not None:
                 frac, q = hit
-                first = FirstCollision((k - 1 + frac) * dt, tuple(float(x) for x in np.asarray(q)),
+                first = FirstCollision((a + frac * (b - a)) * dt, tuple(float(x) for x in np.asarray(q)),
                                        tuple(checker.contacts(clearance)))
                 return PathReport(False, duration, len(path), first)
     finally:
