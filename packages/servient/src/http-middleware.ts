@@ -13,6 +13,7 @@ import { parseBody, validateInput } from "./input-validation.js";
 import { requestContext, type RequestContext } from "./request-context.js";
 import { isJsonMediaType, RequestGuard } from "./request-guard.js";
 import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
+import { streamSse, type SseSource } from "./sse.js";
 
 const MAX_BODY = 1 << 20;
 /** URL segment after `/<slug>/` → affordance kind named in a 404 */
@@ -26,6 +27,8 @@ export interface ServedThing {
   td(): Record<string, unknown>;
   /** current input schema of an action (undefined: no input), null: no such action */
   actionInput(name: string): object | undefined | null;
+  /** the SSE source of an observable property or an event, null when there is none */
+  observe(kind: "properties" | "events", name: string): SseSource | null;
 }
 
 export interface MiddlewareEnv {
@@ -45,9 +48,10 @@ const READ = ["GET", "HEAD"] as const;
 function affordanceMethods(segments: string[]): readonly string[] | null {
   const [, dir, name, sub, ...more] = segments;
   if (more.length > 0) return null;
-  if (dir === "properties") return sub === undefined || sub === "observable" ? READ : null; // no name: readallproperties
-  if (name === undefined || sub !== undefined) return null;
-  if (dir === "events") return READ;
+  if (dir === "properties") return sub === undefined || sub === "observable" || sub === "sse" ? READ : null; // no name: readallproperties
+  if (name === undefined) return null;
+  if (dir === "events") return sub === undefined || sub === "sse" ? READ : null;
+  if (sub !== undefined) return null;
   return dir === "actions" ? ["POST"] : null;
 }
 
@@ -140,6 +144,11 @@ export function createMiddleware(env: MiddlewareEnv) {
         }
       }
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
+      if (segments[3] === "sse") {
+        const source = thing.observe(segments[1] as "properties" | "events", segments[2] as string);
+        if (!source) throw new ServientError(404, "E_NOT_FOUND", `${path}: not observable`, { path });
+        return streamSse(req, res, segments[2] as string, source);
+      }
       if (segments[3] === "observable") {
         // node-wot 0.9.2 unsubscribes a long-poll observer on 'finish' only: one that went away first
         // would have every later value piped into its dead response (listener leak)

@@ -21,6 +21,7 @@ import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
 import { produceInit, servedTd } from "./thing-td.js";
 import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
+import type { SseSource } from "./sse.js";
 import { Twin } from "./twin.js";
 import { loadWorkspaceChecks } from "./workspace-checks.js";
 import { World } from "./world.js";
@@ -171,6 +172,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
           const a = td().actions?.[name];
           return a ? ((a.input as object | undefined) ?? undefined) : null;
         },
+        observe: (kind, name) => sseSource(twin, kind, name),
       };
       served.set(slug, entry);
     }
@@ -210,4 +212,22 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         await backend.stop();
       })()),
   };
+}
+
+/** What the SSE forms stream: the twin's observable properties (its own change events) and events. */
+function sseSource(twin: Twin, kind: "properties" | "events", name: string): SseSource | null {
+  const on = <E extends "joints" | "status" | "collision">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
+    const listener = (...args: never[]): void => send(value(...args));
+    twin.on(event, listener as never);
+    return () => void twin.off(event, listener as never);
+  };
+  if (kind === "events") return name === "collision" ? { subscribe: on("collision", (e: unknown) => e) } : null;
+  const pose = (): unknown => {
+    const p = twin.realPose();
+    return { ...p.position, orientation: p.orientation };
+  };
+  if (name === "getJointPosition") return { current: () => twin.jointsRecord(), subscribe: on("joints", () => twin.jointsRecord()) };
+  if (name === "getCartesianPosition") return { current: pose, subscribe: on("joints", pose) };
+  if (name === "motionStatus") return { current: () => twin.status, subscribe: on("status", () => twin.status) };
+  return null;
 }

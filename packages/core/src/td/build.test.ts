@@ -95,7 +95,8 @@ describe("buildThingDescription", () => {
         subprotocol: "longpoll",
       },
     ]);
-    expect(td.properties.getJointPosition?.forms).toHaveLength(2);
+    expect(td.properties.getJointPosition?.forms).toHaveLength(3);
+    expect(td.properties.getJointPosition?.forms[2]).toMatchObject({ subprotocol: "sse", op: ["observeproperty", "unobserveproperty"] });
     expect(td.links).toContainEqual({ rel: "robwot:live", href: "ws://localhost:8080/live", type: "application/json" });
     // absolute hrefs: consumers that do not resolve against base (wotpy) still reach them
     expect(td.actions.stop?.forms).toEqual([

@@ -156,6 +156,8 @@ function propertyForms(name: string, observable: boolean): Form[] {
   const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET", additionalResponses: ERROR_RESPONSES }];
   if (observable) {
     forms.push({ href: `properties/${name}/observable`, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], subprotocol: "longpoll" });
+    // the WoT Profile's Server-Sent Events: one stream of every new value (data: JSON)
+    forms.push({ href: `properties/${name}/sse`, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], subprotocol: "sse" });
   }
   return forms;
 }
@@ -192,7 +194,10 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   }
   const events: Record<string, EventAffordance> = {};
   for (const [name, e] of Object.entries(eventAffordances(joints))) {
-    const forms: Form[] = [{ href: `events/${name}`, contentType: JSON_TYPE, op: ["subscribeevent", "unsubscribeevent"], subprotocol: "longpoll" }];
+    const forms: Form[] = [
+      { href: `events/${name}`, contentType: JSON_TYPE, op: ["subscribeevent", "unsubscribeevent"], subprotocol: "longpoll" },
+      { href: `events/${name}/sse`, contentType: JSON_TYPE, op: ["subscribeevent", "unsubscribeevent"], subprotocol: "sse" },
+    ];
     events[name] = { ...e, forms };
   }
   const links: Link[] = [
