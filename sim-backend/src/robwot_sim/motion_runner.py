@@ -3,10 +3,12 @@
 `robot.move` takes the robot (busy from here: `E_BUSY` for a second move, `stop` ends it), plans the
 target (`sim/planner.py`: limits, IK solutions, a collision-free path; `Rejected` when none), asks the
 world for the interpolated path (`World.plan_motion`, velocity limits x speed, fixed dt), then for every
-step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with
-realtime 0 it only yields to the loop), checks the way to the step (`World.check_step`: subdivided so no
-point travels more than 4 mm unchecked, other bodies kept 2 mm away) and, when free, teleports the robot
-there. A colliding step ends the motion at the last collision-free state (`status: "collision"`, a
+step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with realtime 0 it only yields to
+the loop) and teleports the robot there. The plan checked this very path; once anything else in the
+world changes during the motion (an obstacle added or moved, another robot moving: `World.others_stamp`)
+every further step is checked again (`World.check_step`: subdivided so no point travels more than twice
+the clearance unchecked, other bodies kept the clearance away).
+A colliding step ends the motion at the last collision-free state (`status: "collision"`, a
 `robot.collision` notification). `robot.state` notifications go out at every step whose simulated time
 crosses a 1/60 s boundary, plus the final state (`moving: false`). One motion per robot: a second
 `move` raises `Busy`; `stop` ends the current motion at its last reached state (`status: "stopped"`)
@@ -95,7 +97,9 @@ class MotionRunner:
             if not plan.valid or plan.target is None:
                 raise Rejected(plan.reasons, plan.checks)
             path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt, via=plan.via)
-            result = await self._run(motion, np.asarray(path, dtype=np.float64), realtime, dt)
+            # the plan checked exactly this path in this world: steps are checked again only once it changes
+            result = await self._run(motion, np.asarray(path, dtype=np.float64), realtime, dt,
+                                     self._world.others_stamp(robot))
             return {**result, "plan": plan.to_json()}
         finally:
             del self._active[robot]
@@ -108,7 +112,7 @@ class MotionRunner:
                 **_pose_json(self._world, robot)}
 
     async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float,
-                   dt: float) -> dict[str, Any]:
+                   dt: float, checked: tuple[int, int]) -> dict[str, Any]:
         loop = asyncio.get_running_loop()
         robot = motion.robot
         t0 = loop.time()
@@ -127,14 +131,15 @@ class MotionRunner:
                 status = "stopped"
                 break
             q = plan[i]
-            report = self._world.check_step(robot, reached, q, clearance)
-            if not report.collision_free:
-                status = "collision"
-                contacts = [c.to_json() for c in report.contacts]
-                self._broadcast("robot.collision", {
-                    "robot": robot, "contacts": contacts, "positions": _floats(reached),
-                    "time": reached_time})
-                break
+            if self._world.others_stamp(robot) != checked:
+                report = self._world.check_step(robot, reached, q, clearance)
+                if not report.collision_free:
+                    status = "collision"
+                    contacts = [c.to_json() for c in report.contacts]
+                    self._broadcast("robot.collision", {
+                        "robot": robot, "contacts": contacts, "positions": _floats(reached),
+                        "time": reached_time})
+                    break
             self._world.set_joint_positions(robot, q)
             reached, reached_time = q, sim_time
             if math.floor(sim_time / STATE_PERIOD + 1e-9) > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9):

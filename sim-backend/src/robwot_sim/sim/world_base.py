@@ -49,6 +49,7 @@ class WorldBase:
         self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
         self._ik_salt = ik_seed  # salts the per-request IK restart seeds (see World.ik)
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
+        self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
 
     def __enter__(self) -> Self:
         return self
@@ -69,6 +70,12 @@ class WorldBase:
 
     def _changed(self) -> None:
         self.table.version += 1
+
+    @_locked
+    def others_stamp(self, robot_id: str) -> tuple[int, int]:
+        """Changes to everything but ``robot_id``'s own joints: obstacles and robots added, moved or removed,
+        other robots' joints set. Equal stamps: the world the robot moves in is the same."""
+        return self.table.version, sum(n for rid, n in self._moves.items() if rid != robot_id)
 
     def _check_free_name(self, name: str) -> None:
         if name in self._robots or name in self._obstacles:
@@ -150,3 +157,4 @@ class WorldBase:
         """Teleport the controllable joints (limits checked; mimic joints follow)."""
         b = self._entry(robot_id).bound
         b.apply(b.validate(q))
+        self._moves[robot_id] = self._moves.get(robot_id, 0) + 1
