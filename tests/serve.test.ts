@@ -3,15 +3,16 @@
  * Every affordance, the served files and TD, bad input (400 JSON, state unchanged), busy (409),
  * stop mid-motion, validation against obstacles (422) and a collision mid-motion.
  */
-import { mkdirSync, mkdtempSync, writeFileSync } from "node:fs";
+import { mkdirSync, mkdtempSync, readFileSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
-import { validateThingDescription } from "../packages/core/src/index.js";
+import { validateThingDescription, withAbsoluteForms } from "../packages/core/src/index.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, waitState, type LiveClient } from "./serve-helpers.js";
 
 let s: RunningServient;
+let twinDir: string;
 let base: string;
 let slug: string;
 const HOME = kukaPose([0, 0, 0, 0, 0, 0, 0]);
@@ -19,6 +20,7 @@ const BENT = kukaPose([0.3, 0.5, 0, -1.2, 0, 0.6, 0]);
 
 beforeAll(async () => {
   const dir = await generateTwin("kuka_iiwa", 3000);
+  twinDir = dir;
   const viewerDir = mkdtempSync(join(tmpdir(), "robwot-viewer-"));
   mkdirSync(join(viewerDir, "assets"));
   writeFileSync(join(viewerDir, "index.html"), "<!doctype html><title>viewer</title>");
@@ -33,6 +35,14 @@ const readJoints = async (): Promise<Record<string, number>> => (await http(`${b
 const readStatus = async (): Promise<any> => (await http(`${base}/properties/motionStatus`)).body;
 
 describe("TD and files", () => {
+  it("serves the on-disk td.json itself: only the address (base, form hrefs, /live link) and security differ", async () => {
+    const served = (await http(base)).body;
+    const disk = withAbsoluteForms(JSON.parse(readFileSync(join(twinDir, "td.json"), "utf8")), `${base}/`);
+    for (const l of disk.links) if (l.rel === "robwot:live") l.href = s.liveUrl;
+    const strip = ({ security: _s, securityDefinitions: _d, ...rest }: Record<string, unknown>): Record<string, unknown> => rest;
+    expect(strip(served)).toEqual(strip(disk));
+  });
+
   it("serves the TD with the real base, the /live link and every affordance", async () => {
     const r = await http(base);
     expect(r.status).toBe(200);
