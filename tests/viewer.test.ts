@@ -372,6 +372,8 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     const mesh = /<visual>[\s\S]*?filename="([^"]+)"/.exec(urdf)?.[1];
     expect(mesh).toBeDefined();
     rmSync(join(folder, mesh as string));
+    // leave the previous page first: its /live socket may still log a failed reconnect otherwise
+    await page.goto("about:blank");
     problems.length = 0;
     await page.goto(`${base}viewer/?thing=${encodeURIComponent(slug)}`);
     await page.waitForFunction(() => (window as unknown as { __robwot: Debug }).__robwot.phase !== "loading", null, { timeout: 30_000 });
