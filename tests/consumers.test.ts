@@ -148,6 +148,7 @@ describe("pick-and-place", () => {
       if (r.offline.surfaceDistance > 0.01) {
         expect(r.offline.inside, r.label).toBe(r.twin.checks.insideWorkspace.ok);
         expect(r.offline.pointCloud.ok, r.label).toBe(r.twin.checks.pointCloud.ok);
+        expect(r.offline.reachability, r.label).toEqual(r.twin.checks.reachability);
         compared++;
       }
       if (r.twin.valid) {

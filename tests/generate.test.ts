@@ -52,7 +52,7 @@ describe.each([
   });
 
   it("writes the complete twin folder and nothing else next to it", () => {
-    for (const f of ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json"]) {
+    for (const f of ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json", "reachability.csv"]) {
       expect(existsSync(join(out, f)), f).toBe(true);
     }
     expect(readdirSync(work).filter((n) => n.includes(".tmp-") || n.includes(".old-"))).toEqual([]);

@@ -2,13 +2,13 @@
  * Shared helpers of the servient end-to-end tests: twin folders made by the real CLI, a node-wot
  * consumer, plain fetch and /live WebSocket clients.
  */
-import { cpSync, existsSync, mkdtempSync, readFileSync, writeFileSync } from "node:fs";
+import { cpSync, existsSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import WebSocket from "ws";
 import { Servient } from "@node-wot/core";
 import { HttpClientFactory } from "@node-wot/binding-http";
-import { parseStl, parseWorkspaceCsv, transformBounds, writeStl, writeWorkspaceCsv, type Vec3 } from "../packages/core/src/index.js";
+import { parseStl, parseWorkspaceCsv, REACHABILITY_REL, transformBounds, writeStl, writeWorkspaceCsv, type Vec3 } from "../packages/core/src/index.js";
 import { runCli } from "./cli-run.js";
 
 const cache = new Map<string, string>();
@@ -144,11 +144,14 @@ export function placeTwin(src: string, yaw: number, offset: Vec3): void {
   const stl = parseStl(readFileSync(join(src, "workspace.stl")));
   for (let i = 0; i < stl.triangles.length; i += 3) stl.triangles.set(apply(T, [stl.triangles[i]!, stl.triangles[i + 1]!, stl.triangles[i + 2]!]), i);
   writeFileSync(join(src, "workspace.stl"), writeStl(stl.triangles));
+  // An axis-aligned voxel grid does not survive a rotation: the placed twin has no reachability map.
+  rmSync(join(src, "reachability.csv"));
   const summary = JSON.parse(readFileSync(join(src, "workspace.json"), "utf8"));
   const bounds = transformBounds(summary.bounds, { scale: 1, rotation: T.R, translation: T.t });
   summary.bounds = bounds;
   writeFileSync(join(src, "workspace.json"), JSON.stringify(summary));
   const td = JSON.parse(readFileSync(join(src, "td.json"), "utf8"));
+  td.links = td.links.filter((l: { rel: string }) => l.rel !== REACHABILITY_REL);
   for (const name of ["moveToCartesianPosition", "validateCartesianPosition"]) {
     const p = td.actions[name].input.properties;
     ["x", "y", "z"].forEach((k, i) => {

@@ -1,10 +1,10 @@
 /**
  * End to end: any consumer can validate targets offline from the TD's linked files (workspace.stl,
- * workspace.csv) with @robwot/core, no Python; its answers agree with the twin's own
+ * workspace.csv, reachability.csv) with @robwot/core, no Python; its answers agree with the twin's own
  * validateCartesianPosition on 10,000 points (>= 99.9% for points farther than 1 cm from the surface).
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
-import { loadWorkspaceFromUrls, type Vec3 } from "../packages/core/src/index.js";
+import { loadWorkspaceFromUrls, REACHABILITY_REL, type Vec3 } from "../packages/core/src/index.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { generateTwin, http, invoke, rng } from "./serve-helpers.js";
 
@@ -19,7 +19,7 @@ afterAll(async () => s?.stop());
 it("offline checks from the linked files agree with the twin on 10,000 points", async () => {
   const td = (await http(base)).body;
   const href = (rel: string): string => new URL(td.links.find((l: { rel: string }) => l.rel === rel).href, td.base).href;
-  const ws = await loadWorkspaceFromUrls(href("workspace"), href("workspace-pointcloud"));
+  const ws = await loadWorkspaceFromUrls(href("workspace"), href("workspace-pointcloud"), undefined, { csvUrl: href(REACHABILITY_REL), summaryUrl: href("workspace-summary") });
   const input = td.actions.validateCartesianPosition.input.properties;
   const lo = [input.x.minimum, input.y.minimum, input.z.minimum] as Vec3;
   const hi = [input.x.maximum, input.y.maximum, input.z.maximum] as Vec3;
@@ -29,6 +29,8 @@ it("offline checks from the linked files agree with the twin on 10,000 points", 
   let compared = 0;
   let insideAgree = 0;
   let cloudAgree = 0;
+  let reachAgree = 0;
+  let reached = 0;
   let inside = 0;
   let next = 0;
   const worker = async (): Promise<void> => {
@@ -38,6 +40,10 @@ it("offline checks from the linked files agree with the twin on 10,000 points", 
       expect(r.status).toBe(200);
       if (ws.mesh.distanceToSurface(p) <= 0.01) continue;
       const offline = ws.check(p);
+      // the same map, read by the same code: identical answers, not merely agreeing ones
+      expect(r.body.checks.reachability).toEqual(offline.reachability);
+      reachAgree++;
+      if (offline.reachability!.ok) reached++;
       compared++;
       if (offline.insideWorkspace) inside++;
       if (r.body.checks.insideWorkspace.ok === offline.insideWorkspace) insideAgree++;
@@ -50,4 +56,6 @@ it("offline checks from the linked files agree with the twin on 10,000 points", 
   expect(compared - inside).toBeGreaterThan(1_000);
   expect(insideAgree / compared).toBeGreaterThanOrEqual(0.999);
   expect(cloudAgree / compared).toBeGreaterThanOrEqual(0.999);
+  expect(reachAgree).toBe(compared);
+  expect(reached).toBeGreaterThan(1_000);
 }, 600_000);

@@ -37,6 +37,7 @@ type Debug = {
   liveMessages: number;
   pointCloud: { shown: number; total: number; collisionFree: number } | null;
   workspaceTriangles: number;
+  reachability: { voxels: number; shown: number; maxIndex: number; visible: boolean } | null;
   obstacles: string[];
   otherRobots: Record<string, { base: number[]; joints: Joints }>;
   errors: string[];
@@ -138,6 +139,18 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     expect(d.pointCloud?.collisionFree).toBeGreaterThan(0);
     expect(d.workspaceTriangles).toBeGreaterThan(10);
     expect(d.obstacles).toEqual(["block"]);
+    // the reachability heat map: every voxel of the file read, those reached collision-free drawn, hidden
+    // until its layer is switched on
+    const mapRows = readFileSync(join(dir, "kuka", "reachability.csv"), "utf8").trim().split("\n").slice(1);
+    expect(d.reachability).toMatchObject({ voxels: mapRows.length, visible: false });
+    expect(d.reachability?.shown).toBe(mapRows.filter((r) => Number(r.split(",")[4]) > 0).length);
+    expect(d.reachability?.maxIndex).toBe(Math.max(...mapRows.map((r) => Number(r.split(",")[6]))));
+    const before = await pixelStats(page, page.locator("#view canvas"), join(ARTIFACTS, "viewer-no-heat.png"));
+    await page.getByLabel(/^reachability map \(\d+ voxels\)$/).check();
+    await page.waitForFunction(() => (window as unknown as { __robwot: Debug }).__robwot.reachability?.visible === true);
+    const heat = await pixelStats(page, page.locator("#view canvas"), join(ARTIFACTS, "viewer-heat-map.png"));
+    expect(heat.distinctColours).toBeGreaterThan(before.distinctColours);
+    await page.getByLabel(/^reachability map/).uncheck();
     const state = await read<Joints>(twin, "getJointPosition");
     expect(maxDiff(state, d.joints)).toBeLessThan(1e-6);
     // Frames, base pose and joint application agree with the simulation: the displayed model's

@@ -72,7 +72,7 @@ def test_shell_summary_and_progress(shell: tuple[dict[str, Any], Path, list[tupl
     """WorkspaceSummary fields (Contract 2), bounds = base +- r2, stages reported in order to completion."""
     summary, _, events = shell
     assert set(summary) == {"samples", "collisionFree", "bounds", "alpha", "method", "volume", "seed",
-                            "timings", "versions"}
+                            "reachability", "timings", "versions"}
     assert (summary["samples"], summary["collisionFree"], summary["seed"]) == (80_000, 80_000, 1)
     assert np.allclose(summary["bounds"]["min"], BASE - R2, atol=0.01)
     assert np.allclose(summary["bounds"]["max"], BASE + R2, atol=0.01)
@@ -193,6 +193,7 @@ def test_bad_input_changes_nothing(tmp_path: Path) -> None:
         with pytest.raises(UnknownRobot):
             generate_workspace(w, "nope", out_dir=tmp_path / "o1")
         for kwargs, param in (({"samples": 0}, "samples"), ({"alpha": -1.0}, "alpha"),
+                              ({"reach_voxel": 0.001}, "reachVoxel"), ({"reach_voxel": "fine"}, "reachVoxel"),
                               ({"alpha": "big"}, "alpha"), ({"workers": 0}, "workers"),
                               ({"seed": -1}, "seed")):
             with pytest.raises(InvalidParams) as exc:

@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription } from "@robwot/core";
-import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type RobotLoadParams, type RobotModel, type SimClient, type WorkspaceSummary, type WorldList } from "@robwot/sim-client";
+import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type RobotLoadParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type WorldList } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type { RobotModel, WorkspaceSummary, WorldList };
@@ -24,7 +24,7 @@ export interface Backend {
   /** Starts the backend's collision workers ahead of `generateWorkspace` (an optimisation: never fails). */
   warmUp(workers?: number): Promise<void>;
   generateWorkspace(
-    params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
+    params: WorkspaceGenerateParams,
     onProgress: (p: Progress) => void,
   ): Promise<WorkspaceSummary>;
   /** Leaves the world as found (when connected to a running backend) and stops an own backend. Idempotent. */
@@ -105,7 +105,7 @@ class SimBackend implements Backend {
     await this.client.warmUp(workers).catch(() => undefined);
   }
   generateWorkspace(
-    params: { robot: string; samples: number; seed: number; workers?: number; alpha: "auto" | number; outDir: string; csvJoints: boolean },
+    params: WorkspaceGenerateParams,
     onProgress: (p: Progress) => void,
   ): Promise<WorkspaceSummary> {
     return this.guard(this.client.generateWorkspace(params, { onProgress }));

@@ -36,6 +36,7 @@ function placeholderSummary(opts: GenerateOptions): WorkspaceSummary {
     method: "alpha-shape",
     volume: 0,
     seed: opts.seed,
+    reachability: { file: "reachability.csv", voxel: 0.01, voxels: 0, directions: 64, approachAxis: "z" },
     timings: { sample: 0, collide: 0, alpha: 0, write: 0 },
     versions: {},
   };
@@ -141,6 +142,7 @@ export async function generateTwin(
       alpha: opts.alpha,
       outDir: staged.tmp,
       csvJoints: opts.csvJoints,
+      reachVoxel: opts.reachVoxel,
     },
     (p) => progress.update(p.stage, p.done, p.total),
   );

@@ -466,6 +466,28 @@ export interface WorkspaceSummary {
     [k: string]: string | undefined;
   };
   warning?: string;
+  /**
+   * the reachability map written beside the workspace files
+   */
+  reachability: {
+    file: "reachability.csv";
+    /**
+     * voxel side (m)
+     */
+    voxel: number;
+    /**
+     * rows of the file: voxels holding at least one sample
+     */
+    voxels: number;
+    /**
+     * approach-direction bins (spherical Fibonacci lattice); index = reached bins / directions
+     */
+    directions: 64;
+    /**
+     * the end link's axis that is binned
+     */
+    approachAxis: "z";
+  };
 }
 export interface WarmUpResult {
   workers: Workers;
@@ -701,6 +723,10 @@ export interface WorkspaceGenerateParams {
    * add the joint values to each CSV row
    */
   csvJoints?: boolean;
+  /**
+   * voxel side (m) of the reachability map, or "auto": 1 cm doubled until the voxels reached collision-free hold 32 collision-free samples on average (at most 0.5 m)
+   */
+  reachVoxel?: "auto" | number;
 }
 /**
  * Params of `workspace.warmUp`.

@@ -2,7 +2,7 @@
 export * from "./errors.js";
 export type * from "./types.js";
 export type * from "./td/types.js";
-export { buildThingDescription, thingId, transformBounds, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
+export { buildThingDescription, thingId, transformBounds, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, REACHABILITY_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
 export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/build.js";
 export { securityFor } from "./td/security.js";
 export { closeSchema, MIN_SPEED, tdContact } from "./td/schemas.js";
@@ -20,8 +20,10 @@ export type { MeshTopology } from "./workspace/topology.js";
 export { PointCloudIndex } from "./workspace/point-cloud.js";
 export type { PointCloudScore, PointCloudCheck } from "./workspace/point-cloud.js";
 export { Workspace } from "./workspace/workspace.js";
+export { ReachabilityMap } from "./workspace/reachability.js";
+export type { ReachabilityCheck, ReachabilityVoxel } from "./workspace/reachability.js";
 export type { WorkspacePointCheck } from "./workspace/workspace.js";
-export { loadWorkspaceFromUrls } from "./workspace/load-url.js";
+export { loadWorkspaceFromUrls, reachabilityVoxel } from "./workspace/load-url.js";
 export type { FetchLike } from "./workspace/load-url.js";
 export {
   solveCalibration,

@@ -6,6 +6,7 @@
 
 import type * as Backend from "./backend-contract.js";
 import type { Calibration } from "./calibration.js";
+import type { ReachabilityCheck } from "./workspace/reachability.js";
 import type { MoveStatus, QuatXyzw, Vec3 } from "./backend-contract.js";
 
 export type { Bounds, Contact, JointType, MoveStatus, QuatXyzw, Vec3, WorkspaceSummary } from "./backend-contract.js";
@@ -89,6 +90,8 @@ export interface ValidationReport {
     insideWorkspace?: { ok: boolean };
     /** a collision-free sample within maxGap (m); score = share of colliding among the k nearest (reported) */
     pointCloud?: { score: number; k: number; nearestFree: number; maxGap: number; ok: boolean };
+    /** the target's voxel of reachability.csv (index = share of the 64 approach directions reached) */
+    reachability?: ReachabilityCheck;
   };
 }
 

@@ -36,6 +36,7 @@ describe("static files", () => {
     expect(isTwinFile("robot.urdf", "robot.urdf")).toBe(true);
     expect(isTwinFile("meshes/x.stl", "robot.urdf")).toBe(true);
     expect(isTwinFile("twin.json", "robot.urdf")).toBe(true);
+    expect(isTwinFile("reachability.csv", "robot.urdf")).toBe(true);
     expect(isTwinFile("td.json", "robot.urdf")).toBe(false);
     expect(isTwinFile("calibration.json", "robot.urdf")).toBe(false);
   });

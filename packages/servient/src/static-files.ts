@@ -61,6 +61,7 @@ export function isTwinFile(rel: string, urdfName: string): boolean {
     rel === "workspace.csv" ||
     rel === "workspace.stl" ||
     rel === "workspace.json" ||
+    rel === "reachability.csv" ||
     rel === "scene.json" ||
     rel === "robot.srdf" ||
     rel === "twin.json" ||

@@ -2,7 +2,7 @@
  * Simulation-in-the-loop validation (the original's key idea): the verdict on a target is the backend's
  * plan (`robot.plan`: joint limits, IK solutions for a pose, a collision-free path from the current
  * state — the same check `robot.move` makes before it moves), plus the static checks on the twin's
- * files (inside workspace.stl, point-cloud score), computed here.
+ * files (inside workspace.stl, point-cloud score, reachability-map voxel), computed here.
  *
  * Policy: the simulation decides. `valid` is the plan's verdict. The static checks are the evidence a
  * consumer without the twin has; they are reported in `checks` (and, when they disagree with the
@@ -40,6 +40,11 @@ export function staticChecks(ws: WorkspaceChecks | null, virtual: Vec3): { check
   if (!checks.pointCloud.ok) {
     const nearest = checks.pointCloud.nearestFree < 0 ? "none at all" : `nearest ${fmt(checks.pointCloud.nearestFree)} m`;
     evidence.push(`no collision-free sample of workspace.csv within ${fmt(checks.pointCloud.maxGap)} m of ${where} (${nearest})`);
+  }
+  const reach = ws.reach(virtual);
+  if (reach) {
+    checks.reachability = reach;
+    if (!reach.ok) evidence.push(`no collision-free sample ends in the ${fmt(reach.voxel)} m voxel of ${where} (reachability.csv)`);
   }
   return { checks, evidence };
 }

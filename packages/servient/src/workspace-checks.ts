@@ -1,15 +1,18 @@
 /**
  * The twin's workspace checks, with the same core code any consumer runs offline on the linked files:
- * inside workspace.stl, and a collision-free sample of workspace.csv near the target. Virtual frame.
+ * inside workspace.stl, a collision-free sample of workspace.csv near the target, and the target's voxel
+ * in reachability.csv (its index). Virtual frame.
  */
 import { existsSync } from "node:fs";
 import { join } from "node:path";
-import { loadWorkspace, type Vec3, type Workspace } from "@robwot/core";
+import { loadWorkspace, type ReachabilityCheck, type Vec3, type Workspace } from "@robwot/core";
 import { ServientError } from "./errors.js";
 
 export interface WorkspaceChecks {
   inside(p: Vec3): boolean;
   score(p: Vec3): { score: number; k: number; nearestFree: number; maxGap: number; ok: boolean };
+  /** the target's voxel of reachability.csv; undefined for a twin folder without one */
+  reach(p: Vec3): ReachabilityCheck | undefined;
 }
 
 export function workspaceChecks(ws: Workspace): WorkspaceChecks {
@@ -20,6 +23,7 @@ export function workspaceChecks(ws: Workspace): WorkspaceChecks {
       // a position with no collision-free sample at all reports -1 m (JSON has no Infinity)
       return { score: c.share, k: c.k, nearestFree: Number.isFinite(c.nearestFree) ? c.nearestFree : -1, maxGap: c.maxGap, ok: c.ok };
     },
+    reach: (p) => ws.reachability?.check(p),
   };
 }
 

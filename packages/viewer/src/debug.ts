@@ -22,6 +22,8 @@ export interface DebugState {
   highlighted: string[];
   pointCloud: { shown: number; total: number; collisionFree: number } | null;
   workspaceTriangles: number;
+  /** reachability.csv: voxels in the file, drawn (reached collision-free), largest index, layer shown */
+  reachability: { voxels: number; shown: number; maxIndex: number; visible: boolean } | null;
   obstacles: string[];
   /** Robots of the other twins sharing this world: base position (URDF world, m) and joints shown. */
   otherRobots: Record<string, { base: number[]; joints: Record<string, number> }>;
@@ -43,6 +45,7 @@ export const debugState: DebugState = {
   highlighted: [],
   pointCloud: null,
   workspaceTriangles: 0,
+  reachability: null,
   obstacles: [],
   otherRobots: {},
   errors: [],

@@ -2,7 +2,7 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
-import { jointLimits, liveUrl, RobwotError, type ThingDescriptionLike } from "@robwot/core/browser";
+import { jointLimits, liveUrl, REACHABILITY_REL, RobwotError, type ThingDescriptionLike } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
 
@@ -21,7 +21,7 @@ export interface TwinTd {
   base: string;
   raw: Record<string, unknown>;
   joints: JointLimit[];
-  links: { model: string; pointCloud: string | null; workspace: string | null; scene: string | null };
+  links: { model: string; pointCloud: string | null; workspace: string | null; reachability: string | null; summary: string | null; scene: string | null };
   /** End-effector link (`robwot:eeLink`), if the TD names one. */
   eeLink: string | null;
   /** Live WebSocket endpoint from the TD's link with rel `robwot:live` (Contract 4), if any. */
@@ -52,6 +52,8 @@ export async function loadTd(slug: string): Promise<TwinTd> {
       model,
       pointCloud: link("workspace-pointcloud"),
       workspace: link("workspace"),
+      reachability: link(REACHABILITY_REL),
+      summary: link("workspace-summary"),
       scene: link("scene") ?? new URL("scene.json", base).href,
     },
     live: liveLink(raw),

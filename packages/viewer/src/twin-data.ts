@@ -1,15 +1,16 @@
 /**
- * Loading the twin's linked data into the stage: base pose (twin.json), scene obstacles, point cloud and
- * workspace surface. Each adds its layer toggle and debug counters; failures reject for the caller to show.
+ * Loading the twin's linked data into the stage: base pose (twin.json), scene obstacles, point cloud,
+ * workspace surface and reachability heat map. Each adds its layer toggle and debug counters; failures reject for the caller to show.
  */
 import type { Object3D } from "three";
-import { debugState } from "./debug.js";
+import { debugState, publishDebug } from "./debug.js";
 import { ViewerError } from "./errors.js";
 import type { QuatXyzw, Vec3 } from "./frames.js";
 import { fetchBuffer, fetchJson, fetchText, isRecord } from "./http.js";
 import type { MotionPanel } from "./motion-panel.js";
 import type { ObstacleLayer } from "./scene-layer.js";
 import { buildPointCloud, parseWorkspaceCsv } from "./pointcloud.js";
+import { buildHeatMap } from "./reachability-layer.js";
 import type { Stage } from "./stage.js";
 import type { TwinTd } from "./td.js";
 import { buildWorkspaceMesh, triangleCount } from "./workspace-mesh.js";
@@ -56,4 +57,21 @@ export async function loadSurface(td: TwinTd, stage: Stage, motion: MotionPanel)
   debugState.workspaceTriangles = triangleCount(mesh);
   motion.addLayer("workspace surface", true, (v) => stage.setVisible(mesh, v));
   return mesh;
+}
+
+/** The reachability heat map (hidden until toggled); twins generated before the map have no link. */
+export async function loadReachability(td: TwinTd, stage: Stage, motion: MotionPanel): Promise<Object3D | null> {
+  const { reachability, summary } = td.links;
+  if (!reachability || !summary) return null;
+  const [csv, json] = await Promise.all([fetchText(reachability), fetchText(summary)]);
+  const heat = buildHeatMap(csv, json, { csv: reachability, summary });
+  stage.add(heat.points);
+  stage.setVisible(heat.points, false);
+  debugState.reachability = { voxels: heat.voxels, shown: heat.shown, maxIndex: heat.maxIndex, visible: false };
+  motion.addLayer(`reachability map (${heat.shown} voxels)`, false, (v) => {
+    stage.setVisible(heat.points, v);
+    debugState.reachability = { ...debugState.reachability!, visible: v };
+    publishDebug();
+  });
+  return heat.points;
 }

@@ -19,7 +19,7 @@ import { applyJoints, highlightLink, loadRobot } from "./robot.js";
 import { ObstacleLayer } from "./scene-layer.js";
 import { Stage, TargetMarker } from "./stage.js";
 import { loadTd, readProperty, type TwinTd } from "./td.js";
-import { loadBasePose, loadCloud, loadScene, loadSurface } from "./twin-data.js";
+import { loadBasePose, loadCloud, loadReachability, loadScene, loadSurface } from "./twin-data.js";
 
 const HIGHLIGHT_MS = 3000;
 
@@ -96,6 +96,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   const sceneTask = loadScene(td, obstacles);
   const cloudTask = loadCloud(td, stage, motion);
   const surfaceTask = loadSurface(td, stage, motion);
+  const reachTask = loadReachability(td, stage, motion);
   const stateTask = loadState(td, motion, cartesian, showCalibration).then((q) => (latest ??= q));
 
   const liveUrl = td.live ?? `${location.protocol === "https:" ? "wss:" : "ws:"}//${location.host}/live`;
@@ -122,8 +123,8 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     },
   });
 
-  const results = await Promise.allSettled([robotTask, sceneTask, cloudTask, surfaceTask, stateTask, othersTask]);
-  const labels = ["model", "scene", "workspace.csv", "workspace.stl", "state", "other robots of this world"];
+  const results = await Promise.allSettled([robotTask, sceneTask, cloudTask, surfaceTask, stateTask, othersTask, reachTask]);
+  const labels = ["model", "scene", "workspace.csv", "workspace.stl", "state", "other robots of this world", "reachability.csv"];
   results.forEach((r, i) => {
     if (r.status === "rejected") showError(labels[i] ?? "load", r.reason);
   });

@@ -27,7 +27,7 @@ Options:
   --no-serve         only generate (or check) the twin
 `;
 
-const TWIN_FILES = ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json"];
+const TWIN_FILES = ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json", "reachability.csv"];
 
 /** The bundled scene: the repository's examples/scenes, found relative to this package. */
 export function demoScene(): string | undefined {
@@ -92,6 +92,7 @@ export async function run(argv: string[]): Promise<number> {
       out,
       baseUrl: DEFAULT_BASE_URL,
       alpha: "auto",
+      reachVoxel: "auto",
       packageRoots: {},
       csvJoints: false,
       json: false,

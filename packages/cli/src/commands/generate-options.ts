@@ -29,6 +29,8 @@ export interface GenerateOptions {
   out: string;
   baseUrl: string;
   alpha: "auto" | number;
+  /** voxel side (m) of reachability.csv, or "auto" (chosen from the samples by the backend) */
+  reachVoxel: "auto" | number;
   workers?: number;
   packageRoots: Record<string, string>;
   csvJoints: boolean;
@@ -47,6 +49,7 @@ export const GENERATE_OPTIONS = {
   out: { type: "string", short: "o" },
   "base-url": { type: "string" },
   alpha: { type: "string" },
+  "reach-voxel": { type: "string" },
   workers: { type: "string" },
   "package-root": { type: "string", multiple: true },
   "csv-joints": { type: "boolean" },
@@ -124,6 +127,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const seed = parseInteger("seed", values.seed, 1, 0, 2 ** 32 - 1);
   const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, 1, 1, 256);
   const alpha = parseAlpha(values.alpha);
+  const reachVoxel = values["reach-voxel"] === undefined || values["reach-voxel"] === "auto" ? "auto" : parseNumber("reach-voxel", values["reach-voxel"], 0, 0.005, 0.5);
   const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, MIN_CLEARANCE, MAX_CLEARANCE);
   const packageRoots = parsePackageRoots(values["package-root"]);
   const baseUrlObj = parseUrl("base-url", values["base-url"] ?? DEFAULT_BASE_URL, ["http", "https"]) as URL;
@@ -145,6 +149,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     out,
     baseUrl,
     alpha,
+    reachVoxel,
     ...(workers !== undefined ? { workers } : {}),
     packageRoots,
     csvJoints: values["csv-joints"] ?? false,

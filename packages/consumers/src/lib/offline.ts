@@ -2,9 +2,10 @@
  * Offline workspace checks ("validation without the twin"): the consumer downloads the twin's
  * `workspace.stl` and `workspace.csv` from the TD's links once, then answers "inside the workspace
  * surface?" and the k-nearest-neighbour point-cloud score locally with @robwot/core (no Python,
- * no request to the twin per target).
+ * no request to the twin per target); with the reachability map (`reachability.csv`) when the TD links
+ * one, the target voxel's reachability index too.
  */
-import { loadWorkspaceFromUrls, type PointCloudCheck } from "@robwot/core";
+import { loadWorkspaceFromUrls, REACHABILITY_REL, type PointCloudCheck, type ReachabilityCheck } from "@robwot/core";
 import { authHeaders, type Twin } from "./connect.js";
 import { linkUrl } from "@robwot/core";
 import type { V3 } from "./frames.js";
@@ -14,6 +15,8 @@ export interface OfflineVerdict {
   /** unsigned distance to the workspace surface (m) */
   surfaceDistance: number;
   pointCloud: PointCloudCheck;
+  /** the target's voxel of reachability.csv (evidence, not part of ok); absent without a map */
+  reachability?: ReachabilityCheck;
   ok: boolean;
 }
 
@@ -29,15 +32,17 @@ export async function loadOfflineWorkspace(twin: Twin, options: { k?: number; ma
   const stlUrl = linkUrl(twin.td, "workspace", twin.url);
   const csvUrl = linkUrl(twin.td, "workspace-pointcloud", twin.url);
   const headers = authHeaders(twin.auth);
-  const ws = await loadWorkspaceFromUrls(stlUrl, csvUrl, (url) => fetch(url, { headers }));
+  const hasMap = twin.td.links?.some((l) => l.rel === REACHABILITY_REL) ?? false;
+  const reach = hasMap ? { csvUrl: linkUrl(twin.td, REACHABILITY_REL, twin.url), summaryUrl: linkUrl(twin.td, "workspace-summary", twin.url) } : undefined;
+  const ws = await loadWorkspaceFromUrls(stlUrl, csvUrl, (url) => fetch(url, { headers }), reach);
   return {
     stlUrl,
     csvUrl,
     triangles: ws.mesh.triangleCount,
     points: ws.cloudIndex.size,
     check(p: V3): OfflineVerdict {
-      const { insideWorkspace, pointCloud, ok } = ws.check(p, options);
-      return { inside: insideWorkspace, surfaceDistance: ws.mesh.distanceToSurface(p), pointCloud, ok };
+      const { insideWorkspace, pointCloud, reachability, ok } = ws.check(p, options);
+      return { inside: insideWorkspace, surfaceDistance: ws.mesh.distanceToSurface(p), pointCloud, ...(reachability ? { reachability } : {}), ok };
     },
   };
 }

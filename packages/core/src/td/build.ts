@@ -24,6 +24,8 @@ export const THING_MODEL_FILE = "robot-arm.tm.json";
 export const THING_MODEL_TYPE = "application/tm+json";
 /** Link relation of the servient's `/live` WebSocket stream (its own protocol, README Contract 4). */
 export const LIVE_REL = "robwot:live";
+/** Link relation of reachability.csv, the reachability map (README "Reachability map"). */
+export const REACHABILITY_REL = "robwot:reachability";
 export const DEFAULT_BASE_URL = "http://localhost:8080/";
 const JSON_TYPE = "application/json";
 
@@ -205,6 +207,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     { rel: "workspace-pointcloud", href: "workspace.csv", type: "text/csv" },
     { rel: "workspace", href: "workspace.stl", type: "model/stl" },
     { rel: "workspace-summary", href: "workspace.json", type: JSON_TYPE },
+    { rel: REACHABILITY_REL, href: "reachability.csv", type: "text/csv" },
     { rel: "scene", href: "scene.json", type: JSON_TYPE },
     ...(options.srdf ? [{ rel: "srdf", href: "robot.srdf", type: "application/xml" }] : []),
     { rel: "type", href: THING_MODEL_FILE, type: THING_MODEL_TYPE },

@@ -155,7 +155,7 @@ export function validationReportSchema(): DataSchema {
     type: "object",
     description:
       "The simulation decides: valid = reachable by IK within the joint limits and a collision-free path (with clearance) in the current scene. " +
-      "The static checks on the linked files (insideWorkspace, pointCloud) are reported in checks and notes, never a veto.",
+      "The static checks on the linked files (insideWorkspace, pointCloud, reachability) are reported in checks and notes, never a veto.",
     properties: {
       valid: { type: "boolean", description: "the simulation-in-the-loop verdict" },
       reasons: { type: "array", items: { type: "string" }, description: "why the target is refused (empty when valid)" },
@@ -176,6 +176,19 @@ export function validationReportSchema(): DataSchema {
               nearestFree: { type: "number", unit: UNIT_M, description: "distance to the nearest collision-free sample; -1 when there is none" },
               maxGap: { type: "number", unit: UNIT_M },
               ok,
+            },
+          },
+          reachability: {
+            type: "object",
+            description:
+              "the target's voxel in the reachability map (reachability.csv): ok when a collision-free sample ends in it; " +
+              "index = share of the 64 approach directions reached there collision-free",
+            properties: {
+              ok,
+              index: { type: "number", minimum: 0, maximum: 1 },
+              samples: { type: "integer", minimum: 0 },
+              free: { type: "integer", minimum: 0 },
+              voxel: { type: "number", unit: UNIT_M, description: "voxel side" },
             },
           },
           ik: {

@@ -42,6 +42,7 @@ export function summaryFixture(): WorkspaceSummary {
     method: "alpha-shape",
     volume: 4.2,
     seed: 1,
+    reachability: { file: "reachability.csv", voxel: 0.16, voxels: 900, directions: 64, approachAxis: "z" },
     timings: { sample: 0.1, collide: 3.2, alpha: 1.1, write: 0.2 },
     versions: { robwot: "0.1.0" },
   };

@@ -23,35 +23,41 @@ export interface ParseCsvOptions {
   file?: string;
 }
 
-export function parseWorkspaceCsv(text: string, options: ParseCsvOptions = {}): WorkspaceCloud {
-  const file = options.file ?? "workspace.csv";
+/** A CSV of numbers: header, then `rows` × header.length finite values (row-major). */
+export interface NumericTable {
+  header: string[];
+  rows: number;
+  values: Float64Array;
+}
+
+/**
+ * Reads a CSV of finite numbers whose header starts with `required` (more columns allowed only when
+ * `extra`); every error names the file, the line and the column.
+ */
+export function parseNumericCsv(text: string, file: string, required: readonly string[], extra = false): NumericTable {
   const src = text.charCodeAt(0) === 0xfeff ? text.slice(1) : text;
   const lines = src.split(/\r?\n/);
   while (lines.length > 0 && lines[lines.length - 1]!.trim() === "") lines.pop();
-  if (lines.length === 0) throw new CsvError(`${file}: empty file, expected header ${REQUIRED.join(",")}`, { file, line: 1 });
+  if (lines.length === 0) throw new CsvError(`${file}: empty file, expected header ${required.join(",")}`, { file, line: 1 });
   const header = lines[0]!.split(",").map((h) => h.trim());
-  for (let i = 0; i < REQUIRED.length; i++) {
-    if (header[i] !== REQUIRED[i]) {
-      throw new CsvError(`${file}:1: header column ${i + 1} is '${header[i] ?? ""}', expected '${REQUIRED[i]}' (header must start with ${REQUIRED.join(",")})`, {
+  for (let i = 0; i < required.length; i++) {
+    if (header[i] !== required[i]) {
+      throw new CsvError(`${file}:1: header column ${i + 1} is '${header[i] ?? ""}', expected '${required[i]}' (header must start with ${required.join(",")})`, {
         file,
         line: 1,
         column: i + 1,
         got: header[i] ?? null,
-        expected: REQUIRED[i],
+        expected: required[i],
       });
     }
   }
-  const jointNames = header.slice(REQUIRED.length);
-  const dupe = jointNames.find((n, i) => n === "" || jointNames.indexOf(n) !== i);
-  if (dupe !== undefined) {
-    throw new CsvError(`${file}:1: joint column name '${dupe}' is empty or repeated`, { file, line: 1, got: dupe });
+  if (!extra && header.length > required.length) {
+    throw new CsvError(`${file}:1: header has ${header.length} columns, expected ${required.join(",")}`, { file, line: 1, got: header.length, expected: required.length });
   }
   const width = header.length;
-  const n = lines.length - 1;
-  const points = new Float64Array(3 * n);
-  const collisionFree = new Uint8Array(n);
-  const joints = jointNames.length > 0 ? new Float64Array(n * jointNames.length) : undefined;
-  for (let r = 0; r < n; r++) {
+  const rows = lines.length - 1;
+  const values = new Float64Array(rows * width);
+  for (let r = 0; r < rows; r++) {
     const lineNo = r + 2;
     const fields = lines[r + 1]!.split(",");
     if (fields.length !== width) {
@@ -63,14 +69,33 @@ export function parseWorkspaceCsv(text: string, options: ParseCsvOptions = {}): 
       if (!Number.isFinite(v)) {
         throw new CsvError(`${file}:${lineNo}: column '${header[c]}' is '${raw}', not a finite number`, { file, line: lineNo, column: header[c], value: raw });
       }
-      if (c < 3) points[3 * r + c] = v;
-      else if (c === 3) {
-        if (v !== 0 && v !== 1) {
-          throw new CsvError(`${file}:${lineNo}: collision_free is '${raw}', expected 0 or 1`, { file, line: lineNo, column: "collision_free", value: raw });
-        }
-        collisionFree[r] = v;
-      } else joints![r * jointNames.length + (c - 4)] = v;
+      values[r * width + c] = v;
     }
+  }
+  return { header, rows, values };
+}
+
+export function parseWorkspaceCsv(text: string, options: ParseCsvOptions = {}): WorkspaceCloud {
+  const file = options.file ?? "workspace.csv";
+  const { header, rows: n, values } = parseNumericCsv(text, file, REQUIRED, true);
+  const jointNames = header.slice(REQUIRED.length);
+  const dupe = jointNames.find((name, i) => name === "" || jointNames.indexOf(name) !== i);
+  if (dupe !== undefined) {
+    throw new CsvError(`${file}:1: joint column name '${dupe}' is empty or repeated`, { file, line: 1, got: dupe });
+  }
+  const width = header.length;
+  const points = new Float64Array(3 * n);
+  const collisionFree = new Uint8Array(n);
+  const joints = jointNames.length > 0 ? new Float64Array(n * jointNames.length) : undefined;
+  for (let r = 0; r < n; r++) {
+    const row = values.subarray(r * width, (r + 1) * width);
+    points.set(row.subarray(0, 3), 3 * r);
+    const flag = row[3]!;
+    if (flag !== 0 && flag !== 1) {
+      throw new CsvError(`${file}:${r + 2}: collision_free is '${flag}', expected 0 or 1`, { file, line: r + 2, column: "collision_free", value: String(flag) });
+    }
+    collisionFree[r] = flag;
+    if (joints) joints.set(row.subarray(4), r * jointNames.length);
   }
   const cloud: WorkspaceCloud = { points, collisionFree };
   if (joints) {

@@ -1,5 +1,6 @@
 /** Loads a twin's workspace files over HTTP (consumers, browser). Pure: uses the given `fetch`. */
 import { WorkspaceFileError } from "../errors.js";
+import { ReachabilityMap } from "./reachability.js";
 import { Workspace } from "./workspace.js";
 
 export type FetchLike = (url: string) => Promise<{ ok: boolean; status: number; statusText: string; arrayBuffer(): Promise<ArrayBuffer>; text(): Promise<string> }>;
@@ -15,9 +16,36 @@ async function get(url: string, fetchFn: FetchLike): Promise<Awaited<ReturnType<
   return res;
 }
 
-/** Fetches workspace.stl and workspace.csv (e.g. the TD's `workspace` and `workspace-pointcloud` links). */
-export async function loadWorkspaceFromUrls(stlUrl: string, csvUrl: string, fetchFn: FetchLike = globalThis.fetch): Promise<Workspace> {
+/** The voxel side (m) of reachability.csv, from the text of workspace.json (`reachability.voxel`). */
+export function reachabilityVoxel(summaryText: string, file: string): number {
+  let voxel: unknown;
+  try {
+    voxel = (JSON.parse(summaryText) as { reachability?: { voxel?: unknown } }).reachability?.voxel;
+  } catch (cause) {
+    throw new WorkspaceFileError(`${file} is not valid JSON: ${(cause as Error).message}`, { file }, { cause });
+  }
+  if (typeof voxel !== "number" || !(voxel > 0) || !Number.isFinite(voxel)) {
+    throw new WorkspaceFileError(`${file} has no reachability.voxel (a positive number of metres), needed to read reachability.csv`, { file });
+  }
+  return voxel;
+}
+
+/**
+ * Fetches workspace.stl and workspace.csv (the TD's `workspace` and `workspace-pointcloud` links) and,
+ * when given, reachability.csv with workspace.json (links `robwot:reachability`, `workspace-summary`).
+ */
+export async function loadWorkspaceFromUrls(
+  stlUrl: string,
+  csvUrl: string,
+  fetchFn: FetchLike = globalThis.fetch,
+  reach?: { csvUrl: string; summaryUrl: string },
+): Promise<Workspace> {
   const [stlRes, csvRes] = await Promise.all([get(stlUrl, fetchFn), get(csvUrl, fetchFn)]);
   const [stl, csv] = await Promise.all([stlRes.arrayBuffer(), csvRes.text()]);
-  return Workspace.fromData(stl, csv, { stl: stlUrl, csv: csvUrl });
+  let map: ReachabilityMap | undefined;
+  if (reach) {
+    const [mapText, summaryText] = await Promise.all([get(reach.csvUrl, fetchFn).then((r) => r.text()), get(reach.summaryUrl, fetchFn).then((r) => r.text())]);
+    map = ReachabilityMap.fromCsv(mapText, reachabilityVoxel(summaryText, reach.summaryUrl), { file: reach.csvUrl });
+  }
+  return Workspace.fromData(stl, csv, { stl: stlUrl, csv: csvUrl }, map);
 }

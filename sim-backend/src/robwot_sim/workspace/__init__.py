@@ -22,6 +22,14 @@ from robwot_sim.urdf import read_urdf
 from robwot_sim.workspace.fk import ChainFK
 from robwot_sim.workspace.io import write_csv, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
+from robwot_sim.workspace.reachability import (
+    BASE_VOXEL,
+    DIRECTIONS,
+    MAX_VOXEL,
+    MIN_VOXEL,
+    ReachabilityMap,
+    direction_bins,
+)
 from robwot_sim.workspace.sampling import sample_configurations
 
 if TYPE_CHECKING:
@@ -79,6 +87,25 @@ def _check(samples: int, seed: int, workers: int | None, alpha: float | str) -> 
     return int(n), alpha
 
 
+def _reach_voxel(voxel: float | str) -> float | str:
+    if voxel == "auto":
+        return voxel
+    if isinstance(voxel, bool) or not isinstance(voxel, (int, float)) or not MIN_VOXEL <= voxel <= MAX_VOXEL:
+        raise InvalidParams(f'reachVoxel must be "auto" or a voxel side within [{MIN_VOXEL}, {MAX_VOXEL}] m',
+                            param="reachVoxel", expected=f'"auto" or {MIN_VOXEL}..{MAX_VOXEL}', got=voxel)
+    return float(voxel)
+
+
+def _end_link(fk: ChainFK, qs: np.ndarray, block: int = 100_000) -> tuple[np.ndarray, np.ndarray]:
+    """End-link positions ``(n, 3)`` and approach-direction bins ``(n,)`` (in blocks to bound memory)."""
+    positions = np.empty((len(qs), 3))
+    bins = np.empty(len(qs), dtype=np.uint8)
+    for a in range(0, len(qs), block):
+        p, r = fk.poses(qs[a:a + block])
+        positions[a:a + block], bins[a:a + block] = p, direction_bins(r)
+    return positions, bins
+
+
 def _out_dir(out_dir: str | Path) -> Path:
     if not isinstance(out_dir, (str, Path)) or not str(out_dir):
         raise InvalidParams("outDir must be a folder path", param="outDir", expected="string", got=out_dir)
@@ -102,9 +129,12 @@ def _bounds(points: np.ndarray) -> dict[str, list[float] | None]:
 
 def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, seed: int = 1,
                        workers: int | None = None, alpha: float | str = "auto", out_dir: str | Path,
-                       csv_joints: bool = False, progress: Progress | None = None) -> dict[str, Any]:
+                       csv_joints: bool = False, reach_voxel: float | str = "auto",
+                       progress: Progress | None = None) -> dict[str, Any]:
     """Sample ``samples`` configurations (seeded), label them in ``workers`` processes, build the alpha
-    shape of the collision-free end-effector positions and write ``workspace.csv``/``workspace.stl``.
+    shape of the collision-free end-effector positions and write ``workspace.csv``/``workspace.stl`` and
+    the reachability map ``reachability.csv`` (``reachability.py``; voxel side ``reach_voxel`` m or
+    ``"auto"``).
 
     While the worker pool starts, the calling thread computes FK and then labels chunks no worker has
     started with ``world`` itself (short calls, so other requests on ``world`` are only briefly held).
@@ -116,6 +146,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     alpha shape fell back to the convex hull.
     """
     n_workers, alpha_arg = _check(samples, seed, workers, alpha)
+    voxel_arg = _reach_voxel(reach_voxel)
     report: Progress = progress or (lambda _s, _d, _t: None)
     model = world.robot_model(robot_id)
     out = _out_dir(out_dir)
@@ -133,7 +164,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     job = Labelling(spec, robot_id, qs, n_workers)
     t1 = time.perf_counter()
     try:
-        positions = fk.positions(qs)
+        positions, bins = _end_link(fk, qs)
     except BaseException:
         job.abandon()
         raise
@@ -163,12 +194,19 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
         csv.result()
     report("write", 1, 2)
     write_stl(out / "workspace.stl", shape.vertices, shape.triangles)
+    reach = ReachabilityMap(BASE_VOXEL if voxel_arg == "auto" else float(voxel_arg))
+    reach.add(positions, free, bins)
+    if voxel_arg == "auto":
+        reach = reach.auto()
+    reach.write_csv(out / "reachability.csv")
     report("write", 2, 2)
     t4 = time.perf_counter()
 
     summary: dict[str, Any] = {
         "samples": int(samples), "collisionFree": int(free.sum()), "bounds": _bounds(positions[free]),
         "alpha": shape.alpha, "method": shape.method, "volume": shape.volume, "seed": int(seed),
+        "reachability": {"file": "reachability.csv", "voxel": reach.voxel, "voxels": reach.voxels,
+                         "directions": DIRECTIONS, "approachAxis": "z"},
         "timings": {"sample": t_sample, "collide": t_collide, "alpha": t3 - t2, "write": t4 - t3},
         "versions": versions()}
     if shape.warning is not None:

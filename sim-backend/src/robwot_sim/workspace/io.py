@@ -24,7 +24,7 @@ _CSV_CHUNK = 20_000
 _STL_DTYPE = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
 
 
-def _atomic_write(path: Path, write: Callable[[BinaryIO], None]) -> None:
+def atomic_write(path: Path, write: Callable[[BinaryIO], None]) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
@@ -53,8 +53,12 @@ def write_csv(path: str | Path, positions: FloatArray, collision_free: BoolArray
         cols.append(q)
         header += names
         fmt += ",%.6f" * q.shape[1]
-    table = np.hstack(cols)
-    row = fmt + "\n"
+    write_table(p, header, fmt, np.hstack(cols))
+
+
+def write_table(path: str | Path, header: Sequence[str], row_format: str, table: FloatArray) -> None:
+    """A CSV file: ``header``, then one line per row of ``table`` formatted by ``row_format`` (%-style)."""
+    row = row_format + "\n"
 
     def write(f: BinaryIO) -> None:
         f.write((",".join(header) + "\n").encode())
@@ -62,7 +66,7 @@ def write_csv(path: str | Path, positions: FloatArray, collision_free: BoolArray
             block = table[a:a + _CSV_CHUNK]
             f.write(((row * len(block)) % tuple(block.ravel().tolist())).encode())
 
-    _atomic_write(p, write)
+    atomic_write(Path(path), write)
 
 
 def triangle_normals(vertices: FloatArray, triangles: IntArray) -> FloatArray:
@@ -92,7 +96,7 @@ def write_stl(path: str | Path, vertices: FloatArray, triangles: IntArray,
         f.write(np.array([len(t)], dtype="<u4").tobytes())
         f.write(rec.tobytes())
 
-    _atomic_write(Path(path), write)
+    atomic_write(Path(path), write)
 
 
 def read_stl(path: str | Path) -> tuple[FloatArray, FloatArray]:
