@@ -10,6 +10,7 @@ import { homedir, tmpdir } from "node:os";
 import { basename, join } from "node:path";
 import { beforeAll, describe, expect, it } from "vitest";
 import { CLI, REPO, runCli, TINY_URDF } from "./cli-run.js";
+import { invoke } from "./serve-helpers.js";
 
 describe("absurd outputs are refused before any work", () => {
   const urdfIn = (): { dir: string; urdf: string } => {
@@ -113,7 +114,7 @@ describe("twins that could not be served are not written, and folders missing wo
     );
     const r = await runCli(["generate", urdf, "--samples", "500", "--out", join(dir, "twin")], { timeoutMs: 120_000 });
     expect(r.code).toBe(1);
-    expect(r.stderr).toMatch(/degenerate.*point or a line/);
+    expect(r.stderr).toMatch(/degenerate.*single point only/);
     expect(readdirSync(dir)).toEqual(["spinner.urdf"]);
   });
 
@@ -139,7 +140,7 @@ describe("twins that could not be served are not written, and folders missing wo
     expect(r.stderr).toContain(message);
   });
 
-  it("the planar two_joint twin (a convex-hull workspace) is served", async () => {
+  it("the planar two_joint twin (a 2 mm slab around its plane) is served and accepts its reachable targets", async () => {
     const child = spawn(process.execPath, [CLI, "serve", planar, "--port", "0"], { cwd: REPO, stdio: ["ignore", "pipe", "pipe"] });
     let stdout = "";
     child.stdout.on("data", (d: Buffer) => (stdout += d.toString()));
@@ -147,6 +148,18 @@ describe("twins that could not be served are not written, and folders missing wo
     const t0 = Date.now();
     while (!stdout.includes("serving 1 twin") && child.exitCode === null && Date.now() - t0 < 60_000) await new Promise((r) => setTimeout(r, 50));
     expect(stdout).toContain("serving 1 twin");
+    expect(JSON.parse(readFileSync(join(planar, "workspace.json"), "utf8"))).toMatchObject({ method: "planar-alpha-shape", halfThickness: 0.001 });
+    const base = /TD\s+(http:\S+)/.exec(stdout)?.[1] ?? "";
+    const free = readFileSync(join(planar, "workspace.csv"), "utf8").trim().split("\n").slice(1)
+      .map((l) => l.split(",").map(Number)).filter((r) => r[3] === 1);
+    let inside = 0;
+    for (const [x, y, z] of free.filter((_, i) => i % Math.floor(free.length / 20) === 0).slice(0, 20)) {
+      const r = await invoke(base, "validateCartesianPosition", { x, y, z });
+      expect(r.status, JSON.stringify(r.body)).toBe(200);
+      if (r.body.checks.insideWorkspace.ok) inside++;
+      expect(r.body.valid, JSON.stringify(r.body)).toBe(true);
+    }
+    expect(inside).toBeGreaterThanOrEqual(19); // samples on the region's outline may fall just outside
     child.kill("SIGINT");
     await exited;
   });

@@ -147,8 +147,9 @@ export function placeTwin(src: string, yaw: number, offset: Vec3): void {
   // An axis-aligned voxel grid does not survive a rotation: the placed twin has no reachability map.
   rmSync(join(src, "reachability.csv"));
   const summary = JSON.parse(readFileSync(join(src, "workspace.json"), "utf8"));
-  const bounds = transformBounds(summary.bounds, { scale: 1, rotation: T.R, translation: T.t });
-  summary.bounds = bounds;
+  summary.bounds = transformBounds(summary.bounds, { scale: 1, rotation: T.R, translation: T.t });
+  const bounds = transformBounds(summary.reachBounds, { scale: 1, rotation: T.R, translation: T.t });
+  summary.reachBounds = bounds;
   writeFileSync(join(src, "workspace.json"), JSON.stringify(summary));
   const td = JSON.parse(readFileSync(join(src, "td.json"), "utf8"));
   td.links = td.links.filter((l: { rel: string }) => l.rel !== REACHABILITY_REL);
@@ -172,4 +173,16 @@ export async function waitState(thingBase: string, state: string, timeoutMs = 30
     await sleep(25);
   }
   throw new Error(`motionStatus did not become "${state}" within ${timeoutMs} ms`);
+}
+
+/** Polls getJointPosition until `joint` is more than `by` rad away from `from` (the motion has really
+ * begun: "moving" is reported from acceptance, before the backend has planned). */
+export async function waitMoved(thingBase: string, joint: string, from: number, by = 0.02, timeoutMs = 30_000): Promise<void> {
+  const end = Date.now() + timeoutMs;
+  while (Date.now() < end) {
+    const r = await http(`${thingBase}/properties/getJointPosition`);
+    if (Math.abs((r.body?.[joint] ?? from) - from) > by) return;
+    await sleep(25);
+  }
+  throw new Error(`${joint} did not move ${by} rad within ${timeoutMs} ms`);
 }

@@ -5,7 +5,7 @@
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep, waitState } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, waitMoved, waitState } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -23,7 +23,7 @@ it("recovers from a backend killed mid-motion", async () => {
 
   const move = invoke(base, "moveToJointPosition", { joints: kukaPose([-1.5, 0.4, 0, -0.8, 0, 0.4, 0]), speed: 0.05 });
   await waitState(base, "moving");
-  await sleep(400);
+  await waitMoved(base, "lbr_iiwa_joint_1", 0);
   const pid = s.backend.pid;
   expect(pid).toBeTypeOf("number");
   process.kill(pid!, "SIGKILL");

@@ -9,7 +9,7 @@ import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { validateThingDescription, withAbsoluteForms } from "../packages/core/src/index.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, waitState, type LiveClient } from "./serve-helpers.js";
+import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, waitMoved, waitState, type LiveClient } from "./serve-helpers.js";
 
 let s: RunningServient;
 let twinDir: string;
@@ -226,7 +226,7 @@ describe("motion control", () => {
     await invoke(base, "moveToJointPosition", { joints: HOME });
     const long = invoke(base, "moveToJointPosition", { joints: kukaPose([2.5, 0, 0, 0, 0, 0, 0]), speed: 0.05 });
     await waitState(base, "moving");
-    await sleep(200);
+    await waitMoved(base, "lbr_iiwa_joint_1", HOME.lbr_iiwa_joint_1 ?? 0);
     const busy = await invoke(base, "moveToJointPosition", { joints: BENT });
     expect(busy.status).toBe(409);
     expect(busy.body.code).toBe("E_BUSY");

@@ -10,6 +10,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from robwot_sim.workspace.alpha_shape import AlphaShape, alpha_shape, auto_alpha, thin_interior
+from robwot_sim.workspace.flat_shape import FlatShape
 from robwot_sim.workspace.io import read_stl, write_csv, write_stl
 
 
@@ -39,13 +40,13 @@ def signed_volume(tris: npt.NDArray[np.float64]) -> float:
 def test_cube_volume_and_classification() -> None:
     """A uniformly filled unit cube: the alpha shape lies within the points' convex hull and loses at
     most 6 % of the volume (alpha carves a thin layer at flat faces); inside/outside are classified
-    correctly 2 cm away from the faces."""
+    correctly one sample spacing (20000^(-1/3) = 3.7 cm) inside and 2 cm outside the faces."""
     p = np.random.default_rng(1).random((20000, 3))
     s = alpha_shape(p)
     assert s.method == "alpha-shape" and s.warning is None
     assert 0.94 < s.volume <= ConvexHull(p).volume
     q = np.random.default_rng(2).uniform(-0.5, 1.5, (5000, 3))
-    inside = (q > 0.02).all(axis=1) & (q < 0.98).all(axis=1)
+    inside = (q > 0.037).all(axis=1) & (q < 0.963).all(axis=1)
     outside = (q < -0.02).any(axis=1) | (q > 1.02).any(axis=1)
     c = s.contains(q)
     assert c[inside].all() and not c[outside].any()
@@ -53,7 +54,7 @@ def test_cube_volume_and_classification() -> None:
 
 def test_shell_surface_closed_outward(tmp_path: Path) -> None:
     """Shell cloud: STL closed (edges shared by exactly 2 faces), consistently wound, outward
-    (signed volume positive and equal to the kept tetrahedra's volume); the cavity stays empty."""
+    (signed volume positive and equal to the kept tetrahedra's volume)."""
     s = alpha_shape(shell_points(20000, 0.1, 0.25, seed=3))
     write_stl(tmp_path / "s.stl", s.vertices, s.triangles)
     tris, normals = read_stl(tmp_path / "s.stl")
@@ -68,23 +69,94 @@ def test_shell_surface_closed_outward(tmp_path: Path) -> None:
     assert not s.contains(np.zeros((1, 3)))[0]
 
 
-def test_planar_points_fall_back_to_hull() -> None:
-    """Coplanar points (a planar robot) give the convex hull with a warning, not an error."""
+def box_points(n: int, seed: int) -> npt.NDArray[np.float64]:
+    return np.random.default_rng(seed).random((n, 3)) * BOX
+
+
+BOX = np.array([0.6, 0.4, 0.3])
+R1, R2 = 0.05, 0.25  # the shell test robot's radii (m): a 5 cm unreachable cavity
+
+
+@pytest.mark.parametrize(("n", "shell_low", "box_low", "interior_out"),
+                         [(5000, -0.13, -0.10, 0.04), (20000, -0.08, -0.06, 0.005),
+                          (80000, -0.05, -0.04, 0.0005)])
+def test_analytic_shell_and_box(n: int, shell_low: float, box_low: float, interior_out: float) -> None:
+    """Alpha "auto" on analytic clouds at 5k/20k/80k samples: volumes a little below the truth (samples
+    never reach the boundary), nothing more than 1 cm outside inside, few points more than 1 cm inside
+    left out, and from 20,000 samples the shell's 5 cm cavity stays empty (one radius large enough for
+    the sparse outer layer, 2.5 x the 95th percentile of the 8-NN distance, filled it at 20,000)."""
+    rng = np.random.default_rng(11)
+    q = np.r_[rng.uniform(-0.3, 0.3, (30000, 3)), rng.uniform(-R1, R1, (3000, 3))]
+    r = np.linalg.norm(q, axis=1)
+    shell = alpha_shape(shell_points(n, R1, R2, seed=3))
+    assert shell.method == "alpha-shape"
+    assert shell_low < shell.volume / (4 / 3 * np.pi * (R2**3 - R1**3)) - 1 < 0
+    c = shell.contains(q)
+    assert not c[r > R2 + 0.01].any()
+    assert (~c[(r > R1 + 0.01) & (r < R2 - 0.01)]).mean() < interior_out
+    if n >= 20000:
+        assert not c[r < R1 - 0.005].any()
+    qb = rng.uniform(-0.1, 0.7, (30000, 3))
+    box = alpha_shape(box_points(n, seed=3))
+    assert box_low < box.volume / float(np.prod(BOX)) - 1 < 0
+    cb = box.contains(qb)
+    assert not cb[((qb < -0.01) | (qb > BOX + 0.01)).any(axis=1)].any()
+    assert (~cb[((qb > 0.01) & (qb < BOX - 0.01)).all(axis=1)]).mean() < interior_out
+
+
+def test_planar_points_give_a_thickened_plane() -> None:
+    """Coplanar points (a planar robot): the 2-D alpha shape in their plane, 1 mm thick on each side,
+    closed and outward; points of the plane inside it are inside, 2 mm off the plane or beyond its
+    outline are outside. The annulus's hole stays open."""
     rng = np.random.default_rng(4)
-    p = np.c_[rng.uniform(-1, 1, (500, 2)), np.full(500, 0.3)]
+    ang, rad = rng.uniform(-np.pi, np.pi, 8000), rng.uniform(0.1, 0.4, 8000)
+    tilt = np.array([[1, 0, 0], [0, np.cos(0.3), -np.sin(0.3)], [0, np.sin(0.3), np.cos(0.3)]])
+    p = np.c_[rad * np.cos(ang), rad * np.sin(ang), np.zeros(8000)] @ tilt.T + [0.1, 0.2, 0.3]
     s = alpha_shape(p)
-    assert s.method == "convex-hull"
-    assert s.warning is not None and "coplanar" in s.warning
-    counts, _ = edge_counts(s.vertices[s.triangles])
-    assert len(s.triangles) > 0 and (counts == 2).all()
-    assert s.volume == pytest.approx(0.0, abs=1e-9)
+    assert isinstance(s, FlatShape) and s.method == "planar-alpha-shape" and s.warning is None
+    assert s.half_thickness == 1e-3
+    counts, consistent = edge_counts(s.vertices[s.triangles])
+    assert (counts == 2).all() and consistent
+    assert signed_volume(s.vertices[s.triangles]) == pytest.approx(s.volume, rel=1e-6)
+    assert -0.06 < s.volume / (np.pi * (0.4**2 - 0.1**2) * 2e-3) - 1 < 0
+    def at(rr: float, off: float) -> npt.NDArray[np.float64]:
+        a = np.linspace(-3, 3, 50)
+        return np.c_[rr * np.cos(a), rr * np.sin(a), np.full(50, off)] @ tilt.T + [0.1, 0.2, 0.3]
+    assert s.contains(at(0.25, 0.0)).all() and s.contains(at(0.25, 0.0009)).all()
+    assert not s.contains(at(0.25, 0.002)).any() and not s.contains(at(0.25, -0.002)).any()
+    assert not s.contains(at(0.05, 0.0)).any() and not s.contains(at(0.42, 0.0)).any()
 
 
-def test_too_few_points_and_tiny_alpha() -> None:
-    """Fewer than 4 points: empty hull with a warning; an alpha smaller than every tetrahedron: hull."""
-    s = alpha_shape(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]]))
-    assert (s.method, len(s.triangles), s.volume) == ("convex-hull", 0, 0.0)
-    assert s.warning is not None and "3 distinct points" in s.warning
+ARC = np.linspace(0, 2, 300)
+
+
+@pytest.mark.parametrize(("what", "points", "inside", "outside"), [
+    ("curve", np.c_[0.3 * np.cos(ARC), 0.3 * np.sin(ARC), np.zeros(300)],
+     [[0.3, 0.0, 0.0], [0.3 * np.cos(1.0), 0.3 * np.sin(1.0), 0.0009]],
+     [[0.3, 0.0, 0.002], [-0.3, 0.0, 0.0]]),
+    ("collinear", np.c_[np.linspace(0, 0.5, 50), np.zeros(50), np.full(50, 0.2)],
+     [[0.25, 0.0009, 0.2], [0.0, 0.0, 0.2009]], [[0.25, 0.002, 0.2], [0.52, 0.0, 0.2]]),
+])
+def test_curves_lines_and_points_are_thickened(what: str, points: npt.NDArray[np.float64],
+                                              inside: list[list[float]], outside: list[list[float]]) -> None:
+    """One joint (an arc or a segment): its hull in its plane or line grown by 1 mm in every direction,
+    with a warning naming what it is; reachable points are inside."""
+    s = alpha_shape(points)
+    assert isinstance(s, FlatShape) and s.method == "flat-hull"
+    assert s.warning is not None and what in s.warning
+    counts, consistent = edge_counts(s.vertices[s.triangles])
+    assert len(s.triangles) > 0 and (counts == 2).all() and consistent
+    assert s.contains(points).all() and s.contains(np.array(inside)).all()
+    assert not s.contains(np.array(outside)).any()
+
+
+def test_no_points_one_point_and_tiny_alpha() -> None:
+    """No point or a single one: empty hull with a warning (no workspace to describe); an alpha smaller
+    than every tetrahedron: the convex hull."""
+    for p0, n in ((np.zeros((0, 3)), 0), (np.array([[0.1, 0.2, 0.3]] * 5), 1)):
+        s = alpha_shape(p0)
+        assert (s.method, len(s.triangles), s.volume) == ("convex-hull", 0, 0.0)
+        assert s.warning is not None and f"{n} distinct points" in s.warning
     p = np.random.default_rng(5).random((300, 3))
     hull = alpha_shape(p, 1e-6)
     assert hull.method == "convex-hull" and hull.warning is not None and "alpha" in hull.warning
@@ -111,12 +183,15 @@ def test_csv_writer_format(tmp_path: Path) -> None:
 
 
 def test_interior_thinning_keeps_the_surface() -> None:
-    """Thinning deep interior points: with 2 layers the surface is identical to no thinning; with the
-    default single layer the volume changes by < 0.1 % and the triangulated cloud is much smaller."""
+    """Thinning deep interior points: with one radius and 2 layers the surface is identical to no
+    thinning; with the default single layer the volume changes by < 0.1 % (one radius, and auto) and
+    the triangulated cloud is much smaller."""
     p = np.random.default_rng(7).random((20000, 3))
-    a = auto_alpha(p)
-    assert len(thin_interior(p, a, 2)) < 0.9 * len(p)
-    assert len(thin_interior(p, a, 1)) < 0.6 * len(p)
+    auto_full, auto_thinned = alpha_shape(p, thin_layers=0), alpha_shape(p)
+    assert auto_thinned.volume == pytest.approx(auto_full.volume, rel=1e-3)
+    a = 0.15
+    assert thin_interior(p, a, 2)[0].sum() < 0.9 * len(p)
+    assert thin_interior(p, a, 1)[0].sum() < 0.6 * len(p)
     full, exact, default = (alpha_shape(p, a, thin_layers=n) for n in (0, 2, 1))
 
     def faces(s: AlphaShape) -> set[tuple[float, ...]]:

@@ -71,11 +71,13 @@ def test_shell_volume_within_5_percent(shell: tuple[dict[str, Any], Path, Any]) 
 def test_shell_summary_and_progress(shell: tuple[dict[str, Any], Path, list[tuple[str, int, int]]]) -> None:
     """WorkspaceSummary fields (Contract 2), bounds = base +- r2, stages reported in order to completion."""
     summary, _, events = shell
-    assert set(summary) == {"samples", "collisionFree", "bounds", "alpha", "method", "volume", "seed",
-                            "reachability", "timings", "versions"}
+    assert set(summary) == {"samples", "collisionFree", "bounds", "reachBounds", "alpha", "method", "volume",
+                            "seed", "reachability", "timings", "versions"}
     assert (summary["samples"], summary["collisionFree"], summary["seed"]) == (80_000, 80_000, 1)
     assert np.allclose(summary["bounds"]["min"], BASE - R2, atol=0.01)
     assert np.allclose(summary["bounds"]["max"], BASE + R2, atol=0.01)
+    assert np.allclose(summary["reachBounds"]["min"], BASE - R2, atol=1e-4)  # the true extremes
+    assert np.allclose(summary["reachBounds"]["max"], BASE + R2, atol=1e-4)
     assert 0 < summary["alpha"] < R1
     assert set(summary["timings"]) == {"sample", "collide", "alpha", "write"}
     assert all(v >= 0 for v in summary["timings"].values())
@@ -134,13 +136,24 @@ def test_shell_inside_outside(shell: tuple[dict[str, Any], Path, Any]) -> None:
     assert not got[outside].any()
 
 
-def test_planar_arm_falls_back_to_hull(tmp_path: Path) -> None:
-    """A planar arm: convex-hull fallback with a warning; bounds = the annulus 0.1 <= r <= 0.7 at z = 0.1."""
+def test_planar_arm_gets_a_thickened_plane(tmp_path: Path) -> None:
+    """A planar arm: its annulus 0.1 <= r <= 0.7 at z = 0.1 as a 2 mm slab (planar-alpha-shape): the STL
+    holds reachable targets of the plane and not the hole, nor targets 3 mm off the plane."""
     with World() as w:
         w.load_robot(MODELS / "planar2.urdf", robot_id="planar")
         summary = generate_workspace(w, "planar", samples=5000, seed=3, workers=2, out_dir=tmp_path)
-    assert summary["method"] == "convex-hull"
-    assert "coplanar" in summary["warning"]
+    assert summary["method"] == "planar-alpha-shape" and "warning" not in summary
+    assert summary["halfThickness"] == 1e-3
+    # the reach: 0.4 + 0.3 m around the shoulder, in the plane z = 0.1
+    assert np.allclose(summary["reachBounds"]["min"], [-0.7, -0.7, 0.1], atol=1e-5)
+    assert np.allclose(summary["reachBounds"]["max"], [0.7, 0.7, 0.1], atol=1e-5)
+    assert summary["volume"] == pytest.approx(math.pi * (0.7**2 - 0.1**2) * 2e-3, rel=0.08)
+    a = np.linspace(-3.0, 3.0, 12)
+    ring = np.c_[0.4 * np.cos(a), 0.4 * np.sin(a), np.full(12, 0.1)]
+    tris, _ = read_stl(tmp_path / "workspace.stl")
+    assert inside_mesh(tris, ring).all()
+    assert not inside_mesh(tris, ring + np.array([0, 0, 0.003])).any()
+    assert not inside_mesh(tris, ring * [0.1, 0.1, 1]).any()
     assert np.allclose(summary["bounds"]["min"], [-0.7, -0.7, 0.1], atol=0.01)
     assert np.allclose(summary["bounds"]["max"], [0.7, 0.7, 0.1], atol=0.01)
     _, rows = read_csv(tmp_path / "workspace.csv")
@@ -165,6 +178,12 @@ def test_same_seed_same_files(tmp_path: Path) -> None:
     assert rows.shape == (3000, 11)
     assert np.allclose(sums[0]["bounds"]["min"], sums[2]["bounds"]["min"], atol=0.1)
     assert np.allclose(sums[0]["bounds"]["max"], sums[2]["bounds"]["max"], atol=0.1)
+    # every sample (free or not) lies in the reach box, which reaches the KUKA's true extremes: 1.261 m
+    # up (0.36 + 0.42 + 0.4 + 0.081 m stretched), x and y as far as the samples nearly (<= 10 cm more)
+    lo, hi = np.array(sums[0]["reachBounds"]["min"]), np.array(sums[0]["reachBounds"]["max"])
+    assert (rows[:, :3] >= lo).all() and (rows[:, :3] <= hi).all()
+    assert hi[2] == pytest.approx(1.261, abs=1e-4)
+    assert (hi - rows[:, :3].max(axis=0) < 0.1).all() and (rows[:, :3].min(axis=0) - lo < 0.1).all()
 
 
 def test_obstacle_removes_points(tmp_path: Path) -> None:

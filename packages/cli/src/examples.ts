@@ -20,7 +20,7 @@ export const EXAMPLE_ROBOTS: readonly ExampleRobot[] = [
   { name: "xarm6", source: "pybullet_data", file: "xarm/xarm6_robot.urdf", description: "UFACTORY xArm 6, 6 DoF" },
   { name: "xarm6_gripper", source: "pybullet_data", file: "xarm/xarm6_with_gripper.urdf", description: "xArm 6 with gripper (mimic joints)" },
   { name: "ur3", source: "bundled", file: "ur3.urdf", description: "UR3 kinematics with primitive geometry, 6 DoF" },
-  { name: "two_joint", source: "pybullet_data", file: "TwoJointRobot_wo_fixedJoints.urdf", description: "planar 2-joint arm (flat workspace: convex-hull fallback)" },
+  { name: "two_joint", source: "pybullet_data", file: "TwoJointRobot_wo_fixedJoints.urdf", description: "planar 2-joint arm (flat workspace: a 2 mm slab around its plane)" },
 ];
 
 export const EXAMPLE_NAMES: readonly string[] = EXAMPLE_ROBOTS.map((r) => r.name);

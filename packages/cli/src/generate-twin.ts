@@ -81,7 +81,7 @@ function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
   const triangles = statSync(join(dir, "workspace.stl")).size > 84 ? readFileSync(join(dir, "workspace.stl")).readUInt32LE(80) : 0;
   if (triangles === 0) {
     throw new CliError(
-      `the collision-free workspace is degenerate (no surface through the collision-free points): the end effector reaches a point or a line only; check --ee (the end-effector link) and the joint limits`,
+      `the collision-free workspace is degenerate (no surface through the collision-free points): the end effector reaches a single point only; check --ee (the end-effector link) and the joint limits`,
       "E_WORKSPACE",
       1,
     );
@@ -179,7 +179,9 @@ export async function generateTwin(
   writeJson(join(staged.tmp, "workspace.json"), summary);
   writeJson(join(staged.tmp, THING_MODEL_FILE), buildThingModel());
   if (summary.method === "convex-hull") {
-    progress.info("the alpha shape degenerated (planar robot or too few points): workspace.stl is the convex hull");
+    progress.info("the alpha shape degenerated (too few points): workspace.stl is the convex hull");
+  } else if (summary.halfThickness !== undefined) {
+    progress.info(`flat workspace (${summary.method}): workspace.stl is the reachable region thickened by ${summary.halfThickness * 1000} mm on each side`);
   }
 
   progress.stage("td");

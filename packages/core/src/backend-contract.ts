@@ -443,11 +443,19 @@ export interface WorkspaceSummary {
   samples: number;
   collisionFree: number;
   bounds: Bounds;
+  reachBounds?: Bounds;
   /**
-   * alpha radius (m), null for a convex hull
+   * alpha radius (m): the one given, or for alpha auto the median of the local radii; null for a convex hull
    */
   alpha: number | null;
-  method: "alpha-shape" | "convex-hull";
+  /**
+   * alpha-shape: 3-D alpha shape of the collision-free points; planar-alpha-shape: a planar workspace's 2-D alpha shape in its plane, thickened by halfThickness on each side; flat-hull: a curve, segment or point, its convex hull in its plane or line, thickened the same way; convex-hull: fallback when no alpha shape exists (warning says why)
+   */
+  method: "alpha-shape" | "planar-alpha-shape" | "flat-hull" | "convex-hull";
+  /**
+   * m; flat workspaces only (planar-alpha-shape, flat-hull): workspace.stl is the flat region thickened by this much on each side
+   */
+  halfThickness?: number;
   /**
    * m^3
    */

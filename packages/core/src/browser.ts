@@ -2,7 +2,7 @@
 export * from "./errors.js";
 export type * from "./types.js";
 export type * from "./td/types.js";
-export { buildThingDescription, thingId, transformBounds, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, REACHABILITY_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
+export { buildThingDescription, targetBounds, thingId, transformBounds, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, REACHABILITY_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
 export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/build.js";
 export { securityFor } from "./td/security.js";
 export { closeSchema, MIN_SPEED, tdContact } from "./td/schemas.js";

@@ -7,7 +7,7 @@ import { createRequire } from "node:module";
 import { dirname } from "node:path";
 import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
-import type { Bounds } from "@robwot/core";
+import { targetBounds, type Bounds } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
 import { registerActions } from "./actions.js";
 import { BackendSupervisor } from "./backend.js";
@@ -154,7 +154,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     if (relay) await relay.connect().catch(() => undefined /* retried at the first command; failures are reported */);
 
     for (const [slug, twin] of twins) {
-      const bounds: Bounds | null = twin.folder.workspace?.bounds ?? null;
+      const bounds: Bounds | null = twin.folder.workspace ? targetBounds(twin.folder.workspace) : null;
       let cached: TdDocument | null = null;
       const td = (): TdDocument =>
         (cached ??= servedTd(twin.folder.td, { url, slug, liveUrl, auth: opts.auth, frames: twin.frames, bounds }));

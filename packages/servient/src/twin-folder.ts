@@ -57,15 +57,18 @@ function readJson<T>(dir: string, file: string, required: boolean): T | null {
   }
 }
 
-/** workspace.json's bounds become the TD's Cartesian limits (after a calibration): finite, min <= max. */
+/** workspace.json's bounds (and reachBounds, the TD's Cartesian limits after a calibration): finite, min <= max. */
 function checkBounds(dir: string, ws: WorkspaceSummary): void {
-  const { min, max } = (ws?.bounds ?? {}) as Partial<WorkspaceSummary["bounds"]>;
-  const ok = [min, max].every((v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === "number" && Number.isFinite(x)));
-  if (!ok || min!.some((m, i) => m > max![i]!)) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "workspace.json")}: bounds must be {min, max} of 3 finite numbers with min <= max, got ${JSON.stringify(ws?.bounds ?? null)} (regenerate it with robwot generate)`, {
-      folder: dir,
-      file: "workspace.json",
-    });
+  for (const key of ["bounds", "reachBounds"] as const) {
+    if (key === "reachBounds" && ws?.reachBounds === undefined) continue; // folders written before it
+    const { min, max } = (ws?.[key] ?? {}) as Partial<WorkspaceSummary["bounds"]>;
+    const ok = [min, max].every((v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === "number" && Number.isFinite(x)));
+    if (!ok || min!.some((m, i) => m > max![i]!)) {
+      throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "workspace.json")}: ${key} must be {min, max} of 3 finite numbers with min <= max, got ${JSON.stringify(ws?.[key] ?? null)} (regenerate it with robwot generate)`, {
+        folder: dir,
+        file: "workspace.json",
+      });
+    }
   }
 }
 

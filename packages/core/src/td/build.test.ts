@@ -70,10 +70,13 @@ describe("buildThingDescription", () => {
     expect(input?.required).toEqual(model.controllable);
   });
 
-  it("bounds Cartesian x, y, z by the collision-free points", () => {
+  it("bounds Cartesian x, y, z by the reach of the chain (by the sampled points for folders without it)", () => {
     const input = td.actions.moveToCartesianPosition?.input as DataSchema;
     expect(input.required).toEqual(["x", "y", "z"]);
-    expect(input.properties?.z).toMatchObject({ unit: "m", minimum: -0.3, maximum: 1.31 });
+    expect(input.properties?.z).toMatchObject({ unit: "m", minimum: -0.95, maximum: 1.36 });
+    const { reachBounds: _unused, ...older } = summary;
+    const old = buildThingDescription({ model, summary: older });
+    expect((old.actions.moveToCartesianPosition?.input as DataSchema).properties?.z).toMatchObject({ minimum: -0.3, maximum: 1.31 });
     expect(input.properties?.speed).toMatchObject({ minimum: 0.001, maximum: 1 });
     // the pose reading is not bounded: the twin's own states may lie beyond the sampled points
     expect(td.properties.getCartesianPosition?.properties?.x?.minimum).toBeUndefined();
@@ -119,9 +122,9 @@ describe("buildThingDescription", () => {
 
   it("maps Cartesian bounds through an active calibration", () => {
     const rotZ90 = [[0, -1, 0], [1, 0, 0], [0, 0, 1]];
-    const b = transformBounds(summary.bounds, { scale: 2, rotation: rotZ90, translation: [1, 0, 0] });
-    expect(b.min[0]).toBeCloseTo(1 - 2 * 1.08);
-    expect(b.max[1]).toBeCloseTo(2 * 1.1);
+    const b = transformBounds(summary.reachBounds!, { scale: 2, rotation: rotZ90, translation: [1, 0, 0] });
+    expect(b.min[0]).toBeCloseTo(1 - 2 * 1.2);
+    expect(b.max[1]).toBeCloseTo(2 * 1.2);
     const cal = buildThingDescription({ model, summary, calibration: { scale: 2, rotation: rotZ90, translation: [1, 0, 0] } });
     const input = cal.actions.moveToCartesianPosition?.input as DataSchema;
     expect(input.properties?.x?.minimum).toBeCloseTo(b.min[0]);

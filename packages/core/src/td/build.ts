@@ -90,10 +90,20 @@ function checkBounds(b: Bounds): Bounds {
     const lo = b.min[i];
     const hi = b.max[i];
     if (lo === undefined || hi === undefined || !Number.isFinite(lo) || !Number.isFinite(hi) || lo > hi) {
-      throw new ThingDescriptionError(`workspace bounds are invalid on axis ${i}: [${lo}, ${hi}]`, { field: "summary.bounds", axis: i, min: lo, max: hi });
+      throw new ThingDescriptionError(`workspace bounds are invalid on axis ${i}: [${lo}, ${hi}]`, { field: "summary.reachBounds", axis: i, min: lo, max: hi });
     }
   }
   return b;
+}
+
+/**
+ * The box that bounds Cartesian targets in the TD: every position the end link can reach
+ * (`reachBounds`, from the kinematic chain) — the sampled points' `bounds` fall short of the true
+ * extremes, and a schema bounded by them refused reachable targets. Twin folders written before
+ * `reachBounds` existed fall back to `bounds`.
+ */
+export function targetBounds(summary: Pick<WorkspaceSummary, "bounds" | "reachBounds">): Bounds {
+  return summary.reachBounds ?? summary.bounds;
 }
 
 /** Axis-aligned box of the transformed corners of `b`. */
@@ -178,7 +188,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   if (options.liveUrl !== null) {
     live = options.liveUrl ?? `${base.protocol === "https:" ? "wss:" : "ws:"}//${base.host}/live`;
   }
-  let bounds = summary ? checkBounds(summary.bounds) : null;
+  let bounds = summary ? checkBounds(targetBounds(summary)) : null;
   if (bounds && options.calibration) bounds = transformBounds(bounds, options.calibration);
 
   const properties: Record<string, PropertyAffordance> = {};

@@ -38,6 +38,7 @@ export function summaryFixture(): WorkspaceSummary {
     samples: 80000,
     collisionFree: 71234,
     bounds: { min: [-1.1, -1.05, -0.3], max: [1.1, 1.08, 1.31] },
+    reachBounds: { min: [-1.2, -1.2, -0.95], max: [1.2, 1.2, 1.36] },
     alpha: 0.12,
     method: "alpha-shape",
     volume: 4.2,

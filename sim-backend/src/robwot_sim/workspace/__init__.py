@@ -140,10 +140,12 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     started with ``world`` itself (short calls, so other requests on ``world`` are only briefly held).
 
     Returns the WorkspaceSummary; ``bounds`` are those of the collision-free points (``None`` when there
-    is none); ``timings`` in seconds: ``sample`` = sampling + FK, ``collide`` = wall time of the parallel
-    labelling (FK runs in the meantime), ``alpha``, ``write`` (after the alpha shape: the CSV is written
-    during it, by a second thread). A ``warning`` key appears when the
-    alpha shape fell back to the convex hull.
+    is none), ``reachBounds`` the box of every position the end link can reach
+    (``ChainFK.reach_bounds``); ``timings`` in seconds: ``sample`` = sampling + FK + reach box,
+    ``collide`` = wall time of the parallel labelling (FK runs in the meantime), ``alpha``, ``write``
+    (after the alpha shape: the CSV is written during it, by a second thread). A ``warning`` key appears
+    when the alpha shape fell back to the convex hull or the workspace is flat but not a planar region;
+    ``halfThickness`` (m) when it is flat (``flat_shape.py``).
     """
     n_workers, alpha_arg = _check(samples, seed, workers, alpha)
     voxel_arg = _reach_voxel(reach_voxel)
@@ -168,6 +170,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     except BaseException:
         job.abandon()
         raise
+    reach_min, reach_max = fk.reach_bounds(qs, positions, lower, upper)
     t_sample = (t_submit - t0) + (time.perf_counter() - t1)
     report("sample", samples, samples)
     report("collide", 0, samples)
@@ -178,6 +181,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     t2 = time.perf_counter()
     report("alpha", 0, 1)
     from robwot_sim.workspace.alpha_shape import alpha_shape
+    from robwot_sim.workspace.flat_shape import FlatShape
 
     # The CSV is written by a second thread while Qhull (which releases the GIL) triangulates.
     with ThreadPoolExecutor(1, thread_name_prefix="robwot-write-csv") as writer:
@@ -204,6 +208,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
 
     summary: dict[str, Any] = {
         "samples": int(samples), "collisionFree": int(free.sum()), "bounds": _bounds(positions[free]),
+        "reachBounds": {"min": reach_min.tolist(), "max": reach_max.tolist()},
         "alpha": shape.alpha, "method": shape.method, "volume": shape.volume, "seed": int(seed),
         "reachability": {"file": "reachability.csv", "voxel": reach.voxel, "voxels": reach.voxels,
                          "directions": DIRECTIONS, "approachAxis": "z"},
@@ -211,4 +216,6 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
         "versions": versions()}
     if shape.warning is not None:
         summary["warning"] = shape.warning
+    if isinstance(shape, FlatShape):
+        summary["halfThickness"] = shape.half_thickness
     return summary

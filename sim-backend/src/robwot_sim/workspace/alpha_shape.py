@@ -5,24 +5,32 @@ from the kept tetrahedron's fourth vertex). Edges where the kept set touches its
 (non-manifold) are repaired by also keeping the tetrahedra around that edge, so the surface is closed
 and every edge is shared by exactly two faces. The volume is the sum of the kept tetrahedra's volumes.
 
-``alpha="auto"`` rule: ``alpha = 2.5 * q95``, where ``q95`` is the 95th percentile over the points of the
-distance from a point to its 8th nearest neighbour (``AUTO_FACTOR``, ``AUTO_QUANTILE``, ``AUTO_K``). The
-sparse regions of a joint-space-uniform cloud then fill in, and only gaps a few times wider than their
-spacing stay open (e.g. the 5 cm cavity of the shell test robot at 80,000 samples: alpha = 4.3 cm).
-Accuracy: samples never reach the true boundary and alpha carves a thin layer there, so volumes come
-out slightly low: -4.0 % for that shell at 80,000 samples; on kuka (80,000 samples, no obstacle) the
-volume grows by 2.5 % when alpha is doubled.
+``alpha="auto"`` rule (local, from the data): a tetrahedron is kept when its circumradius is at most
+the largest of its vertices' radii, a vertex's radius being ``LOCAL_FACTOR`` (2) x the distance to its
+``AUTO_K``-th (8th) nearest neighbour. A joint-space-uniform cloud is dense in some regions and sparse in
+others; a single radius large enough to fill the sparse regions bridges every gap in the dense ones (it
+filled the 5 cm cavity of the shell test robot below 80,000 samples). Locally a gap stays open when it is
+wider than about four sample spacings around it. Measured on analytic clouds (alpha_shape tests): the
+shell (radii 5-25 cm, uniform in radius and angles) keeps its cavity empty at 20,000 and 80,000 samples
+(at 5,000 the cavity is only 2-3 spacings wide and fills); volumes -11.5 / -7.1 / -4.0 % (shell) and
+-8.3 / -5.0 / -3.2 % (box) at 5k / 20k / 80k: samples never reach the true boundary, so shapes come out
+slightly small. ``alpha`` in the result is the median vertex radius. A number instead of ``"auto"`` is
+one radius for every tetrahedron (the classic alpha shape).
 
 Speed: before the triangulation, points deep inside the cloud are thinned to one per voxel of side
-``h = alpha / sqrt(3)``: an empty ball centred in an occupied voxel has a radius below ``sqrt(3) h <=
-alpha``, so tetrahedra there are kept either way. Points within ``thin_layers`` voxels of an empty voxel
-are all kept. With 2 layers a ball of radius ``<= alpha`` centred in an empty voxel only reaches kept
-points and the surface is exactly the one without thinning; the default 1 layer triangulates 2-4x fewer
-points and changed the volume by < 0.02 % on the test clouds (kuka: identical).
+``h = s / sqrt(3)``, ``s`` being the radius (one given) or the 95th percentile of the vertex radii
+(auto): an empty ball centred in an occupied voxel has a radius below ``sqrt(3) h <= s``, so a
+tetrahedron there is kept when a deep voxel's representative counts with radius ``s``. Points within
+``thin_layers`` voxels of an empty voxel are all kept, so a cavity holding an empty voxel is carved as
+without thinning. With one radius and 2 layers the surface is exactly the one without thinning; the
+default 1 layer triangulates 2-4x fewer points and changed the volume by < 0.02 % on the test clouds
+(kuka, auto: identical to 1e-6).
 
-Fallback: when the points are degenerate (fewer than 4 affinely independent points, coplanar as for a
-planar robot, Qhull failing) or no tetrahedron survives, the convex hull is used (``method ==
-"convex-hull"``) and ``warning`` says why.
+Flat point sets (coplanar as for a planar robot, collinear) have no 3-D alpha shape: they
+get the thickened description of ``flat_shape.py`` (``method`` ``"planar-alpha-shape"`` or
+``"flat-hull"``). Fallback: when Qhull fails, no tetrahedron survives or there is no point at all, the
+convex hull is used (``method == "convex-hull"``; empty for fewer than 2 points) and ``warning`` says
+why.
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import ConvexHull, Delaunay, QhullError, cKDTree
 
+from robwot_sim.workspace.flat_shape import FlatShape, flat_shape
 from robwot_sim.workspace.mesh import boundary_faces, fill_nonmanifold_edges
 
 FloatArray = npt.NDArray[np.float64]
@@ -40,8 +49,8 @@ IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 
 AUTO_K = 8
-AUTO_QUANTILE = 0.95
-AUTO_FACTOR = 2.5
+LOCAL_FACTOR = 2.0
+THIN_QUANTILE = 0.95
 _PLANAR_RTOL = 1e-9
 THIN_LAYERS = 1
 _THIN_MAX_CELLS = 20_000_000
@@ -77,13 +86,21 @@ class AlphaShape:
         return np.zeros(len(p), dtype=bool)
 
 
-def auto_alpha(points: FloatArray) -> float:
-    """The ``alpha="auto"`` radius (m) for ``points`` (see the module docstring for the rule)."""
+def local_radii(points: FloatArray) -> FloatArray:
+    """Per point, its ``alpha="auto"`` radius (m): ``LOCAL_FACTOR`` x the distance to its ``AUTO_K``-th
+    nearest neighbour (module docstring)."""
     k = min(AUTO_K, len(points) - 1)
     if k < 1:
-        return 0.0
+        return np.zeros(len(points))
     d, _ = cKDTree(points).query(points, k=[k + 1], workers=-1)  # k+1: the point itself first
-    return float(AUTO_FACTOR * np.quantile(d[:, 0], AUTO_QUANTILE))
+    radii: FloatArray = LOCAL_FACTOR * d[:, 0]
+    return radii
+
+
+def auto_alpha(points: FloatArray) -> float:
+    """The median of ``local_radii`` (m): the radius reported for ``alpha="auto"`` and the scale of the
+    interior thinning."""
+    return float(np.median(local_radii(points))) if len(points) > 1 else 0.0
 
 
 def circumradii(points: FloatArray, simplices: IntArray) -> tuple[FloatArray, FloatArray]:
@@ -133,45 +150,58 @@ def _erode(grid: BoolArray, iterations: int) -> BoolArray:
     return out
 
 
-def thin_interior(points: FloatArray, alpha: float, layers: int = THIN_LAYERS) -> FloatArray:
-    """Drop points deep inside the cloud (see the module docstring); ``layers`` = 0 keeps all."""
+def thin_interior(points: FloatArray, alpha: float, layers: int = THIN_LAYERS) -> tuple[BoolArray, BoolArray]:
+    """Points to keep and, among them, the representatives of deep voxels (module docstring); ``layers``
+    = 0 keeps all."""
     h = alpha / np.sqrt(3.0) * 0.999
+    none = np.zeros(len(points), dtype=bool)
     if layers < 1 or not (h > 0 and np.isfinite(h)) or len(points) < 1000:
-        return points
+        return ~none, none
     pad = layers + 1
     ijk = np.floor((points - points.min(axis=0)) / h).astype(np.int64) + pad
     dims = ijk.max(axis=0) + pad + 1
     if float(np.prod(dims.astype(np.float64))) > _THIN_MAX_CELLS:
-        return points
+        return ~none, none
     key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
     occupied = np.zeros(int(np.prod(dims)), dtype=bool)
     occupied[key] = True
-    deep = _erode(occupied.reshape(tuple(int(d) for d in dims)), layers).ravel()
-    keep = ~deep[key]
+    deep = _erode(occupied.reshape(tuple(int(d) for d in dims)), layers).ravel()[key]
+    keep = ~deep
     _, first = np.unique(key, return_index=True)
     keep[first] = True
-    thinned: FloatArray = points[keep]
-    return thinned
+    return keep, keep & deep
 
 
 def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *,
-                thin_layers: int = THIN_LAYERS) -> AlphaShape:
-    """Alpha shape of ``points`` (``(n, 3)``, metres) with radius ``alpha`` (m) or ``"auto"``.
+                thin_layers: int = THIN_LAYERS) -> AlphaShape | FlatShape:
+    """Alpha shape of ``points`` (``(n, 3)``, metres) with radius ``alpha`` (m) or ``"auto"``; a flat
+    point set (planar robot, one joint) gives its thickened ``FlatShape`` (``flat_shape.py``).
 
     ``thin_layers``: interior thinning (module docstring); 0 = off, 2 = exact, 1 = default."""
     p = np.unique(np.asarray(points, dtype=np.float64).reshape(-1, 3), axis=0)
-    reason = _degenerate(p)
-    if reason is not None:
-        return convex_hull(p, reason, alpha if isinstance(alpha, float) else None)
-    a = auto_alpha(p) if alpha == "auto" else float(alpha)
-    p = thin_interior(p, a, thin_layers)
+    if len(p) <= 1:
+        return convex_hull(p, f"{len(p)} distinct points: the end link reaches no point or a single one "
+                              "(check the end-effector link)", None)
+    rank = _affine_rank(p)
+    if rank < 3:
+        return flat_shape(p, rank, None if alpha == "auto" else float(alpha), local_radii)
+    local = local_radii(p) if alpha == "auto" else None
+    a = float(np.median(local)) if local is not None else float(alpha)
+    thin_scale = float(np.quantile(local, THIN_QUANTILE)) if local is not None else a
+    keep, deep = thin_interior(p, thin_scale, thin_layers)
+    p = p[keep]
     try:
         tri = _delaunay(p)
     except QhullError as exc:
         return convex_hull(p, f"Delaunay triangulation failed ({str(exc).splitlines()[0]})", a)
     simplices = np.asarray(tri.simplices, dtype=np.int64)
     radius, vol = circumradii(p, simplices)
-    kept = radius <= a
+    if local is None:
+        kept = radius <= a
+    else:
+        vertex_radius = local[keep]
+        vertex_radius[deep[keep]] = np.maximum(vertex_radius[deep[keep]], thin_scale)
+        kept = radius <= vertex_radius[simplices].max(axis=1)
     if not kept.any():
         return convex_hull(p, f"no tetrahedron has a circumradius <= alpha = {a:.6g} m", a)
     neighbors = np.asarray(tri.neighbors, dtype=np.int64)
@@ -188,14 +218,12 @@ def _delaunay(p: FloatArray) -> Delaunay:
         return Delaunay(p, qhull_options="QJ")
 
 
-def _degenerate(p: FloatArray) -> str | None:
-    if len(p) < 4:
-        return f"only {len(p)} distinct points (need 4 affinely independent points for a solid)"
-    s = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
-    if s[0] == 0.0 or s[2] <= _PLANAR_RTOL * s[0]:
-        kind = "collinear" if s[1] <= _PLANAR_RTOL * s[0] else "coplanar"
-        return f"the points are {kind} (e.g. a planar robot): no 3-D alpha shape"
-    return None
+def _affine_rank(p: FloatArray) -> int:
+    """Dimension of the affine hull of ``p`` (0 = one point, 2 = coplanar), relative to its extent."""
+    sv = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
+    if len(sv) == 0 or sv[0] == 0.0:
+        return 0
+    return int((sv > _PLANAR_RTOL * sv[0]).sum())
 
 
 def convex_hull(p: FloatArray, reason: str, alpha: float | None) -> AlphaShape:

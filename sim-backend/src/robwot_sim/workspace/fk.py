@@ -145,6 +145,44 @@ class ChainFK:
                 r = r @ _axis_angle(axis, v)
         return p, r
 
+    def reach_bounds(self, qs: FloatArray, positions: FloatArray, lower: npt.ArrayLike,
+                     upper: npt.ArrayLike, starts: int = 4,
+                     iterations: int = 60) -> tuple[FloatArray, FloatArray]:
+        """Axis-aligned box (world frame, m) of the end link's positions within the joint limits,
+        collisions ignored: for each of the six directions, the ``starts`` sampled configurations ``qs``
+        (their ``positions``) farthest that way climb further by projected gradient ascent (forward
+        differences, step doubled on success and quartered on failure; all 6 x ``starts`` climbs in one
+        FK batch per iteration), and the box takes the farthest point found. Samples never reach the
+        true extremes (a TD bounded by them refused reachable targets); the climb does, to ~0.1 mm."""
+        lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
+        axis = np.repeat(np.arange(3), 2 * starts)
+        sign = np.tile(np.repeat([-1.0, 1.0], starts), 3)
+        picks = np.concatenate([np.argsort(-sg * positions[:, ax])[:starts]
+                                for ax in range(3) for sg in (-1.0, 1.0)])
+        q = qs[picks].copy()
+        n, dof, h = len(q), qs.shape[1], 1e-6
+        rows, probe_rows = np.arange(n), np.arange(n * dof)
+        probe_axis, probe_sign = np.repeat(axis, dof), np.repeat(sign, dof)
+        current = sign * self.positions(q)[rows, axis]
+        step = np.full(n, 0.2)  # rad (or m) along the normalised gradient
+        for _ in range(iterations):
+            probe = np.repeat(q, dof, axis=0) + h * np.tile(np.eye(dof), (n, 1))
+            moved = probe_sign * self.positions(probe)[probe_rows, probe_axis]
+            grad = (moved.reshape(n, dof) - current[:, None]) / h
+            norm = np.linalg.norm(grad, axis=1, keepdims=True)
+            trial = np.clip(q + step[:, None] * grad / np.maximum(norm, 1e-12), lo, hi)
+            got = sign * self.positions(trial)[rows, axis]
+            better = got > current
+            q[better], current[better] = trial[better], got[better]
+            step = np.where(better, step * 2.0, step * 0.25)
+            if (step < 1e-6).all():
+                break
+        box = [positions.min(axis=0).copy(), positions.max(axis=0).copy()]
+        for ax, sg, v in zip(axis, sign, current, strict=True):
+            side = int(sg > 0)
+            box[side][ax] = max(box[side][ax], v) if side else min(box[side][ax], -v)
+        return box[0], box[1]
+
     def positions(self, qs: npt.ArrayLike, block: int = 100_000) -> FloatArray:
         """End-link frame positions ``(n, 3)`` in metres, world frame (in blocks to bound memory)."""
         q = np.asarray(qs, dtype=np.float64)
