@@ -1,0 +1,93 @@
+/**
+ * `robwot openapi` on a generated twin: the official converter rejects its own output for the TD
+ * (nested TD terms it copies verbatim); the command's corrected document is valid OpenAPI 3.0 and
+ * states the TD's schemas, error answers and server.
+ */
+import { mkdtempSync, readFileSync, rmSync } from "node:fs";
+import { createRequire } from "node:module";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+import { Validator } from "@seriousme/openapi-schema-validator";
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { runCli } from "./cli-run.js";
+import { generateTwin } from "./serve-helpers.js";
+
+const require = createRequire(join(import.meta.dirname, "..", "packages", "cli", "package.json"));
+let twin: string;
+let work: string;
+let td: any;
+let doc: any;
+
+beforeAll(async () => {
+  twin = await generateTwin("kuka_iiwa", 3000);
+  work = mkdtempSync(join(tmpdir(), "robwot-openapi-"));
+  td = JSON.parse(readFileSync(join(twin, "td.json"), "utf8"));
+  const r = await runCli(["openapi", twin, "--out", join(work, "openapi.json"), "--base", "http://127.0.0.1:9123"]);
+  expect(r.code, r.stderr).toBe(0);
+  doc = JSON.parse(readFileSync(join(work, "openapi.json"), "utf8"));
+});
+afterAll(() => rmSync(work, { recursive: true, force: true }));
+
+describe("robwot openapi", () => {
+  it("the official converter alone rejects its output for the TD (why the command corrects it)", async () => {
+    const toOpenAPI = require("@thing-description-playground/td_to_openapi") as (td: unknown) => Promise<unknown>;
+    await expect(toOpenAPI(structuredClone(td))).rejects.toThrow(/unit|exclusiveMinimum|const|schema validation failed/i);
+  });
+
+  it("writes a document valid against the OpenAPI 3.0 schema", async () => {
+    const result = await new Validator().validate(doc);
+    expect(result.errors ?? [], JSON.stringify(result.errors)).toEqual([]);
+    expect(result.valid).toBe(true);
+    expect(doc.openapi).toMatch(/^3\.0\./);
+    expect(doc.servers).toEqual([expect.objectContaining({ url: "http://127.0.0.1:9123" })]);
+  });
+
+  it("has one operation per HTTP form of the TD, each with its complete schemas", () => {
+    const slug = new URL(td.base).pathname.split("/").filter(Boolean).pop();
+    for (const name of Object.keys(td.actions)) {
+      const op = doc.paths[`/${slug}/actions/${name}`]?.post;
+      expect(op, name).toBeDefined();
+      const input = td.actions[name].input;
+      if (input) {
+        const req = op.requestBody.content["application/json"].schema;
+        expect(req.required ?? [], name).toEqual(input.required ?? []);
+        // the converter drops a top-level additionalProperties: the inputs are closed again
+        expect(req.additionalProperties, name).toBe(false);
+      } else {
+        expect(op.requestBody, name).toBeUndefined();
+      }
+      expect(op.responses["200"].content["application/json"].schema.required ?? [], name).toEqual(td.actions[name].output?.required ?? []);
+      // one response per error status the TD lists, with the error body; no catch-all
+      for (const status of [400, 404, 409, 413, 415, 422, 503, 504]) {
+        expect(op.responses[String(status)].content["application/json"].schema, `${name} ${status}`).toEqual({ $ref: "#/components/schemas/error" });
+      }
+      expect(op.responses.default, name).toBeUndefined();
+    }
+    for (const name of Object.keys(td.properties)) {
+      const op = doc.paths[`/${slug}/properties/${name}`]?.get;
+      expect(op.responses["200"].content["application/json"].schema.required, name).toEqual(td.properties[name].required);
+    }
+    // an event's long-poll answer is its data; readallproperties names every property
+    expect(doc.paths[`/${slug}/events/collision`].get.responses["200"].content["application/json"].schema.required).toEqual(td.events.collision.data.required);
+    expect(doc.paths[`/${slug}/properties`].get.responses["200"].content["application/json"].schema.required).toEqual(Object.keys(td.properties));
+    expect(doc.components.schemas.error.required).toEqual(["code", "message", "details"]);
+    // TD terms without an OpenAPI keyword survive as extensions; numeric exclusive bounds are translated
+    const joint = doc.paths[`/${slug}/properties/getJointPosition`].get.responses["200"].content["application/json"].schema.properties.lbr_iiwa_joint_1;
+    expect(joint["x-unit"]).toBe("rad");
+    const text = JSON.stringify(doc);
+    expect(text).not.toMatch(/"unit":|"const":|"exclusiveMinimum":\d/);
+  });
+
+  it("names the file and the option in its errors", async () => {
+    const missing = await runCli(["openapi", join(work, "nope")]);
+    expect(missing.code).toBe(1);
+    expect(missing.stderr).toMatch(/robwot: error: twin folder not found: .*nope/);
+    const empty = await runCli(["openapi", work]);
+    expect(empty.stderr).toMatch(/is not a twin folder: no td\.json/);
+    const base = await runCli(["openapi", twin, "--base", "ftp://x"]);
+    expect(base.code).toBe(2);
+    expect(base.stderr).toMatch(/--base must use http or https/);
+    const help = await runCli(["openapi", "--help"]);
+    expect(help.stdout).toMatch(/Usage: robwot openapi <twin-folder>/);
+  });
+});
