@@ -10,7 +10,9 @@ import copy
 import json
 import os
 import subprocess
+import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -35,12 +37,17 @@ class Api:
     def __init__(self, folder: Path, doc: dict[str, Any], origin: str, slug: str) -> None:
         self.folder, self.doc, self.origin, self.slug = folder, doc, origin, slug
 
+    def case(self, path: str, body: Any = None, method: str = "POST",
+             doc: dict[str, Any] | None = None) -> Any:
+        """A Schemathesis test case of the operation at `/<slug>/<path>`."""
+        schema = schemathesis.openapi.from_dict(doc if doc is not None else self.doc)
+        op = schema[f"/{self.slug}/{path}"][method]
+        return op.Case(body=body) if body is not None else op.Case()
+
     def call(self, path: str, body: Any = None, method: str = "POST",
              doc: dict[str, Any] | None = None) -> Any:
         """Sends the case through Schemathesis and validates the answer with its checks; returns it."""
-        schema = schemathesis.openapi.from_dict(doc if doc is not None else self.doc)
-        op = schema[f"/{self.slug}/{path}"][method]
-        case = op.Case(body=body) if body is not None else op.Case()
+        case = self.case(path, body, method, doc)
         response = case.call(base_url=self.origin)
         case.validate_response(response, checks=CHECKS)
         return response
@@ -50,7 +57,7 @@ class Api:
 def api(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Api]:
     work = tmp_path_factory.mktemp("openapi")
     folder = work / "kuka"
-    with served_twin(folder, serve_args=("--realtime", "0")) as td_url:
+    with served_twin(folder) as td_url:  # realtime 1: a slow move lasts long enough to meet an obstacle
         origin, slug = td_url.rsplit("/", 1)
         doc = work / "openapi.json"
         robwot("openapi", str(folder), "--base", origin, "--out", str(doc))
@@ -81,6 +88,21 @@ def test_successes_the_fuzzer_seldom_reaches_conform(api: Api) -> None:
     assert api.call("properties/motionStatus", method="GET").json()["lastResult"]["status"] == "reached"
     assert api.call("actions/moveToJointPosition", {"joints": HOME}).json()["status"] == "reached"
     assert api.call("actions/stop").json() == {"stopped": False}
+
+
+def test_long_poll_answers_conform(api: Api) -> None:
+    """The long-poll routes (left out of the fuzz run: they answer on the next change) answer the
+    property's schema once a move changes it."""
+    poses = [dict(HOME, lbr_iiwa_joint_2=0.5, lbr_iiwa_joint_4=-0.5), HOME]  # the twin is at HOME
+    for i, name in enumerate(("getJointPosition", "getCartesianPosition", "motionStatus")):
+        case = api.case(f"properties/{name}/observable", method="GET")
+        with ThreadPoolExecutor(1) as pool:
+            answer = pool.submit(case.call, base_url=api.origin)
+            time.sleep(0.5)  # the long poll is waiting
+            assert api.call("actions/moveToJointPosition", {"joints": poses[i % 2]}).status_code == 200
+            response = answer.result(timeout=30)
+        case.validate_response(response, checks=CHECKS)
+        assert response.status_code == 200
 
 
 def test_every_error_status_conforms(api: Api) -> None:
@@ -117,3 +139,27 @@ def test_a_document_that_contradicts_the_answers_is_caught(api: Api) -> None:
         assert [type(e) for e in status_failure.value.exceptions] == [UndefinedStatusCode]
     finally:
         api.call("actions/removeObstacle", {"name": "w2"})
+
+
+def test_collision_event_and_busy_answers_conform(api: Api) -> None:
+    """The collision event's long poll answers its data schema; a move while moving answers 409."""
+    event = api.case("events/collision", method="GET")
+    target = dict(HOME, lbr_iiwa_joint_2=1.2, lbr_iiwa_joint_4=-0.4, lbr_iiwa_joint_6=0.4)
+    box = {"type": "box", "size": [0.2, 0.6, 0.2]}
+    intruder = {"name": "intruder", "shape": box, "position": [0.55, 0, 0.75]}
+    with ThreadPoolExecutor(2) as pool:
+        collision = pool.submit(event.call, base_url=api.origin)
+        time.sleep(0.5)  # the long poll is waiting
+        move = pool.submit(api.call, "actions/moveToJointPosition", {"joints": target, "speed": 0.05})
+        deadline = time.monotonic() + 20
+        while api.call("properties/motionStatus", method="GET").json()["state"] != "moving":
+            assert time.monotonic() < deadline and not move.done(), move.result().json()
+            time.sleep(0.05)
+        busy = api.call("actions/moveToJointPosition", {"joints": HOME})
+        assert (busy.status_code, busy.json().get("code")) == (409, "E_BUSY"), busy.json()
+        assert api.call("actions/addObstacle", intruder).status_code == 200
+        assert move.result(timeout=60).json()["status"] == "collision"
+        answer = collision.result(timeout=30)
+    event.validate_response(answer, checks=CHECKS)
+    assert answer.status_code == 200 and answer.json()["pair"]["b"]["body"] == "intruder"
+    api.call("actions/removeObstacle", {"name": "intruder"})

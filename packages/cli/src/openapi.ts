@@ -126,7 +126,6 @@ function formOperations(form: Json): { path: string; methods: string[] } | null 
 
 const STATUS_TEXT: Record<number, string> = {
   400: "bad input: malformed JSON or a schema violation",
-  401: "credentials missing or wrong",
   404: "no such obstacle (or path)",
   409: "busy: the twin is moving, or the obstacle name is taken",
   413: "request body too large",
@@ -253,15 +252,6 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
         if (!isObject(op)) continue;
         const servers = op["servers"];
         if (Array.isArray(servers) && servers.length === 1 && isObject(servers[0]) && servers[0]["url"] === origin) delete op["servers"];
-      }
-    }
-  }
-  // a TD with security: every operation may answer 401 with the error body (robwot serve --auth)
-  const securitySchemes = (components["securitySchemes"] ?? {}) as Json;
-  if (Object.keys(securitySchemes).length > 0) {
-    for (const item of Object.values(doc["paths"] as Record<string, Json>)) {
-      for (const op of Object.values(item)) {
-        if (isObject(op) && isObject(op["responses"])) (op["responses"] as Json)["401"] = { description: STATUS_TEXT[401], content: jsonContent(contentType, schemaRef("error")) };
       }
     }
   }
