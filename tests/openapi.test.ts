@@ -9,6 +9,7 @@ import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { Validator } from "@seriousme/openapi-schema-validator";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { thingOpenApi } from "../packages/cli/src/openapi.js";
 import { runCli } from "./cli-run.js";
 import { generateTwin } from "./serve-helpers.js";
 
@@ -89,5 +90,18 @@ describe("robwot openapi", () => {
     expect(base.stderr).toMatch(/--base must use http or https/);
     const help = await runCli(["openapi", "--help"]);
     expect(help.stdout).toMatch(/Usage: robwot openapi <twin-folder>/);
+  });
+});
+
+describe("thingOpenApi on a TD whose error answers carry no status (twin folders of earlier versions)", () => {
+  it("keeps one catch-all error answer with the error body", async () => {
+    const old = structuredClone(td);
+    for (const a of Object.values(old.actions) as any[]) a.forms[0].additionalResponses = [{ success: false, contentType: "application/json", schema: "error" }];
+    const d: any = await thingOpenApi(old);
+    const responses = d.paths[new URL(old.actions.stop.forms[0].href).pathname].post.responses;
+    expect(Object.keys(responses).sort()).toEqual(["200", "default"]);
+    expect(responses.default.content["application/json"].schema).toEqual({ $ref: "#/components/schemas/error" });
+    // without --base the server is the origin of the TD's own base
+    expect(d.servers[0].url).toBe(new URL(old.base).origin);
   });
 });
