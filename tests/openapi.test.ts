@@ -105,3 +105,19 @@ describe("thingOpenApi on a TD whose error answers carry no status (twin folders
     expect(d.servers[0].url).toBe(new URL(old.base).origin);
   });
 });
+
+describe("thingOpenApi, other TD shapes", () => {
+  it("is deterministic: the same TD gives the same document (no random examples)", async () => {
+    expect(JSON.stringify(await thingOpenApi(td))).toBe(JSON.stringify(await thingOpenApi(td)));
+    expect(JSON.stringify(doc)).not.toContain('"example"');
+  });
+
+  it("answers with the status and type of a form's `response` when it names them", async () => {
+    const other = structuredClone(td);
+    other.actions.stop.forms[0].response = { contentType: "application/json", "htv:statusCodeValue": 201 };
+    const d: any = await thingOpenApi(other);
+    const responses = d.paths[new URL(other.actions.stop.forms[0].href).pathname].post.responses;
+    expect(responses["200"]).toBeUndefined();
+    expect(responses["201"].content["application/json"].schema.required).toEqual(["stopped"]);
+  });
+});

@@ -202,8 +202,13 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
       if (!op) continue;
       const responses = (op["responses"] ?? {}) as Json;
       const type = typeof form["contentType"] === "string" ? form["contentType"] : contentType;
-      // (2), (5): the complete schema, no faked example
-      responses["200"] = { description: "success", ...(response ? { content: jsonContent(type, response) } : {}) };
+      // (2), (5): the complete schema, no faked example; a form's `response` may name another status
+      // and type (e.g. 201 for an action answered before it completes)
+      const expected = isObject(form["response"]) ? form["response"] : {};
+      const status = typeof expected["htv:statusCodeValue"] === "number" ? String(expected["htv:statusCodeValue"]) : "200";
+      const responseType = typeof expected["contentType"] === "string" ? expected["contentType"] : type;
+      if (status !== "200") delete responses["200"];
+      responses[status] = { description: "success", ...(response ? { content: jsonContent(responseType, response) } : {}) };
       const errors = errorResponses(form, schemaRef);
       if (errors.listed) delete responses["default"];
       else if (isObject(responses["default"]) && "error" in definitions) {
