@@ -5,7 +5,7 @@
  * ROBWOT_BENCH_TWIN=<folder>), served by `robwot serve --port 0 --realtime 0` (moves are simulated: the
  * fuzzer may call them). Checks: not_a_server_error, response_schema_conformance,
  * status_code_conformance, content_type_conformance. Not fuzzed: the long-poll routes
- * (`.../observable`, `events/...`), which answer only on the next change.
+ * (`.../observable`, `.../sse`, `events/...`), which answer only on the next change.
  * Prints one row per operation (requests, answers by status class, 5xx) and the failures by check.
  * Exits 1 on any 5xx or failure. Options: --examples N (Schemathesis --max-examples per operation,
  * default 20), --seed N (default 1), --json (the figures as one JSON line).

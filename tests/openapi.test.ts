@@ -79,6 +79,20 @@ describe("robwot openapi", () => {
     expect(text).not.toMatch(/"unit":|"const":|"exclusiveMinimum":\d/);
   });
 
+  it("writes the whole document to a pipe without --out (it is ~200 kB: no cut at exit)", async () => {
+    const r = await runCli(["openapi", twin, "--base", "http://127.0.0.1:9123"]);
+    expect(r.code, r.stderr).toBe(0);
+    expect(JSON.parse(r.stdout)).toEqual(doc);
+  });
+
+  it("has a text/event-stream GET per Server-Sent Events form, which the converter leaves out", () => {
+    const sse = Object.keys(doc.paths).filter((p) => p.endsWith("/sse"));
+    const forms = [...Object.values(td.properties), ...Object.values(td.events)].flatMap((a: any) => a.forms).filter((f: any) => f.subprotocol === "sse");
+    expect(sse.sort()).toEqual(forms.map((f: any) => new URL(f.href).pathname).sort());
+    const stream = doc.paths[sse.find((p) => p.includes("getJointPosition"))!].get.responses["200"].content["text/event-stream"].schema;
+    expect(stream["x-data-schema"].required).toEqual(td.properties.getJointPosition.required);
+  });
+
   it("names the file and the option in its errors", async () => {
     const missing = await runCli(["openapi", join(work, "nope")]);
     expect(missing.code).toBe(1);

@@ -16,6 +16,7 @@
  * 4. It names the TD's `base` (`http://host/<slug>/`) as the server while its paths start at the host's
  *    root (`/<slug>/properties/...`), so base + path repeats the slug: the server is the base's origin.
  * 5. Its examples are faked (json-schema-faker, random) from the truncated schemas: dropped.
+ * 6. It leaves out the Server-Sent Events forms (it maps only long-poll observation to `GET`).
  *
  * The result is validated against the OpenAPI 3.0 JSON Schema (`@seriousme/openapi-schema-validator`).
  */
@@ -163,6 +164,27 @@ function errorResponses(form: Json, schemaRef: (name: unknown) => Json): { respo
   return { responses, listed };
 }
 
+/**
+ * (6) A Server-Sent Events form (WoT Profile, `subprotocol: "sse"`): the converter knows long-poll only
+ * and leaves it out. `GET` answers `text/event-stream`; each event's `data` is one JSON value of the
+ * affordance's schema (`x-data-schema`: OpenAPI 3.0 cannot type the events of a stream).
+ */
+function addEventStream(doc: Json, path: string, form: Json, data: Json | null): void {
+  const paths = doc["paths"] as Record<string, Json>;
+  const op: Json = {
+    tags: [String(path.split("/").at(-3) ?? "properties")],
+    summary: `${String(path.split("/").at(-2))} as Server-Sent Events`,
+    description: `op: ${(Array.isArray(form["op"]) ? form["op"] : [form["op"]]).join(", ")}; subprotocol: sse`,
+    responses: {
+      "200": {
+        description: "a stream of events; each data field is one JSON value of x-data-schema",
+        content: { "text/event-stream": { schema: { type: "string", ...(data ? { "x-data-schema": data } : {}) } } },
+      },
+    },
+  };
+  paths[path] = { ...(paths[path] ?? {}), get: op };
+}
+
 export interface OpenApiOptions {
   /** URL of the servient: the forms move to `<base>/<slug>/` first, as `robwot serve` moves them. */
   base?: string;
@@ -197,6 +219,10 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
   const fill = (form: Json, response: Json | null, request: Json | null): void => {
     const where = formOperations(form);
     if (!where) return;
+    if (where.methods.length === 0 && form["subprotocol"] === "sse") {
+      addEventStream(doc, where.path, form, response);
+      return;
+    }
     for (const method of where.methods) {
       const op = operation(doc, where.path, method);
       if (!op) continue;

@@ -60,7 +60,8 @@ export async function run(argv: string[]): Promise<number> {
   }
   const text = `${JSON.stringify(doc, null, 2)}\n`;
   if (values.out === undefined) {
-    process.stdout.write(text);
+    // main exits right after: a pipe takes large writes asynchronously, wait until this one is flushed
+    await new Promise<void>((done) => process.stdout.write(text, () => done()));
     return 0;
   }
   const out = resolve(values.out);
