@@ -7,14 +7,9 @@
  * served by `robwot serve --port 0 --realtime 0` in its own process (the load generator is this one).
  * Prints a table. Options: --reads N (default 4000), --moves N (default 30).
  */
-import { spawn, spawnSync } from "node:child_process";
-import { mkdtempSync, rmSync } from "node:fs";
 import { Agent, request } from "node:http";
-import { tmpdir } from "node:os";
-import { dirname, join } from "node:path";
-import { fileURLToPath } from "node:url";
+import { serveBenchTwin } from "./bench-twin.mjs";
 
-const repo = join(dirname(fileURLToPath(import.meta.url)), "..");
 const arg = (name, def) => {
   const i = process.argv.indexOf(`--${name}`);
   return i > 0 ? Number(process.argv[i + 1]) : def;
@@ -22,31 +17,8 @@ const arg = (name, def) => {
 const READS = arg("reads", 4000);
 const MOVES = arg("moves", 30);
 
-let tmp = null;
-let twin = process.env.ROBWOT_BENCH_TWIN;
-if (!twin) {
-  tmp = mkdtempSync(join(tmpdir(), "robwot-bench-serve-"));
-  twin = join(tmp, "kuka");
-  const r = spawnSync(process.execPath, [join(repo, "packages/cli/dist/main.js"), "generate", "kuka_iiwa", "--samples", "3000", "--out", twin], {
-    stdio: ["ignore", "ignore", "inherit"],
-  });
-  if (r.status !== 0) process.exit(r.status ?? 1);
-}
-
-const server = spawn(process.execPath, [join(repo, "packages/cli/dist/main.js"), "serve", twin, "--port", "0", "--realtime", "0", "--json"], {
-  stdio: ["ignore", "pipe", "pipe"],
-});
-let serverErr = "";
-server.stderr.on("data", (d) => (serverErr += d.toString()));
-const info = await new Promise((resolve, reject) => {
-  let out = "";
-  server.stdout.on("data", (d) => {
-    out += d.toString();
-    const nl = out.indexOf("\n");
-    if (nl >= 0) resolve(JSON.parse(out.slice(0, nl)));
-  });
-  server.once("exit", (code) => reject(new Error(`robwot serve exited with ${code}: ${serverErr}`)));
-});
+const served = await serveBenchTwin("serve", 3000);
+const info = served.info;
 const base = new URL(info.things[0].tdUrl);
 const agent = new Agent({ keepAlive: true, maxSockets: 64 });
 
@@ -119,7 +91,5 @@ try {
   for (const c of cells) console.log(line(c));
 } finally {
   agent.destroy();
-  server.kill("SIGINT");
-  await new Promise((r) => server.once("exit", r));
-  if (tmp) rmSync(tmp, { recursive: true, force: true });
+  await served.stop();
 }

@@ -6,45 +6,22 @@ from __future__ import annotations
 
 import asyncio
 import json
-import re
-import shutil
-import subprocess
-import time
 import urllib.request
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
+from served_twin import served_twin
 from wotpy.wot.servient import Servient
 
-REPO = Path(__file__).resolve().parents[2]
-CLI = REPO / "packages" / "cli" / "dist" / "main.js"
-NODE = shutil.which("node") or "node"
 HOME = {f"lbr_iiwa_joint_{i}": 0.0 for i in range(1, 8)}
 
 
 @pytest.fixture(scope="module")
 def twin_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """A generated KUKA twin served by `robwot serve` on a free port; yields the TD URL."""
-    out = tmp_path_factory.mktemp("wot") / "kuka"
-    subprocess.run([NODE, str(CLI), "generate", "kuka_iiwa", "--samples", "2000", "--out", str(out)],
-                   check=True, capture_output=True, timeout=300)
-    proc = subprocess.Popen([NODE, str(CLI), "serve", str(out), "--port", "0"], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-    assert proc.stdout is not None
-    url = None
-    deadline = time.monotonic() + 120
-    while url is None and time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        found = re.search(r"TD\s+(http://\S+)", line)
-        url = found.group(1) if found else None
-    assert url is not None, "robwot serve printed no TD URL"
-    yield url
-    proc.terminate()
-    proc.wait(30)
+    with served_twin(tmp_path_factory.mktemp("wot") / "kuka") as url:
+        yield url
 
 
 async def _drive(url: str) -> dict[str, Any]:

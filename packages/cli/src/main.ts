@@ -13,6 +13,7 @@ const COMMANDS: Record<string, () => Promise<{ run(argv: string[]): Promise<numb
   generate: () => import("./commands/generate.js"),
   serve: () => import("./commands/serve.js"),
   demo: () => import("./commands/demo.js"),
+  openapi: () => import("./commands/openapi.js"),
 };
 
 const HELP = `robwot ${VERSION}: turn a robot arm's URDF into a Web of Things digital twin
@@ -21,6 +22,7 @@ Usage:
   robwot generate <robot.urdf | example-name> [options]   build a twin folder (TD, URDF, workspace)
   robwot serve <twin-folder>... [options]                 serve twins as node-wot Things
   robwot demo                                             generate the bundled demo twin and serve it
+  robwot openapi <twin-folder> [--out FILE] [--base URL]  the OpenAPI 3.0 document of a twin's HTTP API
   robwot <command> --help                                 options of a command
 
 Example robots:

@@ -108,7 +108,13 @@ describe("buildThingDescription", () => {
         contentType: "application/json",
         op: ["invokeaction"],
         "htv:methodName": "POST",
-        additionalResponses: [{ success: false, contentType: "application/json", schema: "error" }],
+        // one error answer per status, told apart by the HTTP binding's status code
+        additionalResponses: [400, 404, 409, 413, 415, 422, 503, 504].map((status) => ({
+          success: false,
+          contentType: "application/json",
+          schema: "error",
+          "htv:statusCodeValue": status,
+        })),
       },
     ]);
     expect(td.schemaDefinitions?.["error"]).toMatchObject({ type: "object", required: ["code", "message", "details"] });

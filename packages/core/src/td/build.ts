@@ -162,10 +162,19 @@ const ERROR_SCHEMA: DataSchema = {
   },
   required: ["code", "message", "details"],
 };
-const ERROR_RESPONSES = [{ success: false, contentType: JSON_TYPE, schema: "error" }];
+/**
+ * Error answers of an action, one per HTTP status (TD 1.1 Form `additionalResponses`: each one is told
+ * apart from the others by a protocol-specific response code, here the HTTP binding's
+ * `htv:statusCodeValue`): 400 bad input, 404 unknown obstacle, 409 busy or name taken, 413 body too
+ * large, 415 not JSON, 422 rejected by validation, 503 backend down, 504 backend timeout.
+ */
+export const ACTION_ERROR_STATUSES = [400, 404, 409, 413, 415, 422, 503, 504] as const;
+const ERROR_RESPONSES = ACTION_ERROR_STATUSES.map((status) => ({ success: false, contentType: JSON_TYPE, schema: "error", "htv:statusCodeValue": status }));
+/** A property read answers from the twin's memory: an error (auth, host) has no status of its own. */
+const READ_ERROR_RESPONSES = [{ success: false, contentType: JSON_TYPE, schema: "error" }];
 
 function propertyForms(name: string, observable: boolean): Form[] {
-  const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET", additionalResponses: ERROR_RESPONSES }];
+  const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET", additionalResponses: READ_ERROR_RESPONSES }];
   if (observable) {
     forms.push({ href: `properties/${name}/observable`, contentType: JSON_TYPE, op: ["observeproperty", "unobserveproperty"], subprotocol: "longpoll" });
     // the WoT Profile's Server-Sent Events: one stream of every new value (data: JSON)
