@@ -56,6 +56,23 @@ def test_move_around_an_obstacle_in_the_straight_path(client: RpcClient) -> None
     assert not [n for n in client.notifications if n[0] == "robot.collision"]
 
 
+def test_a_plan_does_not_hold_the_loop(client: RpcClient) -> None:
+    """A plan (here a detour) runs off the loop: a ping sent after it is answered before it, as the
+    servient's heartbeat is (a plan used to hold every other request until it was done); a move stopped
+    while it plans ends without moving."""
+    _wall_in_path(client)
+    target = [0, 1.2, 0, 0, 0, 0, 0]
+    plan = client.send("robot.plan", {"robot": "kuka", "target": target})
+    ping = client.send("ping")
+    client.wait(ping, timeout=10)
+    assert plan not in client.replies  # the ping's answer came first
+    assert client.wait(plan)["checks"]["path"]["planned"] == "detour"
+    move = client.send("robot.move", {"robot": "kuka", "target": target, "realtime": 0})
+    assert client.call("robot.stop", {"robot": "kuka"}, timeout=10)["stopped"] is True
+    stopped = client.wait(move)
+    assert stopped["status"] == "stopped" and stopped["positions"] == ZERO
+
+
 def test_pose_target_takes_another_ik_solution_when_the_first_path_collides(client: RpcClient) -> None:
     """A pose whose first IK solution's path is blocked is reached through another solution; the plan
     says how many were tried. Out-of-limits joint targets are reported as a limits check."""

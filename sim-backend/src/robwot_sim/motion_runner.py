@@ -14,7 +14,8 @@ crosses a 1/60 s boundary, plus the final state (`moving: false`). One motion pe
 `move` raises `Busy`; `stop` ends the current motion at its last reached state (`status: "stopped"`)
 and returns once it has ended, so a new `move` may follow at once.
 
-All PyBullet calls happen on the loop thread between awaits, so they never interleave.
+PyBullet calls happen on the loop thread between awaits, except the plan: it runs in a worker thread
+holding the world (`plan_off_loop`), so the loop stays responsive; the world's lock keeps the two apart.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -33,6 +34,7 @@ from robwot_sim.sim.planner import Plan
 from robwot_sim.sim.world import World
 
 Broadcast = Callable[[str, dict[str, Any]], None]
+RunBlocking = Callable[[Callable[[], Plan]], Awaitable[Plan]]
 
 STATE_PERIOD = 1.0 / 60.0
 
@@ -59,9 +61,10 @@ class _Motion:
 class MotionRunner:
     """Runs at most one motion per robot; motions of different robots run concurrently."""
 
-    def __init__(self, world: World, broadcast: Broadcast) -> None:
+    def __init__(self, world: World, broadcast: Broadcast, run_blocking: RunBlocking) -> None:
         self._world = world
         self._broadcast = broadcast
+        self._run_blocking = run_blocking
         self._active: dict[str, _Motion] = {}
 
     def is_moving(self, robot: str) -> bool:
@@ -93,13 +96,14 @@ class MotionRunner:
         motion = _Motion(robot)
         self._active[robot] = motion
         try:
-            plan = planner()
+            # the plan checks exactly this path in this world: steps are checked again once anything else
+            # changes from here on (stamped before planning: a change during or after it counts)
+            stamp = self._world.others_stamp(robot)
+            plan = await plan_off_loop(self._world, planner, self._run_blocking)
             if not plan.valid or plan.target is None:
                 raise Rejected(plan.reasons, plan.checks)
             path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt, via=plan.via)
-            # the plan checked exactly this path in this world: steps are checked again only once it changes
-            result = await self._run(motion, np.asarray(path, dtype=np.float64), realtime, dt,
-                                     self._world.others_stamp(robot))
+            result = await self._run(motion, np.asarray(path, dtype=np.float64), realtime, dt, stamp)
             return {**result, "plan": plan.to_json()}
         finally:
             del self._active[robot]
@@ -149,6 +153,17 @@ class MotionRunner:
             self._broadcast("robot.state", self._state(robot, reached_time, reached, False))
         return {"status": status, "positions": _floats(reached), "duration": reached_time,
                 "wallTime": wall, "contacts": contacts}
+
+
+async def plan_off_loop(world: World, planner: Callable[[], Plan], run_blocking: RunBlocking) -> Plan:
+    """Run `planner` in a worker thread holding the world (`World.exclusive`): a plan (IK solutions, a
+    detour within its 2 s budget) may take seconds, and meanwhile the loop keeps answering what needs no
+    world — the heartbeat `ping`, a `stop` (which then ends the motion before its first step)."""
+    def planned() -> Plan:
+        with world.exclusive():
+            return planner()
+
+    return await run_blocking(planned)
 
 
 def _pose_json(world: World, robot: str) -> dict[str, Any]:

@@ -72,7 +72,7 @@ class Backend:
         self._loop = asyncio.get_running_loop()
         self._peers: set[Peer] = set()
         self._tasks: set[asyncio.Task[None]] = set()
-        self._motions = MotionRunner(world, self.broadcast)
+        self._motions = MotionRunner(world, self.broadcast, self.run_blocking)
         # the test suites set ROBWOT_CHECK_RESULTS=1: every result is checked against the contract
         self.dispatcher: Dispatcher = build_dispatcher(
             self, max_message_bytes, check_results=os.environ.get("ROBWOT_CHECK_RESULTS") == "1")

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from robwot_sim.motion_runner import plan_off_loop
 from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
@@ -43,7 +44,7 @@ def register(d: Dispatcher, s: Services) -> None:
 
     @d.method("robot.plan")
     async def plan(p: Params, call: Call) -> dict[str, Any]:
-        return _planner(p, s)().to_json()
+        return (await plan_off_loop(s.world, _planner(p, s), s.run_blocking)).to_json()
 
     @d.method("robot.move")
     async def move(p: Params, call: Call) -> dict[str, Any]:

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, ParamSpec, Self, TypeVar
@@ -50,6 +51,14 @@ class WorldBase:
         self._ik_salt = ik_seed  # salts the per-request IK restart seeds (see World.ik)
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
+
+    @contextlib.contextmanager
+    def exclusive(self) -> Iterator[None]:
+        """Hold the world for a sequence of calls made from a worker thread (a plan): no other thread
+        touches it meanwhile, and the asyncio loop stays free for what does not need it (heartbeats,
+        stop requests)."""
+        with self._lock:
+            yield
 
     def __enter__(self) -> Self:
         return self
