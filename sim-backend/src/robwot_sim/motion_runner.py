@@ -105,10 +105,11 @@ class MotionRunner:
             del self._active[robot]
             motion.done.set()
 
-    def _state(self, robot: str, time: float, q: Any, moving: bool) -> dict[str, Any]:
+    def _state(self, robot: str, time: float, q: Any, moving: bool, planned: float) -> dict[str, Any]:
         """A ``robot.state`` notification: joints and the end-effector pose at the robot's current state
-        (``q``, just applied), so no client needs an FK round trip per notification."""
-        return {"robot": robot, "time": time, "positions": _floats(q), "moving": moving,
+        (``q``, just applied), so no client needs an FK round trip per notification; ``planned`` is the
+        simulated duration of the whole path (``time / planned`` = the motion's progress)."""
+        return {"robot": robot, "time": time, "planned": planned, "positions": _floats(q), "moving": moving,
                 **_pose_json(self._world, robot)}
 
     async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float,
@@ -121,6 +122,7 @@ class MotionRunner:
         status = "reached"
         contacts: list[dict[str, Any]] = []
         clearance = self._world.motion_clearance(robot)
+        planned = (len(plan) - 1) * dt
         for i in range(1, len(plan)):
             sim_time = i * dt
             await motion.pause(t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0)
@@ -143,10 +145,10 @@ class MotionRunner:
             self._world.set_joint_positions(robot, q)
             reached, reached_time = q, sim_time
             if math.floor(sim_time / STATE_PERIOD + 1e-9) > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9):
-                self._broadcast("robot.state", self._state(robot, sim_time, q, True))
+                self._broadcast("robot.state", self._state(robot, sim_time, q, True, planned))
         wall = loop.time() - t0
         if robot in self._world.robot_ids():
-            self._broadcast("robot.state", self._state(robot, reached_time, reached, False))
+            self._broadcast("robot.state", self._state(robot, reached_time, reached, False, planned))
         return {"status": status, "positions": _floats(reached), "duration": reached_time,
                 "wallTime": wall, "contacts": contacts}
 
