@@ -12,6 +12,7 @@ import { generateTwin, http, invoke, kukaPose, sleep, type HttpAnswer } from "./
 const HOME = kukaPose([0, 0, 0, 0, 0, 0, 0]);
 const FAR = kukaPose([1.5, 0.4, 0, -1.0, 0, 0.5, 0]);
 const ASYNC = { prefer: "respond-async" };
+const DASH = "https://dash.example";
 const ISO = /^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}\.\d{3}Z$/;
 const Ajv = AjvModule.default;
 /** Every ActionStatus and error body is checked against the schema the served TD declares for it. */
@@ -65,7 +66,7 @@ describe("asynchronous moves", () => {
   const joints = async (): Promise<Record<string, number>> => (await http(`${base}/properties/getJointPosition`)).body;
 
   beforeAll(async () => {
-    s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 1 });
+    s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 1, corsOrigins: [DASH] });
     base = `${s.url}/${s.things[0]!.slug}`;
     td = (await http(base)).body;
     conforms = schemasOf(td);
@@ -218,6 +219,27 @@ describe("asynchronous moves", () => {
     } finally {
       expect((await invoke(base, "removeObstacle", { name: "ball" })).status).toBe(200);
     }
+  });
+
+  it("browsers: a page of another origin may not cancel (403); a --cors-origin dashboard may, and reads Location", async () => {
+    const pre = await fetch(`${base}/actions/moveToJointPosition/x`, {
+      method: "OPTIONS",
+      headers: { origin: DASH, "access-control-request-method": "DELETE", "access-control-request-headers": "prefer" },
+    });
+    expect(pre.status).toBe(204);
+    expect(pre.headers.get("access-control-allow-methods")).toContain("DELETE");
+    expect(pre.headers.get("access-control-allow-headers")).toContain("prefer");
+    expect((await invoke(base, "moveToJointPosition", { joints: HOME })).body.status).toBe("reached");
+    const r = await invokeAsync(base, "moveToJointPosition", { joints: FAR, speed: 0.3 }, { origin: DASH });
+    expect(r.status).toBe(201);
+    expect(r.headers.get("access-control-expose-headers")).toContain("Location");
+    const href = r.headers.get("location")!;
+    const evil = await cancel(href, { origin: "http://evil.example" });
+    expect(evil.status).toBe(403);
+    expect(evil.body.code).toBe("E_FORBIDDEN_ORIGIN");
+    expect(["pending", "running"]).toContain((await query(href)).body.status);
+    expect((await cancel(href, { origin: DASH })).status).toBe(204);
+    expect((await query(href)).body.status).toBe("cancelled");
   });
 
   it("unknown ids answer 404, sync-only actions have no status resources, other methods 405", async () => {

@@ -90,7 +90,7 @@ export class ActionStatusStore {
         entry.end = { status: "failed", progress: handle.progress(), error: { ...e.toJSON(), title: e.message, status: e.status }, at: this.now() };
       },
     );
-    this.prune();
+    this.prune(true);
     this.entries.set(id, entry);
     return this.view(entry);
   }
@@ -122,12 +122,12 @@ export class ActionStatusStore {
     return { status, progress, ...(output !== undefined ? { output } : {}), ...(error ? { error } : {}), ...base, timeEnded: at.toISOString() };
   }
 
-  /** Forgets ended resources older than the TTL, then the oldest ended ones beyond the limit. */
-  private prune(): void {
+  /** Forgets ended resources older than the TTL; with `room`, also the oldest ended ones until one more fits. */
+  private prune(room = false): void {
     const now = this.now().getTime();
     for (const [id, e] of this.entries) if (e.end && now - e.end.at.getTime() > this.ttlMs) this.entries.delete(id);
     for (const [id, e] of this.entries) {
-      if (this.entries.size < this.limit) break;
+      if (!room || this.entries.size < this.limit) break;
       if (e.end) this.entries.delete(id);
     }
   }
