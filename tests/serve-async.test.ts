@@ -7,7 +7,7 @@
 import AjvModule from "ajv";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep, type HttpAnswer } from "./serve-helpers.js";
+import { consumer, generateTwin, http, invoke, kukaPose, sleep, type HttpAnswer } from "./serve-helpers.js";
 
 const HOME = kukaPose([0, 0, 0, 0, 0, 0, 0]);
 const FAR = kukaPose([1.5, 0.4, 0, -1.0, 0, 0.5, 0]);
@@ -102,6 +102,23 @@ describe("asynchronous moves", () => {
     expect(await joints()).toEqual(done.output.joints);
     // the status stays queryable after the end
     expect((await query(href)).body).toEqual(done);
+  });
+
+  it("a node-wot consumer chooses from the TD: the first form is synchronous, formIndex 1 (the Prefer form) asynchronous", async () => {
+    const c = await consumer();
+    try {
+      const thing = await c.wot.consume(td);
+      const sync = await (await thing.invokeAction("moveToJointPosition", { joints: HOME })).value();
+      expect(sync).toMatchObject({ status: "reached" });
+      // node-wot 0.9.2 sends the form's htv:headers and answers the 201's body: the ActionStatus
+      const out = await thing.invokeAction("moveToJointPosition", { joints: FAR, speed: 0.5 }, { formIndex: 1 });
+      const st = (await out.value()) as any;
+      expect(["pending", "running"]).toContain(st.status);
+      expect(st.href).toMatch(/\/actions\/moveToJointPosition\/[0-9a-f-]{36}$/);
+      expect((await poll(st.href)).at(-1)).toMatchObject({ status: "completed", output: { status: "reached" } });
+    } finally {
+      await c.stop();
+    }
   });
 
   it("a Cartesian move answers asynchronously too, with the synchronous result as output", async () => {
