@@ -276,6 +276,49 @@ describe("asynchronous moves", () => {
   });
 });
 
+describe("asynchronous moves and a backend that dies", () => {
+  let s: RunningServient;
+  let base: string;
+
+  beforeAll(async () => {
+    s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 1 });
+    base = `${s.url}/${s.things[0]!.slug}`;
+    conforms = schemasOf((await http(base)).body);
+  });
+  afterAll(async () => s?.stop());
+
+  it("killed mid-move: the status fails with the synchronous error (503 E_BACKEND_DOWN); after the restart the next one completes", async () => {
+    const r = await invokeAsync(base, "moveToJointPosition", { joints: FAR, speed: 0.1 });
+    expect(r.status).toBe(201);
+    const href = r.headers.get("location")!;
+    const end = Date.now() + 10_000;
+    while ((await query(href)).body.status !== "running") {
+      if (Date.now() > end) throw new Error("not running within 10 s");
+      await sleep(20);
+    }
+    const pid = s.backend.pid!;
+    process.kill(pid, "SIGKILL");
+    const done = (await poll(href)).at(-1);
+    expect(done.status).toBe("failed");
+    expect(done.error).toMatchObject({ code: "E_BACKEND_DOWN", status: 503 });
+    expect(done.progress).toBeGreaterThan(0);
+    expect(done.progress).toBeLessThan(1);
+    // nothing left to cancel: the failure stays
+    expect((await cancel(href, { prefer: "return=representation" })).body).toEqual(done);
+    // while the backend is down, the invocation itself is refused (no status resource)
+    const during = await invokeAsync(base, "moveToJointPosition", { joints: HOME });
+    if (during.status !== 201) {
+      expect(during.status).toBe(503);
+      expect(during.headers.get("location")).toBeNull();
+    } else await poll(during.headers.get("location")!);
+    await s.backend.waitUp(60_000);
+    expect(s.backend.pid).not.toBe(pid);
+    const again = await invokeAsync(base, "moveToJointPosition", { joints: HOME });
+    expect(again.status).toBe(201);
+    expect((await poll(again.headers.get("location")!)).at(-1)).toMatchObject({ status: "completed", output: { status: "reached" } });
+  });
+});
+
 describe("asynchronous moves with auth", () => {
   let s: RunningServient;
   let base: string;
