@@ -191,6 +191,36 @@ describe("observe-joints", () => {
   });
 });
 
+describe("async-move", () => {
+  const auth = { authorization: `Basic ${Buffer.from("alice:s3cret").toString("base64")}` };
+
+  it("chooses the asynchronous form from the TD: ActionStatus at once, progress while running, completed at the target", async () => {
+    const run = await runScenario("async-move", [tdUrl(live), "--speed", "0.5"], AUTH_ENV);
+    expect(run.code, run.stderr).toBe(0);
+    const { target, accepted, seen, final, joints, still } = run.result;
+    expect(["pending", "running"]).toContain(accepted.status);
+    expect(seen.some((x: any) => x.status === "running" && x.progress > 0 && x.progress < 1)).toBe(true);
+    expect(final).toMatchObject({ status: "completed", progress: 1, output: { status: "reached" } });
+    expect(still).toBe(true);
+    for (const [joint, value] of Object.entries(target as Record<string, number>)) expect(Math.abs(joints[joint] - value)).toBeLessThan(1e-3);
+    const now = (await http(`${tdUrl(live)}/properties/getJointPosition`, { headers: auth })).body as Record<string, number>;
+    expect(now).toEqual(joints);
+  });
+
+  it("--cancel-at 0.3: cancels through the cancelaction form mid-move; the robot stops short of the target", async () => {
+    const run = await runScenario("async-move", [tdUrl(live), "--speed", "0.3", "--fraction", "0.6", "--cancel-at", "0.3"], AUTH_ENV);
+    expect(run.code, run.stderr).toBe(0);
+    const { target, final, joints, still } = run.result;
+    expect(final.status).toBe("cancelled");
+    expect(final.output.status).toBe("stopped");
+    expect(final.progress).toBeGreaterThanOrEqual(0.3);
+    expect(final.progress).toBeLessThan(1);
+    expect(still).toBe(true);
+    const off = Math.max(...Object.entries(target as Record<string, number>).map(([j, v]) => Math.abs(joints[j] - v)));
+    expect(off).toBeGreaterThan(1e-3);
+  });
+});
+
 describe("calibrate-and-relay", () => {
   it("recovers the physical placement from four pairs and lands the physical robot within 1 mm of a real-frame target", async () => {
     const run = await runScenario("calibrate-and-relay", [tdUrl(virtual), tdUrl(physical)]);

@@ -146,6 +146,9 @@ def test_realtime_one_follows_the_wall_clock(client: RpcClient) -> None:
     assert times[0] <= 1 / 30
     assert states[-1]["moving"] is False
     assert states[-1]["positions"] == pytest.approx([1.0, 0, 0, 0, 0, 0, 0])
+    # every state names the planned duration: time / planned is the progress, 1 once reached
+    assert all(s["planned"] == pytest.approx(result["duration"]) for s in states)
+    assert states[-1]["time"] / states[-1]["planned"] == pytest.approx(1.0)
 
 
 def test_state_notifications_carry_the_end_effector_pose(client: RpcClient) -> None:

@@ -506,6 +506,10 @@ export interface RobotStateNotification {
    * s of simulated time since the motion started
    */
   time: number;
+  /**
+   * s of simulated time the whole planned path takes: `time / planned` is the motion's progress (0 for a motion of no step)
+   */
+  planned: number;
   positions: JointVector;
   moving: boolean;
   position: Vec3;

@@ -5,6 +5,8 @@ export type * from "./td/types.js";
 export { buildThingDescription, targetBounds, thingId, transformBounds, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, REACHABILITY_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
 export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/build.js";
 export { securityFor } from "./td/security.js";
+export { ACTION_ID_VARIABLE, ACTION_STATUS_SCHEMA, ACTION_STATUSES, ASYNC_ACTIONS, RESPOND_ASYNC } from "./td/async-actions.js";
+export type { ActionStatusValue } from "./td/async-actions.js";
 export { closeSchema, MIN_SPEED, tdContact } from "./td/schemas.js";
 export { buildThingModel } from "./td/thing-model.js";
 export { cartesianBounds, jointLimits, linkUrl, liveUrl, slugOf, TdError } from "./td/read.js";

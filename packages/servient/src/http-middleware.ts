@@ -7,6 +7,9 @@
  * otherwise).
  */
 import type { IncomingMessage, ServerResponse } from "node:http";
+import { RESPOND_ASYNC } from "@robwot/core";
+import { actionStatusRoute, preferences, respondAsync, type ActionStatusStore } from "./action-status.js";
+import type { AsyncAction } from "./actions.js";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
 import { ServientError } from "./errors.js";
 import { parseBody, validateInput } from "./input-validation.js";
@@ -29,6 +32,10 @@ export interface ServedThing {
   actionInput(name: string): object | undefined | null;
   /** the SSE source of an observable property or an event, null when there is none */
   observe(kind: "properties" | "events", name: string): SseSource | null;
+  /** the actions that answer asynchronously under `Prefer: respond-async` (the moves), by name */
+  asyncActions: Map<string, AsyncAction>;
+  /** their ActionStatus resources */
+  statuses: ActionStatusStore;
 }
 
 export interface MiddlewareEnv {
@@ -42,6 +49,8 @@ export interface MiddlewareEnv {
 }
 
 const READ = ["GET", "HEAD"] as const;
+/** An ActionStatus resource: queryaction (GET), cancelaction (DELETE) */
+const STATUS = ["GET", "DELETE"] as const;
 
 /** Methods of node-wot's affordance routes under `/<slug>/...` (null: no such route, 404). Only these
  *  reach node-wot, each after the checks of its kind. */
@@ -51,8 +60,8 @@ function affordanceMethods(segments: string[]): readonly string[] | null {
   if (dir === "properties") return sub === undefined || sub === "observable" || sub === "sse" ? READ : null; // no name: readallproperties
   if (name === undefined) return null;
   if (dir === "events") return sub === undefined || sub === "sse" ? READ : null;
-  if (sub !== undefined) return null;
-  return dir === "actions" ? ["POST"] : null;
+  if (dir === "actions") return sub === undefined ? ["POST"] : STATUS;
+  return null;
 }
 
 function methodNotAllowed(res: ServerResponse, method: string, path: string, allow: readonly string[]): ServientError {
@@ -136,18 +145,23 @@ export function createMiddleware(env: MiddlewareEnv) {
       const allow = affordanceMethods(segments);
       if (!allow) return notFound(res, path);
       const kind = AFFORDANCE_KINDS[segments[1] ?? ""];
+      const name = segments[2] ?? "";
       if (kind && segments.length >= 3) {
         const available = Object.keys((thing.td()[segments[1] as string] ?? {}) as object);
-        const name = segments[2] as string;
         if (!available.includes(name)) {
           throw new ServientError(404, "E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
         }
       }
+      const statusId = kind === "action" ? segments[3] : undefined;
+      if (statusId !== undefined && !thing.asyncActions.has(name)) {
+        throw new ServientError(404, "E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${[...thing.asyncActions.keys()].join(", ")})`, { path });
+      }
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
+      if (statusId !== undefined) return await actionStatusRoute(req, res, thing.statuses, name, statusId);
       if (segments[3] === "sse") {
-        const source = thing.observe(segments[1] as "properties" | "events", segments[2] as string);
+        const source = thing.observe(segments[1] as "properties" | "events", name);
         if (!source) throw new ServientError(404, "E_NOT_FOUND", `${path}: not observable`, { path });
-        return streamSse(req, res, segments[2] as string, source);
+        return streamSse(req, res, name, source);
       }
       if (segments[3] === "observable") {
         // node-wot 0.9.2 unsubscribes a long-poll observer on 'finish' only: one that went away first
@@ -158,7 +172,6 @@ export function createMiddleware(env: MiddlewareEnv) {
       }
       const ctx: RequestContext = { hasBody: false };
       if (kind === "action") {
-        const name = segments[2] as string;
         const schema = thing.actionInput(name);
         if (schema !== null) {
           const type = req.headers["content-type"];
@@ -172,6 +185,11 @@ export function createMiddleware(env: MiddlewareEnv) {
           validateInput(schema, body, name);
           ctx.body = body;
           ctx.hasBody = true;
+        }
+        // RFC 7240: a preference the action cannot honour is ignored (synchronous answer, no Preference-Applied)
+        const invoke = thing.asyncActions.get(name);
+        if (invoke && preferences(req).has(RESPOND_ASYNC)) {
+          return await respondAsync(res, thing.statuses, name, String(thing.td().base), (watch) => invoke(ctx.body, watch));
         }
       }
       mapErrors(res, ctx);

@@ -59,10 +59,24 @@ export function cartesianTarget(input: CartesianInput): { real: Vec3; orientatio
   return { real: vec(input) };
 }
 
-/** A move from its acceptance to its end; `cancelled` is set by `stop`. */
+/** A move from its acceptance to its end; `cancelled` is set by `stop`, `sent` once `robot.move` is. */
 interface PendingMove {
   cancelled: boolean;
+  sent: boolean;
 }
+
+/** What an asynchronous invocation (`action-status.ts`) sees of its move once accepted. */
+export interface MoveHandle {
+  /** "pending" (validation, IK, path planning) until the backend streams the motion, then "running" */
+  phase(): "pending" | "running";
+  /** share of the planned motion done: simulated time / planned duration of the backend's path */
+  progress(): number;
+  /** the stop path (`stop`) for this move only: nothing once it has ended */
+  cancel(): Promise<void>;
+}
+
+/** Called when a move is accepted (busy taken), before it is validated. */
+export type MoveWatch = (handle: MoveHandle) => void;
 
 export class Mover {
   private pending: PendingMove | null = null;
@@ -85,10 +99,10 @@ export class Mover {
     return validateCartesian(this.backend, this.twin, this.ws, poseTarget(this.twin, t.real, t.orientation), speedOf(input));
   }
 
-  async moveJoints(input: JointInput): Promise<RelayedMoveResult> {
+  async moveJoints(input: JointInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
     const q = this.twin.jointsVector(input.joints);
     const speed = speedOf(input);
-    return this.guarded(async (move) => {
+    return this.guarded(watch, async (move) => {
       const result = await this.execute(move, { target: q }, speed, null);
       // a stop that came after the simulated motion ended still keeps the command from the physical robot
       if (result.status === "reached" && this.relay && !move.cancelled) {
@@ -99,11 +113,11 @@ export class Mover {
     });
   }
 
-  async moveCartesian(input: CartesianInput): Promise<RelayedMoveResult> {
+  async moveCartesian(input: CartesianInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
     const t = cartesianTarget(input);
     const speed = speedOf(input);
     const target = poseTarget(this.twin, t.real, t.orientation);
-    return this.guarded(async (move) => {
+    return this.guarded(watch, async (move) => {
       const result = await this.execute(move, target, speed, staticChecks(this.ws, target.position));
       const p = result.position;
       result.positionError = Math.hypot(p.x - t.real[0], p.y - t.real[1], p.z - t.real[2]);
@@ -134,7 +148,7 @@ export class Mover {
   }
 
   /** One move at a time per twin: the busy flag and the pending move are taken before validation starts. */
-  private async guarded(run: (move: PendingMove) => Promise<RelayedMoveResult>): Promise<RelayedMoveResult> {
+  private async guarded(watch: MoveWatch | undefined, run: (move: PendingMove) => Promise<RelayedMoveResult>): Promise<RelayedMoveResult> {
     if (this.twin.busy) {
       throw new ServientError(409, "E_BUSY", `${this.twin.slug} is already moving; call stop first or wait for the motion to end`, {
         thing: this.twin.slug,
@@ -142,14 +156,30 @@ export class Mover {
       });
     }
     this.twin.busy = true;
-    const move: PendingMove = { cancelled: false };
+    const move: PendingMove = { cancelled: false, sent: false };
     this.pending = move;
+    watch?.(this.handle(move));
     try {
       return await run(move);
     } finally {
       this.pending = null;
       this.twin.busy = false;
     }
+  }
+
+  private handle(move: PendingMove): MoveHandle {
+    const motion = (): { time: number; planned: number } | null => (move.sent ? this.twin.motion : null);
+    return {
+      phase: () => (motion() ? "running" : "pending"),
+      progress: () => {
+        const m = motion();
+        if (!m) return 0;
+        return m.planned > 0 ? Math.min(1, Math.max(0, m.time / m.planned)) : 1;
+      },
+      cancel: async () => {
+        if (this.pending === move) await this.stop();
+      },
+    };
   }
 
   /** The answer of a move stopped before its motion started: the twin has not moved. */
@@ -181,6 +211,9 @@ export class Mover {
     const before = twin.status.state;
     twin.collisionSeen = false;
     twin.setStatus({ state: "moving", lastError: null });
+    // the states of this motion follow the request on the same ordered connection
+    twin.motion = null;
+    move.sent = true;
     let res: BackendMoveResult;
     try {
       // the twin's joints and pose are already those of the motion's end: the backend sends its final

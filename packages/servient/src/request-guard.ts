@@ -128,6 +128,8 @@ export class RequestGuard {
     if (origin !== null && this.cors.has(origin)) {
       setHeader("Access-Control-Allow-Origin", origin);
       setHeader("Access-Control-Allow-Credentials", "true");
+      // an asynchronous invocation's ActionStatus URL (201) and the preference it applied
+      setHeader("Access-Control-Expose-Headers", "Location, Preference-Applied");
     }
   }
 
@@ -142,8 +144,8 @@ export class RequestGuard {
     res.writeHead(204, {
       "Access-Control-Allow-Origin": origin,
       "Access-Control-Allow-Credentials": "true",
-      "Access-Control-Allow-Methods": "GET, HEAD, POST, OPTIONS",
-      "Access-Control-Allow-Headers": "content-type, authorization",
+      "Access-Control-Allow-Methods": "GET, HEAD, POST, DELETE, OPTIONS",
+      "Access-Control-Allow-Headers": "content-type, authorization, prefer",
       "Access-Control-Max-Age": "600",
       Vary: "Origin",
     });

@@ -9,6 +9,7 @@ import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
 import { targetBounds, type Bounds } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
+import { ActionStatusStore } from "./action-status.js";
 import { registerActions } from "./actions.js";
 import { BackendSupervisor } from "./backend.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
@@ -161,7 +162,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       const thing = await wot.produce(produceInit(twin.folder.td));
       const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
       registerProperties(thing, twin);
-      registerActions(thing, { backend, twin, mover, world, onCalibrated: () => (cached = null) });
+      const asyncActions = registerActions(thing, { backend, twin, mover, world, onCalibrated: () => (cached = null) });
       await thing.expose();
       const entry: ServedThing = {
         slug,
@@ -173,6 +174,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
           return a ? ((a.input as object | undefined) ?? undefined) : null;
         },
         observe: (kind, name) => sseSource(twin, kind, name),
+        asyncActions,
+        statuses: new ActionStatusStore(),
       };
       served.set(slug, entry);
     }

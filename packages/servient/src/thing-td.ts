@@ -25,7 +25,12 @@ export function produceInit(td: TdDocument): WoT.ExposedThingInit {
   const init = clone(td);
   delete init.forms;
   delete init.base;
-  eachAffordance(init, (a) => delete a.forms);
+  eachAffordance(init, (a, kind) => {
+    delete a.forms;
+    // the ActionStatus template of the asynchronous moves is served by the middleware, not node-wot (its
+    // HttpServer would put the variable into the invokeaction route)
+    if (kind === "actions") delete a.uriVariables;
+  });
   // node-wot 0.9.2 validates the init against the TD 1.0 schema: its context URL only
   const ctx = Array.isArray(init["@context"]) ? (init["@context"] as unknown[]) : [];
   init["@context"] = [TD_CONTEXT_V10, ...ctx.filter((c) => typeof c === "object")];

@@ -43,6 +43,9 @@ export class Twin extends EventEmitter<TwinEvents> {
   busy = false;
   /** set when a collision event was emitted for the current motion */
   collisionSeen = false;
+  /** the motion streamed by the backend since the last move was sent (`robot.state`: simulated time and
+   *  planned duration); null until its first state */
+  motion: { time: number; planned: number } | null = null;
 
   constructor(
     slug: string,
@@ -118,6 +121,7 @@ export class Twin extends EventEmitter<TwinEvents> {
    */
   onState(params: RobotStateNotification): void {
     this.time = params.time;
+    this.motion = { time: params.time, planned: params.planned };
     this.applyPose(params.positions, params);
   }
 

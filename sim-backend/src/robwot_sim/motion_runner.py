@@ -109,10 +109,11 @@ class MotionRunner:
             del self._active[robot]
             motion.done.set()
 
-    def _state(self, robot: str, time: float, q: Any, moving: bool) -> dict[str, Any]:
+    def _state(self, robot: str, time: float, q: Any, moving: bool, planned: float) -> dict[str, Any]:
         """A ``robot.state`` notification: joints and the end-effector pose at the robot's current state
-        (``q``, just applied), so no client needs an FK round trip per notification."""
-        return {"robot": robot, "time": time, "positions": _floats(q), "moving": moving,
+        (``q``, just applied), so no client needs an FK round trip per notification; ``planned`` is the
+        simulated duration of the whole path (``time / planned`` = the motion's progress)."""
+        return {"robot": robot, "time": time, "planned": planned, "positions": _floats(q), "moving": moving,
                 **_pose_json(self._world, robot)}
 
     async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float,
@@ -125,6 +126,7 @@ class MotionRunner:
         status = "reached"
         contacts: list[dict[str, Any]] = []
         clearance = self._world.motion_clearance(robot)
+        planned = (len(plan) - 1) * dt
         for i in range(1, len(plan)):
             sim_time = i * dt
             await motion.pause(t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0)
@@ -147,10 +149,10 @@ class MotionRunner:
             self._world.set_joint_positions(robot, q)
             reached, reached_time = q, sim_time
             if math.floor(sim_time / STATE_PERIOD + 1e-9) > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9):
-                self._broadcast("robot.state", self._state(robot, sim_time, q, True))
+                self._broadcast("robot.state", self._state(robot, sim_time, q, True, planned))
         wall = loop.time() - t0
         if robot in self._world.robot_ids():
-            self._broadcast("robot.state", self._state(robot, reached_time, reached, False))
+            self._broadcast("robot.state", self._state(robot, reached_time, reached, False, planned))
         return {"status": status, "positions": _floats(reached), "duration": reached_time,
                 "wallTime": wall, "contacts": contacts}
 
@@ -159,11 +161,11 @@ async def plan_off_loop(world: World, planner: Callable[[], Plan], run_blocking:
     """Run `planner` in a worker thread holding the world (`World.exclusive`): a plan (IK solutions, a
     detour within its 2 s budget) may take seconds, and meanwhile the loop keeps answering what needs no
     world — the heartbeat `ping`, a `stop` (which then ends the motion before its first step)."""
-    def planned() -> Plan:
+    def locked() -> Plan:
         with world.exclusive():
             return planner()
 
-    return await run_blocking(planned)
+    return await run_blocking(locked)
 
 
 def _pose_json(world: World, robot: str) -> dict[str, Any]:

@@ -134,11 +134,12 @@ export async function read<T>(twin: Twin, name: string): Promise<T> {
   }
 }
 
-/** Invoke an action and return its decoded output; errors name the action and the twin. */
-export async function invoke<T>(twin: Twin, name: string, input?: unknown): Promise<T> {
+/** Invoke an action and return its decoded output; errors name the action and the twin. `options`:
+ *  node-wot's, e.g. `formIndex` to choose one of the action's forms. */
+export async function invoke<T>(twin: Twin, name: string, input?: unknown, options?: WoTTypes.InteractionOptions): Promise<T> {
   let out: WoTTypes.InteractionOutput | undefined;
   try {
-    out = await twin.thing.invokeAction(name, input as WoTTypes.InteractionInput);
+    out = await twin.thing.invokeAction(name, input as WoTTypes.InteractionInput, options);
   } catch (err) {
     throw new ActionError(name, twin.url, err);
   }

@@ -1,7 +1,7 @@
 import { describe, expect, it } from "vitest";
 import { RobwotError } from "../errors.js";
 import { kukaLikeModel, summaryFixture } from "../test-support/models.js";
-import { buildThingDescription, transformBounds } from "./build.js";
+import { buildThingDescription, transformBounds, withAbsoluteForms } from "./build.js";
 import { securityFor } from "./security.js";
 import type { DataSchema } from "./types.js";
 import { validateThingDescription } from "./validate.js";
@@ -124,6 +124,41 @@ describe("buildThingDescription", () => {
       expect(names).toContain(n);
     }
     expect(buildThingDescription({ model, summary, liveUrl: null }).links.map((l) => l.rel)).not.toContain("robwot:live");
+  });
+
+  it("offers the move actions asynchronously: a Prefer: respond-async form, queryaction and cancelaction on the ActionStatus template", () => {
+    const base = "http://localhost:8080/lbr_iiwa/";
+    for (const name of ["moveToJointPosition", "moveToCartesianPosition"]) {
+      const a = td.actions[name]!;
+      const forms = a.forms;
+      // the synchronous form stays first: node-wot and wotpy pick the first invokeaction / http form
+      expect(forms[0]).toEqual({ ...td.actions.stop?.forms[0], href: `${base}actions/${name}` });
+      expect(forms[1]).toMatchObject({
+        href: `${base}actions/${name}`,
+        op: ["invokeaction"],
+        "htv:methodName": "POST",
+        "htv:headers": [{ "htv:fieldName": "Prefer", "htv:fieldValue": "respond-async" }],
+        response: { contentType: "application/json", "htv:statusCodeValue": 201 },
+      });
+      expect(forms[1]?.additionalResponses).toContainEqual({ success: true, contentType: "application/json", schema: "actionStatus", "htv:statusCodeValue": 201 });
+      // the template's braces survive the absolute hrefs (URL would percent-encode them)
+      expect(forms.slice(2).map((f) => [f.href, f.op, f["htv:methodName"]])).toEqual([
+        [`${base}actions/${name}/{actionID}`, ["queryaction"], "GET"],
+        [`${base}actions/${name}/{actionID}`, ["cancelaction"], "DELETE"],
+      ]);
+      expect(a.uriVariables).toEqual({ actionID: expect.objectContaining({ type: "string" }) });
+    }
+    for (const name of ["validateJointPosition", "stop", "calibrate", "addObstacle"]) {
+      expect(td.actions[name]?.forms.flatMap((f) => f.op)).toEqual(["invokeaction"]);
+      expect(td.actions[name]?.uriVariables).toBeUndefined();
+    }
+    const status = td.schemaDefinitions as Record<string, DataSchema>;
+    expect(status.actionStatus?.properties?.status?.enum).toEqual(["pending", "running", "completed", "failed", "cancelled"]);
+    expect(status.actionStatus?.properties?.output).toEqual(td.actions.moveToJointPosition?.output);
+    expect(status.actionStatus?.required).toEqual(["status", "progress", "href", "timeRequested"]);
+    // moved to another address, the template moves with the other forms
+    const moved = withAbsoluteForms(structuredClone(td), "https://twin.example:9443/arm/");
+    expect(moved.actions.moveToJointPosition?.forms[2]?.href).toBe("https://twin.example:9443/arm/actions/moveToJointPosition/{actionID}");
   });
 
   it("maps Cartesian bounds through an active calibration", () => {

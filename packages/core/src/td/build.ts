@@ -7,9 +7,10 @@
 import { applyCalibration } from "../calibration.js";
 import { ThingDescriptionError } from "../errors.js";
 import type { Bounds, JointSpec, RobotModelLike, Vec3, WorkspaceSummary } from "../types.js";
+import { ACTION_STATUS_SCHEMA, actionStatusSchema, ASYNC_ACTIONS, asyncActionForms, asyncActionVariables } from "./async-actions.js";
 import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
 import { canonicalJson, fnv1a64, thingSlug } from "./hash.js";
-import { closeSchema } from "./schemas.js";
+import { closeSchema, moveResultSchema } from "./schemas.js";
 import type { ActionAffordance, DataSchema, EventAffordance, Form, Link, PropertyAffordance, ThingDescription } from "./types.js";
 
 export const TD_CONTEXT_V11 = "https://www.w3.org/2022/wot/td/v1.1";
@@ -206,11 +207,14 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   }
   const actions: Record<string, ActionAffordance> = {};
   for (const [name, a] of Object.entries(actionAffordances(joints, bounds))) {
+    const sync: Form = { href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST", additionalResponses: ERROR_RESPONSES };
+    const isAsync = ASYNC_ACTIONS.includes(name);
     // inputs are closed: the servient refuses a property the schema does not name, and the TD says so
     actions[name] = {
       ...a,
       ...(a.input ? { input: closeSchema(a.input) as DataSchema } : {}),
-      forms: [{ href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST", additionalResponses: ERROR_RESPONSES }],
+      ...(isAsync ? { uriVariables: asyncActionVariables() } : {}),
+      forms: isAsync ? [sync, ...asyncActionForms(name, sync, ERROR_RESPONSES)] : [sync],
     };
   }
   const events: Record<string, EventAffordance> = {};
@@ -242,7 +246,8 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     description: options.description ?? defaultDescription(model, joints, summary),
     base: `${base.href}${slug}/`,
     securityDefinitions: { nosec_sc: { scheme: "nosec" } },
-    schemaDefinitions: { error: ERROR_SCHEMA },
+    // the ActionStatus of the asynchronous moves (`async-actions.ts`); their output is the move result
+    schemaDefinitions: { error: ERROR_SCHEMA, [ACTION_STATUS_SCHEMA]: actionStatusSchema(moveResultSchema(joints), ERROR_SCHEMA) },
     security: "nosec_sc",
     properties,
     actions,
@@ -284,7 +289,9 @@ export function withAbsoluteForms<T extends object>(td: T, newBase?: string): T 
       if (typeof f.href !== "string") continue;
       // a form under the old base moves with it to the new one
       const rel = f.href.startsWith(base) ? f.href.slice(base.length) : f.href;
-      f.href = new URL(rel, target).href;
+      // a URI template's `{var}` is kept as written (URL would percent-encode the braces)
+      const brace = rel.indexOf("{");
+      f.href = brace < 0 ? new URL(rel, target).href : new URL(rel.slice(0, brace), target).href + rel.slice(brace);
     }
   };
   fix(doc.forms);

@@ -47,6 +47,7 @@ export interface ActionAffordance {
   safe?: boolean;
   idempotent?: boolean;
   synchronous?: boolean;
+  uriVariables?: Record<string, DataSchema>;
   forms: Form[];
 }
 

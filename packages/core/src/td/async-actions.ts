@@ -1,0 +1,82 @@
+/**
+ * Asynchronous move actions (W3C WoT Profile, HTTP Basic Profile, "Asynchronous Action Response").
+ *
+ * How a client chooses: an invocation is synchronous unless its request carries `Prefer: respond-async`
+ * (RFC 7240). Synchronous (the default, what node-wot's and wotpy's `invokeAction` expect): `200` with
+ * the action's output once the motion has ended. Asynchronous: `201 Created`, `Location` = the URL of an
+ * ActionStatus resource, `Preference-Applied: respond-async`, and the ActionStatus as body; then `GET`
+ * on that URL (queryaction) answers the current ActionStatus and `DELETE` (cancelaction) stops the move
+ * and answers `204` (or `200` with the final ActionStatus under `Prefer: return=representation`).
+ *
+ * In the TD, each asynchronous action has: its synchronous `invokeaction` form first (consumers pick the
+ * first), a second `invokeaction` form that states the `Prefer` header (`htv:headers`) and the 201
+ * answer, and `queryaction` / `cancelaction` forms on the URI template `actions/<name>/{actionID}`
+ * (`uriVariables.actionID` on the action). Their ActionStatus is `schemaDefinitions.actionStatus`.
+ */
+import type { ActionAffordance, DataSchema, Form } from "./types.js";
+
+/** The long move actions that also answer asynchronously (and have query/cancel forms). */
+export const ASYNC_ACTIONS: readonly string[] = ["moveToJointPosition", "moveToCartesianPosition"];
+/** The URI variable naming an ActionStatus resource in the queryaction / cancelaction forms. */
+export const ACTION_ID_VARIABLE = "actionID";
+/** Name of the ActionStatus data schema in the TD's `schemaDefinitions`. */
+export const ACTION_STATUS_SCHEMA = "actionStatus";
+/** RFC 7240 preference of an asynchronous invocation. */
+export const RESPOND_ASYNC = "respond-async";
+export const ACTION_STATUSES = ["pending", "running", "completed", "failed", "cancelled"] as const;
+export type ActionStatusValue = (typeof ACTION_STATUSES)[number];
+
+const JSON_TYPE = "application/json";
+
+/** The ActionStatus object (WoT Profile) of an asynchronous invocation; `output` = the action's output. */
+export function actionStatusSchema(output: DataSchema, error: DataSchema): DataSchema {
+  const time = (description: string): DataSchema => ({ type: "string", format: "date-time", description });
+  return {
+    type: "object",
+    description:
+      "Status of an asynchronous invocation (W3C WoT Profile ActionStatus): pending (accepted; validation, IK and path planning), " +
+      "running (the motion), then completed (output = the result the synchronous invocation answers, also for a motion ended by " +
+      "`stop` or a collision), failed (error = the error the synchronous invocation answers) or cancelled (DELETE on href; output " +
+      "= the result of the stopped motion)",
+    properties: {
+      status: { type: "string", enum: [...ACTION_STATUSES] },
+      progress: {
+        type: "number",
+        minimum: 0,
+        maximum: 1,
+        description: "share of the planned motion done (simulated time / planned duration); 0 before the motion starts, 1 once the target is reached",
+      },
+      output,
+      error: {
+        ...error,
+        description: "why it failed: the synchronous error body {code, message, details} with the RFC 7807 members title and status (HTTP status)",
+        properties: { ...error.properties, title: { type: "string" }, status: { type: "integer", minimum: 400, maximum: 599 } },
+      },
+      href: { type: "string", description: "URL of this ActionStatus resource (queryaction: GET, cancelaction: DELETE)" },
+      timeRequested: time("when the invocation was received"),
+      timeEnded: time("when it completed, failed or was cancelled"),
+    },
+    required: ["status", "progress", "href", "timeRequested"],
+  };
+}
+
+/** The forms of an asynchronous action, after its synchronous `invokeaction` form (`sync`). */
+export function asyncActionForms(name: string, sync: Form, errors: object[]): Form[] {
+  const status = (code: number) => ({ success: true, contentType: JSON_TYPE, schema: ACTION_STATUS_SCHEMA, "htv:statusCodeValue": code });
+  const resource = `actions/${name}/{${ACTION_ID_VARIABLE}}`;
+  return [
+    {
+      ...sync,
+      "htv:headers": [{ "htv:fieldName": "Prefer", "htv:fieldValue": RESPOND_ASYNC }],
+      response: { contentType: JSON_TYPE, "htv:statusCodeValue": 201 },
+      additionalResponses: [status(201), ...errors],
+    },
+    { href: resource, contentType: JSON_TYPE, op: ["queryaction"], "htv:methodName": "GET", additionalResponses: [status(200), ...errors] },
+    { href: resource, contentType: JSON_TYPE, op: ["cancelaction"], "htv:methodName": "DELETE", additionalResponses: [status(200), ...errors] },
+  ];
+}
+
+/** The `uriVariables` of an asynchronous action (the ActionStatus id of its query/cancel forms). */
+export function asyncActionVariables(): NonNullable<ActionAffordance["uriVariables"]> {
+  return { [ACTION_ID_VARIABLE]: { type: "string", description: "id of an ActionStatus resource: the last segment of the Location of a 201 answer" } };
+}

@@ -1,0 +1,120 @@
+import { describe, expect, it } from "vitest";
+import { ActionStatusStore, type AsyncRun } from "./action-status.js";
+import { ServientError } from "./errors.js";
+import type { MoveHandle } from "./moves.js";
+
+/** A move under the test's control: accepted at once, ended by `finish` / `fail`; records cancels. */
+function controlled() {
+  let finish!: (v: unknown) => void;
+  let fail!: (e: unknown) => void;
+  const done = new Promise<unknown>((res, rej) => ((finish = res), (fail = rej)));
+  const state = { phase: "pending" as "pending" | "running", progress: 0, cancels: 0 };
+  const handle: MoveHandle = {
+    phase: () => state.phase,
+    progress: () => state.progress,
+    cancel: async () => {
+      state.cancels++;
+      finish({ status: "stopped" });
+    },
+  };
+  const run: AsyncRun = (watch) => {
+    watch(handle);
+    return done;
+  };
+  return { run, state, finish, fail };
+}
+
+const href = (id: string): string => `http://h/arm/actions/moveToJointPosition/${id}`;
+const idOf = (h: string): string => h.split("/").pop()!;
+const A = "moveToJointPosition";
+
+function clock(start = Date.parse("2026-01-01T00:00:00Z")) {
+  const c = { t: start, now: () => new Date(c.t) };
+  return c;
+}
+
+describe("ActionStatusStore", () => {
+  it("follows the move: pending, running with progress, completed with the output and timeEnded", async () => {
+    const c = clock();
+    const store = new ActionStatusStore({ now: c.now });
+    const m = controlled();
+    const first = await store.start(A, href, m.run);
+    expect(first).toEqual({ status: "pending", progress: 0, href: first.href, timeRequested: "2026-01-01T00:00:00.000Z" });
+    const id = idOf(first.href);
+    m.state.phase = "running";
+    m.state.progress = 0.4;
+    expect(store.get(A, id)).toMatchObject({ status: "running", progress: 0.4 });
+    expect(store.get("moveToCartesianPosition", id)).toBeNull();
+    c.t += 1500;
+    m.state.progress = 1;
+    m.finish({ status: "reached" });
+    await Promise.resolve();
+    await Promise.resolve();
+    expect(store.get(A, id)).toEqual({ ...first, status: "completed", progress: 1, output: { status: "reached" }, timeEnded: "2026-01-01T00:00:01.500Z" });
+  });
+
+  it("a refusal before acceptance rejects with the invocation's error and stores nothing", async () => {
+    const store = new ActionStatusStore();
+    const refused = store.start(A, href, () => Promise.reject(new ServientError(409, "E_BUSY", "busy")));
+    await expect(refused).rejects.toMatchObject({ status: 409, code: "E_BUSY" });
+  });
+
+  it("a failure after acceptance: failed, with the error body, its title and HTTP status", async () => {
+    const store = new ActionStatusStore();
+    const m = controlled();
+    const id = idOf((await store.start(A, href, m.run)).href);
+    m.fail(new ServientError(422, "E_REJECTED", "target rejected", { reasons: ["x"] }));
+    await new Promise((r) => setImmediate(r));
+    expect(store.get(A, id)).toMatchObject({
+      status: "failed",
+      error: { code: "E_REJECTED", message: "target rejected", title: "target rejected", status: 422, details: { reasons: ["x"] } },
+    });
+  });
+
+  it("cancel stops a move once, answers cancelled; a move that had reached stays completed", async () => {
+    const store = new ActionStatusStore();
+    const m = controlled();
+    const id = idOf((await store.start(A, href, m.run)).href);
+    expect(await store.cancel(A, id)).toMatchObject({ status: "cancelled", output: { status: "stopped" } });
+    expect(await store.cancel(A, id)).toMatchObject({ status: "cancelled" });
+    expect(m.state.cancels).toBe(1);
+    expect(await store.cancel(A, "nope")).toBeNull();
+
+    const r = controlled();
+    const rid = idOf((await store.start(A, href, r.run)).href);
+    r.finish({ status: "reached" });
+    await new Promise((x) => setImmediate(x));
+    expect(await store.cancel(A, rid)).toMatchObject({ status: "completed" });
+    expect(r.state.cancels).toBe(0);
+  });
+
+  it("forgets ended resources after the TTL, never a move still going", async () => {
+    const c = clock();
+    const store = new ActionStatusStore({ now: c.now, ttlMs: 1000 });
+    const ended = controlled();
+    const going = controlled();
+    const e = idOf((await store.start(A, href, ended.run)).href);
+    const g = idOf((await store.start(A, href, going.run)).href);
+    ended.finish({ status: "reached" });
+    await new Promise((x) => setImmediate(x));
+    c.t += 1000;
+    expect(store.get(A, e)?.status).toBe("completed");
+    c.t += 1;
+    expect(store.get(A, e)).toBeNull();
+    c.t += 1e9;
+    expect(store.get(A, g)?.status).toBe("pending");
+  });
+
+  it("keeps the last `limit` resources: the oldest ended ones go first", async () => {
+    const store = new ActionStatusStore({ limit: 3 });
+    const going = controlled();
+    const ids = [idOf((await store.start(A, href, going.run)).href)];
+    for (let i = 0; i < 4; i++) {
+      const m = controlled();
+      ids.push(idOf((await store.start(A, href, m.run)).href));
+      m.finish({ status: "reached" });
+      await new Promise((x) => setImmediate(x));
+    }
+    expect(ids.map((id) => store.get(A, id)?.status ?? null)).toEqual(["pending", null, null, "completed", "completed"]);
+  });
+});

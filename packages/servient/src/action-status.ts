@@ -1,0 +1,173 @@
+/**
+ * ActionStatus resources of asynchronous invocations (W3C WoT Profile, HTTP Basic Profile; the TD side
+ * is `core/src/td/async-actions.ts`). A move invoked with `Prefer: respond-async` is started here: the
+ * errors found before its acceptance (400 input, 409 busy, 503 backend down) are still the invocation's
+ * answer; once accepted it gets an ActionStatus resource `<base>actions/<name>/<id>`: `pending`
+ * (validation, IK, path planning), `running` (the backend streams the motion; `progress` =
+ * simulated time / planned duration), then `completed` with the output the synchronous invocation
+ * answers, `failed` with its error, or `cancelled` when a DELETE stopped it (`cancel`: the `stop`
+ * path for this move only, so a pending move never starts).
+ *
+ * Per twin the store keeps the last `limit` (64) resources and forgets ended ones `ttlMs` (10 min)
+ * after they ended.
+ */
+import { randomUUID } from "node:crypto";
+import type { IncomingMessage, ServerResponse } from "node:http";
+import { RESPOND_ASYNC, type ActionStatusValue } from "@robwot/core";
+import { ServientError } from "./errors.js";
+import type { MoveHandle, MoveWatch } from "./moves.js";
+import { toServientError } from "./request-context.js";
+import { sendJson } from "./static-files.js";
+
+export interface ActionStatus {
+  status: ActionStatusValue;
+  progress: number;
+  output?: unknown;
+  error?: Record<string, unknown>;
+  href: string;
+  timeRequested: string;
+  timeEnded?: string;
+}
+
+interface Entry {
+  action: string;
+  href: string;
+  requested: Date;
+  handle: MoveHandle;
+  /** set when the invocation has ended */
+  end: { status: "completed" | "failed" | "cancelled"; progress: number; output?: unknown; error?: Record<string, unknown>; at: Date } | null;
+  cancelRequested: boolean;
+  /** resolves once the invocation has ended (never rejects) */
+  settled: Promise<void>;
+}
+
+export interface ActionStatusOptions {
+  limit?: number;
+  ttlMs?: number;
+  now?: () => Date;
+}
+
+/** Starts an accepted-or-refused invocation: `run` calls `watch` once the move is accepted. */
+export type AsyncRun = (watch: MoveWatch) => Promise<unknown>;
+
+export class ActionStatusStore {
+  private readonly entries = new Map<string, Entry>();
+  readonly limit: number;
+  readonly ttlMs: number;
+  private readonly now: () => Date;
+
+  constructor(opts: ActionStatusOptions = {}) {
+    this.limit = opts.limit ?? 64;
+    this.ttlMs = opts.ttlMs ?? 10 * 60_000;
+    this.now = opts.now ?? (() => new Date());
+  }
+
+  /**
+   * Runs the invocation; resolves with its first ActionStatus once the move is accepted, rejects with
+   * the invocation's error when it is refused before (nothing is stored then). `hrefOf(id)` is the
+   * URL of the resource.
+   */
+  async start(action: string, hrefOf: (id: string) => string, run: AsyncRun): Promise<ActionStatus> {
+    const requested = this.now();
+    let accept!: (h: MoveHandle) => void;
+    const accepted = new Promise<MoveHandle>((resolve) => (accept = resolve));
+    const result = run((h) => accept(h));
+    // refused before acceptance: the invocation's own error answers the request
+    const handle = await Promise.race([accepted, result.then(() => accepted)]).catch((err: unknown) => {
+      throw toServientError(err);
+    });
+    const id = randomUUID();
+    const entry: Entry = { action, href: hrefOf(id), requested, handle, end: null, cancelRequested: false, settled: Promise.resolve() };
+    entry.settled = result.then(
+      (output) => {
+        // a cancel that came after the target was reached stopped nothing
+        const reached = (output as { status?: unknown } | null)?.status === "reached";
+        const status = entry.cancelRequested && !reached ? "cancelled" : "completed";
+        entry.end = { status, progress: handle.progress(), output, at: this.now() };
+      },
+      (err: unknown) => {
+        const e = toServientError(err);
+        entry.end = { status: "failed", progress: handle.progress(), error: { ...e.toJSON(), title: e.message, status: e.status }, at: this.now() };
+      },
+    );
+    this.prune(true);
+    this.entries.set(id, entry);
+    return this.view(entry);
+  }
+
+  /** The current ActionStatus of `id` under `action`, null when unknown (or expired). */
+  get(action: string, id: string): ActionStatus | null {
+    this.prune();
+    const e = this.entries.get(id);
+    return e && e.action === action ? this.view(e) : null;
+  }
+
+  /** Stops the invocation (nothing when it has ended) and resolves with its final ActionStatus. */
+  async cancel(action: string, id: string): Promise<ActionStatus | null> {
+    this.prune();
+    const e = this.entries.get(id);
+    if (!e || e.action !== action) return null;
+    if (!e.end) {
+      e.cancelRequested = true;
+      await e.handle.cancel();
+    }
+    await e.settled;
+    return this.view(e);
+  }
+
+  private view(e: Entry): ActionStatus {
+    const base = { href: e.href, timeRequested: e.requested.toISOString() };
+    if (!e.end) return { status: e.handle.phase(), progress: e.handle.progress(), ...base };
+    const { status, progress, output, error, at } = e.end;
+    return { status, progress, ...(output !== undefined ? { output } : {}), ...(error ? { error } : {}), ...base, timeEnded: at.toISOString() };
+  }
+
+  /** Forgets ended resources older than the TTL; with `room`, also the oldest ended ones until one more fits. */
+  private prune(room = false): void {
+    const now = this.now().getTime();
+    for (const [id, e] of this.entries) if (e.end && now - e.end.at.getTime() > this.ttlMs) this.entries.delete(id);
+    for (const [id, e] of this.entries) {
+      if (!room || this.entries.size < this.limit) break;
+      if (e.end) this.entries.delete(id);
+    }
+  }
+}
+
+/** RFC 7240 preferences of a request (`Prefer: respond-async, return=representation`): token -> value. */
+export function preferences(req: IncomingMessage): Map<string, string> {
+  const raw = req.headers.prefer;
+  const out = new Map<string, string>();
+  for (const pref of (Array.isArray(raw) ? raw.join(",") : (raw ?? "")).split(",")) {
+    const [token = "", value = ""] = (pref.split(";")[0] ?? "").split("=").map((x) => x.trim().replace(/^"|"$/g, ""));
+    if (token) out.set(token.toLowerCase(), value.toLowerCase());
+  }
+  return out;
+}
+
+/** The asynchronous invocation's answer: 201, `Location`, `Preference-Applied`, the ActionStatus. */
+export async function respondAsync(res: ServerResponse, store: ActionStatusStore, name: string, base: string, invoke: AsyncRun): Promise<void> {
+  const status = await store.start(name, (id) => new URL(`actions/${encodeURIComponent(name)}/${id}`, base).href, invoke);
+  res.setHeader("Location", status.href);
+  res.setHeader("Preference-Applied", RESPOND_ASYNC);
+  sendJson(res, 201, status);
+}
+
+/**
+ * `GET` (queryaction) and `DELETE` (cancelaction) on `<base>actions/<name>/<id>`: 200 with the
+ * ActionStatus; a DELETE answers 204 once the move has ended (200 with the final ActionStatus under
+ * `Prefer: return=representation`); 404 for an unknown or expired id.
+ */
+export async function actionStatusRoute(req: IncomingMessage, res: ServerResponse, store: ActionStatusStore, name: string, id: string): Promise<void> {
+  const cancel = req.method === "DELETE";
+  const status = cancel ? await store.cancel(name, id) : store.get(name, id);
+  if (!status) {
+    throw new ServientError(404, "E_NOT_FOUND", `no ActionStatus ${id} of ${name} (unknown, or forgotten: the last ${store.limit} are kept, ended ones for ${store.ttlMs / 1000} s)`, { action: name, id });
+  }
+  if (!cancel) return sendJson(res, 200, status);
+  if (preferences(req).get("return") === "representation") {
+    res.setHeader("Preference-Applied", "return=representation");
+    return sendJson(res, 200, status);
+  }
+  res.writeHead(204);
+  res.end();
+}
