@@ -30,6 +30,24 @@ beforeAll(async () => {
 afterAll(() => rmSync(work, { recursive: true, force: true }));
 
 describe("robwot openapi", () => {
+  it("states both answers of a move (200 synchronous, 201 ActionStatus with Prefer: respond-async) and its status resource", () => {
+    const slug = new URL(td.base).pathname.split("/").filter(Boolean).pop();
+    for (const name of ["moveToJointPosition", "moveToCartesianPosition"]) {
+      const post = doc.paths[`/${slug}/actions/${name}`].post;
+      expect(Object.keys(post.responses)).toEqual(expect.arrayContaining(["200", "201"]));
+      expect(post.responses["201"].content["application/json"].schema).toEqual({ $ref: "#/components/schemas/actionStatus" });
+      expect(post.parameters).toEqual([expect.objectContaining({ name: "Prefer", in: "header", required: false })]);
+      const item = doc.paths[`/${slug}/actions/${name}/{actionID}`];
+      for (const method of ["get", "delete"]) {
+        expect(item[method].parameters, `${name} ${method}`).toEqual([expect.objectContaining({ name: "actionID", in: "path", required: true })]);
+        expect(item[method].responses["200"].content["application/json"].schema).toEqual({ $ref: "#/components/schemas/actionStatus" });
+        expect(item[method].requestBody).toBeUndefined();
+      }
+      expect(item.delete.responses["204"]).toBeDefined();
+    }
+    expect(JSON.stringify(doc)).not.toContain('"in":"query"'); // the action's uriVariable is a path parameter only
+  });
+
   it("the official converter alone rejects its output for the TD (why the command corrects it)", async () => {
     const toOpenAPI = require("@thing-description-playground/td_to_openapi") as (td: unknown) => Promise<unknown>;
     await expect(toOpenAPI(structuredClone(td))).rejects.toThrow(/unit|exclusiveMinimum|const|schema validation failed/i);

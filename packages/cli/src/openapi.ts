@@ -17,6 +17,12 @@
  *    root (`/<slug>/properties/...`), so base + path repeats the slug: the server is the base's origin.
  * 5. Its examples are faked (json-schema-faker, random) from the truncated schemas: dropped.
  * 6. It leaves out the Server-Sent Events forms (it maps only long-poll observation to `GET`).
+ * 7. It turns an action's `uriVariables` into a query parameter of every operation of the action (with
+ *    a faked example): a variable is a required path parameter where the path holds its template
+ *    (`actions/<name>/{actionID}`), nothing elsewhere. Forms on one path and method merge: the moves'
+ *    synchronous form answers 200 with the output, the `Prefer: respond-async` form (its `htv:headers`
+ *    become a header parameter) 201 with the ActionStatus; queryaction and cancelaction answer the
+ *    ActionStatus their `additionalResponses` declare (cancel also 204, its default).
  *
  * The result is validated against the OpenAPI 3.0 JSON Schema (`@seriousme/openapi-schema-validator`).
  */
@@ -147,10 +153,12 @@ function jsonContent(contentType: string, schema: Json): Json {
   return { [contentType]: { schema } };
 }
 
-/** Responses of a form's `additionalResponses` (success: false → error answers). */
-function errorResponses(form: Json, schemaRef: (name: unknown) => Json): { responses: Record<string, Json>; listed: boolean } {
+/** Responses of a form's `additionalResponses`: error answers (success: false) and declared success
+ * answers (success: true, e.g. the ActionStatus of an asynchronous invocation or of a query). */
+function declaredResponses(form: Json, schemaRef: (name: unknown) => Json): { responses: Record<string, Json>; listed: boolean; success: boolean } {
   const responses: Record<string, Json> = {};
   let listed = false;
+  let success = false;
   const extra = Array.isArray(form["additionalResponses"]) ? (form["additionalResponses"] as unknown[]) : [];
   for (const r of extra) {
     if (!isObject(r)) continue;
@@ -158,10 +166,31 @@ function errorResponses(form: Json, schemaRef: (name: unknown) => Json): { respo
     const key = typeof status === "number" ? String(status) : "default";
     if (key !== "default") listed = true;
     const type = typeof r["contentType"] === "string" ? r["contentType"] : typeof form["contentType"] === "string" ? form["contentType"] : "application/json";
-    const description = typeof status === "number" ? (STATUS_TEXT[status] ?? `error ${status}`) : "an error answer";
+    const ok = r["success"] === true;
+    success ||= ok;
+    const description = ok ? "success" : typeof status === "number" ? (STATUS_TEXT[status] ?? `error ${status}`) : "an error answer";
     responses[key] = { description, content: jsonContent(type, schemaRef(r["schema"])) };
   }
-  return { responses, listed };
+  return { responses, listed, success };
+}
+
+/**
+ * (7) The action's `uriVariables` (e.g. `actionID` of the queryaction/cancelaction forms on
+ * `actions/<name>/{actionID}`): the converter makes each a query parameter of every operation of the
+ * action, with a faked example. A variable is a required path parameter where the path holds its
+ * template, and no parameter elsewhere.
+ */
+function fixUriVariables(op: Json, path: string, variables: string[]): void {
+  const params = Array.isArray(op["parameters"]) ? (op["parameters"] as Json[]) : [];
+  const kept: Json[] = [];
+  for (const p of params) {
+    const { example: _faked, ...rest } = p;
+    const name = typeof p["name"] === "string" ? p["name"] : "";
+    if (!variables.includes(name)) kept.push(rest);
+    else if (path.includes(`{${name}}`)) kept.push({ ...rest, in: "path", required: true });
+  }
+  if (kept.length > 0) op["parameters"] = kept;
+  else delete op["parameters"];
 }
 
 /**
@@ -216,36 +245,56 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
   doc["components"] = components;
   const schemaRef = (name: unknown): Json => (typeof name === "string" && name in definitions ? { $ref: `#/components/schemas/${name}` } : {});
 
-  const fill = (form: Json, response: Json | null, request: Json | null): void => {
+  const filled = new Set<string>(); // "<method> <path>" already given its success answer by a form
+  const fill = (form: Json, response: Json | null, request: Json | null, variables: string[] = []): void => {
     const where = formOperations(form);
     if (!where) return;
     if (where.methods.length === 0 && form["subprotocol"] === "sse") {
       addEventStream(doc, where.path, form, response);
       return;
     }
+    const ops = typeof form["op"] === "string" ? [form["op"]] : Array.isArray(form["op"]) ? (form["op"] as string[]) : [];
+    const onStatus = ops.includes("queryaction") || ops.includes("cancelaction");
     for (const method of where.methods) {
       const op = operation(doc, where.path, method);
       if (!op) continue;
+      const key = `${method} ${where.path}`;
       const responses = (op["responses"] ?? {}) as Json;
       const type = typeof form["contentType"] === "string" ? form["contentType"] : contentType;
-      // (2), (5): the complete schema, no faked example; a form's `response` may name another status
-      // and type (e.g. 201 for an action answered before it completes)
-      const expected = isObject(form["response"]) ? form["response"] : {};
-      const status = typeof expected["htv:statusCodeValue"] === "number" ? String(expected["htv:statusCodeValue"]) : "200";
-      const responseType = typeof expected["contentType"] === "string" ? expected["contentType"] : type;
-      if (status !== "200") delete responses["200"];
-      responses[status] = { description: "success", ...(response ? { content: jsonContent(responseType, response) } : {}) };
-      const errors = errorResponses(form, schemaRef);
-      if (errors.listed) delete responses["default"];
+      const declared = declaredResponses(form, schemaRef);
+      if (!filled.has(key)) delete responses["200"]; // the converter's guess; a form names the real one
+      if (!declared.success) {
+        // (2), (5): the complete schema, no faked example; a form's `response` may name another status
+        const expected = isObject(form["response"]) ? form["response"] : {};
+        const status = typeof expected["htv:statusCodeValue"] === "number" ? String(expected["htv:statusCodeValue"]) : "200";
+        const responseType = typeof expected["contentType"] === "string" ? expected["contentType"] : type;
+        responses[status] = { description: "success", ...(response ? { content: jsonContent(responseType, response) } : {}) };
+      }
+      if (ops.includes("cancelaction")) {
+        responses["204"] = { description: "cancelled (the default answer; with Prefer: return=representation, 200 and the final status)" };
+      }
+      if (declared.listed) delete responses["default"];
       else if (isObject(responses["default"]) && "error" in definitions) {
         // the converter's catch-all, with the body every error answer of this TD has
         responses["default"] = { description: "an error answer", content: jsonContent(type, schemaRef("error")) };
       }
-      Object.assign(responses, errors.responses);
+      for (const [status, answer] of Object.entries(declared.responses)) {
+        if (!(status in responses) || !filled.has(key) || declared.success) responses[status] = answer;
+      }
       op["responses"] = responses;
-      if (method === "get") delete op["requestBody"];
-      else if (request) op["requestBody"] = { required: true, content: jsonContent(type, request) };
-      else delete op["requestBody"];
+      filled.add(key);
+      if (method === "get" || method === "delete" || onStatus || !request) delete op["requestBody"];
+      else op["requestBody"] = { required: true, content: jsonContent(type, request) };
+      const headers = Array.isArray(form["htv:headers"]) ? (form["htv:headers"] as Json[]) : [];
+      for (const h of headers) {
+        const name = h["htv:fieldName"];
+        if (typeof name !== "string") continue;
+        const params = Array.isArray(op["parameters"]) ? (op["parameters"] as Json[]) : [];
+        if (params.some((p) => p["in"] === "header" && p["name"] === name)) continue;
+        const value = typeof h["htv:fieldValue"] === "string" ? h["htv:fieldValue"] : undefined;
+        op["parameters"] = [...params, { name, in: "header", required: false, description: `sent by the form answering ${String((isObject(form["response"]) && form["response"]["htv:statusCodeValue"]) ?? "")}`.trim(), schema: { type: "string", ...(value ? { enum: [value] } : {}) } }];
+      }
+      fixUriVariables(op, where.path, variables);
     }
   };
 
@@ -257,7 +306,8 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
   const actions = isObject(td["actions"]) ? td["actions"] : {};
   for (const a of Object.values(actions)) {
     if (!isObject(a)) continue;
-    for (const form of (a["forms"] ?? []) as Json[]) fill(form, isObject(a["output"]) ? toOasSchema(a["output"]) : null, isObject(a["input"]) ? toOasSchema(a["input"]) : null);
+    const variables = isObject(a["uriVariables"]) ? Object.keys(a["uriVariables"]) : [];
+    for (const form of (a["forms"] ?? []) as Json[]) fill(form, isObject(a["output"]) ? toOasSchema(a["output"]) : null, isObject(a["input"]) ? toOasSchema(a["input"]) : null, variables);
   }
   const events = isObject(td["events"]) ? td["events"] : {};
   for (const e of Object.values(events)) {
