@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import socket
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -24,6 +22,7 @@ import pytest
 from robwot_sim.errors import InvalidParams, SimError
 from robwot_sim.sim.world import World
 from robwot_sim.workspace import generate_workspace
+from robwot_sim.workspace.cluster import LocalCluster
 
 ENABLED = os.environ.get("ROBWOT_RAY_TESTS") == "1"
 pytestmark = pytest.mark.skipif(not ENABLED, reason="Ray cluster tests are opt-in: set ROBWOT_RAY_TESTS=1 "
@@ -41,39 +40,10 @@ def _free_port() -> int:
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, subprocess.Popen[bytes]]]:
     """A local Ray cluster: head node with 2 CPUs, stopped with its processes at the end."""
-    import ray  # a failure when the tests are enabled without the cluster extra
+    import ray  # noqa: F401 - a failure when the tests are enabled without the cluster extra
 
-    ray_bin = Path(shutil.which("ray", path=str(Path(sys.executable).parent)) or "ray")
-    port = _free_port()
-    temp = tmp_path_factory.mktemp("ray")
-    log = (temp / "head.log").open("wb")
-    head = subprocess.Popen([str(ray_bin), "start", "--head", "--block", f"--port={port}", "--num-cpus=2",
-                             "--include-dashboard=false", "--disable-usage-stats",
-                             f"--temp-dir={temp}"], stdout=log, stderr=subprocess.STDOUT,
-                            env={**os.environ, "RAY_USAGE_STATS_ENABLED": "0"})
-    address = f"127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                with socket.create_connection(("127.0.0.1", port), timeout=1):
-                    break
-            except OSError:
-                if head.poll() is not None or time.monotonic() > deadline:
-                    tail = (temp / "head.log").read_text()[-2000:]
-                    raise RuntimeError(f"ray start failed: {tail}") from None
-                time.sleep(0.5)
-        yield address, head
-    finally:
-        if ray.is_initialized():
-            ray.shutdown()
-        head.terminate()
-        try:
-            head.wait(60)
-        except subprocess.TimeoutExpired:
-            head.kill()
-            head.wait()
-        log.close()
+    with LocalCluster(2, tmp_path_factory.mktemp("ray")) as c:
+        yield c.address, c.head
 
 
 def _generate(out: Path, samples: int, seed: int, cluster: str | None = None, **kw: Any) -> dict[str, Any]:

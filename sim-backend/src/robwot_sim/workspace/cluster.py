@@ -22,7 +22,10 @@ the nodes (README "Running on a Ray cluster").
 
 from __future__ import annotations
 
+import os
 import socket
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -192,3 +195,57 @@ def cluster_address(value: Any) -> str | None:
         raise InvalidParams('cluster must be a Ray address ("auto" or ray://host:port)', param="cluster",
                             expected='"auto" | "ray://host:port" | "host:port"', got=value)
     return value.strip()
+
+
+class LocalCluster:
+    """A Ray cluster on this machine for tests and benchmarks: ``ray start --head --block`` with ``cpus``
+    worker CPUs, its files under ``temp_dir``; ``stop()`` (or leaving the ``with`` block) ends it and every
+    process it started (``--block``: the command stops them when terminated), nothing else."""
+
+    def __init__(self, cpus: int, temp_dir: str | Path, timeout: float = 120.0) -> None:
+        ray_bin = Path(sys.executable).parent / "ray"
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            self.port = int(s.getsockname()[1])
+        self.address = f"127.0.0.1:{self.port}"
+        temp = Path(temp_dir)
+        temp.mkdir(parents=True, exist_ok=True)
+        self.log = temp / "ray-head.log"
+        with self.log.open("wb") as log:
+            self.head = subprocess.Popen(
+                [str(ray_bin), "start", "--head", "--block", f"--port={self.port}", f"--num-cpus={cpus}",
+                 "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={temp.resolve()}"],
+                stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                env={**os.environ, "RAY_USAGE_STATS_ENABLED": "0"})
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                with socket.create_connection(("127.0.0.1", self.port), timeout=1):
+                    return
+            except OSError:
+                if self.head.poll() is not None or time.monotonic() > deadline:
+                    self.stop()
+                    raise RuntimeError(f"ray start failed: {self.log.read_text()[-2000:]}") from None
+                time.sleep(0.5)
+
+    def stop(self) -> None:
+        """Disconnect this process if it is connected to this cluster, then stop the cluster."""
+        global _connected
+        if _connected == self.address:
+            import ray
+
+            ray.shutdown()
+            _connected = None
+        if self.head.poll() is None:
+            self.head.terminate()
+            try:
+                self.head.wait(60)
+            except subprocess.TimeoutExpired:
+                self.head.kill()
+                self.head.wait()
+
+    def __enter__(self) -> LocalCluster:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
