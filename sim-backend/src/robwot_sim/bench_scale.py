@@ -39,18 +39,45 @@ URDF = "kuka_iiwa/model.urdf"
 SCENE = SCENES / "obstacles-4.json"
 
 
-def run(samples: int, workers: int, cluster: str | None) -> dict[str, Any]:
-    """One generation; wall time and the summary's timings."""
+def cpu_seconds(pids: list[int]) -> float:
+    """User + system CPU seconds of these processes and all their descendants (alive ones)."""
+    import psutil
+
+    total, seen = 0.0, set()
+    for pid in pids:
+        try:
+            root = psutil.Process(pid)
+            procs = [root, *root.children(recursive=True)]
+        except psutil.Error:
+            continue
+        for p in procs:
+            if p.pid in seen:
+                continue
+            seen.add(p.pid)
+            try:
+                t = p.cpu_times()
+                total += t.user + t.system
+            except psutil.Error:
+                continue
+    return total
+
+
+def run(samples: int, workers: int, cluster: str | None, head: int | None = None) -> dict[str, Any]:
+    """One generation: wall time, the summary's timings and the CPU seconds it took (this process and
+    its workers: the pool's processes, or the Ray processes under ``head``)."""
+    pids = [os.getpid(), *([head] if head is not None else [])]
     with tempfile.TemporaryDirectory(prefix="robwot-bench-scale-") as out, World() as w:
         w.load_robot(URDF, robot_id="kuka")
         w.load_scene(SCENE)
+        c0 = cpu_seconds(pids)
         t0 = time.perf_counter()
         s = generate_workspace(w, "kuka", samples=samples, seed=1, workers=workers, out_dir=out,
                                cluster=cluster)
         wall = time.perf_counter() - t0
+        cpu = cpu_seconds(pids) - c0
     label = s["timings"]["collide"] + s["timings"]["sample"]
-    return {"samples": samples, "wall": wall, "label": label, "rate": samples / label,
-            "alpha": s["timings"]["alpha"], "free": s["collisionFree"]}
+    return {"samples": samples, "wall": wall, "label": label, "rate": samples / label, "cpu": cpu,
+            "cpu_rate": samples / max(cpu, 1e-9), "alpha": s["timings"]["alpha"], "free": s["collisionFree"]}
 
 
 class PeakRss:
@@ -123,18 +150,21 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(("local pool", workers, run(args.samples, workers, None)))
         for cpus in (1, 2):
             with LocalCluster(cpus, temp / f"ray{cpus}") as c:
-                run(2000, 2, c.address)  # connect, start the workers and their worlds
-                rows.append(("Ray (local cluster)", cpus, run(args.samples, 2, c.address)))
-        print(f"\n{args.samples:,} samples: labelling rate (sampling, FK, collision checks; CSV on Ray)")
-        print("| mode | workers | samples/s | labelling (s) | total (s) |\n|---|---|---|---|---|")
+                run(2000, 2, c.address, c.head.pid)  # connect, start the workers and their worlds
+                rows.append(("Ray (local cluster)", cpus, run(args.samples, 2, c.address, c.head.pid)))
+        print(f"\n{args.samples:,} samples: labelling rate (sampling, FK, collision checks; CSV on Ray); "
+              "per CPU-s = samples / CPU seconds of the whole run (driver and workers)")
+        print("| mode | workers | samples/s | labelling (s) | total (s) | samples per CPU-s |\n"
+              "|---|---|---|---|---|---|")
         for mode, n, r in rows:
-            print(f"| {mode} | {n} | {r['rate']:,.0f} | {r['label']:.2f} | {r['wall']:.2f} |")
+            print(f"| {mode} | {n} | {r['rate']:,.0f} | {r['label']:.2f} | {r['wall']:.2f} | "
+                  f"{r['cpu_rate']:,.0f} |")
         if args.big:
             run(2000, 2, None)
             local = run(args.big, 2, None)
             with LocalCluster(2, temp / "big") as c:
-                run(2000, 2, c.address)
-                ray = run(args.big, 2, c.address)
+                run(2000, 2, c.address, c.head.pid)
+                ray = run(args.big, 2, c.address, c.head.pid)
             print(f"\n{args.big:,} samples, 2 workers: wall time\n| mode | total (s) | labelling (s) | "
                   "alpha (s) | collision-free |\n|---|---|---|---|---|")
             for mode, r in (("local pool", local), ("Ray", ray)):
