@@ -36,7 +36,7 @@ from typing import Any, BinaryIO
 import numpy as np
 import numpy.typing as npt
 
-from robwot_sim.errors import InvalidParams, SimError
+from robwot_sim.errors import ClusterError, InvalidParams
 from robwot_sim.workspace.chunk import Chunk, ChunkJob, label_chunk
 from robwot_sim.workspace.io import atomic_write
 from robwot_sim.workspace.labelling import chunk_size, rebuild_error
@@ -77,8 +77,8 @@ def _check_reachable(address: str) -> None:
         with socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT):
             pass
     except OSError as e:
-        raise SimError(f"cannot connect to the Ray cluster at {address!r}: {e.strerror or e}",
-                       code="E_CLUSTER", address=address) from None
+        raise ClusterError(f"cannot connect to the Ray cluster at {address!r}: {e.strerror or e}",
+                           address=address) from None
 
 
 def connect(address: str) -> Any:
@@ -98,8 +98,8 @@ def connect(address: str) -> Any:
                 ray.init(address=address, logging_level="WARNING", log_to_driver=False,
                          configure_logging=False)
             except (ConnectionError, RuntimeError, ValueError) as e:
-                raise SimError(f"cannot connect to the Ray cluster at {address!r}: {e}", code="E_CLUSTER",
-                               address=address) from None
+                raise ClusterError(f"cannot connect to the Ray cluster at {address!r}: {e}",
+                                   address=address) from None
             _connected = address
             _remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(label_chunk)
     return ray
