@@ -1,6 +1,8 @@
 #!/usr/bin/env node
 // Creates sim-backend/.venv with Python >= 3.11 and installs the backend (editable, with dev tools).
-// Runs from `npm install` (postinstall). Idempotent: skips pip when pyproject.toml is unchanged.
+// Runs from `npm install` (postinstall). Idempotent: skips pip when pyproject.toml and the extras are unchanged.
+// ROBWOT_EXTRAS (comma-separated, e.g. `cluster` for Ray: `robwot generate --cluster`) adds optional extras
+// of sim-backend/pyproject.toml to the always-installed `dev` one.
 import { execFileSync, spawnSync } from "node:child_process";
 import { createHash } from "node:crypto";
 import { existsSync, readFileSync, writeFileSync } from "node:fs";
@@ -33,12 +35,21 @@ if (!existsSync(py)) {
   execFileSync(base, ["-m", "venv", venv], { stdio: "inherit" });
 }
 const stamp = join(venv, ".robwot-installed");
-const hash = createHash("sha256").update(readFileSync(join(backend, "pyproject.toml"))).digest("hex");
+const extras = ["dev", ...(process.env.ROBWOT_EXTRAS ?? "").split(",").map((e) => e.trim()).filter(Boolean)]
+  .filter((e, i, all) => all.indexOf(e) === i);
+if (!extras.every((e) => /^[A-Za-z0-9_-]+$/.test(e))) {
+  console.error(`[robwot] error: ROBWOT_EXTRAS=${process.env.ROBWOT_EXTRAS} is not a comma-separated list of extras`);
+  process.exit(1);
+}
+const hash = createHash("sha256")
+  .update(readFileSync(join(backend, "pyproject.toml")))
+  .update(`\nextras=${extras.join(",")}`)
+  .digest("hex");
 if (existsSync(stamp) && readFileSync(stamp, "utf8") === hash) {
   console.log("[robwot] Python backend already installed");
 } else {
-  console.log("[robwot] installing the Python backend (pybullet, numpy, scipy, websockets, dev tools)");
-  execFileSync(py, ["-m", "pip", "install", "--disable-pip-version-check", "-q", "-e", `${backend}[dev]`], {
+  console.log(`[robwot] installing the Python backend (pybullet, numpy, scipy, websockets; extras ${extras.join(", ")})`);
+  execFileSync(py, ["-m", "pip", "install", "--disable-pip-version-check", "-q", "-e", `${backend}[${extras.join(",")}]`], {
     stdio: "inherit",
   });
   writeFileSync(stamp, hash);

@@ -48,6 +48,9 @@ const CASES: [string, () => string[], RegExp][] = [
   ["bad --samples", () => ["generate", "kuka_iiwa", "--samples", "many"], /--samples must be an integer, got "many"/],
   ["bad --alpha", () => ["generate", "kuka_iiwa", "--alpha", "0"], /--alpha must be "auto" or a positive radius/],
   ["unknown option", () => ["generate", "kuka_iiwa", "--sampels", "10"], /sampels/],
+  ["--cluster with --workers", () => ["generate", "kuka_iiwa", "--cluster", "auto", "--workers", "2"], /--workers is for the local pool/],
+  // with the cluster extra: nothing listens there; without it: the extra is named
+  ["--cluster where no Ray cluster answers", () => ["generate", join(work, "tiny.urdf"), "--cluster", "127.0.0.1:1"], /Ray cluster at '127\.0\.0\.1:1'|cluster extra/],
 ];
 
 describe("robwot generate with bad input", () => {

@@ -39,6 +39,7 @@ def test_generate_streams_progress_and_serves_meanwhile(backend: BackendProcess,
 @pytest.mark.parametrize(("params", "param"), [
     ({"samples": 0}, "samples"), ({"samples": 1.5}, "samples"), ({"alpha": "big"}, "alpha"),
     ({"alpha": -1}, "alpha"), ({"workers": 0}, "workers"), ({"csvJoints": "yes"}, "csvJoints"),
+    ({"cluster": ""}, "cluster"), ({"cluster": "   "}, "cluster"), ({"cluster": 7}, "cluster"),
 ])
 def test_invalid_params_are_refused(client: RpcClient, tmp_path: Path, params: dict[str, object],
                                     param: str) -> None:
@@ -46,3 +47,20 @@ def test_invalid_params_are_refused(client: RpcClient, tmp_path: Path, params: d
     err = client.error("workspace.generate", {"robot": "kuka", "outDir": str(tmp_path / "out"), **params})
     assert err.code == -32602 and err.data["param"] == param
     assert not (tmp_path / "out").exists()
+
+
+def test_cluster_where_none_answers(client: RpcClient, tmp_path: Path) -> None:
+    """``cluster`` at an address where nothing listens: E_CLUSTER at once (with Ray installed) or
+    E_INVALID_PARAMS naming the missing extra (without)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    err = client.error("workspace.generate", {"robot": "kuka", "samples": 500, "outDir": str(tmp_path),
+                                              "cluster": f"127.0.0.1:{port}"})
+    try:
+        import ray  # noqa: F401
+        assert err.data["code"] == "E_CLUSTER" and f"127.0.0.1:{port}" in str(err)
+    except ImportError:
+        assert err.code == -32602 and err.data["param"] == "cluster" and "extra" in str(err)

@@ -13,7 +13,7 @@ from robwot_sim.sim.world import World
 from robwot_sim.urdf import read_urdf
 from robwot_sim.workspace import chain_fk
 from robwot_sim.workspace.fk import ChainFK, quat_matrix, rpy_matrix
-from robwot_sim.workspace.sampling import sample_configurations
+from robwot_sim.workspace.sampling import BLOCK, sample_configurations
 
 MODELS = Path(__file__).parent / "models" / "workspace"
 BASE_POS = (0.3, -0.2, 0.1)
@@ -98,6 +98,23 @@ def test_sampling_seeded_and_within_limits() -> None:
     assert not np.array_equal(a, sample_configurations(lo, hi, 5000, seed=2))
     assert (a >= lo).all() and (a <= hi).all()
     assert np.allclose(a.mean(axis=0), (lo + hi) / 2, atol=0.05 * (hi - lo))
+
+
+def test_sampling_any_split_gives_the_same_rows() -> None:
+    """Rows depend only on (seed, row): any range drawn alone (a chunk on a worker or a Ray task) equals
+    the same rows of one draw, across block boundaries; blocks are independent streams."""
+    lo, hi = np.array([-1.0, 0.05, -3.0]), np.array([2.0, 0.25, 3.0])
+    whole = sample_configurations(lo, hi, 5 * BLOCK + 17, seed=4)
+    for start, count in ((0, 1), (3, 500), (BLOCK - 1, 2), (BLOCK, BLOCK),
+                         (2 * BLOCK + 333, 2 * BLOCK + 684)):
+        assert np.array_equal(sample_configurations(lo, hi, count, seed=4, start=start),
+                              whole[start:start + count])
+    parts = [sample_configurations(lo, hi, n, seed=4, start=a)
+             for a, n in ((0, 777), (777, 2500), (3277, len(whole) - 3277))]
+    assert np.array_equal(np.concatenate(parts), whole)
+    assert not np.array_equal(whole[:BLOCK], whole[BLOCK:2 * BLOCK])
+    with pytest.raises(InvalidParams):
+        sample_configurations(lo, hi, 10, seed=4, start=-1)
 
 
 def test_sampling_refuses_bad_limits() -> None:

@@ -127,7 +127,7 @@ export async function generateTwin(
   progress.stage("load");
   const urdf = urdfPath(opts, backend.pybulletData);
   // The backend starts its collision workers (and loads the alpha-shape code) while it loads the scene.
-  await backend.warmUp(opts.workers);
+  if (opts.cluster === undefined) await backend.warmUp(opts.workers);
   const model = await loadRobotInScene(opts, backend, urdf);
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
@@ -139,6 +139,7 @@ export async function generateTwin(
       samples: opts.samples,
       seed: opts.seed,
       ...(opts.workers !== undefined ? { workers: opts.workers } : {}),
+      ...(opts.cluster !== undefined ? { cluster: opts.cluster } : {}),
       alpha: opts.alpha,
       outDir: staged.tmp,
       csvJoints: opts.csvJoints,

@@ -739,6 +739,10 @@ export interface WorkspaceGenerateParams {
    * voxel side (m) of the reachability map, or "auto": 1 cm doubled until the voxels reached collision-free hold 32 collision-free samples on average (at most 0.5 m)
    */
   reachVoxel?: "auto" | number;
+  /**
+   * run sampling, labelling and the reachability map as Ray tasks on the existing Ray cluster at this address ("auto": RAY_ADDRESS or the cluster started on the backend's machine; "ray://host:10001"; "host:6379"); same files as a local run for the same seed and samples; `workers` is then unused. Needs the backend's `cluster` extra (Ray); without it, E_INVALID_PARAMS. Absent: the local worker pool
+   */
+  cluster?: string;
 }
 /**
  * Params of `workspace.warmUp`.

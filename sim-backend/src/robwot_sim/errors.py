@@ -228,6 +228,13 @@ class MeshError(SimError):
     code = "E_MESH"
 
 
+class ClusterError(SimError):
+    """``workspace.generate`` with ``cluster``: the Ray cluster cannot be reached (``address``)."""
+
+    rpc_code = -32013
+    code = "E_CLUSTER"
+
+
 class NameTaken(SimError):
     rpc_code = -32010
     code = "E_NAME_TAKEN"

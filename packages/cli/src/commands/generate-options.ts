@@ -32,6 +32,8 @@ export interface GenerateOptions {
   /** voxel side (m) of reachability.csv, or "auto" (chosen from the samples by the backend) */
   reachVoxel: "auto" | number;
   workers?: number;
+  /** Ray cluster address ("auto", ray://host:10001, host:port): workspace chunks run there as Ray tasks */
+  cluster?: string;
   packageRoots: Record<string, string>;
   csvJoints: boolean;
   backend?: string;
@@ -51,6 +53,7 @@ export const GENERATE_OPTIONS = {
   alpha: { type: "string" },
   "reach-voxel": { type: "string" },
   workers: { type: "string" },
+  cluster: { type: "string" },
   "package-root": { type: "string", multiple: true },
   "csv-joints": { type: "boolean" },
   backend: { type: "string" },
@@ -127,6 +130,9 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const seed = parseInteger("seed", values.seed, 1, 0, 2 ** 32 - 1);
   const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, 1, 1, 256);
   const alpha = parseAlpha(values.alpha);
+  const cluster = values.cluster?.trim();
+  if (cluster === "") throw new CliError('--cluster needs a Ray address ("auto" or ray://host:10001)');
+  if (cluster !== undefined && workers !== undefined) throw new CliError("--workers is for the local pool: give it or --cluster, not both");
   const reachVoxel = values["reach-voxel"] === undefined || values["reach-voxel"] === "auto" ? "auto" : parseNumber("reach-voxel", values["reach-voxel"], 0, 0.005, 0.5);
   const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, MIN_CLEARANCE, MAX_CLEARANCE);
   const packageRoots = parsePackageRoots(values["package-root"]);
@@ -151,6 +157,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     alpha,
     reachVoxel,
     ...(workers !== undefined ? { workers } : {}),
+    ...(cluster !== undefined ? { cluster } : {}),
     packageRoots,
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),

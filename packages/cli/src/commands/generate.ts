@@ -30,6 +30,9 @@ Options:
   --reach-voxel auto|M    voxel side in metres of reachability.csv (0.005 to 0.5; default auto:
                           1 cm doubled until reached voxels hold 32 collision-free samples on average)
   --workers N             collision-checking processes (default: number of cores)
+  --cluster ADDRESS       run sampling, labelling and the reachability map as Ray tasks on an existing
+                          Ray cluster: ray://HOST:10001, HOST:6379, or auto (RAY_ADDRESS / this
+                          machine's); same files as a local run. Needs ROBWOT_EXTRAS=cluster npm install
   --package-root NAME=DIR resolve package://NAME/... mesh paths (repeatable)
   --csv-joints            add the joint values to workspace.csv
   --backend ws://HOST:PORT use a running backend instead of starting one

@@ -31,6 +31,7 @@ def register(d: Dispatcher, s: Services) -> None:
         alpha: float | str = p["alpha"] if p["alpha"] == "auto" else float(p["alpha"])
         out_dir, csv_joints = str(p["outDir"]), bool(p["csvJoints"])
         reach_voxel: float | str = p["reachVoxel"] if p["reachVoxel"] == "auto" else float(p["reachVoxel"])
+        cluster = str(p["cluster"]) if p.has("cluster") else None
         progress = s.threadsafe(call.notify)
 
         def report(stage: str, done: int, total: int) -> None:
@@ -39,6 +40,6 @@ def register(d: Dispatcher, s: Services) -> None:
         def run() -> dict[str, Any]:
             return generate_workspace(s.world, model.id, samples=samples, seed=seed, workers=workers,
                                       alpha=alpha, out_dir=out_dir, csv_joints=csv_joints,
-                                      reach_voxel=reach_voxel, progress=report)
+                                      reach_voxel=reach_voxel, cluster=cluster, progress=report)
 
         return await s.run_blocking(run)

@@ -19,8 +19,9 @@ import numpy as np
 import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.urdf import read_urdf
+from robwot_sim.workspace.chunk import ChunkJob, end_link
 from robwot_sim.workspace.fk import ChainFK
-from robwot_sim.workspace.io import write_csv, write_stl
+from robwot_sim.workspace.io import csv_layout, write_csv, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
 from robwot_sim.workspace.reachability import (
     BASE_VOXEL,
@@ -28,7 +29,6 @@ from robwot_sim.workspace.reachability import (
     MAX_VOXEL,
     MIN_VOXEL,
     ReachabilityMap,
-    direction_bins,
 )
 from robwot_sim.workspace.sampling import sample_configurations
 
@@ -37,7 +37,12 @@ if TYPE_CHECKING:
 
 # scipy (alpha shape) is imported on first use: worker processes import this package and need only
 # the labelling, and they start faster without it.
-__all__ = ["ChainFK", "chain_fk", "generate_workspace", "warm_up"]
+__all__ = ["ALPHA_MAX_POINTS", "ChainFK", "chain_fk", "generate_workspace", "warm_up"]
+
+# The alpha shape is built from at most this many collision-free points: the first ones in sample order
+# (a uniform subsample, the samples being i.i.d.). Every run up to ~10^6 samples uses all of them; a
+# 10^7-sample run (cluster) keeps the driver's memory and the triangulation bounded.
+ALPHA_MAX_POINTS = 1_000_000
 
 Progress = Callable[[str, int, int], None]
 
@@ -96,16 +101,6 @@ def _reach_voxel(voxel: float | str) -> float | str:
     return float(voxel)
 
 
-def _end_link(fk: ChainFK, qs: np.ndarray, block: int = 100_000) -> tuple[np.ndarray, np.ndarray]:
-    """End-link positions ``(n, 3)`` and approach-direction bins ``(n,)`` (in blocks to bound memory)."""
-    positions = np.empty((len(qs), 3))
-    bins = np.empty(len(qs), dtype=np.uint8)
-    for a in range(0, len(qs), block):
-        p, r = fk.poses(qs[a:a + block])
-        positions[a:a + block], bins[a:a + block] = p, direction_bins(r)
-    return positions, bins
-
-
 def _out_dir(out_dir: str | Path) -> Path:
     if not isinstance(out_dir, (str, Path)) or not str(out_dir):
         raise InvalidParams("outDir must be a folder path", param="outDir", expected="string", got=out_dir)
@@ -130,7 +125,7 @@ def _bounds(points: np.ndarray) -> dict[str, list[float] | None]:
 def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, seed: int = 1,
                        workers: int | None = None, alpha: float | str = "auto", out_dir: str | Path,
                        csv_joints: bool = False, reach_voxel: float | str = "auto",
-                       progress: Progress | None = None) -> dict[str, Any]:
+                       cluster: str | None = None, progress: Progress | None = None) -> dict[str, Any]:
     """Sample ``samples`` configurations (seeded), label them in ``workers`` processes, build the alpha
     shape of the collision-free end-effector positions and write ``workspace.csv``/``workspace.stl`` and
     the reachability map ``reachability.csv`` (``reachability.py``; voxel side ``reach_voxel`` m or
@@ -139,16 +134,23 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     While the worker pool starts, the calling thread computes FK and then labels chunks no worker has
     started with ``world`` itself (short calls, so other requests on ``world`` are only briefly held).
 
+    With ``cluster`` (a Ray address or ``"auto"``), the chunks run as Ray tasks on that cluster instead
+    (``cluster.py``; ``workers`` is then unused) and give the same files.
+
     Returns the WorkspaceSummary; ``bounds`` are those of the collision-free points (``None`` when there
-    is none), ``reachBounds`` the box of every position the end link can reach
-    (``ChainFK.reach_bounds``); ``timings`` in seconds: ``sample`` = sampling + FK + reach box,
-    ``collide`` = wall time of the parallel labelling (FK runs in the meantime), ``alpha``, ``write``
-    (after the alpha shape: the CSV is written during it, by a second thread). A ``warning`` key appears
-    when the alpha shape fell back to the convex hull or the workspace is flat but not a planar region;
-    ``halfThickness`` (m) when it is flat (``flat_shape.py``).
+    is none), ``reachBounds`` the box of every position the end link can reach (``ChainFK.reach_bounds``,
+    holding ``bounds``); ``timings`` in seconds: ``sample`` = sampling + FK + reach box, ``collide`` =
+    wall time of the parallel labelling (FK runs in the meantime; on a cluster: sampling, FK, labelling
+    and the CSV, ``sample`` the reach box only), ``alpha``, ``write`` (after the alpha shape: the CSV is
+    written during it, by a second thread). A ``warning`` key appears when the alpha shape fell back to
+    the convex hull or the workspace is flat but not a planar region; ``halfThickness`` (m) when it is
+    flat (``flat_shape.py``).
     """
+    from robwot_sim.workspace.cluster import cluster_address
+
     n_workers, alpha_arg = _check(samples, seed, workers, alpha)
     voxel_arg = _reach_voxel(reach_voxel)
+    address = cluster_address(cluster)
     report: Progress = progress or (lambda _s, _d, _t: None)
     model = world.robot_model(robot_id)
     out = _out_dir(out_dir)
@@ -158,56 +160,87 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
             r.pop("positions", None)  # irrelevant to labelling: keeps the workers' cached world valid
     fk = chain_fk(world, robot_id)
     lower, upper = model.limits()
+    base_voxel = BASE_VOXEL if voxel_arg == "auto" else float(voxel_arg)
+    t_reach = time.perf_counter()
+    reach_min, reach_max = fk.reach_bounds(lower, upper, int(seed))
+    t_reach = time.perf_counter() - t_reach
 
-    t0 = time.perf_counter()
-    report("sample", 0, samples)
-    qs = sample_configurations(lower, upper, int(samples), int(seed))
-    t_submit = time.perf_counter()
-    job = Labelling(spec, robot_id, qs, n_workers)
-    t1 = time.perf_counter()
-    try:
-        positions, bins = _end_link(fk, qs)
-    except BaseException:
-        job.abandon()
-        raise
-    reach_min, reach_max = fk.reach_bounds(qs, positions, lower, upper)
-    t_sample = (t_submit - t0) + (time.perf_counter() - t1)
-    report("sample", samples, samples)
-    report("collide", 0, samples)
-    free = job.result(lambda done, total: report("collide", done, total),
-                      helper=lambda q: world.collision_free_batch(robot_id, q))
-    t_collide = time.perf_counter() - t_submit
+    if address is not None:
+        from robwot_sim.workspace.cluster import run_chunks
+        from robwot_sim.workspace.pool import spec_key
 
-    t2 = time.perf_counter()
-    report("alpha", 0, 1)
-    from robwot_sim.workspace.alpha_shape import alpha_shape
-    from robwot_sim.workspace.flat_shape import FlatShape
+        header, row_format = csv_layout(len(model.controllable) if csv_joints else None, model.controllable)
+        job = ChunkJob(spec_key(spec), spec, robot_id, fk, np.asarray(lower, dtype=np.float64),
+                       np.asarray(upper, dtype=np.float64), int(seed), base_voxel, row_format, csv_joints)
+        report("sample", samples, samples)
+        report("collide", 0, samples)
+        run = run_chunks(address, job, int(samples), header, out / "workspace.csv",
+                         lambda done, total: report("collide", done, total), ALPHA_MAX_POINTS)
+        t2 = time.perf_counter()
+        report("alpha", 0, 1)
+        from robwot_sim.workspace.alpha_shape import alpha_shape
 
-    # The CSV is written by a second thread while Qhull (which releases the GIL) triangulates.
-    with ThreadPoolExecutor(1, thread_name_prefix="robwot-write-csv") as writer:
-        csv = writer.submit(write_csv, out / "workspace.csv", positions, free, qs if csv_joints else None,
-                            model.controllable)
-        try:
-            shape = alpha_shape(positions[free], alpha_arg)
-        except BaseException:
-            csv.cancel()
-            raise
+        shape = alpha_shape(run.alpha_points, alpha_arg)
         report("alpha", 1, 1)
         t3 = time.perf_counter()
         report("write", 0, 2)
-        csv.result()
-    report("write", 1, 2)
+        report("write", 1, 2)
+        free_count, reach = run.collision_free, run.reach
+        bounds: dict[str, list[float] | None] = (
+            {"min": None, "max": None} if run.lo is None or run.hi is None
+            else {"min": [float(v) for v in run.lo], "max": [float(v) for v in run.hi]})
+        t_sample, t_collide = t_reach, run.seconds
+    else:
+        t0 = time.perf_counter()
+        report("sample", 0, samples)
+        qs = sample_configurations(lower, upper, int(samples), int(seed))
+        t_submit = time.perf_counter()
+        labelling = Labelling(spec, robot_id, qs, n_workers)
+        t1 = time.perf_counter()
+        try:
+            positions, bins = end_link(fk, qs)
+        except BaseException:
+            labelling.abandon()
+            raise
+        t_sample = (t_submit - t0) + (time.perf_counter() - t1) + t_reach
+        report("sample", samples, samples)
+        report("collide", 0, samples)
+        free = labelling.result(lambda done, total: report("collide", done, total),
+                                helper=lambda q: world.collision_free_batch(robot_id, q))
+        t_collide = time.perf_counter() - t_submit
+
+        t2 = time.perf_counter()
+        report("alpha", 0, 1)
+        from robwot_sim.workspace.alpha_shape import alpha_shape
+
+        # The CSV is written by a second thread while Qhull (which releases the GIL) triangulates.
+        with ThreadPoolExecutor(1, thread_name_prefix="robwot-write-csv") as writer:
+            csv = writer.submit(write_csv, out / "workspace.csv", positions, free, qs if csv_joints else None,
+                                model.controllable)
+            try:
+                shape = alpha_shape(positions[free][:ALPHA_MAX_POINTS], alpha_arg)
+            except BaseException:
+                csv.cancel()
+                raise
+            report("alpha", 1, 1)
+            t3 = time.perf_counter()
+            report("write", 0, 2)
+            csv.result()
+        report("write", 1, 2)
+        free_count, bounds = int(free.sum()), _bounds(positions[free])
+        reach = ReachabilityMap(base_voxel)
+        reach.add(positions, free, bins)
     write_stl(out / "workspace.stl", shape.vertices, shape.triangles)
-    reach = ReachabilityMap(BASE_VOXEL if voxel_arg == "auto" else float(voxel_arg))
-    reach.add(positions, free, bins)
     if voxel_arg == "auto":
         reach = reach.auto()
     reach.write_csv(out / "reachability.csv")
     report("write", 2, 2)
     t4 = time.perf_counter()
 
+    if bounds["min"] is not None and bounds["max"] is not None:  # the box holds every sample, by construction
+        reach_min, reach_max = np.minimum(reach_min, bounds["min"]), np.maximum(reach_max, bounds["max"])
     summary: dict[str, Any] = {
-        "samples": int(samples), "collisionFree": int(free.sum()), "bounds": _bounds(positions[free]),
+        "samples": int(samples), "collisionFree": free_count, "bounds": bounds,
         "reachBounds": {"min": reach_min.tolist(), "max": reach_max.tolist()},
         "alpha": shape.alpha, "method": shape.method, "volume": shape.volume, "seed": int(seed),
         "reachability": {"file": "reachability.csv", "voxel": reach.voxel, "voxels": reach.voxels,
@@ -216,6 +249,8 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
         "versions": versions()}
     if shape.warning is not None:
         summary["warning"] = shape.warning
+    from robwot_sim.workspace.flat_shape import FlatShape
+
     if isinstance(shape, FlatShape):
         summary["halfThickness"] = shape.half_thickness
     return summary

@@ -145,16 +145,18 @@ class ChainFK:
                 r = r @ _axis_angle(axis, v)
         return p, r
 
-    def reach_bounds(self, qs: FloatArray, positions: FloatArray, lower: npt.ArrayLike,
-                     upper: npt.ArrayLike, starts: int = 4,
-                     iterations: int = 60) -> tuple[FloatArray, FloatArray]:
+    def reach_bounds(self, lower: npt.ArrayLike, upper: npt.ArrayLike, seed: int, samples: int = 10_000,
+                     starts: int = 4, iterations: int = 60) -> tuple[FloatArray, FloatArray]:
         """Axis-aligned box (world frame, m) of the end link's positions within the joint limits,
-        collisions ignored: for each of the six directions, the ``starts`` sampled configurations ``qs``
-        (their ``positions``) farthest that way climb further by projected gradient ascent (forward
+        collisions ignored: of ``samples`` configurations drawn uniformly (seeded, its own: the same box
+        for a local and a cluster run), for each of the six directions the ``starts`` farthest that way
+        climb further by projected gradient ascent (forward
         differences, step doubled on success and quartered on failure; all 6 x ``starts`` climbs in one
         FK batch per iteration), and the box takes the farthest point found. Samples never reach the
         true extremes (a TD bounded by them refused reachable targets); the climb does, to ~0.1 mm."""
         lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
+        qs = np.random.default_rng([seed, 0x5EAC4]).uniform(lo, hi, size=(samples, len(lo)))
+        positions = self.positions(qs)
         axis = np.repeat(np.arange(3), 2 * starts)
         sign = np.tile(np.repeat([-1.0, 1.0], starts), 3)
         picks = np.concatenate([np.argsort(-sg * positions[:, ax])[:starts]

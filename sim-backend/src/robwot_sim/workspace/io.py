@@ -36,35 +36,54 @@ def atomic_write(path: Path, write: Callable[[BinaryIO], None]) -> None:
         raise
 
 
+def csv_layout(joint_count: int | None, joint_names: Sequence[str] = ()) -> tuple[list[str], str]:
+    """Header and row format of ``workspace.csv``; ``joint_count`` joint columns (``None``: none)."""
+    header = list(CSV_HEADER)
+    fmt = "%.6f,%.6f,%.6f,%d"
+    if joint_count is not None:
+        names = list(joint_names) or [f"q{i}" for i in range(joint_count)]
+        if len(names) != joint_count:
+            raise ValueError(f"{len(names)} joint names for {joint_count} joint columns")
+        header += names
+        fmt += ",%.6f" * joint_count
+    return header, fmt
+
+
+def csv_table(positions: FloatArray, collision_free: BoolArray,
+              joints: FloatArray | None = None) -> FloatArray:
+    """The numbers of ``workspace.csv`` rows: ``x, y, z, flag[, joints...]`` per sample."""
+    pos = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    cols = [pos, np.asarray(collision_free, dtype=np.float64).reshape(-1, 1)]
+    if joints is not None:
+        cols.append(np.asarray(joints, dtype=np.float64).reshape(len(pos), -1))
+    return np.hstack(cols)
+
+
 def write_csv(path: str | Path, positions: FloatArray, collision_free: BoolArray,
               joints: FloatArray | None = None, joint_names: Sequence[str] = ()) -> None:
     """``x,y,z,collision_free[,joint...]``: one row per sample, ``%.6f`` (m or rad), flag ``1``/``0``."""
-    p = Path(path)
-    pos = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    flags = np.asarray(collision_free, dtype=np.float64).reshape(-1, 1)
-    cols = [pos, flags]
-    header = list(CSV_HEADER)
-    fmt = "%.6f,%.6f,%.6f,%d"
-    if joints is not None:
-        q = np.asarray(joints, dtype=np.float64).reshape(len(pos), -1)
-        names = list(joint_names) or [f"q{i}" for i in range(q.shape[1])]
-        if len(names) != q.shape[1]:
-            raise ValueError(f"{len(names)} joint names for {q.shape[1]} joint columns")
-        cols.append(q)
-        header += names
-        fmt += ",%.6f" * q.shape[1]
-    write_table(p, header, fmt, np.hstack(cols))
+    table = csv_table(positions, collision_free, joints)
+    header, fmt = csv_layout(None if joints is None else table.shape[1] - 4, joint_names)
+    write_table(Path(path), header, fmt, table)
+
+
+def format_rows(row_format: str, table: FloatArray) -> bytes:
+    """The CSV lines of ``table``, one per row, formatted by ``row_format`` (%-style)."""
+    row = row_format + "\n"
+    parts = []
+    for a in range(0, len(table), _CSV_CHUNK):
+        block = table[a:a + _CSV_CHUNK]
+        parts.append(((row * len(block)) % tuple(block.ravel().tolist())).encode())
+    return b"".join(parts)
 
 
 def write_table(path: str | Path, header: Sequence[str], row_format: str, table: FloatArray) -> None:
     """A CSV file: ``header``, then one line per row of ``table`` formatted by ``row_format`` (%-style)."""
-    row = row_format + "\n"
 
     def write(f: BinaryIO) -> None:
         f.write((",".join(header) + "\n").encode())
         for a in range(0, len(table), _CSV_CHUNK):
-            block = table[a:a + _CSV_CHUNK]
-            f.write(((row * len(block)) % tuple(block.ravel().tolist())).encode())
+            f.write(format_rows(row_format, table[a:a + _CSV_CHUNK]))
 
     atomic_write(Path(path), write)
 

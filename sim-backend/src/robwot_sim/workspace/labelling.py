@@ -21,7 +21,7 @@ from robwot_sim.workspace.pool import acquire_pool, ping, release_pool, spec_key
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-__all__ = ["Labelling", "chunk_size", "label_configurations", "spec_key", "warm_up"]
+__all__ = ["Labelling", "chunk_size", "label_configurations", "rebuild_error", "spec_key", "warm_up"]
 
 MIN_CHUNK = 500
 MAX_CHUNK = 4000
@@ -121,7 +121,7 @@ class Labelling:
                     continue
                 res = f.result()
                 if isinstance(res, dict):
-                    raise _rebuild_error(res)
+                    raise rebuild_error(res)
                 a, b = self.chunks[i]
                 out[a:b] = res
                 finished.add(i)
@@ -161,7 +161,7 @@ class Labelling:
         return out
 
 
-def _rebuild_error(res: dict[str, Any]) -> SimError:
+def rebuild_error(res: dict[str, Any]) -> SimError:
     err = res["error"]
     data = dict(err.get("data", {}))
     code = data.pop("code", "E_INTERNAL")
