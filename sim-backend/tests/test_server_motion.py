@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import time
 
+import numpy as np
 import pytest
 from rpc_backend import BackendProcess, RpcClient
 
@@ -40,14 +41,21 @@ def test_move_to_a_colliding_target_is_refused_by_its_plan(client: RpcClient) ->
 
 
 def test_move_around_an_obstacle_in_the_straight_path(client: RpcClient) -> None:
-    """A wall across the straight joint path to a free target: the plan is a detour (RRT-Connect), the
-    move runs through its waypoints without touching anything and reaches the target."""
+    """A wall across the straight joint path to a free target: the plan is a detour (RRT-Connect), its
+    corners cut (the shortcut path here turns by 146 degrees at its one waypoint; smoothed, no turn
+    exceeds 60 degrees), the move runs through its waypoints without touching anything and reaches the
+    target."""
     _wall_in_path(client)
     target = [0, 1.2, 0, 0, 0, 0, 0]
     straight = client.call("robot.checkPath", {"robot": "kuka", "target": target})
     assert straight["collisionFree"] is False
     plan = client.call("robot.plan", {"robot": "kuka", "target": target})
     assert plan["valid"] is True and plan["checks"]["path"]["planned"] == "detour" and plan["via"]
+    steps = np.diff(np.array([ZERO, *plan["via"]]), axis=0)
+    steps = steps[np.linalg.norm(steps, axis=1) > 1e-12]
+    cosine = np.einsum("ij,ij->i", steps[:-1], steps[1:]) / np.prod(
+        [np.linalg.norm(steps[:-1], axis=1), np.linalg.norm(steps[1:], axis=1)], axis=0)
+    assert len(plan["via"]) > 8 and np.degrees(np.arccos(np.clip(cosine, -1, 1))).max() < 60
     again = client.call("robot.plan", {"robot": "kuka", "target": target})
     assert again["via"] == plan["via"]  # seeded: the same request gets the same path
     moved = client.call("robot.move", {"robot": "kuka", "target": target, "realtime": 0})

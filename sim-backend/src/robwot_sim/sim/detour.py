@@ -5,6 +5,12 @@ robot keeps the path clearance to everything), and OMPL's path simplifier shortc
 only proposes: every segment of the final path is then checked by our own path check (no point of the
 robot travels more than twice the clearance unchecked, clearance kept — `pathcheck.first_contact`), and
 a path that fails it is not used. The search is seeded, so the same request gets the same path.
+
+The shortcut path still turns sharply at its waypoints. `smooth` cuts its corners (Chaikin: each round
+replaces every segment by its points at 1/4 and 3/4, converging to a quadratic B-spline through the
+same region; start and goal stay) for up to `SMOOTH_ROUNDS` rounds, keeping the last round whose
+segments all pass our path check: each round about halves the turn at every corner (a 90 degree corner
+becomes about 8 turns of 11 degrees after 3 rounds).
 """
 
 from __future__ import annotations
@@ -28,6 +34,9 @@ BUDGET = 2.0
 #: OMPL's own check spacing along a motion, as a fraction of the joint space's extent (its default is
 #: 0.01: ~0.1 rad on a 7-joint arm, too coarse to find gaps our check accepts)
 RESOLUTION = 0.002
+
+#: corner-cutting rounds of a detour (each doubles the waypoints)
+SMOOTH_ROUNDS = 3
 
 ou.setLogLevel(ou.LOG_WARN)
 
@@ -65,10 +74,31 @@ def find_detour(robot: BoundRobot, checker: CollisionChecker, start: FloatArray,
     states = setup.getSolutionPath().getStates()
     path = [np.array([s[i] for i in range(dof)], dtype=np.float64) for s in states]
     path[0], path[-1] = start.copy(), goal.copy()
-    for a, b in itertools.pairwise(path):
-        if first_contact(robot, checker, a, b, guard, clearance) is not None:
-            return None
-    return path[1:]
+    if not _passes(robot, checker, path, guard, clearance):
+        return None
+    return smooth(robot, checker, path, guard, clearance, SMOOTH_ROUNDS)[1:]
+
+
+def smooth(robot: BoundRobot, checker: CollisionChecker, path: list[FloatArray], guard: Guard,
+           clearance: float, rounds: int = SMOOTH_ROUNDS) -> list[FloatArray]:
+    """``path`` (start and goal included) with its corners cut (module docstring), as far as our path
+    check lets it: the last round whose segments all pass. Moves the robot: the caller restores it."""
+    best = path
+    for _ in range(rounds if len(path) > 2 else 0):
+        cut = [best[0]]
+        for a, b in itertools.pairwise(best):
+            cut += [0.75 * a + 0.25 * b, 0.25 * a + 0.75 * b]
+        cut.append(best[-1])
+        if not _passes(robot, checker, cut, guard, clearance):
+            break
+        best = cut
+    return best
+
+
+def _passes(robot: BoundRobot, checker: CollisionChecker, path: list[FloatArray], guard: Guard,
+            clearance: float) -> bool:
+    return all(first_contact(robot, checker, a, b, guard, clearance) is None
+               for a, b in itertools.pairwise(path))
 
 
 def _state(space: ob.RealVectorStateSpace, q: Iterable[float]) -> ob.State:
