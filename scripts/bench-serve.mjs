@@ -3,9 +3,11 @@
  * `npm run bench:serve`: the servient's HTTP performance on this machine.
  * - property read (getJointPosition) latency p50/p99 and reads/s with 1 and 16 concurrent clients
  * - moveToCartesianPosition round trip at realtime 0 (validation + IK + path check + motion + FK)
+ * - validateCartesianPosition on uniform random targets in the TD's input bounds, 4 clients (the
+ *   workload of tests/serve-offline.test.ts: most targets are unreachable or need other IK solutions)
  * Twin: `robwot generate kuka_iiwa --samples 3000` into a temp folder (or ROBWOT_BENCH_TWIN=<folder>),
  * served by `robwot serve --port 0 --realtime 0` in its own process (the load generator is this one).
- * Prints a table. Options: --reads N (default 4000), --moves N (default 30).
+ * Prints a table. Options: --reads N (default 4000), --moves N (default 30), --validations N (default 400).
  */
 import { Agent, request } from "node:http";
 import { serveBenchTwin } from "./bench-twin.mjs";
@@ -16,6 +18,7 @@ const arg = (name, def) => {
 };
 const READS = arg("reads", 4000);
 const MOVES = arg("moves", 30);
+const VALIDATIONS = arg("validations", 400);
 
 const served = await serveBenchTwin("serve", 3000);
 const info = served.info;
@@ -80,8 +83,31 @@ async function moves() {
   return { what: "moveToCartesianPosition, realtime 0", n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
 }
 
+async function validations(clients) {
+  const td = JSON.parse((await call("GET", base.pathname)).body);
+  const input = td.actions.validateCartesianPosition.input.properties;
+  let seed = 2024; // the same deterministic stream for every run
+  const u = () => ((seed = (seed * 1103515245 + 12345) % 2147483648) / 2147483648);
+  const target = () => Object.fromEntries(["x", "y", "z"].map((k) => [k, input[k].minimum + u() * (input[k].maximum - input[k].minimum)]));
+  const lat = [];
+  let left = VALIDATIONS;
+  const t0 = performance.now();
+  await Promise.all(
+    Array.from({ length: clients }, async () => {
+      while (left-- > 0) {
+        const t = performance.now();
+        const r = await call("POST", `${base.pathname}/actions/validateCartesianPosition`, target());
+        if (r.status !== 200) throw new Error(`validation answered ${r.status}: ${r.body}`);
+        lat.push(performance.now() - t);
+      }
+    }),
+  );
+  const secs = (performance.now() - t0) / 1000;
+  return { what: `validateCartesianPosition, random targets, ${clients} clients`, n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
+}
+
 try {
-  const rows = [await reads(1), await reads(16), await moves()];
+  const rows = [await reads(1), await reads(16), await moves(), await validations(4)];
   const head = ["measurement", "n", "p50 ms", "p99 ms", "per s"];
   const cells = rows.map((r) => [r.what, String(r.n), r.p50.toFixed(2), r.p99.toFixed(2), r.rate.toFixed(0)]);
   const w = head.map((h, i) => Math.max(h.length, ...cells.map((c) => c[i].length)));
