@@ -21,6 +21,7 @@ class JointInfo(NamedTuple):
     type: int  # pb.JOINT_REVOLUTE / JOINT_PRISMATIC / JOINT_FIXED ...
     link_name: str
     parent_index: int
+    axis: Vec3 = (0.0, 0.0, 1.0)  # in the joint (= child link) frame
 
 
 class ContactPoint(NamedTuple):
@@ -111,7 +112,7 @@ class Bullet:
         out = []
         for i in range(pb.getNumJoints(body, physicsClientId=self.cid)):
             ji = pb.getJointInfo(body, i, physicsClientId=self.cid)
-            out.append(JointInfo(i, ji[1].decode(), int(ji[2]), ji[12].decode(), int(ji[16])))
+            out.append(JointInfo(i, ji[1].decode(), int(ji[2]), ji[12].decode(), int(ji[16]), tuple(ji[13])))
         return out
 
     def reset_base(self, body: int, position: Sequence[float], quat_xyzw: Sequence[float]) -> None:

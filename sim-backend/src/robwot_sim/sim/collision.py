@@ -143,9 +143,10 @@ class CollisionChecker:
             pts += self._near(clearance)
         return _dedupe([*self.static_contacts(), *(self._contact(c) for c in pts)])
 
-    def is_free(self, clearance: float = TOUCH) -> bool:
+    def is_free(self, clearance: float = TOUCH, others_apart: bool = False) -> bool:
         """Fast check at the current state (no contact details): no self-contact, and no other body
-        closer than ``clearance`` (m) to a moving link."""
+        closer than ``clearance`` (m) to a moving link. ``others_apart``: the caller knows that every
+        other body is farther than ``clearance`` (see `gap`), so no distance query is made."""
         if self.static_contacts():
             return False
         bl = self.robot.bullet
@@ -157,11 +158,21 @@ class CollisionChecker:
                     return False
             elif c[8] <= TOUCH and (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered:
                 return False
+        if others_apart:
+            return True
         if self.massless_moving and self._closest_links(self.massless_moving, clearance):
             return False
         # contacts are reported for touching shapes only: a gap below the clearance needs distance queries,
         # asked only of the bodies whose boxes come that close to a moving link
         return clearance <= TOUCH or not self._within(clearance)
+
+    def gap(self, cap: float) -> float:
+        """The distance (m) from the moving links to the nearest other body, or ``cap`` when none is
+        closer (``inf`` when the world holds no other body). Distance queries as in `is_free`, so
+        ``gap(cap) <= c`` exactly when ``is_free(c)`` finds another body within ``c`` (for c <= cap)."""
+        if not self._others():
+            return float("inf")
+        return min((c.distance for c in self._near(cap)), default=cap)
 
     def _within(self, clearance: float) -> bool:
         """Another body closer than ``clearance`` (m) to a moving link."""

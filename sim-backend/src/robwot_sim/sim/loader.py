@@ -12,6 +12,7 @@ import pybullet as pb
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
+from robwot_sim.sim.kinematics import reach_sphere
 from robwot_sim.sim.pathcheck import Guard
 from robwot_sim.sim.robot import BoundRobot, parse_model
 from robwot_sim.sim.sweep import CLEARANCE, joint_reach
@@ -32,6 +33,8 @@ class RobotEntry:
     collision_parts: tuple[Path, ...]
     #: per controllable joint, how far the farthest collision point travels per unit of motion (sweep.py)
     reach: FloatArray
+    #: a sphere (centre, radius; m, world) holding every end-effector position (kinematics.reach_sphere)
+    sphere: tuple[FloatArray, float]
     #: clearance (m) its paths and motions keep to other bodies (pathcheck.Guard)
     clearance: float = CLEARANCE
 
@@ -129,4 +132,4 @@ def load_robot_body(
         srdf=str(srdf_path) if srdf_path is not None else None,
     )
     return RobotEntry(model, bound, checker, path, dict(package_roots), prepared.collision_parts,
-                      joint_reach(bound))
+                      joint_reach(bound), reach_sphere(bound))

@@ -84,7 +84,7 @@ class World(WorldScene):
 
         try:
             rng = _request_rng(self._ik_salt, pos, quat, start)
-            res = solve_ik(b, pos, quat, start, rng, is_free if want_free else None)
+            res = solve_ik(b, pos, quat, start, rng, is_free if want_free else None, e.sphere)
             if not want_free:
                 res = replace(res, collision_free=is_free(np.array(res.positions)))
             return res
