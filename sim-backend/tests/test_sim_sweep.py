@@ -6,68 +6,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from robwot_sim.bench_fidelity import graze_trials
 from robwot_sim.sim.world import World
-
-FINE = 1500
-
-
-def _touches(w: World, rid: str, path: np.ndarray) -> bool:
-    """Reference: the straight joint path sampled FINE times, contact at distance <= 0."""
-    dense = path[0] + np.linspace(0, 1, FINE)[:, None] * (path[-1] - path[0])
-    return not bool(np.all(w.collision_free_batch(rid, dense)))
-
-
-def _plate(w: World, p: np.ndarray, quat: list[float]) -> None:
-    w.add_obstacle({"name": "plate", "shape": {"type": "box", "size": [0.15, 0.15, 0.005]},
-                    "position": p.tolist(), "orientation": quat})
 
 
 def test_grazing_plates_are_never_validated() -> None:
     """Plates grazed by up to ~2 mm: all refused by check_path; the planned states alone miss some."""
-    rng = np.random.default_rng(5)
-    grazes = caught = missed_before = 0
     with World() as w:
         m = w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
-        lo, hi = m.limits()
-        e = w._robots["kuka"]
-        while grazes < 10:
-            start, goal = rng.uniform(lo * 0.8, hi * 0.8), rng.uniform(lo * 0.8, hi * 0.8)
-            w.set_joint_positions("kuka", start)
-            if not w.check_path("kuka", goal).collision_free:
-                continue  # the arm hits itself on this path: not a plate case
-            path = w.plan_motion("kuka", goal, speed=1.0)
-            e.bound.apply(path[0] + rng.uniform(0.3, 0.7) * (path[-1] - path[0]))
-            link = int(rng.integers(3, 7))
-            center = np.array(w.bullet.link_frame(e.bound.body, link)[0])
-            e.bound.apply(start)
-            normal = rng.normal(size=3)
-            normal /= np.linalg.norm(normal)
-            # plate perpendicular to `normal`, moved along it until the sweep only just touches it
-            z = np.array([0.0, 0.0, 1.0])
-            axis = np.cross(z, normal)
-            angle = np.arccos(np.clip(normal @ z, -1, 1))
-            quat = [*(np.sin(angle / 2) * axis / (np.linalg.norm(axis) or 1)), np.cos(angle / 2)]
-            inside, outside = 0.0, 0.4
-            _plate(w, center + outside * normal, quat)
-            far_free = not _touches(w, "kuka", path)
-            w.remove_obstacle("plate")
-            if not far_free:
-                continue
-            for _ in range(8):  # bisection to ~1.6 mm
-                s = (inside + outside) / 2
-                _plate(w, center + s * normal, quat)
-                hit = _touches(w, "kuka", path)
-                w.remove_obstacle("plate")
-                inside, outside = (s, outside) if hit else (inside, s)
-            _plate(w, center + inside * normal, quat)  # touched by the fine sweep, <= ~2 mm deep
-            ends_free = all(w.check_collision("kuka", q).collision_free for q in (start, goal))
-            if ends_free and _touches(w, "kuka", path):
-                grazes += 1
-                caught += not w.check_path("kuka", goal).collision_free
-                missed_before += bool(np.all(w.collision_free_batch("kuka", path)))
-            w.remove_obstacle("plate")
-    assert caught == grazes
-    assert missed_before >= 1  # the planned states alone were not enough: this test has teeth
+        g = graze_trials(w, m.id, np.random.default_rng(5), 10)
+    assert g.refused == g.grazes == 10
+    assert g.planned_states_missed >= 1  # the planned states alone were not enough: this test has teeth
 
 
 def _gap(w: World, rid: str, other: str) -> float:
