@@ -147,6 +147,7 @@ def test_ik_beyond_the_reach_sphere_is_refused_without_restarts() -> None:
         with pytest.raises(Unreachable) as ei:
             w.ik(m.id, tuple(centre + direction * (radius + 0.01)))
         assert ei.value.data["positionError"] == pytest.approx(0.01, abs=1e-5)
+        assert ei.value.data["beyondReach"] is True and "beyond the robot's reach" in ei.value.message
         assert w.ik(m.id, tuple(up - direction * 0.01)).position_error < 1e-3
 
 

@@ -57,3 +57,18 @@ def test_check_path_finds_first_collision_without_state_change() -> None:
         free = w.check_path(m.id, [-1.0, 1.0, 0, 0, 0, 0, 0])
         assert free.collision_free and free.first_collision is None
         assert free.to_json()["steps"] == free.steps
+
+
+def test_a_pose_beyond_reach_is_refused_naming_the_distance() -> None:
+    """2 m above the KUKA (reach 0.901 m from its shoulder at 0.36 m): refused in words with the distance
+    beyond the reach sphere; a reachable pose is still planned."""
+    from robwot_sim.sim.planner import plan_pose
+
+    with World() as w:
+        m = w.load_robot(KUKA)
+        far = plan_pose(w, m.id, (0.0, 0.0, 2.0), None, 1.0, 1 / 240)
+        assert not far.valid and far.target is None
+        assert far.reasons == ("target (0.0000, 0.0000, 2.0000) m is 0.7390 m beyond the robot's reach",)
+        error = pytest.approx(0.739, abs=1e-5)
+        assert far.checks["ik"] == {"ok": False, "positionError": error, "solutions": 1}
+        assert plan_pose(w, m.id, (0.4, 0.1, 0.6), None, 1.0, 1 / 240).valid

@@ -190,13 +190,19 @@ class Unreachable(SimError):
     rpc_code = -32007
     code = "E_UNREACHABLE"
 
-    def __init__(self, position_error: float, orientation_error: float, best: Sequence[float]) -> None:
+    def __init__(self, position_error: float, orientation_error: float, best: Sequence[float],
+                 beyond_reach: bool = False) -> None:
+        """``beyond_reach``: refused without solving, ``position_error`` is the distance (m) beyond the
+        robot's reach sphere, a lower bound of the error (``beyondReach`` in the data)."""
+        extra: dict[str, Any] = {"beyondReach": True} if beyond_reach else {}
         super().__init__(
+            f"target unreachable: {position_error:.4g} m beyond the robot's reach" if beyond_reach else
             f"target unreachable: best position error {position_error:.4g} m, "
             f"orientation error {orientation_error:.4g} rad",
             positionError=float(position_error),
             orientationError=float(orientation_error),
             best=[float(b) for b in best],
+            **extra,
         )
 
 

@@ -117,7 +117,7 @@ def solve_ik(
     if sphere is not None:
         beyond = float(np.linalg.norm(np.asarray(position, dtype=np.float64) - sphere[0])) - sphere[1]
         if beyond > ACCEPT_POSITION:
-            raise Unreachable(beyond, 0.0, [float(v) for v in seed])
+            raise Unreachable(beyond, 0.0, [float(v) for v in seed], beyond_reach=True)
     b = robot.bullet
     damping = [DAMPING] * len(robot.movable_idx)
     target_p = tuple(float(v) for v in position)

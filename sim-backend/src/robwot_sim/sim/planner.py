@@ -144,6 +144,10 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
             ik = world.ik(robot, position, orientation, seed=seed, collision_free=True)
         except Unreachable as exc:
             best_error = min(best_error, float(exc.data.get("positionError", float("inf"))))
+            if exc.data.get("beyondReach"):
+                reason = f"target {where} is {_fmt(best_error)} m beyond the robot's reach"
+                ik_check = {"ok": False, "positionError": best_error, "solutions": tried}
+                return Plan(False, None, (reason,), {"ik": ik_check})
             if seed is None:
                 # the solver's own restarts found nothing within tolerance: other seeds will not either
                 break
