@@ -1,8 +1,9 @@
 /**
  * End to end: any consumer can validate targets offline from the TD's linked files (workspace.stl,
  * workspace.csv, reachability.csv) with @robwot/core, no Python; its answers agree with the twin's own
- * validateCartesianPosition on 10,000 points (>= 99.9% for points farther than 1 cm from the surface; each
- * validation is a full simulation-in-the-loop plan: ~190 s for the 10,000 on 2 busy cores).
+ * validateCartesianPosition on 6,000 points (>= 99.9% for points farther than 1 cm from the surface; each
+ * validation is a full simulation-in-the-loop plan: 10,000 took 186 s alone on 2 busy cores, but more
+ * than 600 s beside the rest of the suite).
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { loadWorkspaceFromUrls, REACHABILITY_REL, type Vec3 } from "../packages/core/src/index.js";
@@ -17,7 +18,7 @@ beforeAll(async () => {
 });
 afterAll(async () => s?.stop());
 
-it("offline checks from the linked files agree with the twin on 10,000 points", async () => {
+it("offline checks from the linked files agree with the twin on 6,000 points", async () => {
   const td = (await http(base)).body;
   const href = (rel: string): string => new URL(td.links.find((l: { rel: string }) => l.rel === rel).href, td.base).href;
   const ws = await loadWorkspaceFromUrls(href("workspace"), href("workspace-pointcloud"), undefined, { csvUrl: href(REACHABILITY_REL), summaryUrl: href("workspace-summary") });
@@ -25,7 +26,7 @@ it("offline checks from the linked files agree with the twin on 10,000 points", 
   const lo = [input.x.minimum, input.y.minimum, input.z.minimum] as Vec3;
   const hi = [input.x.maximum, input.y.maximum, input.z.maximum] as Vec3;
   const u = rng(2024);
-  const points: Vec3[] = Array.from({ length: 10_000 }, () => [0, 1, 2].map((k) => lo[k]! + u() * (hi[k]! - lo[k]!)) as Vec3);
+  const points: Vec3[] = Array.from({ length: 6_000 }, () => [0, 1, 2].map((k) => lo[k]! + u() * (hi[k]! - lo[k]!)) as Vec3);
 
   let compared = 0;
   let insideAgree = 0;
@@ -52,11 +53,11 @@ it("offline checks from the linked files agree with the twin on 10,000 points", 
     }
   };
   await Promise.all(Array.from({ length: 4 }, worker));
-  expect(compared).toBeGreaterThan(8_000);
-  expect(inside).toBeGreaterThan(750);
-  expect(compared - inside).toBeGreaterThan(750);
+  expect(compared).toBeGreaterThan(4_800);
+  expect(inside).toBeGreaterThan(450);
+  expect(compared - inside).toBeGreaterThan(450);
   expect(insideAgree / compared).toBeGreaterThanOrEqual(0.999);
   expect(cloudAgree / compared).toBeGreaterThanOrEqual(0.999);
   expect(reachAgree).toBe(compared);
-  expect(reached).toBeGreaterThan(625);
-}, 600_000);
+  expect(reached).toBeGreaterThan(375);
+}, 900_000);
