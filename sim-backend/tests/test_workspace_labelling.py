@@ -1,9 +1,12 @@
-"""Parallel collision labelling (robwot_sim.workspace.labelling) against the in-process World."""
+"""Parallel chunks (robwot_sim.workspace.labelling: chunk.label_chunk on the worker pool) against the
+in-process World."""
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -12,9 +15,29 @@ import pytest
 
 from robwot_sim.errors import SimError
 from robwot_sim.sim.world import World
+from robwot_sim.workspace import chain_fk
 from robwot_sim.workspace import pool as workspace_pool
-from robwot_sim.workspace.labelling import chunk_size, label_configurations, spec_key, warm_up
+from robwot_sim.workspace.chunk import ChunkJob
+from robwot_sim.workspace.io import csv_layout
+from robwot_sim.workspace.labelling import chunk_size, label_samples, spec_key, warm_up
 from robwot_sim.workspace.sampling import sample_configurations
+
+
+def make_job(w: World, robot_id: str, seed: int) -> ChunkJob:
+    """The ChunkJob generate_workspace builds for ``robot_id`` of ``w``."""
+    model = w.robot_model(robot_id)
+    lo, hi = model.limits()
+    spec = w.scene_spec()
+    _, row_format = csv_layout(None, model.controllable)
+    return ChunkJob(spec_key(spec), spec, robot_id, chain_fk(w, robot_id), np.asarray(lo, dtype=np.float64),
+                    np.asarray(hi, dtype=np.float64), seed, 0.01, row_format, False)
+
+
+def label_configurations(job: ChunkJob, samples: int, workers: int,
+                         helper: Callable[[npt.NDArray[np.float64]], npt.NDArray[np.bool_]] | None = None
+                         ) -> npt.NDArray[np.bool_]:
+    """The collision-free flags of the chunks of ``samples`` rows, in order."""
+    return np.concatenate([c.flags for c in label_samples(job, samples, workers, helper=helper)])
 
 
 def test_parallel_labels_equal_serial() -> None:
@@ -26,17 +49,17 @@ def test_parallel_labels_equal_serial() -> None:
         lo, hi = w.robot_model("kuka").limits()
         qs = sample_configurations(lo, hi, 6000, seed=4)
         serial = w.collision_free_batch("kuka", qs)
-        spec = w.scene_spec()
+        job = make_job(w, "kuka", 4)
         assert 0.1 < serial.mean() < 0.95  # the wall and self-collision both matter here
         for workers in (2, 1):
-            assert np.array_equal(label_configurations(spec, "kuka", qs, workers), serial)
+            assert np.array_equal(label_configurations(job, 6000, workers), serial)
         helped: list[int] = []
 
         def helper(q: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
             helped.append(len(q))
             return w.collision_free_batch("kuka", q)
 
-        assert np.array_equal(label_configurations(spec, "kuka", qs, 2, helper=helper), serial)
+        assert np.array_equal(label_configurations(job, 6000, 2, helper=helper), serial)
         assert sum(helped) > 0  # the caller labelled chunks while the workers started
 
 
@@ -44,9 +67,9 @@ def test_worker_error_is_structured() -> None:
     """An error inside a worker comes back as a SimError with its code and fields."""
     with World() as w:
         w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
-        spec = w.scene_spec()
+        job = make_job(w, "kuka", 1)
     with pytest.raises(SimError) as exc:
-        label_configurations(spec, "other", np.zeros((10, 7)), 2)
+        label_configurations(dataclasses.replace(job, robot_id="other"), 10, 2)
     assert exc.value.code == "E_UNKNOWN_ROBOT" and exc.value.rpc_code == -32001
     assert exc.value.data["available"] == ["kuka"]
 
@@ -80,9 +103,9 @@ def test_warm_up_starts_workers() -> None:
     assert len(pool._processes) == 2  # type: ignore[attr-defined]
     with World() as w:
         w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
-        qs = np.zeros((3, 7))
-        assert np.array_equal(label_configurations(w.scene_spec(), "kuka", qs, 2),
-                              w.collision_free_batch("kuka", qs))
+        job = make_job(w, "kuka", 2)
+        qs = sample_configurations(job.lower, job.upper, 3, seed=2)
+        assert np.array_equal(label_configurations(job, 3, 2), w.collision_free_batch("kuka", qs))
     assert workspace_pool._pools[2] is pool
 
 
@@ -91,14 +114,19 @@ def test_caller_finishes_when_workers_cannot_start() -> None:
     script = """
 import numpy as np
 from robwot_sim.sim.world import World
-from robwot_sim.workspace.labelling import label_configurations
+from robwot_sim.workspace import chain_fk
+from robwot_sim.workspace.chunk import ChunkJob
+from robwot_sim.workspace.labelling import label_samples, spec_key
 from robwot_sim.workspace.sampling import sample_configurations
 w = World()
 w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
 lo, hi = w.robot_model("kuka").limits()
 qs = sample_configurations(lo, hi, 2000, seed=3)
-got = label_configurations(w.scene_spec(), "kuka", qs, 2,
-                           helper=lambda q: w.collision_free_batch("kuka", q))
+spec = w.scene_spec()
+job = ChunkJob(spec_key(spec), spec, "kuka", chain_fk(w, "kuka"), np.asarray(lo), np.asarray(hi), 3, 0.01,
+               "%.6f,%.6f,%.6f,%d", False)
+got = np.concatenate([c.flags for c in label_samples(job, 2000, 2,
+                                                     helper=lambda q: w.collision_free_batch("kuka", q))])
 print("SAME" if np.array_equal(got, w.collision_free_batch("kuka", qs)) else "DIFFERENT")
 """
     run = subprocess.run([sys.executable, "-"], input=script, capture_output=True, text=True, timeout=300)

@@ -27,6 +27,7 @@ from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
 from robwot_sim.sim.motion import check_speed_dt, plan_joint_path
 from robwot_sim.sim.pathcheck import check_joint_path, first_contact, path_clearance
+from robwot_sim.sim.surehit import SureHits, build_sure_hits
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
 from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _locked
 from robwot_sim.sim.world_scene import WorldScene
@@ -151,11 +152,28 @@ class World(WorldScene):
             e.bound.validate(arr[int(np.argmax(bad))], f"qs[{int(np.argmax(bad))}]")
         if e.checker.static_contacts():
             return np.zeros(len(arr), dtype=bool)
+        sure = self._sure_hits(robot_id).hits(arr)
+        out = np.zeros(len(arr), dtype=bool)
+        rest = arr[~sure]
         if e.checker.massless_moving:
-            return e.checker.batch(arr)
-        fast = self._fast_world()
-        others = {rid: o.bound.full_values(o.bound.q) for rid, o in self._robots.items() if rid != robot_id}
-        return fast.batch(robot_id, arr, others, e.bound.mimic)
+            out[~sure] = e.checker.batch(rest)
+        else:
+            fast = self._fast_world()
+            others = {rid: o.bound.full_values(o.bound.q)
+                      for rid, o in self._robots.items() if rid != robot_id}
+            out[~sure] = fast.batch(robot_id, rest, others, e.bound.mimic)
+        return out
+
+    def _sure_hits(self, robot_id: str) -> SureHits:
+        """The robot's sure-hit test (``surehit.py``), rebuilt when the world changes."""
+        cached = self._sure.get(robot_id)
+        if cached is not None and cached[0] == self.table.version:
+            return cached[1]
+        e = self._entry(robot_id)
+        sure = build_sure_hits(e.bound, e.checker.filtered, e.urdf_path, e.model,
+                               [spec for _, spec in self._obstacles.values()])
+        self._sure[robot_id] = (self.table.version, sure)
+        return sure
 
     def _fast_world(self) -> FastWorld:
         if self._fast is None or self._fast.version != self.table.version:

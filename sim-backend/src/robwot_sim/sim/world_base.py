@@ -20,6 +20,7 @@ from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.fastworld import FastWorld
 from robwot_sim.sim.loader import RobotEntry, load_robot_body
 from robwot_sim.sim.pathcheck import MAX_CLEARANCE, MIN_CLEARANCE
+from robwot_sim.sim.surehit import SureHits
 from robwot_sim.sim.sweep import CLEARANCE
 from robwot_sim.sim.types import RobotModel
 
@@ -50,6 +51,7 @@ class WorldBase:
         self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
         self._ik_salt = ik_seed  # salts the per-request IK restart seeds (see World.ik)
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
+        self._sure: dict[str, tuple[int, SureHits]] = {}  # sure-hit tests by robot, with table.version
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
 
     @contextlib.contextmanager

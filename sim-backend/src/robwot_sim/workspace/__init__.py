@@ -12,25 +12,23 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import numpy as np
 
 import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.urdf import read_urdf
-from robwot_sim.workspace.chunk import ChunkJob, end_link
+from robwot_sim.workspace.chunk import ChunkJob, ChunkSink
 from robwot_sim.workspace.fk import ChainFK
-from robwot_sim.workspace.io import csv_layout, write_csv, write_stl
+from robwot_sim.workspace.io import atomic_write, csv_layout, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
 from robwot_sim.workspace.reachability import (
     BASE_VOXEL,
     DIRECTIONS,
     MAX_VOXEL,
     MIN_VOXEL,
-    ReachabilityMap,
 )
-from robwot_sim.workspace.sampling import sample_configurations
 
 if TYPE_CHECKING:
     from robwot_sim.sim.world import World
@@ -131,20 +129,21 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     the reachability map ``reachability.csv`` (``reachability.py``; voxel side ``reach_voxel`` m or
     ``"auto"``).
 
-    While the worker pool starts, the calling thread computes FK and then labels chunks no worker has
-    started with ``world`` itself (short calls, so other requests on ``world`` are only briefly held).
+    Both paths run the same chunks (``chunk.label_chunk``). Locally, while the worker pool starts, the
+    calling thread computes chunks no worker has started, labelling with ``world`` itself (short calls,
+    so other requests on ``world`` are only briefly held).
 
     With ``cluster`` (a Ray address or ``"auto"``), the chunks run as Ray tasks on that cluster instead
     (``cluster.py``; ``workers`` is then unused) and give the same files.
 
     Returns the WorkspaceSummary; ``bounds`` are those of the collision-free points (``None`` when there
     is none), ``reachBounds`` the box of every position the end link can reach (``ChainFK.reach_bounds``,
-    holding ``bounds``); ``timings`` in seconds: ``sample`` = sampling + FK + reach box, ``collide`` =
-    wall time of the parallel labelling (FK runs in the meantime; on a cluster: sampling, FK, labelling
-    and the CSV, ``sample`` the reach box only), ``alpha``, ``write`` (after the alpha shape: the CSV is
-    written during it, by a second thread). A ``warning`` key appears when the alpha shape fell back to
-    the convex hull or the workspace is flat but not a planar region; ``halfThickness`` (m) when it is
-    flat (``flat_shape.py``).
+    holding ``bounds``); ``timings`` in seconds: ``sample`` = the reach box, ``collide`` = wall time of
+    the chunks (``chunk.py``: sampling, FK, labelling, CSV lines and reachability counts, in parallel),
+    ``alpha``, ``write`` (after the alpha shape: a local run's CSV is written during it, by a second
+    thread; a cluster run's while the chunks arrive). A ``warning`` key appears when the alpha shape fell
+    back to the convex hull or the workspace is flat but not a planar region; ``halfThickness`` (m) when
+    it is flat (``flat_shape.py``).
     """
     from robwot_sim.workspace.cluster import cluster_address
 
@@ -165,71 +164,59 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     reach_min, reach_max = fk.reach_bounds(lower, upper, int(seed))
     t_reach = time.perf_counter() - t_reach
 
+    from robwot_sim.workspace.pool import spec_key
+
+    header, row_format = csv_layout(len(model.controllable) if csv_joints else None, model.controllable)
+    job = ChunkJob(spec_key(spec), spec, robot_id, fk, np.asarray(lower, dtype=np.float64),
+                   np.asarray(upper, dtype=np.float64), int(seed), base_voxel, row_format, csv_joints)
+    report("sample", samples, samples)
+    report("collide", 0, samples)
     if address is not None:
         from robwot_sim.workspace.cluster import run_chunks
-        from robwot_sim.workspace.pool import spec_key
 
-        header, row_format = csv_layout(len(model.controllable) if csv_joints else None, model.controllable)
-        job = ChunkJob(spec_key(spec), spec, robot_id, fk, np.asarray(lower, dtype=np.float64),
-                       np.asarray(upper, dtype=np.float64), int(seed), base_voxel, row_format, csv_joints)
-        report("sample", samples, samples)
-        report("collide", 0, samples)
         run = run_chunks(address, job, int(samples), header, out / "workspace.csv",
                          lambda done, total: report("collide", done, total), ALPHA_MAX_POINTS)
-        t2 = time.perf_counter()
-        report("alpha", 0, 1)
-        from robwot_sim.workspace.alpha_shape import alpha_shape
+        alpha_points, free_count, reach, t_collide = run.alpha_points, run.collision_free, run.reach, \
+            run.seconds
+        lo, hi = run.lo, run.hi
+    else:
+        t1 = time.perf_counter()
+        chunks = Labelling(job, int(samples), n_workers).result(
+            lambda done, total: report("collide", done, total),
+            helper=lambda q: world.collision_free_batch(robot_id, q))
+        t_collide = time.perf_counter() - t1
+        sink = ChunkSink(base_voxel, ALPHA_MAX_POINTS, lambda _b: None)
+        for i, c in enumerate(chunks):
+            sink.add(i, c)
+        alpha_points, free_count, reach, lo, hi = sink.alpha_points(), sink.free, sink.reach, sink.lo, sink.hi
 
-        shape = alpha_shape(run.alpha_points, alpha_arg)
+        def write(f: BinaryIO) -> None:
+            f.write((",".join(header) + "\n").encode())
+            for c in chunks:
+                f.write(c.csv)
+    t2 = time.perf_counter()
+    report("alpha", 0, 1)
+    from robwot_sim.workspace.alpha_shape import alpha_shape
+
+    # A local run's CSV is written by a second thread while Qhull (which releases the GIL) triangulates.
+    with ThreadPoolExecutor(1, thread_name_prefix="robwot-write-csv") as writer:
+        csv = None if address is not None else writer.submit(atomic_write, out / "workspace.csv", write)
+        try:
+            shape = alpha_shape(alpha_points, alpha_arg)
+        except BaseException:
+            if csv is not None:
+                csv.cancel()
+            raise
         report("alpha", 1, 1)
         t3 = time.perf_counter()
         report("write", 0, 2)
-        report("write", 1, 2)
-        free_count, reach = run.collision_free, run.reach
-        bounds: dict[str, list[float] | None] = (
-            {"min": None, "max": None} if run.lo is None or run.hi is None
-            else {"min": [float(v) for v in run.lo], "max": [float(v) for v in run.hi]})
-        t_sample, t_collide = t_reach, run.seconds
-    else:
-        t0 = time.perf_counter()
-        report("sample", 0, samples)
-        qs = sample_configurations(lower, upper, int(samples), int(seed))
-        t_submit = time.perf_counter()
-        labelling = Labelling(spec, robot_id, qs, n_workers)
-        t1 = time.perf_counter()
-        try:
-            positions, bins = end_link(fk, qs)
-        except BaseException:
-            labelling.abandon()
-            raise
-        t_sample = (t_submit - t0) + (time.perf_counter() - t1) + t_reach
-        report("sample", samples, samples)
-        report("collide", 0, samples)
-        free = labelling.result(lambda done, total: report("collide", done, total),
-                                helper=lambda q: world.collision_free_batch(robot_id, q))
-        t_collide = time.perf_counter() - t_submit
-
-        t2 = time.perf_counter()
-        report("alpha", 0, 1)
-        from robwot_sim.workspace.alpha_shape import alpha_shape
-
-        # The CSV is written by a second thread while Qhull (which releases the GIL) triangulates.
-        with ThreadPoolExecutor(1, thread_name_prefix="robwot-write-csv") as writer:
-            csv = writer.submit(write_csv, out / "workspace.csv", positions, free, qs if csv_joints else None,
-                                model.controllable)
-            try:
-                shape = alpha_shape(positions[free][:ALPHA_MAX_POINTS], alpha_arg)
-            except BaseException:
-                csv.cancel()
-                raise
-            report("alpha", 1, 1)
-            t3 = time.perf_counter()
-            report("write", 0, 2)
+        if csv is not None:
             csv.result()
-        report("write", 1, 2)
-        free_count, bounds = int(free.sum()), _bounds(positions[free])
-        reach = ReachabilityMap(base_voxel)
-        reach.add(positions, free, bins)
+    report("write", 1, 2)
+    bounds: dict[str, list[float] | None] = (
+        {"min": None, "max": None} if lo is None or hi is None
+        else {"min": [float(v) for v in lo], "max": [float(v) for v in hi]})
+    t_sample = t_reach
     write_stl(out / "workspace.stl", shape.vertices, shape.triangles)
     if voxel_arg == "auto":
         reach = reach.auto()

@@ -2,13 +2,16 @@
 seeded samples (``sampling.py``), their end-link poses (``fk.py``), their collision labels (in the
 process's cached world, ``pool.worker_label``), their ``workspace.csv`` lines and their reachability counts.
 
-This is the unit of work of a cluster run (``cluster.py``, one Ray task per chunk). The rows depend only on
-``(seed, row)``, so any split into chunks gives the same files as a local run.
+This is the unit of work of every generation: a task of the local process pool (``labelling.py``, also
+run by the calling process itself while it would wait) and a Ray task of a cluster run (``cluster.py``).
+The rows depend only on ``(seed, row)``, so any split into chunks gives the same files. ``ChunkSink``
+folds finished chunks, in chunk order, into what a generation keeps (the same code for both).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -49,6 +52,7 @@ class Chunk:
     csv: bytes
     free_points: FloatArray
     reach: ReachabilityMap
+    flags: BoolArray  # collision-free flag per row
 
 
 def end_link(fk: ChainFK, qs: FloatArray, block: int = 100_000) -> tuple[FloatArray, UInt8Array]:
@@ -61,18 +65,67 @@ def end_link(fk: ChainFK, qs: FloatArray, block: int = 100_000) -> tuple[FloatAr
     return positions, bins
 
 
-def label_chunk(job: ChunkJob, start: int, count: int) -> Chunk | dict[str, Any]:
+def label_chunk(job: ChunkJob, start: int, count: int,
+                label: Callable[[FloatArray], BoolArray] | None = None) -> Chunk | dict[str, Any]:
     """Compute one chunk (see the module docstring). A ``SimError`` while labelling comes back as the
-    error dict of ``pool.worker_label`` (rebuilt by the caller with ``labelling.rebuild_error``)."""
+    error dict of ``pool.worker_label`` (rebuilt by the caller with ``labelling.rebuild_error``).
+    ``label`` replaces the process's cached world (the calling process labels with its own ``World``)."""
     from robwot_sim.workspace.pool import worker_label
 
     qs = sample_configurations(job.lower, job.upper, count, job.seed, start)
     positions, bins = end_link(job.fk, qs)
-    flags = worker_label(job.key, job.spec, job.robot_id, qs)
+    flags = worker_label(job.key, job.spec, job.robot_id, qs) if label is None else label(qs)
     if isinstance(flags, dict):
         return flags
     free = np.asarray(flags, dtype=bool)
     reach = ReachabilityMap(job.voxel)
     reach.add(positions, free, bins)
     csv = format_rows(job.row_format, csv_table(positions, free, qs if job.joints else None))
-    return Chunk(start, count, csv, np.ascontiguousarray(positions[free]), reach)
+    return Chunk(start, count, csv, np.ascontiguousarray(positions[free]), reach, free)
+
+
+@dataclass
+class ChunkSink:
+    """What a generation keeps of its chunks, folded in chunk order (``add`` in any order; a chunk is
+    folded once every earlier one is): the CSV lines (passed to ``write``), the reachability counts, the
+    collision-free count and bounds, and the first ``alpha_max_points`` collision-free points (in sample
+    order) for the alpha shape. Memory: the chunks that wait for an earlier one, and those points."""
+
+    voxel: float
+    alpha_max_points: int
+    write: Callable[[bytes], Any]
+    reach: ReachabilityMap = field(init=False)
+    free: int = 0
+    lo: FloatArray | None = None
+    hi: FloatArray | None = None
+    folded: int = 0  # chunks folded so far
+    _kept: list[FloatArray] = field(default_factory=list)
+    _kept_count: int = 0
+    _waiting: dict[int, Chunk] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.reach = ReachabilityMap(self.voxel)
+
+    def add(self, index: int, chunk: Chunk) -> None:
+        """Chunk number ``index`` (0, 1, ... in sample order) is finished."""
+        self._waiting[index] = chunk
+        while self.folded in self._waiting:
+            self._fold(self._waiting.pop(self.folded))
+            self.folded += 1
+
+    def _fold(self, c: Chunk) -> None:
+        self.write(c.csv)
+        self.reach.merge(c.reach)
+        n = len(c.free_points)
+        self.free += n
+        if n:
+            lo, hi = c.free_points.min(axis=0), c.free_points.max(axis=0)
+            self.lo = lo if self.lo is None else np.minimum(self.lo, lo)
+            self.hi = hi if self.hi is None else np.maximum(self.hi, hi)
+            room = self.alpha_max_points - self._kept_count
+            if room > 0:
+                self._kept.append(c.free_points[:room])
+                self._kept_count += min(room, n)
+
+    def alpha_points(self) -> FloatArray:
+        return np.concatenate(self._kept) if self._kept else np.zeros((0, 3))

@@ -37,7 +37,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.errors import ClusterError, InvalidParams
-from robwot_sim.workspace.chunk import Chunk, ChunkJob, label_chunk
+from robwot_sim.workspace.chunk import ChunkJob, ChunkSink, label_chunk
 from robwot_sim.workspace.io import atomic_write
 from robwot_sim.workspace.labelling import chunk_size, rebuild_error
 from robwot_sim.workspace.reachability import ReachabilityMap
@@ -134,31 +134,18 @@ def run_chunks(address: str, job: ChunkJob, samples: int, header: list[str], csv
     chunks = [(a, min(size, samples - a)) for a in range(0, samples, size)]
     window = max(2, WINDOW_PER_CPU * cpus)
     job_ref = ray.put(job)
-    reach = ReachabilityMap(job.voxel)
-    kept: list[FloatArray] = []
-    state = {"kept": 0, "free": 0, "done": 0}
-    bounds: list[FloatArray] = []
-
-    def take(c: Chunk) -> None:
-        reach.merge(c.reach)
-        n = len(c.free_points)
-        state["free"] += n
-        if n:
-            lo, hi = c.free_points.min(axis=0), c.free_points.max(axis=0)
-            bounds[:] = [lo, hi] if not bounds else [np.minimum(bounds[0], lo), np.maximum(bounds[1], hi)]
-            room = alpha_max_points - state["kept"]
-            if room > 0:
-                kept.append(c.free_points[:room])
-                state["kept"] += min(room, n)
+    done = 0
+    sink = ChunkSink(job.voxel, alpha_max_points, lambda _b: None)
 
     def write(f: BinaryIO) -> None:
+        nonlocal done
         f.write((",".join(header) + "\n").encode())
+        sink.write = f.write
         pending: dict[Any, int] = {}
-        finished: dict[int, Chunk] = {}
-        following = submitted = 0
+        submitted = 0
         try:
-            while following < len(chunks):
-                while submitted < len(chunks) and len(pending) + len(finished) < window:
+            while sink.folded < len(chunks):
+                while submitted < len(chunks) and submitted - sink.folded < window:
                     a, n = chunks[submitted]
                     pending[_remote.remote(job_ref, a, n)] = submitted
                     submitted += 1
@@ -168,23 +155,17 @@ def run_chunks(address: str, job: ChunkJob, samples: int, header: list[str], csv
                     res = ray.get(ref)
                     if isinstance(res, dict):
                         raise rebuild_error(res)
-                    finished[i] = res
-                    state["done"] += res.count
-                while following in finished:
-                    c = finished.pop(following)
-                    f.write(c.csv)
-                    take(c)
-                    following += 1
-                progress(state["done"], samples)
+                    sink.add(i, res)
+                    done += res.count
+                progress(done, samples)
         except BaseException:
             for ref in pending:
                 ray.cancel(ref, force=False)
             raise
 
     atomic_write(csv_path, write)
-    points = np.concatenate(kept) if kept else np.zeros((0, 3))
-    return ClusterRun(samples, state["free"], points, bounds[0] if bounds else None,
-                      bounds[1] if bounds else None, reach, time.perf_counter() - t0)
+    return ClusterRun(samples, sink.free, sink.alpha_points(), sink.lo, sink.hi, sink.reach,
+                      time.perf_counter() - t0)
 
 
 def cluster_address(value: Any) -> str | None:

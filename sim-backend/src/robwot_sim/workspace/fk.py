@@ -129,21 +129,7 @@ class ChainFK:
         q = np.asarray(qs, dtype=np.float64)
         if q.ndim != 2 or q.shape[1] != self.dof:
             raise ValueError(f"expected configurations of shape (n, {self.dof}), got {q.shape}")
-        n = q.shape[0]
-        p = np.broadcast_to(self.base_position, (n, 3)).copy()
-        r = np.broadcast_to(self.base_rotation, (n, 3, 3)).copy()
-        for j in self.joints:
-            p += r @ np.asarray(j.origin_xyz)
-            r = r @ np.asarray(j.origin_rot)
-            if j.source < 0:
-                continue
-            v = self._values(q, j)
-            axis = np.asarray(j.axis)
-            if j.type == "prismatic":
-                p += (r @ axis) * v[:, None]
-            else:
-                r = r @ _axis_angle(axis, v)
-        return p, r
+        return chain_frames([self], q)[0]
 
     def reach_bounds(self, lower: npt.ArrayLike, upper: npt.ArrayLike, seed: int, samples: int = 10_000,
                      starts: int = 4, iterations: int = 60) -> tuple[FloatArray, FloatArray]:
@@ -191,6 +177,34 @@ class ChainFK:
         if q.ndim != 2 or len(q) <= block:
             return self.poses(q)[0]
         return np.concatenate([self.poses(q[a:a + block])[0] for a in range(0, len(q), block)])
+
+
+def chain_frames(chains: Sequence[ChainFK], qs: FloatArray) -> list[tuple[FloatArray, FloatArray]]:
+    """End-link positions ``(n, 3)`` and rotations ``(n, 3, 3)`` of several chains of one robot (same
+    base pose, joint order and URDF, e.g. one per link) for configurations ``qs`` (validated), the
+    joints they share computed once."""
+    n = len(qs)
+    done: dict[str, tuple[FloatArray, FloatArray]] = {}
+    out = []
+    for fk in chains:
+        p: FloatArray = np.broadcast_to(fk.base_position, (n, 3))
+        r: FloatArray = np.broadcast_to(fk.base_rotation, (n, 3, 3))
+        for j in fk.joints:
+            if j.name in done:
+                p, r = done[j.name]
+                continue
+            p = p + r @ np.asarray(j.origin_xyz)
+            r = r @ np.asarray(j.origin_rot)
+            if j.source >= 0:
+                v = fk._values(qs, j)
+                axis = np.asarray(j.axis)
+                if j.type == "prismatic":
+                    p = p + (r @ axis) * v[:, None]
+                else:
+                    r = r @ _axis_angle(axis, v)
+            done[j.name] = (p, r)
+        out.append((p, r))
+    return out
 
 
 def _axis_angle(axis: FloatArray, angle: FloatArray) -> FloatArray:

@@ -1,7 +1,9 @@
-"""Parallel collision labelling of joint configurations in chunks, on the worker pool (``pool.py``).
+"""A local generation's chunks (``chunk.label_chunk``, the unit of work of cluster runs too) on the
+worker pool (``pool.py``).
 
-Work is split in chunks for progress reporting and load balance; the calling process may label chunks
-too (``helper``) while it would otherwise wait, which hides the workers' start-up.
+Work is split in chunks for progress reporting and load balance; the calling process may compute chunks
+too (``helper``: its own ``World`` labels them) while it would otherwise wait, which hides the workers'
+start-up.
 """
 
 from __future__ import annotations
@@ -17,11 +19,12 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.errors import InternalError, SimError
-from robwot_sim.workspace.pool import acquire_pool, ping, release_pool, spec_key, warm_up, worker_label
+from robwot_sim.workspace.chunk import Chunk, ChunkJob, label_chunk
+from robwot_sim.workspace.pool import acquire_pool, ping, release_pool, spec_key, warm_up
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-__all__ = ["Labelling", "chunk_size", "label_configurations", "rebuild_error", "spec_key", "warm_up"]
+__all__ = ["Labelling", "chunk_size", "label_samples", "rebuild_error", "spec_key", "warm_up"]
 
 MIN_CHUNK = 500
 MAX_CHUNK = 4000
@@ -34,14 +37,13 @@ def chunk_size(n: int, workers: int) -> int:
 
 
 class Labelling:
-    """One labelling job. The pool is started and the chunks submitted by a background thread, so the
-    caller can compute FK and label chunks itself (``result(helper=...)``) in the meantime: chunks are
-    claimed from the end by the caller, submitted from the start to the workers. If the pool fails to
-    start, a helping caller labels everything itself."""
+    """The chunks of ``samples`` rows of ``job``. The pool is started and the chunks submitted by a
+    background thread, so the caller can compute chunks itself (``result(helper=...)``) in the meantime:
+    chunks are claimed from the end by the caller, submitted from the start to the workers. If the pool
+    fails to start, a helping caller computes everything itself."""
 
-    def __init__(self, spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int) -> None:
-        self.n, self.qs, self.workers = len(qs), qs, workers
-        self.spec, self.robot_id, self.key = spec, robot_id, spec_key(spec)
+    def __init__(self, job: ChunkJob, samples: int, workers: int) -> None:
+        self.n, self.job, self.workers = samples, job, workers
         size = chunk_size(self.n, workers)
         self.chunks = [(a, min(a + size, self.n)) for a in range(0, self.n, size)]
         self._lock = threading.Lock()
@@ -63,8 +65,7 @@ class Labelling:
                     if self._stopped:
                         return
                     if i not in self._taken:
-                        self._futures[i] = self.pool.submit(worker_label, self.key, self.spec, self.robot_id,
-                                                            np.ascontiguousarray(self.qs[a:b]))
+                        self._futures[i] = self.pool.submit(label_chunk, self.job, a, b - a)
         except (BrokenProcessPool, RuntimeError) as e:
             self._error = e
 
@@ -95,36 +96,32 @@ class Labelling:
         self._stop()
 
     def result(self, progress: Callable[[int, int], None] | None = None,
-               helper: Callable[[FloatArray], BoolArray] | None = None) -> BoolArray:
-        """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool.
+               helper: Callable[[FloatArray], BoolArray] | None = None) -> list[Chunk]:
+        """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool. Returns the
+        chunks in sample order.
 
-        ``helper`` (e.g. the calling process's own ``World.collision_free_batch``) labels chunks that no
-        worker has started, from the end, ``HELPER_STEP`` rows per call (short lock holds). If the pool
-        breaks (a worker crashed, or workers cannot start, e.g. ``__main__`` read from stdin), the
-        helper labels the remaining chunks; without a helper that is an ``InternalError``.
+        ``helper`` (e.g. the calling process's own ``World.collision_free_batch``) labels the rows of the
+        chunks that no worker has started, from the end, ``HELPER_STEP`` rows per call (short lock holds).
+        If the pool breaks (a worker crashed, or workers cannot start, e.g. ``__main__`` read from stdin),
+        the helper labels the remaining chunks; without a helper that is an ``InternalError``.
         """
-        out = np.zeros(self.n, dtype=bool)
-        finished: set[int] = set()  # chunks whose labels are in ``out``
+        out: dict[int, Chunk] = {}  # finished chunks
+        finished = out.keys()
         progress = progress or (lambda _d, _t: None)
 
-        def own(i: int) -> None:
+        def steps(qs: FloatArray) -> BoolArray:
             assert helper is not None
+            return np.concatenate([helper(qs[s:s + HELPER_STEP]) for s in range(0, len(qs), HELPER_STEP)])
+
+        def own(i: int) -> None:
             a, b = self.chunks[i]
-            for s in range(a, b, HELPER_STEP):
-                e = min(s + HELPER_STEP, b)
-                out[s:e] = helper(self.qs[s:e])
-            finished.add(i)
+            out[i] = self._chunk(label_chunk(self.job, a, b - a, steps))
 
         def collect(futures: dict[int, Future[Any]]) -> None:
             for i, f in futures.items():
                 if i in finished or not f.done():
                     continue
-                res = f.result()
-                if isinstance(res, dict):
-                    raise rebuild_error(res)
-                a, b = self.chunks[i]
-                out[a:b] = res
-                finished.add(i)
+                out[i] = self._chunk(f.result())
 
         def count() -> int:
             return sum(self.chunks[i][1] - self.chunks[i][0] for i in finished)
@@ -158,7 +155,13 @@ class Labelling:
                         progress(count(), self.n)
         finally:
             self._stop(broken)
-        return out
+        return [out[i] for i in range(len(self.chunks))]
+
+    @staticmethod
+    def _chunk(res: Chunk | dict[str, Any]) -> Chunk:
+        if isinstance(res, dict):
+            raise rebuild_error(res)
+        return res
 
 
 def rebuild_error(res: dict[str, Any]) -> SimError:
@@ -170,8 +173,8 @@ def rebuild_error(res: dict[str, Any]) -> SimError:
     return e
 
 
-def label_configurations(spec: dict[str, Any], robot_id: str, qs: FloatArray, workers: int,
-                         progress: Callable[[int, int], None] | None = None,
-                         helper: Callable[[FloatArray], BoolArray] | None = None) -> BoolArray:
-    """Collision-free flag per row of ``qs`` (controllable joint order) in the world described by ``spec``."""
-    return Labelling(spec, robot_id, qs, workers).result(progress, helper)
+def label_samples(job: ChunkJob, samples: int, workers: int,
+                  progress: Callable[[int, int], None] | None = None,
+                  helper: Callable[[FloatArray], BoolArray] | None = None) -> list[Chunk]:
+    """The chunks of rows ``0 .. samples - 1`` of ``job``, computed by ``workers`` processes."""
+    return Labelling(job, samples, workers).result(progress, helper)

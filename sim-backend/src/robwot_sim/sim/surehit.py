@@ -1,0 +1,256 @@
+"""Sure hits: configurations whose collision is certain from geometry alone, found in numpy for a whole
+batch, so that Bullet checks only the others (``World.collision_free_batch``).
+
+Why: a colliding configuration costs Bullet 5-30 times a free one (the penetration depth of every
+penetrating pair of convex parts, EPA), so colliding samples took ~45 % of the labelling time of kuka with
+4 obstacles and ~85 % for UR5's decomposed meshes.
+
+How: each convex part of a moving link (a decomposed mesh part, a primitive) gets up to ``PER_PART``
+balls that lie inside it (centres on the part's long axis, radius the distance to its nearest face), in
+the URDF link frame, and every link's frame comes from the vectorised FK (``workspace/fk.py``). A
+configuration is a sure hit when, by more than ``DEPTH`` (m),
+
+- a ball reaches into a primitive obstacle (box, sphere, cylinder; signed distance < radius), or
+- two balls of a link pair that Bullet checks overlap (both links with mass, neither the other's
+  parent, not a filtered pair).
+
+Then the part and the obstacle (or the two parts) share a ball of radius > ``DEPTH``: Bullet reports a
+contact of negative distance there, so the label is the one Bullet gives. Everything else (grazing
+contacts, meshes, other robots) is left to Bullet. Labels do not depend on the order of the checks
+(Bullet's persistent contacts were tested for that: the same labels in reverse order), so skipping rows
+changes no other row's label.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pybullet as pb
+
+from robwot_sim.sim.types import FloatArray
+from robwot_sim.workspace.fk import chain_frames, quat_matrix
+
+PER_PART = 3  # balls per convex part
+MAX_BALLS = 8  # largest balls kept per link
+MIN_RADIUS = 0.005  # m: smaller balls are dropped
+DEPTH = 0.001  # m: overlap a sure hit needs
+MAX_OBSTACLES = 32  # largest primitive obstacles tested
+PROBE = 500  # rows of a batch tested first: below MIN_RATE sure hits among them, the rest is not tested
+MIN_RATE = 0.02  # (a hit saves ~250 us of Bullet; the test costs ~5-30 us per row)
+
+
+@dataclass(frozen=True)
+class LinkBalls:
+    """Balls inside one moving link's collision parts, in its URDF link frame."""
+
+    link: int  # Bullet link index
+    centres: FloatArray  # (k, 3)
+    radii: FloatArray  # (k,)
+
+
+def _obj_vertices(path: Path) -> FloatArray | None:
+    """Vertices of a one-object OBJ file (``v x y z`` lines); None for other files (Bullet makes one hull
+    per object of a file, and the hull of all of them would be larger)."""
+    if path.suffix.lower() != ".obj" or not path.is_file():
+        return None
+    lines = path.read_text(errors="replace").splitlines()
+    if sum(line.startswith(("o ", "g ")) for line in lines) > 1:
+        return None
+    rows = [line.split()[1:4] for line in lines if line.startswith("v ")]
+    return np.array(rows, dtype=np.float64) if rows else None
+
+
+def _hull_balls(vertices: FloatArray) -> list[tuple[FloatArray, float]]:
+    """Up to ``PER_PART`` balls inside the convex hull of ``vertices``: centres at the vertex centroid and
+    at +-1/3 of the extent along the principal axis, radius the distance to the nearest hull face."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(vertices)
+    except (QhullError, ValueError):
+        return []
+    eq = hull.equations  # n . x + d <= 0 inside, |n| = 1
+    centre = vertices[hull.vertices].mean(axis=0)
+    _, _, vt = np.linalg.svd(vertices - centre, full_matrices=False)
+    axis = vt[0]
+    along = (vertices - centre) @ axis
+    out = []
+    for t in (0.0, along.min() / 3, along.max() / 3)[:PER_PART]:
+        c = centre + t * axis
+        r = float(-(eq[:, :3] @ c + eq[:, 3]).max())
+        if r >= MIN_RADIUS:
+            out.append((c, r))
+    return out
+
+
+def _primitive_balls(kind: int, dims: Any) -> list[tuple[FloatArray, float]]:
+    """Balls inside a box / sphere / cylinder / capsule centred at its frame (axis z)."""
+    if kind == pb.GEOM_SPHERE:
+        return [(np.zeros(3), float(dims[0]))]
+    if kind == pb.GEOM_BOX:
+        halves = np.asarray(dims[:3], dtype=np.float64) / 2
+        rb = float(halves.min())
+        ax = int(np.argmax(halves))
+        out = [(np.zeros(3), rb)]
+        for sign in (-1.0, 1.0):
+            c = np.zeros(3)
+            c[ax] = sign * max(0.0, float(halves[ax]) - rb)
+            out.append((c, rb))
+        return out
+    if kind in (pb.GEOM_CYLINDER, pb.GEOM_CAPSULE):
+        length, radius = float(dims[0]), float(dims[1])
+        half = length / 2 + (radius if kind == pb.GEOM_CAPSULE else 0.0)
+        r = min(radius, half)
+        return [(np.array([0.0, 0.0, s * max(0.0, half - r)]), r) for s in (0.0, -1.0, 1.0)]
+    return []
+
+
+def link_balls(cid: int, body: int, link: int) -> LinkBalls:
+    """The balls of one link of a loaded body (its collision shapes as Bullet holds them)."""
+    state = pb.getLinkState(body, link, physicsClientId=cid)
+    com_p, com_r = np.asarray(state[2], dtype=np.float64), quat_matrix(state[3])  # inertial frame in link
+    balls: list[tuple[FloatArray, float]] = []
+    for shape in pb.getCollisionShapeData(body, link, physicsClientId=cid) or ():
+        kind, dims, name, pos, orn = shape[2], shape[3], shape[4], shape[5], shape[6]
+        if kind == pb.GEOM_MESH:
+            v = _obj_vertices(Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name)))
+            local = [] if v is None else _hull_balls(v * np.asarray(dims, dtype=np.float64))
+        else:
+            local = _primitive_balls(kind, dims)
+        rot, off = quat_matrix(orn), np.asarray(pos, dtype=np.float64)
+        # shape frame -> inertial frame -> link frame
+        balls += [(com_p + com_r @ (off + rot @ c), r) for c, r in local]
+    balls.sort(key=lambda b: -b[1])
+    balls = balls[:MAX_BALLS]
+    return LinkBalls(link, np.array([c for c, _ in balls]).reshape(-1, 3),
+                     np.array([r for _, r in balls], dtype=np.float64))
+
+
+def _sdf(spec: dict[str, Any], points: FloatArray) -> FloatArray | None:
+    """Signed distance (m, negative inside) of ``points`` (..., 3) to a primitive obstacle (else None)."""
+    shape = spec["shape"]
+    local = (points - np.asarray(spec["position"], dtype=np.float64)) @ quat_matrix(spec["orientation"])
+    t = shape["type"]
+    if t == "sphere":
+        out: FloatArray = np.linalg.norm(local, axis=-1) - float(shape["radius"])
+        return out
+    if t == "box":
+        q = np.abs(local) - np.asarray(shape["size"], dtype=np.float64) / 2
+        return np.asarray(np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0))
+    if t == "cylinder":
+        d = np.stack([np.linalg.norm(local[..., :2], axis=-1) - float(shape["radius"]),
+                      np.abs(local[..., 2]) - float(shape["length"]) / 2], axis=-1)
+        return np.asarray(np.linalg.norm(np.maximum(d, 0.0), axis=-1) + np.minimum(d.max(axis=-1), 0.0))
+    return None
+
+
+def _volume(shape: dict[str, Any]) -> float:
+    t = shape["type"]
+    if t == "box":
+        return float(np.prod(shape["size"]))
+    if t == "sphere":
+        return 4.19 * float(shape["radius"]) ** 3
+    if t == "cylinder":
+        return 3.14 * float(shape["radius"]) ** 2 * float(shape["length"])
+    return 0.0
+
+
+class SureHits:
+    """Sure-hit test of one robot (see the module docstring). ``fks[i]`` gives link ``links[i].link``'s
+    frame from a joint vector (``ChainFK``); ``pairs`` are the self pairs (indices into ``links``);
+    ``obstacles`` the world's obstacle specs. Each link's balls are first tested as one bounding ball, so
+    the ball-by-ball test runs only for the rows where that one reaches."""
+
+    def __init__(self, links: list[LinkBalls], fks: list[Any], pairs: list[tuple[int, int]],
+                 obstacles: list[dict[str, Any]]) -> None:
+        keep = [i for i, lb in enumerate(links) if len(lb.radii)]
+        index = {old: new for new, old in enumerate(keep)}
+        self.links = [links[i] for i in keep]
+        self.fks = [fks[i] for i in keep]
+        self.pairs = [(index[a], index[b]) for a, b in pairs if a in index and b in index]
+        prims = [o for o in obstacles if o["shape"]["type"] in ("box", "sphere", "cylinder")]
+        self.obstacles = sorted(prims, key=lambda o: -_volume(o["shape"]))[:MAX_OBSTACLES]
+        self.bound_centre = [lb.centres.mean(axis=0) for lb in self.links]
+        self.bound_radius = [float((np.linalg.norm(lb.centres - c, axis=1) + lb.radii).max())
+                             for lb, c in zip(self.links, self.bound_centre, strict=True)]
+
+    def hits(self, qs: FloatArray) -> npt.NDArray[np.bool_]:
+        """True where the configuration (row of ``qs``) surely collides. When fewer than ``MIN_RATE`` of
+        the first ``PROBE`` rows are (a robot and scene where the test does not pay), the other rows are
+        left to Bullet."""
+        if len(qs) <= PROBE:
+            return self._hits(qs)
+        probe = self._hits(qs[:PROBE])
+        if probe.mean() < MIN_RATE:
+            return np.concatenate([probe, np.zeros(len(qs) - PROBE, dtype=bool)])
+        return np.concatenate([probe, self._hits(qs[PROBE:])])
+
+    def _hits(self, qs: FloatArray) -> npt.NDArray[np.bool_]:
+        n = len(qs)
+        out = np.zeros(n, dtype=bool)
+        if not self.links or n == 0:
+            return out
+        frames = chain_frames(self.fks, qs)
+        centres = [p + r @ c for (p, r), c in zip(frames, self.bound_centre, strict=True)]  # (n, 3)
+
+        def balls(k: int, rows: npt.NDArray[np.intp]) -> FloatArray:
+            p, r = frames[k]
+            return np.asarray(p[rows, None, :] + np.einsum("nij,kj->nki", r[rows], self.links[k].centres))
+
+        for k, lb in enumerate(self.links):
+            for o in self.obstacles:
+                sd = _sdf(o, centres[k])
+                assert sd is not None  # primitives only
+                rows = np.flatnonzero((sd < self.bound_radius[k] - DEPTH) & ~out)
+                if len(rows):
+                    sdb = _sdf(o, balls(k, rows))
+                    assert sdb is not None
+                    out[rows[(sdb < lb.radii - DEPTH).any(axis=1)]] = True
+        for a, b in self.pairs:
+            d = centres[a] - centres[b]
+            reach = self.bound_radius[a] + self.bound_radius[b] - DEPTH
+            rows = np.flatnonzero((np.einsum("ni,ni->n", d, d) < reach * reach) & ~out)
+            if len(rows):  # then a's balls against b's bounding ball
+                ba = balls(a, rows)
+                e = ba - centres[b][rows, None, :]
+                lim_b = self.links[a].radii + self.bound_radius[b] - DEPTH
+                near = (np.einsum("nki,nki->nk", e, e) < lim_b * lim_b).any(axis=1)
+                rows, ba = rows[near], ba[near]
+            if len(rows):
+                diff = ba[:, :, None, :] - balls(b, rows)[:, None, :, :]
+                lim = self.links[a].radii[:, None] + self.links[b].radii[None, :] - DEPTH
+                hit = (np.einsum("nabi,nabi->nab", diff, diff) < np.where(lim > 0, lim * lim, -1.0))
+                out[rows[hit.any(axis=(1, 2))]] = True
+        return out
+
+
+def build_sure_hits(bound: Any, filtered: set[tuple[int, int]], urdf: Path, model: Any,
+                    obstacles: list[dict[str, Any]]) -> SureHits:
+    """The sure-hit test of a loaded robot (``BoundRobot``, its filtered pairs, URDF and ``RobotModel``).
+    Empty (never a hit) when the FK does not reproduce Bullet's link frames to 1e-6 m / 1e-6."""
+    from robwot_sim.urdf import read_urdf
+    from robwot_sim.workspace.fk import ChainFK
+
+    cid, body = bound.bullet.cid, bound.body
+    links = [ln for ln in bound.moving_links if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]
+    root = read_urdf(str(urdf))
+    fks = [ChainFK.from_urdf(root, bound.link_names[ln], model.controllable,
+                             base_position=model.base_position, base_orientation=model.base_orientation)
+           for ln in links]
+    q = np.asarray(bound.q, dtype=np.float64)[None, :]
+    for ln, fk in zip(links, fks, strict=True):
+        p, r = fk.poses(q)
+        state = pb.getLinkState(body, ln, computeForwardKinematics=True, physicsClientId=cid)
+        if (np.abs(p[0] - np.asarray(state[4])).max() > 1e-6
+                or np.abs(r[0] - quat_matrix(state[5])).max() > 1e-6):
+            return SureHits([], [], [], [])
+    mass = {ln: float(pb.getDynamicsInfo(body, ln, physicsClientId=cid)[0]) for ln in links}
+    parent = {ln: int(pb.getJointInfo(body, ln, physicsClientId=cid)[16]) for ln in links}
+    pairs = [(i, j) for i, a in enumerate(links) for j, b in enumerate(links)
+             if i < j and mass[a] > 0 and mass[b] > 0 and parent[a] != b and parent[b] != a
+             and (min(a, b), max(a, b)) not in filtered]
+    return SureHits([link_balls(cid, body, ln) for ln in links], fks, pairs, obstacles)
