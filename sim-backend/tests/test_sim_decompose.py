@@ -5,9 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy.spatial import ConvexHull
 
-from robwot_sim.sim.decompose import cache_key, decompose, is_convex
+from robwot_sim.sim import decompose as decompose_module
+from robwot_sim.sim.decompose import cache_key, decompose, is_convex, surface_points
 
 
 def box(lo: list[float], hi: list[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -29,7 +31,7 @@ def u_shape() -> tuple[np.ndarray, np.ndarray]:
 
 
 def subdivide(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each triangle into four (V-HACD voxelises large flat triangles poorly)."""
+    """Each triangle into four (denser surface points for the coverage checks)."""
     verts = [tuple(p) for p in v]
     index = {p: i for i, p in enumerate(verts)}
     out = []
@@ -81,6 +83,17 @@ def test_concave_mesh_is_split_into_parts_that_leave_the_gap_free(tmp_path: Path
     assert inside_any(np.array([0.15, 0.05, 0.2]), [v])  # ... which the U's hull holds
 
 
+def test_parts_cover_the_whole_surface(tmp_path: Path) -> None:
+    """No false "free": every point of the mesh surface lies inside a part (the shape never shrinks)."""
+    v, f = u_shape()
+    parts = [read_obj(p) for p in decompose(v, f, "u", tmp_path).parts]
+    size = float(np.ptp(v, axis=0).max())
+    eqs = [ConvexHull(p, qhull_options="QJ").equations for p in parts]
+    pts = surface_points(v, f)
+    outside = np.min([np.max(pts @ e[:, :3].T + e[:, 3], axis=1) for e in eqs], axis=0)
+    assert outside.max() <= 2e-4 * size
+
+
 def test_cache_is_reused_and_keyed_by_content_and_scale(tmp_path: Path) -> None:
     """A second call reads the parts back without recomputing; content or scale changes change the key."""
     v, f = u_shape()
@@ -91,3 +104,10 @@ def test_cache_is_reused_and_keyed_by_content_and_scale(tmp_path: Path) -> None:
     assert cache_key(b"abc", (1, 1, 1)) != cache_key(b"abd", (1, 1, 1))
     assert cache_key(b"abc", (1, 1, 1)) != cache_key(b"abc", (0.001, 0.001, 0.001))
     assert not list(tmp_path.glob(".*"))  # no temp folder left behind
+
+
+def test_cache_key_includes_the_decomposition_parameters(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Other CoACD parameters, other parts: a cache written with the old ones is not reused."""
+    before = cache_key(b"abc", (1, 1, 1))
+    monkeypatch.setitem(decompose_module.COACD_PARAMS, "threshold", 0.03)
+    assert cache_key(b"abc", (1, 1, 1)) != before
