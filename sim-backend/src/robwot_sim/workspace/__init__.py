@@ -10,7 +10,6 @@ import math
 import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -180,38 +179,28 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
             run.seconds
         lo, hi = run.lo, run.hi
     else:
+        # streamed like a cluster run: each chunk's rows are written once the earlier ones are
         t1 = time.perf_counter()
-        chunks = Labelling(job, int(samples), n_workers).result(
-            lambda done, total: report("collide", done, total),
-            helper=lambda q: world.collision_free_batch(robot_id, q))
-        t_collide = time.perf_counter() - t1
         sink = ChunkSink(base_voxel, ALPHA_MAX_POINTS, lambda _b: None)
-        for i, c in enumerate(chunks):
-            sink.add(i, c)
-        alpha_points, free_count, reach, lo, hi = sink.alpha_points(), sink.free, sink.reach, sink.lo, sink.hi
 
         def write(f: BinaryIO) -> None:
             f.write((",".join(header) + "\n").encode())
-            for c in chunks:
-                f.write(c.csv)
+            sink.write = f.write
+            Labelling(job, int(samples), n_workers).result(
+                lambda done, total: report("collide", done, total),
+                helper=lambda q: world.collision_free_batch(robot_id, q), sink=sink.add)
+
+        atomic_write(out / "workspace.csv", write)
+        t_collide = time.perf_counter() - t1
+        alpha_points, free_count, reach, lo, hi = sink.alpha_points(), sink.free, sink.reach, sink.lo, sink.hi
     t2 = time.perf_counter()
     report("alpha", 0, 1)
     from robwot_sim.workspace.alpha_shape import alpha_shape
 
-    # A local run's CSV is written by a second thread while Qhull (which releases the GIL) triangulates.
-    with ThreadPoolExecutor(1, thread_name_prefix="robwot-write-csv") as writer:
-        csv = None if address is not None else writer.submit(atomic_write, out / "workspace.csv", write)
-        try:
-            shape = alpha_shape(alpha_points, alpha_arg)
-        except BaseException:
-            if csv is not None:
-                csv.cancel()
-            raise
-        report("alpha", 1, 1)
-        t3 = time.perf_counter()
-        report("write", 0, 2)
-        if csv is not None:
-            csv.result()
+    shape = alpha_shape(alpha_points, alpha_arg)
+    report("alpha", 1, 1)
+    t3 = time.perf_counter()
+    report("write", 0, 2)
     report("write", 1, 2)
     bounds: dict[str, list[float] | None] = (
         {"min": None, "max": None} if lo is None or hi is None

@@ -39,15 +39,16 @@ def chunk_size(n: int, workers: int) -> int:
 class Labelling:
     """The chunks of ``samples`` rows of ``job``. The pool is started and the chunks submitted by a
     background thread, so the caller can compute chunks itself (``result(helper=...)``) in the meantime:
-    chunks are claimed from the end by the caller, submitted from the start to the workers. If the pool
-    fails to start, a helping caller computes everything itself."""
+    chunks are submitted from the start to the workers, and the caller claims the first one no worker has
+    started, so chunks finish nearly in sample order (a streaming ``sink`` holds few of them). If the
+    pool fails to start, a helping caller computes everything itself."""
 
     def __init__(self, job: ChunkJob, samples: int, workers: int) -> None:
         self.n, self.job, self.workers = samples, job, workers
         size = chunk_size(self.n, workers)
         self.chunks = [(a, min(a + size, self.n)) for a in range(0, self.n, size)]
         self._lock = threading.Lock()
-        self._taken: set[int] = set()  # claimed by the caller
+        self._taken: set[int] = set()  # claimed by the caller, or collected from a worker
         self._futures: dict[int, Future[Any]] = {}  # submitted to the pool (not cancelled)
         self._stopped = False
         self._error: BaseException | None = None
@@ -70,9 +71,9 @@ class Labelling:
             self._error = e
 
     def _claim(self) -> int | None:
-        """The last chunk no worker has started, now the caller's (cancelled in the pool if queued)."""
+        """The first chunk no worker has started, now the caller's (cancelled in the pool if queued)."""
         with self._lock:
-            for i in range(len(self.chunks) - 1, -1, -1):
+            for i in range(len(self.chunks)):
                 if i in self._taken:
                     continue
                 f = self._futures.get(i)
@@ -96,18 +97,27 @@ class Labelling:
         self._stop()
 
     def result(self, progress: Callable[[int, int], None] | None = None,
-               helper: Callable[[FloatArray], BoolArray] | None = None) -> list[Chunk]:
+               helper: Callable[[FloatArray], BoolArray] | None = None,
+               sink: Callable[[int, Chunk], None] | None = None) -> list[Chunk]:
         """Wait for every chunk; ``progress(done, total)`` after each. Releases the pool. Returns the
-        chunks in sample order.
+        chunks in sample order, or, with ``sink``, passes each to ``sink(index, chunk)`` as it finishes
+        (in any order) and keeps none (returns ``[]``): memory then does not grow with ``samples``.
 
         ``helper`` (e.g. the calling process's own ``World.collision_free_batch``) labels the rows of the
         chunks that no worker has started, from the end, ``HELPER_STEP`` rows per call (short lock holds).
         If the pool breaks (a worker crashed, or workers cannot start, e.g. ``__main__`` read from stdin),
         the helper labels the remaining chunks; without a helper that is an ``InternalError``.
         """
-        out: dict[int, Chunk] = {}  # finished chunks
-        finished = out.keys()
+        out: dict[int, Chunk] = {}  # finished chunks, unless sunk
+        finished: set[int] = set()
         progress = progress or (lambda _d, _t: None)
+
+        def done(i: int, chunk: Chunk) -> None:
+            finished.add(i)
+            if sink is None:
+                out[i] = chunk
+            else:
+                sink(i, chunk)
 
         def steps(qs: FloatArray) -> BoolArray:
             assert helper is not None
@@ -115,13 +125,16 @@ class Labelling:
 
         def own(i: int) -> None:
             a, b = self.chunks[i]
-            out[i] = self._chunk(label_chunk(self.job, a, b - a, steps))
+            done(i, self._chunk(label_chunk(self.job, a, b - a, steps)))
 
         def collect(futures: dict[int, Future[Any]]) -> None:
-            for i, f in futures.items():
+            for i, f in list(futures.items()):
                 if i in finished or not f.done():
                     continue
-                out[i] = self._chunk(f.result())
+                done(i, self._chunk(f.result()))
+                with self._lock:  # a future holds its result: drop it (taken: never claimed again)
+                    self._futures.pop(i, None)
+                    self._taken.add(i)
 
         def count() -> int:
             return sum(self.chunks[i][1] - self.chunks[i][0] for i in finished)
@@ -155,7 +168,7 @@ class Labelling:
                         progress(count(), self.n)
         finally:
             self._stop(broken)
-        return [out[i] for i in range(len(self.chunks))]
+        return [] if sink is not None else [out[i] for i in range(len(self.chunks))]
 
     @staticmethod
     def _chunk(res: Chunk | dict[str, Any]) -> Chunk:
