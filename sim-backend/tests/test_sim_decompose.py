@@ -111,3 +111,24 @@ def test_cache_key_includes_the_decomposition_parameters(monkeypatch: pytest.Mon
     before = cache_key(b"abc", (1, 1, 1))
     monkeypatch.setitem(decompose_module.COACD_PARAMS, "threshold", 0.03)
     assert cache_key(b"abc", (1, 1, 1)) != before
+
+
+def test_a_robot_with_many_parts_loads_from_a_long_cache_path(tmp_path: Path,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """PyBullet refuses URDF files above ~32 KiB; the KUKA's 185 part files named by absolute path under a
+    long cache path made one (a fresh CI cache failed to load it). The prepared file names the parts
+    relative to the cache folder and is removed after loading."""
+    from robwot_sim.sim.decompose import collision_cache
+    from robwot_sim.sim.world import World
+
+    real = collision_cache(tmp_path)  # the usual cache: its parts are reused, only the path is longer
+    real.mkdir(parents=True, exist_ok=True)
+    cache = tmp_path / ("long-cache-folder-name-" * 4) / "collision"
+    cache.parent.mkdir(parents=True)
+    cache.symlink_to(real)
+    monkeypatch.setenv("ROBWOT_COLLISION_CACHE", str(cache))
+    before = set(real.glob(".robot-*"))  # other processes may be loading robots meanwhile
+    with World() as w:
+        m = w.load_robot("kuka_iiwa/model.urdf")
+        assert not w.check_collision(m.id, [0, 2.0, 0, -2.0, 0, 2.0, 0]).collision_free
+    assert not set(real.glob(".robot-*")) - before
