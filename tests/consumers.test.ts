@@ -195,7 +195,8 @@ describe("async-move", () => {
   const auth = { authorization: `Basic ${Buffer.from("alice:s3cret").toString("base64")}` };
 
   it("chooses the asynchronous form from the TD: ActionStatus at once, progress while running, completed at the target", async () => {
-    const run = await runScenario("async-move", [tdUrl(live), "--speed", "0.5"], AUTH_ENV);
+    // a move of a few seconds: several polls see it running even on a loaded machine
+    const run = await runScenario("async-move", [tdUrl(live), "--speed", "0.2", "--fraction", "0.6"], AUTH_ENV);
     expect(run.code, run.stderr).toBe(0);
     const { target, accepted, seen, final, joints, still } = run.result;
     expect(["pending", "running"]).toContain(accepted.status);
