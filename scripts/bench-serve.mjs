@@ -46,24 +46,29 @@ const pct = (xs, p) => {
   return a[Math.min(a.length - 1, Math.floor((p / 100) * a.length))];
 };
 
-async function reads(clients) {
-  const path = `${base.pathname}/properties/getJointPosition`;
-  for (let i = 0; i < 200; i++) await call("GET", path); // warm-up
+/** `total` calls of `request()` (resolving to its HTTP response) spread over `clients` concurrent loops. */
+async function timed(what, total, clients, request) {
   const lat = [];
-  let left = READS;
+  let left = total;
   const t0 = performance.now();
   await Promise.all(
     Array.from({ length: clients }, async () => {
       while (left-- > 0) {
         const t = performance.now();
-        const r = await call("GET", path);
-        if (r.status !== 200) throw new Error(`read answered ${r.status}`);
+        const r = await request();
+        if (r.status !== 200) throw new Error(`${what} answered ${r.status}: ${r.body}`);
         lat.push(performance.now() - t);
       }
     }),
   );
   const secs = (performance.now() - t0) / 1000;
-  return { what: `property read, ${clients} client${clients > 1 ? "s" : ""}`, n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
+  return { what, n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
+}
+
+async function reads(clients) {
+  const path = `${base.pathname}/properties/getJointPosition`;
+  for (let i = 0; i < 200; i++) await call("GET", path); // warm-up
+  return timed(`property read, ${clients} client${clients > 1 ? "s" : ""}`, READS, clients, () => call("GET", path));
 }
 
 async function moves() {
@@ -71,16 +76,10 @@ async function moves() {
     { x: 0.45, y: 0.1, z: 0.6 },
     { x: 0.35, y: -0.25, z: 0.7 },
   ];
-  const lat = [];
-  const t0 = performance.now();
-  for (let i = 0; i < MOVES; i++) {
-    const t = performance.now();
-    const r = await call("POST", `${base.pathname}/actions/moveToCartesianPosition`, targets[i % 2]);
-    if (r.status !== 200) throw new Error(`move answered ${r.status}: ${r.body}`);
-    lat.push(performance.now() - t);
-  }
-  const secs = (performance.now() - t0) / 1000;
-  return { what: "moveToCartesianPosition, realtime 0", n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
+  let i = 0;
+  return timed("moveToCartesianPosition, realtime 0", MOVES, 1, () =>
+    call("POST", `${base.pathname}/actions/moveToCartesianPosition`, targets[i++ % 2]),
+  );
 }
 
 async function validations(clients) {
@@ -89,21 +88,9 @@ async function validations(clients) {
   let seed = 2024; // the same deterministic stream for every run
   const u = () => ((seed = (seed * 1103515245 + 12345) % 2147483648) / 2147483648);
   const target = () => Object.fromEntries(["x", "y", "z"].map((k) => [k, input[k].minimum + u() * (input[k].maximum - input[k].minimum)]));
-  const lat = [];
-  let left = VALIDATIONS;
-  const t0 = performance.now();
-  await Promise.all(
-    Array.from({ length: clients }, async () => {
-      while (left-- > 0) {
-        const t = performance.now();
-        const r = await call("POST", `${base.pathname}/actions/validateCartesianPosition`, target());
-        if (r.status !== 200) throw new Error(`validation answered ${r.status}: ${r.body}`);
-        lat.push(performance.now() - t);
-      }
-    }),
+  return timed(`validateCartesianPosition, random targets, ${clients} clients`, VALIDATIONS, clients, () =>
+    call("POST", `${base.pathname}/actions/validateCartesianPosition`, target()),
   );
-  const secs = (performance.now() - t0) / 1000;
-  return { what: `validateCartesianPosition, random targets, ${clients} clients`, n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
 }
 
 try {
