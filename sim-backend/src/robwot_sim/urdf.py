@@ -185,8 +185,6 @@ class PreparedUrdf:
 
     def cleanup(self) -> None:
         shutil.rmtree(self.tmpdir, ignore_errors=True)
-        if self.bullet_path.parent != Path(self.tmpdir):
-            self.bullet_path.unlink(missing_ok=True)
 
 
 def prepare_urdf(
@@ -225,30 +223,15 @@ def prepare_urdf(
         el.set("filename", str(meshes[el.get("filename", "")]))
     # PyBullet would turn each concave collision mesh into one convex hull: split it into convex parts
     parts = split_collisions(root, collision_cache(udir), _triangles)
-    return PreparedUrdf(doc, _write_for_bullet(root, parts, Path(tmpdir)), meshes, tmpdir, parts)
+    return PreparedUrdf(doc, _write_for_bullet(root, Path(tmpdir)), meshes, tmpdir, parts)
 
 
-def _write_for_bullet(root: ET.Element, parts: tuple[Path, ...], tmpdir: Path) -> Path:
-    """The URDF file PyBullet loads. PyBullet refuses URDF files above ~32 KiB ("Cannot load URDF file":
-    measured 32,722 bytes load, 34,492 do not), and a decomposed robot names one file per convex part
-    (KUKA: 185) by absolute path. So, when parts are used, the file is written in their cache folder with
-    the parts' names relative to it (PyBullet resolves mesh names against the URDF's folder), ~100 bytes
-    less per part; in ``tmpdir`` with absolute names when that folder is not writable."""
-    if parts:
-        cache = parts[0].parent
-        prefix = f"{cache}{os.sep}"
-        try:
-            fd, name = tempfile.mkstemp(prefix=".robot-", suffix=".urdf", dir=cache)
-        except OSError:
-            pass
-        else:
-            for el in root.iter("mesh"):
-                fn = el.get("filename", "")
-                if fn.startswith(prefix):
-                    el.set("filename", fn[len(prefix):])
-            with os.fdopen(fd, "wb") as f:
-                ET.ElementTree(root).write(f, encoding="utf-8", xml_declaration=True)
-            return Path(name)
+def _write_for_bullet(root: ET.Element, tmpdir: Path) -> Path:
+    """The URDF file PyBullet loads, one element per line. PyBullet breaks long lines of a URDF, even
+    mid-attribute ("cannot find 'eb06...982\\nc/part081.obj'", then "Cannot load URDF file"): the convex
+    parts of a link (decompose.py), written on one line, loaded at 30 parts (a 3.4 KB line) and failed at
+    100 (10 KB), whatever the file's size (a 111 KB URDF with short lines loads)."""
+    ET.indent(root)
     out = tmpdir / "robot.urdf"
     ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
     return out
