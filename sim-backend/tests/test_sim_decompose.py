@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from robwot_sim.sim import decompose as decompose_module
-from robwot_sim.sim.decompose import cache_key, decompose, is_convex, surface_points
+from robwot_sim.sim.decompose import cache_key, decompose, is_convex, slim, surface_points
 
 
 def box(lo: list[float], hi: list[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -92,6 +92,23 @@ def test_parts_cover_the_whole_surface(tmp_path: Path) -> None:
     pts = surface_points(v, f)
     outside = np.min([np.max(pts @ e[:, :3].T + e[:, 3], axis=1) for e in eqs], axis=0)
     assert outside.max() <= 2e-4 * size
+
+
+def test_slim_hull_has_fewer_vertices_and_still_contains_every_point() -> None:
+    """A finely sampled round surface (what the growing step leaves: every surface point a hull vertex)
+    gets a hull of far fewer vertices that contains every point and exceeds the exact hull by little."""
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(5000, 3))
+    pts = 0.05 * d / np.linalg.norm(d, axis=1)[:, None]  # sphere of radius 5 cm
+    exact = ConvexHull(pts)
+    v, tris = slim(pts, 1e-4)
+    hull = ConvexHull(v)
+    assert len(v) < len(exact.vertices) / 2
+    assert tris.max() < len(v)
+    assert np.max(pts @ hull.equations[:, :3].T + hull.equations[:, 3]) <= 1e-9  # contains every point
+    assert np.max(v @ exact.equations[:, :3].T + exact.equations[:, 3]) <= 1e-3  # at most 1 mm larger
+    box = rng.uniform(0, 0.1, size=(500, 3))  # nothing to merge: the exact hull, not a larger one
+    assert len(slim(box, 1e-4)[0]) == len(ConvexHull(box).vertices)
 
 
 def test_cache_is_reused_and_keyed_by_content_and_scale(tmp_path: Path) -> None:

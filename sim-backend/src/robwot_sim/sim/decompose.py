@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
@@ -53,6 +53,8 @@ COACD_PARAMS: dict[str, Any] = {"threshold": 0.05, "preprocess_mode": "auto", "p
 CONVEX_TOLERANCE = 1e-3
 #: A mesh vertex farther than this fraction of the mesh's size outside every part is added to a part.
 COVER_TOLERANCE = 1e-4
+#: How far (metres) a part's slimmed hull may lie outside the points it covers (see ``slim``).
+SLIM_MARGIN = 1e-4
 MANIFEST = "parts.json"
 
 
@@ -68,7 +70,7 @@ def cache_key(mesh_bytes: bytes, scale: tuple[float, float, float]) -> str:
     """Digest of what determines the parts: mesh content, scale, the library, its version and parameters."""
     h = hashlib.sha256(mesh_bytes)
     h.update(json.dumps({"scale": scale, "coacd": [version("coacd"), COACD_PARAMS],
-                         "cover": [COVER_TOLERANCE, 2]}, sort_keys=True).encode())
+                         "cover": [COVER_TOLERANCE, 2], "slim": SLIM_MARGIN}, sort_keys=True).encode())
     return h.hexdigest()[:24]
 
 
@@ -150,14 +152,43 @@ def cover(vertices: FloatArray, parts: list[FloatArray]) -> list[tuple[FloatArra
             break
         for k in np.unique(best[lost]):
             pts[k] = np.vstack([pts[k], vertices[lost & (best == k)]])
-    out = []
-    for p in pts:
-        hull = ConvexHull(p, qhull_options="QJ")
-        used = np.unique(hull.simplices)
-        remap = np.full(len(p), -1)
-        remap[used] = np.arange(len(used))
-        out.append((p[used], remap[hull.simplices]))
-    return out
+    return [slim(p, SLIM_MARGIN) for p in pts]
+
+
+def slim(points: FloatArray, margin: float) -> tuple[FloatArray, npt.NDArray[Any]]:
+    """A convex hull of ``points`` with few vertices that contains them all and is slightly larger.
+
+    The exact hull of finely spread surface points has hundreds of vertices (KUKA parts: median 353, up
+    to 7,522), and Bullet's narrow phase pays per vertex. Qhull merges facets whose centrums lie within
+    ``margin`` of their neighbours ("C" option); each merged facet's plane is moved out by ``margin`` and
+    the planes are intersected. Faces lie ``margin`` out, corners where shallow faces meet somewhat
+    more (a 5 cm sphere at 0.1 mm: 0.47 mm at most, 2,266 instead of 5,000 vertices). The result is
+    checked to contain every point; when it does not, or has no fewer vertices (nothing to merge), the
+    exact hull is returned. Returns (vertices, triangles).
+    """
+    exact = ConvexHull(points, qhull_options="QJ")
+    vertices, triangles = _compact(points, exact.simplices)
+    try:
+        merged = ConvexHull(points, qhull_options=f"C{margin:.9g}")
+        planes = np.unique(np.round(merged.equations, 12), axis=0)
+        planes[:, 3] -= margin
+        inner = points[merged.vertices].mean(axis=0)
+        corners = HalfspaceIntersection(planes, inner).intersections
+        slimmed = ConvexHull(corners)
+    except (QhullError, ValueError):
+        return vertices, triangles
+    outside = np.max(points @ slimmed.equations[:, :3].T + slimmed.equations[:, 3], axis=1)
+    if len(slimmed.vertices) >= len(vertices) or outside.max() > 1e-9:
+        return vertices, triangles
+    return _compact(corners, slimmed.simplices)
+
+
+def _compact(points: FloatArray, simplices: npt.NDArray[Any]) -> tuple[FloatArray, npt.NDArray[Any]]:
+    """The points a triangulation uses, and the triangles renumbered over them."""
+    used = np.unique(simplices)
+    remap = np.full(len(points), -1)
+    remap[used] = np.arange(len(used))
+    return points[used], remap[simplices]
 
 
 def _write(folder: Path, hulls: list[tuple[FloatArray, npt.NDArray[Any]]]) -> None:
