@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from robwot_sim.sim import decompose as decompose_module
-from robwot_sim.sim.decompose import cache_key, decompose, is_convex, slim, surface_points
+from robwot_sim.sim.decompose import cache_key, decompose, is_convex, remesh_resolution, slim, surface_points
 
 
 def box(lo: list[float], hi: list[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -109,6 +109,16 @@ def test_slim_hull_has_fewer_vertices_and_still_contains_every_point() -> None:
     assert np.max(v @ exact.equations[:, :3].T + exact.equations[:, 3]) <= 1e-3  # at most 1 mm larger
     box = rng.uniform(0, 0.1, size=(500, 3))  # nothing to merge: the exact hull, not a larger one
     assert len(slim(box, 1e-4)[0]) == len(ConvexHull(box).vertices)
+
+
+def test_remesh_voxels_are_at_most_5_mm_within_bounds() -> None:
+    """A long link is remeshed finer (a fatter remesh made false "colliding" labels); small ones at 50."""
+    def mesh(size: float) -> np.ndarray:
+        return np.array([[0.0, 0.0, 0.0], [size, 0.01, 0.01]])
+
+    assert remesh_resolution(mesh(0.1)) == 50
+    assert remesh_resolution(mesh(0.489)) == 98  # the UR5 forearm
+    assert remesh_resolution(mesh(2.0)) == 100
 
 
 def test_cache_is_reused_and_keyed_by_content_and_scale(tmp_path: Path) -> None:
