@@ -57,6 +57,11 @@ def inside_any(p: np.ndarray, parts: list[np.ndarray], tol: float = 2e-3) -> boo
     return False
 
 
+def to_obj(v: np.ndarray, f: np.ndarray) -> str:
+    vertices = "".join(f"v {a} {b} {c}\n" for a, b, c in v)
+    return vertices + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f)
+
+
 def read_obj(path: Path) -> np.ndarray:
     lines = path.read_text().splitlines()
     return np.array([[float(x) for x in ln.split()[1:4]] for ln in lines if ln.startswith("v ")])
@@ -138,6 +143,39 @@ def test_cache_key_includes_the_decomposition_parameters(monkeypatch: pytest.Mon
     before = cache_key(b"abc", (1, 1, 1))
     monkeypatch.setitem(decompose_module.COACD_PARAMS, "threshold", 0.03)
     assert cache_key(b"abc", (1, 1, 1)) != before
+
+
+def test_new_meshes_are_decomposed_in_parallel_as_they_would_be_one_by_one(tmp_path: Path) -> None:
+    """A robot's uncached concave meshes are decomposed side by side (one thread per core): the same
+    parts, byte for byte, as one at a time; convex meshes are kept; a concave mesh becomes its parts."""
+    import xml.etree.ElementTree as ET
+
+    from robwot_sim.sim.decompose import split_collisions
+
+    v, f = u_shape()
+    obj = tmp_path / "u.obj"
+    obj.write_text(to_obj(v, f))
+    bv, bf = box([0, 0, 0], [0.1, 0.1, 0.1])
+    cube = tmp_path / "box.obj"
+    cube.write_text(to_obj(bv, bf))
+    meshes = {obj: (v, f), cube: (bv, bf)}
+    links = "".join(f'<link name="l{i}"><collision><geometry><mesh filename="{m}" scale="{k} {k} {k}"/>'
+                    "</geometry></collision></link>"
+                    for i, (m, k) in enumerate([(obj, 1), (obj, 2), (obj, 3), (cube, 1)]))
+    root = ET.fromstring(f'<robot name="r">{links}</robot>')
+    used = split_collisions(root, tmp_path / "pool", lambda path: meshes.get(path))
+    assert len(used) == 4
+    counts = [len(link.findall("collision")) for link in root.iter("link")]
+    assert min(counts[:3]) >= 3 and counts[3] == 1  # the U split, the box kept
+    scales = {cache_key(obj.read_bytes(), (k, k, k)): k for k in (1.0, 2.0, 3.0)}
+    compared = 0
+    for folder in used:
+        if folder.name in scales:
+            alone = decompose(v * scales[folder.name], f, folder.name, tmp_path / "alone")
+            parts = sorted(folder.glob("part*.obj"))
+            assert [p.read_bytes() for p in alone.parts] == [p.read_bytes() for p in parts]
+            compared += 1
+    assert compared == 3
 
 
 def test_a_robot_with_many_parts_loads_from_a_long_cache_path(tmp_path: Path,
