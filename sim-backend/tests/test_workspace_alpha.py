@@ -200,3 +200,33 @@ def test_interior_thinning_keeps_the_surface() -> None:
     assert exact.volume == pytest.approx(full.volume, rel=1e-12)
     assert faces(exact) == faces(full)
     assert default.volume == pytest.approx(full.volume, rel=1e-3)
+
+
+def test_nonmanifold_repair_looks_only_near_the_repair_and_keeps_what_a_full_scan_keeps() -> None:
+    """The repair revisits only tetrahedra near the ones it added; it keeps exactly the tetrahedra that
+    re-scanning every tetrahedron each round keeps (random shells whose alpha sets touch themselves)."""
+    from scipy.spatial import Delaunay
+
+    from robwot_sim.workspace import mesh
+    from robwot_sim.workspace.alpha_shape import circumradii, local_radii
+
+    def full_scan(simplices: np.ndarray, neighbors: np.ndarray, kept: np.ndarray) -> np.ndarray:
+        n, out = int(simplices.max()) + 1, kept.copy()
+        e = np.sort(simplices[:, mesh._EDGE], axis=2)
+        keys = e[:, :, 0] * n + e[:, :, 1]
+        while (bad := mesh.nonmanifold_edges(simplices, neighbors, out, n)).size:
+            out |= np.isin(keys, bad).any(axis=1)
+        return out
+
+    rng = np.random.default_rng(0)
+    added = 0
+    for k in range(4):
+        p = rng.uniform(-1, 1, (8000, 3))
+        p = p[np.linalg.norm(p, axis=1) > 0.3 + 0.2 * k]
+        tri = Delaunay(p)
+        s, nb = tri.simplices.astype(np.int64), tri.neighbors.astype(np.int64)
+        kept = circumradii(p, s)[0] <= (local_radii(p) * (0.5 + 0.2 * k))[s].max(axis=1)
+        fast = mesh.fill_nonmanifold_edges(s, nb, kept)
+        assert np.array_equal(fast, full_scan(s, nb, kept))
+        added += int(fast.sum() - kept.sum())
+    assert added > 0  # the repair had work to do

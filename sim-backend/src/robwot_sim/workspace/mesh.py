@@ -19,10 +19,11 @@ _EDGE = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int6
 _MAX_REPAIR_ROUNDS = 50
 
 
-def boundary_mask(neighbors: IntArray, kept: BoolArray) -> BoolArray:
-    """``(m, 4)``: face ``i`` of tetrahedron ``s`` is kept and its neighbour across it is not."""
+def boundary_mask(neighbors: IntArray, kept: BoolArray, own: BoolArray | None = None) -> BoolArray:
+    """``(m, 4)``: face ``i`` of tetrahedron ``s`` is kept and its neighbour across it is not (``own``:
+    whether the rows of ``neighbors`` are kept, when they are a subset; ``kept`` is over all)."""
     across = np.where(neighbors >= 0, kept[np.maximum(neighbors, 0)], False)
-    return kept[:, None] & ~across
+    return (kept if own is None else own)[:, None] & ~across
 
 
 def boundary_faces(points: FloatArray, simplices: IntArray, neighbors: IntArray, kept: BoolArray) -> IntArray:
@@ -46,10 +47,16 @@ def _edge_keys(tri: IntArray, n: int) -> IntArray:
     return keys
 
 
-def nonmanifold_edges(simplices: IntArray, neighbors: IntArray, kept: BoolArray, n: int) -> IntArray:
-    """Keys of boundary edges shared by more than two boundary faces."""
-    s, i = np.nonzero(boundary_mask(neighbors, kept))
-    keys = _edge_keys(simplices[s[:, None], _FACE[i]], n)
+def nonmanifold_edges(simplices: IntArray, neighbors: IntArray, kept: BoolArray, n: int,
+                      rows: IntArray | None = None) -> IntArray:
+    """Keys of boundary edges shared by more than two boundary faces (among the faces of ``rows``, all
+    tetrahedra by default)."""
+    if rows is None:
+        mask, tets = boundary_mask(neighbors, kept), simplices
+    else:
+        mask, tets = boundary_mask(neighbors[rows], kept, kept[rows]), simplices[rows]
+    s, i = np.nonzero(mask)
+    keys = _edge_keys(tets[s[:, None], _FACE[i]], n)
     uniq, counts = np.unique(keys, return_counts=True)
     return uniq[counts > 2]
 
@@ -59,17 +66,31 @@ def fill_nonmanifold_edges(simplices: IntArray, neighbors: IntArray, kept: BoolA
 
     Returns the new mask (the input is not modified). Filling only adds volume around edges where
     the kept set touched itself, so the surface becomes a closed 2-manifold along its edges.
+
+    Only tetrahedra near the repair are looked at: those around a bad edge share a vertex with it, and
+    after a round only edges of the tetrahedra just added can change their count of boundary faces, all
+    of those faces belonging to tetrahedra that share a vertex with one just added (10^6 kuka points:
+    15 rounds; 4.0 s when every round went over all tetrahedra, 0.5 s).
     """
     n = int(simplices.max()) + 1
     out = kept.copy()
-    tet_keys: IntArray | None = None
+    rows: IntArray | None = None
     for _ in range(_MAX_REPAIR_ROUNDS):
-        bad = nonmanifold_edges(simplices, neighbors, out, n)
+        bad = nonmanifold_edges(simplices, neighbors, out, n, rows)
         if bad.size == 0:
             return out
-        if tet_keys is None:
-            e = np.sort(simplices[:, _EDGE], axis=2)
-            tet_keys = (e[:, :, 0] * n + e[:, :, 1])
-        hit = np.isin(tet_keys, bad).any(axis=1)
-        out |= hit
+        around = _touching(simplices, n, np.concatenate([bad // n, bad % n]))
+        e = np.sort(simplices[around][:, _EDGE], axis=2)
+        hit = around[np.isin(e[:, :, 0] * n + e[:, :, 1], bad).any(axis=1) & ~out[around]]
+        out[hit] = True
+        rows = _touching(simplices, n, simplices[hit].ravel())
     return out
+
+
+def _touching(simplices: IntArray, n: int, vertices: IntArray) -> IntArray:
+    """Indices of the tetrahedra with a vertex among ``vertices``."""
+    near = np.zeros(n, dtype=bool)
+    near[vertices] = True
+    flags = np.ascontiguousarray(near[simplices])  # (m, 4) bytes: one 32-bit word per tetrahedron
+    rows: IntArray = np.flatnonzero(flags.view(np.uint32).ravel())
+    return rows
