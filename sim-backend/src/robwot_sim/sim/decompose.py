@@ -258,6 +258,7 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader) -
     vertices and triangles, or None for a format that is kept as it is. Meshes not yet in the cache are
     decomposed first, in parallel (``decompose_all``). Returns the cache folders used."""
     found: list[tuple[ET.Element, ET.Element, str]] = []
+    known: dict[str, Decomposition] = {}
     todo: dict[str, tuple[FloatArray, IndexArray]] = {}
     for link in root.iter("link"):
         for col in list(link.findall("collision")):
@@ -271,11 +272,16 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader) -
                 continue
             key = cache_key(path.read_bytes(), scale)
             found.append((link, col, key))
-            if key not in todo and _read_manifest(cache_dir / key) is None:
+            if key in known or key in todo:
+                continue
+            cached = _read_manifest(cache_dir / key)
+            if cached is None:
                 todo[key] = (read[0] * np.asarray(scale), read[1])
+            else:
+                known[key] = cached
     decompose_all(todo, cache_dir)
     for link, col, key in found:
-        parts = _read_manifest(cache_dir / key)
+        parts = known.get(key) or _read_manifest(cache_dir / key)
         if parts is None:
             raise OSError(f"convex decomposition cache {cache_dir / key} could not be read back")
         if parts.convex:
@@ -303,7 +309,7 @@ def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray]], cache_dir: P
     concave = []
     for key, (vertices, faces) in meshes.items():
         if is_convex(vertices, faces):
-            decompose(vertices, faces, key, cache_dir)
+            _write(cache_dir / key, [])
         else:
             concave.append((len(faces), key, vertices, faces))
     concave.sort(key=lambda job: -job[0])
