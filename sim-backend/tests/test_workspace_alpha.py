@@ -208,7 +208,8 @@ def test_nonmanifold_repair_looks_only_near_the_repair_and_keeps_what_a_full_sca
     from scipy.spatial import Delaunay
 
     from robwot_sim.workspace import mesh
-    from robwot_sim.workspace.alpha_shape import circumradii, local_radii
+    from robwot_sim.workspace.alpha_shape import local_radii
+    from robwot_sim.workspace.delaunay import circumspheres
 
     def full_scan(simplices: np.ndarray, neighbors: np.ndarray, kept: np.ndarray) -> np.ndarray:
         n, out = int(simplices.max()) + 1, kept.copy()
@@ -225,7 +226,7 @@ def test_nonmanifold_repair_looks_only_near_the_repair_and_keeps_what_a_full_sca
         p = p[np.linalg.norm(p, axis=1) > 0.3 + 0.2 * k]
         tri = Delaunay(p)
         s, nb = tri.simplices.astype(np.int64), tri.neighbors.astype(np.int64)
-        kept = circumradii(p, s)[0] <= (local_radii(p) * (0.5 + 0.2 * k))[s].max(axis=1)
+        kept = circumspheres(p, s)[1] <= (local_radii(p) * (0.5 + 0.2 * k))[s].max(axis=1)
         fast = mesh.fill_nonmanifold_edges(s, nb, kept)
         assert np.array_equal(fast, full_scan(s, nb, kept))
         added += int(fast.sum() - kept.sum())

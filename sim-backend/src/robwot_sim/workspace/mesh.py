@@ -14,7 +14,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
 
-_FACE = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]], dtype=np.int64)
+FACES = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]], dtype=np.int64)
 _EDGE = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int64)
 _MAX_REPAIR_ROUNDS = 50
 
@@ -30,7 +30,7 @@ def boundary_faces(points: FloatArray, simplices: IntArray, neighbors: IntArray,
     """Triangles ``(f, 3)`` of the kept set's boundary, counter-clockwise seen from outside."""
     mask = boundary_mask(neighbors, kept)
     s, i = np.nonzero(mask)
-    tri = simplices[s[:, None], _FACE[i]]
+    tri = simplices[s[:, None], FACES[i]]
     opposite = simplices[s, i]
     a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
     normal = np.cross(b - a, c - a)
@@ -56,7 +56,7 @@ def nonmanifold_edges(simplices: IntArray, neighbors: IntArray, kept: BoolArray,
     else:
         mask, tets = boundary_mask(neighbors[rows], kept, kept[rows]), simplices[rows]
     s, i = np.nonzero(mask)
-    keys = _edge_keys(tets[s[:, None], _FACE[i]], n)
+    keys = _edge_keys(tets[s[:, None], FACES[i]], n)
     uniq, counts = np.unique(keys, return_counts=True)
     return uniq[counts > 2]
 
