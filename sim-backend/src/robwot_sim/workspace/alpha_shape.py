@@ -18,15 +18,19 @@ slightly small. ``alpha`` in the result is the median vertex radius. A number in
 one radius for every tetrahedron (the classic alpha shape).
 
 Speed: before the triangulation, points deep inside the cloud are thinned to one per voxel of side
-``h = s / sqrt(3)``, ``s`` being the radius (one given) or the 95th percentile of the vertex radii
+``h = s / sqrt(3)``, ``s`` being the radius (one given) or the 99th percentile of the vertex radii
 (auto): an empty ball centred in an occupied voxel has a radius below ``sqrt(3) h <= s``, so a
 tetrahedron there is kept when a deep voxel's representative counts with radius ``s``. Points within
 ``thin_layers`` voxels of an empty voxel are all kept, so a cavity holding an empty voxel is carved as
 without thinning. With one radius and 2 layers the surface is exactly the one without thinning; the
 default 1 layer triangulates 2-4x fewer points and changed the volume by < 0.02 % on the test clouds
-(kuka, auto: identical to 1e-6). The tetrahedralisation is ``delaunay.py``'s: only tetrahedra smaller
+(kuka, auto: identical to 1e-6). The percentile: larger voxels leave fewer points (more of the sparse
+regions' voxels are deep); at 877,000 kuka FK points the 95th / 98th / 99th / 100th percentile left
+247k / 192k / 169k / 228k points, the 99th in 7.8 s instead of 11.2 s, volume -0.0004 % and 0 of
+300,000 random points of the box classified otherwise than without thinning (the 100th, an outlier's
+radius, changed the volume by 1 %). The tetrahedralisation is ``delaunay.py``'s: only tetrahedra smaller
 than the largest vertex radius (no other can be kept), in slabs on all cores, the same for any number of
-slabs (10^6 kuka points: 14.3 s in one triangulation, 10.7 s in two slabs on 2 cores).
+slabs (877,000 kuka points, 95th percentile: 14.3 s in one triangulation, 10.7 s in two slabs on 2 cores).
 
 Flat point sets (coplanar as for a planar robot, collinear) have no 3-D alpha shape: they
 get the thickened description of ``flat_shape.py`` (``method`` ``"planar-alpha-shape"`` or
@@ -53,7 +57,7 @@ BoolArray = npt.NDArray[np.bool_]
 
 AUTO_K = 8
 LOCAL_FACTOR = 2.0
-THIN_QUANTILE = 0.95
+THIN_QUANTILE = 0.99
 _PLANAR_RTOL = 1e-9
 THIN_LAYERS = 1
 _THIN_MAX_CELLS = 20_000_000
