@@ -14,8 +14,8 @@ wider than about four sample spacings around it. Measured on analytic clouds (al
 shell (radii 5-25 cm, uniform in radius and angles) keeps its cavity empty at 20,000 and 80,000 samples
 (at 5,000 the cavity is only 2-3 spacings wide and fills); volumes -11.5 / -7.1 / -4.0 % (shell) and
 -8.3 / -5.0 / -3.2 % (box) at 5k / 20k / 80k: samples never reach the true boundary, so shapes come out
-slightly small. ``alpha`` in the result is the median vertex radius. A number instead of ``"auto"`` is
-one radius for every tetrahedron (the classic alpha shape).
+slightly small. ``alpha`` in the result is the median vertex radius (above ``RADIUS_SAMPLE_FROM`` points,
+of a sample). A number instead of ``"auto"`` is one radius for every tetrahedron (the classic alpha shape).
 
 Speed: before the triangulation, points deep inside the cloud are thinned to one per voxel of side
 ``h = s / sqrt(3)``, ``s`` being the radius (one given) or the 99th percentile of the vertex radii
@@ -60,6 +60,11 @@ LOCAL_FACTOR = 2.0
 THIN_QUANTILE = 0.99
 _PLANAR_RTOL = 1e-9
 THIN_LAYERS = 1
+# Above this many points the median and the thinning quantile of the radii come from every RADIUS_STEP-th
+# point (in lexicographic order): only the triangulated points need their own radius (877,000 kuka
+# points: the radii took 2.2 s, 0.9 s this way; median and 99th percentile within 0.3 %).
+RADIUS_SAMPLE_FROM = 100_000
+RADIUS_STEP = 4
 _THIN_MAX_CELLS = 20_000_000
 
 
@@ -91,13 +96,16 @@ class AlphaShape:
         return np.zeros(len(p), dtype=bool)
 
 
-def local_radii(points: FloatArray) -> FloatArray:
-    """Per point, its ``alpha="auto"`` radius (m): ``LOCAL_FACTOR`` x the distance to its ``AUTO_K``-th
-    nearest neighbour (module docstring)."""
+def local_radii(points: FloatArray, at: FloatArray | None = None, tree: cKDTree | None = None) -> FloatArray:
+    """Per point of ``at`` (default: every point), its ``alpha="auto"`` radius (m): ``LOCAL_FACTOR`` x the
+    distance to its ``AUTO_K``-th nearest neighbour among ``points`` (module docstring); ``tree``: a
+    ``cKDTree`` of ``points`` already built."""
+    query = points if at is None else at
     k = min(AUTO_K, len(points) - 1)
     if k < 1:
-        return np.zeros(len(points))
-    d, _ = cKDTree(points).query(points, k=[k + 1], workers=-1)  # k+1: the point itself first
+        return np.zeros(len(query))
+    tree = cKDTree(points) if tree is None else tree
+    d, _ = tree.query(query, k=[k + 1], workers=-1)  # k+1: the point itself first
     radii: FloatArray = LOCAL_FACTOR * d[:, 0]
     return radii
 
@@ -159,15 +167,19 @@ def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *,
     rank = _affine_rank(p)
     if rank < 3:
         return flat_shape(p, rank, None if alpha == "auto" else float(alpha), local_radii)
-    local = local_radii(p) if alpha == "auto" else None
-    a = float(np.median(local)) if local is not None else float(alpha)
-    thin_scale = float(np.quantile(local, THIN_QUANTILE)) if local is not None else a
+    tree = cKDTree(p) if alpha == "auto" else None
+    if tree is not None:  # median and thinning quantile of the radii, from a sample above RADIUS_SAMPLE_FROM
+        step = RADIUS_STEP if len(p) > RADIUS_SAMPLE_FROM else 1
+        spread = local_radii(p, p[::step], tree)
+        a, thin_scale = float(np.median(spread)), float(np.quantile(spread, THIN_QUANTILE))
+    else:
+        a = thin_scale = float(alpha)
     keep, deep = thin_interior(p, thin_scale, thin_layers)
-    p = p[keep]
-    if local is None:
+    p_all, p = p, p[keep]
+    if tree is None:
         vertex_radius = np.full(len(p), a)
     else:
-        vertex_radius = local[keep]
+        vertex_radius = local_radii(p_all, p, tree)
         vertex_radius[deep[keep]] = np.maximum(vertex_radius[deep[keep]], thin_scale)
     try:
         # only tetrahedra no larger than the largest vertex radius can be kept
