@@ -182,6 +182,28 @@ def test_csv_writer_format(tmp_path: Path) -> None:
                      "0.000000,0.000000,0.000000,0,1.000000,2.000000"]
 
 
+def test_csv_rows_are_the_bytes_of_python_formatting() -> None:
+    """``format_rows`` (numpy) writes exactly what ``%`` formatting writes, on values that stress the
+    rounding: exact ties (1/128 = 0.0078125), values next to a half unit, signed zeros, tiny negatives,
+    4-digit whole parts, ``%d`` of negative fractions; and the fallbacks (non-finite, huge, other format)."""
+    from robwot_sim.workspace.io import format_rows
+
+    rng = np.random.default_rng(0)
+    n = 50000
+    fmt = "%.6f,%.6f,%.6f,%d" + ",%.6f" * 7
+    t = rng.normal(size=(n, 11)) * rng.choice([1e-8, 1e-3, 1.0, 30.0, 9999.0], size=(n, 11))
+    t[:, 3] = rng.integers(-2, 3, n) * 0.75
+    t[::7, 0] = (rng.integers(-10**7, 10**7, len(t[::7])) + 0.5) / 1e6
+    t[::11, 1], t[::13, 2], t[::17, 4], t[::19, 5], t[::23, 6] = 1 / 128, -0.0, -1e-9, 5e-7, 2.5e-6
+    assert format_rows(fmt, t) == "".join(fmt % tuple(r) + "\n" for r in t.tolist()).encode()
+    reach = "%.6f,%.6f,%.6f,%d,%d,%d,%.6f"
+    u = np.column_stack([t[:, :3], rng.integers(0, 5000, (n, 3)), rng.random(n)])
+    assert format_rows(reach, u) == "".join(reach % tuple(r) + "\n" for r in u.tolist()).encode()
+    odd = np.array([[np.inf, 1.0], [1e13, -2.0]])
+    assert format_rows("%.6f,%d", odd) == b"inf,1\n10000000000000.000000,-2\n"
+    assert format_rows("%.2e", np.array([[1234.5]])) == b"1.23e+03\n"
+
+
 def test_interior_thinning_keeps_the_surface() -> None:
     """Thinning deep interior points: with one radius and 2 layers the surface is identical to no
     thinning; with the default single layer the volume changes by < 0.1 % (one radius, and auto) and
