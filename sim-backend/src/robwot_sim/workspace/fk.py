@@ -194,27 +194,30 @@ def chain_frames(chains: Sequence[ChainFK], qs: FloatArray) -> list[tuple[FloatA
                 p, r = done[j.name]
                 continue
             p = p + r @ np.asarray(j.origin_xyz)
-            r = r @ np.asarray(j.origin_rot)
-            if j.source >= 0:
-                v = fk._values(qs, j)
-                axis = np.asarray(j.axis)
-                if j.type == "prismatic":
-                    p = p + (r @ axis) * v[:, None]
-                else:
-                    r = r @ _axis_angle(axis, v)
+            if j.source >= 0 and j.type != "prismatic":
+                r = _turn(r, np.asarray(j.origin_rot), np.asarray(j.axis), fk._values(qs, j))
+            else:
+                r = r @ np.asarray(j.origin_rot)
+                if j.source >= 0:
+                    p = p + (r @ np.asarray(j.axis)) * fk._values(qs, j)[:, None]
             done[j.name] = (p, r)
         out.append((p, r))
     return out
 
 
-def _axis_angle(axis: FloatArray, angle: FloatArray) -> FloatArray:
-    """Rodrigues rotation matrices ``(n, 3, 3)`` about a fixed unit ``axis`` by ``angle`` (rad)."""
+def _turn(r: FloatArray, origin: FloatArray, axis: FloatArray, angle: FloatArray) -> FloatArray:
+    """``r @ origin @ R(axis, angle)`` for rotations ``r`` ``(n, 3, 3)``, ``R`` by Rodrigues
+    (``I + sin K + (1 - cos) K^2``): ``r`` times the three constant matrices in one product, then the
+    per-row sum (half the time of building every ``R`` and multiplying matrix by matrix)."""
     k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    k2 = k @ k
+    ok = origin @ k
+    m = np.concatenate([origin, ok, ok @ k], axis=1)  # (3, 9)
+    n = len(angle)
+    rr = (np.reshape(r, (3 * n, 3)) @ m).reshape(n, 3, 3, 3)
     s = np.sin(angle)[:, None, None]
     c = (1.0 - np.cos(angle))[:, None, None]
-    rot: FloatArray = np.eye(3) + s * k + c * k2
-    return rot
+    out: FloatArray = rr[:, :, 0] + s * rr[:, :, 1] + c * rr[:, :, 2]
+    return out
 
 
 def _chain_joint(j: ET.Element, index: dict[str, int], by_name: dict[str, ET.Element],
