@@ -159,9 +159,10 @@ class FastWorld:
         full = np.asarray(qs, dtype=np.float64)
         if mimic:
             full = np.hstack([full, np.stack([full[:, k] * m + off for _, k, m, off in mimic], axis=1)])
-        # [[v], [v], ...] per row, built in one call (per-row list building was ~5 % of a check)
-        for i, vals in enumerate(full[:, :, None].tolist()):
-            reset(body, idx, vals, physicsClientId=cid)
+        # [[v], [v], ...] per row from one flat tolist (20,000 kuka rows, reset included: 7.0-7.4 us a row;
+        # a nested tolist of (n, dof, 1) 8.3-10.2 us, one resetJointState per joint 25 us)
+        for i, row in enumerate(full.tolist()):
+            reset(body, idx, [[v] for v in row], physicsClientId=cid)
             detect(physicsClientId=cid)
             free = True
             for c in contacts(body, physicsClientId=cid):
