@@ -160,7 +160,7 @@ def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *,
     point set (planar robot, one joint) gives its thickened ``FlatShape`` (``flat_shape.py``).
 
     ``thin_layers``: interior thinning (module docstring); 0 = off, 2 = exact, 1 = default."""
-    p = np.unique(np.asarray(points, dtype=np.float64).reshape(-1, 3), axis=0)
+    p = _distinct(np.asarray(points, dtype=np.float64).reshape(-1, 3))
     if len(p) <= 1:
         return convex_hull(p, f"{len(p)} distinct points: the end link reaches no point or a single one "
                               "(check the end-effector link)", None)
@@ -192,6 +192,21 @@ def alpha_shape(points: npt.ArrayLike, alpha: float | str = "auto", *,
     kept = fill_nonmanifold_edges(tets.simplices, tets.neighbors, kept)
     faces = boundary_faces(p, tets.simplices, tets.neighbors, kept)
     return AlphaShape(p, faces, float(tets.volume[kept].sum()), a, "alpha-shape", None, tets, kept)
+
+
+def _distinct(p: FloatArray) -> FloatArray:
+    """The distinct rows of ``p``, first occurrences in their order. Rows with distinct hashes of their bits
+    are distinct, which settles the usual case (no duplicate) in 0.03 s for 877,000 rows; ``np.unique``'s
+    lexicographic sort of three columns took 0.9-1.1 s."""
+    p = p + 0.0  # -0.0 -> 0.0: equal values, equal bits
+    b = np.ascontiguousarray(p).view(np.uint64)
+    h = np.sort((b[:, 0] * np.uint64(0x9E3779B97F4A7C15)) ^ (b[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F))
+                ^ b[:, 2])
+    if not (h[1:] == h[:-1]).any():
+        return p
+    _, first = np.unique(p, axis=0, return_index=True)
+    out: FloatArray = p[np.sort(first)]
+    return out
 
 
 def _affine_rank(p: FloatArray) -> int:
