@@ -76,7 +76,7 @@ def test_worker_error_is_structured() -> None:
 
 def test_chunks_and_keys() -> None:
     """Chunks stay within bounds; the spec key ignores dict order and sees every change."""
-    assert chunk_size(80_000, 2) == 2500 and chunk_size(100, 2) == 500 and chunk_size(200_000, 2) == 4000
+    assert chunk_size(80_000, 2) == 2500 and chunk_size(100, 2) == 500 and chunk_size(10**6, 2) == 12_000
     a = {"version": 1, "obstacles": [{"name": "b", "position": [0, 0, 1]}], "robots": []}
     b = {"robots": [], "obstacles": [{"position": [0, 0, 1], "name": "b"}], "version": 1}
     assert spec_key(a) == spec_key(b)
