@@ -41,11 +41,12 @@ _KEY_LIMIT = 1 << 21  # face keys a * n^2 + b * n + c fit in 63 bits
 
 @dataclass(frozen=True)
 class Piece:
-    """One slab's triangulation and, per its tetrahedron, the index among the kept ones (-1: not taken
-    from this slab)."""
+    """One slab's triangulation and, per its tetrahedron, the index among the kept ones minus ``offset``
+    (-1: not taken from this slab)."""
 
     tri: Delaunay
     index: IntArray
+    offset: int
 
 
 @dataclass(frozen=True)
@@ -67,8 +68,22 @@ class Tetrahedra:
                 _set_barycentric_transforms(piece.tri)
             s = np.asarray(piece.tri.find_simplex(points), dtype=np.int64)
             found = np.where(s >= 0, piece.index[np.maximum(s, 0)], -1)
+            found = np.where(found >= 0, found + piece.offset, -1)
             out = np.where(out >= 0, out, found)
         return out
+
+
+@dataclass(frozen=True)
+class _Slab:
+    """One slab's triangulation, its index of the tetrahedra taken from it, and those tetrahedra."""
+
+    tri: Delaunay
+    index: IntArray  # per tetrahedron of tri: index among the taken ones, -1 when not taken
+    simplices: IntArray  # into all points
+    radius: FloatArray
+    volume: FloatArray
+    across: IntArray  # neighbours among the taken ones, -1 when not taken from this slab
+    required: BoolArray  # faces whose neighbour was taken from another slab
 
 
 class _Inconsistent(Exception):
@@ -122,7 +137,7 @@ def _in_slabs(points: FloatArray, reach: float, k: int) -> Tetrahedra:
     members = [np.arange(len(points))] if k == 1 else [
         np.flatnonzero((x >= bounds[i] - reach) & (x <= bounds[i + 1] + reach)) for i in range(k)]
 
-    def triangulate(i: int) -> tuple[Delaunay, IntArray, FloatArray, FloatArray, BoolArray, BoolArray]:
+    def triangulate(i: int) -> _Slab:
         p = points[members[i]]
         try:
             tri = Delaunay(p)
@@ -137,31 +152,27 @@ def _in_slabs(points: FloatArray, reach: float, k: int) -> Tetrahedra:
             # small, and its sphere inside the slab: one of the whole set's tetrahedra
             whole = (r < reach) & (cx - r >= bounds[i] - reach) & (cx + r <= bounds[i + 1] + reach)
             take = whole & (cx >= bounds[i]) & (cx < bounds[i + 1])
-        return tri, local, r, vol, take, whole
+        index = np.where(take, np.cumsum(take) - 1, -1)  # among the tetrahedra taken from this slab
+        nb = np.asarray(tri.neighbors, dtype=np.int64)[take]
+        across = np.where(nb >= 0, index[np.maximum(nb, 0)], -1)
+        # a neighbour that is one of the whole set's but taken from another slab: must be found there
+        required = (nb >= 0) & whole[np.maximum(nb, 0)] & (across < 0)
+        return _Slab(tri, index, members[i][local[take]], r[take], vol[take], across, required)
 
     if k == 1:
-        results = [triangulate(0)]
+        slabs = [triangulate(0)]
     else:
         with ThreadPoolExecutor(max_workers=k) as pool:
-            results = list(pool.map(triangulate, range(k)))
-    counts = [int(res[4].sum()) for res in results]
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    pieces, simplices, radius, volume, neighbors, required = [], [], [], [], [], []
-    for i, (tri, local, r, vol, take, whole) in enumerate(results):
-        index = np.full(len(local), -1, dtype=np.int64)
-        index[take] = offsets[i] + np.arange(counts[i])
-        pieces.append(Piece(tri, index))
-        simplices.append(members[i][local[take]])
-        radius.append(r[take])
-        volume.append(vol[take])
-        nb = np.asarray(tri.neighbors, dtype=np.int64)[take]
-        neighbors.append(np.where(nb >= 0, index[np.maximum(nb, 0)], -1))
-        # a neighbour that is one of the whole set's but taken from another slab: must be found there
-        required.append((nb >= 0) & whole[np.maximum(nb, 0)] & (neighbors[-1] < 0))
-    tets = Tetrahedra(np.concatenate(simplices), np.concatenate(neighbors), np.concatenate(radius),
-                      np.concatenate(volume), tuple(pieces))
+            slabs = list(pool.map(triangulate, range(k)))
+    offsets = np.cumsum([0] + [len(sl.simplices) for sl in slabs[:-1]])
+    pairs = list(zip(slabs, offsets, strict=True))
+    tets = Tetrahedra(np.concatenate([sl.simplices for sl, _ in pairs]),
+                      np.concatenate([np.where(sl.across >= 0, sl.across + off, -1) for sl, off in pairs]),
+                      np.concatenate([sl.radius for sl, _ in pairs]),
+                      np.concatenate([sl.volume for sl, _ in pairs]),
+                      tuple(Piece(sl.tri, sl.index, int(off)) for sl, off in pairs))
     if k > 1:
-        _match_seams(tets, len(points), np.concatenate(required))
+        _match_seams(tets, len(points), np.concatenate([sl.required for sl in slabs]))
     return tets
 
 
