@@ -11,7 +11,7 @@ import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
-import type { ProgressSink } from "./progress.js";
+import { type ProgressSink, whileSlow } from "./progress.js";
 import { sceneDocument } from "./scene-doc.js";
 import { StagedDir } from "./twin-dir.js";
 import { VERSION } from "./version.js";
@@ -112,6 +112,13 @@ async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: s
   });
 }
 
+/** A load that takes longer than this is (nearly always) the first decomposition of a robot's meshes. */
+const SLOW_LOAD_MS = 10_000;
+const SLOW_LOAD =
+  "still loading: the first time a robot is used, its concave collision meshes are split into convex parts " +
+  "(minutes for a 7-joint arm on 2 cores; cached in $ROBWOT_COLLISION_CACHE or ~/.cache/robwot/collision, " +
+  "and in the twin folder)";
+
 /**
  * Runs the whole pipeline against an open backend whose world is empty. `staged` must have been created
  * by the caller (before starting the backend, so output problems are reported first); it is committed
@@ -128,7 +135,7 @@ export async function generateTwin(
   const urdf = urdfPath(opts, backend.pybulletData);
   // The backend starts its collision workers (and loads the alpha-shape code) while it loads the scene.
   if (opts.cluster === undefined) await backend.warmUp(opts.workers);
-  const model = await loadRobotInScene(opts, backend, urdf);
+  const model = await whileSlow(loadRobotInScene(opts, backend, urdf), SLOW_LOAD_MS, () => progress.info(SLOW_LOAD));
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
 

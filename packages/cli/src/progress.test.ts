@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { createProgress, formatDuration } from "./progress.js";
+import { createProgress, formatDuration, whileSlow } from "./progress.js";
 
 function sink(tty: boolean) {
   let text = "";
@@ -43,5 +43,23 @@ describe("progress", () => {
     expect(formatDuration(42.4)).toBe("42s");
     expect(formatDuration(125)).toBe("2m05s");
     expect(formatDuration(Number.NaN)).toBe("?");
+  });
+});
+
+describe("whileSlow", () => {
+  const after = <T>(ms: number, value: T): Promise<T> => new Promise((resolve) => setTimeout(() => resolve(value), ms));
+
+  it("speaks once when the work outlasts the delay, and passes its result through", async () => {
+    let said = 0;
+    await expect(whileSlow(after(80, "model"), 10, () => said++)).resolves.toBe("model");
+    expect(said).toBe(1);
+  });
+
+  it("stays silent for quick work and after a failure (the timer does not outlive the work)", async () => {
+    let said = 0;
+    await expect(whileSlow(after(5, 1), 200, () => said++)).resolves.toBe(1);
+    await expect(whileSlow(Promise.reject(new Error("E_URDF")), 20, () => said++)).rejects.toThrow("E_URDF");
+    await after(60, null);
+    expect(said).toBe(0);
   });
 });

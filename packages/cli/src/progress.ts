@@ -105,3 +105,16 @@ export function createProgress(opts: ProgressOptions = {}): ProgressSink {
     },
   };
 }
+
+/**
+ * Awaits `work`; if it is still running after `afterMs`, calls `say` once (e.g. to explain a wait the
+ * progress bar cannot measure). The timer never outlives `work`.
+ */
+export async function whileSlow<T>(work: Promise<T>, afterMs: number, say: () => void): Promise<T> {
+  const timer = setTimeout(say, afterMs);
+  try {
+    return await work;
+  } finally {
+    clearTimeout(timer);
+  }
+}
