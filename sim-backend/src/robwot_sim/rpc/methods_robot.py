@@ -25,11 +25,16 @@ def register(d: Dispatcher, s: Services) -> None:
         # both have defaults in the contract
         base_position, base_orientation = p.floats("basePosition"), p.quaternion("baseOrientation")
         assert base_position is not None and base_orientation is not None
-        model = s.world.load_robot(p["urdf"], robot_id=p["id"], base_position=base_position,
-                                   base_orientation=base_orientation, ee_link=p["eeLink"],
-                                   package_roots=p["packageRoots"], srdf=p["srdf"],
-                                   clearance=float(p["clearance"]))
-        return model.to_json()
+
+        def run() -> RobotModel:
+            return s.world.load_robot(p["urdf"], robot_id=p["id"], base_position=base_position,
+                                      base_orientation=base_orientation, ee_link=p["eeLink"],
+                                      package_roots=p["packageRoots"], srdf=p["srdf"],
+                                      clearance=float(p["clearance"]))
+
+        # off the loop: a robot's first load decomposes its concave meshes (minutes), and the loop must
+        # keep answering the heartbeat `ping` meanwhile (the world's lock keeps other calls out)
+        return (await s.run_blocking(run)).to_json()
 
     @d.method("robot.remove")
     async def remove(p: Params, call: Call) -> dict[str, Any]:

@@ -43,4 +43,5 @@ def register(d: Dispatcher, s: Services) -> None:
             raise invalid_param("path", "exactly one of 'path' (string) or 'scene' (object)",
                                 p["path"], missing=not p.has("path"))
         source: dict[str, Any] | str = p["path"] if p.has("path") else p["scene"]
-        return s.world.load_scene(source, package_roots=p["packageRoots"])
+        # off the loop like robot.load: a scene's robots may need their meshes decomposed first
+        return await s.run_blocking(lambda: s.world.load_scene(source, package_roots=p["packageRoots"]))

@@ -1,0 +1,46 @@
+"""`robot.load` / `world.loadScene` over the wire while a first load decomposes a concave mesh."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+from rpc_backend import BackendProcess
+from test_sim_decompose import to_obj, u_shape
+
+URDF = """<?xml version="1.0"?>
+<robot name="u_arm">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="u"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <link name="u">
+    <inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+    <collision><geometry><mesh filename="u.obj"/></geometry></collision>
+  </link>
+</robot>
+"""
+
+
+def test_a_first_load_decomposing_a_mesh_does_not_hold_the_loop(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """A robot's first load splits its concave meshes into convex parts (the KUKA: minutes) in a worker
+    thread: a ping sent after the load is answered before it, as the CLI's and the servient's heartbeats
+    are (the 30 s heartbeat used to end the first `robwot generate` of the KUKA on a fresh machine)."""
+    (tmp_path / "u.obj").write_text(to_obj(*u_shape()))
+    (tmp_path / "u_arm.urdf").write_text(URDF)
+    monkeypatch.setenv("ROBWOT_COLLISION_CACHE", str(tmp_path / "cache"))
+    proc = BackendProcess()
+    try:
+        client = proc.client()
+        t0 = time.monotonic()
+        load = client.send("robot.load", {"urdf": str(tmp_path / "u_arm.urdf"), "id": "u"})
+        ping = client.send("ping")
+        client.wait(ping, timeout=10)
+        assert load not in client.replies  # the ping's answer came first
+        model = client.wait(load, timeout=300)
+        assert model["id"] == "u" and time.monotonic() - t0 > 0.2  # it decomposed: a cached load is instant
+        assert any((tmp_path / "cache").rglob("*.obj"))
+        client.close()
+    finally:
+        assert proc.stop() == 0
