@@ -24,8 +24,17 @@ export interface GenerateOptions extends CallOptions {
   onProgress?: (progress: WorkspaceProgressNotification) => void;
 }
 
-/** Methods that last as long as a motion or a generation: no request timeout of their own. */
-export const LONG_METHODS: ReadonlySet<MethodName> = new Set<MethodName>(["robot.move", "workspace.generate"]);
+/**
+ * Methods that may last minutes — a motion, a generation, a robot's first load (its concave meshes are
+ * decomposed; a scene's robots too) — and that the backend runs off its loop, so its heartbeat keeps
+ * answering: no request timeout of their own, the caller's heartbeat bounds them.
+ */
+export const LONG_METHODS: ReadonlySet<MethodName> = new Set<MethodName>([
+  "robot.move",
+  "workspace.generate",
+  "robot.load",
+  "world.loadScene",
+]);
 
 export class SimClient {
   constructor(readonly rpc: RpcCaller) {}
