@@ -116,8 +116,8 @@ async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: s
 const SLOW_LOAD_MS = 10_000;
 const SLOW_LOAD =
   "still loading: the first time a robot is used, its concave collision meshes are split into convex parts " +
-  "(minutes for a 7-joint arm on 2 cores; cached in $ROBWOT_COLLISION_CACHE or ~/.cache/robwot/collision, " +
-  "and in the twin folder)";
+  "(minutes for a 7-joint arm on 2 cores; cached in $ROBWOT_COLLISION_CACHE, else " +
+  "$XDG_CACHE_HOME/robwot/collision or ~/.cache/robwot/collision, and in the twin folder)";
 
 /**
  * Runs the whole pipeline against an open backend whose world is empty. `staged` must have been created
