@@ -42,6 +42,10 @@ export type JointVector = number[];
  * a robot id or obstacle name
  */
 export type Name = string;
+/**
+ * a file or folder path (the longest path Linux accepts: 4096 bytes)
+ */
+export type FilePath = string;
 export type JointType = "revolute" | "continuous" | "prismatic" | "fixed";
 /**
  * clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states
@@ -162,7 +166,7 @@ export type WorkspaceWarmUpResult = WarmUpResult;
  * ROS package name -> folder, for `package://NAME/...` mesh paths
  */
 export interface PackageRoots {
-  [k: string]: string | undefined;
+  [k: string]: FilePath | undefined;
 }
 export interface Mimic {
   joint: string;
@@ -248,7 +252,7 @@ export interface CylinderShape {
  */
 export interface MeshShape {
   type: "mesh";
-  file: string;
+  file: FilePath;
   scale?: Positive | [Positive, Positive, Positive];
 }
 /**
@@ -578,6 +582,10 @@ export interface RobotLoadParams {
    */
   srdf?: string;
   clearance?: Clearance;
+  /**
+   * false: a concave collision mesh without cached convex parts (a twin folder's `collision/`) is refused with `E_MESH` instead of decomposed (`robwot serve` never decomposes; only `robwot generate` does)
+   */
+  decompose?: boolean;
 }
 /**
  * Params of `robot.remove`.
@@ -786,3 +794,53 @@ export interface Notifications {
 
 export type MethodName = keyof Methods;
 export type NotificationName = keyof Notifications;
+
+/** Every error of the contract by its string code (`error.data.code`): the JSON-RPC number and the HTTP
+ *  status a servient answers for it (`x-http-status`). */
+export const ERRORS = {
+  E_PARSE: { rpcCode: -32700, httpStatus: 500 },
+  E_INVALID_REQUEST: { rpcCode: -32600, httpStatus: 500 },
+  E_TOO_LARGE: { rpcCode: -32600, httpStatus: 413 },
+  E_TOO_DEEP: { rpcCode: -32600, httpStatus: 400 },
+  E_METHOD_NOT_FOUND: { rpcCode: -32601, httpStatus: 500 },
+  E_INVALID_PARAMS: { rpcCode: -32602, httpStatus: 400 },
+  E_UNKNOWN_ROBOT: { rpcCode: -32001, httpStatus: 404 },
+  E_UNKNOWN_OBJECT: { rpcCode: -32001, httpStatus: 404 },
+  E_UNKNOWN_LINK: { rpcCode: -32001, httpStatus: 400 },
+  E_OUT_OF_LIMITS: { rpcCode: -32002, httpStatus: 400 },
+  E_URDF: { rpcCode: -32003, httpStatus: 422 },
+  E_NO_MOVABLE_JOINT: { rpcCode: -32003, httpStatus: 422 },
+  E_SRDF: { rpcCode: -32003, httpStatus: 422 },
+  E_FILE_NOT_FOUND: { rpcCode: -32004, httpStatus: 400 },
+  E_FORBIDDEN: { rpcCode: -32005, httpStatus: 400 },
+  E_PATH_ESCAPE: { rpcCode: -32005, httpStatus: 400 },
+  E_SCENE: { rpcCode: -32006, httpStatus: 400 },
+  E_UNREACHABLE: { rpcCode: -32007, httpStatus: 422 },
+  E_BUSY: { rpcCode: -32008, httpStatus: 409 },
+  E_NAME_TAKEN: { rpcCode: -32010, httpStatus: 409 },
+  E_MESH: { rpcCode: -32011, httpStatus: 422 },
+  E_REJECTED: { rpcCode: -32012, httpStatus: 422 },
+  E_CLUSTER: { rpcCode: -32013, httpStatus: 502 },
+  E_INTERNAL: { rpcCode: -32603, httpStatus: 500 },
+} as const;
+
+export type ErrorCode = keyof typeof ERRORS;
+
+/** The contract's value schemas (ranges, lengths, defaults) as data: what a check outside the backend uses. */
+export const VALUE_SCHEMAS = {
+  Vec3: {"type":"array","items":{"type":"number"},"minItems":3,"maxItems":3,"description":"[x, y, z] (m), or [roll, pitch, yaw] (rad)"},
+  Position: {"type":"array","items":{"type":"number","minimum":-10000,"maximum":10000},"minItems":3,"maxItems":3,"description":"[x, y, z] in m, each within +-1e4 m (requests)"},
+  Rpy: {"type":"array","items":{"type":"number","minimum":-10000,"maximum":10000},"minItems":3,"maxItems":3,"description":"[roll, pitch, yaw] in rad, each within +-1e4 rad"},
+  QuatXyzw: {"type":"array","items":{"type":"number"},"minItems":4,"maxItems":4,"description":"quaternion [x, y, z, w]; a request's is normalised (norm >= 1e-6, huge components without overflow)"},
+  JointVector: {"type":"array","items":{"type":"number"},"maxItems":512,"description":"joint values (rad or m) in the order of the model's `controllable` list, one per controllable joint"},
+  Name: {"type":"string","minLength":1,"maxLength":200,"description":"a robot id or obstacle name"},
+  FilePath: {"type":"string","minLength":1,"maxLength":4096,"description":"a file or folder path (the longest path Linux accepts: 4096 bytes)"},
+  JointType: {"type":"string","enum":["revolute","continuous","prismatic","fixed"]},
+  Positive: {"type":"number","exclusiveMinimum":0,"maximum":10000},
+  Color: {"type":"array","items":{"type":"number","minimum":0,"maximum":1},"minItems":3,"maxItems":4,"description":"[r, g, b] or [r, g, b, a] in [0, 1]"},
+  MoveStatus: {"type":"string","enum":["reached","stopped","collision"]},
+  Workers: {"type":"integer","minimum":1,"maximum":256},
+  Speed: {"type":"number","minimum":0.001,"maximum":1,"default":1,"description":"fraction of the URDF velocity limits"},
+  Dt: {"type":"number","minimum":0.0001,"maximum":0.1,"default":0.004166666666666667,"description":"time step (s)"},
+  Clearance: {"type":"number","minimum":0.0005,"maximum":0.02,"default":0.002,"description":"clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states"},
+} as const;

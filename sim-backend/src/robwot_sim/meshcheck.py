@@ -49,8 +49,19 @@ class MeshData:
     faces: npt.NDArray[np.uint32]
 
 
-def _refuse(path: Path, reason: str) -> MeshError:
-    return MeshError(f"mesh {path}: {reason}", file=str(path), reason=reason)
+def snippet(text: object, limit: int = 32, *, quote: bool = True) -> str:
+    """A short quote of a file's own text for an error message: printable ASCII only, at most ``limit``
+    characters (an error must not carry a file's content along)."""
+    raw = str(text)
+    clean = "".join(c if " " <= c <= "~" else "?" for c in raw[:limit])
+    clean += "..." if len(raw) > limit else ""
+    return repr(clean) if quote else clean
+
+
+def _refuse(path: Path, reason: str, line: int | None = None) -> MeshError:
+    if line is None:
+        return MeshError(f"mesh {path}: {reason}", file=str(path), reason=reason)
+    return MeshError(f"mesh {path}: line {line}: {reason}", file=str(path), reason=reason, line=line)
 
 
 def _read(path: Path) -> bytes:
@@ -163,10 +174,10 @@ def _obj_index(token: str, count: int, path: Path, line: int) -> int:
     try:
         i = int(raw)
     except ValueError:
-        raise _refuse(path, f"line {line}: face index {token!r} is not an integer") from None
+        raise _refuse(path, f"face index {snippet(token)} is not an integer", line) from None
     k = i - 1 if i > 0 else count + i
     if i == 0 or not 0 <= k < count:
-        raise _refuse(path, f"line {line}: face index {i} outside the {count} vertices defined so far")
+        raise _refuse(path, f"face index {i} outside the {count} vertices defined so far", line)
     return k
 
 
@@ -181,17 +192,17 @@ def _parse_obj(path: Path, data: bytes) -> MeshData:
             try:
                 xyz = tuple(float(p) for p in parts[1:4])
             except ValueError:
-                raise _refuse(path, f"line {n}: vertex coordinates are not numbers") from None
+                raise _refuse(path, "vertex coordinates are not numbers", n) from None
             if len(xyz) != 3 or not all(math.isfinite(c) for c in xyz):
-                raise _refuse(path, f"line {n}: a vertex needs 3 finite coordinates")
+                raise _refuse(path, "a vertex needs 3 finite coordinates", n)
             vertices.append((xyz[0], xyz[1], xyz[2]))
         elif parts[0] == "f":
             if len(parts) < 4:
-                raise _refuse(path, f"line {n}: a face needs at least 3 vertices")
+                raise _refuse(path, "a face needs at least 3 vertices", n)
             idx = [_obj_index(p, len(vertices), path, n) for p in parts[1:]]
             faces += [(idx[0], idx[k], idx[k + 1]) for k in range(1, len(idx) - 1)]
         if len(faces) > MAX_TRIANGLES:
-            raise _refuse(path, f"more than {MAX_TRIANGLES} triangles")
+            raise _refuse(path, f"more than {MAX_TRIANGLES} triangles", n)
     if not faces:
         raise _refuse(path, "OBJ without any face")
     return MeshData(np.array(vertices, dtype=np.float64), np.array(faces, dtype=np.uint32))
@@ -203,7 +214,7 @@ def _check_dae(path: Path, data: bytes) -> None:
     except (xmlsafe.XmlRefused, xmlsafe.XmlMalformed) as e:
         raise _refuse(path, str(e)) from None
     if not root.tag.endswith("COLLADA"):
-        raise _refuse(path, f"root element is <{root.tag}>, expected <COLLADA>")
+        raise _refuse(path, f"root element is {snippet(root.tag)}, expected <COLLADA>")
     largest = 0
     for arr in root.iter():
         if not arr.tag.endswith("float_array"):
@@ -211,12 +222,14 @@ def _check_dae(path: Path, data: bytes) -> None:
         try:
             values = np.array((arr.text or "").split(), dtype=np.float64)
         except ValueError:
-            raise _refuse(path, f"float_array {arr.get('id')!r} holds a value that is not a number") from None
+            raise _refuse(path, f"float_array {snippet(arr.get('id'))} holds a value that is not a "
+                                "number") from None
         if arr.get("count") is not None and str(len(values)) != arr.get("count"):
-            raise _refuse(path, f"float_array {arr.get('id')!r} says count={arr.get('count')} but holds "
+            raise _refuse(path, f"float_array {snippet(arr.get('id'))} says "
+                                f"count={snippet(arr.get('count'), quote=False)} but holds "
                                 f"{len(values)} values")
         if not np.all(np.isfinite(values)):
-            raise _refuse(path, f"float_array {arr.get('id')!r} holds a non-finite value")
+            raise _refuse(path, f"float_array {snippet(arr.get('id'))} holds a non-finite value")
         largest = max(largest, len(values))
     primitives = [el for el in root.iter() if el.tag.split("}")[-1] == "p"]
     if largest == 0 or not primitives:

@@ -188,11 +188,14 @@ class PreparedUrdf:
 
 
 def prepare_urdf(
-    path: str | Path, package_roots: Mapping[str, str | Path] | None = None, doc: UrdfDoc | None = None
+    path: str | Path, package_roots: Mapping[str, str | Path] | None = None, doc: UrdfDoc | None = None,
+    *, decompose: bool = True,
 ) -> PreparedUrdf:
     """Resolve every mesh (visual and collision) and write a temp URDF PyBullet can load as is.
 
-    Visual elements are dropped from the temp copy (DIRECT mode never renders them).
+    Visual elements are dropped from the temp copy (DIRECT mode never renders them). With ``decompose``
+    False a concave collision mesh must already have its convex parts in the cache (a twin folder's
+    ``collision/``), else MeshError: nothing is decomposed.
     """
     doc = doc or parse_urdf(path)
     udir = doc.file.parent
@@ -222,7 +225,7 @@ def prepare_urdf(
     for el in root.iter("mesh"):
         el.set("filename", str(meshes[el.get("filename", "")]))
     # PyBullet would turn each concave collision mesh into one convex hull: split it into convex parts
-    parts = split_collisions(root, collision_cache(udir), _triangles)
+    parts = split_collisions(root, collision_cache(udir), _triangles, allow_decompose=decompose)
     return PreparedUrdf(doc, _write_for_bullet(root, Path(tmpdir)), meshes, tmpdir, parts)
 
 

@@ -30,7 +30,7 @@ def register(d: Dispatcher, s: Services) -> None:
             return s.world.load_robot(p["urdf"], robot_id=p["id"], base_position=base_position,
                                       base_orientation=base_orientation, ee_link=p["eeLink"],
                                       package_roots=p["packageRoots"], srdf=p["srdf"],
-                                      clearance=float(p["clearance"]))
+                                      clearance=float(p["clearance"]), decompose=bool(p["decompose"]))
 
         # off the loop: a robot's first load decomposes its concave meshes (minutes), and the loop must
         # keep answering the heartbeat `ping` meanwhile (the world's lock keeps other calls out)

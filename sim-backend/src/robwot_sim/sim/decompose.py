@@ -34,6 +34,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
+from robwot_sim.errors import MeshError, PathEscape
+from robwot_sim.meshcheck import check_mesh, snippet
+
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
 MeshReader = Callable[[Path], "tuple[FloatArray, IndexArray] | None"]
@@ -63,6 +66,9 @@ COVER_TOLERANCE = 1e-4
 #: How far (metres) a part's slimmed hull may lie outside the points it covers (see ``slim``).
 SLIM_MARGIN = 1e-4
 MANIFEST = "parts.json"
+#: bounds of a manifest read from a cache (a twin folder's may be hostile); ours hold a few names
+MAX_MANIFEST_BYTES = 1024 * 1024
+MAX_PARTS = 4096
 
 
 @dataclass(frozen=True)
@@ -230,33 +236,86 @@ def _write(folder: Path, hulls: list[tuple[FloatArray, npt.NDArray[Any]]]) -> No
 
 
 def _read_manifest(folder: Path) -> Decomposition | None:
+    """The cached parts in ``folder`` (``cache_dir/<key>``), or None when it holds no manifest.
+
+    A cache may come with a twin folder (its ``collision/``), so nothing in it is trusted: the key folder,
+    ``parts.json`` and every part must resolve inside the cache after symlinks, every entry must be a
+    plain file name of its folder, and every part must exist and pass our mesh parser (PyBullet crashes
+    on a face index beyond the vertices). A manifest that breaks any of this refuses the load (PathEscape,
+    MeshError): it is never taken as missing, which would decompose again."""
+    manifest = folder / MANIFEST
+    if not os.path.lexists(manifest):
+        return None
+    real_folder = folder.resolve()
+    if real_folder.parent != folder.parent.resolve():
+        raise PathEscape(str(folder), [str(folder.parent)], reason="the convex parts folder resolves "
+                         "outside its collision cache")
+    if manifest.resolve().parent != real_folder:
+        raise PathEscape(str(manifest), [str(folder)], reason=f"{MANIFEST} resolves outside its folder")
+    where = f"{manifest} (delete {folder} or re-run robwot generate)"
     try:
-        doc = json.loads((folder / MANIFEST).read_text())
+        if manifest.stat().st_size > MAX_MANIFEST_BYTES:
+            raise ValueError("too large")
+        doc = json.loads(manifest.read_bytes())
     except (OSError, ValueError):
-        return None
-    parts = tuple(folder / str(p) for p in doc.get("parts", []))
-    if not all(p.is_file() for p in parts):
-        return None
-    return Decomposition(convex=bool(doc.get("convex")), parts=parts)
+        raise MeshError(f"{where}: not a readable JSON manifest", file=str(manifest),
+                        reason="invalid manifest") from None
+    names = doc.get("parts") if isinstance(doc, dict) else None
+    if not isinstance(names, list) or len(names) > MAX_PARTS or not all(isinstance(n, str) for n in names):
+        raise MeshError(f"{where}: 'parts' must be a list of at most {MAX_PARTS} file names",
+                        file=str(manifest), reason="invalid manifest")
+    return Decomposition(convex=bool(doc.get("convex")),
+                         parts=tuple(_checked_part(folder, real_folder, name) for name in names))
+
+
+def _checked_part(folder: Path, real_folder: Path, name: str) -> Path:
+    """A part named by a manifest: a file of the folder itself (no path, no symlink out), parsed by our
+    mesh parser. Returns its real path (what PyBullet loads)."""
+    manifest = folder / MANIFEST
+    entry = snippet(name)
+    if name in ("", ".", "..") or Path(name).name != name or "\\" in name or "\0" in name:
+        raise PathEscape(str(manifest), [str(folder)],
+                         reason=f"{MANIFEST} entry {entry} is not a file name of its folder")
+    part = folder / name
+    if not part.is_file():
+        raise MeshError(f"convex part {part} named by {manifest} is missing (the collision cache is "
+                        f"incomplete: re-run robwot generate, or delete {folder} to decompose again)",
+                        file=str(part), reason="missing convex part", manifest=str(manifest))
+    real = part.resolve()
+    if real.parent != real_folder:
+        raise PathEscape(str(manifest), [str(folder)],
+                         reason=f"{MANIFEST} entry {entry} resolves outside its folder")
+    if real.suffix.lower() != ".obj":
+        raise MeshError(f"convex part {part}: parts are OBJ files", file=str(part), reason="not an OBJ file")
+    check_mesh(real)
+    return real
 
 
 def collision_cache(urdf_dir: Path) -> Path:
     """Where decompositions are cached: the ``collision/`` folder next to a twin's robot.urdf (export
-    writes it), else ``ROBWOT_COLLISION_CACHE``, else ``$XDG_CACHE_HOME/robwot/collision``."""
+    writes it; it must resolve inside the URDF's folder), else ``ROBWOT_COLLISION_CACHE``, else
+    ``$XDG_CACHE_HOME/robwot/collision``."""
     local = urdf_dir / "collision"
     if local.is_dir():
-        return local
+        real, udir = local.resolve(), urdf_dir.resolve()
+        if udir not in real.parents:
+            raise PathEscape(str(local), [str(udir)], reason="the collision cache resolves outside the "
+                             "URDF's folder")
+        return real
     if os.environ.get("ROBWOT_COLLISION_CACHE"):
         return Path(os.environ["ROBWOT_COLLISION_CACHE"])
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     return base / "robwot" / "collision"
 
 
-def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader) -> tuple[Path, ...]:
+def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *,
+                     allow_decompose: bool = True) -> tuple[Path, ...]:
     """Replaces, in a URDF tree whose mesh filenames are absolute, every ``<collision>`` holding a concave
     mesh by one ``<collision>`` per convex part (same origin and name). ``read_mesh`` gives a mesh's
     vertices and triangles, or None for a format that is kept as it is. Meshes not yet in the cache are
-    decomposed first, in parallel (``decompose_all``). Returns the cache folders used."""
+    decomposed first, in parallel (``decompose_all``); with ``allow_decompose`` False (serving a twin
+    folder, whose parts generate wrote) a concave mesh without cached parts is refused instead
+    (MeshError): only ``robwot generate`` decomposes. Returns the cache folders used."""
     found: list[tuple[ET.Element, ET.Element, str]] = []
     known: dict[str, Decomposition] = {}
     todo: dict[str, tuple[FloatArray, IndexArray]] = {}
@@ -275,10 +334,17 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader) -
             if key in known or key in todo:
                 continue
             cached = _read_manifest(cache_dir / key)
-            if cached is None:
-                todo[key] = (read[0] * np.asarray(scale), read[1])
-            else:
+            if cached is not None:
                 known[key] = cached
+            elif allow_decompose:
+                todo[key] = (read[0] * np.asarray(scale), read[1])
+            elif is_convex(read[0] * np.asarray(scale), read[1]):
+                known[key] = Decomposition(convex=True, parts=())  # kept whole: nothing to decompose
+            else:
+                raise MeshError(
+                    f"collision mesh {path} is concave and has no convex parts in {cache_dir / key}: this "
+                    "load may not decompose meshes (robwot serve never does): re-run robwot generate",
+                    file=str(path), reason="no cached convex parts", cache=str(cache_dir / key))
     decompose_all(todo, cache_dir)
     for link, col, key in found:
         parts = known.get(key) or _read_manifest(cache_dir / key)
@@ -298,7 +364,7 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader) -
             geometry = ET.SubElement(piece, "geometry")
             ET.SubElement(geometry, "mesh", {"filename": str(part)})
             link.insert(at + i, piece)
-    return tuple(dict.fromkeys(cache_dir / key for _, _, key in found))
+    return tuple(dict.fromkeys(cache_dir / key for _, _, key in found if (cache_dir / key).is_dir()))
 
 
 def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray]], cache_dir: Path) -> None:

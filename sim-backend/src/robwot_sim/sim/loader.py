@@ -82,10 +82,12 @@ def load_robot_body(
     package_roots: Mapping[str, str],
     base_dir: Path | None = None,
     srdf: str | Path | None = None,
+    decompose: bool = True,
 ) -> RobotEntry:
     """Check the URDF (and SRDF) completely, then create the body. Nothing is left in the client on error.
 
-    The SRDF's ``<disable_collisions>`` pairs join the filtered pairs: never checked anywhere."""
+    The SRDF's ``<disable_collisions>`` pairs join the filtered pairs: never checked anywhere. With
+    ``decompose`` False a concave collision mesh without cached convex parts is refused (MeshError)."""
     path = resolve_urdf_path(urdf, base_dir)
     for name, folder in package_roots.items():
         if not Path(folder).expanduser().is_dir():
@@ -97,7 +99,7 @@ def load_robot_body(
         raise UnknownLink(ee, urdf_model.links)
     srdf_path = Path(srdf).expanduser().resolve() if srdf is not None else None
     srdf_pairs = disabled_pairs(srdf_path, urdf_model.links) if srdf_path is not None else frozenset()
-    prepared = prepare_urdf(path, package_roots, doc)
+    prepared = prepare_urdf(path, package_roots, doc, decompose=decompose)
     try:
         flags = pb.URDF_USE_SELF_COLLISION
         try:

@@ -106,6 +106,7 @@ class WorldBase:
         srdf: str | Path | None = None,
         clearance: float = CLEARANCE,
         _base_dir: Path | None = None,
+        decompose: bool = True,
     ) -> RobotModel:
         """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model.
         ``clearance`` (m) is what its checked paths and motions keep to other bodies."""
@@ -126,7 +127,7 @@ class WorldBase:
         if srdf is not None and (not isinstance(srdf, (str, Path)) or not str(srdf)):
             raise InvalidParams("srdf must be a file path", param="srdf", expected="string", got=srdf)
         entry = load_robot_body(
-            self.bullet, self.table, urdf, tmp_id, pos, quat, ee_link, roots, _base_dir, srdf
+            self.bullet, self.table, urdf, tmp_id, pos, quat, ee_link, roots, _base_dir, srdf, decompose
         )
         if robot_id is None:
             base, k, rid = entry.model.name or "robot", 2, entry.model.name or "robot"
