@@ -6,17 +6,31 @@ worker from it costs milliseconds instead of a fresh interpreter's import time. 
 count) stay alive between calls; each worker rebuilds its world from the main world's ``scene_spec()``
 (obstacles and every robot, with base poses and joint positions) and keeps it while the spec and its
 files are unchanged, so a second generation in the same backend skips the rebuild.
+
+No worker outlives the backend, however the backend ends (SIGKILL included, which runs no clean-up).
+The forkserver cannot see it: every process it forks holds the write end of its "alive" pipe, so it
+exits only once the backend *and* all workers are gone, and idle workers wait forever on a call queue
+whose write end they hold themselves. So each worker watches the backend itself (``_worker_start``): a
+thread blocked on a pidfd of the backend (polling its pid where pidfds are missing) ends the worker when
+the backend exits; the worker also asks the kernel for SIGKILL when its parent, the single-threaded
+forkserver, dies. The forkserver then sees end of file on its pipe and exits too.
 """
 
 from __future__ import annotations
 
 import atexit
 import contextlib
+import ctypes
+import ctypes.util
 import hashlib
 import json
 import multiprocessing
 import os
+import select
+import signal
+import sys
 import threading
+import time
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -112,6 +126,49 @@ def ping() -> int:
     return os.getpid()
 
 
+#: prctl option: the signal the kernel sends when the parent (thread) of the calling process exits
+PR_SET_PDEATHSIG = 1
+#: seconds between checks that the backend lives, where pidfds are missing
+OWNER_POLL = 0.5
+
+
+def _worker_start(owner: int) -> None:
+    """Pool initializer, in each worker: end this worker when ``owner`` (the backend) exits or the
+    forkserver (its parent) dies, whatever ends them (module docstring)."""
+    parent = os.getppid()
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        if os.getppid() != parent:  # the forkserver died before prctl took effect
+            os._exit(1)
+    try:
+        fd = os.pidfd_open(owner)
+    except ProcessLookupError:  # the backend is already gone
+        os._exit(1)
+    except (AttributeError, OSError):  # no pidfd (not Linux, or an old kernel): poll the pid
+        fd = -1
+
+    def watch() -> None:
+        if fd >= 0:
+            select.select([fd], [], [])  # readable once the process has exited
+        else:
+            while _alive(owner):
+                time.sleep(OWNER_POLL)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="robwot-owner-watch", daemon=True).start()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def acquire_pool(workers: int) -> ProcessPoolExecutor:
     """The pool of ``workers`` processes (started on first use). Idle pools of other sizes are stopped;
     busy ones are left to finish. Pair with ``release_pool``."""
@@ -122,7 +179,8 @@ def acquire_pool(workers: int) -> ProcessPoolExecutor:
         if pool is None:
             ctx = multiprocessing.get_context("forkserver")
             ctx.set_forkserver_preload(_PRELOAD)
-            pool = _pools[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+            pool = _pools[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                                         initializer=_worker_start, initargs=(os.getpid(),))
         _active[workers] = _active.get(workers, 0) + 1
         return pool
 
