@@ -152,15 +152,17 @@ def owner_check(token: str) -> Callable[[ServerConnection, Request], Response | 
     """The upgrade check: only a client presenting ``Authorization: Bearer <token>`` gets a connection.
 
     An upgrade carrying an ``Origin`` header comes from a web page (browsers always send one, scripts and
-    the servient never do) and is refused before the token is even looked at.
+    the servient never do) and is refused before the token is even looked at. Exactly one
+    ``Authorization`` header: several are refused (401) whatever they hold.
     """
     expected = f"Bearer {token}".encode()
 
     def check(conn: ServerConnection, request: Request) -> Response | None:
-        if request.headers.get("Origin") is not None:
+        # get_all: `get` raises on a repeated header, which websockets answers with a 500
+        if request.headers.get_all("Origin"):
             return conn.respond(HTTPStatus.FORBIDDEN, "browser origins may not connect to the backend\n")
-        given = request.headers.get("Authorization", "").encode()
-        if not hmac.compare_digest(given, expected):
+        given = request.headers.get_all("Authorization")
+        if len(given) != 1 or not hmac.compare_digest(given[0].encode(), expected):
             return conn.respond(HTTPStatus.UNAUTHORIZED, "the backend's token is required "
                                 "(Authorization: Bearer <ROBWOT_BACKEND_TOKEN>)\n")
         return None
