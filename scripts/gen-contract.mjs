@@ -67,6 +67,14 @@ async function renderTypes(doc) {
     format: true,
     strictIndexSignatures: true,
   });
+  const errors = Object.entries(doc.components.errors).map(([name, e]) => {
+    if (!Number.isInteger(e["x-http-status"])) throw new Error(`contract error ${name} has no integer x-http-status`);
+    return `  ${name}: { rpcCode: ${e.code}, httpStatus: ${e["x-http-status"]} },`;
+  });
+  // the value schemas (numbers, strings, arrays): their ranges and lengths, for checks outside the backend
+  const scalars = Object.entries(doc.components.schemas)
+    .filter(([, v]) => ["number", "integer", "string", "array", "boolean"].includes(v.type))
+    .map(([name, v]) => `  ${name}: ${JSON.stringify(v)},`);
   const methods = doc.methods.map((m) => `  ${JSON.stringify(m.name)}: { params: ${pascal(m.name)}Params; result: ${pascal(m.name)}Result };`);
   const notes = doc["x-notifications"].map((n) => `  ${JSON.stringify(n.name)}: ${refName(n.params.$ref)};`);
   return [
@@ -95,6 +103,19 @@ async function renderTypes(doc) {
     "",
     "export type MethodName = keyof Methods;",
     "export type NotificationName = keyof Notifications;",
+    "",
+    "/** Every error of the contract by its string code (`error.data.code`): the JSON-RPC number and the HTTP",
+    " *  status a servient answers for it (`x-http-status`). */",
+    "export const ERRORS = {",
+    ...errors,
+    "} as const;",
+    "",
+    "export type ErrorCode = keyof typeof ERRORS;",
+    "",
+    "/** The contract's value schemas (ranges, lengths, defaults) as data: what a check outside the backend uses. */",
+    "export const VALUE_SCHEMAS = {",
+    ...scalars,
+    "} as const;",
     "",
   ].join("\n");
 }
@@ -174,14 +195,16 @@ function renderMarkdown(doc, intro, example) {
     "## Errors",
     "",
     "`error.code` is the JSON-RPC number, `error.message` a readable sentence, `error.data.code` a stable",
-    "string, and `error.data` carries the fields below.",
+    "string, and `error.data` carries the fields below. HTTP is the status the servient answers when a",
+    "twin's request ends in that error (`x-http-status`: the servient's table is generated from it; 500 only",
+    "for what is a bug of ours, never for a client's input).",
     "",
-    "| code | data.code | when | data fields |",
-    "|---|---|---|---|",
+    "| code | data.code | HTTP | when | data fields |",
+    "|---|---|---|---|---|",
   );
   for (const [name, e] of Object.entries(doc.components.errors)) {
     const fields = Object.keys(e.data.properties).filter((k) => k !== "code").map((k) => `\`${k}\``).join(", ");
-    out.push(`| ${e.code} | ${name} | ${e.message} | ${fields} |`);
+    out.push(`| ${e.code} | ${name} | ${e["x-http-status"]} | ${e.message} | ${fields} |`);
   }
   out.push("", example.trim(), "");
   return out.join("\n");

@@ -76,6 +76,19 @@ def test_scene_file_errors(tmp_path) -> None:
         assert ei.value.data["file"] == str(bad)
 
 
+@pytest.mark.parametrize("depth", [65, 100_000])
+def test_scene_file_nested_too_deep_is_a_scene_error(tmp_path, depth: int) -> None:
+    """A scene file nesting arrays deeper than the JSON depth limit is refused naming the file and the
+    limit (a 10^5-deep one used to end in an internal RecursionError), and the world stays empty."""
+    deep = tmp_path / "deep.json"
+    deep.write_text('{"version": 1, "obstacles": ' + "[" * depth + "]" * depth + "}")
+    with World() as w:
+        with pytest.raises(SceneError, match="deeper than 64 levels") as ei:
+            w.load_scene(deep)
+        assert ei.value.data["file"] == str(deep)
+        assert w.list() == {"robots": [], "obstacles": []}
+
+
 def test_failed_scene_leaves_world_unchanged(tmp_path) -> None:
     """A scene whose robot URDF is missing adds nothing (all or nothing)."""
     doc = {

@@ -16,17 +16,6 @@ export class CliError extends RobwotError {
   }
 }
 
-/** Shape of a JSON-RPC error as the sim-client surfaces it (`error.code`, `error.data.code`, fields). */
-interface RpcLikeError {
-  message: string;
-  code?: unknown;
-  data?: Record<string, unknown>;
-}
-
-function isRecord(v: unknown): v is Record<string, unknown> {
-  return typeof v === "object" && v !== null && !Array.isArray(v);
-}
-
 const DETAIL_FIELDS = ["file", "line", "column", "joint", "value", "lower", "upper", "param", "expected", "got", "path", "name", "urdf"];
 
 function fmtValue(v: unknown): string {
@@ -41,26 +30,24 @@ function fmtValue(v: unknown): string {
  */
 export function describeError(err: unknown): { message: string; code: string; exitCode: number } {
   if (err instanceof CliError) return { message: err.message, code: err.code, exitCode: err.exitCode };
-  if (err instanceof Error) {
-    const e = err as Error & RpcLikeError;
-    const data = isRecord(e.data) ? e.data : undefined;
-    const code = typeof data?.["code"] === "string" ? data["code"] : typeof e.code === "string" ? e.code : "E_INTERNAL";
-    let message = e.message;
-    if (data) {
-      const extra: string[] = [];
-      for (const k of DETAIL_FIELDS) {
-        const v = data[k];
-        if (v === undefined || v === null) continue;
-        const s = fmtValue(v);
-        if (!message.includes(s)) extra.push(`${k}=${s}`);
-      }
-      const available = data["available"];
-      if (Array.isArray(available) && !/valid|available/i.test(message)) {
-        extra.push(`valid: ${available.map(fmtValue).join(", ")}`);
-      }
-      if (extra.length > 0) message += ` (${extra.join(", ")})`;
+  if (err instanceof RobwotError) {
+    // a backend (JSON-RPC) error carries its `error.data` as `details`, `data.code` as `code`
+    const data = err.details;
+    let message = err.message;
+    const extra: string[] = [];
+    for (const k of DETAIL_FIELDS) {
+      const v = data[k];
+      if (v === undefined || v === null) continue;
+      const s = fmtValue(v);
+      if (!message.includes(s)) extra.push(`${k}=${s}`);
     }
-    return { message, code, exitCode: 1 };
+    const available = data["available"];
+    if (Array.isArray(available) && !/valid|available/i.test(message)) {
+      extra.push(`valid: ${available.map(fmtValue).join(", ")}`);
+    }
+    if (extra.length > 0) message += ` (${extra.join(", ")})`;
+    return { message, code: err.code, exitCode: 1 };
   }
+  if (err instanceof Error) return { message: err.message, code: "E_INTERNAL", exitCode: 1 };
   return { message: String(err), code: "E_INTERNAL", exitCode: 1 };
 }

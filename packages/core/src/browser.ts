@@ -12,7 +12,7 @@ export { buildThingModel } from "./td/thing-model.js";
 export { cartesianBounds, jointLimits, linkUrl, liveUrl, slugOf, TdError } from "./td/read.js";
 export type { AffordanceLike, Bounds3, FormLike, JointLimit, LinkLike, SchemaLike, ThingDescriptionLike } from "./td/read.js";
 export type { AuthScheme } from "./td/security.js";
-export { thingSlug, fnv1a64, canonicalJson } from "./td/hash.js";
+export { thingSlug, fnv1a64, canonicalJson, MAX_SLUG_LENGTH } from "./td/hash.js";
 export { parseWorkspaceCsv, writeWorkspaceCsv } from "./workspace/csv.js";
 export type { WorkspaceCloud, ParseCsvOptions } from "./workspace/csv.js";
 export { parseStl, writeStl, triangleNormal } from "./workspace/stl.js";

@@ -2,7 +2,7 @@
  * Errors of the servient. Every error has an HTTP status, a stable string `code` and structured
  * `details`; the HTTP middleware turns it into a JSON body `{code, message, details}`.
  *
- * Status codes (Contract 4, documented in the README):
+ * Status codes (Contract 4, documented in the README; a backend error's status is the contract's):
  * - 400 schema violation / malformed JSON / degenerate calibration input (`E_BAD_INPUT`, `E_BAD_JSON`, ...)
  * - 401 missing or wrong credentials (`E_UNAUTHORIZED`)
  * - 404 unknown obstacle / file (`E_NOT_FOUND`); 405 a method the route does not serve (`E_METHOD_NOT_ALLOWED`)
@@ -11,6 +11,8 @@
  * - 503 the simulation backend is down or restarting (`E_BACKEND_DOWN`)
  */
 import { RobwotError } from "@robwot/core";
+import { ERRORS, type ErrorCode } from "@robwot/core/backend-contract";
+import { RpcError, RpcTimeoutError } from "@robwot/sim-client";
 
 export type Details = Record<string, unknown>;
 
@@ -31,49 +33,22 @@ export const badInput = (message: string, details: Details = {}): ServientError 
 export const backendDown = (message: string, details: Details = {}): ServientError =>
   new ServientError(503, "E_BACKEND_DOWN", message, details);
 
-/** Shape of a JSON-RPC error as thrown by the sim-client (error.code, error.data.code, data fields). */
-interface RpcLikeError {
-  code?: unknown;
-  message?: unknown;
-  data?: unknown;
-}
+const isContractCode = (code: string): code is ErrorCode => Object.hasOwn(ERRORS, code);
 
-/** Maps the backend's JSON-RPC error codes (Contract 1) to HTTP statuses. */
-const RPC_STATUS: Record<string, number> = {
-  E_INVALID_PARAMS: 400,
-  E_OUT_OF_LIMITS: 400,
-  E_UNKNOWN_OBJECT: 404,
-  E_UNKNOWN_ROBOT: 404,
-  E_UNKNOWN_LINK: 400,
-  E_FILE_NOT_FOUND: 400,
-  E_FORBIDDEN: 400,
-  E_PATH_ESCAPE: 400,
-  E_SCENE: 400,
-  E_UNREACHABLE: 422,
-  E_REJECTED: 422,
-  E_BUSY: 409,
-  E_MESH: 422,
-  E_NAME_TAKEN: 409,
-};
-
-/** Converts anything thrown by a backend call into a ServientError (connection failures -> 503). */
+/**
+ * Converts anything thrown by a backend call into a ServientError. A backend error's HTTP status is the
+ * contract's (`x-http-status`, generated into `ERRORS`), so no code can be missing from a hand-kept table;
+ * no answer in time is 504, a connection or process failure 503.
+ */
 export function fromBackendError(err: unknown): ServientError {
   if (err instanceof ServientError) return err;
-  const e = (err ?? {}) as RpcLikeError;
-  const data = (typeof e.data === "object" && e.data !== null ? e.data : {}) as Record<string, unknown>;
-  const strCode =
-    typeof data.code === "string" ? data.code : typeof e.code === "string" && e.code.startsWith("E_") ? e.code : undefined;
-  const message = typeof e.message === "string" ? e.message : String(err);
-  if (strCode === "E_CONNECTION_CLOSED" || strCode === "E_BACKEND_START") {
-    return backendDown(`simulation backend unavailable: ${message}`);
+  if (err instanceof RpcError) {
+    const { code: _c, ...rest } = err.data;
+    const status = isContractCode(err.code) ? ERRORS[err.code].httpStatus : 500;
+    return new ServientError(status, err.code, err.message, err.code === "E_INTERNAL" ? err.data : rest);
   }
-  if (strCode === "E_TIMEOUT") return new ServientError(504, "E_BACKEND_TIMEOUT", message);
-  if (strCode !== undefined && strCode !== "E_INTERNAL") {
-    const status = RPC_STATUS[strCode] ?? 500;
-    const { code: _c, ...rest } = data;
-    return new ServientError(status, strCode, message, rest);
-  }
-  if (strCode === "E_INTERNAL") return new ServientError(500, "E_INTERNAL", message, data);
+  if (err instanceof RpcTimeoutError) return new ServientError(504, "E_BACKEND_TIMEOUT", err.message);
   // no JSON-RPC error object: the connection or the process failed
+  const message = err instanceof Error ? err.message : String(err);
   return backendDown(`simulation backend unavailable: ${message}`);
 }

@@ -7,11 +7,12 @@ import { createRequire } from "node:module";
 import { dirname } from "node:path";
 import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
-import { targetBounds, type Bounds } from "@robwot/core";
+import { MAX_SLUG_LENGTH, targetBounds, type Bounds } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
 import { registerActions } from "./actions.js";
 import { BackendSupervisor } from "./backend.js";
+import { ServientError } from "./errors.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
@@ -99,6 +100,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     const base = slugify(folder.td.title, { lower: true });
     let slug = base;
     for (let n = 2; slugs.has(slug); n++) slug = `${base}_${n}`;
+    if (slug.length > MAX_SLUG_LENGTH) {
+      throw new ServientError(400, "E_TWIN_FOLDER", `${folder.dir}/td.json: the title gives the URL path segment "${slug.slice(0, 40)}..." of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served (shorten td.json's title)`, { folder: folder.dir, file: "td.json", field: "title" });
+    }
     slugs.add(slug);
     // the same robot in the same scene has the same id: node-wot needs one id per Thing
     if (folder.td.id && ids.has(folder.td.id)) folder.td.id = `${folder.td.id}:${slug}`;

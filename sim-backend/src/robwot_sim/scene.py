@@ -16,6 +16,7 @@ from typing import Any
 import jsonschema
 
 from robwot_sim.errors import FileNotFound, InvalidParams, SceneError
+from robwot_sim.jsondepth import TooDeep, loads_bounded
 from robwot_sim.sim.client import quat_from_rpy
 from robwot_sim.sim.validate import MIN_QUATERNION_NORM, unit_quaternion
 from robwot_sim.urdf import pybullet_data_path
@@ -93,7 +94,9 @@ def read_scene(scene: dict[str, Any] | str | Path) -> tuple[dict[str, Any], Path
             raise ValueError(f"{c} is not valid JSON")
 
         try:
-            doc = json.loads(p.read_text(encoding="utf-8"), parse_constant=refuse)
+            doc = loads_bounded(p.read_text(encoding="utf-8"), parse_constant=refuse)
+        except TooDeep as e:
+            raise SceneError(str(e), file=file, path="") from None
         except (ValueError, UnicodeDecodeError) as e:
             raise SceneError(f"not valid JSON: {e}", file=file, path="") from None
         base = p.resolve().parent

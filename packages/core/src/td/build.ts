@@ -9,7 +9,7 @@ import { ThingDescriptionError } from "../errors.js";
 import type { Bounds, JointSpec, RobotModelLike, Vec3, WorkspaceSummary } from "../types.js";
 import { ACTION_STATUS_SCHEMA, actionStatusSchema, ASYNC_ACTIONS, asyncActionForms, asyncActionVariables } from "./async-actions.js";
 import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
-import { canonicalJson, fnv1a64, thingSlug } from "./hash.js";
+import { canonicalJson, fnv1a64, MAX_SLUG_LENGTH, thingSlug } from "./hash.js";
 import { closeSchema, moveResultSchema } from "./schemas.js";
 import type { ActionAffordance, DataSchema, EventAffordance, Form, Link, PropertyAffordance, ThingDescription } from "./types.js";
 
@@ -190,6 +190,9 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   const title = options.title ?? model.name;
   if (title.trim().length === 0) throw new ThingDescriptionError("title is empty", { field: "title" });
   const slug = options.slug ?? thingSlug(title);
+  if (slug.length > MAX_SLUG_LENGTH) {
+    throw new ThingDescriptionError(`title "${title.slice(0, 40)}..." gives a URL path segment of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served`, { field: "title", value: title });
+  }
   if (!/^[A-Za-z0-9._~-]+$/.test(slug)) {
     throw new ThingDescriptionError(`slug '${slug}' is not a plain URL path segment`, { field: "slug", value: slug });
   }

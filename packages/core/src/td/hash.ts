@@ -26,6 +26,10 @@ export function canonicalJson(value: unknown): string {
   return JSON.stringify(value) ?? "null";
 }
 
+/** The longest Thing path segment node-wot's HTTP router matches (find-my-way's default `maxParamLength`):
+ *  with a longer one the TD would be served while every affordance answered 404. */
+export const MAX_SLUG_LENGTH = 100;
+
 /**
  * URL path segment for a Thing title, matching what node-wot 0.9.2's HttpServer exposes
  * (`slugify(title, {lower: true})`) for titles made of letters, digits, `_`, `-` and spaces.

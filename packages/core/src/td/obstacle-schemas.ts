@@ -1,10 +1,14 @@
 /** Data schemas of the scene-editing actions (obstacle shapes as in Contract 1). */
+import { VALUE_SCHEMAS } from "../backend-contract.js";
 import { UNIT_M, vec3Schema } from "./schemas.js";
 import type { DataSchema } from "./types.js";
 
 /** Largest |coordinate| (m) of a position, |angle| (rad) of an rpy triple, and largest size, radius,
- *  length or mesh scale: a robot cell is metres (the backend refuses the same range). */
-export const MAX_WORLD_COORDINATE = 1e4;
+ *  length or mesh scale: the backend contract's range (a robot cell is metres). */
+export const MAX_WORLD_COORDINATE = VALUE_SCHEMAS.Position.items.maximum;
+
+/** An obstacle name as the backend accepts it (the contract's `Name`). */
+const NAME: DataSchema = { type: "string", minLength: VALUE_SCHEMAS.Name.minLength, maxLength: VALUE_SCHEMAS.Name.maxLength };
 
 const positive = (description: string, unit: string | null = UNIT_M): DataSchema => ({
   type: "number",
@@ -55,7 +59,7 @@ function shapeMembers(): (DataSchema & { properties: Record<string, DataSchema> 
       type: "object",
       properties: {
         type: { type: "string", const: "mesh" },
-        file: { type: "string", minLength: 1 },
+        file: { type: "string", minLength: VALUE_SCHEMAS.FilePath.minLength, maxLength: VALUE_SCHEMAS.FilePath.maxLength },
         scale: { ...vec3Schema("scale per axis x, y, z", null), items: positive("scale", null) },
       },
       required: ["type", "file"],
@@ -98,7 +102,7 @@ const COLOR: DataSchema = {
 };
 
 export function obstacleSchema(): DataSchema {
-  const common: Record<string, DataSchema> = { name: { type: "string", minLength: 1 }, shape: shapeSchema(), position: bounded("position in the world frame", UNIT_M), color: COLOR };
+  const common: Record<string, DataSchema> = { name: NAME, shape: shapeSchema(), position: bounded("position in the world frame", UNIT_M), color: COLOR };
   return withOrientation("Obstacle", common, ["name", "shape", "position"]);
 }
 
@@ -113,9 +117,9 @@ export function obstacleOutputSchema(): DataSchema {
 }
 
 export function moveObstacleSchema(): DataSchema {
-  return withOrientation("New pose of an obstacle", { name: { type: "string", minLength: 1 }, position: bounded("position in the world frame", UNIT_M) }, ["name", "position"]);
+  return withOrientation("New pose of an obstacle", { name: NAME, position: bounded("position in the world frame", UNIT_M) }, ["name", "position"]);
 }
 
 export function removeObstacleSchema(): DataSchema {
-  return { type: "object", properties: { name: { type: "string", minLength: 1 } }, required: ["name"] };
+  return { type: "object", properties: { name: NAME }, required: ["name"] };
 }

@@ -12,6 +12,7 @@ export interface DataSchema {
   minItems?: number;
   maxItems?: number;
   minLength?: number;
+  maxLength?: number;
   enum?: unknown[];
   const?: unknown;
   default?: unknown;

@@ -238,7 +238,8 @@ class Contract:
                 within = f" within [{items['minimum']:g}, {items['maximum']:g}]"
             return f"an array of {count}{noun}{within}{limits}"
         if kind == "string":
-            return "a non-empty string" if schema.get("minLength") else "a string"
+            noun = "a non-empty string" if schema.get("minLength") else "a string"
+            return f"{noun} of at most {schema['maxLength']} characters" if "maxLength" in schema else noun
         if kind == "boolean":
             return "true or false"
         if kind == "object":

@@ -11,6 +11,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from robwot_sim.jsondepth import MAX_DEPTH, TooDeep, loads_bounded
+
+__all__ = ["MAX_DEPTH"]
+
 PARSE_ERROR = -32700
 INVALID_REQUEST = -32600
 METHOD_NOT_FOUND = -32601
@@ -18,9 +22,6 @@ INVALID_PARAMS = -32602
 INTERNAL_ERROR = -32603
 
 DEFAULT_MAX_MESSAGE_BYTES = 4 * 1024 * 1024
-#: Deepest array/object nesting accepted in a frame (a request carrying a scene document needs 6), so
-#: no handler ever walks a structure deep enough to exhaust Python's recursion limit.
-MAX_DEPTH = 64
 
 RequestId = str | int | None
 
@@ -82,18 +83,6 @@ def _too_deep() -> Rejected:
     return Rejected(fault, None)
 
 
-def _deeper_than(doc: Any, limit: int) -> bool:
-    """True when ``doc`` nests arrays/objects more than ``limit`` levels (the top level is 1); iterative."""
-    stack: list[tuple[Any, int]] = [(doc, 1)] if isinstance(doc, dict | list) else []
-    while stack:
-        value, depth = stack.pop()
-        children = value.values() if isinstance(value, dict) else value
-        if depth > limit:
-            return True
-        stack.extend((c, depth + 1) for c in children if isinstance(c, dict | list))
-    return False
-
-
 def parse_frame(frame: str | bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Request | Rejected:
     """Turn one WebSocket frame into a `Request`, or a `Rejected` to answer with an error."""
     if isinstance(frame, bytes | bytearray | memoryview):
@@ -108,13 +97,11 @@ def parse_frame(frame: str | bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) 
         return Rejected(fault, None)
     try:
         # NaN/Infinity literals are accepted here so that param validation can name the param.
-        doc = json.loads(frame)
-    except RecursionError:
+        doc = loads_bounded(frame)
+    except TooDeep:
         return _too_deep()
     except ValueError as exc:
         return Rejected(Fault(PARSE_ERROR, f"not valid JSON: {exc}", {"code": "E_PARSE"}), None)
-    if frame.count("[") + frame.count("{") > MAX_DEPTH and _deeper_than(doc, MAX_DEPTH):
-        return _too_deep()
     if isinstance(doc, list):
         return invalid_request("batch requests are not supported: send one JSON object per frame")
     if not isinstance(doc, dict):
