@@ -14,6 +14,7 @@ export type { AffordanceLike, Bounds3, FormLike, JointLimit, LinkLike, SchemaLik
 export type { AuthScheme } from "./td/security.js";
 export { thingSlug, fnv1a64, canonicalJson, MAX_SLUG_LENGTH } from "./td/hash.js";
 export { parseWorkspaceCsv, writeWorkspaceCsv } from "./workspace/csv.js";
+export { jsonErrorAt, snippet } from "./snippet.js";
 export type { WorkspaceCloud, ParseCsvOptions } from "./workspace/csv.js";
 export { parseStl, writeStl, triangleNormal } from "./workspace/stl.js";
 export type { StlMesh } from "./workspace/stl.js";

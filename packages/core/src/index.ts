@@ -3,3 +3,5 @@ export * from "./browser.js";
 export { validateThingDescription, validateThingModel } from "./td/validate.js";
 export type { TdValidationResult } from "./td/validate.js";
 export { loadWorkspace } from "./workspace/load-fs.js";
+export { jailFile, realFolder } from "./folder-jail.js";
+export type { JailVerdict } from "./folder-jail.js";

@@ -89,7 +89,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     process.emitWarning(`robwot serve: binding ${host} without --auth exposes the robot to the network`, { code: "ROBWOT_NO_AUTH" });
   }
 
-  const folders = opts.twins.map(loadTwinFolder);
+  const folders = opts.twins.map((t) => loadTwinFolder(t, opts.meshRoots ?? []));
   const twins = new Map<string, Twin>();
   const slugs = new Set<string>();
   const ids = new Set<string>();

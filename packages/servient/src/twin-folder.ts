@@ -1,11 +1,12 @@
 /**
  * Reading a twin folder (Contract 2): td.json, twin.json, scene.json, workspace.* and the optional
- * calibration.json. Errors name the folder and the file.
+ * calibration.json. Errors name the folder and the file. The folder is a jail (see `Jail`): a hostile
+ * folder can neither make serve read outside it nor make an error quote another file's bytes.
  */
 import type { ObstacleAddParams } from "@robwot/sim-client";
-import { existsSync, readFileSync } from "node:fs";
-import { join, resolve } from "node:path";
-import { checkCalibration, type CalibrationFile, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
+import { existsSync, readFileSync, statSync } from "node:fs";
+import { isAbsolute, join, relative, resolve, sep } from "node:path";
+import { checkCalibration, jailFile, jsonErrorAt, realFolder, snippet, type CalibrationFile, type JailVerdict, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
 import { ServientError } from "./errors.js";
 
 /** The TD document as generated (forms are replaced when served). */
@@ -41,20 +42,97 @@ export interface SceneDoc {
   [k: string]: unknown;
 }
 
-function readJson<T>(dir: string, file: string, required: boolean): T | null {
-  const path = join(dir, file);
-  if (!existsSync(path)) {
-    if (!required) return null;
-    throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir} has no ${file} (run \`robwot generate\` first)`, {
-      folder: dir,
+const MAX_JSON_BYTES = 64 * 1024 * 1024;
+
+const REASONS: Record<Exclude<JailVerdict, { ok: true }>["why"], string> = {
+  outside: "resolves outside the twin folder",
+  missing: "does not exist",
+  "not-a-file": "is not a regular file",
+  "not-a-path": "is not a file path",
+};
+
+/**
+ * The folder as a jail: every path read from it (its fixed files and the entries of twin.json and
+ * scene.json) must resolve inside its real path, or inside `roots` where those are allowed, after
+ * symlinks; otherwise the folder is refused naming the file and the entry, before anything is read there.
+ */
+class Jail {
+  readonly real: string;
+
+  constructor(readonly dir: string) {
+    this.real = realFolder(dir);
+  }
+
+  /** A path named by `entry` of `file`; null when optional and absent. */
+  path(file: string, entry: string, value: unknown, opts: { required: boolean; roots?: readonly string[] }): string | null {
+    // other roots take absolute paths only: a relative path is the folder's and may not climb out of it
+    const roots = typeof value === "string" && isAbsolute(value) ? (opts.roots ?? []) : [];
+    const v = jailFile([this.real, ...roots], this.real, value);
+    if (v.ok) return v.real;
+    if (v.why === "missing" && !opts.required) return null;
+    const where = opts.roots !== undefined ? "the twin folder and the --mesh-root folders" : "the twin folder";
+    const why = v.why === "outside" ? `resolves outside ${where}` : REASONS[v.why];
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, file)}: ${entry} ${JSON.stringify(snippet(value, 80))} ${why}`, {
+      folder: this.dir,
       file,
+      entry,
+      reason: v.why,
     });
   }
-  try {
-    return JSON.parse(readFileSync(path, "utf8")) as T;
-  } catch (err) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${path}: invalid JSON: ${(err as Error).message}`, { folder: dir, file });
+
+  /** One of the folder's own files (td.json, twin.json, ...): refused when it is a symlink out. */
+  file(name: string, required: boolean): string | null {
+    const v = jailFile([this.real], this.real, name);
+    if (v.ok) return v.real;
+    if (v.why === "missing") {
+      if (!required) return null;
+      throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${this.dir} has no ${name} (run \`robwot generate\` first)`, { folder: this.dir, file: name });
+    }
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, name)} ${REASONS[v.why]} (a symlink to another file?): refused unread`, {
+      folder: this.dir,
+      file: name,
+      reason: v.why,
+    });
   }
+
+  /** A JSON object of the folder; parse errors give the position, never the text (V8 quotes it). */
+  json<T>(name: string, real: string | null): T | null {
+    if (real === null) return null;
+    const fail = (why: string): never => {
+      throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, name)}: ${why}`, { folder: this.dir, file: name });
+    };
+    if (statSync(real).size > MAX_JSON_BYTES) fail(`larger than ${MAX_JSON_BYTES} bytes`);
+    const text = readFileSync(real, "utf8");
+    let doc: unknown;
+    try {
+      doc = JSON.parse(text);
+    } catch (err) {
+      return fail(`invalid JSON${jsonErrorAt(err, text)}`);
+    }
+    if (typeof doc !== "object" || doc === null || Array.isArray(doc)) fail("not a JSON object");
+    return doc as T;
+  }
+}
+
+/**
+ * scene.json's mesh obstacles: a file relative to the folder or absolute, inside the folder or a
+ * `--mesh-root` after symlinks. Files inside the folder become relative (served as `/<slug>/<file>`).
+ */
+function jailScene(jail: Jail, file: string, scene: SceneDoc, meshRoots: readonly string[]): SceneDoc {
+  if (scene.obstacles === undefined) return scene;
+  if (!Array.isArray(scene.obstacles)) {
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(jail.dir, file)}: obstacles must be an array`, { folder: jail.dir, file });
+  }
+  const obstacles = scene.obstacles.map((ob, i) => {
+    const shape = (ob as Partial<SceneObstacle> | null)?.shape as { type?: unknown; file?: unknown } | undefined;
+    if (shape?.type !== "mesh") return ob;
+    const name = typeof ob.name === "string" ? ob.name : String(i);
+    const real = jail.path(file, `obstacle ${JSON.stringify(snippet(name, 40))} mesh`, shape.file, { required: true, roots: meshRoots })!;
+    const rel = relative(jail.real, real);
+    const inFolder = rel !== "" && !rel.startsWith("..") && !isAbsolute(rel);
+    return { ...ob, shape: { ...ob.shape, file: inFolder ? rel.split(sep).join("/") : real } } as SceneObstacle;
+  });
+  return { ...scene, obstacles };
 }
 
 /** workspace.json's bounds (and reachBounds, the TD's Cartesian limits after a calibration): finite, min <= max. */
@@ -72,23 +150,34 @@ function checkBounds(dir: string, ws: WorkspaceSummary): void {
   }
 }
 
-export function loadTwinFolder(folder: string): TwinFolder {
+/**
+ * Reads and checks a twin folder. Every path read from it resolves inside it after symlinks (scene mesh
+ * obstacles: inside it or a `meshRoots` folder), else the folder is refused naming the file and entry.
+ */
+export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []): TwinFolder {
   const dir = resolve(folder);
-  if (!existsSync(dir)) {
+  if (!existsSync(dir) || !statSync(dir).isDirectory()) {
     throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir} does not exist`, { folder: dir });
   }
-  const td = readJson<TdDocument>(dir, "td.json", true) as TdDocument;
-  const manifest = readJson<TwinManifest>(dir, "twin.json", true) as TwinManifest;
+  const jail = new Jail(dir);
+  const td = jail.json<TdDocument>("td.json", jail.file("td.json", true))!;
+  const manifest = jail.json<TwinManifest>("twin.json", jail.file("twin.json", true))!;
   if (typeof td.title !== "string" || td.title.length === 0) {
     throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "td.json")}: no title`, { folder: dir, file: "td.json" });
   }
-  if (!manifest.robot || typeof manifest.robot.urdf !== "string") {
+  const robot = manifest.robot as Partial<TwinManifest["robot"]> | undefined;
+  if (typeof robot !== "object" || robot === null || typeof robot.urdf !== "string") {
     throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "twin.json")}: no robot.urdf`, { folder: dir, file: "twin.json" });
   }
-  const scene = readJson<SceneDoc>(dir, manifest.scene || "scene.json", false) ?? {};
-  const workspace = readJson<WorkspaceSummary>(dir, "workspace.json", true) as WorkspaceSummary;
+  const urdfPath = jail.path("twin.json", "robot.urdf", robot.urdf, { required: true })!;
+  if (robot.srdf !== undefined) jail.path("twin.json", "robot.srdf", robot.srdf, { required: true });
+  const sceneFile = manifest.scene === undefined || manifest.scene === "" ? "scene.json" : manifest.scene;
+  const sceneReal = jail.path("twin.json", "scene", sceneFile, { required: false });
+  const scene = jailScene(jail, typeof sceneFile === "string" ? sceneFile : "scene.json", jail.json<SceneDoc>("scene.json", sceneReal) ?? {}, meshRoots.map(realFolder));
+  const workspace = jail.json<WorkspaceSummary>("workspace.json", jail.file("workspace.json", true))!;
   checkBounds(dir, workspace);
-  const calibration = readJson<CalibrationFile>(dir, "calibration.json", false);
+  for (const name of ["workspace.csv", "workspace.stl", "reachability.csv"]) jail.file(name, false);
+  const calibration = jail.json<CalibrationFile>("calibration.json", jail.file("calibration.json", false));
   if (calibration !== null) {
     try {
       checkCalibration(calibration);
@@ -104,7 +193,7 @@ export function loadTwinFolder(folder: string): TwinFolder {
     scene,
     workspace,
     calibration,
-    urdfPath: join(dir, manifest.robot.urdf),
+    urdfPath,
     stlPath: join(dir, "workspace.stl"),
     csvPath: join(dir, "workspace.csv"),
   };

@@ -4,6 +4,7 @@
  * Pure (browser-safe).
  */
 import { CsvError } from "../errors.js";
+import { snippet } from "../snippet.js";
 
 export interface WorkspaceCloud {
   /** x, y, z per point (length 3n), metres */
@@ -42,11 +43,11 @@ export function parseNumericCsv(text: string, file: string, required: readonly s
   const header = lines[0]!.split(",").map((h) => h.trim());
   for (let i = 0; i < required.length; i++) {
     if (header[i] !== required[i]) {
-      throw new CsvError(`${file}:1: header column ${i + 1} is '${header[i] ?? ""}', expected '${required[i]}' (header must start with ${required.join(",")})`, {
+      throw new CsvError(`${file}:1: header column ${i + 1} is '${snippet(header[i] ?? "")}', expected '${required[i]}' (header must start with ${required.join(",")})`, {
         file,
         line: 1,
         column: i + 1,
-        got: header[i] ?? null,
+        got: header[i] === undefined ? null : snippet(header[i]),
         expected: required[i],
       });
     }
@@ -61,13 +62,13 @@ export function parseNumericCsv(text: string, file: string, required: readonly s
     const lineNo = r + 2;
     const fields = lines[r + 1]!.split(",");
     if (fields.length !== width) {
-      throw new CsvError(`${file}:${lineNo}: ${fields.length} fields, expected ${width} (${header.join(",")})`, { file, line: lineNo, got: fields.length, expected: width });
+      throw new CsvError(`${file}:${lineNo}: ${fields.length} fields, expected ${width} (${snippet(header.join(","), 80)})`, { file, line: lineNo, got: fields.length, expected: width });
     }
     for (let c = 0; c < width; c++) {
       const raw = fields[c]!.trim();
       const v = raw === "" ? NaN : Number(raw);
       if (!Number.isFinite(v)) {
-        throw new CsvError(`${file}:${lineNo}: column '${header[c]}' is '${raw}', not a finite number`, { file, line: lineNo, column: header[c], value: raw });
+        throw new CsvError(`${file}:${lineNo}: column '${snippet(header[c])}' is '${snippet(raw)}', not a finite number`, { file, line: lineNo, column: snippet(header[c]), value: snippet(raw) });
       }
       values[r * width + c] = v;
     }
@@ -81,7 +82,7 @@ export function parseWorkspaceCsv(text: string, options: ParseCsvOptions = {}): 
   const jointNames = header.slice(REQUIRED.length);
   const dupe = jointNames.find((name, i) => name === "" || jointNames.indexOf(name) !== i);
   if (dupe !== undefined) {
-    throw new CsvError(`${file}:1: joint column name '${dupe}' is empty or repeated`, { file, line: 1, got: dupe });
+    throw new CsvError(`${file}:1: joint column name '${snippet(dupe)}' is empty or repeated`, { file, line: 1, got: snippet(dupe) });
   }
   const width = header.length;
   const points = new Float64Array(3 * n);

@@ -1,11 +1,26 @@
-/** Loads `workspace.stl` + `workspace.csv` (+ `reachability.csv` when present) from a twin folder (Node only). */
-import { existsSync } from "node:fs";
+/**
+ * Loads `workspace.stl` + `workspace.csv` (+ `reachability.csv` when present) from a twin folder (Node
+ * only). Each file must resolve inside the folder after symlinks (`folder-jail.ts`): one that leads
+ * elsewhere is refused before it is read, so no parse error can quote another file's bytes.
+ */
 import { readFile } from "node:fs/promises";
 import { join } from "node:path";
 import { WorkspaceFileError } from "../errors.js";
+import { jailFile, realFolder } from "../folder-jail.js";
 import { reachabilityVoxel } from "./load-url.js";
 import { ReachabilityMap } from "./reachability.js";
 import { Workspace } from "./workspace.js";
+
+/** The real path of `name` in `dir`; null when optional and absent; refused when it leads out. */
+function confined(dir: string, name: string, required: boolean): string | null {
+  const root = realFolder(dir);
+  const v = jailFile([root], root, name);
+  if (v.ok) return v.real;
+  const file = join(dir, name);
+  if (v.why === "missing" && !required) return null;
+  const why = { outside: "resolves outside its folder (a symlink to another file?): refused unread", missing: "no such file", "not-a-file": "is not a regular file", "not-a-path": "is not a file path" }[v.why];
+  throw new WorkspaceFileError(`cannot read ${file}: ${why}`, { file, reason: v.why });
+}
 
 async function read(file: string): Promise<Buffer> {
   try {
@@ -18,16 +33,17 @@ async function read(file: string): Promise<Buffer> {
 
 /** The reachability map of a twin folder; undefined for folders generated before it existed. */
 async function loadReachability(dir: string): Promise<ReachabilityMap | undefined> {
+  const real = confined(dir, "reachability.csv", false);
+  if (real === null) return undefined;
   const file = join(dir, "reachability.csv");
-  if (!existsSync(file)) return undefined;
   const summaryFile = join(dir, "workspace.json");
-  const voxel = reachabilityVoxel((await read(summaryFile)).toString("utf8"), summaryFile);
-  return ReachabilityMap.fromCsv((await read(file)).toString("utf8"), voxel, { file });
+  const voxel = reachabilityVoxel((await read(confined(dir, "workspace.json", true)!)).toString("utf8"), summaryFile);
+  return ReachabilityMap.fromCsv((await read(real)).toString("utf8"), voxel, { file });
 }
 
 export async function loadWorkspace(dir: string): Promise<Workspace> {
   const stlFile = join(dir, "workspace.stl");
   const csvFile = join(dir, "workspace.csv");
-  const [stl, csv, reach] = await Promise.all([read(stlFile), read(csvFile), loadReachability(dir)]);
+  const [stl, csv, reach] = await Promise.all([read(confined(dir, "workspace.stl", true)!), read(confined(dir, "workspace.csv", true)!), loadReachability(dir)]);
   return Workspace.fromData(stl, csv.toString("utf8"), { stl: stlFile, csv: csvFile }, reach);
 }

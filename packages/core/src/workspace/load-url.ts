@@ -1,5 +1,6 @@
 /** Loads a twin's workspace files over HTTP (consumers, browser). Pure: uses the given `fetch`. */
 import { WorkspaceFileError } from "../errors.js";
+import { jsonErrorAt } from "../snippet.js";
 import { ReachabilityMap } from "./reachability.js";
 import { Workspace } from "./workspace.js";
 
@@ -22,7 +23,7 @@ export function reachabilityVoxel(summaryText: string, file: string): number {
   try {
     voxel = (JSON.parse(summaryText) as { reachability?: { voxel?: unknown } }).reachability?.voxel;
   } catch (cause) {
-    throw new WorkspaceFileError(`${file} is not valid JSON: ${(cause as Error).message}`, { file }, { cause });
+    throw new WorkspaceFileError(`${file} is not valid JSON${jsonErrorAt(cause, summaryText)}`, { file });
   }
   if (typeof voxel !== "number" || !(voxel > 0) || !Number.isFinite(voxel)) {
     throw new WorkspaceFileError(`${file} has no reachability.voxel (a positive number of metres), needed to read reachability.csv`, { file });

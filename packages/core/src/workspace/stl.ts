@@ -4,6 +4,7 @@
  * Pure (browser-safe).
  */
 import { StlError } from "../errors.js";
+import { snippet } from "../snippet.js";
 
 export interface StlMesh {
   /** 9 per triangle, metres */
@@ -71,7 +72,7 @@ function parseAscii(text: string, file: string): StlMesh {
   };
   const nums = (parts: string[], from: number, line: number): number[] => {
     const out = parts.slice(from, from + 3).map(Number);
-    if (out.length !== 3 || out.some((v) => !Number.isFinite(v))) fail(line, `expected 3 finite numbers, got '${parts.slice(from).join(" ")}'`);
+    if (out.length !== 3 || out.some((v) => !Number.isFinite(v))) fail(line, `expected 3 finite numbers, got '${snippet(parts.slice(from).join(" "))}'`);
     return out;
   };
   for (let i = 0; i < lines.length; i++) {
@@ -95,7 +96,7 @@ function parseAscii(text: string, file: string): StlMesh {
       if (!inFacet || vertices !== 3) fail(lineNo, `facet ends with ${vertices} vertices, expected 3`);
       inFacet = false;
     } else if (kw !== "outer" && kw !== "endloop" && kw !== "endsolid") {
-      fail(lineNo, `unexpected '${parts[0]}'`);
+      fail(lineNo, `unexpected '${snippet(parts[0])}'`);
     }
   }
   if (inFacet) fail(lines.length, "file ends inside a facet (truncated)");
