@@ -88,7 +88,7 @@ class Jail {
       if (!required) return null;
       throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${this.dir} has no ${name} (run \`robwot generate\` first)`, { folder: this.dir, file: name });
     }
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, name)} ${REASONS[v.why]} (a symlink to another file?): refused unread`, {
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, name)} ${REASONS[v.why]}${v.why === "outside" ? " (a symlink to another file?)" : ""}: refused unread`, {
       folder: this.dir,
       file: name,
       reason: v.why,
@@ -173,7 +173,8 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
   if (robot.srdf !== undefined) jail.path("twin.json", "robot.srdf", robot.srdf, { required: true });
   const sceneFile = manifest.scene === undefined || manifest.scene === "" ? "scene.json" : manifest.scene;
   const sceneReal = jail.path("twin.json", "scene", sceneFile, { required: false });
-  const scene = jailScene(jail, typeof sceneFile === "string" ? sceneFile : "scene.json", jail.json<SceneDoc>("scene.json", sceneReal) ?? {}, meshRoots.map(realFolder));
+  const sceneName = typeof sceneFile === "string" ? sceneFile : "scene.json";
+  const scene = jailScene(jail, sceneName, jail.json<SceneDoc>(sceneName, sceneReal) ?? {}, meshRoots.map(realFolder));
   const workspace = jail.json<WorkspaceSummary>("workspace.json", jail.file("workspace.json", true))!;
   checkBounds(dir, workspace);
   for (const name of ["workspace.csv", "workspace.stl", "reachability.csv"]) jail.file(name, false);

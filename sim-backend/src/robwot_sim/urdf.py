@@ -20,7 +20,7 @@ import pybullet_data
 
 from robwot_sim import xmlsafe
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UrdfError
-from robwot_sim.meshcheck import check_mesh, read_mesh
+from robwot_sim.meshcheck import check_mesh, read_mesh, snippet
 from robwot_sim.sim.decompose import FloatArray, IndexArray, collision_cache, split_collisions
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
@@ -65,7 +65,8 @@ def parse_xml(path: str | Path, *, root_tag: str, error: type[UrdfError], what: 
         raise error(e.reason, file=str(p), line=e.line, column=e.column) from None
     if root.tag != root_tag:
         raise error(
-            f"root element is <{root.tag}>, expected <{root_tag}>", file=str(p), line=lines.get(id(root))
+            f"root element is {snippet(root.tag)}, expected <{root_tag}>", file=str(p),
+            line=lines.get(id(root)),
         )
     return UrdfDoc(root, p, lines)
 
@@ -209,7 +210,8 @@ def prepare_urdf(
             resolved = resolve_mesh(fn, udir, package_roots, urdf=str(doc.file))
             if resolved.suffix.lower() not in MESH_SUFFIXES:
                 raise UrdfError(
-                    f"unsupported mesh format {resolved.suffix!r} ({fn}); use STL, OBJ or DAE",
+                    f"unsupported mesh format {snippet(resolved.suffix)} ({snippet(fn, 200, quote=False)}); "
+                    "use STL, OBJ or DAE",
                     file=str(doc.file),
                     line=doc.line_of(el),
                 )
