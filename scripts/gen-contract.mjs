@@ -3,7 +3,9 @@
  * Generates, from the backend's one contract (`sim-backend/src/robwot_sim/schemas/protocol.openrpc.json`):
  *   - `packages/core/src/backend-contract.ts`: TS types of every schema, method params/result and notification
  *     (json-schema-to-typescript), plus the `Methods` and `Notifications` maps the typed client is built on;
- *   - `sim-backend/PROTOCOL.md`: the prose in `sim-backend/protocol/*.md` around the generated reference.
+ *   - `sim-backend/PROTOCOL.md`: the prose in `sim-backend/protocol/*.md` around the generated reference;
+ *   - the contract-owned `$defs` of `sim-backend/src/robwot_sim/schemas/scene.schema.json` (positions, names,
+ *     obstacle shapes: the scene file and the RPC params obey the same ranges).
  *
  * `node scripts/gen-contract.mjs` writes both (`npm run gen:contract`); `--check` exits 1 when either is
  * stale. `renderContract()` is what the staleness test compares with the files.
@@ -17,6 +19,7 @@ const ROOT = join(dirname(fileURLToPath(import.meta.url)), "..");
 export const CONTRACT = join(ROOT, "sim-backend/src/robwot_sim/schemas/protocol.openrpc.json");
 export const TS_OUT = join(ROOT, "packages/core/src/backend-contract.ts");
 export const MD_OUT = join(ROOT, "sim-backend/PROTOCOL.md");
+export const SCENE_SCHEMA = join(ROOT, "sim-backend/src/robwot_sim/schemas/scene.schema.json");
 const PROSE = join(ROOT, "sim-backend/protocol");
 
 /** "robot.setJointPositions" -> "RobotSetJointPositions" */
@@ -210,20 +213,38 @@ function renderMarkdown(doc, intro, example) {
   return out.join("\n");
 }
 
-/** The generated files' contents: `{ ts, md }`. */
+/** The scene schema with every `$defs` entry named after a contract component replaced by that component
+ *  (its `#/components/schemas/X` references made `#/$defs/X`, which the scene schema then must hold too). */
+function renderSceneSchema(doc, scene) {
+  const refs = (schema) => {
+    if (Array.isArray(schema)) return schema.map(refs);
+    if (schema === null || typeof schema !== "object") return schema;
+    return Object.fromEntries(Object.entries(schema).map(([k, v]) => [k, k === "$ref" ? `#/$defs/${refName(v)}` : refs(v)]));
+  };
+  const defs = {};
+  for (const [name, schema] of Object.entries(scene.$defs)) {
+    const owned = doc.components.schemas[name];
+    defs[name] = owned ? refs(owned) : schema;
+  }
+  return `${JSON.stringify({ ...scene, $defs: defs }, null, 2)}\n`;
+}
+
+/** The generated files' contents: `{ ts, md, scene }`. */
 export async function renderContract() {
   const doc = JSON.parse(await readFile(CONTRACT, "utf8"));
   const intro = await readFile(join(PROSE, "intro.md"), "utf8");
   const example = await readFile(join(PROSE, "example.md"), "utf8");
-  return { ts: await renderTypes(doc), md: renderMarkdown(doc, intro, example) };
+  const scene = renderSceneSchema(doc, JSON.parse(await readFile(SCENE_SCHEMA, "utf8")));
+  return { ts: await renderTypes(doc), md: renderMarkdown(doc, intro, example), scene };
 }
 
 if (process.argv[1] === fileURLToPath(import.meta.url)) {
-  const { ts, md } = await renderContract();
+  const { ts, md, scene } = await renderContract();
   if (process.argv.includes("--check")) {
     const stale = [];
     if ((await readFile(TS_OUT, "utf8").catch(() => "")) !== ts) stale.push(TS_OUT);
     if ((await readFile(MD_OUT, "utf8").catch(() => "")) !== md) stale.push(MD_OUT);
+    if ((await readFile(SCENE_SCHEMA, "utf8").catch(() => "")) !== scene) stale.push(SCENE_SCHEMA);
     if (stale.length) {
       process.stderr.write(`stale (run npm run gen:contract): ${stale.join(", ")}\n`);
       process.exit(1);
@@ -231,6 +252,7 @@ if (process.argv[1] === fileURLToPath(import.meta.url)) {
   } else {
     await writeFile(TS_OUT, ts);
     await writeFile(MD_OUT, md);
-    process.stdout.write(`wrote ${TS_OUT}\nwrote ${MD_OUT}\n`);
+    await writeFile(SCENE_SCHEMA, scene);
+    process.stdout.write(`wrote ${TS_OUT}\nwrote ${MD_OUT}\nwrote ${SCENE_SCHEMA}\n`);
   }
 }

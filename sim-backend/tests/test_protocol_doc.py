@@ -78,7 +78,8 @@ def test_example_runs() -> None:
 
 
 def test_generated_files_are_fresh() -> None:
-    """PROTOCOL.md and sim-client's contract.ts are what `npm run gen:contract` makes of the contract."""
+    """PROTOCOL.md, core's backend-contract.ts and the scene schema's shared $defs are what
+    `npm run gen:contract` makes of the contract."""
     script = ROOT.parent / "scripts" / "gen-contract.mjs"
     proc = subprocess.run(["node", str(script), "--check"], capture_output=True, text=True, timeout=120,
                           check=False)

@@ -1,6 +1,7 @@
 /** Small parsers for option values; each throws a `CliError` naming the option and the bad value. */
 import { existsSync, statSync } from "node:fs";
 import { resolve } from "node:path";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { CliError } from "./errors.js";
 
 export function parseInteger(option: string, value: string | undefined, fallback: number, min: number, max = Number.MAX_SAFE_INTEGER): number {
@@ -19,10 +20,11 @@ export function parseNumber(option: string, value: string | undefined, fallback:
   return n;
 }
 
-/** `--realtime`: 0 (as fast as possible) or a factor in [0.01, 1000] (the servient and backend agree). */
+/** `--realtime`: 0 (as fast as possible) or a factor within the backend contract's `RealtimeFactor`. */
 export function parseRealtime(value: string | undefined): number {
-  const n = parseNumber("realtime", value, 1, 0, 1000);
-  if (n > 0 && n < 0.01) throw new CliError(`--realtime must be 0 (as fast as possible) or between 0.01 and 1000, got ${n}`);
+  const { minimum, maximum } = VALUE_SCHEMAS.RealtimeFactor;
+  const n = parseNumber("realtime", value, 1, 0, maximum);
+  if (n > 0 && n < minimum) throw new CliError(`--realtime must be 0 (as fast as possible) or between ${minimum} and ${maximum}, got ${n}`);
   return n;
 }
 

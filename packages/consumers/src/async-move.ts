@@ -12,7 +12,7 @@
  */
 import type { FormLike } from "@robwot/core";
 import { jointLimits } from "@robwot/core";
-import { numberOption, parseArgs } from "./lib/args.js";
+import { numberOption, speedOption, parseArgs } from "./lib/args.js";
 import { authHeaders, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtJoints, printJsonSummary } from "./lib/format.js";
 import { runScenario } from "./lib/run.js";
@@ -58,7 +58,7 @@ const sleep = (ms: number): Promise<void> => new Promise((r) => setTimeout(r, ms
 async function main(): Promise<void> {
   const args = parseArgs(process.argv.slice(2), { speed: "value", fraction: "value", "cancel-at": "value", json: "flag" });
   const url = args.positional[0] ?? defaultTdUrl();
-  const speed = numberOption(args, "speed", 0.3, 0.01, 1);
+  const speed = speedOption(args, 0.3);
   const fraction = numberOption(args, "fraction", 0.3, 0, 0.9);
   const cancelAt = args.options.has("cancel-at") ? numberOption(args, "cancel-at", 0.5, 0, 1) : null;
   const session = await openSession();

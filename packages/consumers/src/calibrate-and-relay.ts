@@ -16,7 +16,7 @@
  *        [--speed 1] [--fraction 0.35] [--no-scale] [--timeout 30] [--json]
  * Defaults: env ROBWOT_TD / ROBWOT_PHYSICAL_TD, else http://127.0.0.1:8080/<demo> and :8081/<demo>.
  */
-import { numberOption, parseArgs } from "./lib/args.js";
+import { numberOption, speedOption, parseArgs } from "./lib/args.js";
 import { DEMO_SLUG, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { invertCalibration } from "@robwot/core";
@@ -55,7 +55,7 @@ async function main(): Promise<void> {
   const args = parseArgs(process.argv.slice(2), { speed: "value", fraction: "value", "no-scale": "flag", timeout: "value", json: "flag" });
   const virtualUrl = args.positional[0] ?? defaultTdUrl();
   const physicalUrl = args.positional[1] ?? defaultTdUrl("ROBWOT_PHYSICAL_TD", `http://127.0.0.1:8081/${DEMO_SLUG}`);
-  const speed = numberOption(args, "speed", 1, 0.01, 1);
+  const speed = speedOption(args, 1);
   const fraction = numberOption(args, "fraction", 0.35, 0.05, 0.9);
   const timeout = numberOption(args, "timeout", 30, 1, 600);
   const withScale = !args.options.has("no-scale");

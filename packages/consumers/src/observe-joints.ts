@@ -12,7 +12,7 @@
  *   node packages/consumers/dist/observe-joints.js [TD URL] [--seconds 5] [--speed 1] [--via ws|poll|both]
  *        [--no-move] [--quiet] [--json]
  */
-import { numberOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
+import { numberOption, speedOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
 import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
 import { fmt, fmtJoints, printJsonSummary, table } from "./lib/format.js";
 import { subscribeLive, type LiveSubscription } from "./lib/live.js";
@@ -48,7 +48,7 @@ async function main(): Promise<void> {
   });
   const url = args.positional[0] ?? defaultTdUrl();
   const seconds = numberOption(args, "seconds", 5, 0.5, 3600);
-  const speed = numberOption(args, "speed", 1, 0.01, 1);
+  const speed = speedOption(args, 1);
   const via = stringOption(args, "via") ?? "both";
   if (!["ws", "poll", "both"].includes(via)) throw new UsageError(`--via must be ws, poll or both, got ${via}`);
   const quiet = args.options.has("quiet");

@@ -13,7 +13,7 @@
  *
  *   node packages/consumers/dist/pick-and-place.js [TD URL] [--targets ...] [--speed 1] [--json]
  */
-import { numberOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
+import { numberOption, speedOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
 import { authHeaders, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { invertCalibration } from "@robwot/core";
@@ -107,7 +107,7 @@ const yesNo = (b: boolean | undefined): string => (b === undefined ? "-" : b ? "
 async function main(): Promise<void> {
   const args = parseArgs(process.argv.slice(2), { targets: "value", speed: "value", json: "flag" });
   const url = args.positional[0] ?? defaultTdUrl();
-  const speed = numberOption(args, "speed", 1, 0.01, 1);
+  const speed = speedOption(args, 1);
   const session = await openSession();
   try {
     const twin = await session.connect(url);

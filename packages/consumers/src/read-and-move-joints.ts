@@ -8,7 +8,7 @@
  *
  *   node packages/consumers/dist/read-and-move-joints.js [TD URL] [--speed 0.5] [--fraction 0.3] [--json]
  */
-import { numberOption, parseArgs } from "./lib/args.js";
+import { numberOption, speedOption, parseArgs } from "./lib/args.js";
 import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
 import { fmt, fmtJoints, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { runScenario } from "./lib/run.js";
@@ -21,7 +21,7 @@ const USAGE = "read-and-move-joints [TD URL] [--speed 0..1] [--fraction 0..0.9] 
 async function main(): Promise<void> {
   const args = parseArgs(process.argv.slice(2), { speed: "value", fraction: "value", json: "flag" });
   const url = args.positional[0] ?? defaultTdUrl();
-  const speed = numberOption(args, "speed", 0.5, 0.01, 1);
+  const speed = speedOption(args, 0.5);
   const fraction = numberOption(args, "fraction", 0.3, 0, 0.9);
   const session = await openSession();
   try {

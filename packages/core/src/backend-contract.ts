@@ -26,7 +26,7 @@ export type Position = [number, number, number];
  */
 export type Rpy = [number, number, number];
 /**
- * quaternion [x, y, z, w]; a request's is normalised (norm >= 1e-6, huge components without overflow)
+ * quaternion [x, y, z, w]; a request's is normalised (norm >= x-minNorm, huge components without overflow)
  *
  * @minItems 4
  * @maxItems 4
@@ -42,6 +42,22 @@ export type JointVector = number[];
  * a robot id or obstacle name
  */
 export type Name = string;
+/**
+ * real-time factor of a motion: 1 = wall clock, 2 = twice as fast (0, as fast as possible, is allowed beside it)
+ */
+export type RealtimeFactor = number;
+/**
+ * sampled configurations of a workspace
+ */
+export type Samples = number;
+/**
+ * random seed (32 bits)
+ */
+export type Seed = number;
+/**
+ * voxel side (m) of the reachability map
+ */
+export type ReachVoxel = number;
 /**
  * a file or folder path (the longest path Linux accepts: 4096 bytes)
  */
@@ -682,7 +698,7 @@ export interface RobotMoveParams {
   /**
    * real-time factor: 1 = wall clock, 2 = twice as fast, 0 = as fast as possible
    */
-  realtime?: 0 | number;
+  realtime?: 0 | RealtimeFactor;
   dt?: Dt;
 }
 /**
@@ -726,14 +742,8 @@ export interface WorkspaceGenerateParams {
    * output folder
    */
   outDir: string;
-  /**
-   * number of sampled configurations
-   */
-  samples?: number;
-  /**
-   * random seed
-   */
-  seed?: number;
+  samples?: Samples;
+  seed?: Seed;
   workers?: Workers;
   /**
    * alpha radius (m) or "auto"
@@ -746,7 +756,7 @@ export interface WorkspaceGenerateParams {
   /**
    * voxel side (m) of the reachability map, or "auto": 1 cm doubled until the voxels reached collision-free hold 32 collision-free samples on average (at most 0.5 m)
    */
-  reachVoxel?: "auto" | number;
+  reachVoxel?: "auto" | ReachVoxel;
   /**
    * run sampling, labelling and the reachability map as Ray tasks on the existing Ray cluster at this address ("auto": RAY_ADDRESS or the cluster started on the backend's machine; "ray://host:10001"; "host:6379"); same files as a local run for the same seed and samples; `workers` is then unused. Needs the backend's `cluster` extra (Ray); without it, E_INVALID_PARAMS. Absent: the local worker pool
    */
@@ -831,9 +841,13 @@ export const VALUE_SCHEMAS = {
   Vec3: {"type":"array","items":{"type":"number"},"minItems":3,"maxItems":3,"description":"[x, y, z] (m), or [roll, pitch, yaw] (rad)"},
   Position: {"type":"array","items":{"type":"number","minimum":-10000,"maximum":10000},"minItems":3,"maxItems":3,"description":"[x, y, z] in m, each within +-1e4 m (requests)"},
   Rpy: {"type":"array","items":{"type":"number","minimum":-10000,"maximum":10000},"minItems":3,"maxItems":3,"description":"[roll, pitch, yaw] in rad, each within +-1e4 rad"},
-  QuatXyzw: {"type":"array","items":{"type":"number"},"minItems":4,"maxItems":4,"description":"quaternion [x, y, z, w]; a request's is normalised (norm >= 1e-6, huge components without overflow)"},
+  QuatXyzw: {"type":"array","items":{"type":"number"},"minItems":4,"maxItems":4,"x-minNorm":0.000001,"description":"quaternion [x, y, z, w]; a request's is normalised (norm >= x-minNorm, huge components without overflow)"},
   JointVector: {"type":"array","items":{"type":"number"},"maxItems":512,"description":"joint values (rad or m) in the order of the model's `controllable` list, one per controllable joint"},
   Name: {"type":"string","minLength":1,"maxLength":200,"description":"a robot id or obstacle name"},
+  RealtimeFactor: {"type":"number","minimum":0.01,"maximum":1000,"description":"real-time factor of a motion: 1 = wall clock, 2 = twice as fast (0, as fast as possible, is allowed beside it)"},
+  Samples: {"type":"integer","minimum":1,"maximum":10000000,"default":80000,"description":"sampled configurations of a workspace"},
+  Seed: {"type":"integer","minimum":0,"maximum":4294967295,"default":1,"description":"random seed (32 bits)"},
+  ReachVoxel: {"type":"number","minimum":0.005,"maximum":0.5,"description":"voxel side (m) of the reachability map"},
   FilePath: {"type":"string","minLength":1,"maxLength":4096,"description":"a file or folder path (the longest path Linux accepts: 4096 bytes)"},
   JointType: {"type":"string","enum":["revolute","continuous","prismatic","fixed"]},
   Positive: {"type":"number","exclusiveMinimum":0,"maximum":10000},

@@ -7,9 +7,9 @@ export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/bui
 export { securityFor } from "./td/security.js";
 export { ACTION_ID_VARIABLE, ACTION_STATUS_SCHEMA, ACTION_STATUSES, ASYNC_ACTIONS, RESPOND_ASYNC } from "./td/async-actions.js";
 export type { ActionStatusValue } from "./td/async-actions.js";
-export { closeSchema, MIN_SPEED, tdContact } from "./td/schemas.js";
+export { closeSchema, MIN_QUATERNION_NORM, MIN_SPEED, tdContact } from "./td/schemas.js";
 export { buildThingModel } from "./td/thing-model.js";
-export { cartesianBounds, jointLimits, linkUrl, liveUrl, slugOf, TdError } from "./td/read.js";
+export { cartesianBounds, jointLimits, linkUrl, liveUrl, slugOf, speedRange, TdError } from "./td/read.js";
 export type { AffordanceLike, Bounds3, FormLike, JointLimit, LinkLike, SchemaLike, ThingDescriptionLike } from "./td/read.js";
 export type { AuthScheme } from "./td/security.js";
 export { thingSlug, fnv1a64, canonicalJson, MAX_SLUG_LENGTH } from "./td/hash.js";

@@ -8,6 +8,7 @@ import { dirname } from "node:path";
 import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
 import { MAX_SLUG_LENGTH, targetBounds, type Bounds } from "@robwot/core";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
 import { registerActions } from "./actions.js";
@@ -83,8 +84,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   if (opts.twins.length === 0) throw new Error("startServient: no twin folder given");
   const host = opts.host ?? "127.0.0.1";
   const realtime = opts.realtime ?? 1;
-  // the backend refuses a factor in (0, 0.01): every move would answer 400 for the server's own option
-  if (!(realtime === 0 || (realtime >= 0.01 && realtime <= 1000))) throw new Error(`realtime must be 0 (as fast as possible) or in [0.01, 1000], got ${realtime}`);
+  // a factor the backend refuses would make every move answer 400 for the server's own option
+  const factor = VALUE_SCHEMAS.RealtimeFactor;
+  if (!(realtime === 0 || (realtime >= factor.minimum && realtime <= factor.maximum))) throw new Error(`realtime must be 0 (as fast as possible) or in [${factor.minimum}, ${factor.maximum}], got ${realtime}`);
   if (!isLoopback(host) && !opts.auth) {
     process.emitWarning(`robwot serve: binding ${host} without --auth exposes the robot to the network`, { code: "ROBWOT_NO_AUTH" });
   }

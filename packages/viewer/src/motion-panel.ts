@@ -3,13 +3,16 @@ import { el, fmt } from "./dom.js";
 import { isRecord } from "./http.js";
 
 export class MotionPanel {
-  readonly speedInput = el("input", { type: "range", min: "0.05", max: "1", step: "0.05", value: "0.5", name: "speed", "aria-label": "speed" });
+  readonly speedInput = el("input", { type: "range", name: "speed", "aria-label": "speed" });
   readonly stopButton = el("button", { type: "button", class: "stop", text: "STOP" });
   private readonly status = el("div", { class: "kv", id: "status", text: "state: –" });
   private readonly calibration = el("div", { class: "kv", id: "calibration", text: "calibration: –" });
   private readonly layers = el("div", { id: "layers" });
 
-  constructor(parent: HTMLElement, onStop: () => void) {
+  /** `speed`: the range the twin's move actions accept (the TD's `speed` input schema). */
+  constructor(parent: HTMLElement, speed: { minimum: number; maximum: number }, onStop: () => void) {
+    // the slider steps by the smallest accepted fraction, so both ends of the range can be chosen
+    Object.assign(this.speedInput, { min: String(speed.minimum), max: String(speed.maximum), step: String(speed.minimum), value: "0.5" });
     const speedOut = el("output", { text: "50 %" });
     this.speedInput.addEventListener("input", () => (speedOut.textContent = `${Math.round(this.speed() * 100)} %`));
     this.stopButton.addEventListener("click", onStop);

@@ -2,7 +2,7 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
-import { jointLimits, liveUrl, REACHABILITY_REL, RobwotError, type ThingDescriptionLike } from "@robwot/core/browser";
+import { jointLimits, liveUrl, REACHABILITY_REL, RobwotError, speedRange, type ThingDescriptionLike } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
 
@@ -21,6 +21,8 @@ export interface TwinTd {
   base: string;
   raw: Record<string, unknown>;
   joints: JointLimit[];
+  /** The speed fractions a move accepts (the move actions' `speed` input). */
+  speed: { minimum: number; maximum: number };
   links: { model: string; pointCloud: string | null; workspace: string | null; reachability: string | null; summary: string | null; scene: string | null };
   /** End-effector link (`robwot:eeLink`), if the TD names one. */
   eeLink: string | null;
@@ -48,6 +50,7 @@ export async function loadTd(slug: string): Promise<TwinTd> {
     base,
     raw,
     joints: readJointLimits(raw),
+    speed: fromCore(() => speedRange(raw as ThingDescriptionLike)),
     links: {
       model,
       pointCloud: link("workspace-pointcloud"),
@@ -71,10 +74,15 @@ function liveLink(td: Record<string, unknown>): string | null {
   return u.href;
 }
 
-/** Joint limits (core's TD reading) in the viewer's terms; a TD without them is the viewer's E_TD. */
+/** Joint limits (core's TD reading) in the viewer's terms. */
 function readJointLimits(td: Record<string, unknown>): JointLimit[] {
+  return fromCore(() => jointLimits(td as ThingDescriptionLike).map((j) => ({ name: j.name, minimum: j.lower, maximum: j.upper, unit: j.unit })));
+}
+
+/** A reading of core's TD reader; what it refuses is the viewer's E_TD. */
+function fromCore<T>(read: () => T): T {
   try {
-    return jointLimits(td as ThingDescriptionLike).map((j) => ({ name: j.name, minimum: j.lower, maximum: j.upper, unit: j.unit }));
+    return read();
   } catch (err) {
     if (err instanceof RobwotError) throw new ViewerError("E_TD", err.message, err.details);
     throw err;

@@ -34,7 +34,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   const stage = new Stage(view);
   stage.start();
 
-  const motion = new MotionPanel(content, () => void commander.stop());
+  const motion = new MotionPanel(content, td.speed, () => void commander.stop());
   const commander = new Commander(td, {
     speed: () => motion.speed(),
     busy: (active) => (joints.targetActive = active),

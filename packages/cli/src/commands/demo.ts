@@ -6,6 +6,7 @@
 import { existsSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { parseInteger, parseRealtime, usageError } from "../args.js";
 import { findExample } from "../examples.js";
 import { DEFAULT_BASE_URL, DEFAULT_CLEARANCE, type GenerateOptions } from "./generate-options.js";
@@ -20,7 +21,7 @@ when it is complete, then serves it (like robwot serve) and prints the TD and vi
 
 Options:
   --out DIR          twin folder (default twins/demo-kuka)
-  --samples N        workspace samples when generating (default 80000)
+  --samples N        workspace samples when generating (default ${VALUE_SCHEMAS.Samples.default})
   --regenerate       generate even if the folder is complete
   --port N, --host ADDR, --realtime F   as for robwot serve (default 8080, 127.0.0.1, 1)
   --cors-origin ORIGIN, --allowed-host NAME   as for robwot serve (repeatable)
@@ -72,7 +73,8 @@ export async function run(argv: string[]): Promise<number> {
     throw usageError(err, "demo", ["out", "samples", "regenerate", "port", "host", "realtime", "cors-origin", "allowed-host", "no-serve"]);
   }
   const out = resolve(values.out ?? join("twins", "demo-kuka"));
-  const samples = parseInteger("samples", values.samples, 80_000, 100, 10_000_000);
+  const { Samples } = VALUE_SCHEMAS;
+  const samples = parseInteger("samples", values.samples, Samples.default, Samples.minimum, Samples.maximum);
   const port = parseInteger("port", values.port, 8080, 0, 65535);
   const host = values.host ?? "127.0.0.1";
   const realtime = parseRealtime(values.realtime);

@@ -6,12 +6,12 @@ import { existsSync, readFileSync, statSync } from "node:fs";
 import { basename, join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { existingFile, parseAlpha, parseInteger, parseNumber, parsePackageRoots, parseUrl, usageError } from "../args.js";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { CliError } from "../errors.js";
 
-/** The clearance (m) a robot keeps unless told (the backend's default), and the range it accepts. */
-export const DEFAULT_CLEARANCE = 0.002;
-const MIN_CLEARANCE = 0.0005;
-const MAX_CLEARANCE = 0.02;
+const { Clearance, ReachVoxel, Samples, Seed, Workers } = VALUE_SCHEMAS;
+/** The clearance (m) a robot keeps unless told (the backend contract's default). */
+export const DEFAULT_CLEARANCE = Clearance.default;
 import { EXAMPLE_NAMES, type ExampleRobot, findExample, looksLikeExampleName } from "../examples.js";
 
 export interface GenerateOptions {
@@ -61,7 +61,7 @@ export const GENERATE_OPTIONS = {
   force: { type: "boolean" },
 } as const;
 
-export const DEFAULT_SAMPLES = 80_000;
+export const DEFAULT_SAMPLES = Samples.default;
 export const DEFAULT_BASE_URL = "http://localhost:8080/";
 
 /** File-system friendly name: lower case, `[a-z0-9_-]`. */
@@ -126,15 +126,15 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   } else {
     throw new CliError(`unknown example robot "${robotArg}" and no such file (examples: ${EXAMPLE_NAMES.join(", ")})`);
   }
-  const samples = parseInteger("samples", values.samples, DEFAULT_SAMPLES, 100, 10_000_000);
-  const seed = parseInteger("seed", values.seed, 1, 0, 2 ** 32 - 1);
-  const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, 1, 1, 256);
+  const samples = parseInteger("samples", values.samples, Samples.default, Samples.minimum, Samples.maximum);
+  const seed = parseInteger("seed", values.seed, Seed.default, Seed.minimum, Seed.maximum);
+  const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, Workers.minimum, Workers.minimum, Workers.maximum);
   const alpha = parseAlpha(values.alpha);
   const cluster = values.cluster?.trim();
   if (cluster === "") throw new CliError('--cluster needs a Ray address ("auto" or ray://host:10001)');
   if (cluster !== undefined && workers !== undefined) throw new CliError("--workers is for the local pool: give it or --cluster, not both");
-  const reachVoxel = values["reach-voxel"] === undefined || values["reach-voxel"] === "auto" ? "auto" : parseNumber("reach-voxel", values["reach-voxel"], 0, 0.005, 0.5);
-  const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, MIN_CLEARANCE, MAX_CLEARANCE);
+  const reachVoxel = values["reach-voxel"] === undefined || values["reach-voxel"] === "auto" ? "auto" : parseNumber("reach-voxel", values["reach-voxel"], 0, ReachVoxel.minimum, ReachVoxel.maximum);
+  const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, Clearance.minimum, Clearance.maximum);
   const packageRoots = parsePackageRoots(values["package-root"]);
   const baseUrlObj = parseUrl("base-url", values["base-url"] ?? DEFAULT_BASE_URL, ["http", "https"]) as URL;
   const baseUrl = baseUrlObj.href.endsWith("/") ? baseUrlObj.href : `${baseUrlObj.href}/`;

@@ -7,7 +7,10 @@ import { type GenerateResult, generateTwin } from "../generate-twin.js";
 import { onCleanup } from "../lifecycle.js";
 import { createProgress } from "../progress.js";
 import { StagedDir } from "../twin-dir.js";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { DEFAULT_BASE_URL, DEFAULT_SAMPLES, type GenerateOptions, parseGenerateArgs } from "./generate-options.js";
+
+const { Clearance, ReachVoxel, Seed } = VALUE_SCHEMAS;
 
 export const USAGE = `Usage: robwot generate <robot.urdf | example-name> [options]
 
@@ -19,15 +22,15 @@ Options:
   --scene FILE            scene JSON with obstacles (default: none)
   --srdf FILE             the robot's SRDF (MoveIt): its <disable_collisions> pairs are never checked
   --clearance M           metres every checked path, plan and motion keeps to other bodies
-                          (default 0.002, 0.0005 to 0.02); in twin.json and the TD
+                          (default ${Clearance.default}, ${Clearance.minimum} to ${Clearance.maximum}); in twin.json and the TD
   --samples N             random joint configurations (default ${DEFAULT_SAMPLES})
-  --seed N                random seed (default 1; same seed => same workspace.csv)
+  --seed N                random seed (default ${Seed.default}; same seed => same workspace.csv)
   --ee LINK               end-effector link (default: the last link of the chain)
   --out DIR, -o DIR       output folder (default twins/<example name or URDF robot name>);
                           an existing twin there is replaced only on success
   --base-url URL          base URL of the servient for the TD (default ${DEFAULT_BASE_URL})
   --alpha auto|R          alpha-shape radius in metres (default auto)
-  --reach-voxel auto|M    voxel side in metres of reachability.csv (0.005 to 0.5; default auto:
+  --reach-voxel auto|M    voxel side in metres of reachability.csv (${ReachVoxel.minimum} to ${ReachVoxel.maximum}; default auto:
                           1 cm doubled until reached voxels hold 32 collision-free samples on average)
   --workers N             collision-checking processes (default: number of cores)
   --cluster ADDRESS       run sampling, labelling and the reachability map as Ray tasks on an existing

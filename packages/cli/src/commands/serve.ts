@@ -1,4 +1,5 @@
 /** `robwot serve`: wires CLI flags to the servient (`@robwot/servient`) and prints where things are. */
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { startServient, type RunningServient } from "@robwot/servient";
 import { onCleanup } from "../lifecycle.js";
 import { isLoopback, parseServeArgs, type ServeOptions } from "./serve-options.js";
@@ -11,7 +12,7 @@ Serves twin folders (made by robwot generate) as node-wot Things over HTTP, with
 Options:
   --port N, -p N               HTTP port (default 8080; 0 = any free port)
   --host ADDR                  interface to bind (default 127.0.0.1)
-  --realtime F                 motion speed vs wall clock (default 1; 0 = as fast as possible, else 0.01-1000)
+  --realtime F                 motion speed vs wall clock (default 1; 0 = as fast as possible, else ${VALUE_SCHEMAS.RealtimeFactor.minimum}-${VALUE_SCHEMAS.RealtimeFactor.maximum})
   --relay URL                  TD URL of the physical robot's Thing: validated commands are relayed there
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one

@@ -2,7 +2,7 @@
  * Tiny command-line parsing shared by the scenarios: positional arguments (TD URLs) and
  * `--name value` / `--flag` options. Unknown options are an error naming the valid ones.
  */
-import { RobwotError } from "@robwot/core";
+import { MIN_SPEED, RobwotError } from "@robwot/core";
 
 export interface ParsedArgs {
   positional: string[];
@@ -53,6 +53,11 @@ export function numberOption(args: ParsedArgs, name: string, fallback: number, m
     throw new UsageError(`--${name} must be a number in [${min}, ${max}], got ${String(raw)}`);
   }
   return value;
+}
+
+/** `--speed`: a fraction of the URDF velocity limits within the range every move action accepts. */
+export function speedOption(args: ParsedArgs, fallback: number): number {
+  return numberOption(args, "speed", fallback, MIN_SPEED, 1);
 }
 
 export function stringOption(args: ParsedArgs, name: string): string | undefined {

@@ -1,6 +1,6 @@
 /** Data schemas of the scene-editing actions (obstacle shapes as in Contract 1). */
 import { VALUE_SCHEMAS } from "../backend-contract.js";
-import { UNIT_M, vec3Schema } from "./schemas.js";
+import { MIN_QUATERNION_NORM, UNIT_M, vec3Schema } from "./schemas.js";
 import type { DataSchema } from "./types.js";
 
 /** Largest |coordinate| (m) of a position, |angle| (rad) of an rpy triple, and largest size, radius,
@@ -72,7 +72,7 @@ const ORIENTATION: DataSchema = {
   items: { type: "number" },
   minItems: 4,
   maxItems: 4,
-  description: "quaternion [x, y, z, w], normalised; its norm must be >= 1e-6",
+  description: `quaternion [x, y, z, w], normalised; its norm must be >= ${MIN_QUATERNION_NORM}`,
 };
 const RPY: DataSchema = bounded("roll, pitch, yaw (alternative to orientation)", "rad");
 

@@ -90,6 +90,15 @@ export function cartesianBounds(td: ThingDescriptionLike): Bounds3 {
   return { min: [x[0], y[0], z[0]], max: [x[1], y[1], z[1]] };
 }
 
+/** The speed fractions a move accepts: `minimum`/`maximum` of `moveToJointPosition`'s `speed` input. */
+export function speedRange(td: ThingDescriptionLike): { minimum: number; maximum: number } {
+  const s = td.actions?.["moveToJointPosition"]?.input?.properties?.["speed"];
+  if (typeof s?.minimum !== "number" || typeof s.maximum !== "number") {
+    throw new TdError("TD declares no numeric minimum/maximum for speed (moveToJointPosition input)");
+  }
+  return { minimum: s.minimum, maximum: s.maximum };
+}
+
 /** Absolute URL of the link with `rel`, resolved against the TD's `base` (else the TD URL). */
 export function linkUrl(td: ThingDescriptionLike, rel: string, tdUrl: string): string {
   const link = td.links?.find((l) => l.rel === rel);

@@ -1,4 +1,5 @@
 /** JSON data schemas of RobWoT's affordances (Contract 3). Units: "rad", "m", "s", "m/s". */
+import { VALUE_SCHEMAS } from "../backend-contract.js";
 import type { Bounds, JointSpec } from "../types.js";
 import type { DataSchema } from "./types.js";
 
@@ -64,16 +65,18 @@ export function xyzSchema(description: string, bounds: Bounds | null = null): Da
   };
 }
 
-/** Slowest speed fraction accepted: a move at 0.001 takes 1,000 times its full-speed duration; below,
- *  durations overflow (the backend refuses the same range). */
-export const MIN_SPEED = 0.001;
+/** Quaternions of a smaller norm count as zero: no orientation (the backend contract's `QuatXyzw`). */
+export const MIN_QUATERNION_NORM = VALUE_SCHEMAS.QuatXyzw["x-minNorm"];
+
+/** Slowest speed fraction accepted (the backend contract's `Speed`). */
+export const MIN_SPEED = VALUE_SCHEMAS.Speed.minimum;
 
 export const speedSchema = (): DataSchema => ({
   type: "number",
-  description: `Fraction of the URDF joint velocity limits (${MIN_SPEED} <= speed <= 1)`,
+  description: `Fraction of the URDF joint velocity limits (${MIN_SPEED} <= speed <= ${VALUE_SCHEMAS.Speed.maximum})`,
   minimum: MIN_SPEED,
-  maximum: 1,
-  default: 1,
+  maximum: VALUE_SCHEMAS.Speed.maximum,
+  default: VALUE_SCHEMAS.Speed.default,
 });
 
 /** Cartesian pose: x, y, z required (bounded by the collision-free points), orientation optional. */

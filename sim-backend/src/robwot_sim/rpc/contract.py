@@ -9,17 +9,18 @@ asked (`ROBWOT_CHECK_RESULTS=1`, set by the test suites), the results too. A fai
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cache
-from importlib import resources
 from typing import Any
 
 from jsonschema import Draft7Validator, validators
 from jsonschema.exceptions import ValidationError, best_match
 
+from robwot_sim.limits import contract_document
 from robwot_sim.rpc.protocol import INTERNAL_ERROR, INVALID_PARAMS, Fault
 
 #: OpenRPC has no notification object: server-to-client notifications are listed under this extension.
@@ -255,5 +256,4 @@ class Contract:
 @cache
 def contract() -> Contract:
     """The backend's own contract (package data)."""
-    text = resources.files("robwot_sim").joinpath("schemas/protocol.openrpc.json").read_text()
-    return Contract(json.loads(text))
+    return Contract(copy.deepcopy(contract_document()))

@@ -7,18 +7,20 @@ import math
 import numpy as np
 
 from robwot_sim.errors import InvalidParams
+from robwot_sim.limits import DT, SPEED
 from robwot_sim.sim.types import FloatArray
 
 MAX_STEPS = 2_000_000
 
 
 def check_speed_dt(speed: object, dt: object) -> tuple[float, float]:
-    """Validate a speed fraction in (0, 1] and a time step in (0, 1] s."""
-    for name, v in (("speed", speed), ("dt", dt)):
+    """Validate a speed fraction and a time step (s) against the contract's ranges."""
+    for name, v, bounds in (("speed", speed, SPEED), ("dt", dt, DT)):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise InvalidParams(f"{name} must be a finite number", param=name, expected="number", got=v)
-        if not 0 < v <= 1:
-            raise InvalidParams(f"{name} must be in (0, 1], got {v}", param=name, expected="(0, 1]", got=v)
+        if v not in bounds:
+            within = f"[{bounds.minimum:g}, {bounds.maximum:g}]"
+            raise InvalidParams(f"{name} must be in {within}, got {v}", param=name, expected=within, got=v)
     return float(speed), float(dt)  # type: ignore[arg-type]
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robwot_sim.limits import CLEARANCE as CLEARANCE_RANGE
 from robwot_sim.sim.collision import TOUCH, CollisionChecker
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.sweep import CLEARANCE, substeps
@@ -22,7 +23,7 @@ from robwot_sim.sim.types import FirstCollision, FloatArray, PathReport
 
 #: the clearance a robot may be loaded with (m): above 0 for the sweep bound to hold; at most Bullet's
 #: contact breaking threshold (2 cm), the farthest distance at which it reports other bodies
-MIN_CLEARANCE, MAX_CLEARANCE = 0.0005, 0.02
+MIN_CLEARANCE, MAX_CLEARANCE = CLEARANCE_RANGE.minimum, CLEARANCE_RANGE.maximum
 #: how far beyond the clearance (m) a path check measures the distance to other bodies: the travel that
 #: needs no further distance query (larger: fewer queries, each asking more bodies and points)
 GAP_CAP = 0.05

@@ -16,11 +16,12 @@ import math
 import numpy as np
 import pybullet as pb
 
+from robwot_sim.limits import DEFAULT_CLEARANCE
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray
 
-#: clearance kept to other bodies along checked paths and motions (m)
-CLEARANCE = 0.002
+#: clearance kept to other bodies along checked paths and motions (m), unless a robot is loaded with another
+CLEARANCE = DEFAULT_CLEARANCE
 #: largest travel of any robot point between two checked states (m): twice the clearance
 MAX_SWEEP = 2 * CLEARANCE
 

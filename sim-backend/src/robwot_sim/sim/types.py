@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from robwot_sim.limits import DEFAULT_CLEARANCE
+
 FloatArray = npt.NDArray[np.float64]
 DEFAULT_VELOCITY = 1.0
 
@@ -180,7 +182,7 @@ class RobotModel:
     #: the SRDF whose ``<disable_collisions>`` pairs are in ``filtered_pairs`` (absolute path), if any
     srdf: str | None = None
     #: clearance (m) its paths and motions keep to other bodies
-    clearance: float = 0.002
+    clearance: float = DEFAULT_CLEARANCE
 
     @property
     def dof(self) -> int:

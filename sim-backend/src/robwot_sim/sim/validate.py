@@ -9,12 +9,9 @@ from typing import Any
 import numpy as np
 
 from robwot_sim.errors import InvalidParams
+from robwot_sim.limits import MAX_COORDINATE, MAX_NAME_LENGTH, MIN_QUATERNION_NORM
 
-#: Largest |coordinate| (m) of a position in the world, and largest |angle| (rad) of an rpy triple; the
-#: scene schema says the same. A robot cell is metres; at 1e308 the collision checks compute inf - inf.
-MAX_COORDINATE = 1e4
-#: Quaternions whose norm is below this count as zero (no orientation); the servient uses the same bound.
-MIN_QUATERNION_NORM = 1e-6
+__all__ = ["MAX_COORDINATE", "MIN_QUATERNION_NORM"]
 
 
 def _is_number(v: object) -> bool:
@@ -89,10 +86,9 @@ def quaternion(name: str, value: Any) -> list[float]:
 
 
 def name(param: str, value: Any) -> str:
-    if not isinstance(value, str) or not value or len(value) > 200:
-        raise InvalidParams(
-            f"{param} must be a non-empty string (<= 200 chars)", param=param, expected="string", got=value
-        )
+    if not isinstance(value, str) or not value or len(value) > MAX_NAME_LENGTH:
+        raise InvalidParams(f"{param} must be a non-empty string of at most {MAX_NAME_LENGTH} characters",
+                            param=param, expected="string", got=value)
     return value
 
 

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from robwot_sim.limits import REACH_VOXEL
 from robwot_sim.workspace.io import write_table
 
 FloatArray = npt.NDArray[np.float64]
@@ -42,8 +43,7 @@ IntArray = npt.NDArray[np.int64]
 
 DIRECTIONS = 64
 BASE_VOXEL = 0.01
-MIN_VOXEL = 0.005
-MAX_VOXEL = 0.5
+MIN_VOXEL, MAX_VOXEL = REACH_VOXEL.minimum, REACH_VOXEL.maximum
 AUTO_FREE_PER_VOXEL = 32
 CSV_HEADER = ("x", "y", "z", "samples", "free", "directions", "index")
 _BITS = 21  # per axis: voxel indices within ±2^20 (±5 km at 5 mm)

@@ -1,0 +1,65 @@
+"""The backend contract's value ranges and defaults, read from the contract itself.
+
+`schemas/protocol.openrpc.json` is the one place a boundary number lives (a speed, a clearance, a time
+step, a coordinate, a name's length); parameter validation (`rpc/contract.py`) applies it to every
+request, and the checks below the RPC layer read the same numbers from here rather than keeping copies.
+This module sits at the bottom of the package: it imports nothing of ours.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+from typing import Any
+
+
+@cache
+def contract_document() -> dict[str, Any]:
+    """The OpenRPC document (package data), parsed once."""
+    text = resources.files("robwot_sim").joinpath("schemas/protocol.openrpc.json").read_text(encoding="utf-8")
+    doc: dict[str, Any] = json.loads(text)
+    return doc
+
+
+def value_schema(name: str) -> dict[str, Any]:
+    """The contract's component schema ``name`` (``Speed``, ``Clearance``, ...)."""
+    schema: dict[str, Any] = contract_document()["components"]["schemas"][name]
+    return schema
+
+
+@dataclass(frozen=True)
+class Range:
+    """A closed range ``[minimum, maximum]`` with the default the contract gives (None: none)."""
+
+    minimum: float
+    maximum: float
+    default: float | None
+
+    @classmethod
+    def of(cls, name: str) -> Range:
+        s = value_schema(name)
+        default = float(s["default"]) if "default" in s else None
+        return cls(float(s["minimum"]), float(s["maximum"]), default)
+
+    def __contains__(self, value: object) -> bool:
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        return number and self.minimum <= value <= self.maximum  # type: ignore[operator]
+
+
+#: fraction of the URDF velocity limits a motion runs at
+SPEED = Range.of("Speed")
+#: time step (s) of an interpolated motion
+DT = Range.of("Dt")
+#: clearance (m) a robot's checked paths and motions keep to other bodies, and the one it keeps by default
+CLEARANCE = Range.of("Clearance")
+DEFAULT_CLEARANCE = float(value_schema("Clearance")["default"])
+#: voxel side (m) of a reachability map
+REACH_VOXEL = Range.of("ReachVoxel")
+#: largest |coordinate| (m) of a position, and |angle| (rad) of an rpy triple
+MAX_COORDINATE = float(value_schema("Position")["items"]["maximum"])
+#: quaternions of a smaller norm count as zero (no orientation)
+MIN_QUATERNION_NORM = float(value_schema("QuatXyzw")["x-minNorm"])
+#: longest robot id or obstacle name
+MAX_NAME_LENGTH = int(value_schema("Name")["maxLength"])
