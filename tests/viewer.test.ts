@@ -11,6 +11,7 @@ import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { invoke, openSession, read, type Session, type Twin } from "@robwot/consumers";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { startServient } from "@robwot/servient";
 import { CHROMIUM, openBrowser, pixelStats, type BrowserSession } from "./helpers/browser.js";
 
@@ -207,6 +208,11 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
 
   it("a new slider target while the twin moves replaces the old one (newest wins)", async () => {
     const { page } = browser;
+    // the speed slider spans what the TD's move actions accept (the contract's range)
+    const speedInput = (await (await fetch(`${base}${slug}`)).json()).actions.moveToJointPosition.input.properties.speed;
+    expect(speedInput).toMatchObject({ minimum: VALUE_SCHEMAS.Speed.minimum, maximum: VALUE_SCHEMAS.Speed.maximum });
+    const range = await page.locator("#motion input[name=speed]").evaluate((e) => [(e as HTMLInputElement).min, (e as HTMLInputElement).max]);
+    expect(range.map(Number)).toEqual([speedInput.minimum, speedInput.maximum]);
     await page.locator("#motion input[name=speed]").fill("0.05");
     const slider = page.locator(`input[data-joint="${J1}"]`);
     await slider.fill("1.2");

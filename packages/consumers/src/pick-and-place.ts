@@ -13,7 +13,7 @@
  *
  *   node packages/consumers/dist/pick-and-place.js [TD URL] [--targets ...] [--speed 1] [--json]
  */
-import { numberOption, speedOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
+import { speedOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
 import { authHeaders, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { invertCalibration } from "@robwot/core";
