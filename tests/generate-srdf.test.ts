@@ -15,7 +15,7 @@ import { REPO, runCli } from "./cli-run.js";
 import { http, invoke } from "./serve-helpers.js";
 
 const PY = join(REPO, "sim-backend", ".venv", "bin", "python");
-const ERD = execFileSync(PY, ["-c", "from robwot_sim.reference import example_robot_data; print(example_robot_data())"], { encoding: "utf8" }).trim();
+const ERD = execFileSync(PY, ["-c", "from robwot_bench.reference import example_robot_data; print(example_robot_data())"], { encoding: "utf8" }).trim();
 const URDF = join(ERD, "robots", "panda_description", "urdf", "panda.urdf");
 const SRDF = join(ERD, "robots", "panda_description", "srdf", "panda.srdf");
 let out: string;

@@ -1,5 +1,5 @@
 """The twin's collision labels against an independent exact-mesh reference (Pinocchio + Coal on the
-robots' own non-convex collision meshes, `robwot_sim.reference`) on real robot models as published for
+robots' own non-convex collision meshes, `robwot_bench.reference`) on real robot models as published for
 ROS/MoveIt (example-robot-data: UR10, UR5, Panda, with and without their SRDF) and the bundled KUKA iiwa:
 no false "free" ever, and few false "colliding"."""
 
@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robwot_bench.reference import ExactReference, example_robot
 from robwot_sim.errors import Forbidden, SrdfError
-from robwot_sim.reference import ExactReference, example_robot
 from robwot_sim.sim.world import World
 from robwot_sim.srdf import disabled_pairs
 from robwot_sim.urdf import pybullet_data_path

@@ -23,10 +23,10 @@ def test_limits_are_the_contracts_numbers() -> None:
     for name, bounds in (("Speed", limits.SPEED), ("Dt", limits.DT), ("Clearance", limits.CLEARANCE),
                          ("ReachVoxel", limits.REACH_VOXEL)):
         assert (bounds.minimum, bounds.maximum) == (SCHEMAS[name]["minimum"], SCHEMAS[name]["maximum"])
-    assert limits.DEFAULT_CLEARANCE == SCHEMAS["Clearance"]["default"]
-    assert limits.MAX_COORDINATE == SCHEMAS["Position"]["items"]["maximum"]
-    assert limits.MAX_NAME_LENGTH == SCHEMAS["Name"]["maxLength"]
-    assert limits.MIN_QUATERNION_NORM == SCHEMAS["QuatXyzw"]["x-minNorm"]
+    assert SCHEMAS["Clearance"]["default"] == limits.DEFAULT_CLEARANCE
+    assert SCHEMAS["Position"]["items"]["maximum"] == limits.MAX_COORDINATE
+    assert SCHEMAS["Name"]["maxLength"] == limits.MAX_NAME_LENGTH
+    assert SCHEMAS["QuatXyzw"]["x-minNorm"] == limits.MIN_QUATERNION_NORM
 
 
 def test_speed_and_dt_checks_follow_the_contract() -> None:

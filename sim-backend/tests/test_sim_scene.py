@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from simhelp import KUKA, MODELS, SCENES
 
-from robwot_sim import scenegen
+from robwot_bench import scenegen
 from robwot_sim.errors import FileNotFound, SceneError
 from robwot_sim.sim.world import World
 

@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from robwot_sim.reference import example_robot
+from robwot_bench.reference import example_robot
 from robwot_sim.sim import surehit
 from robwot_sim.sim.world import World
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robwot_sim.bench_fidelity import graze_trials
+from robwot_bench.fidelity import graze_trials
 from robwot_sim.sim.world import World
 
 

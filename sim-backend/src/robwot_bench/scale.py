@@ -1,4 +1,4 @@
-"""Scale benchmark: ``python -m robwot_sim.bench_scale`` (``npm run bench:scale``; needs the ``cluster``
+"""Scale benchmark: ``python -m robwot_bench.scale`` (``npm run bench:scale``; needs the ``cluster``
 extra, ``ROBWOT_EXTRAS=cluster npm install``).
 
 For kuka with the 4-obstacle example scene, prints:
@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from robwot_sim.bench import SCENES
+from robwot_bench.backend import SCENES
 from robwot_sim.sim.world import World
 from robwot_sim.workspace import generate_workspace
 from robwot_sim.workspace.cluster import LocalCluster
@@ -117,7 +117,7 @@ def huge(samples: int, temp: Path) -> dict[str, Any]:
     with LocalCluster(2, temp / "huge") as c:
         peak = PeakRss(c.head.pid)
         try:
-            out = subprocess.run([sys.executable, "-m", "robwot_sim.bench_scale", "--one", str(samples),
+            out = subprocess.run([sys.executable, "-m", "robwot_bench.scale", "--one", str(samples),
                                   "--cluster", c.address], capture_output=True, text=True, check=True)
         finally:
             peak.stop()

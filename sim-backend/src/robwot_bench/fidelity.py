@@ -1,7 +1,7 @@
-"""Fidelity benchmark: ``python -m robwot_sim.bench_fidelity`` (``npm run bench:fidelity``).
+"""Fidelity benchmark: ``python -m robwot_bench.fidelity`` (``npm run bench:fidelity``).
 
 The twin's collision labels (``World.collision_free_batch``, the path workspace generation uses) against
-the exact-mesh reference (``robwot_sim.reference``: Pinocchio + Coal) on seeded uniform random
+the exact-mesh reference (``robwot_bench.reference``: Pinocchio + Coal) on seeded uniform random
 configurations of UR10, UR5 and Panda as published in example-robot-data (mesh collision geometry) and
 the bundled KUKA iiwa. Prints a table: false accepts (the twin says free, the reference colliding) and
 false rejects (the twin says colliding, the reference free, as a share of the reference-free ones); the
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robwot_sim.reference import ExactReference, example_robot
+from robwot_bench.reference import ExactReference, example_robot
 from robwot_sim.sim.planner import plan_pose
 from robwot_sim.sim.world import World
 from robwot_sim.urdf import pybullet_data_path

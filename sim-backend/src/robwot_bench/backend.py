@@ -1,4 +1,4 @@
-"""Backend benchmark: ``python -m robwot_sim.bench`` (``npm run bench:backend``).
+"""Backend benchmark: ``python -m robwot_bench.backend`` (``npm run bench:backend``).
 
 Prints a plain text table for kuka and panda: IK success and median/p99 time (position and pose targets
 from seeded random configurations, collision-free solutions requested), FK configurations/s, and
