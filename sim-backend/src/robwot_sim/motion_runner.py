@@ -1,4 +1,4 @@
-"""Executes robot motions on the asyncio loop: one operation per move — plan, then run — streamed.
+"""Executes robot motions from the asyncio loop: one operation per move — plan, then run — streamed.
 
 `robot.move` takes the robot (busy from here: `E_BUSY` for a second move, `stop` ends it), plans the
 target (`sim/planner.py`: limits, IK solutions, a collision-free path; `Rejected` when none), asks the
@@ -14,29 +14,44 @@ crosses a 1/60 s boundary, plus the final state (`moving: false`). One motion pe
 `move` raises `Busy`; `stop` ends the current motion at its last reached state (`status: "stopped"`)
 and returns once it has ended, so a new `move` may follow at once.
 
-PyBullet calls happen on the loop thread between awaits, except the plan: it runs in a worker thread
-holding the world (`plan_off_loop`), so the loop stays responsive; the world's lock keeps the two apart.
+The loop itself never calls PyBullet: the plan is a long job of the world's thread (`world_thread.py`),
+each step a short one, which runs even during another robot's plan, at that plan's next checkpoint.
+A stop during the plan cancels it at its next checkpoint (the move answers `stopped`, nothing moved),
+so a stop, like a ping, is answered without waiting for a search to end. The stamp of the world is
+taken when the plan starts: what changes while it runs (other robots' steps at its checkpoints) makes
+every step of this motion checked again.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import math
+import threading
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
-from robwot_sim.errors import Busy, Rejected, UnknownRobot
+from robwot_sim.errors import Busy, Rejected
 from robwot_sim.sim.planner import Plan
+from robwot_sim.sim.types import CollisionReport, Pose
 from robwot_sim.sim.world import World
+from robwot_sim.sim.world_thread import Cancelled, Kind
 
 Broadcast = Callable[[str, dict[str, Any]], None]
-RunBlocking = Callable[[Callable[[], Plan]], Awaitable[Plan]]
+T = TypeVar("T")
 
 STATE_PERIOD = 1.0 / 60.0
+
+
+class OnWorld(Protocol):
+    """`Services.on_world`: run a function on the world's thread."""
+
+    def __call__(self, fn: Callable[[], T], kind: Kind = Kind.SHORT, *, robot: str | None = None,
+                 writes: bool = False, cancel: threading.Event | None = None) -> Awaitable[T]: ...
 
 
 @dataclass
@@ -44,10 +59,16 @@ class _Motion:
     robot: str
     stop: asyncio.Event = field(default_factory=asyncio.Event)
     done: asyncio.Event = field(default_factory=asyncio.Event)
+    #: set with ``stop``: the plan (a long world job) ends at its next checkpoint
+    abort: threading.Event = field(default_factory=threading.Event)
 
     @property
     def stop_requested(self) -> bool:
         return self.stop.is_set()
+
+    def request_stop(self) -> None:
+        self.stop.set()
+        self.abort.set()
 
     async def pause(self, delay: float) -> None:
         """Sleep `delay` seconds (always yielding to the loop), waking early on a stop request."""
@@ -58,13 +79,23 @@ class _Motion:
             await asyncio.wait_for(self.stop.wait(), delay)
 
 
+@dataclass(frozen=True)
+class _Prepared:
+    """What the plan job hands to the run: the verdict, and when valid the path and its guard."""
+
+    plan: Plan
+    stamp: tuple[int, int]
+    path: np.ndarray[Any, Any] | None = None
+    clearance: float = 0.0
+
+
 class MotionRunner:
     """Runs at most one motion per robot; motions of different robots run concurrently."""
 
-    def __init__(self, world: World, broadcast: Broadcast, run_blocking: RunBlocking) -> None:
+    def __init__(self, world: World, broadcast: Broadcast, on_world: OnWorld) -> None:
         self._world = world
         self._broadcast = broadcast
-        self._run_blocking = run_blocking
+        self._on_world = on_world
         self._active: dict[str, _Motion] = {}
 
     def is_moving(self, robot: str) -> bool:
@@ -75,7 +106,7 @@ class MotionRunner:
         motion = self._active.get(robot)
         if motion is None:
             return False
-        motion.stop.set()
+        motion.request_stop()
         await motion.done.wait()
         return True
 
@@ -83,7 +114,7 @@ class MotionRunner:
         """Stop the given robots' motions (all when None) and wait until they have ended."""
         motions = [m for r, m in self._active.items() if robots is None or r in robots]
         for motion in motions:
-            motion.stop.set()
+            motion.request_stop()
         for motion in motions:
             await motion.done.wait()
 
@@ -95,29 +126,63 @@ class MotionRunner:
             raise Busy(robot)
         motion = _Motion(robot)
         self._active[robot] = motion
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
         try:
-            # the plan checks exactly this path in this world: steps are checked again once anything else
-            # changes from here on (stamped before planning: a change during or after it counts)
-            stamp = self._world.others_stamp(robot)
-            plan = await plan_off_loop(self._world, planner, self._run_blocking)
-            if not plan.valid or plan.target is None:
+            job = functools.partial(self._prepare, robot, planner, speed, dt)
+            try:
+                prepared = await self._on_world(job, Kind.LONG, robot=robot, cancel=motion.abort)
+            except Cancelled:  # stopped while planning: nothing moved
+                q = await self._on_world(lambda: self._world.get_joint_positions(robot), robot=robot)
+                return {"status": "stopped", "positions": _floats(q), "duration": 0.0,
+                        "wallTime": loop.time() - t0, "contacts": []}
+            plan = prepared.plan
+            if prepared.path is None:
                 raise Rejected(plan.reasons, plan.checks)
-            path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt, via=plan.via)
-            result = await self._run(motion, np.asarray(path, dtype=np.float64), realtime, dt, stamp)
+            result = await self._run(motion, prepared.path, realtime, dt, prepared.stamp, prepared.clearance)
             return {**result, "plan": plan.to_json()}
         finally:
             del self._active[robot]
             motion.done.set()
 
-    def _state(self, robot: str, time: float, q: Any, moving: bool, planned: float) -> dict[str, Any]:
+    def _prepare(self, robot: str, planner: Callable[[], Plan], speed: float, dt: float) -> _Prepared:
+        """On the world's thread: the plan, and when valid its path and the clearance the motion keeps.
+        The plan checks exactly this path in this world: steps are checked again once anything else
+        changes from here on (stamped before planning: a change during or after it counts)."""
+        stamp = self._world.others_stamp(robot)
+        plan = planner()
+        if not plan.valid or plan.target is None:
+            return _Prepared(plan, stamp)
+        path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt, via=plan.via)
+        return _Prepared(plan, stamp, np.asarray(path, dtype=np.float64), self._world.motion_clearance(robot))
+
+    def _state(self, robot: str, time: float, q: Any, pose: Pose, moving: bool,
+               planned: float) -> dict[str, Any]:
         """A ``robot.state`` notification: joints and the end-effector pose at the robot's current state
         (``q``, just applied), so no client needs an FK round trip per notification; ``planned`` is the
         simulated duration of the whole path (``time / planned`` = the motion's progress)."""
         return {"robot": robot, "time": time, "planned": planned, "positions": _floats(q), "moving": moving,
-                **_pose_json(self._world, robot)}
+                "position": _floats(pose.position), "orientation": _floats(pose.quat_xyzw)}
+
+    def _step(self, robot: str, reached: Any, q: Any, clearance: float, checked: tuple[int, int],
+              want_pose: bool) -> tuple[str, CollisionReport | None, Pose | None]:
+        """On the world's thread: one step of a motion (``"gone"`` when the robot was removed,
+        ``"collision"`` with the report, else ``"ok"`` with the new pose when ``want_pose``)."""
+        world = self._world
+        if robot not in world.robot_ids():
+            return "gone", None, None
+        if world.others_stamp(robot) != checked:
+            report = world.check_step(robot, reached, q, clearance)
+            if not report.collision_free:
+                return "collision", report, None
+        world.set_joint_positions(robot, q)
+        return "ok", None, world.fk(robot) if want_pose else None
+
+    def _final_pose(self, robot: str) -> Pose | None:
+        return self._world.fk(robot) if robot in self._world.robot_ids() else None
 
     async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float,
-                   dt: float, checked: tuple[int, int]) -> dict[str, Any]:
+                   dt: float, checked: tuple[int, int], clearance: float) -> dict[str, Any]:
         loop = asyncio.get_running_loop()
         robot = motion.robot
         t0 = loop.time()
@@ -125,7 +190,6 @@ class MotionRunner:
         reached_time = 0.0
         status = "reached"
         contacts: list[dict[str, Any]] = []
-        clearance = self._world.motion_clearance(robot)
         planned = (len(plan) - 1) * dt
         for i in range(1, len(plan)):
             sim_time = i * dt
@@ -133,51 +197,31 @@ class MotionRunner:
             if motion.stop_requested:
                 status = "stopped"
                 break
-            if robot not in self._world.robot_ids():
+            q = plan[i]
+            crosses = (math.floor(sim_time / STATE_PERIOD + 1e-9)
+                       > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9))
+            step = functools.partial(self._step, robot, reached, q, clearance, checked, crosses)
+            outcome, report, pose = await self._on_world(step, robot=robot, writes=True)
+            if outcome == "gone":
                 status = "stopped"
                 break
-            q = plan[i]
-            if self._world.others_stamp(robot) != checked:
-                report = self._world.check_step(robot, reached, q, clearance)
-                if not report.collision_free:
-                    status = "collision"
-                    contacts = [c.to_json() for c in report.contacts]
-                    self._broadcast("robot.collision", {
-                        "robot": robot, "contacts": contacts, "positions": _floats(reached),
-                        "time": reached_time})
-                    break
-            self._world.set_joint_positions(robot, q)
+            if outcome == "collision":
+                assert report is not None
+                status = "collision"
+                contacts = [c.to_json() for c in report.contacts]
+                self._broadcast("robot.collision", {
+                    "robot": robot, "contacts": contacts, "positions": _floats(reached),
+                    "time": reached_time})
+                break
             reached, reached_time = q, sim_time
-            if math.floor(sim_time / STATE_PERIOD + 1e-9) > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9):
-                self._broadcast("robot.state", self._state(robot, sim_time, q, True, planned))
+            if pose is not None:
+                self._broadcast("robot.state", self._state(robot, sim_time, q, pose, True, planned))
         wall = loop.time() - t0
-        if robot in self._world.robot_ids():
-            self._broadcast("robot.state", self._state(robot, reached_time, reached, False, planned))
+        final = await self._on_world(functools.partial(self._final_pose, robot), robot=robot)
+        if final is not None:
+            self._broadcast("robot.state", self._state(robot, reached_time, reached, final, False, planned))
         return {"status": status, "positions": _floats(reached), "duration": reached_time,
                 "wallTime": wall, "contacts": contacts}
-
-
-async def plan_off_loop(world: World, planner: Callable[[], Plan], run_blocking: RunBlocking) -> Plan:
-    """Run `planner` in a worker thread holding the world (`World.exclusive`): a plan (IK solutions, a
-    detour within its 2 s budget) may take seconds, and meanwhile the loop keeps answering what needs no
-    world — the heartbeat `ping`, a `stop` (which then ends the motion before its first step)."""
-    def locked() -> Plan:
-        with world.exclusive():
-            return planner()
-
-    return await run_blocking(locked)
-
-
-def _pose_json(world: World, robot: str) -> dict[str, Any]:
-    pose = world.fk(robot)
-    return {"position": _floats(pose.position), "orientation": _floats(pose.quat_xyzw)}
-
-
-def require_robot(world: World, robot: str) -> None:
-    """Raise UnknownRobot unless `robot` is loaded."""
-    ids = world.robot_ids()
-    if robot not in ids:
-        raise UnknownRobot(robot, ids)
 
 
 def _floats(values: Any) -> list[float]:

@@ -6,13 +6,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from robwot_sim.motion_runner import plan_off_loop
 from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.sim.planner import Plan, plan_joints, plan_pose
+from robwot_sim.sim.world_thread import Kind
 
 
 def _planner(p: Params, s: Services) -> Callable[[], Plan]:
@@ -39,12 +39,18 @@ def register(d: Dispatcher, s: Services) -> None:
         model = robot_param(p, s)
         target = p.joint_vector("target", model.dof)
         assert target is not None  # required by the contract
-        return s.world.check_path(model.id, target, start=p.joint_vector("from", model.dof),
-                                  speed=float(p["speed"]), dt=float(p["dt"])).to_json()
+        start, speed, dt = p.joint_vector("from", model.dof), float(p["speed"]), float(p["dt"])
+        report = await s.on_world(
+            lambda: s.world.check_path(model.id, target, start=start, speed=speed, dt=dt), Kind.LONG,
+            robot=model.id)
+        return report.to_json()
 
     @d.method("robot.plan")
     async def plan(p: Params, call: Call) -> dict[str, Any]:
-        return (await plan_off_loop(s.world, _planner(p, s), s.run_blocking)).to_json()
+        # a long job of the world's thread: pings, stops and other robots' steps are served at its
+        # checkpoints meanwhile
+        model = robot_param(p, s)
+        return (await s.on_world(_planner(p, s), Kind.LONG, robot=model.id)).to_json()
 
     @d.method("robot.move")
     async def move(p: Params, call: Call) -> dict[str, Any]:
@@ -54,5 +60,6 @@ def register(d: Dispatcher, s: Services) -> None:
 
     @d.method("robot.stop")
     async def stop(p: Params, call: Call) -> dict[str, Any]:
+        # the loop's record and the motion runner only: a stop never waits for the world
         model = robot_param(p, s)
         return {"stopped": await s.motions.stop(model.id)}

@@ -9,6 +9,8 @@ from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
+from robwot_sim.sim.world_scene import read_obstacle
+from robwot_sim.sim.world_thread import Kind
 
 
 def pose_params(p: Params) -> dict[str, Any]:
@@ -35,15 +37,19 @@ def register(d: Dispatcher, s: Services) -> None:
         spec = {"name": p["name"], "shape": _shape(p["shape"]), **pose_params(p)}
         if p.has("color"):
             spec["color"] = p.floats("color")
-        return s.world.add_obstacle(spec)
+        # a mesh is parsed off the world's thread (it may be large); the world then only creates the body
+        read = await s.off_world(lambda: read_obstacle(spec)) if spec["shape"]["type"] == "mesh" \
+            else read_obstacle(spec)
+        return await s.on_world(lambda: s.world.add_obstacle(read), Kind.PLAIN)
 
     @d.method("obstacle.move")
     async def move(p: Params, call: Call) -> dict[str, Any]:
         pose = pose_params(p)
-        return s.world.move_obstacle(p["name"], pose["position"], orientation=pose.get("orientation"),
-                                     rpy=pose.get("rpy"))
+        return await s.on_world(lambda: s.world.move_obstacle(
+            p["name"], pose["position"], orientation=pose.get("orientation"), rpy=pose.get("rpy")),
+            Kind.PLAIN)
 
     @d.method("obstacle.remove")
     async def remove(p: Params, call: Call) -> dict[str, Any]:
-        s.world.remove_obstacle(p["name"])
+        await s.on_world(lambda: s.world.remove_obstacle(p["name"]), Kind.PLAIN)
         return {}

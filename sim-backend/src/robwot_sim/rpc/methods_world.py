@@ -12,6 +12,7 @@ from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
+from robwot_sim.sim.world import World
 
 
 def _pybullet_version() -> str:
@@ -30,12 +31,12 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("world.reset")
     async def reset(p: Params, call: Call) -> dict[str, Any]:
         await s.motions.stop_and_wait()
-        s.world.reset()
+        await s.change_world(s.world.reset)
         return {}
 
     @d.method("world.list")
     async def list_(p: Params, call: Call) -> dict[str, Any]:
-        return s.world.list()
+        return await s.on_world(s.world.list)
 
     @d.method("world.loadScene")
     async def load_scene(p: Params, call: Call) -> dict[str, Any]:
@@ -43,5 +44,10 @@ def register(d: Dispatcher, s: Services) -> None:
             raise invalid_param("path", "exactly one of 'path' (string) or 'scene' (object)",
                                 p["path"], missing=not p.has("path"))
         source: dict[str, Any] | str = p["path"] if p.has("path") else p["scene"]
-        # off the loop like robot.load: a scene's robots may need their meshes decomposed first
-        return await s.run_blocking(lambda: s.world.load_scene(source, package_roots=p["packageRoots"]))
+        # read off the world's thread like robot.load (a scene's robots may need their meshes decomposed,
+        # its mesh obstacles parsing); the world then only creates the bodies
+        files = await s.off_world(lambda: World.read_scene(source, package_roots=p["packageRoots"]))
+        try:
+            return await s.change_world(lambda: s.world.add_scene(files))
+        finally:
+            files.cleanup()

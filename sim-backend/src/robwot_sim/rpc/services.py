@@ -1,12 +1,20 @@
-"""What the method handlers need from the running server, as protocols (no asyncio import here)."""
+"""What the method handlers need from the running server, as protocols (no asyncio import here).
+
+The world is used only through `on_world` / `change_world` (its one thread, `sim/world_thread.py`);
+what needs no world (reading files, decomposing meshes, writing exports) goes to `off_world`. A handler
+never calls a `World` method itself: the loop would then wait on PyBullet.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Awaitable, Callable, Sequence
+import threading
+from collections.abc import Awaitable, Callable, Mapping, Sequence
 from typing import Any, Protocol, TypeVar
 
 from robwot_sim.sim.planner import Plan
+from robwot_sim.sim.types import RobotModel
 from robwot_sim.sim.world import World
+from robwot_sim.sim.world_thread import Kind
 
 T = TypeVar("T")
 
@@ -25,20 +33,42 @@ class Motions(Protocol):
 
 
 class Services(Protocol):
-    """The world, the motion runner and the server's I/O hooks."""
+    """The world (through its thread), the motion runner and the server's I/O hooks."""
 
     @property
-    def world(self) -> World: ...
+    def world(self) -> World:
+        """The world, for the functions handed to `on_world` / `change_world` (they run on its thread)."""
+        ...
+
+    @property
+    def robots(self) -> Mapping[str, RobotModel]:
+        """The loaded robots' models, kept on the loop (refreshed by `change_world`): what `robot.stop`,
+        `robot.model` and the params' checks read without waiting for the world."""
+        ...
 
     @property
     def motions(self) -> Motions: ...
 
-    def run_blocking(self, fn: Callable[[], T]) -> Awaitable[T]:
-        """Run `fn` in a worker thread; the loop keeps serving requests meanwhile."""
+    def on_world(self, fn: Callable[[], T], kind: Kind = Kind.SHORT, *, robot: str | None = None,
+                 writes: bool = False, cancel: threading.Event | None = None) -> Awaitable[T]:
+        """Run `fn` on the world's thread (`world_thread.Kind`); `robot` / `writes`: what a short job
+        touches. A long job stops at its next checkpoint once `cancel` is set or the await is cancelled."""
+        ...
+
+    def change_world(self, fn: Callable[[], T]) -> Awaitable[T]:
+        """Run `fn` (robots loaded or removed) alone on the world's thread, then refresh `robots`."""
+        ...
+
+    def off_world(self, fn: Callable[[], T]) -> Awaitable[T]:
+        """Run `fn`, which needs no world, in a thread of its own; the loop keeps serving meanwhile."""
+        ...
+
+    def call_world(self, fn: Callable[[], T]) -> T:
+        """From an `off_world` thread: run `fn` on the world's thread (a plain job) and wait for it."""
         ...
 
     def threadsafe(self, fn: Callable[[str, dict[str, Any]], None]) -> Callable[[str, dict[str, Any]], None]:
-        """Wrap a notify function so that a worker thread may call it."""
+        """Wrap a notify function so that another thread may call it."""
         ...
 
     def broadcast(self, method: str, params: dict[str, Any]) -> None:

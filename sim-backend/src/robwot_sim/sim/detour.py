@@ -28,6 +28,7 @@ from robwot_sim.sim.collision import CollisionChecker
 from robwot_sim.sim.pathcheck import Guard, first_contact
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray
+from robwot_sim.sim.world_thread import checkpoint
 
 #: seconds a detour search (planning and shortcutting) may take
 BUDGET = 2.0
@@ -57,6 +58,7 @@ def find_detour(robot: BoundRobot, checker: CollisionChecker, start: FloatArray,
     setup = og.SimpleSetup(space)
 
     def valid(state: ob.State) -> bool:
+        checkpoint()  # raising Cancelled here unwinds through OMPL's solve: the setup is not reused
         robot.apply(np.array([state[i] for i in range(dof)], dtype=np.float64))
         return checker.is_free(clearance)
 

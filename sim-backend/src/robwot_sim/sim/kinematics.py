@@ -20,6 +20,7 @@ import pybullet as pb
 from robwot_sim.errors import Unreachable
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray, IkResult, Pose
+from robwot_sim.sim.world_thread import checkpoint
 
 DAMPING = 1e-3
 ITERATIONS = 100
@@ -136,6 +137,7 @@ def solve_ik(
     fallback: tuple[float, FloatArray, float, float] | None = None  # best colliding one within tolerance
     mid = (robot.lower + robot.upper) / 2
     for attempt in range(RESTARTS + 2):
+        checkpoint()  # between attempts: the robot is only held (world_thread.py)
         # the caller's seed first, then the middle of the limits (far from them), then random restarts
         q = seed if attempt == 0 else mid if attempt == 1 else robot.random_q(rng)
         robot.apply(q)

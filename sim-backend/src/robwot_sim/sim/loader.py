@@ -14,11 +14,11 @@ from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
 from robwot_sim.sim.kinematics import reach_sphere
 from robwot_sim.sim.pathcheck import Guard
-from robwot_sim.sim.robot import BoundRobot, parse_model
+from robwot_sim.sim.robot import BoundRobot, UrdfModel, parse_model
 from robwot_sim.sim.sweep import CLEARANCE, joint_reach
 from robwot_sim.sim.types import FloatArray, RobotModel
 from robwot_sim.srdf import disabled_pairs
-from robwot_sim.urdf import UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
+from robwot_sim.urdf import PreparedUrdf, UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
 
 FILTER_SEED = 12345
 
@@ -71,23 +71,36 @@ def _check_collision_shapes(bullet: Bullet, bound: BoundRobot, doc: UrdfDoc, mes
             )
 
 
-def load_robot_body(
-    bullet: Bullet,
-    table: BodyTable,
+@dataclass
+class RobotFiles:
+    """A robot's files read, checked and prepared for PyBullet (meshes parsed, concave ones split into
+    convex parts): all the work of a load that needs no world, so it runs off the world's thread.
+    ``cleanup()`` once loaded (or given up)."""
+
+    path: Path
+    doc: UrdfDoc
+    urdf_model: UrdfModel
+    ee: str
+    srdf_path: Path | None
+    srdf_pairs: frozenset[tuple[str, str]]
+    prepared: PreparedUrdf
+    package_roots: dict[str, str]
+
+    def cleanup(self) -> None:
+        self.prepared.cleanup()
+
+
+def read_robot_files(
     urdf: str | Path,
-    robot_id: str,
-    base_position: list[float],
-    base_orientation: list[float],
     ee_link: str | None,
     package_roots: Mapping[str, str],
     base_dir: Path | None = None,
     srdf: str | Path | None = None,
     decompose: bool = True,
-) -> RobotEntry:
-    """Check the URDF (and SRDF) completely, then create the body. Nothing is left in the client on error.
+) -> RobotFiles:
+    """Check the URDF (and SRDF) completely and prepare it for PyBullet; touches no PyBullet client.
 
-    The SRDF's ``<disable_collisions>`` pairs join the filtered pairs: never checked anywhere. With
-    ``decompose`` False a concave collision mesh without cached convex parts is refused (MeshError)."""
+    With ``decompose`` False a concave collision mesh without cached convex parts is refused (MeshError)."""
     path = resolve_urdf_path(urdf, base_dir)
     for name, folder in package_roots.items():
         if not Path(folder).expanduser().is_dir():
@@ -100,6 +113,24 @@ def load_robot_body(
     srdf_path = Path(srdf).expanduser().resolve() if srdf is not None else None
     srdf_pairs = disabled_pairs(srdf_path, urdf_model.links) if srdf_path is not None else frozenset()
     prepared = prepare_urdf(path, package_roots, doc, decompose=decompose)
+    return RobotFiles(path, doc, urdf_model, ee, srdf_path, frozenset(srdf_pairs), prepared,
+                      dict(package_roots))
+
+
+def load_robot_body(
+    bullet: Bullet,
+    table: BodyTable,
+    files: RobotFiles,
+    robot_id: str,
+    base_position: list[float],
+    base_orientation: list[float],
+) -> RobotEntry:
+    """Create the body of checked robot files (`read_robot_files`). Nothing is left in the client on
+    error; the files' temporary copy is removed either way.
+
+    The SRDF's ``<disable_collisions>`` pairs join the filtered pairs: never checked anywhere."""
+    path, doc, urdf_model, ee, prepared = files.path, files.doc, files.urdf_model, files.ee, files.prepared
+    srdf_path, srdf_pairs, package_roots = files.srdf_path, files.srdf_pairs, files.package_roots
     try:
         flags = pb.URDF_USE_SELF_COLLISION
         try:

@@ -20,6 +20,7 @@ from robwot_sim.sim.collision import TOUCH, CollisionChecker
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.sweep import CLEARANCE, substeps
 from robwot_sim.sim.types import FirstCollision, FloatArray, PathReport
+from robwot_sim.sim.world_thread import checkpoint
 
 #: the clearance a robot may be loaded with (m): above 0 for the sweep bound to hold; at most Bullet's
 #: contact breaking threshold (2 cm), the farthest distance at which it reports other bodies
@@ -62,11 +63,15 @@ def first_contact(robot: BoundRobot, checker: CollisionChecker, q0: FloatArray, 
     check) is measured up to ``GAP_CAP`` beyond the clearance and then not again while the robot's travel
     since that measurement (the sweep bound) keeps within the measured gap minus the clearance: no point
     can have come closer than the clearance meanwhile (conservative advancement). The verdict and the
-    first contact are the same as measuring at every state; far from obstacles most queries are saved."""
+    first contact are the same as measuring at every state; far from obstacles most queries are saved.
+    A checkpoint (`world_thread.checkpoint`) before each state may let other robots move: the distance
+    is then measured again."""
     n = substeps(q0, q1, guard.reach, guard.max_sweep)
     step = float(np.sum(np.abs(q1 - q0) * guard.reach)) / n
     slack = -1.0  # travel left before the other bodies must be measured again
     for i in range(1, n + 1):
+        if checkpoint():  # other bodies may have moved meanwhile: measure them again
+            slack = -1.0
         q = q0 + (q1 - q0) * (i / n)
         robot.apply(q)
         slack -= step

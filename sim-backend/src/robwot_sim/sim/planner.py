@@ -9,7 +9,9 @@
   around what blocks the way to the (first) target, every segment checked like a path (`detour.py`).
 
 The verdict names every check it made (`checks.ik`, `checks.limits`, `checks.path`) and, when invalid,
-the reasons in words. World coordinates (m, rad); the state of the world is not changed.
+the reasons in words. World coordinates (m, rad); the state of the world is not changed. A plan is a
+long job of the world's thread (`world_thread.py`): it reaches checkpoints between and inside its
+searches, where it may be cancelled (`Cancelled`) and where other requests' short jobs run.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import numpy as np
 from robwot_sim.errors import Unreachable
 from robwot_sim.sim.types import Contact, RobotModel
 from robwot_sim.sim.world import World
+from robwot_sim.sim.world_thread import checkpoint
 
 #: IK solutions tried from other start configurations when the first one's path collides
 IK_ALTERNATIVES = 8
@@ -139,6 +142,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     tried = 0
     best_error = float("inf")
     for seed in seeds:
+        checkpoint()  # between solutions the world is consistent (world_thread.py)
         tried += 1
         try:
             ik = world.ik(robot, position, orientation, seed=seed, collision_free=True)

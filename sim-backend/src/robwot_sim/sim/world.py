@@ -1,16 +1,19 @@
 """The simulation world: one PyBullet DIRECT client holding robots and static obstacles.
 
 Every public method validates its input before touching the world: a failed call changes nothing.
-Methods are serialised by a lock (the RPC layer may call from several threads). The class is built in
+PyBullet is not thread-safe: the server calls a World from one thread only (``world_thread.py``; once
+``bind`` is called, other threads are refused). The long searches (``ik``, ``check_path``, ``detour``)
+hold their robot (``_holding``) and reach checkpoints where queued short jobs run. The class is built in
 layers: ``WorldBase`` (client, robots), ``WorldScene`` (obstacles, scenes), ``World`` (joints, kinematics,
 collision, motion planning, export).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -29,7 +32,7 @@ from robwot_sim.sim.motion import check_speed_dt, plan_joint_path
 from robwot_sim.sim.pathcheck import check_joint_path, first_contact, path_clearance
 from robwot_sim.sim.surehit import SureHits, build_sure_hits
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
-from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _locked
+from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _owned
 from robwot_sim.sim.world_scene import WorldScene
 
 __all__ = ["World"]
@@ -48,7 +51,7 @@ def _request_rng(salt: int, *parts: Sequence[float] | npt.NDArray[np.float64] | 
 class World(WorldScene):
     """Robots + obstacles in one PyBullet DIRECT client. Context manager; call ``close()``."""
 
-    @_locked
+    @_owned
     def fk(self, robot_id: str, q: JointVector | None = None) -> Pose:
         """End-effector link frame (world) at ``q`` (default: current state, which is left unchanged)."""
         b = self._entry(robot_id).bound
@@ -61,7 +64,7 @@ class World(WorldScene):
         finally:
             b.apply(saved)
 
-    @_locked
+    @_owned
     def ik(
         self,
         robot_id: str,
@@ -85,7 +88,8 @@ class World(WorldScene):
 
         try:
             rng = _request_rng(self._ik_salt, pos, quat, start)
-            res = solve_ik(b, pos, quat, start, rng, is_free if want_free else None, e.sphere)
+            with self._holding(robot_id):
+                res = solve_ik(b, pos, quat, start, rng, is_free if want_free else None, e.sphere)
             if not want_free:
                 res = replace(res, collision_free=is_free(np.array(res.positions)))
             return res
@@ -93,7 +97,7 @@ class World(WorldScene):
             b.apply(saved)
 
     # collision
-    @_locked
+    @_owned
     def check_collision(self, robot_id: str, q: JointVector | None = None) -> CollisionReport:
         """Self and environment contacts at ``q`` (default: current state). No state change."""
         e = self._entry(robot_id)
@@ -106,13 +110,13 @@ class World(WorldScene):
             e.bound.apply(saved)
         return CollisionReport(not contacts, tuple(contacts))
 
-    @_locked
+    @_owned
     def motion_clearance(self, robot_id: str) -> float:
         """The clearance (m) a motion from the current state keeps (see pathcheck.path_clearance)."""
         e = self._entry(robot_id)
         return path_clearance(e.bound, e.checker, e.bound.q.copy(), e.guard)
 
-    @_locked
+    @_owned
     def check_step(
         self, robot_id: str, q_from: JointVector, q_to: JointVector, clearance: float
     ) -> CollisionReport:
@@ -128,7 +132,7 @@ class World(WorldScene):
             e.bound.apply(saved)
         return CollisionReport(hit is None, tuple(contacts))
 
-    @_locked
+    @_owned
     def collision_free_batch(self, robot_id: str, qs: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
         """Collision-free flag per configuration (rows of ``qs`` [n, dof]); restores the state."""
         e = self._entry(robot_id)
@@ -195,7 +199,7 @@ class World(WorldScene):
         return self._fast
 
     # motion (planning only)
-    @_locked
+    @_owned
     def plan_motion(
         self,
         robot_id: str,
@@ -216,7 +220,7 @@ class World(WorldScene):
         segments = [plan_joint_path(a, b, limits, sp, step) for a, b in itertools.pairwise(points)]
         return np.concatenate([segments[0], *(seg[1:] for seg in segments[1:])])
 
-    @_locked
+    @_owned
     def check_path(
         self,
         robot_id: str,
@@ -229,9 +233,10 @@ class World(WorldScene):
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
         path = self.plan_motion(robot_id, target, start, speed, dt, via)
         e = self._entry(robot_id)
-        return check_joint_path(e.bound, e.checker, path, float(dt), e.guard)
+        with self._holding(robot_id):
+            return check_joint_path(e.bound, e.checker, path, float(dt), e.guard)
 
-    @_locked
+    @_owned
     def detour(self, robot_id: str, target: JointVector,
                budget: float = DETOUR_BUDGET) -> list[tuple[float, ...]] | None:
         """Waypoints (ending at ``target``) of a collision-free path from the current state around what
@@ -243,17 +248,23 @@ class World(WorldScene):
             clearance = path_clearance(e.bound, e.checker, saved, e.guard)
             digest = hashlib.sha256(np.concatenate([saved, tgt]).tobytes()).digest()
             seed = int.from_bytes(digest[:4], "little")
-            found = find_detour(e.bound, e.checker, saved, tgt, e.guard, clearance, seed, budget)
+            with self._holding(robot_id):
+                found = find_detour(e.bound, e.checker, saved, tgt, e.guard, clearance, seed, budget)
         finally:
             e.bound.apply(saved)
         return None if found is None else [tuple(float(x) for x in w) for w in found]
 
-    @_locked
+    @_owned
     def export_robot(self, robot_id: str, out_dir: str | Path) -> dict[str, Any]:
         """Write a self-contained copy of the robot's URDF (meshes under ``meshes/``) into ``out_dir``."""
+        return self.export_job(robot_id, out_dir)()
+
+    @_owned
+    def export_job(self, robot_id: str, out_dir: str | Path) -> Callable[[], dict[str, Any]]:
+        """``export_robot`` as a function that needs no world (it copies files: any thread)."""
         e = self._entry(robot_id)
         if not isinstance(out_dir, (str, Path)) or not str(out_dir):
             raise InvalidParams(
                 "outDir must be a folder path", param="outDir", expected="string", got=out_dir
             )
-        return export_urdf(e.urdf_path, out_dir, e.package_roots, e.collision_parts)
+        return functools.partial(export_urdf, e.urdf_path, out_dir, e.package_roots, e.collision_parts)

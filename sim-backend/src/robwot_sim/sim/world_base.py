@@ -1,4 +1,5 @@
-"""World core: the PyBullet client, the robots and the lock (see ``world.py`` for the full API)."""
+"""World core: the PyBullet client, the robots and the thread that owns them (see ``world.py`` for the
+full API)."""
 
 from __future__ import annotations
 
@@ -18,11 +19,12 @@ from robwot_sim.sim import validate as v
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.fastworld import FastWorld
-from robwot_sim.sim.loader import RobotEntry, load_robot_body
+from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body, read_robot_files
 from robwot_sim.sim.pathcheck import MAX_CLEARANCE, MIN_CLEARANCE
 from robwot_sim.sim.surehit import SureHits
 from robwot_sim.sim.sweep import CLEARANCE
 from robwot_sim.sim.types import RobotModel
+from robwot_sim.sim.world_thread import holding
 
 Vec3 = Sequence[float]
 Quat = Sequence[float]
@@ -31,11 +33,14 @@ P = ParamSpec("P")
 R = TypeVar("R")
 
 
-def _locked(fn: Callable[P, R]) -> Callable[P, R]:
+def _owned(fn: Callable[P, R]) -> Callable[P, R]:
+    """A public World method: refused from any thread but the owner's, once one is bound (``bind``)."""
     @functools.wraps(fn)
     def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
-        with args[0]._lock:  # type: ignore[attr-defined]
-            return fn(*args, **kwargs)
+        owner = args[0]._owner  # type: ignore[attr-defined]
+        if owner is not None and owner != threading.get_ident():
+            raise RuntimeError(f"World.{fn.__name__} called off the world's thread")
+        return fn(*args, **kwargs)
 
     return wrapper
 
@@ -44,7 +49,7 @@ class WorldBase:
     """Robots in one PyBullet DIRECT client (obstacles: ``WorldScene``). Context manager; ``close()``."""
 
     def __init__(self, ik_seed: int = 0) -> None:
-        self._lock = threading.RLock()
+        self._owner: int | None = None  # the only thread that may use the world, once bound
         self.bullet = Bullet()
         self.table = BodyTable()
         self._robots: dict[str, RobotEntry] = {}
@@ -54,12 +59,24 @@ class WorldBase:
         self._sure: dict[str, tuple[int, SureHits]] = {}  # sure-hit tests by robot, with table.version
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
 
+    def bind(self) -> None:
+        """From now on only the calling thread may use the world (the server's `WorldThread`): a call
+        from another thread raises instead of racing it. PyBullet is not thread-safe."""
+        self._owner = threading.get_ident()
+
     @contextlib.contextmanager
-    def exclusive(self) -> Iterator[None]:
-        """Hold the world for a sequence of calls made from a worker thread (a plan): no other thread
-        touches it meanwhile, and the asyncio loop stays free for what does not need it (heartbeats,
-        stop requests)."""
-        with self._lock:
+    def _holding(self, robot_id: str) -> Iterator[None]:
+        """A long operation moves ``robot_id`` through many states and restores it at its end; at its
+        checkpoints (`world_thread.checkpoint`) the robot is put back at its true state meanwhile."""
+        b = self._entry(robot_id).bound
+        true_q = b.q.copy()
+
+        def park() -> Callable[[], None]:
+            search_q = b.q.copy()
+            b.apply(true_q)
+            return lambda: b.apply(search_q)
+
+        with holding(robot_id, park):
             yield
 
     def __enter__(self) -> Self:
@@ -82,7 +99,7 @@ class WorldBase:
     def _changed(self) -> None:
         self.table.version += 1
 
-    @_locked
+    @_owned
     def others_stamp(self, robot_id: str) -> tuple[int, int]:
         """Changes to everything but ``robot_id``'s own joints: obstacles and robots added, moved or removed,
         other robots' joints set. Equal stamps: the world the robot moves in is the same."""
@@ -93,7 +110,32 @@ class WorldBase:
             raise NameTaken(name)
 
     # robots
-    @_locked
+    @staticmethod
+    def read_robot(
+        urdf: str | Path,
+        *,
+        robot_id: str | None = None,
+        ee_link: str | None = None,
+        package_roots: Mapping[str, str] | None = None,
+        srdf: str | Path | None = None,
+        _base_dir: Path | None = None,
+        decompose: bool = True,
+    ) -> RobotFiles:
+        """The part of a load that needs no world (any thread): params checked, URDF/SRDF read, meshes
+        parsed, concave ones split into convex parts (minutes for a robot's first load). ``add_robot``
+        then creates the body."""
+        if robot_id is not None:
+            v.name("id", robot_id)
+        if ee_link is not None:
+            v.name("eeLink", ee_link)
+        if not isinstance(urdf, (str, Path)) or not str(urdf):
+            raise InvalidParams("urdf must be a file path", param="urdf", expected="string", got=urdf)
+        roots = v.string_map("packageRoots", package_roots)
+        if srdf is not None and (not isinstance(srdf, (str, Path)) or not str(srdf)):
+            raise InvalidParams("srdf must be a file path", param="srdf", expected="string", got=srdf)
+        return read_robot_files(urdf, ee_link, roots, _base_dir, srdf, decompose)
+
+    @_owned
     def load_robot(
         self,
         urdf: str | Path,
@@ -109,26 +151,39 @@ class WorldBase:
         decompose: bool = True,
     ) -> RobotModel:
         """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model.
-        ``clearance`` (m) is what its checked paths and motions keep to other bodies."""
+        ``clearance`` (m) is what its checked paths and motions keep to other bodies. = ``read_robot``
+        then ``add_robot``."""
         if robot_id is not None:
             self._check_free_name(v.name("id", robot_id))
-        if ee_link is not None:
-            v.name("eeLink", ee_link)
-        if not isinstance(urdf, (str, Path)) or not str(urdf):
-            raise InvalidParams("urdf must be a file path", param="urdf", expected="string", got=urdf)
-        pos = v.position("basePosition", base_position)
-        quat = v.quaternion("baseOrientation", base_orientation)
-        roots = v.string_map("packageRoots", package_roots)
-        if not (isinstance(clearance, float | int) and MIN_CLEARANCE <= clearance <= MAX_CLEARANCE):
-            raise InvalidParams(f"clearance must be in [{MIN_CLEARANCE}, {MAX_CLEARANCE}] m",
-                                param="clearance", expected=f"number in [{MIN_CLEARANCE}, {MAX_CLEARANCE}]",
-                                got=clearance)
-        tmp_id = robot_id or "robot"
-        if srdf is not None and (not isinstance(srdf, (str, Path)) or not str(srdf)):
-            raise InvalidParams("srdf must be a file path", param="srdf", expected="string", got=srdf)
-        entry = load_robot_body(
-            self.bullet, self.table, urdf, tmp_id, pos, quat, ee_link, roots, _base_dir, srdf, decompose
-        )
+        files = self.read_robot(urdf, robot_id=robot_id, ee_link=ee_link, package_roots=package_roots,
+                                srdf=srdf, _base_dir=_base_dir, decompose=decompose)
+        return self.add_robot(files, robot_id=robot_id, base_position=base_position,
+                              base_orientation=base_orientation, clearance=clearance)
+
+    @_owned
+    def add_robot(
+        self,
+        files: RobotFiles,
+        *,
+        robot_id: str | None = None,
+        base_position: Vec3 = (0.0, 0.0, 0.0),
+        base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
+        clearance: float = CLEARANCE,
+    ) -> RobotModel:
+        """Create the body of ``files`` (``read_robot``) in the world; removes their temporary copy."""
+        try:
+            if robot_id is not None:
+                self._check_free_name(v.name("id", robot_id))
+            pos = v.position("basePosition", base_position)
+            quat = v.quaternion("baseOrientation", base_orientation)
+            if not (isinstance(clearance, float | int) and MIN_CLEARANCE <= clearance <= MAX_CLEARANCE):
+                raise InvalidParams(f"clearance must be in [{MIN_CLEARANCE}, {MAX_CLEARANCE}] m",
+                                    param="clearance",
+                                    expected=f"number in [{MIN_CLEARANCE}, {MAX_CLEARANCE}]", got=clearance)
+        except Exception:
+            files.cleanup()
+            raise
+        entry = load_robot_body(self.bullet, self.table, files, robot_id or "robot", pos, quat)
         if robot_id is None:
             base, k, rid = entry.model.name or "robot", 2, entry.model.name or "robot"
             while rid in self._robots or rid in self._obstacles:
@@ -143,7 +198,7 @@ class WorldBase:
         self._changed()
         return entry.model
 
-    @_locked
+    @_owned
     def remove_robot(self, robot_id: str) -> None:
         e = self._entry(robot_id)
         self.bullet.remove_body(e.bound.body)
@@ -152,19 +207,19 @@ class WorldBase:
         del self.table.robots[e.bound.body]
         self._changed()
 
-    @_locked
+    @_owned
     def robot_model(self, robot_id: str) -> RobotModel:
         return self._entry(robot_id).model
 
-    @_locked
+    @_owned
     def robot_ids(self) -> list[str]:
         return list(self._robots)
 
-    @_locked
+    @_owned
     def get_joint_positions(self, robot_id: str) -> npt.NDArray[np.float64]:
         return self._entry(robot_id).bound.q.copy()
 
-    @_locked
+    @_owned
     def set_joint_positions(self, robot_id: str, q: JointVector) -> None:
         """Teleport the controllable joints (limits checked; mimic joints follow)."""
         b = self._entry(robot_id).bound

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -11,45 +12,94 @@ from robwot_sim.meshcheck import check_mesh
 from robwot_sim.scene import normalise_obstacle, read_scene, resolve_file
 from robwot_sim.sim import validate as v
 from robwot_sim.sim.client import quat_from_rpy
-from robwot_sim.sim.world_base import Quat, Vec3, WorldBase, _locked
+from robwot_sim.sim.loader import RobotFiles
+from robwot_sim.sim.world_base import Quat, Vec3, WorldBase, _owned
+
+#: an obstacle spec as stored (normalised) and the shape PyBullet loads (a checked, maybe converted, mesh)
+ReadObstacle = tuple[dict[str, Any], dict[str, Any]]
+
+
+@dataclass
+class SceneFiles:
+    """A scene read and checked off the world's thread (``WorldScene.read_scene``): its obstacles with
+    their meshes parsed, its robots' files prepared. ``cleanup()`` once added (or given up)."""
+
+    obstacles: list[ReadObstacle]
+    robots: list[tuple[dict[str, Any], RobotFiles]] = field(default_factory=list)
+
+    def cleanup(self) -> None:
+        for _, files in self.robots:
+            files.cleanup()
+
+
+def read_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False) -> ReadObstacle:
+    """An obstacle spec normalised (``scene.normalise_obstacle``) and, for a mesh, the mesh parsed by our
+    own reader (PyBullet crashes on some broken meshes): work that needs no world, any thread."""
+    norm = normalise_obstacle(spec, base, checked=checked)
+    shape = norm["shape"]
+    if shape["type"] == "mesh":
+        try:
+            shape = {**shape, "file": str(check_mesh(Path(shape["file"])))}
+        except MeshError as e:
+            name = norm["name"]
+            raise MeshError(f"obstacle {name!r}: {e.message}", obstacle=name, **e.data) from None
+    return norm, shape
 
 
 class WorldScene(WorldBase):
     """Obstacles and scenes on top of ``WorldBase``."""
 
-    @_locked
-    def load_scene(
-        self, scene: dict[str, Any] | str | Path, package_roots: Mapping[str, str] | None = None
-    ) -> dict[str, Any]:
-        """Add a scene's obstacles and robots, all or nothing: ``{"robots": [id], "obstacles": [name]}``."""
+    @staticmethod
+    def read_scene(
+        scene: dict[str, Any] | str | Path, package_roots: Mapping[str, str] | None = None
+    ) -> SceneFiles:
+        """The part of ``load_scene`` that needs no world (any thread): the document read and validated,
+        obstacle meshes parsed, each robot's files prepared (``read_robot``)."""
         if not isinstance(scene, (dict, str, Path)):
             raise InvalidParams(
                 "scene must be an object or a file path", param="scene", expected="object", got=scene
             )
         roots = v.string_map("packageRoots", package_roots)
         doc, base, _file = read_scene(scene)
-        specs = [normalise_obstacle(o, base, checked=True) for o in doc.get("obstacles", [])]
-        for s in specs:
-            self._check_free_name(s["name"])
+        out = SceneFiles([read_obstacle(o, base, checked=True) for o in doc.get("obstacles", [])])
+        try:
+            for r in doc.get("robots", []):
+                files = WorldBase.read_robot(
+                    r["urdf"], robot_id=r.get("id"), ee_link=r.get("eeLink"),
+                    package_roots={**roots, **r.get("packageRoots", {})},
+                    srdf=resolve_file(r["srdf"], base, what="SRDF file") if "srdf" in r else None,
+                    _base_dir=base)
+                out.robots.append((r, files))
+        except Exception:
+            out.cleanup()
+            raise
+        return out
+
+    @_owned
+    def load_scene(
+        self, scene: dict[str, Any] | str | Path, package_roots: Mapping[str, str] | None = None
+    ) -> dict[str, Any]:
+        """Add a scene's obstacles and robots, all or nothing: ``{"robots": [id], "obstacles": [name]}``.
+        = ``read_scene`` then ``add_scene``."""
+        return self.add_scene(self.read_scene(scene, package_roots))
+
+    @_owned
+    def add_scene(self, files: SceneFiles) -> dict[str, Any]:
+        """Add a read scene (``read_scene``), all or nothing; removes the robots' temporary copies."""
         added_obs: list[str] = []
         added_rob: list[str] = []
         try:
-            for s in specs:
-                added_obs.append(self._add_obstacle(s)["name"])
-            for r in doc.get("robots", []):
+            for spec, _ in files.obstacles:
+                self._check_free_name(spec["name"])
+            for obstacle in files.obstacles:
+                added_obs.append(self._add_obstacle(obstacle)["name"])
+            for r, robot_files in files.robots:
                 quat = r.get("baseOrientation") or (
                     quat_from_rpy(r["baseRpy"]) if "baseRpy" in r else (0.0, 0.0, 0.0, 1.0)
                 )
-                model = self.load_robot(
-                    r["urdf"],
-                    robot_id=r.get("id"),
-                    base_position=r.get("basePosition", (0.0, 0.0, 0.0)),
-                    base_orientation=quat,
-                    ee_link=r.get("eeLink"),
-                    package_roots={**roots, **r.get("packageRoots", {})},
-                    srdf=resolve_file(r["srdf"], base, what="SRDF file") if "srdf" in r else None,
-                    _base_dir=base,
-                )
+                model = self.add_robot(robot_files, robot_id=r.get("id"),
+                                       base_position=r.get("basePosition", (0.0, 0.0, 0.0)),
+                                       base_orientation=quat)
                 added_rob.append(model.id)
                 if "positions" in r:
                     self.set_joint_positions(model.id, r["positions"])
@@ -59,17 +109,13 @@ class WorldScene(WorldBase):
             for name in added_obs:
                 self.remove_obstacle(name)
             raise
+        finally:
+            files.cleanup()
         return {"robots": added_rob, "obstacles": added_obs}
 
-    def _add_obstacle(self, spec: dict[str, Any]) -> dict[str, Any]:
+    def _add_obstacle(self, obstacle: ReadObstacle) -> dict[str, Any]:
+        spec, shape = obstacle
         self._check_free_name(spec["name"])
-        shape = spec["shape"]
-        if shape["type"] == "mesh":  # PyBullet crashes on some broken meshes: our parser reads it first
-            try:
-                shape = {**shape, "file": str(check_mesh(Path(shape["file"])))}
-            except MeshError as e:
-                name = spec["name"]
-                raise MeshError(f"obstacle {name!r}: {e.message}", obstacle=name, **e.data) from None
         try:
             body = self.bullet.create_static(shape, spec["position"], spec["orientation"])
         except Exception as e:  # a mesh PyBullet cannot read
@@ -81,12 +127,13 @@ class WorldScene(WorldBase):
         self._changed()
         return spec
 
-    @_locked
-    def add_obstacle(self, spec: dict[str, Any]) -> dict[str, Any]:
-        """Add a static obstacle ``{name, shape, position, orientation? | rpy?}``; returns it normalised."""
-        return self._add_obstacle(normalise_obstacle(spec))
+    @_owned
+    def add_obstacle(self, spec: dict[str, Any] | ReadObstacle) -> dict[str, Any]:
+        """Add a static obstacle ``{name, shape, position, orientation? | rpy?}`` (or one already read by
+        ``read_obstacle``, off the world's thread); returns it normalised."""
+        return self._add_obstacle(spec if isinstance(spec, tuple) else read_obstacle(spec))
 
-    @_locked
+    @_owned
     def move_obstacle(
         self, name: str, position: Vec3, orientation: Quat | None = None, rpy: Vec3 | None = None
     ) -> dict[str, Any]:
@@ -110,7 +157,7 @@ class WorldScene(WorldBase):
         self._changed()
         return spec
 
-    @_locked
+    @_owned
     def remove_obstacle(self, name: str) -> None:
         if name not in self._obstacles:
             raise UnknownObject(str(name), self._obstacles)
@@ -119,7 +166,7 @@ class WorldScene(WorldBase):
         del self.table.names[body]
         self._changed()
 
-    @_locked
+    @_owned
     def list(self) -> dict[str, Any]:
         robots = [
             {
@@ -133,7 +180,7 @@ class WorldScene(WorldBase):
         ]
         return {"robots": robots, "obstacles": [spec for _, spec in self._obstacles.values()]}
 
-    @_locked
+    @_owned
     def reset(self) -> None:
         """Remove every robot and obstacle."""
         for rid in list(self._robots):
@@ -141,7 +188,7 @@ class WorldScene(WorldBase):
         for name in list(self._obstacles):
             self.remove_obstacle(name)
 
-    @_locked
+    @_owned
     def scene_spec(self) -> dict[str, Any]:
         """The current world as a scene document (absolute paths); ``load_scene`` rebuilds it."""
         robots = []
