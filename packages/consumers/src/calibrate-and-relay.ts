@@ -19,8 +19,7 @@
 import { numberOption, speedOption, parseArgs } from "./lib/args.js";
 import { DEMO_SLUG, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
-import { invertCalibration } from "@robwot/core";
-import { axisAngle, centroid, norm, spreadOffLine, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
+import { activeCalibration, axisAngle, centroid, invertCalibration, norm, spreadOffLine, sub, vec, xyz, type Vec3 } from "@robwot/core";
 import { runScenario } from "./lib/run.js";
 import { maxAbsDiff, spreadTargets, type Joints } from "./lib/targets.js";
 import { jointLimits } from "@robwot/core";
@@ -69,12 +68,12 @@ async function main(): Promise<void> {
     // A calibration from an earlier run maps the virtual twin's Cartesian outputs into the real
     // frame; undo it so the pairs hold true virtual-frame points.
     const previous = await read<CalibrationState>(virtual, "calibration");
-    const active = previous.active !== false && "rotation" in previous ? previous : undefined;
+    const active = activeCalibration(previous);
     if (active) console.log(`(an earlier calibration is active on the virtual twin; its outputs are un-mapped for the pairs)`);
-    const virtualPoint = (p: CartesianPose): V3 => (active ? invertCalibration(active as Parameters<typeof invertCalibration>[0], toV3(p)) : toV3(p));
+    const virtualPoint = (p: CartesianPose): Vec3 => (active ? invertCalibration(active, vec(p)) : vec(p));
 
     // 1. Point pairs from four relayed joint moves.
-    const pairs: { real: V3; virtual: V3; joints: Joints; relayError: number }[] = [];
+    const pairs: { real: Vec3; virtual: Vec3; joints: Joints; relayError: number }[] = [];
     for (const target of spreadTargets(jointLimits(virtual.td), fraction, 16)) {
       if (pairs.length === 4) break;
       const verdict = await invoke<ValidationReport>(virtual, "validateJointPosition", { joints: target });
@@ -90,21 +89,21 @@ async function main(): Promise<void> {
       const phys = await settle(physical, before, target, timeout);
       if (!phys.settled) throw new Error(`the physical twin did not reach the relayed joint target within ${timeout} s (is the virtual twin served with --relay ${physicalUrl}?)`);
       const v = virtualPoint(await read<CartesianPose>(virtual, "getCartesianPosition"));
-      pairs.push({ real: toV3(phys.pose), virtual: v, joints: target, relayError: maxAbsDiff(target, phys.joints) });
+      pairs.push({ real: vec(phys.pose), virtual: v, joints: target, relayError: maxAbsDiff(target, phys.joints) });
     }
     if (pairs.length < 4) throw new Error(`only ${pairs.length} of 4 calibration configurations were accepted`);
     console.log(
       "\n" +
         table(
           ["pair", "virtual (m)", "real (m)", "relayed joints max |Δ| (rad)"],
-          pairs.map((p, i) => [String(i + 1), fmtXyz(toXyz(p.virtual)), fmtXyz(toXyz(p.real)), p.relayError.toExponential(1)]),
+          pairs.map((p, i) => [String(i + 1), fmtXyz(xyz(p.virtual)), fmtXyz(xyz(p.real)), p.relayError.toExponential(1)]),
         ),
     );
     console.log(`points spread ${fmt(spreadOffLine(pairs.map((p) => p.virtual)) * 100, 1)} cm off their longest line`);
 
     // 2. Calibrate.
     const cal = await invoke<CalibrationResult>(virtual, "calibrate", {
-      pairs: pairs.map((p) => ({ real: toXyz(p.real), virtual: toXyz(p.virtual) })),
+      pairs: pairs.map((p) => ({ real: xyz(p.real), virtual: xyz(p.virtual) })),
       withScale,
     });
     const { angle, axis } = axisAngle(cal.rotation);
@@ -113,28 +112,28 @@ async function main(): Promise<void> {
 
     // 3. A real-frame Cartesian command, relayed.
     const reals = pairs.map((p) => p.real);
-    const candidates: V3[] = [centroid(reals), ...reals.map((r, i) => centroid([r, reals[(i + 1) % reals.length] as V3]))];
-    let target: V3 | undefined;
+    const candidates: Vec3[] = [centroid(reals), ...reals.map((r, i) => centroid([r, reals[(i + 1) % reals.length] as Vec3]))];
+    let target: Vec3 | undefined;
     for (const c of candidates) {
-      const verdict = await invoke<ValidationReport>(virtual, "validateCartesianPosition", toXyz(c));
+      const verdict = await invoke<ValidationReport>(virtual, "validateCartesianPosition", xyz(c));
       if (verdict.valid) {
         target = c;
         break;
       }
-      console.log(`real-frame target ${fmtXyz(toXyz(c))} rejected: ${verdict.reasons.join("; ")}`);
+      console.log(`real-frame target ${fmtXyz(xyz(c))} rejected: ${verdict.reasons.join("; ")}`);
     }
     if (target === undefined) throw new Error("no real-frame Cartesian target was accepted by validateCartesianPosition");
     const before = await lastResultOf(physical);
-    console.log(`\nmoveToCartesianPosition (real frame) ${fmtXyz(toXyz(target))}`);
-    const result = await invoke<RelayedMoveResult>(virtual, "moveToCartesianPosition", { ...toXyz(target), speed });
+    console.log(`\nmoveToCartesianPosition (real frame) ${fmtXyz(xyz(target))}`);
+    const result = await invoke<RelayedMoveResult>(virtual, "moveToCartesianPosition", { ...xyz(target), speed });
     console.log(`virtual twin: ${result.status}, reports ${fmtXyz(result.position, 4)} (real frame)`);
     if (result.relay && !result.relay.ok) console.log(`relay to the physical twin FAILED: ${result.relay.error ?? "?"}`);
     const landed = await settle(physical, before, undefined, timeout);
-    const error = norm(sub(toV3(landed.pose), target));
+    const error = norm(sub(vec(landed.pose), target));
     console.log(`physical twin landed at ${fmtXyz(landed.pose, 4)}: ${fmt(error * 1000, 4)} mm from the real-frame target${landed.settled ? "" : " (did not settle in time)"}`);
     if (!landed.settled || result.status !== "reached" || result.relay?.ok !== true) process.exitCode = 1;
     if (args.options.has("json")) {
-      printJsonSummary({ pairs, calibration: cal, target: toXyz(target), virtualResult: result, physical: landed.pose, errorM: error, settled: landed.settled });
+      printJsonSummary({ pairs, calibration: cal, target: xyz(target), virtualResult: result, physical: landed.pose, errorM: error, settled: landed.settled });
     }
   } finally {
     await session.close();

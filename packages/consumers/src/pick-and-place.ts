@@ -16,8 +16,7 @@
 import { speedOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
 import { authHeaders, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
-import { invertCalibration } from "@robwot/core";
-import { norm, sub, toV3, toXyz, type V3 } from "./lib/frames.js";
+import { activeCalibration, invertCalibration, norm, sub, vec, xyz, type Vec3 } from "@robwot/core";
 import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
 import { runScenario } from "./lib/run.js";
 import { cartesianBounds, type Bounds3 } from "@robwot/core";
@@ -27,7 +26,7 @@ const USAGE = "pick-and-place [TD URL] [--targets \"x,y,z;x,y,z\"] [--speed 0..1
 
 interface Target {
   label: string;
-  p: V3;
+  p: Vec3;
 }
 
 /**
@@ -36,7 +35,7 @@ interface Target {
  * approach point 10 cm higher, then one point near the top corner of the bounding box (out of reach).
  */
 export function defaultTargets(b: Bounds3): Target[] {
-  const c: V3 = [(b.min[0] + b.max[0]) / 2, (b.min[1] + b.max[1]) / 2, 0];
+  const c: Vec3 = [(b.min[0] + b.max[0]) / 2, (b.min[1] + b.max[1]) / 2, 0];
   const r = 0.45 * Math.min(b.max[0] - b.min[0], b.max[1] - b.min[1]) / 2;
   // Z up with the floor at z = 0 (URDF convention); a workspace sampled without a floor reaches below it.
   const floor = Math.max(b.min[2], 0);
@@ -45,7 +44,7 @@ export function defaultTargets(b: Bounds3): Target[] {
   const stations: [string, number][] = [["pick A", 90], ["place A", -90], ["pick B", 0], ["place B", 180]];
   for (const [label, deg] of stations) {
     const a = (deg * Math.PI) / 180;
-    const p: V3 = [c[0] + r * Math.cos(a), c[1] + r * Math.sin(a), z];
+    const p: Vec3 = [c[0] + r * Math.cos(a), c[1] + r * Math.sin(a), z];
     out.push({ label: `${label} approach`, p: [p[0], p[1], p[2] + 0.1] }, { label, p });
   }
   // A corner of the bounding box: inside the bounds the TD declares, outside a roughly round workspace.
@@ -79,7 +78,7 @@ export function sceneTargets(obstacles: SceneObstacle[]): Target[] {
     const e = extents(o);
     const p = o.position;
     if (e === undefined || p?.length !== 3 || e.halfWidth > 0.3 || out.length >= 4) continue;
-    const [x, y, z] = p as V3;
+    const [x, y, z] = p as Vec3;
     out.push({ label: `above ${o.name ?? "?"}`, p: [x, y, z + e.halfHeight + 0.15] }, { label: `into ${o.name ?? "?"}`, p: [x, y, z] });
   }
   return out;
@@ -98,7 +97,7 @@ export function parseTargets(text: string): Target[] {
   return text.split(";").map((chunk, i) => {
     const v = chunk.split(",").map(Number);
     if (v.length !== 3 || !v.every(Number.isFinite)) throw new UsageError(`--targets entry ${i + 1} "${chunk}" is not x,y,z`);
-    return { label: `target ${i + 1}`, p: v as V3 };
+    return { label: `target ${i + 1}`, p: v as Vec3 };
   });
 }
 
@@ -123,17 +122,18 @@ async function main(): Promise<void> {
     // Targets are in the twin's Cartesian frame: the real frame when a calibration is active. The
     // workspace files are in the virtual frame, so map targets back for the offline check.
     const cal = await read<CalibrationState>(twin, "calibration");
-    const toVirtual = (p: V3): V3 => (cal.active !== false && "rotation" in cal ? invertCalibration(cal as Parameters<typeof invertCalibration>[0], p) : p);
+    const active = activeCalibration(cal);
+    const toVirtual = (p: Vec3): Vec3 => (active ? invertCalibration(active, p) : p);
 
-    const rows: { label: string; target: V3; offline: OfflineVerdict; twin: ValidationReport; moved: MoveResult | null }[] = [];
+    const rows: { label: string; target: Vec3; offline: OfflineVerdict; twin: ValidationReport; moved: MoveResult | null }[] = [];
     for (const t of targets) {
       const offline = ws.check(toVirtual(t.p));
-      const verdict = await invoke<ValidationReport>(twin, "validateCartesianPosition", toXyz(t.p));
+      const verdict = await invoke<ValidationReport>(twin, "validateCartesianPosition", xyz(t.p));
       let moved: MoveResult | null = null;
-      if (verdict.valid) moved = await invoke<MoveResult>(twin, "moveToCartesianPosition", { ...toXyz(t.p), speed });
+      if (verdict.valid) moved = await invoke<MoveResult>(twin, "moveToCartesianPosition", { ...xyz(t.p), speed });
       rows.push({ label: t.label, target: t.p, offline, twin: verdict, moved });
-      const action = moved ? `moved: ${moved.status}, ${fmt(norm(sub(toV3(moved.position), t.p)) * 1000, 2)} mm off` : `skipped: ${verdict.reasons.join("; ")}`;
-      console.log(`${t.label.padEnd(16)} ${fmtXyz(toXyz(t.p))}  ${action}`);
+      const action = moved ? `moved: ${moved.status}, ${fmt(norm(sub(vec(moved.position), t.p)) * 1000, 2)} mm off` : `skipped: ${verdict.reasons.join("; ")}`;
+      console.log(`${t.label.padEnd(16)} ${fmtXyz(xyz(t.p))}  ${action}`);
     }
 
     console.log(
@@ -142,7 +142,7 @@ async function main(): Promise<void> {
           ["target", "x, y, z (m)", "in STL", "cloud (share)", "offline", "twin STL", "twin cloud", "IK", "path", "twin", "agree", "result"],
           rows.map((r) => [
             r.label,
-            fmtXyz(toXyz(r.target), 3),
+            fmtXyz(xyz(r.target), 3),
             yesNo(r.offline.inside),
             `${fmt(r.offline.pointCloud.nearestFree, 3)} m ${r.offline.pointCloud.ok ? "ok" : "no free sample near"}`,
             r.offline.ok ? "valid" : "invalid",

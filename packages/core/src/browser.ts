@@ -2,8 +2,8 @@
 export * from "./errors.js";
 export type * from "./types.js";
 export type * from "./td/types.js";
-export { buildThingDescription, targetBounds, thingId, transformBounds, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, REACHABILITY_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
-export type { BuildThingDescriptionOptions, SimilarityTransform } from "./td/build.js";
+export { buildThingDescription, targetBounds, thingId, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, REACHABILITY_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
+export type { BuildThingDescriptionOptions } from "./td/build.js";
 export { securityFor } from "./td/security.js";
 export { ACTION_ID_VARIABLE, ACTION_STATUS_SCHEMA, ACTION_STATUSES, ASYNC_ACTIONS, RESPOND_ASYNC } from "./td/async-actions.js";
 export type { ActionStatusValue } from "./td/async-actions.js";
@@ -28,7 +28,11 @@ export type { ReachabilityCheck, ReachabilityVoxel } from "./workspace/reachabil
 export type { WorkspacePointCheck } from "./workspace/workspace.js";
 export { loadWorkspaceFromUrls, reachabilityVoxel } from "./workspace/load-url.js";
 export type { FetchLike } from "./workspace/load-url.js";
+export * from "./geometry.js";
 export {
+  activeCalibration,
+  FrameMap,
+  transformBounds,
   solveCalibration,
   checkCalibration,
   applyCalibration,
@@ -39,5 +43,5 @@ export {
   MAX_CALIBRATION_COORDINATE,
   MAX_CALIBRATION_RMS,
 } from "./calibration.js";
-export type { Calibration, CalibrationPair, PointLike } from "./calibration.js";
+export type { Calibration, CalibrationPair, PointLike, SimilarityTransform } from "./calibration.js";
 export { gaussian, mulberry32 } from "./random.js";

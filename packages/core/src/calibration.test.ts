@@ -1,6 +1,6 @@
 import { Matrix, determinant } from "ml-matrix";
 import { describe, expect, it } from "vitest";
-import { applyCalibration, checkCalibration, invertCalibration, solveCalibration, type CalibrationPair } from "./calibration.js";
+import { activeCalibration, applyCalibration, checkCalibration, invertCalibration, solveCalibration, type CalibrationPair } from "./calibration.js";
 import { RobwotError } from "./errors.js";
 import { gauss, rng } from "./test-support/shapes.js";
 import type { Vec3 } from "./types.js";
@@ -160,5 +160,45 @@ describe("solveCalibration", () => {
   it("rejects malformed pairs from JSON", () => {
     const pairs = JSON.parse('[{"real":[0,0,0],"virtual":[0,0,0]},{"real":[1,0,0]},{"real":[0,1,0],"virtual":[0,1]}]') as CalibrationPair[];
     expect(() => solveCalibration(pairs)).toThrow(/pairs\[1\]\.virtual/);
+  });
+});
+
+describe("activeCalibration (a twin's calibration property)", () => {
+  const yaw = 0.7;
+  const active = {
+    active: true,
+    scale: 1.25,
+    rotation: [
+      [Math.cos(yaw), -Math.sin(yaw), 0],
+      [Math.sin(yaw), Math.cos(yaw), 0],
+      [0, 0, 1],
+    ],
+    translation: [0.3, -0.2, 0.1],
+    rms: 0,
+    pairs: 4,
+  };
+
+  it("gives the transform of an active calibration; a real-frame point maps back to the virtual frame", () => {
+    const c = activeCalibration(active);
+    expect(c).not.toBeNull();
+    const v: [number, number, number] = [0.4, 0.1, 0.6];
+    const back = invertCalibration(c!, applyCalibration(c!, v));
+    back.forEach((b, i) => expect(b).toBeCloseTo(v[i]!, 12));
+  });
+
+  it.each([
+    ["inactive", { active: false }],
+    ["not an object", "calibrated"],
+    ["null", null],
+  ])("is null when %s", (_label, value) => {
+    expect(activeCalibration(value)).toBeNull();
+  });
+
+  it.each([
+    ["missing rotation", { ...active, rotation: undefined }, /rotation/],
+    ["zero scale", { ...active, scale: 0 }, /scale/],
+    ["short translation", { ...active, translation: [1, 2] }, /translation/],
+  ])("refuses an active one with %s, naming the field", (_label, value, field) => {
+    expect(() => activeCalibration(value)).toThrow(field);
   });
 });

@@ -6,7 +6,8 @@
  */
 import { Matrix, SingularValueDecomposition, determinant } from "ml-matrix";
 import { CalibrationError, InvalidArgumentError } from "./errors.js";
-import type { Vec3, Xyz } from "./types.js";
+import { matToQuat, quatConj, quatMul } from "./geometry.js";
+import type { Bounds, Quaternion, Vec3, Xyz } from "./types.js";
 
 export type PointLike = Vec3 | Xyz;
 
@@ -167,7 +168,7 @@ export function checkCalibration(cal: unknown): Transform {
   return { scale: c.scale as number, rotation: R as number[][], translation: t as Vec3 };
 }
 
-type Transform = Pick<Calibration, "scale" | "rotation" | "translation">;
+type Transform = SimilarityTransform;
 
 function rot(cal: Transform, r: number, c: number): number {
   const v = cal.rotation[r]?.[c];
@@ -186,4 +187,74 @@ export function invertCalibration(cal: Transform, p: PointLike): Vec3 {
   const v = toVec3(p, "point");
   const d = [v[0] - cal.translation[0], v[1] - cal.translation[1], v[2] - cal.translation[2]];
   return [0, 1, 2].map((c) => (rot(cal, 0, c) * d[0]! + rot(cal, 1, c) * d[1]! + rot(cal, 2, c) * d[2]!) / cal.scale) as Vec3;
+}
+
+/** A similarity transform x_real = scale · rotation · x_virtual + translation (rotation 3x3 row-major). */
+export interface SimilarityTransform {
+  scale: number;
+  rotation: number[][];
+  translation: Vec3;
+}
+
+/** Axis-aligned box of the transformed corners of `b`. */
+export function transformBounds(b: Bounds, t: SimilarityTransform): Bounds {
+  const min: Vec3 = [Infinity, Infinity, Infinity];
+  const max: Vec3 = [-Infinity, -Infinity, -Infinity];
+  for (let c = 0; c < 8; c++) {
+    const p = applyCalibration(t, [c & 1 ? b.max[0] : b.min[0], c & 2 ? b.max[1] : b.min[1], c & 4 ? b.max[2] : b.min[2]]);
+    for (let r = 0; r < 3; r++) {
+      min[r] = Math.min(min[r]!, p[r]!);
+      max[r] = Math.max(max[r]!, p[r]!);
+    }
+  }
+  return { min, max };
+}
+
+/**
+ * The active calibration of a twin's `calibration` property (`{active: true, scale, rotation, translation,
+ * ...}`), checked like calibration.json; null when none is active. Throws CalibrationError when the value
+ * claims to be active but is not a calibration.
+ */
+export function activeCalibration(property: unknown): SimilarityTransform | null {
+  if (typeof property !== "object" || property === null || (property as { active?: unknown }).active !== true) return null;
+  return checkCalibration(property);
+}
+
+/**
+ * Maps between the virtual (simulation) frame and the real frame of the physical robot:
+ *
+ *     x_real = s · R · x_virtual + t          q_real = q(R) ⊗ q_virtual
+ *     x_virtual = Rᵀ · (x_real − t) / s       q_virtual = q(R)* ⊗ q_real
+ *
+ * Without a calibration (null) both frames coincide. Positions in metres, quaternions {x, y, z, w}.
+ */
+export class FrameMap {
+  readonly transform: SimilarityTransform | null;
+  private readonly qR: Quaternion;
+
+  constructor(transform: SimilarityTransform | null) {
+    this.transform = transform;
+    this.qR = transform ? matToQuat(transform.rotation) : { x: 0, y: 0, z: 0, w: 1 };
+  }
+
+  pointToReal(v: Vec3): Vec3 {
+    return this.transform ? applyCalibration(this.transform, v) : ([...v] as Vec3);
+  }
+
+  pointToVirtual(p: Vec3): Vec3 {
+    return this.transform ? invertCalibration(this.transform, p) : ([...p] as Vec3);
+  }
+
+  quatToReal(q: Quaternion): Quaternion {
+    return this.transform ? quatMul(this.qR, q) : { ...q };
+  }
+
+  quatToVirtual(q: Quaternion): Quaternion {
+    return this.transform ? quatMul(quatConj(this.qR), q) : { ...q };
+  }
+
+  /** Axis-aligned bounds of a virtual-frame box seen in the real frame (the 8 corners mapped). */
+  boundsToReal(b: Bounds): Bounds {
+    return this.transform ? transformBounds(b, this.transform) : b;
+  }
 }

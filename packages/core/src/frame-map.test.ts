@@ -1,5 +1,9 @@
 import { describe, expect, it } from "vitest";
-import { FrameMap, matToQuat, quatMul, type Mat3 } from "./frames.js";
+import type { Vec3 } from "./types.js";
+import { FrameMap } from "./calibration.js";
+import { matToQuat, quatMul } from "./geometry.js";
+
+type Mat3 = [Vec3, Vec3, Vec3];
 
 const rot = (axis: [number, number, number], a: number): Mat3 => {
   const [x, y, z] = axis;

@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { axisAngle, spreadOffLine } from "./frames.js";
+import { axisAngle, spreadOffLine } from "./geometry.js";
 
 const yaw = (a: number): number[][] => [
   [Math.cos(a), -Math.sin(a), 0],
@@ -7,7 +7,7 @@ const yaw = (a: number): number[][] => [
   [0, 0, 1],
 ];
 
-describe("frames", () => {
+describe("geometry", () => {
   it("axisAngle recovers a yaw", () => {
     const { angle, axis } = axisAngle(yaw(0.436));
     expect(angle).toBeCloseTo(0.436, 12);

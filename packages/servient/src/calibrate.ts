@@ -6,9 +6,8 @@
  */
 import { renameSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
-import { solveCalibration, type CalibrationFile, type Vec3, type Xyz } from "@robwot/core";
+import { type CalibrationFile, FrameMap, solveCalibration, vec, type Vec3, type Xyz } from "@robwot/core";
 import { badInput } from "./errors.js";
-import { FrameMap, toTransform, vec } from "./frames.js";
 import type { Twin } from "./twin.js";
 
 export interface CalibrateInput {
@@ -59,7 +58,7 @@ export function calibrate(twin: Twin, input: CalibrateInput): CalibrationResult 
   };
   writeCalibration(twin.folder.dir, file);
   twin.folder.calibration = file;
-  twin.frames = new FrameMap(toTransform(file));
+  twin.frames = new FrameMap(file);
   twin.emit("joints", twin.liveJoints());
   return { scale: file.scale, rotation: file.rotation, translation: file.translation, rms: file.rms, pairs: file.pairs };
 }

@@ -10,10 +10,9 @@
  * (`robot.stop` follows `robot.move` on the same ordered connection, so it cannot overtake it).
  */
 import type { MoveResult as BackendMoveResult, PlanChecks } from "@robwot/sim-client";
-import { MIN_SPEED, type MoveResult, type Quaternion, type ValidationReport, type Vec3 } from "@robwot/core";
+import { MIN_SPEED, type MoveResult, type Quaternion, type ValidationReport, vec, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput, ServientError } from "./errors.js";
-import { vec } from "./frames.js";
 import type { Relay, RelayReport } from "./relay.js";
 import type { Twin } from "./twin.js";
 import { poseTarget, report, staticChecks, validateCartesian, validateJoints, type PoseTarget } from "./validation.js";

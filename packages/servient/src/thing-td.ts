@@ -6,9 +6,8 @@
  *   pointing at this servient's `/live`, the security required (`securityFor`), and the Cartesian
  *   bounds in the real frame when a calibration is active.
  */
-import { LIVE_REL, securityFor, TD_CONTEXT_V10, withAbsoluteForms, type Bounds, type ThingDescription } from "@robwot/core";
+import { type Bounds, type FrameMap, LIVE_REL, securityFor, TD_CONTEXT_V10, type ThingDescription, withAbsoluteForms } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
-import type { FrameMap } from "./frames.js";
 import type { TdDocument } from "./twin-folder.js";
 
 type Json = Record<string, unknown>;

@@ -4,11 +4,10 @@
  * node-wot property observation.
  */
 import { EventEmitter } from "node:events";
-import { tdContact, type CollisionEvent, type Contact, type MotionStatus, type Quaternion, type RobotModelLike, type Vec3, type Xyz } from "@robwot/core";
+import { type CollisionEvent, type Contact, FrameMap, type MotionStatus, quat, type Quaternion, type RobotModelLike, tdContact, type Vec3, xyz, type Xyz } from "@robwot/core";
 import type { PoseResult, RobotStateNotification } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput } from "./errors.js";
-import { FrameMap, quat, toTransform, xyz } from "./frames.js";
 import type { TwinFolder } from "./twin-folder.js";
 
 export interface LiveJoints {
@@ -57,7 +56,7 @@ export class Twin extends EventEmitter<TwinEvents> {
     this.slug = slug;
     this.robotId = slug;
     this.folder = folder;
-    this.frames = new FrameMap(folder.calibration ? toTransform(folder.calibration) : null);
+    this.frames = new FrameMap(folder.calibration);
   }
 
   get joints(): string[] {

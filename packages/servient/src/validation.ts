@@ -8,10 +8,9 @@
  * consumer without the twin has; they are reported in `checks` (and, when they disagree with the
  * simulation, in `notes`), but a weaker check never vetoes a stronger one. Nothing here moves the twin.
  */
-import { tdContact, type Quaternion, type ValidationReport, type Vec3 } from "@robwot/core";
+import { quatArr, type Quaternion, tdContact, type ValidationReport, type Vec3 } from "@robwot/core";
 import type { Plan, PlanChecks } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./backend.js";
-import { quatArr } from "./frames.js";
 import type { Twin } from "./twin.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
 

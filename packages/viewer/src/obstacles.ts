@@ -14,7 +14,7 @@ import {
 import { STLLoader } from "three/examples/jsm/loaders/STLLoader.js";
 import { OBJLoader } from "three/examples/jsm/loaders/OBJLoader.js";
 import { ViewerError } from "./errors.js";
-import { rpyToQuaternion, xyzwToQuaternion, type Vec3 } from "./frames.js";
+import { rpyToQuaternion, xyzwToQuaternion, type Vec3 } from "./three-frames.js";
 import { fetchBuffer, fetchText, isRecord } from "./http.js";
 
 const MATERIAL = new MeshPhongMaterial({ color: 0x8d99ae, specular: 0x222222, shininess: 20 });

@@ -7,7 +7,7 @@ import { Group } from "three";
 import type { URDFRobot } from "urdf-loader";
 import { debugState, publishDebug } from "./debug.js";
 import { showError } from "./errors.js";
-import { xyzwToQuaternion } from "./frames.js";
+import { xyzwToQuaternion } from "./three-frames.js";
 import { fetchJson, isRecord } from "./http.js";
 import { LiveClient } from "./live.js";
 import type { MotionPanel } from "./motion-panel.js";

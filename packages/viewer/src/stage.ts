@@ -20,7 +20,7 @@ import {
   WebGLRenderer,
 } from "three";
 import { OrbitControls } from "three/examples/jsm/controls/OrbitControls.js";
-import { createWorldRoot, urdfToThree } from "./frames.js";
+import { createWorldRoot, urdfToThree } from "./three-frames.js";
 
 export class Stage {
   readonly scene = new Scene();

@@ -5,7 +5,7 @@
 import type { Object3D } from "three";
 import { debugState, publishDebug } from "./debug.js";
 import { ViewerError } from "./errors.js";
-import type { QuatXyzw, Vec3 } from "./frames.js";
+import type { QuatXyzw, Vec3 } from "./three-frames.js";
 import { fetchBuffer, fetchJson, fetchText, isRecord } from "./http.js";
 import type { MotionPanel } from "./motion-panel.js";
 import type { ObstacleLayer } from "./scene-layer.js";

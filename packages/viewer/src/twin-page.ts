@@ -4,12 +4,12 @@
  */
 import { Mesh, MeshBasicMaterial, type Object3D, SphereGeometry } from "three";
 import type { URDFRobot } from "urdf-loader";
-import { parseCalibration, realToVirtual, type Calibration } from "./calibration.js";
+import { activeCalibration, invertCalibration, type SimilarityTransform } from "@robwot/core/browser";
 import { CartesianPanel } from "./cartesian-panel.js";
 import { Commander } from "./commander.js";
 import { debugState, publishDebug } from "./debug.js";
 import { showError, showNotice } from "./errors.js";
-import { xyzwToQuaternion } from "./frames.js";
+import { xyzwToQuaternion } from "./three-frames.js";
 import { isRecord } from "./http.js";
 import { JointPanel } from "./joint-panel.js";
 import { LiveClient } from "./live.js";
@@ -42,16 +42,22 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     error: (action, err) => showError(action, err),
   });
   const joints = new JointPanel(content, td.joints, (target) => commander.moveJoints(target));
-  let calibration: Calibration | null = null;
+  // x_real = s·R·x_virtual + t: Cartesian inputs are in the real frame, the 3D view in the virtual one
+  let calibration: SimilarityTransform | null = null;
   const marker = new TargetMarker(stage);
   const cartesian = new CartesianPanel(content, commander, (t, valid) => {
-    const position = calibration ? realToVirtual(calibration, t) : ([t.x, t.y, t.z] as [number, number, number]);
+    const position = calibration ? invertCalibration(calibration, t) : ([t.x, t.y, t.z] as [number, number, number]);
     marker.show(position, valid);
     debugState.target = { position, valid };
     publishDebug();
   });
   const showCalibration = (c: unknown): void => {
-    calibration = parseCalibration(c);
+    try {
+      calibration = activeCalibration(c);
+    } catch (err) {
+      calibration = null;
+      showError("calibration", err);
+    }
     motion.showCalibration(c);
     cartesian.setCalibrated(calibration !== null);
   };

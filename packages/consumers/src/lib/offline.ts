@@ -8,7 +8,7 @@
 import { loadWorkspaceFromUrls, REACHABILITY_REL, type PointCloudCheck, type ReachabilityCheck } from "@robwot/core";
 import { authHeaders, type Twin } from "./connect.js";
 import { linkUrl } from "@robwot/core";
-import type { V3 } from "./frames.js";
+import type { Vec3 } from "@robwot/core";
 
 export interface OfflineVerdict {
   inside: boolean;
@@ -25,7 +25,7 @@ export interface OfflineWorkspace {
   csvUrl: string;
   triangles: number;
   points: number;
-  check(p: V3): OfflineVerdict;
+  check(p: Vec3): OfflineVerdict;
 }
 
 export async function loadOfflineWorkspace(twin: Twin, options: { k?: number; maxGap?: number } = {}): Promise<OfflineWorkspace> {
@@ -40,7 +40,7 @@ export async function loadOfflineWorkspace(twin: Twin, options: { k?: number; ma
     csvUrl,
     triangles: ws.mesh.triangleCount,
     points: ws.cloudIndex.size,
-    check(p: V3): OfflineVerdict {
+    check(p: Vec3): OfflineVerdict {
       const { insideWorkspace, pointCloud, reachability, ok } = ws.check(p, options);
       return { inside: insideWorkspace, surfaceDistance: ws.mesh.distanceToSurface(p), pointCloud, ...(reachability ? { reachability } : {}), ok };
     },

@@ -1,7 +1,8 @@
 import { describe, expect, it } from "vitest";
 import { RobwotError } from "../errors.js";
 import { kukaLikeModel, summaryFixture } from "../test-support/models.js";
-import { buildThingDescription, transformBounds, withAbsoluteForms } from "./build.js";
+import { transformBounds } from "../calibration.js";
+import { buildThingDescription, withAbsoluteForms } from "./build.js";
 import { securityFor } from "./security.js";
 import type { DataSchema } from "./types.js";
 import { validateThingDescription } from "./validate.js";

@@ -4,9 +4,9 @@
  * (longpoll observeproperty), `actions/<name>` (POST, invokeaction), `events/<name>` (longpoll
  * subscribeevent), and `properties` (readallproperties) at the Thing level.
  */
-import { applyCalibration } from "../calibration.js";
+import { transformBounds, type SimilarityTransform } from "../calibration.js";
 import { ThingDescriptionError } from "../errors.js";
-import type { Bounds, JointSpec, RobotModelLike, Vec3, WorkspaceSummary } from "../types.js";
+import type { Bounds, JointSpec, RobotModelLike, WorkspaceSummary } from "../types.js";
 import { ACTION_STATUS_SCHEMA, actionStatusSchema, ASYNC_ACTIONS, asyncActionForms, asyncActionVariables } from "./async-actions.js";
 import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
 import { canonicalJson, fnv1a64, MAX_SLUG_LENGTH, thingSlug } from "./hash.js";
@@ -29,13 +29,6 @@ export const LIVE_REL = "robwot:live";
 export const REACHABILITY_REL = "robwot:reachability";
 export const DEFAULT_BASE_URL = "http://localhost:8080/";
 const JSON_TYPE = "application/json";
-
-/** A similarity transform x_real = scale · rotation · x_virtual + translation (rotation 3x3 row-major). */
-export interface SimilarityTransform {
-  scale: number;
-  rotation: number[][];
-  translation: Vec3;
-}
 
 export interface BuildThingDescriptionOptions {
   model: RobotModelLike;
@@ -105,20 +98,6 @@ function checkBounds(b: Bounds): Bounds {
  */
 export function targetBounds(summary: Pick<WorkspaceSummary, "bounds" | "reachBounds">): Bounds {
   return summary.reachBounds ?? summary.bounds;
-}
-
-/** Axis-aligned box of the transformed corners of `b`. */
-export function transformBounds(b: Bounds, t: SimilarityTransform): Bounds {
-  const min: Vec3 = [Infinity, Infinity, Infinity];
-  const max: Vec3 = [-Infinity, -Infinity, -Infinity];
-  for (let c = 0; c < 8; c++) {
-    const p = applyCalibration(t, [c & 1 ? b.max[0] : b.min[0], c & 2 ? b.max[1] : b.min[1], c & 4 ? b.max[2] : b.min[2]]);
-    for (let r = 0; r < 3; r++) {
-      min[r] = Math.min(min[r]!, p[r]!);
-      max[r] = Math.max(max[r]!, p[r]!);
-    }
-  }
-  return { min, max };
 }
 
 function normaliseBaseUrl(baseUrl: string): URL {
