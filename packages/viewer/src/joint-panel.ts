@@ -3,7 +3,7 @@
  * target the user set is still being moved to; releasing it (`change`) commits all slider values.
  */
 import { el, fmt } from "./dom.js";
-import type { JointLimit } from "./td.js";
+import type { JointLimit } from "@robwot/core/browser";
 
 export class JointPanel {
   private readonly sliders = new Map<string, { input: HTMLInputElement; out: HTMLOutputElement }>();
@@ -21,10 +21,10 @@ export class JointPanel {
       const input = el("input", {
         type: "range",
         name: j.name,
-        min: String(j.minimum),
-        max: String(j.maximum),
+        min: String(j.lower),
+        max: String(j.upper),
         step: "any",
-        value: String(Math.min(Math.max(0, j.minimum), j.maximum)),
+        value: String(Math.min(Math.max(0, j.lower), j.upper)),
         "aria-label": `${j.name} (${j.unit})`,
         "data-joint": j.name,
       });
@@ -36,7 +36,7 @@ export class JointPanel {
         this.held = null;
         this.commit(this.values());
       });
-      const label = el("label", { title: `[${fmt(j.minimum)}, ${fmt(j.maximum)}] ${j.unit}`, text: j.name });
+      const label = el("label", { title: `[${fmt(j.lower)}, ${fmt(j.upper)}] ${j.unit}`, text: j.name });
       box.append(el("div", { class: "joint" }, label, out, input));
       this.sliders.set(j.name, { input, out });
     }

@@ -2,16 +2,9 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
-import { jointLimits, liveUrl, REACHABILITY_REL, RobwotError, speedRange, type ThingDescriptionLike } from "@robwot/core/browser";
+import { jointLimits, type JointLimit, liveUrl, REACHABILITY_REL, RobwotError, speedRange, type ThingDescriptionLike } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
-
-export interface JointLimit {
-  name: string;
-  minimum: number;
-  maximum: number;
-  unit: string;
-}
 
 export interface TwinTd {
   title: string;
@@ -74,9 +67,9 @@ function liveLink(td: Record<string, unknown>): string | null {
   return u.href;
 }
 
-/** Joint limits (core's TD reading) in the viewer's terms. */
+/** Joint limits (core's TD reading). */
 function readJointLimits(td: Record<string, unknown>): JointLimit[] {
-  return fromCore(() => jointLimits(td as ThingDescriptionLike).map((j) => ({ name: j.name, minimum: j.lower, maximum: j.upper, unit: j.unit })));
+  return fromCore(() => jointLimits(td as ThingDescriptionLike));
 }
 
 /** A reading of core's TD reader; what it refuses is the viewer's E_TD. */
