@@ -1,6 +1,6 @@
 /**
  * Typed client of the simulation backend: one method per JSON-RPC method of the contract
- * (`sim-backend/src/robwot_sim/schemas/protocol.openrpc.json`; types generated into `contract.ts`,
+ * (`sim-backend/src/robwot_sim/schemas/protocol.openrpc.json`; types generated into `@robwot/core/backend-contract`,
  * reference in `sim-backend/PROTOCOL.md`). Joint vectors follow the robot model's `controllable` order.
  *
  * It runs over anything that can call a method — a plain `RpcConnection`, or a supervisor that adds

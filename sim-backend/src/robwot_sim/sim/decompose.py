@@ -4,11 +4,11 @@ PyBullet turns every ``<collision><mesh>`` of a moving link into ONE convex hull
 then touches the wrist's hull in a third of all configurations where the real meshes are apart. A link
 with several ``<collision>`` elements becomes a compound shape instead, so a concave mesh is replaced by
 its approximate convex decomposition (CoACD, the ``coacd`` package: collision-aware concavity, seeded,
-so deterministic), one ``<collision>`` per part. CoACD replaced V-HACD (voxel-based, 16 parts): on
-the UR5 forearm V-HACD's parts stuck out of the mesh by up to 18 mm (CoACD: 11-16 mm; wrist 2: 8.6 vs
-2-3 mm), which made 12-13 % of the configurations the exact-mesh reference calls free "colliding" (4 %
-with CoACD, see README "Fidelity"). A mesh that is already convex (every vertex and
-triangle centroid within ``CONVEX_TOLERANCE`` of its hull's surface) is kept as it is: its hull is exact.
+so deterministic), one ``<collision>`` per part. CoACD replaced V-HACD (voxel-based): V-HACD's parts
+stuck out of the meshes further, so more of the configurations the exact-mesh reference calls free were
+labelled "colliding" (the measurements are in README "Fidelity"). A mesh that is already convex (every
+vertex and triangle centroid within ``CONVEX_TOLERANCE`` of its hull's surface) is kept as it is: its hull
+is exact.
 
 Parts are OBJ files under ``cache_dir/<key>/`` where the key is a digest of the mesh bytes, the scale
 and the decomposition parameters, so a cache (the twin folder's ``collision/``) is reused only for the
@@ -42,21 +42,18 @@ IndexArray = npt.NDArray[np.uint32]
 MeshReader = Callable[[Path], "tuple[FloatArray, IndexArray] | None"]
 
 #: CoACD parameters (``coacd.run_coacd`` keyword names): concavity threshold 0.05 (of the mesh's size);
-#: a shallow tree search (30 iterations, depth 2: the UR5 wrist 3 in 14 s instead of 134 s with CoACD's
-#: defaults on 2 busy cores, its parts within 2.5 mm of the mesh); at most 8 parts per mesh, merged by
-#: CoACD where the concavity grows least. Bullet's cost per check grows with the parts (KUKA, ~26 parts
-#: per link uncapped: 112 µs; 8 per mesh: 68 µs; V-HACD's: 49 µs), and the cap changed the false
-#: "colliding" labels against the exact-mesh reference by at most 0.05 points (20,000 samples: UR10 1.6,
-#: UR5 5.4, Panda 1.3, KUKA 0.02 %; false "free" 0).
+#: a shallow tree search (CoACD's default search takes many times as long for parts about as close to the
+#: mesh); at most 8 parts per mesh, merged by CoACD where the concavity grows least: Bullet's cost per
+#: check grows with the parts, and the cap leaves the labels against the exact-mesh reference as they
+#: were (README "Fidelity" and "Running on a Ray cluster" have the measurements).
 COACD_PARAMS: dict[str, Any] = {"threshold": 0.05, "preprocess_mode": "auto",
                                 "resolution": 1000, "mcts_nodes": 10, "mcts_iterations": 30,
                                 "mcts_max_depth": 2, "merge": True, "max_convex_hull": 8,
                                 "max_ch_vertex": 64, "seed": 0}
 #: Non-manifold meshes (the UR and KUKA ones) are remeshed on a voxel grid first, which fattens them: the
-#: coarser, the fatter. Voxels of at most this side (m), between ``REMESH_RESOLUTION`` voxels per side
-#: (a 0.5 m UR5 forearm: 98). False "colliding" labels against the exact-mesh reference (UR5, 20,000
-#: samples): 50 voxels per side for every mesh 5.7 %, 100 for every mesh 4.4 % (but the KUKA's
-#: decomposition took twice as long, ~400 s, for no gain), at most 6 mm 4.8 %, at most 5 mm 4.6 %.
+#: coarser, the fatter. Voxels of at most this side (m), between ``REMESH_RESOLUTION`` voxels per side:
+#: a fixed count per side fattens large meshes, a finer grid costs decomposition time for no fewer false
+#: "colliding" labels (README "Fidelity" has the comparison).
 REMESH_VOXEL = 0.005
 REMESH_RESOLUTION = (50, 100)
 #: A mesh whose vertices all lie within this fraction of its size from its hull's surface is convex.
@@ -156,9 +153,9 @@ def surface_points(vertices: FloatArray, faces: IndexArray, spacing: float = 1 /
 def cover(vertices: FloatArray, parts: list[FloatArray]) -> list[tuple[FloatArray, npt.NDArray[Any]]]:
     """Grows the parts until every mesh vertex lies inside one of them (within ``COVER_TOLERANCE``).
 
-    A decomposition may leave parts of the surface out (V-HACD left 29 % of a UR5 forearm's surface points
-    more than 1 mm outside every part; CoACD's hulls of its pieces leave out at most ~0.03 mm, e.g. where
-    a non-manifold mesh is remeshed), which would let real contacts through. Each
+    A decomposition may leave parts of the surface out (V-HACD left whole regions of a forearm outside
+    every part; CoACD's hulls of its pieces leave out thin slivers, e.g. where a non-manifold mesh is
+    remeshed), which would let real contacts through. Each
     uncovered vertex joins the part it is closest to, whose hull is then recomputed: the twin's shape then
     contains the mesh (up to triangle interiors spanning two parts), never less.
     """
@@ -369,9 +366,9 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
 
 def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray]], cache_dir: Path) -> None:
     """Decomposes meshes (key -> scaled vertices, triangles) into the cache: convex ones at once, concave
-    ones on one thread per core, largest first. A robot's first load decomposes all its meshes (the
-    KUKA's 8 took minutes one after the other); CoACD releases the GIL (two UR5 forearms: 10.1 s one
-    after the other, 5.0 s on two threads) and its parts do not depend on what runs beside it (seeded)."""
+    ones on one thread per core, largest first. A robot's first load decomposes all its meshes; CoACD
+    releases the GIL, so the threads run side by side, and its parts do not depend on what runs beside it
+    (seeded)."""
     concave = []
     for key, (vertices, faces) in meshes.items():
         if is_convex(vertices, faces):

@@ -1,6 +1,5 @@
 """The Delaunay tetrahedra of a 3-D point set whose circumradius is below a bound (``reach``), computed
-in slabs side by side: one thread per core, Qhull releases the GIL (two 100,000-point triangulations: 8.0 s
-one after the other, 4.5 s on two threads).
+in slabs side by side: one thread per core (Qhull releases the GIL, so the slabs triangulate at once).
 
 Why the slabs give the same tetrahedra as one triangulation of all points: the slabs cut the x axis at
 ``b_0 < b_1 < ...`` and slab ``i`` holds the points with ``b_i - reach <= x <= b_{i+1} + reach``. A
@@ -195,7 +194,7 @@ def _match_seams(tets: Tetrahedra, n: int, required: BoolArray) -> None:
 
 def _set_barycentric_transforms(tri: Delaunay) -> None:
     """Give ``tri`` its barycentric transforms, vectorised: scipy computes them one simplex at a time
-    on the first ``find_simplex`` (about 10 s for 100k tetrahedra). Same layout as ``tri.transform``;
+    on the first ``find_simplex`` (seconds for a large triangulation). Same layout as ``tri.transform``;
     NaN for flat tetrahedra, as scipy does."""
     if not hasattr(tri, "_transform"):
         return

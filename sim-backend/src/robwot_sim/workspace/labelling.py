@@ -27,8 +27,8 @@ BoolArray = npt.NDArray[np.bool_]
 __all__ = ["Labelling", "chunk_size", "label_samples", "rebuild_error", "spec_key", "warm_up"]
 
 MIN_CHUNK = 500
-# Ray pays per task (10^6 kuka samples on a 2-CPU local cluster: labelling 23.7-24.7 s in chunks of 4,000
-# rows, 20.2-22.9 s of 12,000, 21.7-21.9 s of 20,000); the local pool is indifferent (19-22 s for all).
+# Ray pays per task, so chunks are large (README "Running on a Ray cluster" has the measurement); the local
+# pool is indifferent to the chunk size within this range.
 MAX_CHUNK = 12_000
 CHUNKS_PER_WORKER = 16
 HELPER_STEP = 250
