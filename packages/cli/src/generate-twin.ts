@@ -96,10 +96,20 @@ function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
 async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: string): Promise<RobotModel> {
   const packageRoots = opts.packageRoots;
   const srdf = { ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}), clearance: opts.clearance };
-  if (!opts.scene) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf });
+  const base = opts.base ? { basePosition: opts.base.position, baseOrientation: opts.base.orientation } : {};
+  const own = { urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf, ...base };
+  if (!opts.scene) return backend.loadRobot(own);
   await backend.loadScene({ path: opts.scene, packageRoots });
   const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf));
-  if (!placed) return backend.loadRobot({ urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf });
+  if (!placed) return backend.loadRobot(own);
+  if (opts.base) {
+    // two placements of one robot: neither silently wins
+    throw new CliError(
+      `--base places the robot, but the scene ${opts.scene} places it too (robots entry "${placed.id}" at [${placed.basePosition.join(", ")}]): give one of them`,
+      "E_USAGE",
+      2,
+    );
+  }
   await backend.removeRobot(placed.id);
   return backend.loadRobot({
     urdf,

@@ -6,13 +6,20 @@ import { existsSync, readFileSync, statSync } from "node:fs";
 import { basename, join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { existingFile, parseAlpha, parseInteger, parseNumber, parsePackageRoots, parseUrl, usageError } from "../args.js";
+import { quatArr, quatMul } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { CliError } from "../errors.js";
 
-const { Clearance, ReachVoxel, Samples, Seed, Workers } = VALUE_SCHEMAS;
+const { Clearance, Position, ReachVoxel, Rpy, Samples, Seed, Workers } = VALUE_SCHEMAS;
 /** The clearance (m) a robot keeps unless told (the backend contract's default). */
 export const DEFAULT_CLEARANCE = Clearance.default;
 import { EXAMPLE_NAMES, type ExampleRobot, findExample, looksLikeExampleName } from "../examples.js";
+
+/** A robot base pose: position (m) and orientation quaternion [x, y, z, w] in the world frame. */
+export interface BasePose {
+  position: [number, number, number];
+  orientation: [number, number, number, number];
+}
 
 export interface GenerateOptions {
   /** Exactly one of `urdfFile` (absolute path) and `example` is set. */
@@ -35,6 +42,8 @@ export interface GenerateOptions {
   /** Ray cluster address ("auto", ray://host:10001, host:port): workspace chunks run there as Ray tasks */
   cluster?: string;
   packageRoots: Record<string, string>;
+  /** `--base`: the robot's base pose in the world (scene) frame; absent = the origin, or the scene's placement */
+  base?: BasePose;
   csvJoints: boolean;
   backend?: string;
   json: boolean;
@@ -55,6 +64,7 @@ export const GENERATE_OPTIONS = {
   workers: { type: "string" },
   cluster: { type: "string" },
   "package-root": { type: "string", multiple: true },
+  base: { type: "string" },
   "csv-joints": { type: "boolean" },
   backend: { type: "string" },
   json: { type: "boolean" },
@@ -78,6 +88,32 @@ function urdfRobotName(file: string): string | undefined {
   } catch {
     return undefined;
   }
+}
+
+/**
+ * `--base X,Y,Z[,ROLL,PITCH,YAW]`: metres and radians, the angles fixed-axis roll-pitch-yaw as a URDF
+ * `<origin rpy>` (rotate about world X by roll, then world Y by pitch, then world Z by yaw), so
+ * q = qz(yaw) ⊗ qy(pitch) ⊗ qx(roll). Ranges are the backend contract's Position and Rpy.
+ */
+export function parseBase(value: string | undefined): BasePose | undefined {
+  if (value === undefined) return undefined;
+  const parts = value.split(",").map((p) => p.trim());
+  const nums = parts.map(Number);
+  if ((parts.length !== 3 && parts.length !== 6) || parts.some((p) => p === "") || nums.some((n) => !Number.isFinite(n))) {
+    throw new CliError(`--base must be X,Y,Z or X,Y,Z,ROLL,PITCH,YAW (metres, radians), got "${value}"`);
+  }
+  const [x, y, z, roll = 0, pitch = 0, yaw = 0] = nums as [number, number, number, number?, number?, number?];
+  const pmax = Position.items.maximum;
+  if ([x, y, z].some((v) => Math.abs(v) > pmax)) throw new CliError(`--base: X, Y and Z must be within ±${pmax} m, got "${value}"`);
+  const amax = Rpy.items.maximum;
+  if ([roll, pitch, yaw].some((v) => Math.abs(v) > amax)) throw new CliError(`--base: ROLL, PITCH and YAW must be within ±${amax} rad, got "${value}"`);
+  const axis = (a: number, i: 0 | 1 | 2) => {
+    const v = [0, 0, 0];
+    v[i] = Math.sin(a / 2);
+    return { x: v[0] as number, y: v[1] as number, z: v[2] as number, w: Math.cos(a / 2) };
+  };
+  const q = quatMul(axis(yaw, 2), quatMul(axis(pitch, 1), axis(roll, 0)));
+  return { position: [x, y, z], orientation: quatArr(q) };
 }
 
 function isFile(path: string): boolean {
@@ -136,6 +172,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const reachVoxel = values["reach-voxel"] === undefined || values["reach-voxel"] === "auto" ? "auto" : parseNumber("reach-voxel", values["reach-voxel"], 0, ReachVoxel.minimum, ReachVoxel.maximum);
   const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, Clearance.minimum, Clearance.maximum);
   const packageRoots = parsePackageRoots(values["package-root"]);
+  const base = parseBase(values.base);
   const baseUrlObj = parseUrl("base-url", values["base-url"] ?? DEFAULT_BASE_URL, ["http", "https"]) as URL;
   const baseUrl = baseUrlObj.href.endsWith("/") ? baseUrlObj.href : `${baseUrlObj.href}/`;
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
@@ -159,6 +196,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(workers !== undefined ? { workers } : {}),
     ...(cluster !== undefined ? { cluster } : {}),
     packageRoots,
+    ...(base ? { base } : {}),
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),
     json: values.json ?? false,

@@ -26,6 +26,9 @@ Options:
   --samples N             random joint configurations (default ${DEFAULT_SAMPLES})
   --seed N                random seed (default ${Seed.default}; same seed => same workspace.csv)
   --ee LINK               end-effector link (default: the last link of the chain)
+  --base X,Y,Z[,ROLL,PITCH,YAW]
+                          the robot's base pose in the world (scene) frame: metres, and radians as a
+                          URDF <origin rpy> (default: the origin, or where --scene's robots entry puts it)
   --out DIR, -o DIR       output folder (default twins/<example name or URDF robot name>);
                           an existing twin there is replaced only on success
   --base-url URL          base URL of the servient for the TD (default ${DEFAULT_BASE_URL})
