@@ -19,6 +19,7 @@ unanswered. Frames above the message limit are answered with E_TOO_LARGE; frames
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import hmac
 import logging
 import os
@@ -56,6 +57,8 @@ READ_PAUSE_BYTES = 1024 * 1024
 MAX_IN_FLIGHT = 256
 #: seconds the shutdown waits for off-world threads (they cannot reach the world once it is drained)
 OFF_WORLD_GRACE = 5.0
+#: niceness of background off-world threads (mesh reading and decomposition)
+BACKGROUND_NICE = 10
 #: policy violation: the close code of a client that stays behind
 CLOSE_TOO_SLOW = 1008
 
@@ -196,7 +199,7 @@ class Backend:
             job.cancel.set()  # a running long job stops at its next checkpoint
             raise
 
-    async def change_world(self, fn: Callable[[], T]) -> T:
+    async def change_world(self, fn: Callable[[], T], kind: Kind = Kind.PLAIN) -> T:
         def run() -> T:
             try:
                 return fn()
@@ -204,12 +207,12 @@ class Backend:
                 models = {rid: self._world.robot_model(rid) for rid in self._world.robot_ids()}
                 self._call_soon(self._set_models, models)
 
-        return await self.on_world(run, Kind.PLAIN)
+        return await self.on_world(run, kind)
 
     def _set_models(self, models: dict[str, RobotModel]) -> None:
         self._models = models
 
-    def off_world(self, fn: Callable[[], T]) -> asyncio.Future[T]:
+    def off_world(self, fn: Callable[[], T], *, background: bool = False) -> asyncio.Future[T]:
         future: asyncio.Future[T] = self._loop.create_future()
 
         def settle(ok: bool, value: Any) -> None:
@@ -221,6 +224,8 @@ class Backend:
                 future.set_exception(value)
 
         def work() -> None:
+            if background:
+                _lower_priority()
             try:
                 result = fn()
             except BaseException as exc:  # forwarded to the awaiting handler
@@ -294,6 +299,14 @@ class Backend:
         await asyncio.to_thread(self._world_thread.shutdown)
         if self._off_world:
             await asyncio.wait(list(self._off_world), timeout=OFF_WORLD_GRACE)
+
+
+def _lower_priority() -> None:
+    """Give the calling thread (and the threads it starts: a decomposition's, one per core) a lower CPU
+    priority, so that when they fill every core the loop and the world's threads still run at once."""
+    if sys.platform.startswith("linux"):  # PRIO_PROCESS with a thread id: that thread alone
+        with contextlib.suppress(OSError):
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), BACKGROUND_NICE)
 
 
 def owner_check(token: str) -> Callable[[ServerConnection, Request], Response | None]:

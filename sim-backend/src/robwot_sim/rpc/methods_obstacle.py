@@ -38,8 +38,9 @@ def register(d: Dispatcher, s: Services) -> None:
         if p.has("color"):
             spec["color"] = p.floats("color")
         # a mesh is parsed off the world's thread (it may be large); the world then only creates the body
-        read = await s.off_world(lambda: read_obstacle(spec)) if spec["shape"]["type"] == "mesh" \
-            else read_obstacle(spec)
+        mesh = spec["shape"]["type"] == "mesh"
+        read = (await s.off_world(lambda: read_obstacle(spec), background=True) if mesh
+                else read_obstacle(spec))
         return await s.on_world(lambda: s.world.add_obstacle(read), Kind.PLAIN)
 
     @d.method("obstacle.move")

@@ -35,11 +35,11 @@ def register(d: Dispatcher, s: Services) -> None:
         # then only creates the body
         files = await s.off_world(lambda: World.read_robot(
             p["urdf"], robot_id=p["id"], ee_link=p["eeLink"], package_roots=p["packageRoots"],
-            srdf=p["srdf"], decompose=bool(p["decompose"])))
+            srdf=p["srdf"], decompose=bool(p["decompose"])), background=True)
         try:
             model = await s.change_world(lambda: s.world.add_robot(
                 files, robot_id=p["id"], base_position=base_position, base_orientation=base_orientation,
-                clearance=float(p["clearance"])))
+                clearance=float(p["clearance"])), Kind.LONG)
         finally:
             files.cleanup()  # add_robot did, unless it never ran
         return model.to_json()

@@ -13,6 +13,7 @@ from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.sim.world import World
+from robwot_sim.sim.world_thread import Kind
 
 
 def _pybullet_version() -> str:
@@ -46,8 +47,9 @@ def register(d: Dispatcher, s: Services) -> None:
         source: dict[str, Any] | str = p["path"] if p.has("path") else p["scene"]
         # read off the world's thread like robot.load (a scene's robots may need their meshes decomposed,
         # its mesh obstacles parsing); the world then only creates the bodies
-        files = await s.off_world(lambda: World.read_scene(source, package_roots=p["packageRoots"]))
+        files = await s.off_world(lambda: World.read_scene(source, package_roots=p["packageRoots"]),
+                                  background=True)
         try:
-            return await s.change_world(lambda: s.world.add_scene(files))
+            return await s.change_world(lambda: s.world.add_scene(files), Kind.LONG)
         finally:
             files.cleanup()

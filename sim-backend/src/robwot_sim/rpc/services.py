@@ -55,12 +55,15 @@ class Services(Protocol):
         touches. A long job stops at its next checkpoint once `cancel` is set or the await is cancelled."""
         ...
 
-    def change_world(self, fn: Callable[[], T]) -> Awaitable[T]:
-        """Run `fn` (robots loaded or removed) alone on the world's thread, then refresh `robots`."""
+    def change_world(self, fn: Callable[[], T], kind: Kind = Kind.PLAIN) -> Awaitable[T]:
+        """Run `fn` (robots loaded or removed) on the world's thread, then refresh `robots`. `Kind.LONG`
+        for a load: its collision filter reaches checkpoints (the new body is in no table until added)."""
         ...
 
-    def off_world(self, fn: Callable[[], T]) -> Awaitable[T]:
-        """Run `fn`, which needs no world, in a thread of its own; the loop keeps serving meanwhile."""
+    def off_world(self, fn: Callable[[], T], *, background: bool = False) -> Awaitable[T]:
+        """Run `fn`, which needs no world, in a thread of its own; the loop keeps serving meanwhile.
+        `background`: at a lower CPU priority (with the threads it starts), for work that may fill every
+        core (a decomposition), so that the loop and the world's thread still get one at once."""
         ...
 
     def call_world(self, fn: Callable[[], T]) -> T:

@@ -18,6 +18,7 @@ import numpy as np
 from robwot_sim.sim.client import ContactPoint
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import BodyLink, Contact, FloatArray
+from robwot_sim.sim.world_thread import checkpoint
 
 ALWAYS_FRACTION = 0.95
 FILTER_SAMPLES = 200
@@ -47,6 +48,7 @@ def find_always_colliding(
     b = robot.bullet
     saved = robot.q.copy()
     for q in robot.random_q(rng, samples):
+        checkpoint()  # a load in progress: the body is in no one's table yet (world_thread.py)
         robot.apply(q)
         b.detect()
         seen = {
