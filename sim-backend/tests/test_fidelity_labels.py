@@ -71,3 +71,20 @@ def test_bad_srdf_is_refused_with_file_and_line(tmp_path: Path, text: str, error
         disabled_pairs(f, ["a", "b"])
     data = ei.value.data  # type: ignore[attr-defined]
     assert data["file"] == str(f.resolve()) and data["line"] == line
+
+
+def test_the_reference_calls_known_interpenetration_colliding() -> None:
+    """A reference must catch known positives: UR5 (with its SRDF) configurations whose meshes overlap by
+    1 mm or more (Coal's signed distance) and that the twin's own check calls colliding too are all
+    colliding for the reference (a depth threshold, given Coal's zero depths for most mesh-mesh contacts,
+    called many of them "free")."""
+    r = example_robot("ur5")
+    with World() as world:
+        model = world.load_robot(str(r.urdf), package_roots=r.package_roots, srdf=r.srdf)
+        lo, hi = model.limits()
+        qs = np.random.default_rng(7).uniform(lo, hi, size=(SAMPLES, len(lo)))
+        ours = world.collision_free_batch(model.id, qs)
+    reference = ExactReference(r.urdf, r.package_roots, model.controllable, r.srdf)
+    deep = np.array([not ours[i] and reference.min_signed_distance(q) < -0.001 for i, q in enumerate(qs)])
+    assert deep.sum() >= 40
+    assert not reference.collision_free(qs[deep]).any()

@@ -6,8 +6,16 @@ adjacent bodies (joined by one joint) are not checked: they touch at their joint
 tool (PyBullet's self-collision, MoveIt's "Adjacent" SRDF entries) leaves them out too. With an SRDF its
 ``<disable_collisions>`` pairs are removed as well.
 
-Needs the ``reference`` extra (``pin``, ``example-robot-data``); used by tests and ``bench_fidelity``,
-never by the twin itself.
+A contact Coal reports between two checked geometries is a collision unless both its penetration depth
+and the pair's signed distance stay within ``TOUCH`` of zero: surfaces resting on each other, as closed
+gripper fingers do. Both figures are needed: Coal reports a depth of 0 for most contacts between two
+non-convex meshes whatever the overlap (their signed distance then says tens of millimetres), and a
+signed distance of 0 for some deep ones (their depth then says so). A depth threshold alone called
+interpenetrating configurations free, so the reference could not catch a part that no longer covers
+its mesh.
+
+Needs the ``dev`` extra (``pin``, ``example-robot-data``); used by tests and ``fidelity.py``, never by the
+twin itself.
 """
 
 from __future__ import annotations
@@ -21,8 +29,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-#: contacts shallower than this (m) are surfaces touching, not interpenetrating
-TOUCH_DEPTH = 1e-6
+#: surfaces closer than this (m) in depth and in signed distance touch: a contact, not a collision
+TOUCH = 5e-5
 
 
 def example_robot_data() -> Path:
@@ -46,13 +54,15 @@ class ExampleRobot:
 
 
 def example_robot(name: str) -> ExampleRobot:
-    """``ur10``, ``ur5``, ``ur3`` or ``panda`` from example-robot-data (``package://example-robot-data/...``)."""
+    """``ur10``, ``ur5``, ``ur3``, ``panda`` or ``z1`` from example-robot-data
+    (``package://example-robot-data/...``)."""
     root = example_robot_data()
     files = {
         "ur10": ("ur_description/urdf/ur10_robot.urdf", None),
         "ur5": ("ur_description/urdf/ur5_robot.urdf", "ur_description/srdf/ur5.srdf"),
         "ur3": ("ur_description/urdf/ur3_robot.urdf", None),
         "panda": ("panda_description/urdf/panda.urdf", "panda_description/srdf/panda.srdf"),
+        "z1": ("z1_description/urdf/z1.urdf", "z1_description/srdf/z1.srdf"),
     }
     urdf, srdf = files[name]
     return ExampleRobot(name, root / "robots" / urdf, root / "robots" / srdf if srdf else None,
@@ -99,16 +109,29 @@ class ExactReference:
         return out
 
     def collision_free(self, qs: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
-        """Collision-free flag per row of ``qs`` [n, dof]. Surfaces that touch with zero depth (below
-        ``TOUCH_DEPTH``: closed gripper fingers resting on each other) do not count as a collision."""
+        """Collision-free flag per row of ``qs`` [n, dof]: False when a checked pair is in contact beyond
+        touching (see the module docstring)."""
         pin: Any = self._pin
         out = np.ones(len(qs), dtype=bool)
         for i, q in enumerate(qs):
-            if not pin.computeCollisions(self.model, self._data, self.geometry, self._gdata,
-                                         self.configuration(q), False):
+            config = self.configuration(q)
+            if not pin.computeCollisions(self.model, self._data, self.geometry, self._gdata, config, False):
                 continue
-            out[i] = not any(
-                abs(c.penetration_depth) > TOUCH_DEPTH
-                for r in self._gdata.collisionResults if r.isCollision() for c in r.getContacts()
-            )
+            touching = []
+            for k, result in enumerate(self._gdata.collisionResults):
+                if not result.isCollision():
+                    continue
+                if any(abs(c.penetration_depth) > TOUCH for c in result.getContacts()):
+                    out[i] = False
+                    break
+                touching.append(k)
+            else:
+                pin.computeDistances(self.model, self._data, self.geometry, self._gdata, config)
+                out[i] = all(self._gdata.distanceResults[k].min_distance >= -TOUCH for k in touching)
         return out
+
+    def min_signed_distance(self, q: Sequence[float]) -> float:
+        """The smallest signed distance (m) between checked geometries at ``q`` (negative: they overlap)."""
+        pin: Any = self._pin
+        pin.computeDistances(self.model, self._data, self.geometry, self._gdata, self.configuration(q))
+        return float(min(r.min_distance for r in self._gdata.distanceResults))
