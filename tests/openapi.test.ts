@@ -150,6 +150,6 @@ describe("thingOpenApi, other TD shapes", () => {
     const d: any = await thingOpenApi(other);
     const responses = d.paths[new URL(other.actions.stop.forms[0].href).pathname].post.responses;
     expect(responses["200"]).toBeUndefined();
-    expect(responses["201"].content["application/json"].schema.required).toEqual(["stopped"]);
+    expect(responses["201"].content["application/json"].schema.required).toEqual(["stopped", "simulation"]);
   });
 });

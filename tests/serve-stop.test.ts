@@ -1,7 +1,7 @@
 /**
  * A stop always wins: whenever it arrives after a move was accepted — during validation, IK, the path
- * check or the motion — the move answers `stopped`, `stop` answers `{stopped: true}` and the twin does
- * not go on moving. Real servient, real backend, real HTTP.
+ * check or the motion — the move answers `stopped`, `stop` answers `{stopped: true, simulation: {ok: true}}`
+ * and the twin does not go on moving. Real servient, real backend, real HTTP.
  */
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
@@ -45,7 +45,7 @@ async function stopAfter(action: string, input: object, delay: number): Promise<
   await sleep(delay);
   const stop = await invoke(base, "stop", "");
   const r = await move;
-  expect(stop.body).toEqual({ stopped: true });
+  expect(stop.body).toEqual({ stopped: true, simulation: { ok: true } });
   expect(r.status).toBe(200);
   expect(r.body.status).toBe("stopped");
   await sleep(150);
@@ -71,7 +71,7 @@ describe("stop during any stage of a move", () => {
     expect(Math.hypot(p.x - target.x, p.y - target.y, p.z - target.z)).toBeGreaterThan(0.01);
   });
 
-  it("a stop with nothing pending answers {stopped: false}", async () => {
-    expect((await invoke(base, "stop", "")).body).toEqual({ stopped: false });
+  it("a stop with nothing pending answers {stopped: false, simulation: {ok: true}}", async () => {
+    expect((await invoke(base, "stop", "")).body).toEqual({ stopped: false, simulation: { ok: true } });
   });
 });

@@ -137,7 +137,7 @@ describe("affordances through a node-wot consumer", () => {
       expect(cart.positionError).toBeLessThan(1e-3);
       expect(cart.duration).toBeGreaterThan(0);
       const stop = (await (await thing.invokeAction("stop"))!.value()) as any;
-      expect(stop).toEqual({ stopped: false });
+      expect(stop).toEqual({ stopped: false, simulation: { ok: true } });
     } finally {
       await c.stop();
     }
@@ -232,7 +232,7 @@ describe("motion control", () => {
     expect(busy.body.code).toBe("E_BUSY");
     expect((await readStatus()).state).toBe("moving");
     const stop = await invoke(base, "stop", "");
-    expect(stop.body).toEqual({ stopped: true });
+    expect(stop.body).toEqual({ stopped: true, simulation: { ok: true } });
     const r = await long;
     expect(r.status).toBe(200);
     expect(r.body.status).toBe("stopped");

@@ -5,7 +5,7 @@
  */
 import type { ObstacleMoveParams } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./backend.js";
-import { calibrate, type CalibrateInput } from "./calibration.js";
+import { calibrate, type CalibrateInput } from "./calibrate.js";
 import { badInput, backendDown } from "./errors.js";
 import { ASYNC_ACTIONS } from "@robwot/core";
 import type { CartesianInput, JointInput, Mover, MoveWatch } from "./moves.js";
@@ -67,7 +67,8 @@ export function registerActions(thing: WoT.ExposedThing, d: ActionDeps): Map<str
   }
   on<JointInput>("validateJointPosition", (i) => d.mover.validateJoints(i));
   on<CartesianInput>("validateCartesianPosition", (i) => d.mover.validateCartesian(i));
-  // a stop is never refused, not even while the backend restarts: it cancels a pending move
+  // a stop is never refused, not even while the backend restarts or hangs: it cancels a pending move,
+  // stops the physical robot at once and reports the simulation's and the physical robot's outcomes
   on("stop", () => d.mover.stop(), false);
   on<CalibrateInput>(
     "calibrate",

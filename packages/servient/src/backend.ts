@@ -9,6 +9,11 @@
  * dropped (an external URL); every call in flight then fails with 503 and the restart above follows.
  * Because the world is rebuilt from the servient's record of confirmed operations, an operation that
  * timed out is never half-applied: the backend that might have applied it late is gone.
+ *
+ * The restore that rebuilds the world runs under the same heartbeat (its long methods carry no request
+ * deadline), and at a restart it is bounded as a whole by `restoreMs`: a backend that hangs or never
+ * finishes while the world is rebuilt is killed and replaced like any other. Every failed restart is
+ * emitted (`restartFailed`), and retried after a growing pause.
  */
 import { EventEmitter } from "node:events";
 import { deadlineFromEnv, SimClient, type CallOptions, type RpcCaller } from "@robwot/sim-client";
@@ -29,10 +34,16 @@ export interface Deadlines {
   heartbeatMs: number;
   /** a backend that leaves a ping unanswered this long (ms) is dead (default 5 000) */
   deadAfterMs: number;
+  /**
+   * at a restart, the whole restore (scene, robots, joints) must finish within this (ms, default 300 000).
+   * Restarts find the collision meshes already decomposed (cached at the first start), so a restore is
+   * short; the first start is bounded by the heartbeat alone, since decomposing meshes may take minutes.
+   */
+  restoreMs: number;
 }
 
 /** `ROBWOT_BACKEND_DEADLINE_MS` overrides the 5 s a backend may leave a ping unanswered. */
-export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: 1_000, deadAfterMs: deadlineFromEnv(5_000) };
+export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: 1_000, deadAfterMs: deadlineFromEnv(5_000), restoreMs: 300_000 };
 
 
 export type SimConnector = () => Promise<SimSession>;
@@ -41,7 +52,8 @@ export interface SupervisorEvents {
   notification: [method: string, params: Record<string, unknown>];
   down: [reason: string];
   up: [restarts: number];
-  error: [err: Error];
+  /** a restart attempt failed (it is retried); `attempt` counts from 1 since the backend went down */
+  restartFailed: [err: Error, attempt: number];
 }
 
 export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
@@ -78,6 +90,8 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     private readonly deadlines: Deadlines = DEFAULT_DEADLINES,
   ) {
     super();
+    // one `down` listener per twin (its Mover) besides the servient's own
+    this.setMaxListeners(0);
   }
 
   get isUp(): boolean {
@@ -89,7 +103,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   }
 
   async start(): Promise<void> {
-    await this.open();
+    await this.open(false);
   }
 
   private async call(method: string, params?: object, options?: CallOptions): Promise<unknown> {
@@ -117,6 +131,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   }
 
   private startHeartbeat(s: SimSession): void {
+    this.clearHeartbeat();
     let pending = false;
     this.heartbeat = setInterval(() => {
       if (pending || this.session !== s) return;
@@ -130,6 +145,11 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
         .finally(() => (pending = false));
     }, this.deadlines.heartbeatMs);
     this.heartbeat.unref();
+  }
+
+  private clearHeartbeat(): void {
+    if (this.heartbeat) clearInterval(this.heartbeat);
+    this.heartbeat = null;
   }
 
   /** Resolves when the backend is up (or rejects after `timeoutMs`). */
@@ -151,17 +171,18 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   async stop(): Promise<void> {
     this.stopping = true;
     this.up = false;
-    if (this.heartbeat) clearInterval(this.heartbeat);
+    this.clearHeartbeat();
     const s = this.session;
     this.session = null;
     // stopping: a session whose connection is already gone needs no closing
     if (s) await s.close().catch(() => undefined);
   }
 
-  private async open(): Promise<void> {
+  private async open(restart: boolean): Promise<void> {
     const s = await this.connect();
     s.onNotification("*", (method, params) => this.emit("notification", method, params));
     this.session = s;
+    this.deadReason = null;
     const direct = new SimClient({
       call: async <T>(method: string, params?: object, options?: CallOptions): Promise<T> => {
         try {
@@ -173,29 +194,38 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
       onNotification: (method, listener) => s.onNotification(method, listener),
       close: () => s.close(),
     });
+    // the restore's long methods carry no request deadline: the heartbeat watches it too, and a restart's
+    // restore as a whole must end within restoreMs
+    this.startHeartbeat(s);
+    const bound = restart
+      ? setTimeout(() => this.declareDead(s, `restore not finished within ${this.deadlines.restoreMs} ms`), this.deadlines.restoreMs)
+      : null;
     try {
       await this.restore(direct);
     } catch (err) {
+      this.clearHeartbeat();
+      const reason = this.deadReason;
       // the restore error is what matters (rethrown); closing the half-set-up session is best effort
       await s.close().catch(() => undefined);
       this.session = null;
-      throw err;
+      throw reason === null ? err : new Error(`backend declared dead while restoring the world (${reason}): ${(err as Error).message}`);
+    } finally {
+      if (bound) clearTimeout(bound);
     }
     if (this.stopping) {
       // stop() was called while this (re)start was under way: do not leave a backend behind
+      this.clearHeartbeat();
       this.session = null;
       await s.close().catch(() => undefined); // best effort: we are stopping anyway
       return;
     }
     this.up = true;
-    this.deadReason = null;
-    this.startHeartbeat(s);
     void s.closed.then(() => this.onClosed(s));
   }
 
   private onClosed(s: SimSession): void {
     if (this.session !== s || this.stopping) return;
-    if (this.heartbeat) clearInterval(this.heartbeat);
+    this.clearHeartbeat();
     this.up = false;
     this.session = null;
     this.emit("down", this.deadReason ?? "backend connection closed");
@@ -209,13 +239,13 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     while (!this.stopping) {
       attempt++;
       try {
-        await this.open();
+        await this.open(true);
         if (this.stopping) return;
         this.restarts++;
         this.emit("up", this.restarts);
         return;
       } catch (err) {
-        if (this.listenerCount("error") > 0) this.emit("error", err as Error);
+        this.emit("restartFailed", err instanceof Error ? err : new Error(String(err)), attempt);
         await new Promise((r) => setTimeout(r, Math.min(this.retryDelayMs * attempt, 5_000)));
       }
     }

@@ -8,12 +8,19 @@
  * it holds a `PendingMove`; `stop` cancels it, so a move stopped before its motion started answers
  * `status: "stopped"` without moving, and one stopped during its motion is stopped by the backend
  * (`robot.stop` follows `robot.move` on the same ordered connection, so it cannot overtake it).
+ *
+ * The physical robot (`--relay`) gets a command only after the simulated motion has reached its
+ * target, so a move the simulation ends early (stop, collision, backend down) never reaches it. From
+ * the moment the command is relayed until the physical Thing answers, every path that ends the move
+ * early stops the physical robot: `stop` (its physical part is sent first and never waits on the
+ * simulation), an asynchronous move cancelled, the backend going down, the relayed move's deadline,
+ * and servient shutdown (`shutdown`).
  */
 import type { MoveResult as BackendMoveResult, PlanChecks } from "@robwot/sim-client";
 import { MIN_SPEED, type MoveResult, type Quaternion, type ValidationReport, vec, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "./backend.js";
 import { badInput, ServientError } from "./errors.js";
-import type { Relay, RelayReport } from "./relay.js";
+import { answered, STOP_DEADLINE_MS, type PhysicalStopReport, type Relay, type RelayReport } from "./relay.js";
 import type { Twin } from "./twin.js";
 import { poseTarget, report, staticChecks, validateCartesian, validateJoints, type PoseTarget } from "./validation.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
@@ -62,7 +69,27 @@ export function cartesianTarget(input: CartesianInput): { real: Vec3; orientatio
 interface PendingMove {
   cancelled: boolean;
   sent: boolean;
+  /** set while the command is relayed to the physical robot and not yet answered */
+  relaying: boolean;
+  /** why the twin stopped the physical robot during this move's relay (not set by `stop`) */
+  physicalStop?: { reason: string; report: Promise<PhysicalStopReport> };
 }
+
+/** The answer of `stop`: both outcomes, the physical robot's only with `--relay`. */
+export interface StopReport {
+  /** a move was pending, or the simulation or the physical robot stopped one */
+  stopped: boolean;
+  simulation: { ok: boolean; error?: string };
+  physical?: { ok: boolean; attempts: number; error?: string };
+}
+
+/**
+ * A relayed move that the physical robot has not answered within `factor` times the simulated motion's
+ * duration plus `marginMs` is stopped there: the physical robot is expected to move like its twin.
+ */
+export const RELAY_MOVE_DEADLINE = { factor: 3, marginMs: 10_000 };
+
+const errorMessage = (err: unknown): string => (err instanceof Error ? err.message : String(err));
 
 /** What an asynchronous invocation (`action-status.ts`) sees of its move once accepted. */
 export interface MoveHandle {
@@ -86,7 +113,12 @@ export class Mover {
     private readonly ws: WorkspaceChecks | null,
     private readonly realtime: number,
     private readonly relay: Relay | null,
-  ) {}
+  ) {
+    // the simulation that validated a relayed command is gone: the physical robot does not run on unwatched
+    backend.on("down", (reason) => {
+      if (this.pending?.relaying) this.stopPhysical(this.pending, `simulation backend down: ${reason}`);
+    });
+  }
 
   async validateJoints(input: JointInput): Promise<ValidationReport> {
     const q = this.twin.jointsVector(input.joints);
@@ -105,8 +137,7 @@ export class Mover {
       const result = await this.execute(move, { target: q }, speed, null);
       // a stop that came after the simulated motion ended still keeps the command from the physical robot
       if (result.status === "reached" && this.relay && !move.cancelled) {
-        result.relay = await this.relay.forward("moveToJointPosition", { joints: this.twin.jointsRecord(q), speed });
-        this.reportRelay(result.relay);
+        result.relay = await this.relayMove(move, this.relay, "moveToJointPosition", { joints: this.twin.jointsRecord(q), speed }, result.duration);
       }
       return result;
     });
@@ -124,26 +155,96 @@ export class Mover {
       if (result.status === "reached" && this.relay && !move.cancelled) {
         const cmd: Record<string, unknown> = { x: t.real[0], y: t.real[1], z: t.real[2], speed };
         if (t.orientation) cmd.orientation = t.orientation;
-        result.relay = await this.relay.forward("moveToCartesianPosition", cmd);
-        this.reportRelay(result.relay);
+        result.relay = await this.relayMove(move, this.relay, "moveToCartesianPosition", cmd, result.duration);
       }
       return result;
     });
   }
 
   /**
-   * Cancels the pending move (whatever stage it is in) and stops the backend's motion; `stopped` is
-   * true when a move was pending or the backend or the physical robot stopped one. A stop is never
-   * refused: with the backend down the pending move is still cancelled.
+   * Cancels the pending move (whatever stage it is in) and stops the backend's motion and the physical
+   * robot at once, neither waiting on the other. Never refused: with the backend down or hung the
+   * simulation part reports its failure (after at most `STOP_DEADLINE_MS`), the physical stop is still
+   * sent and retried (`Relay.stop`).
    */
-  async stop(): Promise<{ stopped: boolean }> {
+  async stop(): Promise<StopReport> {
     const move = this.pending;
     if (move) move.cancelled = true;
-    let backendStopped = false;
-    if (this.backend.isUp) backendStopped = (await this.backend.sim.stop(this.twin.robotId)).stopped;
-    let relayed = false;
-    if (this.relay) relayed = (await this.relay.forward("stop", undefined)).ok;
-    return { stopped: move !== null || backendStopped || relayed };
+    // the physical robot first: its stop is on its way before anything waits on the simulation
+    const physical = this.relay ? this.relay.stop() : null;
+    const [sim, phys] = await Promise.all([this.stopSimulation(), physical]);
+    const out: StopReport = {
+      stopped: move !== null || sim.stopped || (phys?.ok === true && phys.stopped),
+      simulation: sim.error === undefined ? { ok: sim.ok } : { ok: sim.ok, error: sim.error },
+    };
+    if (phys) out.physical = phys.error === undefined ? { ok: phys.ok, attempts: phys.attempts } : { ok: phys.ok, attempts: phys.attempts, error: phys.error };
+    if (phys && !phys.ok) this.twin.setStatus({ lastError: { code: "E_RELAY", message: `stop not confirmed by the physical robot: ${phys.error}` } });
+    return out;
+  }
+
+  /**
+   * Servient shutdown: cancels the pending move and, when a relayed command may be running on the
+   * physical robot, stops it there (retried until it answers or the stop deadline passes).
+   */
+  async shutdown(): Promise<void> {
+    const move = this.pending;
+    if (!move) return;
+    move.cancelled = true;
+    if (move.relaying) await this.stopPhysical(move, "servient shutting down").report;
+  }
+
+  /** The simulation's part of a stop: bounded by `STOP_DEADLINE_MS` (a hung backend is the heartbeat's to end). */
+  private async stopSimulation(): Promise<{ ok: boolean; stopped: boolean; error?: string }> {
+    if (!this.backend.isUp) return { ok: false, stopped: false, error: "simulation backend down (restarting): a motion in flight ended with it" };
+    let timer: NodeJS.Timeout | undefined;
+    const late = new Promise<never>((_, reject) => {
+      timer = setTimeout(() => reject(new Error(`the simulation backend did not confirm the stop within ${STOP_DEADLINE_MS} ms`)), STOP_DEADLINE_MS);
+    });
+    try {
+      const r = await Promise.race([this.backend.sim.stop(this.twin.robotId), late]);
+      return { ok: true, stopped: r.stopped };
+    } catch (err) {
+      return { ok: false, stopped: false, error: errorMessage(err) };
+    } finally {
+      clearTimeout(timer);
+    }
+  }
+
+  /** Stops the physical robot for `move` once (later reasons reuse the first stop). */
+  private stopPhysical(move: PendingMove, reason: string): { reason: string; report: Promise<PhysicalStopReport> } {
+    if (!move.physicalStop && this.relay) {
+      move.physicalStop = { reason, report: this.relay.stop() };
+      this.twin.setStatus({ lastError: { code: "E_RELAY", message: `physical robot stopped: ${reason}` } });
+    }
+    return move.physicalStop ?? { reason, report: Promise.resolve({ ok: false, attempts: 0, stopped: false, error: "no relay" }) };
+  }
+
+  /**
+   * Relays a move the simulation has completed and waits for the physical robot's answer, at most
+   * `RELAY_MOVE_DEADLINE` after the simulated duration; past it the physical robot is stopped. When
+   * the twin stopped the physical robot (backend down, deadline) the report says why.
+   */
+  private async relayMove(move: PendingMove, relay: Relay, action: string, input: unknown, duration: number): Promise<RelayReport> {
+    const deadlineMs = Math.ceil(duration * 1000 * RELAY_MOVE_DEADLINE.factor + RELAY_MOVE_DEADLINE.marginMs);
+    move.relaying = true;
+    let r: RelayReport;
+    try {
+      r = await relay.forward(action, input, deadlineMs);
+      if (!answered(r) && !move.cancelled) {
+        // no answer in time, or the connection failed mid-command: the command may be running there
+        this.stopPhysical(move, `relayed ${action} without an answer (${r.error})`);
+      }
+    } finally {
+      move.relaying = false;
+    }
+    const stop = move.physicalStop;
+    if (stop) {
+      const s = await stop.report;
+      const how = s.ok ? `stop confirmed after ${s.attempts} attempt(s)` : `stop not confirmed: ${s.error}`;
+      r = { ...r, ok: false, error: `stopped by the twin (${stop.reason}); ${how}` };
+    }
+    this.reportRelay(r);
+    return r;
   }
 
   /** One move at a time per twin: the busy flag and the pending move are taken before validation starts. */
@@ -155,7 +256,7 @@ export class Mover {
       });
     }
     this.twin.busy = true;
-    const move: PendingMove = { cancelled: false, sent: false };
+    const move: PendingMove = { cancelled: false, sent: false, relaying: false };
     this.pending = move;
     watch?.(this.handle(move));
     try {

@@ -117,6 +117,11 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   backend.on("down", (reason) => {
     for (const t of twins.values()) t.setStatus({ lastError: { code: "E_BACKEND_DOWN", message: `simulation backend down (${reason}); restarting` } });
   });
+  backend.on("restartFailed", (err, attempt) => {
+    const message = `simulation backend restart ${attempt} failed (${err.message}); retrying`;
+    for (const t of twins.values()) t.setStatus({ lastError: { code: "E_BACKEND_DOWN", message } });
+    process.emitWarning(`robwot serve: ${message}`, { code: "ROBWOT_BACKEND_RESTART" });
+  });
   backend.on("up", (n) => {
     for (const t of twins.values()) {
       t.setStatus({ state: t.busy ? t.status.state : "idle", lastError: { code: "E_BACKEND_RESTARTED", message: `simulation backend restarted (${n}); state restored` } });
@@ -149,6 +154,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   servient.addServer(http);
   servient.addClientFactory(new HttpClientFactory());
   let live: LiveServer | null = null;
+  const movers: Mover[] = [];
   try {
     const wot = await servient.start();
     port = http.getPort();
@@ -167,6 +173,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         (cached ??= servedTd(twin.folder.td, { url, slug, liveUrl, auth: opts.auth, frames: twin.frames, bounds }));
       const thing = await wot.produce(produceInit(twin.folder.td));
       const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
+      movers.push(mover);
       registerProperties(thing, twin);
       const asyncActions = registerActions(thing, { backend, twin, mover, world, onCalibrated: () => (cached = null) });
       await thing.expose();
@@ -212,6 +219,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     twins,
     stop: () =>
       (stopping ??= (async () => {
+        // first, while node-wot's HTTP client still works: a relayed command running on the physical
+        // robot is stopped there (the servient that watched it is going away)
+        await Promise.all(movers.map((m) => m.shutdown()));
         await live?.close();
         // stopping: node-wot failing to unregister a Thing changes nothing, the server closes anyway
         const shut = servient.shutdown().catch(() => undefined);

@@ -10,6 +10,7 @@ import {
   jointsSchema,
   moveResultSchema,
   quaternionSchema,
+  stopResultSchema,
   UNIT_M,
   validationReportSchema,
   xyzSchema,
@@ -108,8 +109,8 @@ export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): R
     },
     stop: {
       title: "Stop",
-      description: "Stops the running motion, if any.",
-      output: { type: "object", properties: { stopped: { type: "boolean" } }, required: ["stopped"] },
+      description: "Stops the running motion, if any, in the simulation and (with a relay) on the physical robot at once; never refused.",
+      output: stopResultSchema(),
       safe: false,
       idempotent: true,
     },

@@ -218,6 +218,34 @@ export function validationReportSchema(): DataSchema {
   };
 }
 
+/** `stop`'s answer: both outcomes, the simulation's and (with `--relay`) the physical robot's. Closed. */
+export function stopResultSchema(): DataSchema {
+  const error = { type: "string", description: "why this part failed" } as const;
+  return {
+    type: "object",
+    description: "A stop is never refused: each part reports its own outcome",
+    properties: {
+      stopped: { type: "boolean", description: "a move was pending, or the simulation or the physical robot stopped one" },
+      simulation: {
+        type: "object",
+        description: "the simulation's stop (fails when the backend is down or does not answer within the stop deadline)",
+        properties: { ok: { type: "boolean" }, error },
+        required: ["ok"],
+        additionalProperties: false,
+      },
+      physical: {
+        type: "object",
+        description: "only with --relay: the physical robot's stop, sent at once and retried until it answers or the stop deadline passes",
+        properties: { ok: { type: "boolean" }, attempts: { type: "integer", minimum: 0, description: "stop requests sent" }, error },
+        required: ["ok", "attempts"],
+        additionalProperties: false,
+      },
+    },
+    required: ["stopped", "simulation"],
+    additionalProperties: false,
+  };
+}
+
 export function calibrationResultSchema(): DataSchema {
   return {
     type: "object",

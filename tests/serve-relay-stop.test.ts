@@ -1,0 +1,194 @@
+/**
+ * The physical robot's stop first: with `relay`, a stop reaches the physical robot at once and whatever
+ * the simulation does (hung backend included), and every path that ends a relayed move early stops the
+ * physical robot too (the relayed move's deadline, the backend going down, servient shutdown). The
+ * physical robot is a second twin served by `startServient` (`realtime: 1`) whose joints are 20 times
+ * slower than the model the relaying twin simulates, so its relayed motions run for many seconds.
+ * Real servients, real backends, real HTTP.
+ */
+import { readFileSync, writeFileSync } from "node:fs";
+import { join } from "node:path";
+import { afterAll, beforeAll, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { generateTwin, http, invoke, kukaPose, sleep, waitMoved, type HttpAnswer } from "./serve-helpers.js";
+
+/** the stop deadline of the relay (packages/servient/README.md) */
+const STOP_DEADLINE_MS = 5_000;
+const J1 = "lbr_iiwa_joint_1";
+const target = (j1: number): Record<string, number> => kukaPose([j1, 0.3, 0, -0.8, 0, 0.4, 0]);
+
+let physical: RunningServient;
+let twin: RunningServient;
+let pBase: string;
+let vBase: string;
+const stoppedPids: number[] = [];
+
+beforeAll(async () => {
+  const pdir = await generateTwin("kuka_iiwa", 3000);
+  // the stand-in physical robot moves 20x slower than the model its twin simulates
+  const urdf = join(pdir, "robot.urdf");
+  writeFileSync(urdf, readFileSync(urdf, "utf8").replaceAll('velocity="10"', 'velocity="0.5"'));
+  physical = await startServient({ twins: [pdir], port: 0, realtime: 1 });
+  pBase = `${physical.url}/${physical.things[0]!.slug}`;
+  twin = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, relay: pBase });
+  vBase = `${twin.url}/${twin.things[0]!.slug}`;
+});
+
+afterAll(async () => {
+  for (const pid of stoppedPids) {
+    try {
+      process.kill(pid, "SIGCONT");
+    } catch {
+      // killed by the supervisor already: nothing to resume
+    }
+  }
+  await twin?.stop();
+  await physical?.stop();
+});
+
+const physicalJ1 = async (): Promise<number> => (await http(`${pBase}/properties/getJointPosition`)).body[J1];
+const physicalState = async (): Promise<string> => (await http(`${pBase}/properties/motionStatus`)).body.state;
+
+/** Sends a move to the relaying twin and resolves once the physical robot is really moving (the move's
+ *  answer wrapped: an async function returning a promise would wait for it). */
+async function relayedMove(base: string, j1: number, speed: number): Promise<{ answer: Promise<HttpAnswer> }> {
+  const from = await physicalJ1();
+  const answer = invoke(base, "moveToJointPosition", { joints: target(j1), speed });
+  answer.catch(() => undefined); // awaited by the test, or closed with a servient it shuts down
+  const ended = answer.then((r) => {
+    throw new Error(`the relayed move ended before the physical robot was seen moving: ${r.status} ${JSON.stringify(r.body)}`);
+  });
+  await Promise.race([waitMoved(pBase, J1, from, 0.02, 20_000), ended]);
+  ended.catch(() => undefined);
+  return { answer };
+}
+
+/** ms until the physical robot reports `stopped`; throws after `timeoutMs` (e.g. it is still moving). */
+async function physicalStopped(t0: number, timeoutMs: number): Promise<number> {
+  while (Date.now() - t0 < timeoutMs) {
+    if ((await physicalState()) === "stopped") return Date.now() - t0;
+    await sleep(20);
+  }
+  throw new Error(`the physical robot is still "${await physicalState()}" ${timeoutMs} ms later`);
+}
+
+/** Waits until the supervisor has replaced the backend `pid` (killed, restarted, world restored). */
+async function replaced(pid: number): Promise<void> {
+  const end = Date.now() + 60_000;
+  while (twin.backend.pid === pid || !twin.backend.isUp) {
+    if (Date.now() > end) throw new Error(`backend ${pid} not replaced within 60 s`);
+    await sleep(50);
+  }
+}
+
+/** The physical robot stands still: its joints do not change over half a second. */
+async function standsStill(): Promise<number> {
+  const a = await physicalJ1();
+  await sleep(500);
+  const b = await physicalJ1();
+  expect(b).toBe(a);
+  return b;
+}
+
+it("a relayed move the physical robot does not finish within its deadline is stopped there", async () => {
+  // simulated in 1 s (1.5 rad at 10 rad/s x 0.15); deadline 3 x 1 s + 10 s; the physical robot needs 20 s
+  const t0 = Date.now();
+  const r = await invoke(vBase, "moveToJointPosition", { joints: target(1.5), speed: 0.15 });
+  const ms = Date.now() - t0;
+  expect(r.status, JSON.stringify(r.body)).toBe(200);
+  expect(r.body.status).toBe("reached");
+  expect(r.body.duration).toBeCloseTo(1, 1);
+  expect(r.body.relay.ok).toBe(false);
+  expect(r.body.relay.error).toMatch(/stopped by the twin \(relayed moveToJointPosition without an answer .*within 130\d\d ms.*\); stop confirmed/);
+  expect(ms).toBeLessThan(13_000 + STOP_DEADLINE_MS);
+  expect(await physicalState()).toBe("stopped");
+  const j1 = await standsStill();
+  expect(j1).toBeGreaterThan(0.2);
+  expect(j1).toBeLessThan(1.45);
+  expect((await http(`${vBase}/properties/motionStatus`)).body.lastError.code).toBe("E_RELAY");
+});
+
+it("a stop during the physical motion stops the physical robot at once and reports both outcomes", async () => {
+  const { answer: move } = await relayedMove(vBase, -1.5, 0.05);
+  const t0 = Date.now();
+  const stop = invoke(vBase, "stop", "");
+  const stoppedMs = await physicalStopped(t0, 3_000);
+  const s = await stop;
+  expect(s.status).toBe(200);
+  expect(s.body).toEqual({ stopped: true, simulation: { ok: true }, physical: { ok: true, attempts: 1 } });
+  expect(stoppedMs).toBeLessThan(1_000);
+  await standsStill();
+  const r = await move;
+  expect(r.body.relay.ok).toBe(false);
+  expect(r.body.relay.result.status).toBe("stopped");
+});
+
+it("with the twin's backend hung (SIGSTOP), stop still answers 200, the physical robot stopped at once", async () => {
+  const { answer: move } = await relayedMove(vBase, 1.5, 0.05);
+  const pid = twin.backend.pid!;
+  process.kill(pid, "SIGSTOP");
+  stoppedPids.push(pid);
+  const t0 = Date.now();
+  const stop = invoke(vBase, "stop", "");
+  const stoppedMs = await physicalStopped(t0, 3_000);
+  const s = await stop;
+  const answerMs = Date.now() - t0;
+  console.log(`stop with a SIGSTOPped backend: physical robot stopped after ${stoppedMs} ms, answer after ${answerMs} ms`);
+  expect(s.status).toBe(200);
+  expect(s.body.stopped).toBe(true);
+  expect(s.body.physical).toEqual({ ok: true, attempts: 1 });
+  expect(s.body.simulation.ok).toBe(false);
+  expect(typeof s.body.simulation.error).toBe("string");
+  expect(stoppedMs).toBeLessThan(1_000);
+  expect(answerMs).toBeLessThan(STOP_DEADLINE_MS + 1_500);
+  await standsStill();
+  await move;
+  await replaced(pid);
+});
+
+it("the twin's backend going down (heartbeat deadline) during a relayed motion stops the physical robot", async () => {
+  // simulated in 15 s: the relayed move's own deadline (55 s) is far away
+  const { answer: move } = await relayedMove(vBase, -1.5, 0.02);
+  const pid = twin.backend.pid!;
+  process.kill(pid, "SIGSTOP");
+  stoppedPids.push(pid);
+  const t0 = Date.now();
+  // declared dead when a ping stays unanswered for 5 s (pings every second)
+  const stoppedMs = await physicalStopped(t0, 12_000);
+  expect(stoppedMs).toBeGreaterThan(3_000);
+  await standsStill();
+  const r = await move;
+  expect(r.body.relay.ok).toBe(false);
+  expect(r.body.relay.error).toMatch(/stopped by the twin \(simulation backend down: .*\); stop confirmed/);
+  await replaced(pid);
+});
+
+it("shutting down a relaying servient stops the physical robot it commanded", async () => {
+  const other = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, relay: pBase });
+  try {
+    const base = `${other.url}/${other.things[0]!.slug}`;
+    await relayedMove(base, 1.5, 0.02);
+    const t0 = Date.now();
+    await other.stop();
+    expect(Date.now() - t0).toBeLessThan(STOP_DEADLINE_MS + 5_000);
+    await physicalStopped(Date.now(), 500);
+    await standsStill();
+  } finally {
+    await other.stop();
+  }
+});
+
+it("a physical robot that does not answer: stop retries until the deadline, then says so (200, not 503)", async () => {
+  await physical.stop();
+  const t0 = Date.now();
+  const s = await invoke(vBase, "stop", "");
+  const ms = Date.now() - t0;
+  expect(s.status).toBe(200);
+  expect(s.body.simulation).toEqual({ ok: true });
+  expect(s.body.physical.ok).toBe(false);
+  expect(s.body.physical.attempts).toBeGreaterThan(1);
+  expect(s.body.physical.error).toMatch(/no answer to stop within 5000 ms/);
+  expect(ms).toBeGreaterThanOrEqual(STOP_DEADLINE_MS - 100);
+  expect(ms).toBeLessThan(STOP_DEADLINE_MS + 1_500);
+  expect((await http(`${vBase}/properties/motionStatus`)).body.lastError.code).toBe("E_RELAY");
+});
