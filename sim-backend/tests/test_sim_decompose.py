@@ -8,8 +8,15 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from robwot_sim.sim import decompose as decompose_module
-from robwot_sim.sim.decompose import cache_key, decompose, is_convex, remesh_resolution, slim, surface_points
+from robwot_sim.model import decompose as decompose_module
+from robwot_sim.model.decompose import (
+    cache_key,
+    decompose,
+    is_convex,
+    remesh_resolution,
+    slim,
+    surface_points,
+)
 
 
 def box(lo: list[float], hi: list[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -150,7 +157,7 @@ def test_new_meshes_are_decomposed_in_parallel_as_they_would_be_one_by_one(tmp_p
     parts, byte for byte, as one at a time; convex meshes are kept; a concave mesh becomes its parts."""
     import xml.etree.ElementTree as ET
 
-    from robwot_sim.sim.decompose import split_collisions
+    from robwot_sim.model.decompose import split_collisions
 
     v, f = u_shape()
     obj = tmp_path / "u.obj"
@@ -183,7 +190,7 @@ def test_a_robot_with_many_parts_loads_from_a_long_cache_path(tmp_path: Path,
     """PyBullet breaks long URDF lines: the KUKA's parts (~26 per link) named by absolute path under a long
     cache path, one link per line, failed to load ("Cannot load URDF file"; a fresh CI cache). The prepared
     file has one element per line."""
-    from robwot_sim.sim.decompose import collision_cache
+    from robwot_sim.model.decompose import collision_cache
     from robwot_sim.sim.world import World
 
     real = collision_cache(tmp_path)  # the usual cache: its parts are reused, only the path is longer

@@ -14,8 +14,8 @@ from rpc_backend import RpcClient
 from test_sim_decompose import to_obj, u_shape
 
 from robwot_sim.errors import MeshError
-from robwot_sim.meshcheck import check_mesh
-from robwot_sim.sim.decompose import MANIFEST, cache_key, decompose
+from robwot_sim.model.decompose import MANIFEST, cache_key, decompose
+from robwot_sim.model.meshcheck import check_mesh
 
 URDF = """<robot name="arm">
   <link name="base"/>

@@ -1,4 +1,4 @@
-"""Vectorised FK (robwot_sim.workspace.fk) against PyBullet's link frames (World.fk) and sampling."""
+"""Vectorised FK (robwot_sim.model.fk) against PyBullet's link frames (World.fk) and sampling."""
 
 from __future__ import annotations
 
@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from robwot_sim.errors import InvalidParams, UnknownLink
+from robwot_sim.model.fk import ChainFK
+from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 from robwot_sim.sim.world import World
 from robwot_sim.urdf import read_urdf
 from robwot_sim.workspace import chain_fk
-from robwot_sim.workspace.fk import ChainFK, quat_matrix, rpy_matrix
 from robwot_sim.workspace.sampling import BLOCK, sample_configurations
 
 MODELS = Path(__file__).parent / "models" / "workspace"

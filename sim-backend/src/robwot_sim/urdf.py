@@ -20,8 +20,8 @@ import pybullet_data
 
 from robwot_sim import xmlsafe
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UrdfError
-from robwot_sim.meshcheck import check_mesh, read_mesh, snippet
-from robwot_sim.sim.decompose import FloatArray, IndexArray, collision_cache, split_collisions
+from robwot_sim.model.decompose import FloatArray, IndexArray, collision_cache, split_collisions
+from robwot_sim.model.meshcheck import check_mesh, read_mesh, snippet
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
 MESH_SUFFIXES = (".stl", ".obj", ".dae")

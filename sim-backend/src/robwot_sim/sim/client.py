@@ -260,8 +260,3 @@ class Bullet:
         )
         self._static_key[body] = key
         return body
-
-
-def quat_from_rpy(rpy: Sequence[float]) -> Quat:
-    q = pb.getQuaternionFromEuler(list(rpy))
-    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))

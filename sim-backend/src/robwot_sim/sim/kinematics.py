@@ -18,6 +18,7 @@ import numpy as np
 import pybullet as pb
 
 from robwot_sim.errors import Unreachable
+from robwot_sim.model.rotations import quat_angle, quat_matrix
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray, IkResult, Pose
 from robwot_sim.sim.world_thread import checkpoint
@@ -40,13 +41,6 @@ def fk_pose(robot: BoundRobot) -> Pose:
     """End-effector link frame at the robot's current state."""
     pos, quat = robot.bullet.link_frame(robot.body, robot.ee_index)
     return Pose(pos, quat, robot.ee_link)
-
-
-def quat_angle(a: Sequence[float], b: Sequence[float]) -> float:
-    """Rotation angle (rad) between two unit quaternions [x, y, z, w]."""
-    d = abs(sum(x * y for x, y in zip(a, b, strict=True)))
-    na = math.sqrt(sum(x * x for x in a) * sum(y * y for y in b))
-    return 2.0 * math.acos(min(1.0, d / na)) if na > 0 else math.pi
 
 
 def wrap_clip(robot: BoundRobot, q: FloatArray) -> FloatArray:
@@ -79,7 +73,7 @@ def reach_sphere(robot: BoundRobot) -> tuple[FloatArray, float]:
     for ji in chain:
         pos, quat = b.link_frame(body, ji.idx)
         origins.append(np.array(pos))
-        rot = np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3)
+        rot = quat_matrix(quat)
         axes.append(rot @ np.array(ji.axis) / max(float(np.linalg.norm(ji.axis)), 1e-12))
     centre, first, lines = np.array(b.link_frame(body, -1)[0]), -1, []
     for k, ji in enumerate(chain):

@@ -31,8 +31,9 @@ import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
+from robwot_sim.model.fk import chain_frames
+from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.sim.types import FloatArray
-from robwot_sim.workspace.fk import chain_frames, quat_matrix
 
 PER_PART = 3  # balls per convex part
 MAX_BALLS = 8  # largest balls kept per link
@@ -232,8 +233,8 @@ def build_sure_hits(bound: Any, filtered: set[tuple[int, int]], urdf: Path, mode
                     obstacles: list[dict[str, Any]]) -> SureHits:
     """The sure-hit test of a loaded robot (``BoundRobot``, its filtered pairs, URDF and ``RobotModel``).
     Empty (never a hit) when the FK does not reproduce Bullet's link frames to 1e-6 m / 1e-6."""
+    from robwot_sim.model.fk import ChainFK
     from robwot_sim.urdf import read_urdf
-    from robwot_sim.workspace.fk import ChainFK
 
     cid, body = bound.bullet.cid, bound.body
     links = [ln for ln in bound.moving_links if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]

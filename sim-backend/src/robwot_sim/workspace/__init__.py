@@ -17,9 +17,9 @@ import numpy as np
 
 import robwot_sim
 from robwot_sim.errors import InvalidParams
+from robwot_sim.model.fk import ChainFK
 from robwot_sim.urdf import read_urdf
 from robwot_sim.workspace.chunk import ChunkJob, ChunkSink
-from robwot_sim.workspace.fk import ChainFK
 from robwot_sim.workspace.io import atomic_write, csv_layout, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
 from robwot_sim.workspace.reachability import (

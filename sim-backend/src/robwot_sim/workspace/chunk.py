@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from robwot_sim.workspace.fk import ChainFK
+from robwot_sim.model.fk import ChainFK
 from robwot_sim.workspace.io import csv_table, format_rows
 from robwot_sim.workspace.reachability import ReachabilityMap, direction_bins
 from robwot_sim.workspace.sampling import sample_configurations

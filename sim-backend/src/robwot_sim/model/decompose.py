@@ -35,7 +35,7 @@ import numpy.typing as npt
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 from robwot_sim.errors import MeshError, PathEscape
-from robwot_sim.meshcheck import check_mesh, snippet
+from robwot_sim.model.meshcheck import check_mesh, snippet
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.errors import UnknownLink, UrdfError
+from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -40,27 +41,6 @@ class ChainJoint:
     source: int
     multiplier: float = 1.0
     offset: float = 0.0
-
-
-def rpy_matrix(roll: float, pitch: float, yaw: float) -> FloatArray:
-    """URDF fixed-axis rotation ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``."""
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
-                              math.cos(yaw), math.sin(yaw))
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]], dtype=np.float64)
-
-
-def quat_matrix(quat_xyzw: Sequence[float]) -> FloatArray:
-    """Rotation matrix of a quaternion ``[x, y, z, w]`` (normalised first)."""
-    x, y, z, w = (float(v) for v in quat_xyzw)
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    if n == 0.0:
-        raise ValueError("zero quaternion")
-    x, y, z, w = x / n, y / n, z / n, w / n
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]], dtype=np.float64)
 
 
 def _floats(text: str | None, n: int, default: float, *, where: str, file: str) -> tuple[float, ...]:
