@@ -9,9 +9,11 @@ import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient } from "../packages/servient/src/index.js";
-import { runCli, TINY_URDF } from "./cli-run.js";
+import { REPO, runCli, TINY_URDF } from "./cli-run.js";
 import { http } from "./serve-helpers.js";
 
+const MODELS = join(REPO, "sim-backend", "tests", "models");
+const XACRO = join(MODELS, "ros_ws", "tinyxacro_description", "urdf", "arm.urdf.xacro");
 const SAMPLES = "2000";
 let work: string;
 
@@ -71,6 +73,87 @@ describe("--base X,Y,Z[,ROLL,PITCH,YAW]", () => {
     const r = await runCli(["generate", join(work, "tiny.urdf"), "--scene", scene, "--base", "1,0,0", "--samples", SAMPLES, "--out", out]);
     expect(r.code).toBe(2);
     expect(r.stderr).toMatch(/--base places the robot, but the scene .*placing\.scene\.json places it too/);
+    expect(existsSync(out)).toBe(false);
+  }, 60_000);
+});
+
+describe("xacro", () => {
+  it("expands robot.urdf.xacro with --xacro-arg: robot.urdf is the expansion, twin.json records the args, serve uses it", async () => {
+    const out = join(work, "xacro");
+    const r = await runCli(["generate", XACRO, "--xacro-arg", "upper_length:=0.25", "--samples", SAMPLES, "--out", out]);
+    expect(r.code, r.stderr).toBe(0);
+    expect(r.stdout).toContain("twin \"tinyxacro\" written");
+    expect(json(join(out, "twin.json")).robot.xacro).toEqual({ file: "arm.urdf.xacro", args: { upper_length: "0.25" } });
+    const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
+    expect(urdf).not.toMatch(/\$[{(]|xmlns:xacro|<xacro:/);
+    expect(urdf).toMatch(/<box size="0.04 0.04 0.25"/);
+    expect([...urdf.matchAll(/<mesh filename="([^"]+)"/g)].map((m) => m[1])).toEqual(["meshes/link.stl", "meshes/link.stl"]);
+    expect(existsSync(join(out, "meshes", "link.stl"))).toBe(true);
+    const served = await startServient({ twins: [out], port: 0, realtime: 0 });
+    try {
+      const pose = (await http(`${served.things[0]!.tdUrl}/properties/getCartesianPosition`)).body;
+      expect(pose.z).toBeCloseTo(0.1 + 0.05 + 0.25 + 0.2, 6); // the arg's upper arm, not the default 0.3
+    } finally {
+      await served.stop();
+    }
+  }, 180_000);
+
+  it("finds package:// on ROS_PACKAGE_PATH; without it names the package and the option that fixes it", async () => {
+    const out = join(work, "xacro-tool");
+    const args = ["generate", XACRO, "--xacro-arg", "with_tool:=true", "--samples", SAMPLES, "--out", out];
+    const saved = process.env.ROS_PACKAGE_PATH;
+    try {
+      delete process.env.ROS_PACKAGE_PATH;
+      const missing = await runCli(args);
+      expect(missing.code).toBe(1);
+      expect(missing.stderr).toContain(`${XACRO}: package://tinytool/meshes/tool.stl: ROS package 'tinytool' not found`);
+      expect(missing.stderr).toContain("give --package-root tinytool=DIR");
+      expect(missing.stderr).toContain("ROS_PACKAGE_PATH");
+      expect(existsSync(out)).toBe(false);
+      process.env.ROS_PACKAGE_PATH = join(MODELS, "ros_ws", "extra");
+      const r = await runCli(args);
+      expect(r.code, r.stderr).toBe(0);
+      expect(readFileSync(join(out, "robot.urdf"), "utf8")).toContain('<link name="tool">');
+    } finally {
+      if (saved === undefined) delete process.env.ROS_PACKAGE_PATH;
+      else process.env.ROS_PACKAGE_PATH = saved;
+    }
+  }, 180_000);
+
+  it("refuses xacro's errors naming the file and line", async () => {
+    const bad = join(work, "bad.urdf.xacro");
+    writeFileSync(bad, '<robot name="bad" xmlns:xacro="http://www.ros.org/wiki/xacro">\n<link name="base"/>\n<link name="$(arg prefix)arm"/>\n</robot>\n');
+    const r = await runCli(["generate", bad, "--out", join(work, "never-xacro")]);
+    expect(r.code).toBe(1);
+    expect(r.stderr).toContain(`robwot: error: ${bad}:3: xacro: undefined argument 'prefix': give it with --xacro-arg prefix:=VALUE`);
+  }, 60_000);
+
+  it.each([
+    [["--xacro-arg", "upper_length=0.25"], 'NAME:=VALUE (e.g. prefix:=left_), got "upper_length=0.25"'],
+    [["--xacro-arg", "a:=1", "--xacro-arg", "a:=2"], "--xacro-arg a given twice"],
+  ])("refuses malformed --xacro-arg %j", async (extra, says) => {
+    const r = await runCli(["generate", XACRO, ...extra, "--out", join(work, "never-arg")]);
+    expect(r.code).toBe(2);
+    expect(r.stderr).toContain(says);
+  });
+
+  it("refuses --xacro-arg for a plain URDF", async () => {
+    const r = await runCli(["generate", join(work, "tiny.urdf"), "--xacro-arg", "a:=1", "--out", join(work, "never-arg")]);
+    expect(r.code).toBe(2);
+    expect(r.stderr).toContain("--xacro-arg is for a xacro file (robot.urdf.xacro)");
+  });
+});
+
+describe("xacro left in a URDF", () => {
+  it.each([
+    ["xacro_as_urdf.urdf", 10, "unexpanded xacro '0 0 ${L}' in attribute 'xyz' of <origin>"],
+    ["xacro_in_collision.urdf", 7, "unexpanded xacro '0.1 0.1 $(arg arm_length)' in attribute 'size' of <box>"],
+  ])("%s is refused with file:line and the hint", async (name, line, says) => {
+    const out = join(work, "never-unexpanded");
+    const r = await runCli(["generate", join(MODELS, name), "--samples", SAMPLES, "--out", out]);
+    expect(r.code).toBe(1);
+    expect(r.stderr).toContain(`robwot: error: ${join(MODELS, name)}:${line}: ${says}: a xacro file? name it .xacro or pass it as robot.urdf.xacro`);
+    expect(r.stderr).not.toContain("expected 3 numbers");
     expect(existsSync(out)).toBe(false);
   }, 60_000);
 });

@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription } from "@robwot/core";
-import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type RobotLoadParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type WorldList } from "@robwot/sim-client";
+import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type RobotExpandXacroParams, type RobotLoadParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type WorldList, type XacroExpanded } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type { RobotModel, WorkspaceSummary, WorldList };
@@ -21,6 +21,8 @@ export interface Backend {
   loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void>;
   listWorld(): Promise<WorldList>;
   exportRobot(params: { robot: string; outDir: string }): Promise<void>;
+  /** A xacro file expanded into a URDF file in a temporary folder of its own (the caller deletes it). */
+  expandXacro(params: RobotExpandXacroParams): Promise<XacroExpanded>;
   /** Starts the backend's collision workers ahead of `generateWorkspace` (an optimisation: never fails). */
   warmUp(workers?: number): Promise<void>;
   generateWorkspace(
@@ -95,6 +97,9 @@ class SimBackend implements Backend {
   }
   listWorld(): Promise<WorldList> {
     return this.guard(this.client.listWorld());
+  }
+  expandXacro(params: RobotExpandXacroParams): Promise<XacroExpanded> {
+    return this.guard(this.client.expandXacro(params));
   }
   async exportRobot(params: { robot: string; outDir: string }): Promise<void> {
     await this.guard(this.client.exportRobot(params.robot, params.outDir));

@@ -3,13 +3,13 @@
  * temporary folder and moved into place only when everything, TD validation included, succeeded.
  * Shared by `robwot generate` and `robwot demo`.
  */
-import { copyFileSync, existsSync, readFileSync, realpathSync, statSync, writeFileSync } from "node:fs";
-import { join, resolve } from "node:path";
+import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
+import { basename, dirname, join, resolve } from "node:path";
 import { buildThingModel, THING_MODEL_FILE } from "@robwot/core";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
-import { CliError } from "./errors.js";
+import { CliError, describeError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
 import { type ProgressSink, whileSlow } from "./progress.js";
 import { sceneDocument } from "./scene-doc.js";
@@ -93,8 +93,7 @@ function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
  * when one of them is the robot being generated, that one is the twin (reloaded with `--ee` if given, at
  * the scene's pose); every other robot is an obstacle.
  */
-async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: string): Promise<RobotModel> {
-  const packageRoots = opts.packageRoots;
+async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: string, packageRoots: Record<string, string>): Promise<RobotModel> {
   const srdf = { ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}), clearance: opts.clearance };
   const base = opts.base ? { basePosition: opts.base.position, baseOrientation: opts.base.orientation } : {};
   const own = { urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf, ...base };
@@ -142,10 +141,38 @@ export async function generateTwin(
 ): Promise<GenerateResult> {
   const t0 = performance.now();
   progress.stage("load");
-  const urdf = urdfPath(opts, backend.pybulletData);
+  const source = urdfPath(opts, backend.pybulletData);
   // The backend starts its collision workers (and loads the alpha-shape code) while it loads the scene.
   if (opts.cluster === undefined) await backend.warmUp(opts.workers);
-  const model = await whileSlow(loadRobotInScene(opts, backend, urdf), SLOW_LOAD_MS, () => progress.info(SLOW_LOAD));
+  const expanded = opts.xacroArgs ? await backend.expandXacro({ xacro: source, args: opts.xacroArgs, packageRoots: opts.packageRoots }) : undefined;
+  const urdf = expanded?.urdf ?? source;
+  const packageRoots: Record<string, string> = expanded ? Object.fromEntries(Object.entries(expanded.packageRoots).filter((e): e is [string, string] => e[1] !== undefined)) : opts.packageRoots;
+  let keep = false;
+  try {
+    return await generateFrom(opts, backend, staged, progress, t0, source, urdf, packageRoots);
+  } catch (err) {
+    const { message, code } = describeError(err);
+    if (expanded && message.includes(expanded.urdf)) {
+      keep = true; // the error names a line of the expanded file: it stays for the user to read
+      throw new CliError(`${message} (the URDF expanded from ${source}, kept there)`, code, 1);
+    }
+    throw err;
+  } finally {
+    if (expanded && !keep) rmSync(dirname(expanded.urdf), { recursive: true, force: true });
+  }
+}
+
+async function generateFrom(
+  opts: GenerateOptions,
+  backend: Backend,
+  staged: StagedDir,
+  progress: ProgressSink,
+  t0: number,
+  source: string,
+  urdf: string,
+  packageRoots: Record<string, string>,
+): Promise<GenerateResult> {
+  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots), SLOW_LOAD_MS, () => progress.info(SLOW_LOAD));
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
 
@@ -180,6 +207,8 @@ export async function generateTwin(
       name: model.name,
       ...(opts.srdf !== undefined ? { srdf: "robot.srdf" } : {}),
       clearance: model.clearance,
+      // the xacro file robot.urdf was expanded from (its name only: twin.json is served) and its arguments
+      ...(opts.xacroArgs ? { xacro: { file: basename(source), args: opts.xacroArgs } } : {}),
     },
     scene: "scene.json",
     generatedAt: new Date().toISOString(),
@@ -212,7 +241,7 @@ export async function generateTwin(
   progress.end();
   return {
     out: staged.out,
-    robot: { name: model.name, id: model.id, urdf, eeLink: model.eeLink, controllable: model.controllable },
+    robot: { name: model.name, id: model.id, urdf: source, eeLink: model.eeLink, controllable: model.controllable },
     scene: opts.scene ?? null,
     obstacles: obstacles.length,
     summary,

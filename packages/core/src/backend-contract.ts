@@ -122,6 +122,10 @@ export type RobotModelResult = RobotModel;
  */
 export type RobotExportResult = ExportResult;
 /**
+ * Result of `robot.expandXacro`.
+ */
+export type RobotExpandXacroResult = XacroExpanded;
+/**
  * Result of `robot.getJointPositions`.
  */
 export type RobotGetJointPositionsResult = JointPositions;
@@ -455,6 +459,16 @@ export interface ExportResult {
   urdf: string;
   meshes: string[];
 }
+/**
+ * an expanded xacro file and the package roots to load it with
+ */
+export interface XacroExpanded {
+  /**
+   * the expanded URDF file (absolute), in a temporary folder of its own
+   */
+  urdf: string;
+  packageRoots: PackageRoots;
+}
 export interface Bounds {
   min: Vec3;
   max: Vec3;
@@ -626,6 +640,19 @@ export interface RobotExportParams {
   outDir: string;
 }
 /**
+ * Params of `robot.expandXacro`.
+ */
+export interface RobotExpandXacroParams {
+  xacro: FilePath;
+  /**
+   * xacro arguments NAME -> VALUE (`NAME:=VALUE` on xacro's command line)
+   */
+  args?: {
+    [k: string]: string | undefined;
+  };
+  packageRoots?: PackageRoots;
+}
+/**
  * Params of `robot.getJointPositions`.
  */
 export interface RobotGetJointPositionsParams {
@@ -779,6 +806,7 @@ export interface Methods {
   "robot.remove": { params: RobotRemoveParams; result: RobotRemoveResult };
   "robot.model": { params: RobotModelParams; result: RobotModelResult };
   "robot.export": { params: RobotExportParams; result: RobotExportResult };
+  "robot.expandXacro": { params: RobotExpandXacroParams; result: RobotExpandXacroResult };
   "robot.getJointPositions": { params: RobotGetJointPositionsParams; result: RobotGetJointPositionsResult };
   "robot.setJointPositions": { params: RobotSetJointPositionsParams; result: RobotSetJointPositionsResult };
   "robot.fk": { params: RobotFkParams; result: RobotFkResult };

@@ -97,6 +97,9 @@ export class SimClient {
   exportRobot(robot: string, outDir: string): Result<"robot.export"> {
     return this.request("robot.export", { robot, outDir });
   }
+  expandXacro(params: Params<"robot.expandXacro">): Result<"robot.expandXacro"> {
+    return this.request("robot.expandXacro", params);
+  }
   getJointPositions(robot: string): Result<"robot.getJointPositions"> {
     return this.request("robot.getJointPositions", { robot });
   }

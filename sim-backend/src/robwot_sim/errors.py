@@ -144,6 +144,23 @@ class FileNotFound(SimError):
         super().__init__(msg, **data)
 
 
+class UnknownPackage(FileNotFound):
+    """A ``package://NAME/...`` path whose package NAME is found nowhere: says which option fixes it."""
+
+    def __init__(self, reference: str, package: str, *, urdf: str | None = None, line: int | None = None,
+                 searched: Sequence[str] = ()) -> None:
+        where = f"{urdf}:{line}: " if urdf and line is not None else f"{urdf}: " if urdf else ""
+        SimError.__init__(
+            self,
+            f"{where}{reference}: ROS package {package!r} not found (not a --package-root, not a package "
+            f"holding the file, not on ROS_PACKAGE_PATH, not in pybullet_data): give --package-root "
+            f"{package}=DIR (the folder holding its package.xml) or add the folder it is in to "
+            "ROS_PACKAGE_PATH",
+            file=reference, package=package, reference=reference, searched=list(searched),
+            urdf=urdf, line=line,
+        )
+
+
 class Forbidden(SimError):
     """XML DTD/entities, or other refused input."""
 

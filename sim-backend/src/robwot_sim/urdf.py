@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 import xml.etree.ElementTree as ET
@@ -19,9 +20,10 @@ from pathlib import Path
 import pybullet_data
 
 from robwot_sim import xmlsafe
-from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UrdfError
+from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UnknownPackage, UrdfError
 from robwot_sim.model.decompose import FloatArray, IndexArray, collision_cache, split_collisions
 from robwot_sim.model.meshcheck import check_mesh, read_mesh, snippet
+from robwot_sim.ros_packages import enclosing_package, find_on_ros_package_path
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
 MESH_SUFFIXES = (".stl", ".obj", ".dae")
@@ -76,9 +78,34 @@ def _triangles(path: Path) -> tuple[FloatArray, IndexArray] | None:
     return None if mesh is None else (mesh.vertices, mesh.faces)
 
 
+#: what xacro would have substituted: ``${expression}`` and ``$(command args)``
+_XACRO = re.compile(r"\$[{(]")
+
+
+def refuse_unexpanded(doc: UrdfDoc) -> None:
+    """A ``${...}`` or ``$(...)`` left in any attribute or text is a xacro file read as a URDF: refused
+    (UrdfError with file and line) before any number is parsed, so the user is told what it is instead of
+    "expected 3 numbers", and nothing passes unchecked in geometry no number parser reads. Comments are not
+    part of the tree and may hold anything."""
+    for el in doc.root.iter():
+        found = [(f"attribute {k!r} of <{el.tag}>", v) for k, v in el.attrib.items() if _XACRO.search(v)]
+        found += [(f"the text of <{el.tag}>", t) for t in (el.text, el.tail) if t and _XACRO.search(t)]
+        if found:
+            where, value = found[0]
+            raise UrdfError(
+                f"unexpanded xacro {snippet(value.strip(), 80)} in {where}: a xacro file? name it .xacro or "
+                "pass it as robot.urdf.xacro (robwot generate expands it; --xacro-arg NAME:=VALUE sets its "
+                "args)",
+                file=str(doc.file), line=doc.line_of(el), code="E_URDF",
+            )
+
+
 def parse_urdf(path: str | Path) -> UrdfDoc:
-    """Read and parse a URDF file safely. Raises FileNotFound, Forbidden or UrdfError."""
-    return parse_xml(path, root_tag="robot", error=UrdfError, what="URDF file")
+    """Read and parse a URDF file safely. Raises FileNotFound, Forbidden or UrdfError (also for xacro
+    left unexpanded: ``refuse_unexpanded``)."""
+    doc = parse_xml(path, root_tag="robot", error=UrdfError, what="URDF file")
+    refuse_unexpanded(doc)
+    return doc
 
 
 def read_urdf(path: str | Path) -> ET.Element:
@@ -96,36 +123,24 @@ def _inside(p: Path, roots: list[Path]) -> bool:
     return any(p == r or r in p.parents for r in roots)
 
 
-def _enclosing_package(udir: Path, name: str) -> Path | None:
-    """The ancestor of ``udir`` that is the ROS package ``name`` (its package.xml says so), if any."""
-    for anc in [udir, *udir.parents]:
-        if anc.name != name:
-            continue
-        manifest = anc / "package.xml"
-        data = manifest.read_bytes()[:65536] if manifest.is_file() else b""
-        try:
-            declared = xmlsafe.parse(data)[0].findtext("name") if data else None
-        except (xmlsafe.XmlRefused, xmlsafe.XmlMalformed):
-            declared = None  # not a readable manifest: not a package
-        return anc if declared is not None and declared.strip() == name else None
-    return None
-
-
 def resolve_mesh(
     filename: str,
     urdf_dir: str | Path,
     package_roots: Mapping[str, str | Path] | None = None,
     *,
     urdf: str | None = None,
+    line: int | None = None,
 ) -> Path:
     """Resolve a URDF mesh filename to an existing absolute path inside the allowed roots.
 
     ``package://NAME/rest`` (NAME must not be empty) is looked up in ``package_roots[NAME]``, then in the
     ROS package NAME that holds the URDF (an ancestor folder with a ``package.xml`` naming NAME: a folder
-    that merely has the name, such as ``/tmp``, is not a package), then ``pybullet_data/NAME``, then the
-    URDF folder (PyBullet's own rule, used by pybullet_data's panda). ``file://`` and absolute paths are
-    taken as is; others are relative to the URDF folder. Raises PathEscape when the result leaves the
-    allowed roots (``..``, symlinks), FileNotFound when missing.
+    that merely has the name, such as ``/tmp``, is not a package), then in the package NAME found on
+    ``ROS_PACKAGE_PATH`` (ros_packages.py), then ``pybullet_data/NAME``, then the URDF folder (PyBullet's
+    own rule, used by pybullet_data's panda). ``file://`` and absolute paths are taken as is; others are
+    relative to the URDF folder. Raises PathEscape when the result leaves the allowed roots (``..``,
+    symlinks), UnknownPackage when NAME is found nowhere and no fallback file exists (naming the option
+    that fixes it), FileNotFound when missing. ``line`` is the referencing element's line in ``urdf``.
     """
     udir = Path(urdf_dir).resolve()
     roots = allowed_roots(udir, package_roots)
@@ -140,10 +155,11 @@ def resolve_mesh(
                              reason="package:// needs a package name (package://NAME/path)")
         if name in pkg_roots:
             candidates.append(pkg_roots[name] / sub)
-        package = _enclosing_package(udir, name)
-        if package is not None:
-            candidates.append(package / sub)
-            extra_roots.append(package)
+        for package in (enclosing_package(udir, name), find_on_ros_package_path(name)):
+            if package is not None:
+                candidates.append(package / sub)
+                extra_roots.append(package)
+        known = bool(name in pkg_roots or extra_roots or (pybullet_data_path() / name).is_dir())
         candidates.append(pybullet_data_path() / name / sub)
         candidates.append(udir / name / sub)
         candidates.append(udir / sub)
@@ -162,6 +178,9 @@ def resolve_mesh(
             if not _inside(real, roots):
                 raise PathEscape(str(real), [str(r) for r in roots], urdf=urdf)
             return real
+    if filename.startswith("package://") and not known:
+        raise UnknownPackage(filename, filename[len("package://"):].partition("/")[0], urdf=urdf, line=line,
+                             searched=[str(c) for c in resolved if _inside(c, roots)])
     inside = [c for c in resolved if _inside(c, roots)]
     if not inside:
         raise PathEscape(str(resolved[0]), [str(r) for r in roots], urdf=urdf)
@@ -207,7 +226,7 @@ def prepare_urdf(
         if not fn:
             raise UrdfError("<mesh> without filename", file=str(doc.file), line=doc.line_of(el))
         if fn not in meshes:
-            resolved = resolve_mesh(fn, udir, package_roots, urdf=str(doc.file))
+            resolved = resolve_mesh(fn, udir, package_roots, urdf=str(doc.file), line=doc.line_of(el))
             if resolved.suffix.lower() not in MESH_SUFFIXES:
                 raise UrdfError(
                     f"unsupported mesh format {snippet(resolved.suffix)} ({snippet(fn, 200, quote=False)}); "

@@ -24,6 +24,8 @@ export interface BasePose {
 export interface GenerateOptions {
   /** Exactly one of `urdfFile` (absolute path) and `example` is set. */
   urdfFile?: string;
+  /** When `urdfFile` is a xacro file (`*.xacro`): its arguments (`--xacro-arg NAME:=VALUE`), expanded by the backend */
+  xacroArgs?: Record<string, string>;
   example?: ExampleRobot;
   scene?: string;
   /** SRDF file (absolute): its disabled collision pairs are never checked; copied into the twin */
@@ -65,6 +67,7 @@ export const GENERATE_OPTIONS = {
   cluster: { type: "string" },
   "package-root": { type: "string", multiple: true },
   base: { type: "string" },
+  "xacro-arg": { type: "string", multiple: true },
   "csv-joints": { type: "boolean" },
   backend: { type: "string" },
   json: { type: "boolean" },
@@ -114,6 +117,19 @@ export function parseBase(value: string | undefined): BasePose | undefined {
   };
   const q = quatMul(axis(yaw, 2), quatMul(axis(pitch, 1), axis(roll, 0)));
   return { position: [x, y, z], orientation: quatArr(q) };
+}
+
+/** `--xacro-arg NAME:=VALUE` (repeatable, xacro's own syntax) → `{NAME: VALUE}`; a name given twice is refused. */
+export function parseXacroArgs(values: string[] | undefined): Record<string, string> {
+  const args: Record<string, string> = {};
+  for (const v of values ?? []) {
+    const m = /^([A-Za-z_][A-Za-z0-9_]*):=(.*)$/s.exec(v);
+    if (!m) throw new CliError(`--xacro-arg must look like NAME:=VALUE (e.g. prefix:=left_), got "${v}"`);
+    const [, name, value] = m as unknown as [string, string, string];
+    if (name in args) throw new CliError(`--xacro-arg ${name} given twice`);
+    args[name] = value;
+  }
+  return args;
 }
 
 function isFile(path: string): boolean {
@@ -173,15 +189,23 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, Clearance.minimum, Clearance.maximum);
   const packageRoots = parsePackageRoots(values["package-root"]);
   const base = parseBase(values.base);
+  const xacroArgs = parseXacroArgs(values["xacro-arg"]);
+  const isXacro = urdfFile?.endsWith(".xacro") ?? false;
+  if (!isXacro && Object.keys(xacroArgs).length > 0) {
+    throw new CliError(`--xacro-arg is for a xacro file (robot.urdf.xacro); ${urdfFile ?? robotArg} is not one`);
+  }
   const baseUrlObj = parseUrl("base-url", values["base-url"] ?? DEFAULT_BASE_URL, ["http", "https"]) as URL;
   const baseUrl = baseUrlObj.href.endsWith("/") ? baseUrlObj.href : `${baseUrlObj.href}/`;
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const scene = values.scene === undefined ? undefined : parseSceneFile(values.scene);
   if (values.ee !== undefined && values.ee.trim() === "") throw new CliError("--ee must name a link");
-  const robotName = example?.name ?? (urdfFile ? urdfRobotName(urdfFile) : undefined) ?? basename(urdfFile ?? "robot", ".urdf");
+  const declared = urdfFile ? urdfRobotName(urdfFile) : undefined;
+  // a xacro's name may itself be an expression: then the file name it has
+  const robotName = example?.name ?? (declared?.includes("$") ? undefined : declared) ?? basename(urdfFile ?? "robot").replace(/(\.urdf)?(\.xacro)?$/, "");
   const out = resolve(values.out ?? join("twins", slugify(robotName)));
   return {
     ...(urdfFile ? { urdfFile } : {}),
+    ...(isXacro ? { xacroArgs } : {}),
     ...(example ? { example } : {}),
     ...(scene ? { scene } : {}),
     ...(values.srdf !== undefined ? { srdf: existingFile("SRDF file", values.srdf) } : {}),

@@ -12,7 +12,7 @@ import { DEFAULT_BASE_URL, DEFAULT_SAMPLES, type GenerateOptions, parseGenerateA
 
 const { Clearance, ReachVoxel, Seed } = VALUE_SCHEMAS;
 
-export const USAGE = `Usage: robwot generate <robot.urdf | example-name> [options]
+export const USAGE = `Usage: robwot generate <robot.urdf | robot.urdf.xacro | example-name> [options]
 
 Builds a digital-twin folder: td.json (W3C Thing Description), twin.json, robot.urdf + meshes,
 scene.json, workspace.csv (labelled point cloud), workspace.stl (alpha shape), workspace.json,
@@ -39,7 +39,10 @@ Options:
   --cluster ADDRESS       run sampling, labelling and the reachability map as Ray tasks on an existing
                           Ray cluster: ray://HOST:10001, HOST:6379, or auto (RAY_ADDRESS / this
                           machine's); same files as a local run. Needs ROBWOT_EXTRAS=cluster npm install
-  --package-root NAME=DIR resolve package://NAME/... mesh paths (repeatable)
+  --xacro-arg NAME:=VALUE an argument of the xacro file given as the robot (repeatable); the file is
+                          expanded with the xacro package (no ROS install), robot.urdf is the result
+  --package-root NAME=DIR resolve package://NAME/... and $(find NAME) (repeatable); also searched: the ROS
+                          package holding the file (its package.xml), the folders of ROS_PACKAGE_PATH
   --csv-joints            add the joint values to workspace.csv
   --backend ws://HOST:PORT use a running backend instead of starting one
   --json                  print a machine-readable summary on stdout

@@ -1,0 +1,94 @@
+"""ROS packages found the way ROS finds them: a folder is the package NAME when its ``package.xml`` says
+``<name>NAME</name>`` (a folder that merely has the name, such as ``/tmp``, is not a package).
+
+Two places are searched, beside the caller's explicit ``NAME -> DIR`` roots: the ancestors of a file (the
+package that holds a URDF or a xacro file) and the folders of ``ROS_PACKAGE_PATH`` (colon-separated), each
+crawled as ``rospack`` does: a folder with a ``package.xml`` is a package and is not descended into,
+folders holding ``CATKIN_IGNORE``/``COLCON_IGNORE``/``AMENT_IGNORE`` and hidden folders are skipped.
+"""
+
+from __future__ import annotations
+
+import os
+from functools import lru_cache
+from pathlib import Path
+
+from robwot_sim import xmlsafe
+
+#: how deep below a ROS_PACKAGE_PATH folder packages are looked for (a workspace's src/group/pkg fits)
+MAX_DEPTH = 6
+IGNORE_MARKERS = ("CATKIN_IGNORE", "COLCON_IGNORE", "AMENT_IGNORE")
+
+
+def package_name(folder: Path) -> str | None:
+    """The ``<name>`` declared by ``folder/package.xml``, or None (no manifest, or not a readable one)."""
+    manifest = folder / "package.xml"
+    try:
+        data = manifest.read_bytes()[:65536] if manifest.is_file() else b""
+    except OSError:
+        return None
+    if not data:
+        return None
+    try:
+        declared = xmlsafe.parse(data)[0].findtext("name")
+    except (xmlsafe.XmlRefused, xmlsafe.XmlMalformed):
+        return None  # not a readable manifest: not a package
+    return declared.strip() if declared is not None and declared.strip() else None
+
+
+def enclosing_package(start: Path, name: str) -> Path | None:
+    """The ancestor of ``start`` (itself included) that is the ROS package ``name``, if any."""
+    for anc in [start, *start.parents]:
+        if anc.name == name:
+            return anc if package_name(anc) == name else None
+    return None
+
+
+def enclosing_packages(start: Path) -> dict[str, Path]:
+    """Every ROS package among the ancestors of ``start`` (itself included), by name; the nearest wins."""
+    found: dict[str, Path] = {}
+    for anc in [start, *start.parents]:
+        name = package_name(anc)
+        if name is not None and name not in found:
+            found[name] = anc
+    return found
+
+
+def ros_package_path() -> tuple[Path, ...]:
+    """The existing folders of ``ROS_PACKAGE_PATH``, in order (empty entries and missing folders skipped)."""
+    entries = os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)
+    return tuple(Path(p).expanduser().resolve() for p in entries
+                 if p.strip() and Path(p).expanduser().is_dir())
+
+
+@lru_cache(maxsize=16)
+def _crawl(folder: Path) -> dict[str, Path]:
+    """Packages below one ROS_PACKAGE_PATH folder by name; the first found (breadth first) wins. Read once
+    per backend process and folder, as rospack caches its crawl."""
+    found: dict[str, Path] = {}
+    level = [folder]
+    for _ in range(MAX_DEPTH + 1):
+        nxt: list[Path] = []
+        for d in level:
+            if any((d / m).exists() for m in IGNORE_MARKERS):
+                continue
+            name = package_name(d)
+            if name is not None:
+                found.setdefault(name, d)
+                continue  # a package's sub-folders hold no other package
+            try:
+                subs = sorted(e for e in d.iterdir() if e.is_dir() and not e.name.startswith("."))
+            except OSError:
+                continue
+            nxt += subs
+        level = nxt
+    return found
+
+
+def find_on_ros_package_path(name: str) -> Path | None:
+    """The package ``name`` from the ROS_PACKAGE_PATH folders (the first folder holding it wins), or None."""
+    for folder in ros_package_path():
+        hit = _crawl(folder).get(name)
+        if hit is not None:
+            return hit.resolve()
+    return None
