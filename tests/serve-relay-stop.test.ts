@@ -163,6 +163,27 @@ it("the twin's backend going down (heartbeat deadline) during a relayed motion s
   await replaced(pid);
 });
 
+it("cancelling a relayed asynchronous move (DELETE) with the twin's backend hung stops the physical robot at once", async () => {
+  const from = await physicalJ1();
+  const r = await fetch(`${vBase}/actions/moveToJointPosition`, {
+    method: "POST",
+    headers: { "content-type": "application/json", prefer: "respond-async" },
+    body: JSON.stringify({ joints: target(1.5), speed: 0.02 }),
+  });
+  expect(r.status).toBe(201);
+  const href = r.headers.get("location")!;
+  await waitMoved(pBase, J1, from, 0.02, 20_000);
+  const pid = twin.backend.pid!;
+  process.kill(pid, "SIGSTOP");
+  stoppedPids.push(pid);
+  const t0 = Date.now();
+  const cancel = fetch(href, { method: "DELETE" });
+  expect(await physicalStopped(t0, 3_000)).toBeLessThan(1_000);
+  expect((await cancel).status).toBe(204);
+  await standsStill();
+  await replaced(pid);
+});
+
 it("shutting down a relaying servient stops the physical robot it commanded", async () => {
   const other = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, relay: pBase });
   try {
