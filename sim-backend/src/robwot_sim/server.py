@@ -59,6 +59,8 @@ MAX_IN_FLIGHT = 256
 OFF_WORLD_GRACE = 5.0
 #: niceness of background off-world threads (mesh reading and decomposition)
 BACKGROUND_NICE = 10
+#: s: how long a thread holding the GIL runs before handing it to a waiting one (Python's default: 5 ms)
+GIL_SWITCH_INTERVAL = 0.001
 #: policy violation: the close code of a client that stays behind
 CLOSE_TOO_SLOW = 1008
 
@@ -359,6 +361,9 @@ async def run_server(host: str = "127.0.0.1", port: int = 0, *, token: str,
     takes the server down with it even when it is killed without a chance to clean up.
     """
     loop = asyncio.get_running_loop()
+    # the world's thread holds the GIL while it computes: hand it over sooner than the default 5 ms, so
+    # that the loop's turn (a ping, a stop, a step) comes within a millisecond or so
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     if stop is None:
         stop = asyncio.Event()
         for sig in (signal.SIGTERM, signal.SIGINT):
