@@ -8,17 +8,24 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robwot_sim.errors import InvalidParams, UnknownLink
+from robwot_sim.errors import InvalidParams, UnknownLink, UrdfError
 from robwot_sim.model.fk import ChainFK
+from robwot_sim.model.joints import parse_model
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 from robwot_sim.sim.world import World
-from robwot_sim.urdf import read_urdf
+from robwot_sim.urdf import parse_urdf
 from robwot_sim.workspace import chain_fk
 from robwot_sim.workspace.sampling import BLOCK, sample_configurations
 
 MODELS = Path(__file__).parent / "models" / "workspace"
 BASE_POS = (0.3, -0.2, 0.1)
 BASE_QUAT = (0.1, 0.2, 0.3, 0.9)  # normalised by the loader and by the FK alike
+
+
+def _chain(urdf: Path, ee: str, controllable: list[str]) -> ChainFK:
+    """The chain of a URDF file from the one joint-tree parser."""
+    model = parse_model(parse_urdf(urdf))
+    return ChainFK.from_joints(model.joints, model.links, ee, controllable)
 
 
 @pytest.fixture(scope="module")
@@ -69,8 +76,7 @@ def test_fk_base_pose_moves_points(world: World) -> None:
 
 def test_fk_mimic_follows_master() -> None:
     """A mimic joint on the chain moves with its master (multiplier and offset) without a vector entry."""
-    root = read_urdf(MODELS / "chain_mimic.urdf")
-    fk = ChainFK.from_urdf(root, "tool", ["base_yaw", "spin", "slide"])
+    fk = _chain(MODELS / "chain_mimic.urdf", "tool", ["base_yaw", "spin", "slide"])
     follower = next(j for j in fk.joints if j.name == "follower")
     assert (follower.source, follower.multiplier, follower.offset) == (0, 0.5, 0.2)
     assert fk.dof == 3
@@ -78,9 +84,8 @@ def test_fk_mimic_follows_master() -> None:
 
 def test_fk_unknown_link_lists_links() -> None:
     """An unknown end-effector link is refused with the available names."""
-    root = read_urdf(MODELS / "shell.urdf")
     with pytest.raises(UnknownLink) as exc:
-        ChainFK.from_urdf(root, "nope", ["yaw", "pitch", "radial"])
+        _chain(MODELS / "shell.urdf", "nope", ["yaw", "pitch", "radial"])
     assert "tip" in exc.value.data["available"]
 
 
@@ -128,7 +133,17 @@ def test_sampling_refuses_bad_limits() -> None:
 
 def test_fk_blocks_equal_one_pass() -> None:
     """Block-wise FK (bounded memory) gives the same positions as one pass."""
-    root = read_urdf(MODELS / "chain_mimic.urdf")
-    fk = ChainFK.from_urdf(root, "tool", ["base_yaw", "spin", "slide"])
+    fk = _chain(MODELS / "chain_mimic.urdf", "tool", ["base_yaw", "spin", "slide"])
     qs = sample_configurations([-2.5, -3.14, -0.1], [2.5, 3.14, 0.2], 2500, seed=9)
     assert np.array_equal(fk.positions(qs, block=1000), fk.poses(qs)[0])
+
+
+def test_joint_tree_refuses_a_malformed_origin_with_its_line(tmp_path: Path) -> None:
+    """The one joint-tree parser checks origins and axes, naming file, line and joint."""
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text('<robot name="r">\n<link name="a"/>\n<link name="b"/>\n'
+                    '<joint name="j" type="revolute">\n<parent link="a"/>\n<child link="b"/>\n'
+                    '<origin xyz="0 0 oops"/>\n<limit lower="-1" upper="1"/>\n</joint>\n</robot>\n')
+    with pytest.raises(UrdfError, match="must be 3 finite numbers") as ei:
+        parse_model(parse_urdf(urdf))
+    assert ei.value.data["line"] == 7 and ei.value.data["joint"] == "j"

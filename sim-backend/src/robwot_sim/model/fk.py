@@ -12,21 +12,18 @@ Joint values come in the order of the robot's ``controllable`` list; mimic joint
 
 from __future__ import annotations
 
-import math
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from robwot_sim.errors import UnknownLink, UrdfError
+from robwot_sim.errors import UnknownLink
+from robwot_sim.model.joints import MOVABLE, JointInfo
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 
 FloatArray = npt.NDArray[np.float64]
 
-_MOVING = ("revolute", "continuous", "prismatic")
-_KNOWN = (*_MOVING, "fixed")
 
 
 @dataclass(frozen=True)
@@ -43,19 +40,6 @@ class ChainJoint:
     offset: float = 0.0
 
 
-def _floats(text: str | None, n: int, default: float, *, where: str, file: str) -> tuple[float, ...]:
-    if text is None:
-        return (default,) * n
-    parts = text.split()
-    try:
-        vals = tuple(float(p) for p in parts)
-    except ValueError:
-        raise UrdfError(f"{where}: expected {n} numbers, got {text!r}", file=file) from None
-    if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise UrdfError(f"{where}: expected {n} finite numbers, got {text!r}", file=file)
-    return vals
-
-
 class ChainFK:
     """Forward kinematics of the chain ending at ``ee_link``, vectorised over configurations."""
 
@@ -69,35 +53,23 @@ class ChainFK:
         self.base_rotation = quat_matrix(base_orientation)
 
     @classmethod
-    def from_urdf(cls, root: ET.Element, ee_link: str, controllable: Sequence[str], *,
-                  base_position: Sequence[float] = (0.0, 0.0, 0.0),
-                  base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), file: str = "") -> ChainFK:
-        """Build the chain root -> ``ee_link`` from a parsed URDF (``robwot_sim.urdf.read_urdf``)."""
-        by_child: dict[str, ET.Element] = {}
-        by_name: dict[str, ET.Element] = {}
-        for j in root.findall("joint"):
-            child = j.find("child")
-            name = j.get("name", "")
-            if child is None or child.get("link") is None:
-                raise UrdfError(f"joint {name!r} has no <child link=...>", file=file)
-            by_child[str(child.get("link"))] = j
-            by_name[name] = j
-        links = [str(lk.get("name")) for lk in root.findall("link")]
+    def from_joints(cls, joints: Sequence[JointInfo], links: Sequence[str], ee_link: str,
+                    controllable: Sequence[str], *, base_position: Sequence[float] = (0.0, 0.0, 0.0),
+                    base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0)) -> ChainFK:
+        """The chain root -> ``ee_link`` of a parsed joint tree (``joints.parse_model``, or a robot model
+        holding its joints: a tree, so the walk up from any link ends at the root)."""
         if ee_link not in links:
-            raise UnknownLink(ee_link, links)
+            raise UnknownLink(ee_link, list(links))
+        by_child = {j.child: j for j in joints}
+        by_name = {j.name: j for j in joints}
         index = {n: i for i, n in enumerate(controllable)}
-        chain: list[ET.Element] = []
-        link, seen = ee_link, set()
+        chain: list[JointInfo] = []
+        link = ee_link
         while link in by_child:
-            if link in seen:
-                raise UrdfError(f"kinematic loop through link {link!r}", file=file)
-            seen.add(link)
-            j = by_child[link]
-            chain.append(j)
-            parent = j.find("parent")
-            link = str(parent.get("link")) if parent is not None else ""
+            chain.append(by_child[link])
+            link = by_child[link].parent
         chain.reverse()
-        return cls([_chain_joint(j, index, by_name, file) for j in chain], len(controllable), ee_link,
+        return cls([_chain_joint(j, index, by_name) for j in chain], len(controllable), ee_link,
                    base_position, base_orientation)
 
     def _values(self, qs: FloatArray, j: ChainJoint) -> FloatArray:
@@ -200,49 +172,21 @@ def _turn(r: FloatArray, origin: FloatArray, axis: FloatArray, angle: FloatArray
     return out
 
 
-def _chain_joint(j: ET.Element, index: dict[str, int], by_name: dict[str, ET.Element],
-                 file: str) -> ChainJoint:
-    name = j.get("name", "")
-    jtype = j.get("type", "")
-    if jtype not in _KNOWN:
-        raise UrdfError(f"joint {name!r}: type {jtype!r} is not supported (use one of {', '.join(_KNOWN)})",
-                        file=file, joint=name)
-    origin = j.find("origin")
-    xyz = _floats(origin.get("xyz") if origin is not None else None, 3, 0.0,
-                  where=f"joint {name!r} origin xyz", file=file)
-    rpy = _floats(origin.get("rpy") if origin is not None else None, 3, 0.0,
-                  where=f"joint {name!r} origin rpy", file=file)
-    rot = rpy_matrix(*rpy)
-    ax_el = j.find("axis")
-    axis = np.array(_floats(ax_el.get("xyz", "1 0 0") if ax_el is not None else "1 0 0", 3, 0.0,
-                            where=f"joint {name!r} axis", file=file))
-    source, mult, off = -1, 1.0, 0.0
-    if jtype in _MOVING:
-        norm = float(np.linalg.norm(axis))
-        if norm == 0.0:
-            raise UrdfError(f"joint {name!r}: zero axis", file=file, joint=name)
-        axis = axis / norm
-        source, mult, off = _source(name, index, by_name, file)
-    return ChainJoint(name, jtype, (xyz[0], xyz[1], xyz[2]),
-                      tuple((float(a), float(b), float(c)) for a, b, c in rot),
-                      (float(axis[0]), float(axis[1]), float(axis[2])), source, mult, off)
+def _chain_joint(j: JointInfo, index: dict[str, int], by_name: dict[str, JointInfo]) -> ChainJoint:
+    source, mult, off = _source(j.name, index, by_name) if j.type in MOVABLE else (-1, 1.0, 0.0)
+    rot = rpy_matrix(*j.origin_rpy)
+    return ChainJoint(j.name, j.type, j.origin_xyz, tuple((float(a), float(b), float(c)) for a, b, c in rot),
+                      j.axis, source, mult, off)
 
 
-def _source(name: str, index: dict[str, int], by_name: dict[str, ET.Element],
-            file: str) -> tuple[int, float, float]:
-    """Joint-vector index plus the composed mimic multiplier/offset driving joint ``name``."""
-    mult, off, seen = 1.0, 0.0, set()
+def _source(name: str, index: dict[str, int], by_name: dict[str, JointInfo]) -> tuple[int, float, float]:
+    """Joint-vector index plus the composed mimic multiplier/offset driving joint ``name`` (the joint tree
+    checked that a mimic's master is a controllable joint)."""
+    mult, off = 1.0, 0.0
     while name not in index:
-        if name in seen:
-            raise UrdfError(f"mimic loop through joint {name!r}", file=file, joint=name)
-        seen.add(name)
-        el = by_name.get(name)
-        mimic = el.find("mimic") if el is not None else None
-        if mimic is None or mimic.get("joint") is None:
-            raise UrdfError(f"joint {name!r} is neither controllable nor a mimic of one", file=file,
-                            joint=name)
-        m = float(mimic.get("multiplier", "1"))
-        o = float(mimic.get("offset", "0"))
-        mult, off = mult * m, off + mult * o  # v = mult * (m * master + o) + off
-        name = str(mimic.get("joint"))
+        mimic = by_name[name].mimic
+        if mimic is None:
+            raise ValueError(f"joint {name!r} is neither in the joint vector nor a mimic of one in it")
+        mult, off = mult * mimic.multiplier, off + mult * mimic.offset  # v = mult * (m * master + o) + off
+        name = mimic.joint
     return index[name], mult, off

@@ -10,11 +10,12 @@ import numpy as np
 import pybullet as pb
 
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
+from robwot_sim.model.joints import UrdfModel, parse_model
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
 from robwot_sim.sim.kinematics import reach_sphere
 from robwot_sim.sim.pathcheck import Guard
-from robwot_sim.sim.robot import BoundRobot, UrdfModel, parse_model
+from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.sweep import CLEARANCE, joint_reach
 from robwot_sim.sim.types import FloatArray, RobotModel
 from robwot_sim.srdf import disabled_pairs

@@ -31,7 +31,7 @@ import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
-from robwot_sim.model.fk import chain_frames
+from robwot_sim.model.fk import ChainFK, chain_frames
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.sim.types import FloatArray
 
@@ -229,18 +229,14 @@ class SureHits:
         return out
 
 
-def build_sure_hits(bound: Any, filtered: set[tuple[int, int]], urdf: Path, model: Any,
+def build_sure_hits(bound: Any, filtered: set[tuple[int, int]], model: Any,
                     obstacles: list[dict[str, Any]]) -> SureHits:
-    """The sure-hit test of a loaded robot (``BoundRobot``, its filtered pairs, URDF and ``RobotModel``).
+    """The sure-hit test of a loaded robot (``BoundRobot``, its filtered pairs and ``RobotModel``).
     Empty (never a hit) when the FK does not reproduce Bullet's link frames to 1e-6 m / 1e-6."""
-    from robwot_sim.model.fk import ChainFK
-    from robwot_sim.urdf import read_urdf
-
     cid, body = bound.bullet.cid, bound.body
     links = [ln for ln in bound.moving_links if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]
-    root = read_urdf(str(urdf))
-    fks = [ChainFK.from_urdf(root, bound.link_names[ln], model.controllable,
-                             base_position=model.base_position, base_orientation=model.base_orientation)
+    fks = [ChainFK.from_joints(model.joints, model.links, bound.link_names[ln], model.controllable,
+                               base_position=model.base_position, base_orientation=model.base_orientation)
            for ln in links]
     q = np.asarray(bound.q, dtype=np.float64)[None, :]
     for ln, fk in zip(links, fks, strict=True):

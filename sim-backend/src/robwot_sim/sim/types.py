@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.limits import DEFAULT_CLEARANCE
+from robwot_sim.model.joints import JointInfo
 
 FloatArray = npt.NDArray[np.float64]
 DEFAULT_VELOCITY = 1.0
@@ -121,46 +122,6 @@ class PathReport:
         }
         if self.first_collision is not None:
             out["firstCollision"] = self.first_collision.to_json()
-        return out
-
-
-@dataclass(frozen=True)
-class Mimic:
-    joint: str
-    multiplier: float = 1.0
-    offset: float = 0.0
-
-    def to_json(self) -> dict[str, Any]:
-        return {"joint": self.joint, "multiplier": self.multiplier, "offset": self.offset}
-
-
-@dataclass(frozen=True)
-class JointInfo:
-    """A URDF joint. Limits in rad (revolute/continuous) or m (prismatic); continuous = [-pi, pi]."""
-
-    name: str
-    type: str
-    parent: str
-    child: str
-    lower: float
-    upper: float
-    velocity: float
-    effort: float
-    mimic: Mimic | None = None
-
-    def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            "name": self.name,
-            "type": self.type,
-            "parent": self.parent,
-            "child": self.child,
-            "lower": self.lower,
-            "upper": self.upper,
-            "velocity": self.velocity,
-            "effort": self.effort,
-        }
-        if self.mimic is not None:
-            out["mimic"] = self.mimic.to_json()
         return out
 
 

@@ -174,7 +174,7 @@ class World(WorldScene):
         if cached is not None and cached[0] == self.table.version:
             return cached[1]
         e = self._entry(robot_id)
-        sure = build_sure_hits(e.bound, e.checker.filtered, e.urdf_path, e.model,
+        sure = build_sure_hits(e.bound, e.checker.filtered, e.model,
                                [spec for _, spec in self._obstacles.values()])
         self._sure[robot_id] = (self.table.version, sure)
         return sure

@@ -18,7 +18,6 @@ import numpy as np
 import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.fk import ChainFK
-from robwot_sim.urdf import read_urdf
 from robwot_sim.workspace.chunk import ChunkJob, ChunkSink
 from robwot_sim.workspace.io import atomic_write, csv_layout, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
@@ -60,11 +59,8 @@ def versions() -> dict[str, str]:
 def chain_fk(world: World, robot_id: str) -> ChainFK:
     """Vectorised FK of a loaded robot's end-effector link (its URDF chain and base pose)."""
     model = world.robot_model(robot_id)
-    urdf = next((str(r["urdf"]) for r in world.scene_spec().get("robots", []) if r.get("id") == robot_id),
-                model.urdf)
-    return ChainFK.from_urdf(read_urdf(urdf), model.ee_link, model.controllable,
-                             base_position=model.base_position, base_orientation=model.base_orientation,
-                             file=urdf)
+    return ChainFK.from_joints(model.joints, model.links, model.ee_link, model.controllable,
+                               base_position=model.base_position, base_orientation=model.base_orientation)
 
 
 def _check(samples: int, seed: int, workers: int | None, alpha: float | str) -> tuple[int, float | str]:

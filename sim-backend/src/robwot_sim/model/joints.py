@@ -1,0 +1,272 @@
+"""The joint tree of a URDF: links, joints (type, limits, mimic, origin, axis), checked once.
+
+The one parser of a URDF's kinematics: the simulation's robot model (``sim/robot.py``) and the vectorised
+forward kinematics (``fk.py``) are both built from what ``parse_model`` returns. Limits in rad (revolute,
+continuous) or m (prismatic); origins in m and rad (fixed-axis roll-pitch-yaw); axes unit vectors in the
+joint frame. Every refusal names the file, the line and the joint (``UrdfError``).
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from typing import Any
+
+from robwot_sim.errors import NoMovableJoint, UrdfError
+from robwot_sim.urdf import UrdfDoc
+
+Vec3 = tuple[float, float, float]
+
+@dataclass(frozen=True)
+class Mimic:
+    joint: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        return {"joint": self.joint, "multiplier": self.multiplier, "offset": self.offset}
+
+
+@dataclass(frozen=True)
+class JointInfo:
+    """A URDF joint. Limits in rad (revolute/continuous) or m (prismatic); continuous = [-pi, pi]."""
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    lower: float
+    upper: float
+    velocity: float
+    effort: float
+    mimic: Mimic | None = None
+    #: the joint frame in the parent link's frame: ``<origin xyz>`` (m) and ``rpy`` (rad, fixed axes)
+    origin_xyz: Vec3 = (0.0, 0.0, 0.0)
+    origin_rpy: Vec3 = (0.0, 0.0, 0.0)
+    #: the unit ``<axis>`` in the joint frame (movable joints; fixed joints keep the default)
+    axis: Vec3 = (1.0, 0.0, 0.0)
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "name": self.name,
+            "type": self.type,
+            "parent": self.parent,
+            "child": self.child,
+            "lower": self.lower,
+            "upper": self.upper,
+            "velocity": self.velocity,
+            "effort": self.effort,
+        }
+        if self.mimic is not None:
+            out["mimic"] = self.mimic.to_json()
+        return out
+
+
+MOVABLE = ("revolute", "continuous", "prismatic")
+
+
+#: largest joint limit accepted, rad (revolute: 16 turns) or m (prismatic)
+MAX_LIMIT = 100.0
+#: accepted URDF velocity limits (rad/s or m/s); 0 or absent means 1
+MIN_VELOCITY, MAX_VELOCITY = 1e-6, 1e4
+
+
+def _float(el: ET.Element | None, attr: str, default: float, doc: UrdfDoc) -> float:
+    if el is None or el.get(attr) is None:
+        return default
+    raw = el.get(attr, "")
+    try:
+        v = float(raw)
+    except ValueError:
+        raise UrdfError(
+            f"attribute {attr}={raw!r} of <{el.tag}> is not a number",
+            file=str(doc.file),
+            line=doc.line_of(el),
+        ) from None
+    if not math.isfinite(v):
+        raise UrdfError(
+            f"attribute {attr}={raw!r} of <{el.tag}> is not finite", file=str(doc.file), line=doc.line_of(el)
+        )
+    return v
+
+
+def _vec3(el: ET.Element | None, attr: str, default: Vec3, doc: UrdfDoc, *, joint: str) -> Vec3:
+    """Three finite numbers of attribute ``attr`` (``default`` when the element or attribute is absent)."""
+    raw = None if el is None else el.get(attr)
+    if raw is None:
+        return default
+    try:
+        vals = tuple(float(p) for p in raw.split())
+    except ValueError:
+        vals = ()
+    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
+        assert el is not None  # raw came from it
+        raise UrdfError(f"joint {joint!r}: <{el.tag} {attr}> must be 3 finite numbers, got {raw[:40]!r}",
+                        file=str(doc.file), line=doc.line_of(el), joint=joint)
+    return (vals[0], vals[1], vals[2])
+
+
+@dataclass(frozen=True)
+class UrdfModel:
+    """Links and joints read from a URDF, with the tree structure."""
+
+    name: str
+    root_link: str
+    links: tuple[str, ...]
+    joints: tuple[JointInfo, ...]
+    children: dict[str, list[JointInfo]] = field(hash=False)
+
+    @property
+    def controllable(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints if j.type in MOVABLE and j.mimic is None)
+
+    def default_ee(self) -> str:
+        """Tip of the longest serial chain: from the root, follow the child subtree holding strictly the
+        most movable joints; stop at a leaf or where subtrees tie (e.g. Panda's hand between its fingers)."""
+        memo: dict[str, int] = {}
+
+        def count(link: str) -> int:
+            if link not in memo:
+                memo[link] = sum(count(j.child) + (j.type in MOVABLE) for j in self.children.get(link, []))
+            return memo[link]
+
+        link = self.root_link
+        while True:
+            kids = self.children.get(link, [])
+            if not kids:
+                return link
+            scores = sorted(((count(j.child) + (j.type in MOVABLE), j.child) for j in kids), reverse=True)
+            if len(scores) > 1 and scores[0][0] == scores[1][0]:
+                return link
+            if scores[0][0] == 0 and len(scores) > 1:
+                return link
+            link = scores[0][1]
+
+
+def parse_model(doc: UrdfDoc) -> UrdfModel:
+    """Read links, joints, limits and mimic tags; check the tree. Raises UrdfError / NoMovableJoint."""
+    f = str(doc.file)
+    root = doc.root
+    links = [el.get("name", "") for el in root.findall("link")]
+    for el in root.findall("link"):
+        if not el.get("name"):
+            raise UrdfError("<link> without name", file=f, line=doc.line_of(el))
+    joints: list[JointInfo] = []
+    parent_of: dict[str, str] = {}
+    for el in root.findall("joint"):
+        name, jtype = el.get("name"), el.get("type")
+        line = doc.line_of(el)
+        if not name or not jtype:
+            raise UrdfError("<joint> needs name and type", file=f, line=line)
+        if jtype not in (*MOVABLE, "fixed"):
+            raise UrdfError(
+                f"joint {name!r}: unsupported type {jtype!r} (revolute, continuous, prismatic, fixed)",
+                file=f,
+                line=line,
+                joint=name,
+            )
+        pel, cel = el.find("parent"), el.find("child")
+        parent = pel.get("link", "") if pel is not None else ""
+        child = cel.get("link", "") if cel is not None else ""
+        for what, ln in (("parent", parent), ("child", child)):
+            if ln not in links:
+                raise UrdfError(
+                    f"joint {name!r}: {what} link {ln!r} is not defined", file=f, line=line, joint=name
+                )
+        if child in parent_of:
+            raise UrdfError(f"link {child!r} is the child of two joints", file=f, line=line, joint=name)
+        parent_of[child] = parent
+        lim = el.find("limit")
+        if jtype in ("revolute", "prismatic"):
+            if lim is None or lim.get("lower") is None or lim.get("upper") is None:
+                raise UrdfError(
+                    f"{jtype} joint {name!r} needs <limit lower=... upper=...>", file=f, line=line, joint=name
+                )
+            lower, upper = _float(lim, "lower", 0.0, doc), _float(lim, "upper", 0.0, doc)
+            if max(abs(lower), abs(upper)) > MAX_LIMIT:
+                unit = "rad" if jtype == "revolute" else "m"
+                raise UrdfError(
+                    f"joint {name!r}: limits [{lower:g}, {upper:g}] {unit} beyond +-{MAX_LIMIT:g} {unit}",
+                    file=f,
+                    line=doc.line_of(lim),
+                    joint=name,
+                )
+            if lower > upper:
+                raise UrdfError(
+                    f"joint {name!r}: lower limit {lower} > upper limit {upper}",
+                    file=f,
+                    line=doc.line_of(lim),
+                    joint=name,
+                )
+        elif jtype == "continuous":
+            lower, upper = -math.pi, math.pi
+        else:
+            lower = upper = 0.0
+        velocity = _float(lim, "velocity", 0.0, doc)
+        if not (velocity <= 0 or MIN_VELOCITY <= velocity <= MAX_VELOCITY):
+            raise UrdfError(
+                f"joint {name!r}: velocity limit {velocity:g} outside [{MIN_VELOCITY:g}, {MAX_VELOCITY:g}] "
+                "(0 or absent: 1 rad/s or m/s)",
+                file=f,
+                line=doc.line_of(lim) if lim is not None else line,
+                joint=name,
+            )
+        origin, axis_el = el.find("origin"), el.find("axis")
+        xyz = _vec3(origin, "xyz", (0.0, 0.0, 0.0), doc, joint=name)
+        rpy = _vec3(origin, "rpy", (0.0, 0.0, 0.0), doc, joint=name)
+        axis = (1.0, 0.0, 0.0)
+        if jtype in MOVABLE:
+            ax = _vec3(axis_el, "xyz", (1.0, 0.0, 0.0), doc, joint=name)
+            norm = math.sqrt(sum(a * a for a in ax))
+            if norm == 0.0:
+                where = doc.line_of(axis_el) if axis_el is not None else line
+                raise UrdfError(f"joint {name!r}: zero axis", file=f, line=where, joint=name)
+            axis = (ax[0] / norm, ax[1] / norm, ax[2] / norm)
+        mel = el.find("mimic")
+        mimic = None
+        if mel is not None and jtype in MOVABLE:
+            mimic = Mimic(
+                mel.get("joint", ""), _float(mel, "multiplier", 1.0, doc), _float(mel, "offset", 0.0, doc)
+            )
+        joints.append(
+            JointInfo(
+                name,
+                jtype,
+                parent,
+                child,
+                lower,
+                upper,
+                velocity,
+                _float(lim, "effort", 0.0, doc),
+                mimic,
+                xyz,
+                rpy,
+                axis,
+            )
+        )
+    names = [j.name for j in joints]
+    if len(set(names)) != len(names):
+        raise UrdfError("duplicate joint names", file=f)
+    if len(set(links)) != len(links):
+        raise UrdfError("duplicate link names", file=f)
+    by_name = {j.name: j for j in joints}
+    for j in joints:
+        if j.mimic is not None:
+            master = by_name.get(j.mimic.joint)
+            if master is None or master.type not in MOVABLE or master.mimic is not None:
+                raise UrdfError(
+                    f"joint {j.name!r} mimics {j.mimic.joint!r}, which is not a movable non-mimic joint",
+                    file=f,
+                    joint=j.name,
+                )
+    roots = [ln for ln in links if ln not in parent_of]
+    if len(roots) != 1:
+        raise UrdfError(f"URDF must have exactly one root link, found {roots}", file=f)
+    children: dict[str, list[JointInfo]] = {}
+    for j in joints:
+        children.setdefault(j.parent, []).append(j)
+    model = UrdfModel(root.get("name", "robot"), roots[0], tuple(links), tuple(joints), children)
+    if not model.controllable:
+        raise NoMovableJoint(f)
+    return model
