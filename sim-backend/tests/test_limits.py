@@ -8,9 +8,8 @@ from pathlib import Path
 import pytest
 from simhelp import KUKA
 
-from robwot_sim import limits
+from robwot_sim import limits, validate
 from robwot_sim.errors import InvalidParams
-from robwot_sim.sim import validate
 from robwot_sim.sim.motion import check_speed_dt
 from robwot_sim.sim.world import World
 

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from robwot_sim.rpc.contract import invalid_param
-from robwot_sim.sim.validate import MIN_QUATERNION_NORM, unit_quaternion
+from robwot_sim.validate import MIN_QUATERNION_NORM, unit_quaternion
 
 
 class Params:

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams
-from robwot_sim.sim import validate as v
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.detour import find_detour
 from robwot_sim.sim.export import export_urdf

@@ -14,8 +14,8 @@ from typing import Any, ParamSpec, Self, TypeVar
 import numpy as np
 import numpy.typing as npt
 
+from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams, NameTaken, UnknownRobot
-from robwot_sim.sim import validate as v
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.fastworld import FastWorld

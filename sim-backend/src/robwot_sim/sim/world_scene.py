@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams, MeshError, UnknownObject
 from robwot_sim.model.meshcheck import check_mesh
 from robwot_sim.model.rotations import quat_from_rpy
 from robwot_sim.scene import normalise_obstacle, read_scene, resolve_file
-from robwot_sim.sim import validate as v
 from robwot_sim.sim.loader import RobotFiles
 from robwot_sim.sim.world_base import Quat, Vec3, WorldBase, _owned
 
