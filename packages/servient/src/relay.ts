@@ -119,6 +119,8 @@ export class Relay {
     return new Promise<PhysicalStopReport>((resolve) => {
       let attempts = 0;
       let lastError = "";
+      /** the Thing answered, but `stopped: false` while a command of ours was in flight */
+      let answeredNothing = false;
       let done = false;
       let next: NodeJS.Timeout | null = null;
       const finish = (r: PhysicalStopReport): void => {
@@ -129,7 +131,12 @@ export class Relay {
         resolve(r);
       };
       const deadline = setTimeout(
-        () => finish({ ok: false, attempts, stopped: false, error: `no answer to stop within ${deadlineMs} ms${lastError ? ` (last: ${lastError})` : ""}` }),
+        () =>
+          finish(
+            answeredNothing
+              ? { ok: true, attempts, stopped: false }
+              : { ok: false, attempts, stopped: false, error: `no answer to stop within ${deadlineMs} ms${lastError ? ` (last: ${lastError})` : ""}` },
+          ),
         deadlineMs,
       );
       const schedule = (ms: number): void => {
@@ -150,7 +157,7 @@ export class Relay {
           }
           const stopped = (r.result as { stopped?: unknown } | undefined)?.stopped;
           if (stopped === false && this.inFlight > 0) {
-            lastError = "the physical robot had nothing to stop while a relayed command was still in flight";
+            answeredNothing = true;
             schedule(STOP_RETRY_PAUSE_MS);
             return;
           }

@@ -1,0 +1,97 @@
+/**
+ * A stop that overtakes its relayed move: the move is on its way to the physical robot when `stop` comes,
+ * and the physical robot gets the stop first (it answers `stopped: false`: nothing to stop yet). The
+ * relay repeats the stop while its command is in flight, so the move is stopped once it arrives instead
+ * of running. Between the twin and the physical robot (a second twin, `realtime: 1`, joints 20 times
+ * slower than its model) runs an HTTP relay that holds relayed moves back; real servients and backends.
+ */
+import { once } from "node:events";
+import { readFileSync, writeFileSync } from "node:fs";
+import { createServer, request, type Server } from "node:http";
+import { join } from "node:path";
+import { afterAll, beforeAll, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+
+const HOLD_MS = 400;
+const J1 = "lbr_iiwa_joint_1";
+
+/** Forwards every request to `target`; POSTs to a move action are held back `HOLD_MS` (`onHeld` is told).
+ *  TDs are rewritten so that their forms point at the relay. */
+async function holdingRelay(target: string, onHeld: () => void): Promise<{ url: string; server: Server }> {
+  const t = new URL(target);
+  let self = "";
+  const server = createServer((req, res) => {
+    const chunks: Buffer[] = [];
+    req.on("data", (c: Buffer) => chunks.push(c));
+    req.on("end", () => {
+      const forward = (): void => {
+        const up = request({ host: t.hostname, port: t.port, method: req.method, path: req.url, headers: { ...req.headers, host: t.host } }, (answer) => {
+          const body: Buffer[] = [];
+          answer.on("data", (c: Buffer) => body.push(c));
+          answer.on("end", () => {
+            const text = Buffer.concat(body).toString("utf8").replaceAll(t.origin, self);
+            const headers = { ...answer.headers };
+            delete headers["content-length"];
+            res.writeHead(answer.statusCode ?? 502, headers);
+            res.end(text);
+          });
+        });
+        up.on("error", () => res.destroy());
+        up.end(Buffer.concat(chunks));
+      };
+      if (req.method === "POST" && /\/actions\/moveTo/.test(req.url ?? "")) {
+        onHeld();
+        setTimeout(forward, HOLD_MS);
+      } else forward();
+    });
+  });
+  server.listen(0, "127.0.0.1");
+  await once(server, "listening");
+  self = `http://127.0.0.1:${(server.address() as { port: number }).port}`;
+  return { url: self, server };
+}
+
+let physical: RunningServient;
+let twin: RunningServient;
+let relayServer: Server;
+let pBase: string;
+let vBase: string;
+let held: () => void = () => undefined;
+
+beforeAll(async () => {
+  const pdir = await generateTwin("kuka_iiwa", 3000);
+  const urdf = join(pdir, "robot.urdf");
+  writeFileSync(urdf, readFileSync(urdf, "utf8").replaceAll('velocity="10"', 'velocity="0.5"'));
+  physical = await startServient({ twins: [pdir], port: 0, realtime: 1 });
+  pBase = `${physical.url}/${physical.things[0]!.slug}`;
+  const relay = await holdingRelay(physical.url, () => held());
+  relayServer = relay.server;
+  twin = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, relay: `${relay.url}/${physical.things[0]!.slug}` });
+  vBase = `${twin.url}/${twin.things[0]!.slug}`;
+});
+
+afterAll(async () => {
+  await twin?.stop();
+  relayServer?.closeAllConnections();
+  relayServer?.close();
+  await physical?.stop();
+});
+
+it("a stop that reaches the physical robot before its relayed move still stops that move", async () => {
+  const heldNow = new Promise<void>((resolve) => (held = resolve));
+  const move = invoke(vBase, "moveToJointPosition", { joints: kukaPose([1.5, 0.3, 0, -0.8, 0, 0.4, 0]), speed: 0.05 });
+  await heldNow;
+  const stop = await invoke(vBase, "stop", "");
+  expect(stop.status).toBe(200);
+  expect(stop.body.stopped).toBe(true);
+  expect(stop.body.physical.ok).toBe(true);
+  // the first stop found nothing there; one sent after the move arrived stopped it
+  expect(stop.body.physical.attempts).toBeGreaterThan(1);
+  const r = await move;
+  expect(r.body.relay.result.status).toBe("stopped");
+  await sleep(1_000);
+  const st = (await http(`${pBase}/properties/motionStatus`)).body;
+  expect(st.state).toBe("stopped");
+  expect(Math.abs((await http(`${pBase}/properties/getJointPosition`)).body[J1])).toBeLessThan(0.05);
+});
