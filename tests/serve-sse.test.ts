@@ -79,3 +79,20 @@ it("streams the collision event", async () => {
   const ev = r.data[0] as { pair: { a: { body: string }; b: { body: string } } };
   expect([ev.pair.a.body, ev.pair.b.body]).toContain("intruder");
 });
+
+it("answers an event stream's headers at once, with a retry line, before any event has happened", async () => {
+  const href = (await http(base)).body.events.collision.forms.find((f: { subprotocol?: string }) => f.subprotocol === "sse").href;
+  const ctl = new AbortController();
+  // a stream whose headers wait for the first keep-alive comment (15 s) fails here
+  const deadline = setTimeout(() => ctl.abort(), 3000);
+  try {
+    const r = await fetch(href, { signal: ctl.signal });
+    expect(r.status).toBe(200);
+    expect(r.headers.get("content-type")).toContain("text/event-stream");
+    const first = await r.body!.getReader().read();
+    expect(new TextDecoder().decode(first.value)).toMatch(/^retry: \d+\n\n$/);
+  } finally {
+    clearTimeout(deadline);
+    ctl.abort();
+  }
+});

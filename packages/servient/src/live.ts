@@ -7,17 +7,36 @@
  * `{thing, type: "scene", obstacles}` (the shared world's obstacles in scene.json's shape, after every
  * scene edit), `{type: "error", code, message, details}` for a bad message. A snapshot (joints, status,
  * scene) follows every subscription.
+ *
+ * Each client has a `PushQueue` (push-queue.ts): its joints, status and scene messages coalesce to the
+ * latest of each per thing, collision events and error replies are kept up to a bound, and a client that
+ * stays behind is closed with code 1008 and the reason. A broadcast is serialised once, into one buffer
+ * that every client's socket shares.
  */
 import type { IncomingMessage, Server } from "node:http";
 import type { Duplex } from "node:stream";
 import { WebSocketServer, WebSocket } from "ws";
 import { isAuthorized, type AuthConfig } from "./auth.js";
 import { ServientError } from "./errors.js";
+import { PushQueue, type PushTransport } from "./push-queue.js";
 import type { RequestGuard } from "./request-guard.js";
 import type { Twin } from "./twin.js";
 import type { World } from "./world.js";
 
-const MAX_BUFFERED = 1 << 20;
+/** WebSocket close code for a client closed for being too slow: policy violation (RFC 6455 7.4.1) */
+const CLOSE_TOO_SLOW = 1008;
+
+function wsTransport(ws: WebSocket): PushTransport<Buffer> {
+  return {
+    buffered: () => ws.bufferedAmount,
+    write: (data, done) => {
+      if (ws.readyState === WebSocket.OPEN) ws.send(data, { binary: false }, done);
+    },
+    // a close reason is at most 123 bytes
+    close: (reason) => ws.close(CLOSE_TOO_SLOW, reason.slice(0, 120)),
+    destroy: () => ws.terminate(),
+  };
+}
 
 export interface LiveServer {
   close(): Promise<void>;
@@ -26,26 +45,30 @@ export interface LiveServer {
 
 export function attachLive(server: Server, twins: Map<string, Twin>, world: World, auth: AuthConfig | undefined, guard: RequestGuard): LiveServer {
   const wss = new WebSocketServer({ noServer: true, maxPayload: 64 * 1024 });
-  const subs = new Map<WebSocket, Set<string>>();
+  const clients = new Map<WebSocket, { things: Set<string>; queue: PushQueue<Buffer> }>();
 
-  const send = (ws: WebSocket, msg: unknown, droppable: boolean): void => {
-    if (ws.readyState !== WebSocket.OPEN) return;
-    if (droppable && ws.bufferedAmount > MAX_BUFFERED) return;
-    ws.send(JSON.stringify(msg));
+  /** key: what the message coalesces with (`<kind>:<slug>`), null for an event or a reply (kept) */
+  const send = (ws: WebSocket, key: string | null, msg: unknown): void => {
+    clients.get(ws)?.queue.push(key, Buffer.from(JSON.stringify(msg)));
   };
-  const broadcast = (slug: string, msg: unknown, droppable: boolean): void => {
-    for (const [ws, set] of subs) if (set.has(slug)) send(ws, msg, droppable);
+  const broadcast = (slug: string, kind: "joints" | "status" | "scene" | "collision", msg: unknown): void => {
+    let data: Buffer | null = null;
+    for (const { things, queue } of clients.values()) {
+      if (!things.has(slug)) continue;
+      data ??= Buffer.from(JSON.stringify(msg));
+      queue.push(kind === "collision" ? null : `${kind}:${slug}`, data);
+    }
   };
   const sceneOf = (slug: string): object => ({ thing: slug, type: "scene", obstacles: world.sceneObstacles() });
   const onScene = (): void => {
-    for (const slug of twins.keys()) broadcast(slug, sceneOf(slug), false);
+    for (const slug of twins.keys()) broadcast(slug, "scene", sceneOf(slug));
   };
   world.on("scene", onScene);
   const detach: (() => void)[] = [() => world.off("scene", onScene)];
   for (const [slug, twin] of twins) {
-    const onJoints = (m: unknown): void => broadcast(slug, m, true);
-    const onStatus = (s: object): void => broadcast(slug, { thing: slug, type: "status", ...s }, false);
-    const onCollision = (e: object): void => broadcast(slug, { thing: slug, type: "collision", ...e }, false);
+    const onJoints = (m: unknown): void => broadcast(slug, "joints", m);
+    const onStatus = (s: object): void => broadcast(slug, "status", { thing: slug, type: "status", ...s });
+    const onCollision = (e: object): void => broadcast(slug, "collision", { thing: slug, type: "collision", ...e });
     twin.on("joints", onJoints);
     twin.on("status", onStatus);
     twin.on("collision", onCollision);
@@ -57,19 +80,19 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
   }
 
   const subscribe = (ws: WebSocket, slug: string): void => {
-    const set = subs.get(ws);
+    const set = clients.get(ws)?.things;
     if (!set) return;
     const targets = slug === "*" ? [...twins.keys()] : [slug];
     for (const s of targets) {
       const twin = twins.get(s);
       if (!twin) {
-        send(ws, { type: "error", code: "E_UNKNOWN_THING", message: `no twin '${s}'`, details: { thing: s, available: [...twins.keys()] } }, false);
+        send(ws, null, { type: "error", code: "E_UNKNOWN_THING", message: `no twin '${s}'`, details: { thing: s, available: [...twins.keys()] } });
         continue;
       }
       set.add(s);
-      send(ws, twin.liveJoints(), false);
-      send(ws, { thing: s, type: "status", ...twin.status }, false);
-      send(ws, sceneOf(s), false);
+      send(ws, `joints:${s}`, twin.liveJoints());
+      send(ws, `status:${s}`, { thing: s, type: "status", ...twin.status });
+      send(ws, `scene:${s}`, sceneOf(s));
     }
   };
 
@@ -95,22 +118,27 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
       return;
     }
     wss.handleUpgrade(req, socket, head, (ws) => {
-      subs.set(ws, new Set());
-      ws.on("close", () => subs.delete(ws));
-      ws.on("error", () => subs.delete(ws));
+      const peer = `/live ${req.socket.remoteAddress ?? "?"}:${req.socket.remotePort ?? "?"}`;
+      clients.set(ws, { things: new Set(), queue: new PushQueue(wsTransport(ws), peer) });
+      const gone = (): void => {
+        clients.get(ws)?.queue.dispose();
+        clients.delete(ws);
+      };
+      ws.on("close", gone);
+      ws.on("error", gone);
       ws.on("message", (data) => {
         let msg: unknown;
         try {
           msg = JSON.parse(data.toString());
         } catch {
-          send(ws, { type: "error", code: "E_BAD_JSON", message: "message is not JSON", details: {} }, false);
+          send(ws, null, { type: "error", code: "E_BAD_JSON", message: "message is not JSON", details: {} });
           return;
         }
         const m = (msg ?? {}) as { subscribe?: unknown; unsubscribe?: unknown };
         if (typeof m.subscribe === "string") subscribe(ws, m.subscribe);
-        else if (typeof m.unsubscribe === "string") subs.get(ws)?.delete(m.unsubscribe);
+        else if (typeof m.unsubscribe === "string") clients.get(ws)?.things.delete(m.unsubscribe);
         else {
-          send(ws, { type: "error", code: "E_BAD_MESSAGE", message: 'expected {"subscribe": "<slug>"} or {"unsubscribe": "<slug>"}', details: {} }, false);
+          send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message: 'expected {"subscribe": "<slug>"} or {"unsubscribe": "<slug>"}', details: {} });
         }
       });
       const initial = url.searchParams.get("thing");
@@ -120,11 +148,14 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
   server.on("upgrade", onUpgrade);
 
   return {
-    clients: () => subs.size,
+    clients: () => clients.size,
     close: async () => {
       server.off("upgrade", onUpgrade);
       detach.forEach((d) => d());
-      for (const ws of subs.keys()) ws.terminate();
+      for (const [ws, { queue }] of clients) {
+        queue.dispose();
+        ws.terminate();
+      }
       await new Promise<void>((r) => wss.close(() => r()));
     },
   };

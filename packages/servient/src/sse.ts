@@ -2,10 +2,16 @@
  * Server-Sent Events for observable properties and events, as the W3C WoT Profile's HTTP SSE mechanism
  * describes them (`subprotocol: "sse"` forms): `GET .../properties/<name>/sse` streams every new value
  * of the property (the current one first), `GET .../events/<name>/sse` every event instance; each message
- * is `event: <name>`, `id: <n>`, `data: <JSON>`. A comment line every 15 s keeps proxies from closing an
- * idle stream. The subscription ends when the client closes the connection.
+ * is `event: <name>`, `id: <n>`, `data: <JSON>`. The headers and a `retry:` line go out at once (an event
+ * stream may stay silent for long); a comment line every 15 s keeps proxies from closing an idle stream.
+ * The subscription ends when the client closes the connection.
+ *
+ * Each stream has a `PushQueue` (push-queue.ts): property values coalesce to the latest, event instances
+ * are kept up to a bound, and a client that stays behind gets a `: disconnected: <reason>` comment and the
+ * end of the response.
  */
 import type { IncomingMessage, ServerResponse } from "node:http";
+import { PUSH_LIMITS, PushQueue, type PushLimits, type PushTransport } from "./push-queue.js";
 
 /** A source of values: `subscribe` registers a listener and returns the function that removes it. */
 export interface SseSource {
@@ -15,22 +21,52 @@ export interface SseSource {
 }
 
 const KEEP_ALIVE_MS = 15_000;
+/** the reconnection delay the stream asks of an EventSource */
+const RETRY_MS = 3000;
 
-export function streamSse(req: IncomingMessage, res: ServerResponse, name: string, source: SseSource): void {
-  res.writeHead(200, { "Content-Type": "text/event-stream", "Cache-Control": "no-cache", Connection: "keep-alive" });
+type SseItem = { data: string } | { comment: string };
+
+function sseTransport(res: ServerResponse, name: string, ended: () => void): PushTransport<SseItem> {
   let id = 0;
-  const send = (value: unknown): void => {
-    if (res.writableEnded) return;
-    res.write(`event: ${name}\nid: ${++id}\ndata: ${JSON.stringify(value)}\n\n`);
+  return {
+    buffered: () => res.writableLength,
+    write: (item, done) => {
+      if (res.writableEnded) return;
+      res.write("data" in item ? `event: ${name}\nid: ${++id}\ndata: ${item.data}\n\n` : `: ${item.comment}\n\n`, () => done());
+    },
+    close: (reason) => {
+      ended();
+      if (!res.writableEnded) res.end(`: disconnected: ${reason.replace(/[\r\n]/g, " ")}\n\n`);
+    },
+    destroy: () => res.destroy(),
   };
-  if (source.current) send(source.current());
-  const unsubscribe = source.subscribe(send);
-  const keepAlive = setInterval(() => res.write(": keep-alive\n\n"), KEEP_ALIVE_MS);
+}
+
+export function streamSse(req: IncomingMessage, res: ServerResponse, name: string, source: SseSource, limits: PushLimits = PUSH_LIMITS): void {
+  res.writeHead(200, { "Content-Type": "text/event-stream", "Cache-Control": "no-cache", Connection: "keep-alive" });
+  res.write(`retry: ${RETRY_MS}\n\n`);
+  let unsubscribe: (() => void) | null = null;
+  let ended = false;
+  const keepAlive = setInterval(() => queue.push("keep-alive", { comment: "keep-alive" }), KEEP_ALIVE_MS);
   keepAlive.unref();
-  const end = (): void => {
+  /** no more values for this client: it went away, or it was disconnected for being too slow */
+  const stop = (): void => {
+    if (ended) return;
+    ended = true;
     clearInterval(keepAlive);
-    unsubscribe();
+    unsubscribe?.();
   };
-  req.on("close", end);
-  res.on("close", end);
+  const peer = `${req.url ?? "sse"} ${req.socket.remoteAddress ?? "?"}:${req.socket.remotePort ?? "?"}`;
+  const queue = new PushQueue(sseTransport(res, name, stop), peer, limits);
+  // a property's values coalesce (the latest is the value); every event instance counts
+  const key = source.current ? "value" : null;
+  const send = (value: unknown): void => queue.push(key, { data: JSON.stringify(value) });
+  if (source.current) send(source.current());
+  if (!ended) unsubscribe = source.subscribe(send);
+  const gone = (): void => {
+    stop();
+    queue.dispose();
+  };
+  req.on("close", gone);
+  res.on("close", gone);
 }
