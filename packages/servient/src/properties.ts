@@ -1,5 +1,5 @@
 /** Property read handlers: served from the twin's in-memory state (no backend round trip). */
-import { calibrationProperty } from "./calibration.js";
+import { calibrationProperty } from "./calibrate.js";
 import { recordErrors } from "./request-context.js";
 import type { Twin } from "./twin.js";
 
