@@ -168,7 +168,12 @@ it("100 clients that never read cost the servient less than 20 MB; a slow /live 
   reader.close();
 
   rawSlow.resume();
-  const { code, reason } = await closed;
+  const { code, reason } = await Promise.race([
+    closed,
+    sleep(15_000).then(() => {
+      throw new Error("the slow /live client was not closed");
+    }),
+  ]);
   expect(code).toBe(1008);
   expect(reason).toMatch(/^too slow: \d+ bytes unread for \d+ s$/);
   for (const s of silentClients) s.destroy();
