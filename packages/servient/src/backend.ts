@@ -16,7 +16,7 @@
  * emitted (`restartFailed`), and retried after a growing pause.
  */
 import { EventEmitter } from "node:events";
-import { deadlineFromEnv, SimClient, type CallOptions, type RpcCaller } from "@robwot/sim-client";
+import { deadlineFromEnv, SimClient, startHeartbeat, type CallOptions, type RpcCaller } from "@robwot/sim-client";
 import { backendDown, fromBackendError } from "./errors.js";
 
 /** One live connection to a backend. */
@@ -61,7 +61,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private up = false;
   private stopping = false;
   private recovering: Promise<void> | null = null;
-  private heartbeat: NodeJS.Timeout | null = null;
+  private stopHeartbeat: (() => void) | null = null;
   private deadReason: string | null = null;
   /** number of successful restarts since start */
   restarts = 0;
@@ -132,24 +132,15 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
 
   private startHeartbeat(s: SimSession): void {
     this.clearHeartbeat();
-    let pending = false;
-    this.heartbeat = setInterval(() => {
-      if (pending || this.session !== s) return;
-      pending = true;
-      new SimClient(s)
-        .ping({ timeoutMs: this.deadlines.deadAfterMs })
-        .catch((err: unknown) => {
-          // a closed connection is handled by onClosed; anything else means no answer in time
-          if (fromBackendError(err).code !== "E_BACKEND_DOWN") this.declareDead(s, `no answer to ping within ${this.deadlines.deadAfterMs} ms`);
-        })
-        .finally(() => (pending = false));
-    }, this.deadlines.heartbeatMs);
-    this.heartbeat.unref();
+    const ping = new SimClient(s);
+    this.stopHeartbeat = startHeartbeat((o) => ping.ping(o), { periodMs: this.deadlines.heartbeatMs, deadAfterMs: this.deadlines.deadAfterMs }, (reason) =>
+      this.declareDead(s, reason),
+    );
   }
 
   private clearHeartbeat(): void {
-    if (this.heartbeat) clearInterval(this.heartbeat);
-    this.heartbeat = null;
+    this.stopHeartbeat?.();
+    this.stopHeartbeat = null;
   }
 
   /** Resolves when the backend is up (or rejects after `timeoutMs`). */

@@ -5,6 +5,8 @@ export type { GenerateOptions, RpcCaller } from "./sim-client.js";
 export { connect, deadlineFromEnv, defaultPython, launchBackend, LaunchedBackend, resolvePython } from "./launcher.js";
 export type { BackendEvents, ExitInfo, LaunchOptions } from "./launcher.js";
 export { BackendStartError, ConnectionClosedError, isRpcError, RpcError, RpcTimeoutError } from "./errors.js";
+export { startHeartbeat } from "./heartbeat.js";
+export type { HeartbeatOptions } from "./heartbeat.js";
 export type { RpcErrorData } from "./errors.js";
 /** the backend contract's types (generated into core, which every package already depends on) */
 export type * from "@robwot/core/backend-contract";
