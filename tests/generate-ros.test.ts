@@ -157,3 +157,58 @@ describe("xacro left in a URDF", () => {
     expect(existsSync(out)).toBe(false);
   }, 60_000);
 });
+
+describe("--moveit-config DIR, the SRDF and --group", () => {
+  const CONFIG = join(MODELS, "ros_ws", "tinyxacro_moveit_config");
+
+  it("generates from a MoveIt config: its xacro and args, its SRDF, its joint_limits.yaml, its first end effector", async () => {
+    const out = join(work, "moveit");
+    const r = await runCli(["generate", "--moveit-config", CONFIG, "--samples", SAMPLES, "--out", out]);
+    expect(r.code, r.stderr).toBe(0);
+    const robot = json(join(out, "twin.json")).robot;
+    expect(robot.xacro).toEqual({ file: "arm.urdf.xacro", args: { upper_length: "0.25" } }); // .setup_assistant's xacro_args
+    expect(robot.srdf).toBe("robot.srdf");
+    expect(readFileSync(join(out, "robot.srdf"), "utf8")).toBe(readFileSync(join(CONFIG, "config", "tinyxacro.srdf"), "utf8"));
+    expect(robot.eeLink).toBe("fore"); // the SRDF's first <end_effector>, not the URDF's tip
+    const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
+    const velocity = (joint: string) => new RegExp(`<joint name="${joint}"[\\s\\S]*?velocity="([^"]+)"`).exec(urdf)?.[1];
+    expect([velocity("yaw"), velocity("shoulder"), velocity("elbow")]).toEqual(["0.5", "1", "0.75"]); // shoulder: has_velocity_limits false
+    const served = await startServient({ twins: [out], port: 0, realtime: 0 });
+    try {
+      const pose = (await http(`${served.things[0]!.tdUrl}/properties/getCartesianPosition`)).body;
+      expect(pose.z).toBeCloseTo(0.1 + 0.05 + 0.25, 6); // the elbow, where fore starts
+    } finally {
+      await served.stop();
+    }
+  }, 180_000);
+
+  it("--group picks the group's end effector and is recorded; an unknown group lists the SRDF's", async () => {
+    const out = join(work, "moveit-arm");
+    const r = await runCli(["generate", "--moveit-config", CONFIG, "--group", "arm", "--samples", SAMPLES, "--out", out]);
+    expect(r.code, r.stderr).toBe(0);
+    const robot = json(join(out, "twin.json")).robot;
+    expect([robot.eeLink, robot.group]).toEqual(["tip", "arm"]);
+    const bad = await runCli(["generate", "--moveit-config", CONFIG, "--group", "legs", "--out", join(work, "never-group")]);
+    expect(bad.code).toBe(2);
+    expect(bad.stderr).toContain("--group legs: no such planning group in the SRDF (groups: arm, to_elbow, hand)");
+    expect(existsSync(join(work, "never-group"))).toBe(false);
+  }, 180_000);
+
+  it("refuses an SRDF written for another robot with file:line", async () => {
+    const srdf = join(work, "other.srdf");
+    writeFileSync(srdf, '<?xml version="1.0"?>\n<robot name="other">\n  <group name="arm">\n    <chain base_link="base" tip_link="panda_link8"/>\n  </group>\n</robot>\n');
+    const r = await runCli(["generate", join(work, "tiny.urdf"), "--srdf", srdf, "--samples", SAMPLES, "--out", join(work, "never-srdf")]);
+    expect(r.code).toBe(1);
+    expect(r.stderr).toContain(`robwot: error: ${srdf}:4: link 'panda_link8' is not a link of the robot (links: base, fore, tip, turret, upper): is this the SRDF of another robot?`);
+  }, 60_000);
+
+  it.each([
+    [["--moveit-config", CONFIG, "robot.urdf"], "--moveit-config names the robot already"],
+    [["tiny.urdf", "--group", "arm"], "--group names a planning group of an SRDF: give --srdf FILE or --moveit-config DIR"],
+    [["--moveit-config", join(CONFIG, "nope")], "--moveit-config: folder not found"],
+  ])("usage errors: %j", async (args, says) => {
+    const r = await runCli(["generate", ...args.map((a) => (a === "tiny.urdf" ? join(work, a) : a)), "--out", join(work, "never-usage")]);
+    expect(r.code).toBe(2);
+    expect(r.stderr).toContain(says);
+  });
+});

@@ -4,7 +4,7 @@
  * Shared by `robwot generate` and `robwot demo`.
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
-import { basename, dirname, join, resolve } from "node:path";
+import { join, resolve } from "node:path";
 import { buildThingModel, THING_MODEL_FILE } from "@robwot/core";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
@@ -12,6 +12,7 @@ import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError, describeError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
 import { type ProgressSink, whileSlow } from "./progress.js";
+import { prepareRosInput, type RosInput } from "./ros-input.js";
 import { sceneDocument } from "./scene-doc.js";
 import { StagedDir } from "./twin-dir.js";
 import { VERSION } from "./version.js";
@@ -46,9 +47,10 @@ function writeJson(file: string, value: unknown): void {
   writeFileSync(file, `${JSON.stringify(value, null, 2)}\n`);
 }
 
-/** Resolves the URDF to load: a file given by the user or an example robot. */
+/** Resolves the URDF to load: a file given by the user, an example robot, or (`--moveit-config`) none yet. */
 function urdfPath(opts: GenerateOptions, pybulletData: string): string {
   if (opts.urdfFile) return opts.urdfFile;
+  if (opts.moveitConfig !== undefined) return opts.moveitConfig;
   if (!opts.example) throw new CliError("no robot given");
   const file = exampleUrdfPath(opts.example, pybulletData);
   if (!existsSync(file)) {
@@ -144,21 +146,22 @@ export async function generateTwin(
   const source = urdfPath(opts, backend.pybulletData);
   // The backend starts its collision workers (and loads the alpha-shape code) while it loads the scene.
   if (opts.cluster === undefined) await backend.warmUp(opts.workers);
-  const expanded = opts.xacroArgs ? await backend.expandXacro({ xacro: source, args: opts.xacroArgs, packageRoots: opts.packageRoots }) : undefined;
-  const urdf = expanded?.urdf ?? source;
-  const packageRoots: Record<string, string> = expanded ? Object.fromEntries(Object.entries(expanded.packageRoots).filter((e): e is [string, string] => e[1] !== undefined)) : opts.packageRoots;
+  const input = await prepareRosInput(opts, backend, source);
+  // from here on the robot is the prepared one: the SRDF and end effector the input chose
+  const { srdf: _srdf, ee: _ee, ...rest } = opts;
+  const effective: GenerateOptions = { ...rest, ...(input.srdf !== undefined ? { srdf: input.srdf } : {}), ...(input.ee !== undefined ? { ee: input.ee } : {}) };
   let keep = false;
   try {
-    return await generateFrom(opts, backend, staged, progress, t0, source, urdf, packageRoots);
+    return await generateFrom(effective, backend, staged, progress, t0, input);
   } catch (err) {
     const { message, code } = describeError(err);
-    if (expanded && message.includes(expanded.urdf)) {
+    if (input.expandedDir !== undefined && message.includes(input.urdf)) {
       keep = true; // the error names a line of the expanded file: it stays for the user to read
-      throw new CliError(`${message} (the URDF expanded from ${source}, kept there)`, code, 1);
+      throw new CliError(`${message} (the URDF expanded from ${input.source}, kept there)`, code, 1);
     }
     throw err;
   } finally {
-    if (expanded && !keep) rmSync(dirname(expanded.urdf), { recursive: true, force: true });
+    if (input.expandedDir !== undefined && !keep) rmSync(input.expandedDir, { recursive: true, force: true });
   }
 }
 
@@ -168,10 +171,9 @@ async function generateFrom(
   staged: StagedDir,
   progress: ProgressSink,
   t0: number,
-  source: string,
-  urdf: string,
-  packageRoots: Record<string, string>,
+  input: RosInput,
 ): Promise<GenerateResult> {
+  const { source, urdf, packageRoots } = input;
   const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots), SLOW_LOAD_MS, () => progress.info(SLOW_LOAD));
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
@@ -208,7 +210,9 @@ async function generateFrom(
       ...(opts.srdf !== undefined ? { srdf: "robot.srdf" } : {}),
       clearance: model.clearance,
       // the xacro file robot.urdf was expanded from (its name only: twin.json is served) and its arguments
-      ...(opts.xacroArgs ? { xacro: { file: basename(source), args: opts.xacroArgs } } : {}),
+      ...(input.xacro ? { xacro: input.xacro } : {}),
+      // the SRDF planning group chosen with --group (its end effector is eeLink unless --ee)
+      ...(input.group !== undefined ? { group: input.group } : {}),
     },
     scene: "scene.json",
     generatedAt: new Date().toISOString(),

@@ -126,6 +126,14 @@ export type RobotExportResult = ExportResult;
  */
 export type RobotExpandXacroResult = XacroExpanded;
 /**
+ * Result of `robot.moveitConfig`.
+ */
+export type RobotMoveitConfigResult = MoveitConfig;
+/**
+ * Result of `robot.readSrdf`.
+ */
+export type RobotReadSrdfResult = SrdfInfo;
+/**
  * Result of `robot.getJointPositions`.
  */
 export type RobotGetJointPositionsResult = JointPositions;
@@ -469,6 +477,58 @@ export interface XacroExpanded {
   urdf: string;
   packageRoots: PackageRoots;
 }
+/**
+ * what a MoveIt config package says about its robot
+ */
+export interface MoveitConfig {
+  /**
+   * the URDF or xacro file (absolute)
+   */
+  urdf: string;
+  xacroArgs: {
+    [k: string]: string | undefined;
+  };
+  /**
+   * the SRDF file (absolute)
+   */
+  srdf: string;
+  packageRoots: PackageRoots;
+  /**
+   * joint -> maximum velocity from joint_limits.yaml
+   */
+  velocityLimits: {
+    [k: string]: number | undefined;
+  };
+}
+/**
+ * an SRDF's groups (links, joints, chains, subgroups), named group states, end effectors (in file order)
+ */
+export interface SrdfInfo {
+  robot: string;
+  groups: {
+    name: string;
+    links: string[];
+    joints: string[];
+    chains: {
+      base: string;
+      tip: string;
+    }[];
+    subgroups: string[];
+  }[];
+  groupStates: {
+    group: string;
+    name: string;
+    joints: {
+      [k: string]: number | undefined;
+    };
+  }[];
+  endEffectors: {
+    name: string;
+    parentLink: string;
+    group: string;
+    parentGroup?: string;
+  }[];
+}
 export interface Bounds {
   min: Vec3;
   max: Vec3;
@@ -651,6 +711,26 @@ export interface RobotExpandXacroParams {
     [k: string]: string | undefined;
   };
   packageRoots?: PackageRoots;
+  /**
+   * joint -> maximum velocity (rad/s or m/s)
+   */
+  velocityLimits?: {
+    [k: string]: number | undefined;
+  };
+}
+/**
+ * Params of `robot.moveitConfig`.
+ */
+export interface RobotMoveitConfigParams {
+  dir: FilePath;
+  packageRoots?: PackageRoots;
+}
+/**
+ * Params of `robot.readSrdf`.
+ */
+export interface RobotReadSrdfParams {
+  srdf: FilePath;
+  urdf: FilePath;
 }
 /**
  * Params of `robot.getJointPositions`.
@@ -807,6 +887,8 @@ export interface Methods {
   "robot.model": { params: RobotModelParams; result: RobotModelResult };
   "robot.export": { params: RobotExportParams; result: RobotExportResult };
   "robot.expandXacro": { params: RobotExpandXacroParams; result: RobotExpandXacroResult };
+  "robot.moveitConfig": { params: RobotMoveitConfigParams; result: RobotMoveitConfigResult };
+  "robot.readSrdf": { params: RobotReadSrdfParams; result: RobotReadSrdfResult };
   "robot.getJointPositions": { params: RobotGetJointPositionsParams; result: RobotGetJointPositionsResult };
   "robot.setJointPositions": { params: RobotSetJointPositionsParams; result: RobotSetJointPositionsResult };
   "robot.fk": { params: RobotFkParams; result: RobotFkResult };

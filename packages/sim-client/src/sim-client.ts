@@ -100,6 +100,12 @@ export class SimClient {
   expandXacro(params: Params<"robot.expandXacro">): Result<"robot.expandXacro"> {
     return this.request("robot.expandXacro", params);
   }
+  moveitConfig(params: Params<"robot.moveitConfig">): Result<"robot.moveitConfig"> {
+    return this.request("robot.moveitConfig", params);
+  }
+  readSrdf(params: Params<"robot.readSrdf">): Result<"robot.readSrdf"> {
+    return this.request("robot.readSrdf", params);
+  }
   getJointPositions(robot: string): Result<"robot.getJointPositions"> {
     return this.request("robot.getJointPositions", { robot });
   }

@@ -62,7 +62,7 @@ def ros_package_path() -> tuple[Path, ...]:
 
 
 @lru_cache(maxsize=16)
-def _crawl(folder: Path) -> dict[str, Path]:
+def packages_below(folder: Path) -> dict[str, Path]:
     """Packages below one ROS_PACKAGE_PATH folder by name; the first found (breadth first) wins. Read once
     per backend process and folder, as rospack caches its crawl."""
     found: dict[str, Path] = {}
@@ -88,7 +88,7 @@ def _crawl(folder: Path) -> dict[str, Path]:
 def find_on_ros_package_path(name: str) -> Path | None:
     """The package ``name`` from the ROS_PACKAGE_PATH folders (the first folder holding it wins), or None."""
     for folder in ros_package_path():
-        hit = _crawl(folder).get(name)
+        hit = packages_below(folder).get(name)
         if hit is not None:
             return hit.resolve()
     return None

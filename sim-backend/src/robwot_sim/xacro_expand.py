@@ -191,8 +191,22 @@ def _run_child(xacro_file: Path, args: Mapping[str, str], package_roots: Mapping
     raise failure
 
 
+def _set_velocities(root: ET.Element, src: Path, limits: Mapping[str, float]) -> None:
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    for name, velocity in limits.items():
+        joint = joints.get(name)
+        if joint is None:
+            raise UrdfError(f"joint_limits.yaml names joint {name!r}, which the robot does not have (joints: "
+                            f"{', '.join(sorted(str(j) for j in joints))})", file=str(src), joint=name)
+        limit = joint.find("limit")
+        if limit is None:
+            limit = ET.SubElement(joint, "limit", {"effort": "0"})
+        limit.set("velocity", repr(float(velocity)))
+
+
 def expand_xacro(xacro: str | Path, args: Mapping[str, str] | None = None,
-                 package_roots: Mapping[str, str] | None = None) -> tuple[Path, dict[str, str]]:
+                 package_roots: Mapping[str, str] | None = None,
+                 velocity_limits: Mapping[str, float] | None = None) -> tuple[Path, dict[str, str]]:
     """Expand ``xacro`` (with ``args``, xacro's ``NAME:=VALUE`` arguments) into a URDF file in a new
     temporary folder. Returns (that file, package roots to load it with: ``package_roots`` plus every
     package the expansion or its meshes used, and the xacro's folder under SOURCE_ROOT).
@@ -200,7 +214,8 @@ def expand_xacro(xacro: str | Path, args: Mapping[str, str] | None = None,
     Raises FileNotFound, Forbidden / PathEscape (a file outside the allowed roots, DTD/entities),
     UnknownPackage (``$(find)`` or ``package://`` naming a package found nowhere: says which option fixes
     it) or UrdfError (xacro's own error, with the file and, for XML errors, the line; an expansion that
-    still holds ``${...}``/``$(...)``)."""
+    still holds ``${...}``/``$(...)``). ``velocity_limits`` (joint -> max velocity, a MoveIt config's
+    joint_limits.yaml) replace the URDF's ``<limit velocity>``; a joint the URDF lacks is refused."""
     src = Path(xacro).expanduser()
     if not src.is_file():
         raise FileNotFound(str(src), what="xacro file")
@@ -217,6 +232,7 @@ def expand_xacro(xacro: str | Path, args: Mapping[str, str] | None = None,
     if root.tag != "robot":
         raise UrdfError(f"expands to <{root.tag}>, expected <robot>", file=str(src))
     refuse_unexpanded(UrdfDoc(root, src, {}))  # names the xacro file: its expansion's lines are not its own
+    _set_velocities(root, src, velocity_limits or {})
     out_roots = {**roots, **answer["packages"], SOURCE_ROOT: str(src.parent)}
     enclosing = enclosing_packages(src.parent)
     for el in root.iter("mesh"):

@@ -26,6 +26,10 @@ export interface GenerateOptions {
   urdfFile?: string;
   /** When `urdfFile` is a xacro file (`*.xacro`): its arguments (`--xacro-arg NAME:=VALUE`), expanded by the backend */
   xacroArgs?: Record<string, string>;
+  /** `--moveit-config DIR` (absolute): the robot, its xacro args and SRDF from a MoveIt config package (instead of `urdfFile`) */
+  moveitConfig?: string;
+  /** `--group NAME`: the SRDF planning group whose end effector is the default `--ee` */
+  group?: string;
   example?: ExampleRobot;
   scene?: string;
   /** SRDF file (absolute): its disabled collision pairs are never checked; copied into the twin */
@@ -68,6 +72,8 @@ export const GENERATE_OPTIONS = {
   "package-root": { type: "string", multiple: true },
   base: { type: "string" },
   "xacro-arg": { type: "string", multiple: true },
+  "moveit-config": { type: "string" },
+  group: { type: "string" },
   "csv-joints": { type: "boolean" },
   backend: { type: "string" },
   json: { type: "boolean" },
@@ -132,6 +138,12 @@ export function parseXacroArgs(values: string[] | undefined): Record<string, str
   return args;
 }
 
+function existingDir(option: string, path: string): string {
+  const abs = resolve(path);
+  if (!existsSync(abs) || !statSync(abs).isDirectory()) throw new CliError(`--${option}: folder not found: ${abs}`);
+  return abs;
+}
+
 function isFile(path: string): boolean {
   return existsSync(path) && statSync(path).isFile();
 }
@@ -160,18 +172,24 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     throw usageError(err, "generate", Object.keys(GENERATE_OPTIONS));
   }
   const { values, positionals } = parsed;
-  if (positionals.length !== 1) {
+  const moveitConfig = values["moveit-config"] === undefined ? undefined : existingDir("moveit-config", values["moveit-config"]);
+  if (moveitConfig !== undefined && positionals.length > 0) {
+    throw new CliError(`--moveit-config names the robot already: give it or a robot (${positionals.join(" ")}), not both`);
+  }
+  if (moveitConfig === undefined && positionals.length !== 1) {
     throw new CliError(
       positionals.length === 0
         ? `missing robot: give a URDF file or an example name (${EXAMPLE_NAMES.join(", ")})`
         : `expected one robot, got ${positionals.length}: ${positionals.join(" ")}`,
     );
   }
-  const robotArg = positionals[0] as string;
+  const robotArg = positionals[0] ?? "";
   let urdfFile: string | undefined;
   let example: ExampleRobot | undefined;
   const known = findExample(robotArg);
-  if (known && !isFile(robotArg)) {
+  if (moveitConfig !== undefined) {
+    // the robot file is found in the package by the backend
+  } else if (known && !isFile(robotArg)) {
     example = known;
   } else if (isFile(robotArg) || !looksLikeExampleName(robotArg)) {
     urdfFile = existingFile("URDF file", robotArg);
@@ -190,7 +208,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const packageRoots = parsePackageRoots(values["package-root"]);
   const base = parseBase(values.base);
   const xacroArgs = parseXacroArgs(values["xacro-arg"]);
-  const isXacro = urdfFile?.endsWith(".xacro") ?? false;
+  const isXacro = (urdfFile?.endsWith(".xacro") ?? false) || moveitConfig !== undefined;
   if (!isXacro && Object.keys(xacroArgs).length > 0) {
     throw new CliError(`--xacro-arg is for a xacro file (robot.urdf.xacro); ${urdfFile ?? robotArg} is not one`);
   }
@@ -199,13 +217,20 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const scene = values.scene === undefined ? undefined : parseSceneFile(values.scene);
   if (values.ee !== undefined && values.ee.trim() === "") throw new CliError("--ee must name a link");
+  if (values.group !== undefined && values.group.trim() === "") throw new CliError("--group must name a planning group of the SRDF");
+  if (values.group !== undefined && values.srdf === undefined && moveitConfig === undefined) {
+    throw new CliError("--group names a planning group of an SRDF: give --srdf FILE or --moveit-config DIR");
+  }
   const declared = urdfFile ? urdfRobotName(urdfFile) : undefined;
   // a xacro's name may itself be an expression: then the file name it has
-  const robotName = example?.name ?? (declared?.includes("$") ? undefined : declared) ?? basename(urdfFile ?? "robot").replace(/(\.urdf)?(\.xacro)?$/, "");
+  const fileName = moveitConfig !== undefined ? basename(moveitConfig).replace(/_moveit_config$/, "") : basename(urdfFile ?? "robot").replace(/(\.urdf)?(\.xacro)?$/, "");
+  const robotName = example?.name ?? (declared?.includes("$") ? undefined : declared) ?? fileName;
   const out = resolve(values.out ?? join("twins", slugify(robotName)));
   return {
     ...(urdfFile ? { urdfFile } : {}),
     ...(isXacro ? { xacroArgs } : {}),
+    ...(moveitConfig !== undefined ? { moveitConfig } : {}),
+    ...(values.group !== undefined ? { group: values.group } : {}),
     ...(example ? { example } : {}),
     ...(scene ? { scene } : {}),
     ...(values.srdf !== undefined ? { srdf: existingFile("SRDF file", values.srdf) } : {}),

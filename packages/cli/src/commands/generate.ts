@@ -13,6 +13,7 @@ import { DEFAULT_BASE_URL, DEFAULT_SAMPLES, type GenerateOptions, parseGenerateA
 const { Clearance, ReachVoxel, Seed } = VALUE_SCHEMAS;
 
 export const USAGE = `Usage: robwot generate <robot.urdf | robot.urdf.xacro | example-name> [options]
+       robwot generate --moveit-config DIR [options]
 
 Builds a digital-twin folder: td.json (W3C Thing Description), twin.json, robot.urdf + meshes,
 scene.json, workspace.csv (labelled point cloud), workspace.stl (alpha shape), workspace.json,
@@ -20,12 +21,18 @@ reachability.csv (reachability map: index per voxel).
 
 Options:
   --scene FILE            scene JSON with obstacles (default: none)
-  --srdf FILE             the robot's SRDF (MoveIt): its <disable_collisions> pairs are never checked
+  --srdf FILE             the robot's SRDF (MoveIt): its <disable_collisions> pairs are never checked;
+                          every link and joint it names must be the robot's; its end effector is the default --ee
+  --moveit-config DIR     a MoveIt config package as the robot: its URDF or xacro (.setup_assistant, else
+                          config/*.urdf.xacro|*.urdf) with its xacro args, its SRDF (config/*.srdf), the
+                          velocity limits of config/joint_limits.yaml
+  --group NAME            the SRDF planning group: its end effector (or its chain's tip) is the default --ee
   --clearance M           metres every checked path, plan and motion keeps to other bodies
                           (default ${Clearance.default}, ${Clearance.minimum} to ${Clearance.maximum}); in twin.json and the TD
   --samples N             random joint configurations (default ${DEFAULT_SAMPLES})
   --seed N                random seed (default ${Seed.default}; same seed => same workspace.csv)
-  --ee LINK               end-effector link (default: the last link of the chain)
+  --ee LINK               end-effector link (default: the SRDF's end effector, else the last link of the
+                          longest chain, fixed tips included)
   --base X,Y,Z[,ROLL,PITCH,YAW]
                           the robot's base pose in the world (scene) frame: metres, and radians as a
                           URDF <origin rpy> (default: the origin, or where --scene's robots entry puts it)

@@ -1,20 +1,45 @@
-"""`robot.expandXacro`: a xacro file expanded into a URDF file (xacro_expand.py). Needs no world: it runs
-in a thread of its own around the xacro child process, so the loop and the world keep serving."""
+"""Robots as ROS users have them, read without a world (each in a thread of its own, so the loop and the
+world keep serving): `robot.expandXacro` (xacro_expand.py), `robot.moveitConfig` (moveit_config.py),
+`robot.readSrdf` (srdf.py, every name checked against the URDF)."""
 
 from __future__ import annotations
 
 from typing import Any
 
+from robwot_sim.moveit_config import find_moveit_config
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
+from robwot_sim.srdf import read_srdf
+from robwot_sim.urdf import parse_urdf
 from robwot_sim.xacro_expand import expand_xacro
+
+
+def _strings(value: Any) -> dict[str, str]:
+    return {str(k): str(v) for k, v in dict(value or {}).items()}
+
+
+def _srdf(srdf: str, urdf: str) -> dict[str, Any]:
+    root = parse_urdf(urdf).root
+    links = {str(el.get("name")) for el in root.findall("link")}
+    joints = {str(el.get("name")) for el in root.findall("joint")}
+    return read_srdf(srdf, links, joints).to_json()
 
 
 def register(d: Dispatcher, s: Services) -> None:
     @d.method("robot.expandXacro")
     async def expand(p: Params, call: Call) -> dict[str, Any]:
-        args = {str(k): str(v) for k, v in dict(p["args"]).items()}
-        roots = {str(k): str(v) for k, v in dict(p["packageRoots"] or {}).items()}
-        urdf, package_roots = await s.off_world(lambda: expand_xacro(p["xacro"], args, roots))
+        args, roots = _strings(p["args"]), _strings(p["packageRoots"])
+        limits = {str(k): float(v) for k, v in dict(p["velocityLimits"]).items()}
+        urdf, package_roots = await s.off_world(lambda: expand_xacro(p["xacro"], args, roots, limits))
         return {"urdf": str(urdf), "packageRoots": package_roots}
+
+    @d.method("robot.moveitConfig")
+    async def moveit(p: Params, call: Call) -> dict[str, Any]:
+        roots = _strings(p["packageRoots"])
+        config = await s.off_world(lambda: find_moveit_config(p["dir"], roots))
+        return config.to_json()
+
+    @d.method("robot.readSrdf")
+    async def srdf(p: Params, call: Call) -> dict[str, Any]:
+        return await s.off_world(lambda: _srdf(p["srdf"], p["urdf"]))

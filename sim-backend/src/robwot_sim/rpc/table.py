@@ -6,9 +6,9 @@ from robwot_sim.rpc import (
     methods_motion,
     methods_obstacle,
     methods_robot,
+    methods_ros,
     methods_workspace,
     methods_world,
-    methods_xacro,
 )
 from robwot_sim.rpc.dispatch import Dispatcher
 from robwot_sim.rpc.protocol import DEFAULT_MAX_MESSAGE_BYTES
@@ -20,7 +20,7 @@ def build_dispatcher(services: Services, max_message_bytes: int = DEFAULT_MAX_ME
     """A dispatcher with every method of the contract bound to `services`."""
     d = Dispatcher(max_message_bytes, check_results=check_results)
     for module in (methods_world, methods_robot, methods_motion, methods_obstacle, methods_workspace,
-                   methods_xacro):
+                   methods_ros):
         module.register(d, services)
     if d.unbound():
         raise RuntimeError(f"contract methods without a handler: {d.unbound()}")

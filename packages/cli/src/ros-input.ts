@@ -1,0 +1,87 @@
+/**
+ * The robot as ROS users hand it over, made ready for `robot.load`: a xacro file expanded (`--xacro-arg`),
+ * a MoveIt config package read (`--moveit-config`: its URDF/xacro and args, SRDF, joint_limits.yaml
+ * velocities), the SRDF checked against the URDF, and the end effector chosen by the one rule below.
+ * Everything runs in the backend (`robot.expandXacro`, `robot.moveitConfig`, `robot.readSrdf`).
+ */
+import { rmSync } from "node:fs";
+import { basename, dirname } from "node:path";
+import type { SrdfInfo } from "@robwot/sim-client";
+import type { Backend } from "./backend.js";
+import type { GenerateOptions } from "./commands/generate-options.js";
+import { CliError } from "./errors.js";
+
+export interface RosInput {
+  /** the file the user named (a URDF, a xacro, or the MoveIt config's robot file) */
+  source: string;
+  /** the URDF to load: `source`, or its expansion in a temporary folder */
+  urdf: string;
+  packageRoots: Record<string, string>;
+  srdf?: string;
+  /** the end effector: `--ee`, else the SRDF's (see `srdfEndEffector`), else the backend's default */
+  ee?: string;
+  group?: string;
+  /** recorded in twin.json: the xacro file's name and its arguments */
+  xacro?: { file: string; args: Record<string, string> };
+  /** the temporary folder of the expansion, if any (the caller removes it, or keeps it for an error) */
+  expandedDir?: string;
+}
+
+const definedStrings = (roots: Record<string, string | undefined>): Record<string, string> =>
+  Object.fromEntries(Object.entries(roots).filter((e): e is [string, string] => e[1] !== undefined));
+
+/**
+ * The end effector an SRDF names. With `--group G`: the `<end_effector>` whose `parent_group` is G, else
+ * the tip of G's last `<chain>`. Without: the first `<end_effector>` of the file. Undefined when the SRDF
+ * names none (the backend's default then: the tip of the longest chain, fixed tips included).
+ */
+export function srdfEndEffector(info: SrdfInfo, group: string | undefined): string | undefined {
+  if (group !== undefined) {
+    const g = info.groups.find((x) => x.name === group);
+    if (!g) {
+      throw new CliError(`--group ${group}: no such planning group in the SRDF (groups: ${info.groups.map((x) => x.name).join(", ") || "none"})`);
+    }
+    return info.endEffectors.find((e) => e.parentGroup === group)?.parentLink ?? g.chains.at(-1)?.tip;
+  }
+  return info.endEffectors[0]?.parentLink;
+}
+
+/** Resolves the robot's files; on failure removes what it created. */
+export async function prepareRosInput(opts: GenerateOptions, backend: Backend, source: string): Promise<RosInput> {
+  let packageRoots = opts.packageRoots;
+  let srdf = opts.srdf;
+  let xacroArgs = opts.xacroArgs;
+  let velocityLimits: Record<string, number> = {};
+  if (opts.moveitConfig !== undefined) {
+    const config = await backend.moveitConfig({ dir: opts.moveitConfig, packageRoots });
+    source = config.urdf;
+    packageRoots = definedStrings(config.packageRoots);
+    srdf ??= config.srdf;
+    // a MoveIt config's robot file goes through xacro even when it is a plain URDF: the velocity limits
+    // are written into the expansion, never into the user's file
+    xacroArgs = { ...definedStrings(config.xacroArgs), ...(opts.xacroArgs ?? {}) };
+    velocityLimits = definedNumbers(config.velocityLimits);
+  }
+  const input: RosInput = { source, urdf: source, packageRoots, ...(srdf !== undefined ? { srdf } : {}) };
+  if (xacroArgs !== undefined) {
+    const expanded = await backend.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits });
+    input.urdf = expanded.urdf;
+    input.expandedDir = dirname(expanded.urdf);
+    input.packageRoots = definedStrings(expanded.packageRoots);
+    input.xacro = { file: basename(source), args: xacroArgs };
+  }
+  try {
+    const info = srdf !== undefined ? await backend.readSrdf({ srdf, urdf: input.urdf }) : undefined;
+    const ee = opts.ee ?? (info ? srdfEndEffector(info, opts.group) : undefined);
+    if (ee !== undefined) input.ee = ee;
+    if (opts.group !== undefined) input.group = opts.group;
+    return input;
+  } catch (err) {
+    if (input.expandedDir !== undefined) rmSync(input.expandedDir, { recursive: true, force: true });
+    throw err;
+  }
+}
+
+function definedNumbers(values: Record<string, number | undefined>): Record<string, number> {
+  return Object.fromEntries(Object.entries(values).filter((e): e is [string, number] => e[1] !== undefined));
+}

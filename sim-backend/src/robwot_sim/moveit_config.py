@@ -1,0 +1,134 @@
+"""A MoveIt config package as a robot: its URDF or xacro (with its xacro arguments), its SRDF and the
+velocity limits of its ``config/joint_limits.yaml``.
+
+Where the files are, in the order the MoveIt setup assistant records them:
+
+* ``.setup_assistant`` (YAML, written by the setup assistant): ``URDF: {package, relative_path,
+  xacro_args}`` and ``SRDF: {relative_path}``. The URDF's package is found as ``package://`` finds one
+  (package roots, a package holding the config, ``ROS_PACKAGE_PATH``), then among the config package's
+  sibling folders (a workspace's ``src/`` holds both): it is returned as a package root.
+* otherwise exactly one ``config/*.urdf.xacro`` / ``config/*.xacro`` / ``config/*.urdf`` and exactly one
+  ``config/*.srdf`` (MoveIt 2's assistant writes ``config/<robot>.urdf.xacro`` and ``config/<robot>.srdf``).
+
+``joint_limits.yaml``: ``joint_limits: {JOINT: {has_velocity_limits: true, max_velocity: V}}``; MoveIt plans
+with these instead of the URDF's, so the twin does too (xacro_expand writes them into the expanded URDF).
+"""
+
+from __future__ import annotations
+
+import shlex
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from robwot_sim.errors import FileNotFound, UrdfError
+from robwot_sim.ros_packages import enclosing_packages, find_on_ros_package_path, package_name, packages_below
+
+MAX_YAML_BYTES = 1024 * 1024
+
+
+@dataclass(frozen=True)
+class MoveitConfig:
+    urdf: Path
+    xacro_args: dict[str, str]
+    srdf: Path
+    package_roots: dict[str, str]
+    #: joint -> max velocity (rad/s or m/s) from joint_limits.yaml
+    velocity_limits: dict[str, float]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"urdf": str(self.urdf), "xacroArgs": self.xacro_args, "srdf": str(self.srdf),
+                "packageRoots": self.package_roots, "velocityLimits": self.velocity_limits}
+
+
+def _yaml(path: Path) -> Any:
+    data = path.read_bytes()[:MAX_YAML_BYTES]
+    try:
+        return yaml.safe_load(data)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        raise UrdfError(f"not valid YAML: {getattr(e, 'problem', None) or e}", file=str(path),
+                        line=mark.line + 1 if mark is not None else None) from None
+
+
+def _one(folder: Path, patterns: tuple[str, ...], what: str) -> Path:
+    for pattern in patterns:
+        found = sorted(folder.glob(pattern))
+        if len(found) == 1:
+            return found[0].resolve()
+        if len(found) > 1:
+            raise UrdfError(f"MoveIt config: several {what} files ({', '.join(p.name for p in found)}); "
+                            "give the robot file itself instead of --moveit-config", file=str(folder))
+    raise FileNotFound(str(folder / patterns[0]), what=f"MoveIt config {what} file")
+
+
+def _package(name: str, config: Path, roots: Mapping[str, str]) -> Path:
+    if name in roots:
+        return Path(roots[name]).expanduser().resolve()
+    hit = (enclosing_packages(config).get(name) or find_on_ros_package_path(name)
+           or packages_below(config.parent).get(name))
+    if hit is None:
+        raise FileNotFound(name, what=f"ROS package {name!r} named by {config / '.setup_assistant'} (give "
+                           f"--package-root {name}=DIR or add the folder it is in to ROS_PACKAGE_PATH)")
+    return hit.resolve()
+
+
+def _velocity_limits(file: Path) -> dict[str, float]:
+    if not file.is_file():
+        return {}
+    doc = _yaml(file)
+    table = doc.get("joint_limits") if isinstance(doc, dict) else None
+    if not isinstance(table, dict):
+        raise UrdfError("no joint_limits: mapping", file=str(file))
+    out: dict[str, float] = {}
+    for joint, limits in table.items():
+        if isinstance(limits, dict) and limits.get("has_velocity_limits") and "max_velocity" in limits:
+            v = limits["max_velocity"]
+            if not isinstance(v, int | float) or isinstance(v, bool) or not 0 < float(v) < 1e4:
+                raise UrdfError(f"joint {joint!r}: max_velocity {v!r} must be a positive number",
+                                file=str(file))
+            out[str(joint)] = float(v)
+    return out
+
+
+def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | None = None) -> MoveitConfig:
+    """The robot a MoveIt config package describes (see the module docstring). Raises FileNotFound (a
+    file or package not there, naming what to give) or UrdfError (several candidates, bad YAML)."""
+    config = Path(folder).expanduser()
+    if not config.is_dir():
+        raise FileNotFound(str(config), what="MoveIt config folder")
+    config = config.resolve()
+    roots = dict(package_roots or {})
+    own = package_name(config)
+    if own is not None:
+        roots.setdefault(own, str(config))
+    assistant = config / ".setup_assistant"
+    urdf: Path | None = None
+    srdf: Path | None = None
+    xacro_args: dict[str, str] = {}
+    if assistant.is_file():
+        doc = _yaml(assistant)
+        setup = doc.get("moveit_setup_assistant_config") if isinstance(doc, dict) else None
+        setup = setup if isinstance(setup, dict) else {}
+        u, s = setup.get("URDF") or {}, setup.get("SRDF") or {}
+        if isinstance(u, dict) and u.get("package") and u.get("relative_path"):
+            pkg = _package(str(u["package"]), config, roots)
+            roots[str(u["package"])] = str(pkg)
+            urdf = (pkg / str(u["relative_path"])).resolve()
+            for arg in shlex.split(str(u.get("xacro_args") or "")):
+                name, sep, value = arg.partition(":=")
+                if not sep or not name:
+                    raise UrdfError(f"xacro_args: {arg!r} is not NAME:=VALUE", file=str(assistant))
+                xacro_args[name] = value
+        if isinstance(s, dict) and s.get("relative_path"):
+            srdf = (config / str(s["relative_path"])).resolve()
+    urdf = urdf or _one(config / "config", ("*.urdf.xacro", "*.xacro", "*.urdf"), "URDF/xacro")
+    srdf = srdf or _one(config / "config", ("*.srdf",), "SRDF")
+    for f, what in ((urdf, "URDF/xacro"), (srdf, "SRDF")):
+        if not f.is_file():
+            raise FileNotFound(str(f), what=f"MoveIt config {what} file")
+    limits = _velocity_limits(config / "config" / "joint_limits.yaml")
+    return MoveitConfig(urdf, xacro_args, srdf, roots, limits)

@@ -1,0 +1,125 @@
+"""A MoveIt config package read as the robot it describes, and an SRDF's every name checked against the
+URDF (an SRDF for another robot refused at its first foreign name, with file and line)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from simhelp import MODELS
+
+from robwot_sim.errors import FileNotFound, SrdfError, UrdfError
+from robwot_sim.moveit_config import find_moveit_config
+from robwot_sim.srdf import read_srdf
+from robwot_sim.xacro_expand import expand_xacro
+
+WS = MODELS / "ros_ws"
+CONFIG = WS / "tinyxacro_moveit_config"
+DESCRIPTION = WS / "tinyxacro_description"
+LINKS = {"base", "turret", "upper", "fore", "tip"}
+JOINTS = {"yaw", "shoulder", "elbow", "wrist"}
+
+
+@pytest.fixture(autouse=True)
+def _no_ros_package_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+
+
+def test_setup_assistant_names_urdf_args_srdf_and_limits() -> None:
+    """.setup_assistant gives the description package (found as a sibling folder), its xacro and args,
+    the SRDF; joint_limits.yaml the velocities of joints that have them."""
+    c = find_moveit_config(CONFIG)
+    assert c.urdf == DESCRIPTION / "urdf" / "arm.urdf.xacro"
+    assert c.xacro_args == {"upper_length": "0.25"}
+    assert c.srdf == CONFIG / "config" / "tinyxacro.srdf"
+    assert c.package_roots == {"tinyxacro_moveit_config": str(CONFIG),
+                               "tinyxacro_description": str(DESCRIPTION)}
+    assert c.velocity_limits == {"yaw": 0.5, "elbow": 0.75}
+
+
+def test_config_folder_without_setup_assistant(tmp_path: Path) -> None:
+    """Without .setup_assistant: the one config/*.urdf.xacro and config/*.srdf; two candidates or none
+    are refused naming the folder."""
+    cfg = tmp_path / "arm_moveit_config" / "config"
+    cfg.mkdir(parents=True)
+    with pytest.raises(FileNotFound) as none:
+        find_moveit_config(cfg.parent)
+    assert "MoveIt config URDF/xacro file not found" in none.value.message
+    shutil.copy(DESCRIPTION / "urdf" / "arm.urdf.xacro", cfg / "arm.urdf.xacro")
+    shutil.copy(CONFIG / "config" / "tinyxacro.srdf", cfg / "arm.srdf")
+    c = find_moveit_config(cfg.parent)
+    assert (c.urdf, c.srdf) == (cfg / "arm.urdf.xacro", cfg / "arm.srdf")
+    assert (c.xacro_args, c.velocity_limits) == ({}, {})
+    shutil.copy(cfg / "arm.srdf", cfg / "other.srdf")
+    with pytest.raises(UrdfError) as two:
+        find_moveit_config(cfg.parent)
+    assert "several SRDF files (arm.srdf, other.srdf)" in two.value.message
+
+
+def test_bad_joint_limits_and_unknown_description_package(tmp_path: Path) -> None:
+    """joint_limits.yaml that is not YAML (with its line) or gives a velocity <= 0 is refused; a
+    .setup_assistant package found nowhere names the option."""
+    cfg = tmp_path / "c"
+    shutil.copytree(CONFIG, cfg)
+    (cfg / "config" / "joint_limits.yaml").write_text("joint_limits:\n  yaw:\n    max_velocity: [1\n")
+    with pytest.raises(UrdfError) as bad:
+        find_moveit_config(cfg, {"tinyxacro_description": str(DESCRIPTION)})
+    assert bad.value.data["file"].endswith("joint_limits.yaml") and bad.value.data["line"] == 4
+    (cfg / "config" / "joint_limits.yaml").write_text(
+        "joint_limits:\n  yaw:\n    has_velocity_limits: true\n    max_velocity: 0\n")
+    with pytest.raises(UrdfError) as zero:
+        find_moveit_config(cfg, {"tinyxacro_description": str(DESCRIPTION)})
+    assert "joint 'yaw': max_velocity 0 must be a positive number" in zero.value.message
+    (cfg / "config" / "joint_limits.yaml").unlink()
+    with pytest.raises(FileNotFound) as pkg:  # tmp_path holds no sibling description package
+        find_moveit_config(cfg)
+    assert "--package-root tinyxacro_description=DIR" in pkg.value.message
+
+
+def test_velocity_limit_of_an_unknown_joint_refused() -> None:
+    """A joint_limits.yaml joint the robot lacks is refused naming it and the robot's joints."""
+    with pytest.raises(UrdfError) as ei:
+        expand_xacro(DESCRIPTION / "urdf" / "arm.urdf.xacro", {}, {}, {"knee": 1.0})
+    assert "joint_limits.yaml names joint 'knee', which the robot does not have" in ei.value.message
+
+
+def test_srdf_read_with_groups_states_and_end_effectors() -> None:
+    """Groups (chains, links), the home state and end effectors in file order."""
+    s = read_srdf(CONFIG / "config" / "tinyxacro.srdf", LINKS, JOINTS)
+    assert list(s.groups) == ["arm", "to_elbow", "hand"]
+    assert s.groups["arm"].chains == [("base", "tip")]
+    assert s.group_states == {"arm": {"home": {"yaw": 0.0, "shoulder": 0.5, "elbow": -1.0}}}
+    assert [e[:2] for e in s.end_effectors] == [("elbow_tool", "fore"), ("gripper", "tip")]
+
+
+@pytest.mark.parametrize(("element", "line", "says"), [
+    ('<group name="g"><joint name="knee"/></group>', 3, "joint 'knee' is not a joint of the robot"),
+    ('<group_state name="home" group="g">\n<joint name="yaw" value="up"/></group_state>\n'
+     '<group name="g"/>', 4,
+     "joint 'yaw': value 'up' is not a number"),
+    ('<end_effector name="e" parent_link="tip" group="hand"/>', 3,
+     "<end_effector> names group 'hand', which the SRDF does not define"),
+    ('<virtual_joint name="w" type="fixed" parent_frame="world" child_link="world_base"/>', 3,
+     "link 'world_base' is not a link of the robot"),
+    ('<disable_collisions link1="base" link2="panda_link0" reason="Adjacent"/>', 3,
+     "link 'panda_link0' is not a link of the robot"),
+])
+def test_srdf_names_checked_with_line(tmp_path: Path, element: str, line: int, says: str) -> None:
+    """Every link, joint and group an SRDF names must exist: refused with the file and line."""
+    p = tmp_path / "r.srdf"
+    p.write_text(f'<?xml version="1.0"?>\n<robot name="r">\n{element}\n</robot>\n')
+    with pytest.raises(SrdfError) as ei:
+        read_srdf(p, LINKS, JOINTS)
+    assert ei.value.code == "E_SRDF" and ei.value.data["line"] == line
+    assert ei.value.message.startswith(f"{p}:{line}: {says}")
+
+
+def test_virtual_joints_count_and_stateless_groups_skipped(tmp_path: Path) -> None:
+    """A group may name the SRDF's virtual joint; a group_state of no group is skipped, as MoveIt does."""
+    p = tmp_path / "v.srdf"
+    p.write_text('<robot name="r"><virtual_joint name="world_joint" type="fixed" parent_frame="world" '
+                 'child_link="base"/><group name="all"><joint name="world_joint"/><joint name="yaw"/></group>'
+                 '<group_state name="x"><joint name="yaw" value="0"/></group_state></robot>')
+    s = read_srdf(p, LINKS, JOINTS)
+    assert s.groups["all"].joints == ["world_joint", "yaw"] and s.group_states == {}
