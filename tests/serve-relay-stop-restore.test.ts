@@ -8,7 +8,7 @@
 import { afterAll, beforeAll, expect, it } from "vitest";
 import WebSocket, { WebSocketServer } from "ws";
 import { launchBackend, type LaunchedBackend } from "../packages/sim-client/src/index.js";
-import { BackendSupervisor } from "../packages/servient/src/backend.js";
+import { BackendSupervisor } from "../packages/servient/src/supervisor.js";
 import { urlConnector } from "../packages/servient/src/sim-connector.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { generateTwin, sleep } from "./serve-helpers.js";

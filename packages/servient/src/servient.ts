@@ -12,7 +12,7 @@ import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
 import { registerActions } from "./actions.js";
-import { BackendSupervisor } from "./backend.js";
+import { BackendSupervisor } from "./supervisor.js";
 import { ServientError } from "./errors.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";

@@ -3,7 +3,7 @@
  * supervisor when it dies), or connect to an external `ws://` URL (reconnected when it drops).
  */
 import { launchBackend, RpcConnection } from "@robwot/sim-client";
-import type { SimConnector, SimSession } from "./backend.js";
+import type { SimConnector, SimSession } from "./supervisor.js";
 
 function session(
   conn: RpcConnection,
