@@ -7,10 +7,11 @@ import { randomBytes } from "node:crypto";
 import { chmodSync, existsSync, mkdirSync, mkdtempSync, readdirSync, realpathSync, renameSync, rmdirSync, rmSync, statSync } from "node:fs";
 import { homedir } from "node:os";
 import { basename, dirname, join, parse, relative, resolve } from "node:path";
+import { TWIN_FILES } from "@robwot/core";
 import { CliError } from "./errors.js";
 
 /** A file every complete twin folder contains; an existing folder without it is not ours to replace. */
-export const TWIN_MARKER = "twin.json";
+export const TWIN_MARKER = TWIN_FILES.manifest;
 
 const contains = (dir: string, path: string): boolean => {
   const rel = relative(dir, path);

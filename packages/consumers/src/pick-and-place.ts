@@ -19,7 +19,7 @@ import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { activeCalibration, invertCalibration, norm, sub, vec, xyz, type Vec3 } from "@robwot/core";
 import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
 import { runScenario } from "./lib/run.js";
-import { cartesianBounds, type Bounds3 } from "@robwot/core";
+import { cartesianBounds, TWIN_FILES, type Bounds3 } from "@robwot/core";
 import type { CalibrationState, MoveResult, ValidationReport } from "./lib/types.js";
 
 const USAGE = "pick-and-place [TD URL] [--targets \"x,y,z;x,y,z\"] [--speed 0..1] [--json]";
@@ -85,7 +85,7 @@ export function sceneTargets(obstacles: SceneObstacle[]): Target[] {
 }
 
 async function fetchSceneObstacles(twin: Twin): Promise<SceneObstacle[]> {
-  const url = new URL("scene.json", twin.td.base ?? `${twin.url}/`).toString();
+  const url = new URL(TWIN_FILES.scene, twin.td.base ?? `${twin.url}/`).toString();
   // an unreachable file is reported below as "not available" (res undefined), not thrown
   const res = await fetch(url, { headers: authHeaders(twin.auth) }).catch(() => undefined);
   if (res === undefined || !res.ok) return [];

@@ -2,6 +2,8 @@
 export * from "./errors.js";
 export type * from "./types.js";
 export type * from "./td/types.js";
+export { TWIN_FILES, TWIN_FOLDERS } from "./twin-layout.js";
+export type { TwinFile } from "./twin-layout.js";
 export { buildThingDescription, targetBounds, thingId, withAbsoluteForms, DEFAULT_BASE_URL, LIVE_REL, REACHABILITY_REL, THING_MODEL_FILE, THING_MODEL_TYPE, ROBWOT_NS, TD_CONTEXT_V10, TD_CONTEXT_V11 } from "./td/build.js";
 export type { BuildThingDescriptionOptions } from "./td/build.js";
 export { securityFor } from "./td/security.js";

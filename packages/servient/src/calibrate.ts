@@ -6,7 +6,7 @@
  */
 import { renameSync, writeFileSync } from "node:fs";
 import { join } from "node:path";
-import { type CalibrationFile, FrameMap, solveCalibration, vec, type Vec3, type Xyz } from "@robwot/core";
+import { type CalibrationFile, FrameMap, solveCalibration, TWIN_FILES, vec, type Vec3, type Xyz } from "@robwot/core";
 import { badInput } from "./errors.js";
 import type { Twin } from "./twin.js";
 
@@ -28,7 +28,7 @@ export function calibrationProperty(cal: CalibrationFile | null): Record<string,
 }
 
 export function writeCalibration(dir: string, cal: CalibrationFile): void {
-  const file = join(dir, "calibration.json");
+  const file = join(dir, TWIN_FILES.calibration);
   const tmp = `${file}.tmp-${process.pid}-${Date.now()}`;
   writeFileSync(tmp, `${JSON.stringify(cal, null, 2)}\n`);
   renameSync(tmp, file);

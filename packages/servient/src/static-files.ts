@@ -6,7 +6,7 @@
 import { createReadStream, existsSync, realpathSync, statSync } from "node:fs";
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { extname, join, resolve, sep } from "node:path";
-import { THING_MODEL_FILE, THING_MODEL_TYPE } from "@robwot/core";
+import { THING_MODEL_TYPE, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
 
 const TYPES: Record<string, string> = {
   ".urdf": "application/urdf+xml",
@@ -54,20 +54,21 @@ export function confine(root: string, rel: string): string | null {
   return statSync(real).isFile() ? real : null;
 }
 
+/** The twin folder's fixed files served as they are (the URDF is served under the name twin.json gives). */
+const SERVED_TWIN_FILES: ReadonlySet<string> = new Set([
+  TWIN_FILES.pointCloud,
+  TWIN_FILES.surface,
+  TWIN_FILES.summary,
+  TWIN_FILES.reachability,
+  TWIN_FILES.scene,
+  TWIN_FILES.srdf,
+  TWIN_FILES.manifest,
+  TWIN_FILES.thingModel,
+]);
+
 /** Twin-folder files served at `/<slug>/<rel>` (Contract 4; twin.json gives the viewer the base pose). */
 export function isTwinFile(rel: string, urdfName: string): boolean {
-  return (
-    rel === urdfName ||
-    rel === "workspace.csv" ||
-    rel === "workspace.stl" ||
-    rel === "workspace.json" ||
-    rel === "reachability.csv" ||
-    rel === "scene.json" ||
-    rel === "robot.srdf" ||
-    rel === "twin.json" ||
-    rel === THING_MODEL_FILE ||
-    rel.startsWith("meshes/")
-  );
+  return rel === urdfName || SERVED_TWIN_FILES.has(rel) || rel.startsWith(`${TWIN_FOLDERS.meshes}/`);
 }
 
 export function sendFile(req: IncomingMessage, res: ServerResponse, path: string): void {

@@ -6,7 +6,7 @@
 import type { ObstacleAddParams } from "@robwot/sim-client";
 import { existsSync, readFileSync, statSync } from "node:fs";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
-import { checkCalibration, jailFile, jsonErrorAt, realFolder, snippet, type CalibrationFile, type JailVerdict, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
+import { checkCalibration, jailFile, jsonErrorAt, realFolder, snippet, TWIN_FILES, type CalibrationFile, type JailVerdict, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
 import { ServientError } from "./errors.js";
 
 /** The TD document as generated (forms are replaced when served). */
@@ -142,9 +142,9 @@ function checkBounds(dir: string, ws: WorkspaceSummary): void {
     const { min, max } = (ws?.[key] ?? {}) as Partial<WorkspaceSummary["bounds"]>;
     const ok = [min, max].every((v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === "number" && Number.isFinite(x)));
     if (!ok || min!.some((m, i) => m > max![i]!)) {
-      throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "workspace.json")}: ${key} must be {min, max} of 3 finite numbers with min <= max, got ${JSON.stringify(ws?.[key] ?? null)} (regenerate it with robwot generate)`, {
+      throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.summary)}: ${key} must be {min, max} of 3 finite numbers with min <= max, got ${JSON.stringify(ws?.[key] ?? null)} (regenerate it with robwot generate)`, {
         folder: dir,
-        file: "workspace.json",
+        file: TWIN_FILES.summary,
       });
     }
   }
@@ -160,31 +160,31 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
     throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir} does not exist`, { folder: dir });
   }
   const jail = new Jail(dir);
-  const td = jail.json<TdDocument>("td.json", jail.file("td.json", true))!;
-  const manifest = jail.json<TwinManifest>("twin.json", jail.file("twin.json", true))!;
+  const td = jail.json<TdDocument>(TWIN_FILES.td, jail.file(TWIN_FILES.td, true))!;
+  const manifest = jail.json<TwinManifest>(TWIN_FILES.manifest, jail.file(TWIN_FILES.manifest, true))!;
   if (typeof td.title !== "string" || td.title.length === 0) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "td.json")}: no title`, { folder: dir, file: "td.json" });
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.td)}: no title`, { folder: dir, file: TWIN_FILES.td });
   }
   const robot = manifest.robot as Partial<TwinManifest["robot"]> | undefined;
   if (typeof robot !== "object" || robot === null || typeof robot.urdf !== "string") {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "twin.json")}: no robot.urdf`, { folder: dir, file: "twin.json" });
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: no robot.urdf`, { folder: dir, file: TWIN_FILES.manifest });
   }
-  const urdfPath = jail.path("twin.json", "robot.urdf", robot.urdf, { required: true })!;
-  if (robot.srdf !== undefined) jail.path("twin.json", "robot.srdf", robot.srdf, { required: true });
-  const sceneFile = manifest.scene === undefined || manifest.scene === "" ? "scene.json" : manifest.scene;
-  const sceneReal = jail.path("twin.json", "scene", sceneFile, { required: false });
-  const sceneName = typeof sceneFile === "string" ? sceneFile : "scene.json";
+  const urdfPath = jail.path(TWIN_FILES.manifest, "robot.urdf", robot.urdf, { required: true })!;
+  if (robot.srdf !== undefined) jail.path(TWIN_FILES.manifest, "robot.srdf", robot.srdf, { required: true });
+  const sceneFile = manifest.scene === undefined || manifest.scene === "" ? TWIN_FILES.scene : manifest.scene;
+  const sceneReal = jail.path(TWIN_FILES.manifest, "scene", sceneFile, { required: false });
+  const sceneName = typeof sceneFile === "string" ? sceneFile : TWIN_FILES.scene;
   const scene = jailScene(jail, sceneName, jail.json<SceneDoc>(sceneName, sceneReal) ?? {}, meshRoots.map(realFolder));
-  const workspace = jail.json<WorkspaceSummary>("workspace.json", jail.file("workspace.json", true))!;
+  const workspace = jail.json<WorkspaceSummary>(TWIN_FILES.summary, jail.file(TWIN_FILES.summary, true))!;
   checkBounds(dir, workspace);
-  for (const name of ["workspace.csv", "workspace.stl", "reachability.csv"]) jail.file(name, false);
-  const calibration = jail.json<CalibrationFile>("calibration.json", jail.file("calibration.json", false));
+  for (const name of [TWIN_FILES.pointCloud, TWIN_FILES.surface, TWIN_FILES.reachability]) jail.file(name, false);
+  const calibration = jail.json<CalibrationFile>(TWIN_FILES.calibration, jail.file(TWIN_FILES.calibration, false));
   if (calibration !== null) {
     try {
       checkCalibration(calibration);
     } catch (err) {
-      const file = join(dir, "calibration.json");
-      throw new ServientError(400, "E_TWIN_FOLDER", `${file}: ${(err as Error).message} (fix or delete the file; calibrate writes it)`, { folder: dir, file: "calibration.json" });
+      const file = join(dir, TWIN_FILES.calibration);
+      throw new ServientError(400, "E_TWIN_FOLDER", `${file}: ${(err as Error).message} (fix or delete the file; calibrate writes it)`, { folder: dir, file: TWIN_FILES.calibration });
     }
   }
   return {
@@ -195,7 +195,7 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
     workspace,
     calibration,
     urdfPath,
-    stlPath: join(dir, "workspace.stl"),
-    csvPath: join(dir, "workspace.csv"),
+    stlPath: join(dir, TWIN_FILES.surface),
+    csvPath: join(dir, TWIN_FILES.pointCloud),
   };
 }

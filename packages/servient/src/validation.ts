@@ -8,7 +8,7 @@
  * consumer without the twin has; they are reported in `checks` (and, when they disagree with the
  * simulation, in `notes`), but a weaker check never vetoes a stronger one. Nothing here moves the twin.
  */
-import { quatArr, type Quaternion, tdContact, type ValidationReport, type Vec3 } from "@robwot/core";
+import { quatArr, type Quaternion, tdContact, TWIN_FILES, type ValidationReport, type Vec3 } from "@robwot/core";
 import type { Plan, PlanChecks } from "@robwot/sim-client";
 import type { BackendSupervisor } from "./supervisor.js";
 import type { Twin } from "./twin.js";
@@ -34,16 +34,16 @@ export function staticChecks(ws: WorkspaceChecks | null, virtual: Vec3): { check
   if (!ws) return { checks, evidence };
   const where = `(${virtual.map(fmt).join(", ")}) m in the twin frame`;
   checks.insideWorkspace = { ok: ws.inside(virtual) };
-  if (!checks.insideWorkspace.ok) evidence.push(`target ${where} is outside the workspace surface (workspace.stl)`);
+  if (!checks.insideWorkspace.ok) evidence.push(`target ${where} is outside the workspace surface (${TWIN_FILES.surface})`);
   checks.pointCloud = ws.score(virtual);
   if (!checks.pointCloud.ok) {
     const nearest = checks.pointCloud.nearestFree < 0 ? "none at all" : `nearest ${fmt(checks.pointCloud.nearestFree)} m`;
-    evidence.push(`no collision-free sample of workspace.csv within ${fmt(checks.pointCloud.maxGap)} m of ${where} (${nearest})`);
+    evidence.push(`no collision-free sample of ${TWIN_FILES.pointCloud} within ${fmt(checks.pointCloud.maxGap)} m of ${where} (${nearest})`);
   }
   const reach = ws.reach(virtual);
   if (reach) {
     checks.reachability = reach;
-    if (!reach.ok) evidence.push(`no collision-free sample ends in the ${fmt(reach.voxel)} m voxel of ${where} (reachability.csv)`);
+    if (!reach.ok) evidence.push(`no collision-free sample ends in the ${fmt(reach.voxel)} m voxel of ${where} (${TWIN_FILES.reachability})`);
   }
   return { checks, evidence };
 }

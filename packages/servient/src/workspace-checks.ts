@@ -5,7 +5,7 @@
  */
 import { existsSync } from "node:fs";
 import { join } from "node:path";
-import { loadWorkspace, type ReachabilityCheck, type Vec3, type Workspace } from "@robwot/core";
+import { loadWorkspace, type ReachabilityCheck, TWIN_FILES, type Vec3, type Workspace } from "@robwot/core";
 import { ServientError } from "./errors.js";
 
 export interface WorkspaceChecks {
@@ -34,7 +34,7 @@ export function workspaceChecks(ws: Workspace): WorkspaceChecks {
  * is not there.
  */
 export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks> {
-  const missing = ["workspace.stl", "workspace.csv"].filter((f) => !existsSync(join(dir, f)));
+  const missing = [TWIN_FILES.surface, TWIN_FILES.pointCloud].filter((f) => !existsSync(join(dir, f)));
   if (missing.length > 0) {
     throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir} has no ${missing.join(" and ")} (the Cartesian checks need them): regenerate it with robwot generate`, {
       folder: dir,
@@ -48,9 +48,9 @@ export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks>
     throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir}: its workspace files do not load: ${(err as Error).message} (regenerate it with robwot generate)`, { folder: dir });
   }
   if (!ws.cloud.collisionFree.includes(1)) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, "workspace.csv")} has no collision-free point: the workspace is empty (regenerate it with robwot generate)`, {
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.pointCloud)} has no collision-free point: the workspace is empty (regenerate it with robwot generate)`, {
       folder: dir,
-      file: "workspace.csv",
+      file: TWIN_FILES.pointCloud,
     });
   }
   return workspaceChecks(ws);

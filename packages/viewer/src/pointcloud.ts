@@ -4,7 +4,7 @@
  * subsampled (seeded random draw, both classes kept in proportion) to keep the page fluid.
  */
 import { BufferGeometry, Float32BufferAttribute, Points, PointsMaterial } from "three";
-import { mulberry32, parseWorkspaceCsv as parseCloud } from "@robwot/core/browser";
+import { mulberry32, parseWorkspaceCsv as parseCloud, TWIN_FILES } from "@robwot/core/browser";
 
 export const FREE_COLOUR = [0.16, 0.45, 0.85] as const;
 export const COLLIDING_COLOUR = [0.86, 0.2, 0.16] as const;
@@ -23,7 +23,7 @@ export interface ParsedCloud {
  * a seeded Bernoulli draw (core's mulberry32: the same points on every load, no aliasing with periodic
  * row orders), both classes in proportion.
  */
-export function parseWorkspaceCsv(text: string, maxPoints = MAX_POINTS, source = "workspace.csv"): ParsedCloud {
+export function parseWorkspaceCsv(text: string, maxPoints = MAX_POINTS, source: string = TWIN_FILES.pointCloud): ParsedCloud {
   const cloud = parseCloud(text, { file: source });
   const total = cloud.collisionFree.length;
   const p = Math.min(1, maxPoints / Math.max(1, total));

@@ -4,6 +4,7 @@
  * slower, older build is discarded, and scene.json never replaces a scene that came live.
  */
 import { Group, Mesh } from "three";
+import { TWIN_FILES } from "@robwot/core/browser";
 import { debugState, publishDebug } from "./debug.js";
 import { showError } from "./errors.js";
 import type { MotionPanel } from "./motion-panel.js";
@@ -45,7 +46,7 @@ export class ObstacleLayer {
     for (const e of built.errors) {
       if (this.reported.has(e.message)) continue;
       this.reported.add(e.message);
-      showError(live ? "scene (live)" : "scene.json", e);
+      showError(live ? "scene (live)" : TWIN_FILES.scene, e);
     }
     if (this.group) {
       this.group.removeFromParent();

@@ -2,7 +2,7 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
-import { jointLimits, type JointLimit, liveUrl, REACHABILITY_REL, RobwotError, speedRange, type ThingDescriptionLike } from "@robwot/core/browser";
+import { jointLimits, type JointLimit, liveUrl, REACHABILITY_REL, RobwotError, speedRange, type ThingDescriptionLike, TWIN_FILES } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
 
@@ -50,7 +50,7 @@ export async function loadTd(slug: string): Promise<TwinTd> {
       workspace: link("workspace"),
       reachability: link(REACHABILITY_REL),
       summary: link("workspace-summary"),
-      scene: link("scene") ?? new URL("scene.json", base).href,
+      scene: link("scene") ?? new URL(TWIN_FILES.scene, base).href,
     },
     live: liveLink(raw),
     eeLink: typeof raw["robwot:eeLink"] === "string" ? raw["robwot:eeLink"] : null,

@@ -3,6 +3,7 @@
  * workspace surface and reachability heat map. Each adds its layer toggle and debug counters; failures reject for the caller to show.
  */
 import type { Object3D } from "three";
+import { TWIN_FILES } from "@robwot/core/browser";
 import { debugState, publishDebug } from "./debug.js";
 import { ViewerError } from "./errors.js";
 import type { QuatXyzw, Vec3 } from "./three-frames.js";
@@ -17,7 +18,7 @@ import { buildWorkspaceMesh, triangleCount } from "./workspace-mesh.js";
 
 /** The robot's base pose in the world (twin.json, Contract 2), applied in URDF coordinates. */
 export async function loadBasePose(td: TwinTd): Promise<{ position: Vec3; orientation: QuatXyzw }> {
-  const url = new URL("twin.json", td.base).href;
+  const url = new URL(TWIN_FILES.manifest, td.base).href;
   const manifest = await fetchJson(url);
   const robot = isRecord(manifest) && isRecord(manifest["robot"]) ? manifest["robot"] : {};
   const p = robot["basePosition"] ?? [0, 0, 0];

@@ -4,7 +4,7 @@
  */
 import { Mesh, MeshBasicMaterial, type Object3D, SphereGeometry } from "three";
 import type { URDFRobot } from "urdf-loader";
-import { activeCalibration, invertCalibration, type SimilarityTransform } from "@robwot/core/browser";
+import { activeCalibration, invertCalibration, type SimilarityTransform, TWIN_FILES } from "@robwot/core/browser";
 import { CartesianPanel } from "./cartesian-panel.js";
 import { Commander } from "./commander.js";
 import { debugState, publishDebug } from "./debug.js";
@@ -83,7 +83,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
 
   // Everything loads in parallel; each failure is shown, the rest of the page keeps working.
   const poseTask = loadBasePose(td).catch((err: unknown) => {
-    showError("twin.json (robot base pose; the robot is shown at the origin)", err);
+    showError(`${TWIN_FILES.manifest} (robot base pose; the robot is shown at the origin)`, err);
     return null;
   });
   const robotTask = loadRobot(td.links.model).then(async ({ robot: r, meshErrors }) => {
@@ -130,7 +130,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   });
 
   const results = await Promise.allSettled([robotTask, sceneTask, cloudTask, surfaceTask, stateTask, othersTask, reachTask]);
-  const labels = ["model", "scene", "workspace.csv", "workspace.stl", "state", "other robots of this world", "reachability.csv"];
+  const labels = ["model", "scene", TWIN_FILES.pointCloud, TWIN_FILES.surface, "state", "other robots of this world", TWIN_FILES.reachability];
   results.forEach((r, i) => {
     if (r.status === "rejected") showError(labels[i] ?? "load", r.reason);
   });

@@ -6,6 +6,7 @@
 import { existsSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
+import { TWIN_FILES } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { parseInteger, parseRealtime, usageError } from "../args.js";
 import { findExample } from "../examples.js";
@@ -28,7 +29,9 @@ Options:
   --no-serve         only generate (or check) the twin
 `;
 
-const TWIN_FILES = ["td.json", "twin.json", "robot.urdf", "scene.json", "workspace.csv", "workspace.stl", "workspace.json", "reachability.csv"];
+/** The files of a complete twin folder (`twinComplete`), and those of them that must parse as JSON. */
+const REQUIRED_FILES = [TWIN_FILES.td, TWIN_FILES.manifest, TWIN_FILES.urdf, TWIN_FILES.scene, TWIN_FILES.pointCloud, TWIN_FILES.surface, TWIN_FILES.summary, TWIN_FILES.reachability];
+const JSON_FILES = [TWIN_FILES.td, TWIN_FILES.manifest, TWIN_FILES.summary];
 
 /** The bundled scene: the repository's examples/scenes, found relative to this package. */
 export function demoScene(): string | undefined {
@@ -42,9 +45,9 @@ export function demoScene(): string | undefined {
 
 /** Every file of Contract 2 present and the JSON ones parse. */
 export function twinComplete(dir: string): boolean {
-  if (!TWIN_FILES.every((f) => existsSync(join(dir, f)))) return false;
+  if (!REQUIRED_FILES.every((f) => existsSync(join(dir, f)))) return false;
   try {
-    for (const f of ["td.json", "twin.json", "workspace.json"]) JSON.parse(readFileSync(join(dir, f), "utf8"));
+    for (const f of JSON_FILES) JSON.parse(readFileSync(join(dir, f), "utf8"));
     return true;
   } catch {
     return false;

@@ -2,6 +2,7 @@
 import { existsSync, readFileSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
+import { TWIN_FILES } from "@robwot/core";
 import { parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 import { thingOpenApi } from "../openapi.js";
@@ -27,8 +28,8 @@ const OPTIONS = {
 function readTd(folder: string): Record<string, unknown> {
   const dir = resolve(folder);
   if (!existsSync(dir) || !statSync(dir).isDirectory()) throw new CliError(`twin folder not found: ${dir}`, "E_TWIN_FOLDER", 1);
-  const file = join(dir, "td.json");
-  if (!existsSync(file)) throw new CliError(`${dir} is not a twin folder: no td.json (create one with robwot generate)`, "E_TWIN_FOLDER", 1);
+  const file = join(dir, TWIN_FILES.td);
+  if (!existsSync(file)) throw new CliError(`${dir} is not a twin folder: no ${TWIN_FILES.td} (create one with robwot generate)`, "E_TWIN_FOLDER", 1);
   let td: unknown;
   try {
     td = JSON.parse(readFileSync(file, "utf8"));
@@ -56,7 +57,7 @@ export async function run(argv: string[]): Promise<number> {
   try {
     doc = await thingOpenApi(td, base !== undefined ? { base } : {});
   } catch (err) {
-    throw new CliError(`${join(resolve(folder), "td.json")}: ${(err as Error).message}`, "E_OPENAPI", 1);
+    throw new CliError(`${join(resolve(folder), TWIN_FILES.td)}: ${(err as Error).message}`, "E_OPENAPI", 1);
   }
   const text = `${JSON.stringify(doc, null, 2)}\n`;
   if (values.out === undefined) {

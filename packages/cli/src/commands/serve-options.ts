@@ -3,6 +3,7 @@ import { existsSync, statSync } from "node:fs";
 import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
+import { TWIN_FILES } from "@robwot/core";
 import { parseInteger, parseRealtime, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 
@@ -82,7 +83,7 @@ export function isLoopback(host: string): boolean {
 export function checkTwinFolder(folder: string): string {
   const dir = resolve(folder);
   if (!existsSync(dir) || !statSync(dir).isDirectory()) throw new CliError(`twin folder not found: ${dir}`, "E_TWIN_FOLDER", 1);
-  for (const f of ["td.json", "twin.json"]) {
+  for (const f of [TWIN_FILES.td, TWIN_FILES.manifest]) {
     if (!existsSync(join(dir, f))) {
       throw new CliError(`${dir} is not a twin folder: no ${f} (create one with robwot generate)`, "E_TWIN_FOLDER", 1);
     }
@@ -102,7 +103,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   const folders = positionals.map(checkTwinFolder);
   const twice = folders.find((f, i) => folders.indexOf(f) !== i);
   if (twice !== undefined) {
-    throw new CliError(`twin folder given twice: ${twice} (copy the folder to serve a second robot; place it in its twin.json)`);
+    throw new CliError(`twin folder given twice: ${twice} (copy the folder to serve a second robot; place it in its ${TWIN_FILES.manifest})`);
   }
   const host = values.host ?? "127.0.0.1";
   if (host.trim() === "") throw new CliError("--host must not be empty");

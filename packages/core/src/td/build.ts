@@ -6,6 +6,7 @@
  */
 import { transformBounds, type SimilarityTransform } from "../calibration.js";
 import { ThingDescriptionError } from "../errors.js";
+import { TWIN_FILES } from "../twin-layout.js";
 import type { Bounds, JointSpec, RobotModelLike, WorkspaceSummary } from "../types.js";
 import { ACTION_STATUS_SCHEMA, actionStatusSchema, ASYNC_ACTIONS, asyncActionForms, asyncActionVariables } from "./async-actions.js";
 import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
@@ -20,8 +21,8 @@ export const TD_CONTEXT_V11 = "https://www.w3.org/2022/wot/td/v1.1";
  */
 export const TD_CONTEXT_V10 = "https://www.w3.org/2019/wot/td/v1";
 export const ROBWOT_NS = "https://robwot.dev/ns#";
-/** The Thing Model every twin's TD links with `rel: "type"` (`thing-model.ts`), a file of the twin folder. */
-export const THING_MODEL_FILE = "robot-arm.tm.json";
+/** The Thing Model every twin's TD links with `rel: "type"` (`thing-model.ts`): the twin layout's `thingModel` file. */
+export const THING_MODEL_FILE = TWIN_FILES.thingModel;
 export const THING_MODEL_TYPE = "application/tm+json";
 /** Link relation of the servient's `/live` WebSocket stream (its own protocol, README Contract 4). */
 export const LIVE_REL = "robwot:live";
@@ -208,14 +209,14 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     events[name] = { ...e, forms };
   }
   const links: Link[] = [
-    { rel: "model", href: "robot.urdf", type: "application/urdf+xml" },
-    { rel: "workspace-pointcloud", href: "workspace.csv", type: "text/csv" },
-    { rel: "workspace", href: "workspace.stl", type: "model/stl" },
-    { rel: "workspace-summary", href: "workspace.json", type: JSON_TYPE },
-    { rel: REACHABILITY_REL, href: "reachability.csv", type: "text/csv" },
-    { rel: "scene", href: "scene.json", type: JSON_TYPE },
-    ...(options.srdf ? [{ rel: "srdf", href: "robot.srdf", type: "application/xml" }] : []),
-    { rel: "type", href: THING_MODEL_FILE, type: THING_MODEL_TYPE },
+    { rel: "model", href: TWIN_FILES.urdf, type: "application/urdf+xml" },
+    { rel: "workspace-pointcloud", href: TWIN_FILES.pointCloud, type: "text/csv" },
+    { rel: "workspace", href: TWIN_FILES.surface, type: "model/stl" },
+    { rel: "workspace-summary", href: TWIN_FILES.summary, type: JSON_TYPE },
+    { rel: REACHABILITY_REL, href: TWIN_FILES.reachability, type: "text/csv" },
+    { rel: "scene", href: TWIN_FILES.scene, type: JSON_TYPE },
+    ...(options.srdf ? [{ rel: "srdf", href: TWIN_FILES.srdf, type: "application/xml" }] : []),
+    { rel: "type", href: TWIN_FILES.thingModel, type: THING_MODEL_TYPE },
     // the servient's own WebSocket stream (all twins' joints, status, collisions, scene edits; protocol in
     // the README, Contract 4): a link, not a form, since no standard operation speaks it
     ...(live ? [{ rel: LIVE_REL, href: live, type: JSON_TYPE }] : []),

@@ -1,4 +1,5 @@
 /** Realistic robot models for tests (kuka iiwa-like limits from pybullet_data's kuka_iiwa/model.urdf). */
+import { TWIN_FILES } from "../twin-layout.js";
 import type { JointSpec, RobotModelLike, WorkspaceSummary } from "../types.js";
 
 const IIWA_LIMITS = [2.96, 2.09, 2.96, 2.09, 2.96, 2.09, 3.05];
@@ -43,7 +44,7 @@ export function summaryFixture(): WorkspaceSummary {
     method: "alpha-shape",
     volume: 4.2,
     seed: 1,
-    reachability: { file: "reachability.csv", voxel: 0.16, voxels: 900, directions: 64, approachAxis: "z" },
+    reachability: { file: TWIN_FILES.reachability, voxel: 0.16, voxels: 900, directions: 64, approachAxis: "z" },
     timings: { sample: 0.1, collide: 3.2, alpha: 1.1, write: 0.2 },
     versions: { robwot: "0.1.0" },
   };

@@ -5,6 +5,7 @@
  */
 import { CsvError } from "../errors.js";
 import { snippet } from "../snippet.js";
+import { TWIN_FILES } from "../twin-layout.js";
 
 export interface WorkspaceCloud {
   /** x, y, z per point (length 3n), metres */
@@ -77,7 +78,7 @@ export function parseNumericCsv(text: string, file: string, required: readonly s
 }
 
 export function parseWorkspaceCsv(text: string, options: ParseCsvOptions = {}): WorkspaceCloud {
-  const file = options.file ?? "workspace.csv";
+  const file = options.file ?? TWIN_FILES.pointCloud;
   const { header, rows: n, values } = parseNumericCsv(text, file, REQUIRED, true);
   const jointNames = header.slice(REQUIRED.length);
   const dupe = jointNames.find((name, i) => name === "" || jointNames.indexOf(name) !== i);

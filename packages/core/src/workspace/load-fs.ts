@@ -7,6 +7,7 @@ import { readFile } from "node:fs/promises";
 import { join } from "node:path";
 import { WorkspaceFileError } from "../errors.js";
 import { jailFile, realFolder } from "../folder-jail.js";
+import { TWIN_FILES } from "../twin-layout.js";
 import { reachabilityVoxel } from "./load-url.js";
 import { ReachabilityMap } from "./reachability.js";
 import { Workspace } from "./workspace.js";
@@ -33,17 +34,17 @@ async function read(file: string): Promise<Buffer> {
 
 /** The reachability map of a twin folder; undefined for folders generated before it existed. */
 async function loadReachability(dir: string): Promise<ReachabilityMap | undefined> {
-  const real = confined(dir, "reachability.csv", false);
+  const real = confined(dir, TWIN_FILES.reachability, false);
   if (real === null) return undefined;
-  const file = join(dir, "reachability.csv");
-  const summaryFile = join(dir, "workspace.json");
-  const voxel = reachabilityVoxel((await read(confined(dir, "workspace.json", true)!)).toString("utf8"), summaryFile);
+  const file = join(dir, TWIN_FILES.reachability);
+  const summaryFile = join(dir, TWIN_FILES.summary);
+  const voxel = reachabilityVoxel((await read(confined(dir, TWIN_FILES.summary, true)!)).toString("utf8"), summaryFile);
   return ReachabilityMap.fromCsv((await read(real)).toString("utf8"), voxel, { file });
 }
 
 export async function loadWorkspace(dir: string): Promise<Workspace> {
-  const stlFile = join(dir, "workspace.stl");
-  const csvFile = join(dir, "workspace.csv");
-  const [stl, csv, reach] = await Promise.all([read(confined(dir, "workspace.stl", true)!), read(confined(dir, "workspace.csv", true)!), loadReachability(dir)]);
+  const stlFile = join(dir, TWIN_FILES.surface);
+  const csvFile = join(dir, TWIN_FILES.pointCloud);
+  const [stl, csv, reach] = await Promise.all([read(confined(dir, TWIN_FILES.surface, true)!), read(confined(dir, TWIN_FILES.pointCloud, true)!), loadReachability(dir)]);
   return Workspace.fromData(stl, csv.toString("utf8"), { stl: stlFile, csv: csvFile }, reach);
 }

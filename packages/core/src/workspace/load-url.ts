@@ -1,6 +1,7 @@
 /** Loads a twin's workspace files over HTTP (consumers, browser). Pure: uses the given `fetch`. */
 import { WorkspaceFileError } from "../errors.js";
 import { jsonErrorAt } from "../snippet.js";
+import { TWIN_FILES } from "../twin-layout.js";
 import { ReachabilityMap } from "./reachability.js";
 import { Workspace } from "./workspace.js";
 
@@ -26,7 +27,7 @@ export function reachabilityVoxel(summaryText: string, file: string): number {
     throw new WorkspaceFileError(`${file} is not valid JSON${jsonErrorAt(cause, summaryText)}`, { file });
   }
   if (typeof voxel !== "number" || !(voxel > 0) || !Number.isFinite(voxel)) {
-    throw new WorkspaceFileError(`${file} has no reachability.voxel (a positive number of metres), needed to read reachability.csv`, { file });
+    throw new WorkspaceFileError(`${file} has no reachability.voxel (a positive number of metres), needed to read ${TWIN_FILES.reachability}`, { file });
   }
   return voxel;
 }

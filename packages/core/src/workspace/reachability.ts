@@ -7,6 +7,7 @@
  * directions / 64. The side is workspace.json's `reachability.voxel`. Pure (browser-safe).
  */
 import { CsvError, InvalidArgumentError } from "../errors.js";
+import { TWIN_FILES } from "../twin-layout.js";
 import { parseNumericCsv } from "./csv.js";
 
 const HEADER = ["x", "y", "z", "samples", "free", "directions", "index"] as const;
@@ -48,7 +49,7 @@ export class ReachabilityMap {
 
   /** Parses the file's text; `voxel` from workspace.json. Every row is checked (file, line, reason). */
   static fromCsv(text: string, voxel: number, options: { file?: string } = {}): ReachabilityMap {
-    const file = options.file ?? "reachability.csv";
+    const file = options.file ?? TWIN_FILES.reachability;
     const { rows, values } = parseNumericCsv(text, file, HEADER);
     const voxels: ReachabilityVoxel[] = [];
     for (let r = 0; r < rows; r++) {
@@ -57,7 +58,7 @@ export class ReachabilityMap {
       const bad = (why: string): never => {
         throw new CsvError(`${file}:${line}: ${why}`, { file, line });
       };
-      for (const c of [x!, y!, z!]) if (Math.abs(c / voxel - 0.5 - Math.round(c / voxel - 0.5)) > 1e-3) bad(`${c} is not a voxel centre of a ${voxel} m grid (workspace.json reachability.voxel)`);
+      for (const c of [x!, y!, z!]) if (Math.abs(c / voxel - 0.5 - Math.round(c / voxel - 0.5)) > 1e-3) bad(`${c} is not a voxel centre of a ${voxel} m grid (${TWIN_FILES.summary} reachability.voxel)`);
       if (!(Number.isInteger(samples) && samples! >= 1)) bad(`samples is ${samples}, expected an integer >= 1`);
       if (!(Number.isInteger(free) && free! >= 0 && free! <= samples!)) bad(`free is ${free}, expected an integer within 0..samples (${samples})`);
       if (!(Number.isInteger(directions) && directions! >= 0 && directions! <= Math.min(64, free!))) bad(`directions is ${directions}, expected an integer within 0..min(64, free)`);

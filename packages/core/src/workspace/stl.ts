@@ -5,6 +5,7 @@
  */
 import { StlError } from "../errors.js";
 import { snippet } from "../snippet.js";
+import { TWIN_FILES } from "../twin-layout.js";
 
 export interface StlMesh {
   /** 9 per triangle, metres */
@@ -23,7 +24,7 @@ function asBytes(data: ArrayBufferLike | ArrayBufferView): Uint8Array {
 }
 
 export function parseStl(data: ArrayBufferLike | ArrayBufferView, options: { file?: string } = {}): StlMesh {
-  const file = options.file ?? "workspace.stl";
+  const file = options.file ?? TWIN_FILES.surface;
   const bytes = asBytes(data);
   if (bytes.byteLength >= 84) {
     const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);

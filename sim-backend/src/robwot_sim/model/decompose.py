@@ -36,6 +36,7 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 from robwot_sim.errors import MeshError, PathEscape
 from robwot_sim.model.meshcheck import check_mesh, snippet
+from robwot_sim.twin_layout import COLLISION_DIR
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
@@ -292,7 +293,7 @@ def collision_cache(urdf_dir: Path) -> Path:
     """Where decompositions are cached: the ``collision/`` folder next to a twin's robot.urdf (export
     writes it; it must resolve inside the URDF's folder), else ``ROBWOT_COLLISION_CACHE``, else
     ``$XDG_CACHE_HOME/robwot/collision``."""
-    local = urdf_dir / "collision"
+    local = urdf_dir / COLLISION_DIR
     if local.is_dir():
         real, udir = local.resolve(), urdf_dir.resolve()
         if udir not in real.parents:

@@ -15,6 +15,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from robwot_sim.twin_layout import COLLISION_DIR, MESHES_DIR, URDF
 from robwot_sim.urdf import parse_urdf, resolve_mesh
 
 _MTLLIB = re.compile(rb"^\s*mtllib\s+(.+?)\s*$", re.MULTILINE)
@@ -59,15 +60,15 @@ def export_urdf(
     if sources:
         common = Path(os.path.commonpath([str(p.parent) for p in sources.values()]))
         for fn, src in sources.items():
-            mapping[fn] = (Path("meshes") / src.relative_to(common)).as_posix()
+            mapping[fn] = (Path(MESHES_DIR) / src.relative_to(common)).as_posix()
             for extra in [src, *_companions(src)]:
-                dst = out / "meshes" / extra.relative_to(common)
+                dst = out / MESHES_DIR / extra.relative_to(common)
                 dst.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(extra, dst)
     for el in root.iter("mesh"):
         el.set("filename", mapping[el.get("filename", "")])
     out.mkdir(parents=True, exist_ok=True)
     for folder in collision_parts:
-        shutil.copytree(folder, out / "collision" / folder.name, dirs_exist_ok=True)
-    ET.ElementTree(root).write(out / "robot.urdf", encoding="utf-8", xml_declaration=True)
-    return {"urdf": "robot.urdf", "meshes": sorted(set(mapping.values()))}
+        shutil.copytree(folder, out / COLLISION_DIR / folder.name, dirs_exist_ok=True)
+    ET.ElementTree(root).write(out / URDF, encoding="utf-8", xml_declaration=True)
+    return {"urdf": URDF, "meshes": sorted(set(mapping.values()))}

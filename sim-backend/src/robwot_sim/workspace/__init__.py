@@ -18,6 +18,7 @@ import numpy as np
 import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.fk import ChainFK
+from robwot_sim.twin_layout import POINT_CLOUD, REACHABILITY, SURFACE
 from robwot_sim.workspace.chunk import ChunkJob, ChunkSink
 from robwot_sim.workspace.io import atomic_write, csv_layout, write_stl
 from robwot_sim.workspace.labelling import Labelling, warm_up
@@ -169,7 +170,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     if address is not None:
         from robwot_sim.workspace.cluster import run_chunks
 
-        run = run_chunks(address, job, int(samples), header, out / "workspace.csv",
+        run = run_chunks(address, job, int(samples), header, out / POINT_CLOUD,
                          lambda done, total: report("collide", done, total), ALPHA_MAX_POINTS)
         alpha_points, free_count, reach, t_collide = run.alpha_points, run.collision_free, run.reach, \
             run.seconds
@@ -186,7 +187,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
                 lambda done, total: report("collide", done, total),
                 helper=lambda q: world.collision_free_batch(robot_id, q), sink=sink.add)
 
-        atomic_write(out / "workspace.csv", write)
+        atomic_write(out / POINT_CLOUD, write)
         t_collide = time.perf_counter() - t1
         alpha_points, free_count, reach, lo, hi = sink.alpha_points(), sink.free, sink.reach, sink.lo, sink.hi
     t2 = time.perf_counter()
@@ -202,10 +203,10 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
         {"min": None, "max": None} if lo is None or hi is None
         else {"min": [float(v) for v in lo], "max": [float(v) for v in hi]})
     t_sample = t_reach
-    write_stl(out / "workspace.stl", shape.vertices, shape.triangles)
+    write_stl(out / SURFACE, shape.vertices, shape.triangles)
     if voxel_arg == "auto":
         reach = reach.auto()
-    reach.write_csv(out / "reachability.csv")
+    reach.write_csv(out / REACHABILITY)
     report("write", 2, 2)
     t4 = time.perf_counter()
 
@@ -215,7 +216,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
         "samples": int(samples), "collisionFree": free_count, "bounds": bounds,
         "reachBounds": {"min": reach_min.tolist(), "max": reach_max.tolist()},
         "alpha": shape.alpha, "method": shape.method, "volume": shape.volume, "seed": int(seed),
-        "reachability": {"file": "reachability.csv", "voxel": reach.voxel, "voxels": reach.voxels,
+        "reachability": {"file": REACHABILITY, "voxel": reach.voxel, "voxels": reach.voxels,
                          "directions": DIRECTIONS, "approachAxis": "z"},
         "timings": {"sample": t_sample, "collide": t_collide, "alpha": t3 - t2, "write": t4 - t3},
         "versions": versions()}
