@@ -128,6 +128,18 @@ describe("xacro", () => {
     expect(r.stderr).toContain(`robwot: error: ${bad}:3: xacro: undefined argument 'prefix': give it with --xacro-arg prefix:=VALUE`);
   }, 60_000);
 
+  it("an error in the expanded URDF names its line there and keeps the file for the user to read", async () => {
+    const xacro = join(work, "nolimit.urdf.xacro");
+    writeFileSync(xacro, '<robot name="nl" xmlns:xacro="http://www.ros.org/wiki/xacro">\n<xacro:property name="axis" value="0 0 1"/>\n<link name="a"/><link name="b"/>\n<joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="${axis}"/></joint>\n</robot>\n');
+    const r = await runCli(["generate", xacro, "--out", join(work, "never-nolimit")]);
+    expect(r.code).toBe(1);
+    const m = /robwot: error: (\S+\/nolimit\.urdf):5: revolute joint 'j' needs <limit lower=\.\.\. upper=\.\.\.> \(the URDF expanded from (\S+), kept there\)/.exec(r.stderr);
+    expect(m, r.stderr).not.toBeNull();
+    expect(m![2]).toBe(xacro);
+    expect(readFileSync(m![1]!, "utf8")).toContain('<axis xyz="0 0 1"');
+    rmSync(join(m![1]!, ".."), { recursive: true, force: true });
+  }, 60_000);
+
   it.each([
     [["--xacro-arg", "upper_length=0.25"], 'NAME:=VALUE (e.g. prefix:=left_), got "upper_length=0.25"'],
     [["--xacro-arg", "a:=1", "--xacro-arg", "a:=2"], "--xacro-arg a given twice"],
