@@ -45,7 +45,8 @@ def test_config_folder_without_setup_assistant(tmp_path: Path) -> None:
     cfg.mkdir(parents=True)
     with pytest.raises(FileNotFound) as none:
         find_moveit_config(cfg.parent)
-    assert "MoveIt config URDF/xacro file not found" in none.value.message
+    assert "no .setup_assistant, no config/*.urdf.xacro|*.xacro|*.urdf, no robot_description in launch" \
+        in none.value.message
     shutil.copy(DESCRIPTION / "urdf" / "arm.urdf.xacro", cfg / "arm.urdf.xacro")
     shutil.copy(CONFIG / "config" / "tinyxacro.srdf", cfg / "arm.srdf")
     c = find_moveit_config(cfg.parent)
@@ -123,3 +124,21 @@ def test_virtual_joints_count_and_stateless_groups_skipped(tmp_path: Path) -> No
                  '<group_state name="x"><joint name="yaw" value="0"/></group_state></robot>')
     s = read_srdf(p, LINKS, JOINTS)
     assert s.groups["all"].joints == ["world_joint", "yaw"] and s.group_states == {}
+
+
+def test_robot_description_of_a_launch_file(tmp_path: Path) -> None:
+    """MoveIt 1's planning_context.launch: the robot_description param's $(find PKG)/file and its literal
+    xacro args (a launch substitution left to the xacro's default); the semantic description is not it."""
+    cfg = tmp_path / "arm_moveit_config"
+    (cfg / "launch").mkdir(parents=True)
+    (cfg / "config").mkdir()
+    shutil.copy(CONFIG / "config" / "tinyxacro.srdf", cfg / "config" / "arm.srdf")
+    (cfg / "launch" / "planning_context.launch").write_text(
+        '<launch>\n  <arg name="robot_description" default="robot_description"/>\n'
+        '  <param name="$(arg robot_description)_semantic"\n'
+        '         textfile="$(find arm_moveit_config)/config/arm.srdf"/>\n'
+        '  <param name="$(arg robot_description)" command="xacro \'$(find tinyxacro_description)/urdf/'
+        'arm.urdf.xacro\' upper_length:=0.2 with_tool:=$(arg tool)"/>\n</launch>\n')
+    c = find_moveit_config(cfg, {"tinyxacro_description": str(DESCRIPTION)})
+    assert (c.urdf, c.xacro_args) == (DESCRIPTION / "urdf" / "arm.urdf.xacro", {"upper_length": "0.2"})
+    assert c.srdf == cfg / "config" / "arm.srdf"

@@ -7,8 +7,12 @@ Where the files are, in the order the MoveIt setup assistant records them:
   xacro_args}`` and ``SRDF: {relative_path}``. The URDF's package is found as ``package://`` finds one
   (package roots, a package holding the config, ``ROS_PACKAGE_PATH``), then among the config package's
   sibling folders (a workspace's ``src/`` holds both): it is returned as a package root.
-* otherwise exactly one ``config/*.urdf.xacro`` / ``config/*.xacro`` / ``config/*.urdf`` and exactly one
-  ``config/*.srdf`` (MoveIt 2's assistant writes ``config/<robot>.urdf.xacro`` and ``config/<robot>.srdf``).
+* otherwise exactly one ``config/*.urdf.xacro`` / ``config/*.xacro`` / ``config/*.urdf`` (MoveIt 2's
+  assistant writes ``config/<robot>.urdf.xacro``), else the ``robot_description`` parameter of a launch file
+  (``launch/*.launch``, ``*.launch.xml``: ``command="xacro '$(find PKG)/urdf/robot.urdf.xacro' NAME:=VALUE"``
+  or ``textfile="$(find PKG)/urdf/robot.urdf"``, as MoveIt 1's ``planning_context.launch`` has it; arguments
+  whose value is itself a launch substitution are left to the xacro's defaults); and exactly one
+  ``config/*.srdf``.
 
 ``joint_limits.yaml``: ``joint_limits: {JOINT: {has_velocity_limits: true, max_velocity: V}}``; MoveIt plans
 with these instead of the URDF's, so the twin does too (xacro_expand writes them into the expanded URDF).
@@ -16,6 +20,7 @@ with these instead of the URDF's, so the twin does too (xacro_expand writes them
 
 from __future__ import annotations
 
+import re
 import shlex
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -24,6 +29,7 @@ from typing import Any
 
 import yaml
 
+from robwot_sim import xmlsafe
 from robwot_sim.errors import FileNotFound, UrdfError
 from robwot_sim.ros_packages import enclosing_packages, find_on_ros_package_path, package_name, packages_below
 
@@ -65,15 +71,51 @@ def _one(folder: Path, patterns: tuple[str, ...], what: str) -> Path:
     raise FileNotFound(str(folder / patterns[0]), what=f"MoveIt config {what} file")
 
 
-def _package(name: str, config: Path, roots: Mapping[str, str]) -> Path:
+def _package(name: str, config: Path, roots: Mapping[str, str], named_by: Path) -> Path:
     if name in roots:
         return Path(roots[name]).expanduser().resolve()
     hit = (enclosing_packages(config).get(name) or find_on_ros_package_path(name)
            or packages_below(config.parent).get(name))
     if hit is None:
-        raise FileNotFound(name, what=f"ROS package {name!r} named by {config / '.setup_assistant'} (give "
-                           f"--package-root {name}=DIR or add the folder it is in to ROS_PACKAGE_PATH)")
+        raise FileNotFound(name, what=f"ROS package {name!r} named by {named_by} (give --package-root "
+                           f"{name}=DIR or add the folder it is in to ROS_PACKAGE_PATH)")
     return hit.resolve()
+
+
+def _config_robot_file(config: Path) -> tuple[Path, dict[str, str]] | None:
+    try:
+        return _one(config / "config", ("*.urdf.xacro", "*.xacro", "*.urdf"), "URDF/xacro"), {}
+    except FileNotFound:
+        return None
+
+
+_FIND = re.compile(r"\$\(find ([A-Za-z0-9_]+)\)/([^\s'\"]+?\.(?:urdf\.xacro|xacro|urdf))")
+
+
+def _launch_robot_description(config: Path, roots: dict[str, str]) -> tuple[Path, dict[str, str]] | None:
+    """The file (and literal xacro arguments) of the first ``robot_description`` parameter in the config's
+    launch files that names one with ``$(find PKG)/...``; the package is added to ``roots``."""
+    files = sorted((config / "launch").glob("*.launch")) + sorted((config / "launch").glob("*.launch.xml"))
+    for f in files:
+        try:
+            root, _ = xmlsafe.parse(f.read_bytes()[:MAX_YAML_BYTES])
+        except (OSError, xmlsafe.XmlRefused, xmlsafe.XmlMalformed):
+            continue  # not a launch file we can read: the next one may say it
+        for el in root.iter("param"):
+            name = el.get("name", "")
+            spec = el.get("command") or el.get("textfile") or ""
+            m = _FIND.search(spec)
+            if "robot_description" not in name or "semantic" in name or m is None:
+                continue
+            pkg = _package(m.group(1), config, roots, f)
+            roots[m.group(1)] = str(pkg)
+            args = {}
+            for token in shlex.split(spec[m.end():].replace("'", " ").replace('"', " ")):
+                arg, sep, value = token.partition(":=")
+                if sep and arg and "$(" not in value:
+                    args[arg] = value
+            return (pkg / m.group(2)).resolve(), args
+    return None
 
 
 def _velocity_limits(file: Path) -> dict[str, float]:
@@ -115,7 +157,7 @@ def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | No
         setup = setup if isinstance(setup, dict) else {}
         u, s = setup.get("URDF") or {}, setup.get("SRDF") or {}
         if isinstance(u, dict) and u.get("package") and u.get("relative_path"):
-            pkg = _package(str(u["package"]), config, roots)
+            pkg = _package(str(u["package"]), config, roots, assistant)
             roots[str(u["package"])] = str(pkg)
             urdf = (pkg / str(u["relative_path"])).resolve()
             for arg in shlex.split(str(u.get("xacro_args") or "")):
@@ -125,7 +167,14 @@ def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | No
                 xacro_args[name] = value
         if isinstance(s, dict) and s.get("relative_path"):
             srdf = (config / str(s["relative_path"])).resolve()
-    urdf = urdf or _one(config / "config", ("*.urdf.xacro", "*.xacro", "*.urdf"), "URDF/xacro")
+    if urdf is None:
+        found = _config_robot_file(config) or _launch_robot_description(config, roots)
+        if found is None:
+            raise FileNotFound(str(config / "config" / "*.urdf.xacro"),
+                               what="MoveIt config URDF/xacro file (no .setup_assistant, no "
+                               "config/*.urdf.xacro|*.xacro|*.urdf, no robot_description in launch/*.launch)")
+        urdf, launch_args = found
+        xacro_args.update(launch_args)
     srdf = srdf or _one(config / "config", ("*.srdf",), "SRDF")
     for f, what in ((urdf, "URDF/xacro"), (srdf, "SRDF")):
         if not f.is_file():
