@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription } from "@robwot/core";
-import { connect, deadlineFromEnv, launchBackend, type LaunchedBackend, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
+import { connect, deadlineFromEnv, launchBackend, startHeartbeat, type LaunchedBackend, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type { RobotModel, WorkspaceSummary, WorldList };
@@ -52,7 +52,7 @@ const REQUEST_TIMEOUT_MS = 120_000;
 class SimBackend implements Backend {
   private closing: Promise<void> | null = null;
   private readonly own: LaunchedBackend | null;
-  private readonly watchdog: NodeJS.Timeout;
+  private readonly stopHeartbeat: () => void;
   private dead: CliError | null = null;
 
   constructor(
@@ -61,24 +61,11 @@ class SimBackend implements Backend {
     readonly pybulletData: string,
   ) {
     this.own = own;
-    let pending = false;
-    this.watchdog = setInterval(() => {
-      if (pending || this.dead) return;
-      pending = true;
-      this.client
-        .ping({ timeoutMs: WATCHDOG_DEAD_MS })
-        .then(
-          () => undefined,
-          (err: unknown) => {
-            if ((err as { code?: unknown }).code !== "E_TIMEOUT") return; // closed: the calls report it
-            this.dead = new CliError(`the simulation backend stopped answering (no reply to ping within ${WATCHDOG_DEAD_MS / 1000} s)`, "E_BACKEND", 1);
-            this.own?.process.kill("SIGKILL"); // works on a stopped (SIGSTOP) process too
-            this.client.connection.terminate();
-          },
-        )
-        .finally(() => (pending = false));
-    }, Math.min(2_000, WATCHDOG_DEAD_MS / 2));
-    this.watchdog.unref();
+    this.stopHeartbeat = startHeartbeat((o) => this.client.ping(o), { periodMs: Math.min(2_000, WATCHDOG_DEAD_MS / 2), deadAfterMs: WATCHDOG_DEAD_MS }, () => {
+      this.dead = new CliError(`the simulation backend stopped answering (no reply to ping within ${WATCHDOG_DEAD_MS / 1000} s)`, "E_BACKEND", 1);
+      this.own?.process.kill("SIGKILL"); // works on a stopped (SIGSTOP) process too
+      this.client.connection.terminate();
+    });
   }
 
   /** A call that fails with the watchdog's reason when the backend was declared dead meanwhile. */
@@ -126,7 +113,7 @@ class SimBackend implements Backend {
     return this.guard(this.client.generateWorkspace(params, { onProgress }));
   }
   close(): Promise<void> {
-    clearInterval(this.watchdog);
+    this.stopHeartbeat();
     this.closing ??= (async () => {
       if (this.own) {
         await this.own.stop();
