@@ -81,7 +81,7 @@ def test_wotpy_consumes_the_served_td_unmodified(twin_url: str) -> None:
     assert set(seen["properties"]["getJointPosition"]) == set(HOME)
     assert seen["validate_joints"]["valid"] is True and seen["validate_pose"]["valid"] is True
     assert seen["move_pose"]["status"] == "reached" and seen["move_joints"]["status"] == "reached"
-    assert seen["stop"] == {"stopped": False}
+    assert seen["stop"] == {"stopped": False, "simulation": {"ok": True}}
     assert seen["add"]["name"] == "w" and seen["move_obstacle"]["position"] == [2, 3, 0]
     assert seen["calibrate"]["scale"] == 1 and seen["calibrate"]["rms"] < 1e-9
     assert seen["collision_move"]["status"] == "collision"
