@@ -12,9 +12,9 @@ import pytest
 
 from robwot_bench.reference import ExactReference, example_robot
 from robwot_sim.errors import Forbidden, SrdfError
+from robwot_sim.model.srdf import disabled_pairs
+from robwot_sim.model.urdf import pybullet_data_path
 from robwot_sim.sim.world import World
-from robwot_sim.srdf import disabled_pairs
-from robwot_sim.urdf import pybullet_data_path
 
 SAMPLES = 2000
 

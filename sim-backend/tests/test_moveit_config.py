@@ -10,9 +10,9 @@ import pytest
 from simhelp import MODELS
 
 from robwot_sim.errors import FileNotFound, SrdfError, UrdfError
-from robwot_sim.moveit_config import find_moveit_config
-from robwot_sim.srdf import read_srdf
-from robwot_sim.xacro_expand import expand_xacro
+from robwot_sim.model.moveit_config import find_moveit_config
+from robwot_sim.model.srdf import read_srdf
+from robwot_sim.model.xacro_expand import expand_xacro
 
 WS = MODELS / "ros_ws"
 CONFIG = WS / "tinyxacro_moveit_config"

@@ -9,8 +9,8 @@ import pytest
 from simhelp import DATA, MODELS, PANDA, XARM
 
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, NoMovableJoint, PathEscape, UrdfError
+from robwot_sim.model.urdf import read_urdf, resolve_mesh
 from robwot_sim.sim.world import World
-from robwot_sim.urdf import read_urdf, resolve_mesh
 
 
 def test_doctype_and_entities_refused_before_parsing() -> None:

@@ -12,8 +12,8 @@ from robwot_sim.errors import InvalidParams, UnknownLink, UrdfError
 from robwot_sim.model.fk import ChainFK
 from robwot_sim.model.joints import parse_model
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
+from robwot_sim.model.urdf import parse_urdf
 from robwot_sim.sim.world import World
-from robwot_sim.urdf import parse_urdf
 from robwot_sim.workspace import chain_fk
 from robwot_sim.workspace.sampling import BLOCK, sample_configurations
 

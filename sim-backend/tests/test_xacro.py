@@ -11,9 +11,9 @@ import pytest
 from simhelp import MODELS
 
 from robwot_sim.errors import FileNotFound, Forbidden, PathEscape, SimError, UnknownPackage, UrdfError
+from robwot_sim.model.urdf import read_urdf, resolve_mesh
+from robwot_sim.model.xacro_expand import SOURCE_ROOT, expand_xacro
 from robwot_sim.sim.world import World
-from robwot_sim.urdf import read_urdf, resolve_mesh
-from robwot_sim.xacro_expand import SOURCE_ROOT, expand_xacro
 
 WS = MODELS / "ros_ws"
 ARM = WS / "tinyxacro_description" / "urdf" / "arm.urdf.xacro"

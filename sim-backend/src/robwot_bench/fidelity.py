@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from robwot_bench.reference import ExactReference, example_robot
+from robwot_sim.model.urdf import pybullet_data_path
 from robwot_sim.sim.planner import plan_pose
 from robwot_sim.sim.world import World
-from robwot_sim.urdf import pybullet_data_path
 
 
 def measure(name: str, samples: int, seed: int, with_srdf: bool = False) -> dict[str, float | int | str]:

@@ -18,7 +18,7 @@ import jsonschema
 from robwot_sim.errors import FileNotFound, InvalidParams, SceneError
 from robwot_sim.jsondepth import TooDeep, loads_bounded
 from robwot_sim.model.rotations import quat_from_rpy
-from robwot_sim.urdf import pybullet_data_path
+from robwot_sim.model.urdf import pybullet_data_path
 from robwot_sim.validate import MIN_QUATERNION_NORM, unit_quaternion
 
 MAX_SCENE_BYTES = 50 * 1024 * 1024

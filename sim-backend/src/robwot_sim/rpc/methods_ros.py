@@ -6,13 +6,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from robwot_sim.moveit_config import find_moveit_config
+from robwot_sim.model.moveit_config import find_moveit_config
+from robwot_sim.model.srdf import read_srdf
+from robwot_sim.model.urdf import parse_urdf
+from robwot_sim.model.xacro_expand import expand_xacro
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
-from robwot_sim.srdf import read_srdf
-from robwot_sim.urdf import parse_urdf
-from robwot_sim.xacro_expand import expand_xacro
 
 
 def _strings(value: Any) -> dict[str, str]:

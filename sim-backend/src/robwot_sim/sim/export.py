@@ -15,8 +15,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from robwot_sim.model.urdf import parse_urdf, resolve_mesh
 from robwot_sim.twin_layout import COLLISION_DIR, MESHES_DIR, URDF
-from robwot_sim.urdf import parse_urdf, resolve_mesh
 
 _MTLLIB = re.compile(rb"^\s*mtllib\s+(.+?)\s*$", re.MULTILINE)
 _MAPS = re.compile(rb"^\s*(?:map_\w+|bump|disp|decal)\s+(?:-\S+\s+\S+\s+)*(\S.*?)\s*$", re.MULTILINE)

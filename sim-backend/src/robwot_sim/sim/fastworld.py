@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 import pybullet as pb
 
+from robwot_sim.model.urdf import prepare_urdf
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.types import FloatArray
-from robwot_sim.urdf import prepare_urdf
 
 TOUCH = 0.0
 MAX_CHILDREN = 16

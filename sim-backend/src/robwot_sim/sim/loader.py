@@ -11,6 +11,8 @@ import pybullet as pb
 
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
 from robwot_sim.model.joints import UrdfModel, parse_model
+from robwot_sim.model.srdf import disabled_pairs
+from robwot_sim.model.urdf import PreparedUrdf, UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
 from robwot_sim.sim.kinematics import reach_sphere
@@ -18,8 +20,6 @@ from robwot_sim.sim.pathcheck import Guard
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.sweep import CLEARANCE, joint_reach
 from robwot_sim.sim.types import FloatArray, RobotModel
-from robwot_sim.srdf import disabled_pairs
-from robwot_sim.urdf import PreparedUrdf, UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
 
 FILTER_SEED = 12345
 
