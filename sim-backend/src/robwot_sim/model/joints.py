@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from robwot_sim.errors import NoMovableJoint, UrdfError
-from robwot_sim.urdf import UrdfDoc
+from robwot_sim.model.urdf import UrdfDoc
 
 Vec3 = tuple[float, float, float]
 

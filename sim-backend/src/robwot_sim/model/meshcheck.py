@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from robwot_sim import xmlsafe
 from robwot_sim.errors import MeshError
+from robwot_sim.model import xmlsafe
 
 MAX_MESH_BYTES = 256 * 1024 * 1024
 MAX_TRIANGLES = 5_000_000

@@ -29,9 +29,14 @@ from typing import Any
 
 import yaml
 
-from robwot_sim import xmlsafe
 from robwot_sim.errors import FileNotFound, UrdfError
-from robwot_sim.ros_packages import enclosing_packages, find_on_ros_package_path, package_name, packages_below
+from robwot_sim.model import xmlsafe
+from robwot_sim.model.ros_packages import (
+    enclosing_packages,
+    find_on_ros_package_path,
+    package_name,
+    packages_below,
+)
 
 MAX_YAML_BYTES = 1024 * 1024
 

@@ -13,7 +13,7 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
-from robwot_sim import xmlsafe
+from robwot_sim.model import xmlsafe
 
 #: how deep below a ROS_PACKAGE_PATH folder packages are looked for (a workspace's src/group/pkg fits)
 MAX_DEPTH = 6

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from robwot_sim.errors import SrdfError
-from robwot_sim.urdf import UrdfDoc, parse_xml
+from robwot_sim.model.urdf import UrdfDoc, parse_xml
 
 
 def disabled_pairs(path: str | Path, links: Collection[str]) -> frozenset[tuple[str, str]]:

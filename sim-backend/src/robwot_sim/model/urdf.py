@@ -19,11 +19,11 @@ from pathlib import Path
 
 import pybullet_data
 
-from robwot_sim import xmlsafe
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UnknownPackage, UrdfError
+from robwot_sim.model import xmlsafe
 from robwot_sim.model.decompose import FloatArray, IndexArray, collision_cache, split_collisions
 from robwot_sim.model.meshcheck import check_mesh, read_mesh, snippet
-from robwot_sim.ros_packages import enclosing_package, find_on_ros_package_path
+from robwot_sim.model.ros_packages import enclosing_package, find_on_ros_package_path
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
 MESH_SUFFIXES = (".stl", ".obj", ".dae")

@@ -1,6 +1,6 @@
 """xacro files expanded into URDF with the ``xacro`` package (PyPI, no ROS install), as ROS users have them.
 
-Expansion runs in a child process (``python -m robwot_sim.xacro_expand``, one JSON request on stdin, one
+Expansion runs in a child process (``python -m robwot_sim.model.xacro_expand``, one JSON request on stdin, one
 JSON answer on stdout): xacro keeps its state in module globals (not safe to share between requests) and
 reads the environment (``$(env NAME)``, ``$(optenv NAME)``), so the child gets the backend's environment
 without its ``ROBWOT_*`` variables (a backend token must not end up in a robot.urdf).
@@ -29,10 +29,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from robwot_sim import xmlsafe
 from robwot_sim.errors import FileNotFound, Forbidden, PathEscape, SimError, UnknownPackage, UrdfError
-from robwot_sim.ros_packages import enclosing_packages, find_on_ros_package_path
-from robwot_sim.urdf import UrdfDoc, refuse_unexpanded, resolve_mesh
+from robwot_sim.model import xmlsafe
+from robwot_sim.model.ros_packages import enclosing_packages, find_on_ros_package_path
+from robwot_sim.model.urdf import UrdfDoc, refuse_unexpanded, resolve_mesh
 
 #: the package-root key under which the xacro's own folder is returned (a ROS package name cannot hold
 #: a dot or a dash, so it never shadows a real package)
@@ -164,7 +164,7 @@ def _run_child(xacro_file: Path, args: Mapping[str, str], package_roots: Mapping
     env = {k: v for k, v in os.environ.items() if not k.startswith("ROBWOT_")}
     request = json.dumps({"xacro": str(xacro_file), "args": dict(args), "packageRoots": dict(package_roots)})
     try:
-        proc = subprocess.run([sys.executable, "-m", "robwot_sim.xacro_expand"], input=request, env=env,
+        proc = subprocess.run([sys.executable, "-m", "robwot_sim.model.xacro_expand"], input=request, env=env,
                               capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
     except subprocess.TimeoutExpired:
         raise UrdfError(f"xacro expansion did not end within {TIMEOUT_S:g} s", file=str(xacro_file)) from None
