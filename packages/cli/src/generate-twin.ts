@@ -5,7 +5,7 @@
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { buildThingModel, THING_MODEL_FILE } from "@robwot/core";
+import { buildThingModel, TWIN_FILES } from "@robwot/core";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
@@ -37,7 +37,7 @@ function placeholderSummary(opts: GenerateOptions): WorkspaceSummary {
     method: "alpha-shape",
     volume: 0,
     seed: opts.seed,
-    reachability: { file: "reachability.csv", voxel: 0.01, voxels: 0, directions: 64, approachAxis: "z" },
+    reachability: { file: TWIN_FILES.reachability, voxel: 0.01, voxels: 0, directions: 64, approachAxis: "z" },
     timings: { sample: 0, collide: 0, alpha: 0, write: 0 },
     versions: {},
   };
@@ -80,7 +80,7 @@ function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
       1,
     );
   }
-  const triangles = statSync(join(dir, "workspace.stl")).size > 84 ? readFileSync(join(dir, "workspace.stl")).readUInt32LE(80) : 0;
+  const triangles = statSync(join(dir, TWIN_FILES.surface)).size > 84 ? readFileSync(join(dir, TWIN_FILES.surface)).readUInt32LE(80) : 0;
   if (triangles === 0) {
     throw new CliError(
       `the collision-free workspace is degenerate (no surface through the collision-free points): the end effector reaches a single point only; check --ee (the end-effector link) and the joint limits`,
@@ -196,25 +196,25 @@ async function generateFrom(
   // Abandoned (and rejected when the backend stops) if the export or the early TD check below fails.
   generating.catch(() => undefined);
   await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
-  if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, "robot.srdf"));
+  if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, TWIN_FILES.srdf));
   const scene = sceneDocument(world, model.id, staged.tmp, opts.scene);
-  writeJson(join(staged.tmp, "scene.json"), scene);
-  writeJson(join(staged.tmp, "twin.json"), {
+  writeJson(join(staged.tmp, TWIN_FILES.scene), scene);
+  writeJson(join(staged.tmp, TWIN_FILES.manifest), {
     version: 1,
     robot: {
-      urdf: "robot.urdf",
+      urdf: TWIN_FILES.urdf,
       eeLink: model.eeLink,
       basePosition: model.basePosition ?? [0, 0, 0],
       baseOrientation: model.baseOrientation ?? [0, 0, 0, 1],
       name: model.name,
-      ...(opts.srdf !== undefined ? { srdf: "robot.srdf" } : {}),
+      ...(opts.srdf !== undefined ? { srdf: TWIN_FILES.srdf } : {}),
       clearance: model.clearance,
       // the xacro file robot.urdf was expanded from (its name only: twin.json is served) and its arguments
       ...(input.xacro ? { xacro: input.xacro } : {}),
       // the SRDF planning group chosen with --group (its end effector is eeLink unless --ee)
       ...(input.group !== undefined ? { group: input.group } : {}),
     },
-    scene: "scene.json",
+    scene: TWIN_FILES.scene,
     generatedAt: new Date().toISOString(),
     tool: `robwot ${VERSION}`,
   });
@@ -227,8 +227,8 @@ async function generateFrom(
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
   const summary = await generating;
   refuseDegenerate(summary, staged.tmp);
-  writeJson(join(staged.tmp, "workspace.json"), summary);
-  writeJson(join(staged.tmp, THING_MODEL_FILE), buildThingModel());
+  writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
+  writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
   if (summary.method === "convex-hull") {
     progress.info("the alpha shape degenerated (too few points): workspace.stl is the convex hull");
   } else if (summary.halfThickness !== undefined) {
@@ -239,7 +239,7 @@ async function generateFrom(
   const td = buildTd(model, summary, scene, opts.baseUrl);
   const errors = await td.validate();
   if (errors.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(errors)}`, "E_TD_INVALID", 1);
-  writeJson(join(staged.tmp, "td.json"), td.td);
+  writeJson(join(staged.tmp, TWIN_FILES.td), td.td);
 
   staged.commit();
   progress.end();
@@ -249,7 +249,7 @@ async function generateFrom(
     scene: opts.scene ?? null,
     obstacles: obstacles.length,
     summary,
-    td: { id: td.td.id, title: td.td.title, file: join(staged.out, "td.json") },
+    td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
     seconds: (performance.now() - t0) / 1000,
   };
 }

@@ -5,6 +5,7 @@
  */
 import { copyFileSync, existsSync, mkdirSync, readFileSync } from "node:fs";
 import { basename, join } from "node:path";
+import { TWIN_FOLDERS } from "@robwot/core";
 import type { WorldList } from "./backend.js";
 
 export interface SceneDoc {
@@ -37,8 +38,8 @@ export function sceneDocument(world: WorldList, ownRobot: string, dir: string, s
     const ob = { ...(o as unknown as Record<string, unknown>) };
     const shape = ob["shape"] as Record<string, unknown> | undefined;
     if (shape?.["type"] === "mesh" && typeof shape["file"] === "string" && existsSync(shape["file"])) {
-      const rel = join("meshes", "scene", `${String(ob["name"])}-${basename(shape["file"])}`);
-      mkdirSync(join(dir, "meshes", "scene"), { recursive: true });
+      const rel = join(TWIN_FOLDERS.sceneMeshes, `${String(ob["name"])}-${basename(shape["file"])}`);
+      mkdirSync(join(dir, TWIN_FOLDERS.sceneMeshes), { recursive: true });
       copyFileSync(shape["file"], join(dir, rel));
       ob["shape"] = { ...shape, file: rel };
     }

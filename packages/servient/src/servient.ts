@@ -4,10 +4,10 @@
  * WebSocket on the same port, and the relay when asked.
  */
 import { createRequire } from "node:module";
-import { dirname } from "node:path";
+import { dirname, join } from "node:path";
 import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
-import { MAX_SLUG_LENGTH, targetBounds, type Bounds } from "@robwot/core";
+import { MAX_SLUG_LENGTH, targetBounds, TWIN_FILES, type Bounds } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
@@ -103,7 +103,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     let slug = base;
     for (let n = 2; slugs.has(slug); n++) slug = `${base}_${n}`;
     if (slug.length > MAX_SLUG_LENGTH) {
-      throw new ServientError(400, "E_TWIN_FOLDER", `${folder.dir}/td.json: the title gives the URL path segment "${slug.slice(0, 40)}..." of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served (shorten td.json's title)`, { folder: folder.dir, file: "td.json", field: "title" });
+      throw new ServientError(400, "E_TWIN_FOLDER", `${join(folder.dir, TWIN_FILES.td)}: the title gives the URL path segment "${slug.slice(0, 40)}..." of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served (shorten the title)`, { folder: folder.dir, file: TWIN_FILES.td, field: "title" });
     }
     slugs.add(slug);
     // the same robot in the same scene has the same id: node-wot needs one id per Thing
