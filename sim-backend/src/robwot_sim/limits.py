@@ -48,10 +48,12 @@ class Range:
         return number and self.minimum <= value <= self.maximum  # type: ignore[operator]
 
 
-#: fraction of the URDF velocity limits a motion runs at
+#: fraction of the URDF velocity limits a motion runs at, and the default
 SPEED = Range.of("Speed")
-#: time step (s) of an interpolated motion
+DEFAULT_SPEED = float(value_schema("Speed")["default"])
+#: time step (s) of an interpolated motion, and the default
 DT = Range.of("Dt")
+DEFAULT_DT = float(value_schema("Dt")["default"])
 #: clearance (m) a robot's checked paths and motions keep to other bodies, and the one it keeps by default
 CLEARANCE = Range.of("Clearance")
 DEFAULT_CLEARANCE = float(value_schema("Clearance")["default"])

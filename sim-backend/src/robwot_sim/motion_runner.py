@@ -36,6 +36,7 @@ from typing import Any, Protocol, TypeVar
 import numpy as np
 
 from robwot_sim.errors import Busy, Rejected
+from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
 from robwot_sim.sim.planner import Plan
 from robwot_sim.sim.types import CollisionReport, Pose
 from robwot_sim.sim.world import World
@@ -118,8 +119,8 @@ class MotionRunner:
         for motion in motions:
             await motion.done.wait()
 
-    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = 1.0,
-                   realtime: float = 1.0, dt: float = 1.0 / 240.0) -> dict[str, Any]:
+    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = DEFAULT_SPEED,
+                   realtime: float = 1.0, dt: float = DEFAULT_DT) -> dict[str, Any]:
         """Plan with `planner` and move `robot` to the plan's joint target; returns the MoveResult dict
         (with the plan). `Rejected` when the plan is not valid: nothing moved."""
         if robot in self._active:

@@ -11,6 +11,7 @@ import threading
 from collections.abc import Awaitable, Callable, Mapping, Sequence
 from typing import Any, Protocol, TypeVar
 
+from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
 from robwot_sim.sim.planner import Plan
 from robwot_sim.sim.types import RobotModel
 from robwot_sim.sim.world import World
@@ -28,8 +29,8 @@ class Motions(Protocol):
 
     async def stop_and_wait(self, robots: Sequence[str] | None = None) -> None: ...
 
-    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = 1.0,
-                   realtime: float = 1.0, dt: float = 1.0 / 240.0) -> dict[str, Any]: ...
+    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = DEFAULT_SPEED,
+                   realtime: float = 1.0, dt: float = DEFAULT_DT) -> dict[str, Any]: ...
 
 
 class Services(Protocol):

@@ -23,6 +23,7 @@ import numpy.typing as npt
 
 from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams
+from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.detour import find_detour
 from robwot_sim.sim.export import export_urdf
@@ -205,8 +206,8 @@ class World(WorldScene):
         robot_id: str,
         target: JointVector,
         start: JointVector | None = None,
-        speed: float = 1.0,
-        dt: float = 1.0 / 240.0,
+        speed: float = DEFAULT_SPEED,
+        dt: float = DEFAULT_DT,
         via: Sequence[JointVector] = (),
     ) -> npt.NDArray[np.float64]:
         """Joint states [steps + 1, dof] from ``start`` (default current) through the waypoints ``via`` to
@@ -226,8 +227,8 @@ class World(WorldScene):
         robot_id: str,
         target: JointVector,
         start: JointVector | None = None,
-        speed: float = 1.0,
-        dt: float = 1.0 / 240.0,
+        speed: float = DEFAULT_SPEED,
+        dt: float = DEFAULT_DT,
         via: Sequence[JointVector] = (),
     ) -> PathReport:
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
