@@ -24,6 +24,8 @@ beforeAll(() => {
   writeFileSync(join(work, "not-json.json"), '{"version": 1, "obstacles": [');
   writeFileSync(join(work, "bad-scene.json"), JSON.stringify({ version: 1, obstacles: [{ name: "b", shape: { type: "box", size: [0.1, -1, 0.1] }, position: [0.5, 0, 0.5] }] }));
   writeFileSync(join(work, "a-file"), "not a folder");
+  // a slab the whole robot stands inside: every configuration touches it
+  writeFileSync(join(work, "slab.json"), JSON.stringify({ version: 1, obstacles: [{ name: "slab", shape: { type: "box", size: [3, 3, 3] }, position: [0, 0, 0] }] }));
 });
 afterAll(() => rmSync(work, { recursive: true, force: true }));
 
@@ -48,6 +50,8 @@ const CASES: [string, () => string[], RegExp][] = [
   ["bad --samples", () => ["generate", "kuka_iiwa", "--samples", "many"], /--samples must be an integer, got "many"/],
   ["bad --alpha", () => ["generate", "kuka_iiwa", "--alpha", "0"], /--alpha must be "auto" or a positive radius/],
   ["unknown option", () => ["generate", "kuka_iiwa", "--sampels", "10"], /sampels/],
+  // "no collision-free configuration" names what touches and how often (the robot's links and the slab)
+  ["a scene the robot touches everywhere", () => ["generate", join(work, "tiny.urdf"), "--scene", join(work, "slab.json")], /no collision-free configuration in 1000 samples.*in 40 configurations checked again: .*slab.*\(100 %\)/],
   ["--cluster with --workers", () => ["generate", "kuka_iiwa", "--cluster", "auto", "--workers", "2"], /--workers is for the local pool/],
   // with the cluster extra: nothing listens there; without it: the extra is named
   ["--cluster where no Ray cluster answers", () => ["generate", join(work, "tiny.urdf"), "--cluster", "127.0.0.1:1"], /Ray cluster at '127\.0\.0\.1:1'|cluster extra/],

@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription } from "@robwot/core";
-import { connect, deadlineFromEnv, launchBackend, startHeartbeat, type LaunchedBackend, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
+import { connect, deadlineFromEnv, launchBackend, startHeartbeat, type LaunchedBackend, type CollisionReport, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type { RobotModel, WorkspaceSummary, WorldList };
@@ -20,6 +20,8 @@ export interface Backend {
   removeRobot(id: string): Promise<void>;
   loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void>;
   listWorld(): Promise<WorldList>;
+  /** Self and environment contacts of the robot at `positions` (the world is not changed). */
+  checkCollision(robot: string, positions: number[]): Promise<CollisionReport>;
   exportRobot(params: { robot: string; outDir: string }): Promise<void>;
   /** A xacro file expanded into a URDF file in a temporary folder of its own (the caller deletes it). */
   expandXacro(params: RobotExpandXacroParams): Promise<XacroExpanded>;
@@ -88,6 +90,9 @@ class SimBackend implements Backend {
   }
   listWorld(): Promise<WorldList> {
     return this.guard(this.client.listWorld());
+  }
+  checkCollision(robot: string, positions: number[]): Promise<CollisionReport> {
+    return this.guard(this.client.checkCollision(robot, positions));
   }
   expandXacro(params: RobotExpandXacroParams): Promise<XacroExpanded> {
     return this.guard(this.client.expandXacro(params));

@@ -5,7 +5,7 @@
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { buildThingModel, TWIN_FILES } from "@robwot/core";
+import { buildThingModel, mulberry32, TWIN_FILES } from "@robwot/core";
 import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
@@ -67,15 +67,39 @@ function samePath(a: string, b: string): boolean {
   }
 }
 
+/** Configurations checked again, one by one, to name what touches when no sample was collision-free. */
+const WHY_SAMPLES = 40;
+
+/**
+ * What touches in an all-colliding workspace: seeded random configurations within the joint limits checked
+ * one by one, their contacts counted per pair of bodies (robot links, obstacles, other robots), the most
+ * frequent first with the share of configurations it appears in.
+ */
+async function touchingPairs(backend: Backend, model: RobotModel, seed: number): Promise<string> {
+  const random = mulberry32(seed);
+  const joints = model.controllable.map((n) => model.joints.find((j) => j.name === n)!);
+  const counts = new Map<string, number>();
+  for (let i = 0; i < WHY_SAMPLES; i++) {
+    const q = joints.map((j) => j.lower + random() * (j.upper - j.lower));
+    const report = await backend.checkCollision(model.id, q);
+    const pairs = new Set(report.contacts.map((c) => [c.a, c.b].map((s) => (s.link === null ? s.body : `${s.body}/${s.link}`)).sort().join(" touches ")));
+    for (const p of pairs) counts.set(p, (counts.get(p) ?? 0) + 1);
+  }
+  const top = [...counts].sort((a, b) => b[1] - a[1]).slice(0, 4);
+  if (top.length === 0) return `${WHY_SAMPLES} configurations checked again showed no contact`;
+  return `in ${WHY_SAMPLES} configurations checked again: ${top.map(([p, n]) => `${p} (${Math.round((100 * n) / WHY_SAMPLES)} %)`).join(", ")}`;
+}
+
 /**
  * A twin whose collision-free workspace has no surface (no collision-free sample, or only a point or a
  * line of end-effector positions) could never validate a Cartesian target, and serve would refuse it:
  * it is not written. Exit 1 with what to check.
  */
-function refuseDegenerate(summary: WorkspaceSummary, dir: string): void {
+async function refuseDegenerate(summary: WorkspaceSummary, dir: string, backend: Backend, model: RobotModel): Promise<void> {
   if (summary.collisionFree === 0) {
+    const touching = await touchingPairs(backend, model, summary.seed);
     throw new CliError(
-      `no collision-free configuration in ${summary.samples} samples: the robot touches itself or the scene everywhere (check the scene, the base pose and the URDF's collision geometry)`,
+      `no collision-free configuration in ${summary.samples} samples: the robot touches itself or the scene everywhere; ${touching} (check the scene, the base pose and the URDF's collision geometry)`,
       "E_WORKSPACE",
       1,
     );
@@ -226,7 +250,7 @@ async function generateFrom(
   );
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
   const summary = await generating;
-  refuseDegenerate(summary, staged.tmp);
+  await refuseDegenerate(summary, staged.tmp, backend, model);
   writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
   writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
   if (summary.method === "convex-hull") {

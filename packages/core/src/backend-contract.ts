@@ -533,10 +533,20 @@ export interface Bounds {
   min: Vec3;
   max: Vec3;
 }
+/**
+ * no collision-free sample: no bounds
+ */
+export interface NoBounds {
+  min: null;
+  max: null;
+}
 export interface WorkspaceSummary {
   samples: number;
   collisionFree: number;
-  bounds: Bounds;
+  /**
+   * of the collision-free sampled positions (m, world frame); min and max null when no sample is collision-free
+   */
+  bounds: Bounds | NoBounds;
   reachBounds?: Bounds;
   /**
    * alpha radius (m): the one given, or for alpha auto the median of the local radii; null for a convex hull

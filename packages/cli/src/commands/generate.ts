@@ -68,7 +68,7 @@ function printHuman(r: GenerateResult, seconds: number): void {
     `  scene      ${r.obstacles} obstacle(s)${r.scene ? ` from ${r.scene}` : ""}`,
     `  workspace  ${s.samples} samples, ${s.collisionFree} collision-free (${((100 * s.collisionFree) / Math.max(1, s.samples)).toFixed(1)}%), ` +
       `${s.method}${s.alpha !== null ? ` alpha ${s.alpha.toFixed(3)} m` : ""}, volume ${s.volume.toFixed(3)} m^3`,
-    `  bounds     min [${s.bounds.min.map((v) => v.toFixed(3)).join(", ")}] max [${s.bounds.max.map((v) => v.toFixed(3)).join(", ")}] m`,
+    `  bounds     ${s.bounds.min === null || s.bounds.max === null ? "none (no collision-free sample)" : `min [${s.bounds.min.map((v) => v.toFixed(3)).join(", ")}] max [${s.bounds.max.map((v) => v.toFixed(3)).join(", ")}] m`}`,
     `  reach      ${s.reachability.voxels} voxels of ${s.reachability.voxel.toFixed(3)} m (reachability.csv)`,
     `  td         ${r.td.file} (id ${r.td.id})`,
   ];

@@ -98,7 +98,11 @@ function checkBounds(b: Bounds): Bounds {
  * `reachBounds` existed fall back to `bounds`.
  */
 export function targetBounds(summary: Pick<WorkspaceSummary, "bounds" | "reachBounds">): Bounds {
-  return summary.reachBounds ?? summary.bounds;
+  const b = summary.reachBounds ?? summary.bounds;
+  if (b.min === null || b.max === null) {
+    throw new ThingDescriptionError("the workspace has no collision-free sample: there are no Cartesian bounds", { field: "summary.bounds" });
+  }
+  return { min: b.min, max: b.max };
 }
 
 function normaliseBaseUrl(baseUrl: string): URL {
