@@ -8,7 +8,10 @@
  * clients connect and never read a byte (half /live WebSocket upgrades, half SSE streams of the joint
  * position), one ordinary /live client reads everything, and for SECONDS the obstacles are moved
  * round-robin while the robot moves back and forth (joint frames at the backend's full rate). The
- * servient's RSS (VmRSS of its process, Python backend excluded) is sampled every 250 ms. At the end
+ * servient's RSS (VmRSS of its process, Python backend excluded) is sampled every 250 ms. With
+ * ROBWOT_BENCH_GC=1 every figure is taken after a full garbage collection asked through the servient's
+ * inspector, every 2 s during the load: what the servient holds, without the garbage V8 has not collected
+ * yet (the plain peak varies with V8's schedule from run to run). At the end
  * every silent client reads what it was sent: "disconnected" counts those whose connection the servient
  * ended, "the reason read by" those that still received the close frame (1008) or the SSE
  * `: disconnected:` comment (a connection cut for being slow is destroyed 30 s after its close: a client
@@ -17,10 +20,10 @@
  *
  * Environment: ROBWOT_BENCH_SECONDS (60), ROBWOT_BENCH_CLIENTS (100), ROBWOT_BENCH_OBSTACLES (200),
  * ROBWOT_BENCH_TWIN (a twin folder instead of generating one), ROBWOT_BENCH_MAX_RSS_MB (2000: the load
- * stops early above it, so an unbounded servient cannot take the machine down).
+ * stops early above it, so an unbounded servient cannot take the machine down), ROBWOT_BENCH_GC (0).
  */
 import { randomBytes } from "node:crypto";
-import { readdirSync, readFileSync } from "node:fs";
+import { readdirSync, readFileSync, readlinkSync } from "node:fs";
 import { connect } from "node:net";
 import { loadavg } from "node:os";
 import WebSocket from "ws";
@@ -30,6 +33,7 @@ const SECONDS = Number(process.env.ROBWOT_BENCH_SECONDS ?? 60);
 const CLIENTS = Number(process.env.ROBWOT_BENCH_CLIENTS ?? 100);
 const OBSTACLES = Number(process.env.ROBWOT_BENCH_OBSTACLES ?? 200);
 const MAX_RSS_MB = Number(process.env.ROBWOT_BENCH_MAX_RSS_MB ?? 2000);
+const AFTER_GC = process.env.ROBWOT_BENCH_GC === "1";
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const mb = (kb) => (kb / 1024).toFixed(1);
@@ -46,6 +50,52 @@ function servePid() {
     }
   }
   throw new Error("robwot serve process not found");
+}
+
+/** The ports `pid` listens on (its socket inodes among the LISTEN entries of /proc/net/tcp). */
+function listeningPorts(pid) {
+  const inodes = new Set();
+  for (const fd of readdirSync(`/proc/${pid}/fd`)) {
+    try {
+      const m = /^socket:\[(\d+)\]$/.exec(readlinkSync(`/proc/${pid}/fd/${fd}`));
+      if (m) inodes.add(m[1]);
+    } catch {
+      /* closed meanwhile */
+    }
+  }
+  return readFileSync("/proc/net/tcp", "utf8")
+    .split("\n")
+    .slice(1)
+    .map((l) => l.trim().split(/\s+/))
+    .filter((f) => f[3] === "0A" && inodes.has(f[9]))
+    .map((f) => parseInt(f[1].split(":")[1], 16));
+}
+
+/** A full garbage collection in `pid` through its inspector (Chrome DevTools protocol); resolves when done. */
+async function inspectorGc(pid, httpPort) {
+  let url = null;
+  for (const port of listeningPorts(pid).filter((p) => p !== httpPort)) {
+    const list = await fetch(`http://127.0.0.1:${port}/json/list`).then((r) => r.json(), () => null);
+    url ??= list?.[0]?.webSocketDebuggerUrl ?? null;
+  }
+  if (!url) throw new Error(`no inspector found in process ${pid}`);
+  const ws = new WebSocket(url);
+  await new Promise((r, j) => (ws.once("open", r), ws.once("error", j)));
+  let id = 0;
+  return {
+    gc: () =>
+      new Promise((resolve) => {
+        const mine = ++id;
+        const onMessage = (d) => {
+          if (JSON.parse(d.toString()).id !== mine) return;
+          ws.off("message", onMessage);
+          resolve();
+        };
+        ws.on("message", onMessage);
+        ws.send(JSON.stringify({ id: mine, method: "HeapProfiler.collectGarbage" }));
+      }),
+    close: () => ws.close(),
+  };
 }
 
 const rssKb = (pid) => Number(/VmRSS:\s+(\d+)/.exec(readFileSync(`/proc/${pid}/status`, "utf8"))?.[1] ?? NaN);
@@ -95,12 +145,20 @@ function drain(client, ms) {
   });
 }
 
+// with ROBWOT_BENCH_GC=1 the served twin's process opens its inspector on a free port
+const nodeOptions = process.env.NODE_OPTIONS;
+if (AFTER_GC) process.env.NODE_OPTIONS = `${nodeOptions ?? ""} --inspect=127.0.0.1:0`.trim();
 const served = await serveBenchTwin("slow-clients", 3000);
+if (nodeOptions === undefined) delete process.env.NODE_OPTIONS;
+else process.env.NODE_OPTIONS = nodeOptions;
 const { url, liveUrl } = served.info;
 const slug = served.info.things[0].slug;
 const base = `${url}/${slug}`;
 const port = Number(new URL(url).port);
 const pid = servePid();
+const inspector = AFTER_GC ? await inspectorGc(pid, port) : null;
+/** RSS now, or after a full garbage collection with ROBWOT_BENCH_GC=1 */
+const measure = async () => (await inspector?.gc(), rssKb(pid));
 const joints = Array.from({ length: 7 }, (_, i) => `lbr_iiwa_joint_${i + 1}`);
 const pose = (j1) => Object.fromEntries(joints.map((n, i) => [n, i === 0 ? j1 : i === 3 ? -0.6 : 0]));
 
@@ -135,7 +193,7 @@ try {
   await load(() => Date.now() < warm);
   await sleep(2000);
   const idleSamples = [];
-  for (let i = 0; i < 12; i++, await sleep(250)) idleSamples.push(rssKb(pid));
+  for (let i = 0; i < 12; i++, await sleep(250)) idleSamples.push(await measure());
   const idle = idleSamples.sort((a, b) => a - b)[idleSamples.length >> 1];
 
   const clients = [];
@@ -160,21 +218,30 @@ try {
   const running = () => Date.now() < end && !stoppedEarly;
   const sampler = setInterval(() => {
     const kb = rssKb(pid);
-    peak = Math.max(peak, kb);
+    if (!AFTER_GC) peak = Math.max(peak, kb);
     if (kb / 1024 > MAX_RSS_MB && !stoppedEarly) {
       stoppedEarly = true;
       stoppedAfter = (Date.now() - (end - SECONDS * 1000)) / 1000;
     }
   }, 250);
+  const gcSampling = (async () => {
+    while (AFTER_GC && running()) {
+      await sleep(2000);
+      peak = Math.max(peak, await measure());
+    }
+  })();
   stats.sceneChanges = stats.moves = 0;
   await load(running);
+  await gcSampling;
   clearInterval(sampler);
   await sleep(2000);
-  const final = rssKb(pid);
+  const final = await measure();
+  inspector?.close();
   const latestSeen = lastScene?.obstacles.some((o) => o.name === stats.last?.name && o.position.every((v, i) => Math.abs(v - stats.last.position[i]) < 1e-9)) ?? false;
   reader.close();
   const outcomes = await Promise.all(clients.map((c) => drain(c, 5000)));
 
+  const gcNote = AFTER_GC ? ", after a full GC" : "";
   const loadAvg = loadavg().map((l) => l.toFixed(2)).join(" ");
   const rows = [
     ["clients (never reading)", `${CLIENTS} (${Math.ceil(CLIENTS / 2)} /live, ${Math.floor(CLIENTS / 2)} SSE)`],
@@ -182,9 +249,9 @@ try {
     ["duration", stoppedEarly ? `stopped after ${stoppedAfter.toFixed(1)} s of ${SECONDS} s: RSS above ${MAX_RSS_MB} MB` : `${SECONDS} s`],
     ["scene changes / moves", `${stats.sceneChanges} / ${stats.moves}`],
     ["RSS with the scene loaded", `${mb(start)} MB`],
-    ["idle RSS (after 5 s of the load alone)", `${mb(idle)} MB`],
-    ["peak RSS", `${mb(peak)} MB`],
-    ["final RSS", `${mb(final)} MB`],
+    [`idle RSS (after 5 s of the load alone${gcNote})`, `${mb(idle)} MB`],
+    [`peak RSS${gcNote}`, `${mb(peak)} MB`],
+    [`final RSS${gcNote}`, `${mb(final)} MB`],
     ["peak - idle", `${mb(peak - idle)} MB`],
     ...[true, false].map((websocket) => {
       const of = outcomes.filter((_, i) => clients[i].websocket === websocket);

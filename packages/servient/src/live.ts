@@ -5,7 +5,8 @@
  * `{thing, type: "joints", time, joints, position, orientation}` (>= 30 Hz of simulated time while moving),
  * `{thing, type: "status", ...motionStatus}`, `{thing, type: "collision", ...collision event}`,
  * `{thing, type: "scene", obstacles}` (the shared world's obstacles in scene.json's shape, after every
- * scene edit), `{type: "error", code, message, details}` for a bad message. A snapshot (joints, status,
+ * scene edit; edits in a burst share one frame, at most 30 per second, the last one always reflecting the
+ * latest edit), `{type: "error", code, message, details}` for a bad message. A snapshot (joints, status,
  * scene) follows every subscription.
  *
  * Each client has a `PushQueue` (push-queue.ts): its joints, status and scene messages coalesce to the
@@ -25,6 +26,8 @@ import type { World } from "./world.js";
 
 /** WebSocket close code for a client closed for being too slow: policy violation (RFC 6455 7.4.1) */
 const CLOSE_TOO_SLOW = 1008;
+/** scene frames are sent at most this often (the latest scene; a viewer draws at display rate) */
+const SCENE_INTERVAL_MS = 1000 / 30;
 
 function wsTransport(ws: WebSocket): PushTransport<Buffer> {
   return {
@@ -60,11 +63,28 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
     }
   };
   const sceneOf = (slug: string): object => ({ thing: slug, type: "scene", obstacles: world.sceneObstacles() });
-  const onScene = (): void => {
+  // at most one scene frame per SCENE_INTERVAL_MS, the latest scene: a burst of edits costs one
+  // serialisation of the whole world per interval, not one per edit; a lone edit goes out at once
+  let sceneTimer: NodeJS.Timeout | null = null;
+  let sceneSentAt = 0;
+  const sendScene = (): void => {
+    sceneTimer = null;
+    sceneSentAt = Date.now();
     for (const slug of twins.keys()) broadcast(slug, "scene", sceneOf(slug));
   };
+  const onScene = (): void => {
+    if (sceneTimer) return;
+    const wait = SCENE_INTERVAL_MS - (Date.now() - sceneSentAt);
+    if (wait <= 0) sendScene();
+    else sceneTimer = setTimeout(sendScene, wait);
+  };
   world.on("scene", onScene);
-  const detach: (() => void)[] = [() => world.off("scene", onScene)];
+  const detach: (() => void)[] = [
+    () => {
+      world.off("scene", onScene);
+      if (sceneTimer) clearTimeout(sceneTimer);
+    },
+  ];
   for (const [slug, twin] of twins) {
     const onJoints = (m: unknown): void => broadcast(slug, "joints", m);
     const onStatus = (s: object): void => broadcast(slug, "status", { thing: slug, type: "status", ...s });
