@@ -4,6 +4,7 @@
  * WebSocket). Each scenario runs with `--json`; the test checks its exit code, its printed summary and
  * its effect on the twin (read back independently over HTTP).
  */
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { spawn } from "node:child_process";
 import { createServer, type AddressInfo } from "node:net";
 import { writeFileSync } from "node:fs";
@@ -129,7 +130,7 @@ describe("read-and-move-joints", () => {
   it("rejects a bad option with the usage (exit 2)", async () => {
     const run = await runScenario("read-and-move-joints", [tdUrl(fast), "--speed", "7"]);
     expect(run.code).toBe(2);
-    expect(run.stderr).toMatch(/--speed must be a number in \[0.01, 1\]/);
+    expect(run.stderr).toContain(`--speed must be a number in [${VALUE_SCHEMAS.Speed.minimum}, ${VALUE_SCHEMAS.Speed.maximum}]`);
   });
 });
 
