@@ -182,7 +182,8 @@ it("100 clients that never read cost the servient less than 20 MB; a slow /live 
 it("an SSE stream its client does not read is ended with a comment saying why; values coalesce meanwhile", async () => {
   let timer: NodeJS.Timeout | null = null;
   let pushed = 0;
-  const value = "v".repeat(20_000);
+  // 60 values a second reach the queue at most: large ones fill the socket's kernel buffers in a second
+  const value = "v".repeat(200_000);
   const server: Server = createServer((req, res) =>
     streamSse(
       req,

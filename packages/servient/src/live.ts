@@ -56,10 +56,11 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
   };
   const broadcast = (slug: string, kind: "joints" | "status" | "scene" | "collision", msg: unknown): void => {
     let data: Buffer | null = null;
+    const key = kind === "collision" ? null : `${kind}:${slug}`;
     for (const { things, queue } of clients.values()) {
       if (!things.has(slug)) continue;
       data ??= Buffer.from(JSON.stringify(msg));
-      queue.push(kind === "collision" ? null : `${kind}:${slug}`, data);
+      queue.push(key, data);
     }
   };
   const sceneOf = (slug: string): object => ({ thing: slug, type: "scene", obstacles: world.sceneObstacles() });

@@ -42,9 +42,19 @@ export interface PushTransport<T> {
   destroy(): void;
 }
 
+/** One kind's place in the queue: reused for every message of its key (`order` 0 = nothing waiting). */
+interface Slot<T> {
+  message: T | null;
+  order: number;
+}
+
 export class PushQueue<T> {
-  private readonly pending = new Map<string, T>();
-  private events = 0;
+  // Slots are created once per key and then only overwritten: a push allocates nothing here. (A Map of
+  // messages deleted and re-set on every push reallocates its table again and again, and the tables of
+  // a long-lived Map go straight to V8's old space: garbage only a full collection frees.)
+  private readonly slots = new Map<string, Slot<T>>();
+  private readonly events: { message: T; order: number }[] = [];
+  private waiting = 0;
   private seq = 0;
   /** when the transport last took a message, or when the client became behind, whichever is later */
   private progressAt = 0;
@@ -67,15 +77,18 @@ export class PushQueue<T> {
   push(key: string | null, message: T): void {
     if (this.ended) return;
     if (key === null) {
-      if (this.events >= this.limits.maxEvents) {
+      if (this.events.length >= this.limits.maxEvents) {
         this.disconnect(`too slow: more than ${this.limits.maxEvents} events undelivered`);
         return;
       }
-      this.events++;
-      this.pending.set(`\0${++this.seq}`, message);
+      this.events.push({ message, order: ++this.seq });
+      this.waiting++;
     } else {
-      this.pending.delete(key);
-      this.pending.set(key, message);
+      let slot = this.slots.get(key);
+      if (!slot) this.slots.set(key, (slot = { message: null, order: 0 }));
+      if (slot.order === 0) this.waiting++;
+      slot.message = message;
+      slot.order = ++this.seq;
     }
     this.flush();
   }
@@ -83,19 +96,38 @@ export class PushQueue<T> {
   /** The connection is gone: forget everything, stop the timers. */
   dispose(): void {
     this.ended = true;
-    this.pending.clear();
+    this.forget();
     this.clearTimers();
   }
 
+  /** The message waiting longest (in the order of the pushes that left it there), taken out. */
+  private take(): T {
+    let first: Slot<T> | null = null;
+    for (const slot of this.slots.values()) if (slot.order !== 0 && (first === null || slot.order < first.order)) first = slot;
+    const event = this.events[0];
+    this.waiting--;
+    if (event && (first === null || event.order < first.order)) return this.events.shift()!.message;
+    const message = first!.message as T;
+    first!.message = null;
+    first!.order = 0;
+    return message;
+  }
+
+  private forget(): void {
+    for (const slot of this.slots.values()) {
+      slot.message = null;
+      slot.order = 0;
+    }
+    this.events.length = 0;
+    this.waiting = 0;
+  }
+
   private flush(): void {
-    while (!this.ended && this.pending.size > 0 && this.transport.buffered() < this.limits.highWater) {
-      const [key, message] = this.pending.entries().next().value as [string, T];
-      this.pending.delete(key);
-      if (key.startsWith("\0")) this.events--;
-      this.transport.write(message, this.taken);
+    while (!this.ended && this.waiting > 0 && this.transport.buffered() < this.limits.highWater) {
+      this.transport.write(this.take(), this.taken);
     }
     if (this.ended) return;
-    if (this.pending.size === 0) {
+    if (this.waiting === 0) {
       if (this.stallTimer) clearTimeout(this.stallTimer);
       this.stallTimer = null;
     } else if (!this.stallTimer) {
@@ -112,7 +144,7 @@ export class PushQueue<T> {
   private armStall(ms: number): void {
     this.stallTimer = setTimeout(() => {
       this.stallTimer = null;
-      if (this.ended || this.pending.size === 0) return;
+      if (this.ended || this.waiting === 0) return;
       const idle = Date.now() - this.progressAt;
       if (idle >= this.limits.stallMs) {
         this.disconnect(`too slow: ${this.transport.buffered()} bytes unread for ${Math.round(idle / 1000)} s`);
@@ -124,7 +156,7 @@ export class PushQueue<T> {
   private disconnect(reason: string): void {
     warn(`${this.client}: disconnected, ${reason}`);
     this.ended = true;
-    this.pending.clear();
+    this.forget();
     this.clearTimers();
     this.transport.close(reason);
     this.graceTimer = setTimeout(() => this.transport.destroy(), this.limits.closeGraceMs);

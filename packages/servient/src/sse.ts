@@ -1,7 +1,7 @@
 /**
  * Server-Sent Events for observable properties and events, as the W3C WoT Profile's HTTP SSE mechanism
- * describes them (`subprotocol: "sse"` forms): `GET .../properties/<name>/sse` streams every new value
- * of the property (the current one first), `GET .../events/<name>/sse` every event instance; each message
+ * describes them (`subprotocol: "sse"` forms): `GET .../properties/<name>/sse` streams the new values
+ * of the property (the current one first; at most 60 a second, the latest), `GET .../events/<name>/sse` every event instance; each message
  * is `event: <name>`, `id: <n>`, `data: <JSON>`. The headers and a `retry:` line go out at once (an event
  * stream may stay silent for long); a comment line every 15 s keeps proxies from closing an idle stream.
  * The subscription ends when the client closes the connection.
@@ -23,6 +23,8 @@ export interface SseSource {
 const KEEP_ALIVE_MS = 15_000;
 /** the reconnection delay the stream asks of an EventSource */
 const RETRY_MS = 3000;
+/** a property's values are sent at most this often, the latest (each costs every stream a write) */
+const VALUE_INTERVAL_MS = 1000 / 60;
 
 type SseItem = { data: string } | { comment: string };
 
@@ -47,6 +49,7 @@ export function streamSse(req: IncomingMessage, res: ServerResponse, name: strin
   res.write(`retry: ${RETRY_MS}\n\n`);
   let unsubscribe: (() => void) | null = null;
   let ended = false;
+  let valueTimer: NodeJS.Timeout | undefined;
   const keepAlive = setInterval(() => queue.push("keep-alive", { comment: "keep-alive" }), KEEP_ALIVE_MS);
   keepAlive.unref();
   /** no more values for this client: it went away, or it was disconnected for being too slow */
@@ -54,13 +57,28 @@ export function streamSse(req: IncomingMessage, res: ServerResponse, name: strin
     if (ended) return;
     ended = true;
     clearInterval(keepAlive);
+    clearTimeout(valueTimer);
     unsubscribe?.();
   };
   const peer = `${req.url ?? "sse"} ${req.socket.remoteAddress ?? "?"}:${req.socket.remotePort ?? "?"}`;
   const queue = new PushQueue(sseTransport(res, name, stop), peer, limits);
   // a property's values coalesce (the latest is the value); every event instance counts
-  const key = source.current ? "value" : null;
-  const send = (value: unknown): void => queue.push(key, { data: JSON.stringify(value) });
+  let latest: unknown;
+  let valueSentAt = 0;
+  const sendValue = (): void => {
+    valueTimer = undefined;
+    valueSentAt = Date.now();
+    queue.push("value", { data: JSON.stringify(latest) });
+  };
+  const send = source.current
+    ? (value: unknown): void => {
+        latest = value;
+        if (valueTimer) return;
+        const wait = VALUE_INTERVAL_MS - (Date.now() - valueSentAt);
+        if (wait <= 0) sendValue();
+        else valueTimer = setTimeout(sendValue, wait);
+      }
+    : (value: unknown): void => queue.push(null, { data: JSON.stringify(value) });
   if (source.current) send(source.current());
   if (!ended) unsubscribe = source.subscribe(send);
   const gone = (): void => {
