@@ -217,3 +217,40 @@ describe("convex parts pass our mesh parser before PyBullet", () => {
     expect(readdirSync(join(dir, "collision"))).not.toContain(folder.split("/").pop());
   }, 120_000);
 });
+
+describe("a scene's other robots load from inside the folder", () => {
+  const UR3 = join(REPO, "packages", "cli", "robots", "ur3.urdf");
+  let withNeighbour: string;
+  let scene: string;
+
+  beforeAll(async () => {
+    scene = join(mkdtempSync(join(tmpdir(), "robwot-jail-scene-")), "neighbour.json");
+    writeFileSync(scene, JSON.stringify({ version: 1, robots: [{ id: "neighbour", urdf: UR3, basePosition: [1.5, 0, 0] }] }));
+    withNeighbour = await generateTwin("kuka_iiwa", 3000, ["--scene", scene]);
+  }, 600_000);
+
+  it("generate exports the other robot into robots/<id>/ and serve loads it from there", async () => {
+    const doc = json(join(withNeighbour, "scene.json"));
+    expect(doc.robots[0].urdf).toBe("robots/neighbour/robot.urdf");
+    expect(statSync(join(withNeighbour, "robots", "neighbour", "robot.urdf")).isFile()).toBe(true);
+    const s = await startServient({ twins: [withNeighbour], port: 0, realtime: 0 });
+    try {
+      const world = await s.backend.sim.listWorld();
+      expect(world.robots.map((r) => r.id).sort()).toEqual(["lbr_iiwa", "neighbour"]);
+      const neighbour = world.robots.find((r) => r.id === "neighbour")!;
+      expect(neighbour.urdf).toMatch(/robots\/neighbour\/robot\.urdf$/);
+    } finally {
+      await s.stop();
+    }
+  }, 300_000);
+
+  it.each([
+    ["an absolute URDF outside the folder", (r: any) => (r.urdf = UR3), /robot "neighbour" urdf .*outside the twin folder/],
+    ["a relative URDF out of the folder", (r: any) => (r.urdf = "../../../../etc/passwd"), /robot "neighbour" urdf/],
+    ["package roots", (r: any) => (r.packageRoots = { evil: "/" }), /robot "neighbour" names packageRoots/],
+  ])("a scene robot with %s refuses the folder, naming the robot", async (_what, change, message) => {
+    const copy = await generateTwin("kuka_iiwa", 3000, ["--scene", scene]); // a fresh copy of the same twin
+    edit(join(copy, "scene.json"), (doc) => change(doc.robots[0]));
+    await expect(startServient({ twins: [copy], port: 0, realtime: 0 })).rejects.toMatchObject({ code: "E_TWIN_FOLDER", message: expect.stringMatching(message) });
+  }, 300_000);
+});

@@ -5,8 +5,8 @@
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { buildThingModel, mulberry32, TWIN_FILES } from "@robwot/core";
-import type { Backend, RobotModel, WorkspaceSummary } from "./backend.js";
+import { buildThingModel, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
+import type { Backend, RobotModel, WorkspaceSummary, WorldList } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError, describeError } from "./errors.js";
@@ -65,6 +65,20 @@ function samePath(a: string, b: string): boolean {
   } catch {
     return resolve(a) === resolve(b);
   }
+}
+
+/**
+ * The scene's other robots exported into the twin folder (`robots/<id>/`: URDF, meshes, convex parts), so
+ * the folder is self-contained and `serve` loads them from inside it; returns each id's URDF path there.
+ */
+async function exportSceneRobots(backend: Backend, world: WorldList, ownRobot: string, dir: string): Promise<Map<string, string>> {
+  const out = new Map<string, string>();
+  for (const r of world.robots.filter((x) => x.id !== ownRobot)) {
+    const folder = `${TWIN_FOLDERS.sceneRobots}/${r.id}`;
+    await backend.exportRobot({ robot: r.id, outDir: join(dir, folder) });
+    out.set(r.id, `${folder}/${TWIN_FILES.urdf}`);
+  }
+  return out;
 }
 
 /** Configurations checked again, one by one, to name what touches when no sample was collision-free. */
@@ -221,7 +235,7 @@ async function generateFrom(
   generating.catch(() => undefined);
   await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
   if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, TWIN_FILES.srdf));
-  const scene = sceneDocument(world, model.id, staged.tmp, opts.scene);
+  const scene = sceneDocument(world, model.id, staged.tmp, opts.scene, await exportSceneRobots(backend, world, model.id, staged.tmp));
   writeJson(join(staged.tmp, TWIN_FILES.scene), scene);
   writeJson(join(staged.tmp, TWIN_FILES.manifest), {
     version: 1,

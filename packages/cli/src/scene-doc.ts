@@ -31,9 +31,10 @@ function sourceMeta(sceneFile: string | undefined): { name?: string; description
 
 /**
  * Builds the normalised scene from `world.list` (our own robot excluded) and copies mesh obstacle files
- * into `<dir>/meshes/scene/`, rewriting their paths relative to the twin folder.
+ * into `<dir>/meshes/scene/`, rewriting their paths relative to the twin folder; the other robots' URDFs
+ * are the exported copies `robotUrdfs` names (id -> path relative to the twin folder).
  */
-export function sceneDocument(world: WorldList, ownRobot: string, dir: string, sceneFile?: string): SceneDoc {
+export function sceneDocument(world: WorldList, ownRobot: string, dir: string, sceneFile?: string, robotUrdfs: ReadonlyMap<string, string> = new Map()): SceneDoc {
   const obstacles = world.obstacles.map((o) => {
     const ob = { ...(o as unknown as Record<string, unknown>) };
     const shape = ob["shape"] as Record<string, unknown> | undefined;
@@ -48,6 +49,6 @@ export function sceneDocument(world: WorldList, ownRobot: string, dir: string, s
   });
   const robots = world.robots
     .filter((r) => r.id !== ownRobot)
-    .map((r) => ({ id: r.id, urdf: r.urdf, basePosition: r.basePosition, baseOrientation: r.baseOrientation, eeLink: r.eeLink }));
+    .map((r) => ({ id: r.id, urdf: robotUrdfs.get(r.id) ?? r.urdf, basePosition: r.basePosition, baseOrientation: r.baseOrientation, eeLink: r.eeLink }));
   return { version: 1, ...sourceMeta(sceneFile), obstacles, robots };
 }

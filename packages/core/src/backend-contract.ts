@@ -660,6 +660,10 @@ export interface WorldLoadSceneParams {
     [k: string]: unknown | undefined;
   };
   packageRoots?: PackageRoots;
+  /**
+   * false: a scene robot's concave collision mesh without cached convex parts (its folder's `collision/`) is refused with `E_MESH` instead of decomposed (`robwot serve` never decomposes)
+   */
+  decompose?: boolean;
 }
 /**
  * Params of `robot.load`.

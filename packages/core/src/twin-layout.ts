@@ -36,6 +36,8 @@ export const TWIN_FOLDERS = Object.freeze({
   sceneMeshes: "meshes/scene",
   /** cached convex parts of concave collision meshes, one folder per mesh key */
   collision: "collision",
+  /** the scene's other robots, one exported folder each (`robots/<id>/robot.urdf`, its meshes and parts) */
+  sceneRobots: "robots",
 } as const);
 
 export type TwinFile = (typeof TWIN_FILES)[keyof typeof TWIN_FILES];

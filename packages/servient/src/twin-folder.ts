@@ -119,11 +119,13 @@ class Jail {
  * `--mesh-root` after symlinks. Files inside the folder become relative (served as `/<slug>/<file>`).
  */
 function jailScene(jail: Jail, file: string, scene: SceneDoc, meshRoots: readonly string[]): SceneDoc {
-  if (scene.obstacles === undefined) return scene;
-  if (!Array.isArray(scene.obstacles)) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(jail.dir, file)}: obstacles must be an array`, { folder: jail.dir, file });
+  for (const key of ["obstacles", "robots"] as const) {
+    if (scene[key] !== undefined && !Array.isArray(scene[key])) {
+      throw new ServientError(400, "E_TWIN_FOLDER", `${join(jail.dir, file)}: ${key} must be an array`, { folder: jail.dir, file });
+    }
   }
-  const obstacles = scene.obstacles.map((ob, i) => {
+  const robots = scene.robots === undefined ? undefined : scene.robots.map((r, i) => jailSceneRobot(jail, file, r, i));
+  const obstacles = (scene.obstacles ?? []).map((ob, i) => {
     const shape = (ob as Partial<SceneObstacle> | null)?.shape as { type?: unknown; file?: unknown } | undefined;
     if (shape?.type !== "mesh") return ob;
     const name = typeof ob.name === "string" ? ob.name : String(i);
@@ -132,7 +134,23 @@ function jailScene(jail: Jail, file: string, scene: SceneDoc, meshRoots: readonl
     const inFolder = rel !== "" && !rel.startsWith("..") && !isAbsolute(rel);
     return { ...ob, shape: { ...ob.shape, file: inFolder ? rel.split(sep).join("/") : real } } as SceneObstacle;
   });
-  return { ...scene, obstacles };
+  return { ...scene, ...(scene.obstacles === undefined ? {} : { obstacles }), ...(robots === undefined ? {} : { robots }) };
+}
+
+/**
+ * A scene's other robot, loaded from inside the folder (generate exports it to `robots/<id>/`): its URDF
+ * and SRDF resolve inside the folder after symlinks and are given to the backend as those real paths; it
+ * may name no package roots (they would open folders outside the jail).
+ */
+function jailSceneRobot(jail: Jail, file: string, robot: unknown, index: number): Record<string, unknown> {
+  const r = (typeof robot === "object" && robot !== null ? robot : {}) as Record<string, unknown>;
+  const what = `robot ${JSON.stringify(snippet(typeof r.id === "string" ? r.id : String(index), 40))}`;
+  if (r.packageRoots !== undefined) {
+    throw new ServientError(400, "E_TWIN_FOLDER", `${join(jail.dir, file)}: ${what} names packageRoots: a twin folder's robots load from inside it (regenerate the twin with robwot generate)`, { folder: jail.dir, file, entry: `${what} packageRoots` });
+  }
+  const urdf = jail.path(file, `${what} urdf`, r.urdf, { required: true })!;
+  const srdf = r.srdf === undefined ? undefined : jail.path(file, `${what} srdf`, r.srdf, { required: true })!;
+  return { ...r, urdf, ...(srdf === undefined ? {} : { srdf }) };
 }
 
 /** workspace.json's bounds (and reachBounds, the TD's Cartesian limits after a calibration): finite, min <= max. */

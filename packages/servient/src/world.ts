@@ -72,7 +72,8 @@ export class World extends EventEmitter<{ scene: [] }> {
   /** Builds the world on a (new) backend connection. */
   readonly restore = async (sim: SimClient): Promise<void> => {
     await sim.resetWorld();
-    await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], robots: this.sceneRobots } });
+    // the scene's robots load from the twin folders (jailed): their convex parts are there, never decomposed
+    await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], robots: this.sceneRobots }, decompose: false });
     for (const twin of this.twins) {
       const m = twin.folder.manifest.robot;
       const model = await sim.loadRobot({

@@ -41,6 +41,8 @@ MESHES_DIR: Final = "meshes"
 SCENE_MESHES_DIR: Final = "meshes/scene"
 #: cached convex parts of concave collision meshes, one folder per mesh key
 COLLISION_DIR: Final = "collision"
+#: the scene's other robots, one exported folder each (``robots/<id>/robot.urdf``, its meshes and parts)
+SCENE_ROBOTS_DIR: Final = "robots"
 
 TWIN_FILES: Final[Mapping[str, str]] = MappingProxyType({
     "td": TD,
@@ -60,4 +62,5 @@ TWIN_FOLDERS: Final[Mapping[str, str]] = MappingProxyType({
     "meshes": MESHES_DIR,
     "sceneMeshes": SCENE_MESHES_DIR,
     "collision": COLLISION_DIR,
+    "sceneRobots": SCENE_ROBOTS_DIR,
 })

@@ -47,7 +47,8 @@ def register(d: Dispatcher, s: Services) -> None:
         source: dict[str, Any] | str = p["path"] if p.has("path") else p["scene"]
         # read off the world's thread like robot.load (a scene's robots may need their meshes decomposed,
         # its mesh obstacles parsing); the world then only creates the bodies
-        files = await s.off_world(lambda: World.read_scene(source, package_roots=p["packageRoots"]),
+        files = await s.off_world(lambda: World.read_scene(source, package_roots=p["packageRoots"],
+                                                           decompose=bool(p["decompose"])),
                                   background=True)
         try:
             return await s.change_world(lambda: s.world.add_scene(files), Kind.LONG)

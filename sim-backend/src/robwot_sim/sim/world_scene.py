@@ -51,10 +51,12 @@ class WorldScene(WorldBase):
 
     @staticmethod
     def read_scene(
-        scene: dict[str, Any] | str | Path, package_roots: Mapping[str, str] | None = None
+        scene: dict[str, Any] | str | Path, package_roots: Mapping[str, str] | None = None,
+        decompose: bool = True,
     ) -> SceneFiles:
         """The part of ``load_scene`` that needs no world (any thread): the document read and validated,
-        obstacle meshes parsed, each robot's files prepared (``read_robot``)."""
+        obstacle meshes parsed, each robot's files prepared (``read_robot``; with ``decompose`` False a
+        concave mesh without cached parts is refused instead of decomposed)."""
         if not isinstance(scene, (dict, str, Path)):
             raise InvalidParams(
                 "scene must be an object or a file path", param="scene", expected="object", got=scene
@@ -68,7 +70,7 @@ class WorldScene(WorldBase):
                     r["urdf"], robot_id=r.get("id"), ee_link=r.get("eeLink"),
                     package_roots={**roots, **r.get("packageRoots", {})},
                     srdf=resolve_file(r["srdf"], base, what="SRDF file") if "srdf" in r else None,
-                    _base_dir=base)
+                    decompose=decompose, _base_dir=base)
                 out.robots.append((r, files))
         except Exception:
             out.cleanup()
