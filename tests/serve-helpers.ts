@@ -186,3 +186,14 @@ export async function waitMoved(thingBase: string, joint: string, from: number, 
   }
   throw new Error(`${joint} did not move ${by} rad within ${timeoutMs} ms`);
 }
+
+/**
+ * A stand-in physical robot: a KUKA twin whose URDF joint velocities are 20x lower than the model its
+ * relaying twin simulates, served in real time, so a relayed motion runs for many seconds there.
+ */
+export async function slowPhysicalTwin(): Promise<string> {
+  const dir = await generateTwin("kuka_iiwa", 3000);
+  const urdf = join(dir, "robot.urdf");
+  writeFileSync(urdf, readFileSync(urdf, "utf8").replaceAll('velocity="10"', 'velocity="0.5"'));
+  return dir;
+}

@@ -6,12 +6,10 @@
  * slower than its model) runs an HTTP relay that holds relayed moves back; real servients and backends.
  */
 import { once } from "node:events";
-import { readFileSync, writeFileSync } from "node:fs";
 import { createServer, request, type Server } from "node:http";
-import { join } from "node:path";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, sleep, slowPhysicalTwin } from "./serve-helpers.js";
 
 const HOLD_MS = 400;
 const J1 = "lbr_iiwa_joint_1";
@@ -60,10 +58,7 @@ let vBase: string;
 let held: () => void = () => undefined;
 
 beforeAll(async () => {
-  const pdir = await generateTwin("kuka_iiwa", 3000);
-  const urdf = join(pdir, "robot.urdf");
-  writeFileSync(urdf, readFileSync(urdf, "utf8").replaceAll('velocity="10"', 'velocity="0.5"'));
-  physical = await startServient({ twins: [pdir], port: 0, realtime: 1 });
+  physical = await startServient({ twins: [await slowPhysicalTwin()], port: 0, realtime: 1 });
   pBase = `${physical.url}/${physical.things[0]!.slug}`;
   const relay = await holdingRelay(physical.url, () => held());
   relayServer = relay.server;

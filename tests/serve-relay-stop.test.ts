@@ -6,11 +6,9 @@
  * slower than the model the relaying twin simulates, so its relayed motions run for many seconds.
  * Real servients, real backends, real HTTP.
  */
-import { readFileSync, writeFileSync } from "node:fs";
-import { join } from "node:path";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep, waitMoved, type HttpAnswer } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, sleep, slowPhysicalTwin, waitMoved, type HttpAnswer } from "./serve-helpers.js";
 
 /** the stop deadline of the relay (packages/servient/README.md) */
 const STOP_DEADLINE_MS = 5_000;
@@ -24,11 +22,7 @@ let vBase: string;
 const stoppedPids: number[] = [];
 
 beforeAll(async () => {
-  const pdir = await generateTwin("kuka_iiwa", 3000);
-  // the stand-in physical robot moves 20x slower than the model its twin simulates
-  const urdf = join(pdir, "robot.urdf");
-  writeFileSync(urdf, readFileSync(urdf, "utf8").replaceAll('velocity="10"', 'velocity="0.5"'));
-  physical = await startServient({ twins: [pdir], port: 0, realtime: 1 });
+  physical = await startServient({ twins: [await slowPhysicalTwin()], port: 0, realtime: 1 });
   pBase = `${physical.url}/${physical.things[0]!.slug}`;
   twin = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, relay: pBase });
   vBase = `${twin.url}/${twin.things[0]!.slug}`;
