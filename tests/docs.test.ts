@@ -419,6 +419,7 @@ describe("a broken README command fails (the README's own auth block, one path c
   it("reports the line whose answer is not the README's", async () => {
     const block = allBlocks.find((b) => b.file === "README.md" && b.text.includes("--auth basic:u:p &"));
     expect(block).toBeDefined();
+    expect(existsSync(join(TWINS, "panda")), "needs twins/panda, made by README.md's session block above").toBe(true);
     const broken = { ...block!, text: block!.text.replace("/panda/properties/motionStatus", "/panda/properties/motionStatu") };
     expect(broken.text).not.toBe(block!.text);
     const [r] = await runBlocks([broken], 180_000);
