@@ -8,8 +8,7 @@
 import { afterAll, beforeAll, expect, it } from "vitest";
 import WebSocket, { WebSocketServer } from "ws";
 import { launchBackend, type LaunchedBackend } from "../packages/sim-client/src/index.js";
-import { BackendSupervisor } from "../packages/servient/src/supervisor.js";
-import { urlConnector } from "../packages/servient/src/sim-connector.js";
+import { BackendSupervisor, urlConnector } from "@robwot/sim-client";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { generateTwin, sleep } from "./serve-helpers.js";
 
@@ -122,8 +121,7 @@ it("a restart's restore that answers pings but never ends is bounded by restoreM
       restores++;
       await sim.loadScene({ scene: { version: 1, obstacles: [] } });
     },
-    50,
-    { heartbeatMs: 200, deadAfterMs: 1_000, restoreMs: 2_000 },
+    { retryDelayMs: 50, deadlines: { heartbeatMs: 200, deadAfterMs: 1_000, restoreMs: 2_000 } },
   );
   sup.on("restartFailed", (err) => failures.push(err.message));
   await sup.start();

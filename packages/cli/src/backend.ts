@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription } from "@robwot/core";
-import { connect, deadlineFromEnv, launchBackend, startHeartbeat, type LaunchedBackend, type CollisionReport, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
+import { BackendSupervisor, deadlineFromEnv, launchConnector, urlConnector, type CollisionReport, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type { RobotModel, WorkspaceSummary, WorldList };
@@ -46,28 +46,28 @@ const WATCHDOG_DEAD_MS = deadlineFromEnv(30_000);
 const REQUEST_TIMEOUT_MS = 120_000;
 
 /**
- * The backend as the commands use it, under a watchdog for the whole session: the backend answers ping
- * from its event loop even while a generation runs in its threads, so one that leaves a ping unanswered
- * for WATCHDOG_DEAD_MS has hung (or was stopped). It is then killed (an own backend) or dropped (a
- * shared one), which fails every pending call at once; they fail with that reason instead of waiting.
+ * The backend as the commands use it, under the shared supervisor (`@robwot/sim-client`) without restarts:
+ * the backend answers ping from its event loop even while a generation runs, so one that leaves a ping
+ * unanswered for WATCHDOG_DEAD_MS has hung (or was stopped). It is then killed (an own backend) or dropped
+ * (a shared one), which fails every pending call at once; they fail with that reason instead of waiting.
  */
 class SimBackend implements Backend {
   private closing: Promise<void> | null = null;
-  private readonly own: LaunchedBackend | null;
-  private readonly stopHeartbeat: () => void;
   private dead: CliError | null = null;
 
   constructor(
-    private readonly client: SimClient,
-    own: LaunchedBackend | null,
+    private readonly supervisor: BackendSupervisor,
     readonly pybulletData: string,
+    /** a backend someone else runs (`--backend`): left with an empty world, as found */
+    private readonly shared: boolean,
   ) {
-    this.own = own;
-    this.stopHeartbeat = startHeartbeat((o) => this.client.ping(o), { periodMs: Math.min(2_000, WATCHDOG_DEAD_MS / 2), deadAfterMs: WATCHDOG_DEAD_MS }, () => {
-      this.dead = new CliError(`the simulation backend stopped answering (no reply to ping within ${WATCHDOG_DEAD_MS / 1000} s)`, "E_BACKEND", 1);
-      this.own?.process.kill("SIGKILL"); // works on a stopped (SIGSTOP) process too
-      this.client.connection.terminate();
+    supervisor.on("down", (reason) => {
+      this.dead = new CliError(`the simulation backend stopped answering (${reason})`, "E_BACKEND", 1);
     });
+  }
+
+  private get client(): SimClient {
+    return this.supervisor.sim;
   }
 
   /** A call that fails with the watchdog's reason when the backend was declared dead meanwhile. */
@@ -118,16 +118,10 @@ class SimBackend implements Backend {
     return this.guard(this.client.generateWorkspace(params, { onProgress }));
   }
   close(): Promise<void> {
-    this.stopHeartbeat();
     this.closing ??= (async () => {
-      if (this.own) {
-        await this.own.stop();
-      } else {
-        // A shared backend: leave its world empty, as we found it.
-        await this.client.resetWorld().catch(() => undefined);
-        // closing a connection that already dropped has nothing left to do
-        await this.client.close().catch(() => undefined);
-      }
+      // a shared backend: leave its world empty, as we found it
+      if (this.shared) await this.client.resetWorld().catch(() => undefined);
+      await this.supervisor.stop(); // an own backend is stopped, a shared one's connection closed
     })();
     return this.closing;
   }
@@ -152,40 +146,35 @@ async function warmTdValidator(): Promise<void> {
  * labels collisions against everything in it); it is reset again on close.
  */
 export async function openBackend(url?: string): Promise<Backend> {
-  if (url === undefined) {
-    const launching = launchBackend({ requestTimeoutMs: REQUEST_TIMEOUT_MS });
-    launching.catch(() => undefined); // awaited below; not "unhandled" while the validator warms up
-    await warmTdValidator();
-    const own = await launching;
-    try {
-      const ping = await own.client.ping();
-      return new SimBackend(own.client, own, ping.pybulletData);
-    } catch (err) {
-      await own.stop();
-      throw err;
-    }
-  }
-  let client: SimClient;
+  const deadlines = { heartbeatMs: Math.min(2_000, WATCHDOG_DEAD_MS / 2), deadAfterMs: WATCHDOG_DEAD_MS, restoreMs: WATCHDOG_DEAD_MS };
+  const connector = url === undefined ? launchConnector({ requestTimeoutMs: REQUEST_TIMEOUT_MS }) : urlConnector(url, { requestTimeoutMs: REQUEST_TIMEOUT_MS });
+  const supervisor = new BackendSupervisor(connector, async () => undefined, { restart: false, deadlines });
+  const starting = supervisor.start();
+  starting.catch(() => undefined); // awaited below; not "unhandled" while the validator warms up
+  await warmTdValidator();
   try {
-    client = await connect(url, { requestTimeoutMs: REQUEST_TIMEOUT_MS });
+    await starting;
   } catch (err) {
+    if (url === undefined) throw err;
     throw new CliError(`cannot connect to the backend at ${url}: ${(err as Error).message}`, "E_BACKEND", 1);
   }
   try {
-    const ping = await client.ping();
-    const world = await client.listWorld();
-    if (world.robots.length > 0 || world.obstacles.length > 0) {
-      throw new CliError(
-        `the backend at ${url} is in use (${world.robots.length} robot(s), ${world.obstacles.length} obstacle(s) loaded); ` +
-          "generate needs an empty world: omit --backend to start a dedicated one",
-        "E_BACKEND",
-        1,
-      );
+    const ping = await supervisor.sim.ping();
+    if (url !== undefined) {
+      const world = await supervisor.sim.listWorld();
+      if (world.robots.length > 0 || world.obstacles.length > 0) {
+        throw new CliError(
+          `the backend at ${url} is in use (${world.robots.length} robot(s), ${world.obstacles.length} obstacle(s) loaded); ` +
+            "generate needs an empty world: omit --backend to start a dedicated one",
+          "E_BACKEND",
+          1,
+        );
+      }
     }
-    return new SimBackend(client, null, ping.pybulletData);
+    return new SimBackend(supervisor, ping.pybulletData, url !== undefined);
   } catch (err) {
-    // the connection is being abandoned after an error that is reported instead
-    await client.close().catch(() => undefined);
+    // the backend is being abandoned after an error that is reported instead
+    await supervisor.stop().catch(() => undefined);
     throw err;
   }
 }

@@ -4,7 +4,7 @@
  * geometry) and throw ServientErrors that the middleware answers as JSON with their status.
  */
 import type { ObstacleMoveParams } from "@robwot/sim-client";
-import type { BackendSupervisor } from "./supervisor.js";
+import type { BackendSupervisor } from "@robwot/sim-client";
 import { calibrate, type CalibrateInput } from "./calibrate.js";
 import { badInput, backendDown } from "./errors.js";
 import { ASYNC_ACTIONS } from "@robwot/core";

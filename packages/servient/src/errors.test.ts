@@ -1,6 +1,6 @@
 /** The HTTP status of every backend error code comes from the contract: none falls through to 500. */
 import { ERRORS, type ErrorCode } from "@robwot/core/backend-contract";
-import { BackendStartError, ConnectionClosedError, RpcError, RpcTimeoutError } from "@robwot/sim-client";
+import { BackendDownError, BackendStartError, ConnectionClosedError, RpcError, RpcTimeoutError } from "@robwot/sim-client";
 import { describe, expect, it } from "vitest";
 import { fromBackendError } from "./errors.js";
 
@@ -29,6 +29,7 @@ describe("fromBackendError", () => {
     ["a closed connection", new ConnectionClosedError("closed (code 1006)", "ws://127.0.0.1:1"), 503, "E_BACKEND_DOWN"],
     ["a backend that did not start", new BackendStartError("no ready line", ""), 503, "E_BACKEND_DOWN"],
     ["no answer in time", new RpcTimeoutError("robot.fk", 1000), 504, "E_BACKEND_TIMEOUT"],
+    ["the supervisor's backend down", new BackendDownError("simulation backend is restarting; retry shortly"), 503, "E_BACKEND_DOWN"],
     ["anything else thrown", new Error("socket hang up"), 503, "E_BACKEND_DOWN"],
   ])("%s answers %i", (_what, thrown, status, code) => {
     const err = fromBackendError(thrown);

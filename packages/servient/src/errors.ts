@@ -12,7 +12,7 @@
  */
 import { RobwotError } from "@robwot/core";
 import { ERRORS, type ErrorCode } from "@robwot/core/backend-contract";
-import { RpcError, RpcTimeoutError } from "@robwot/sim-client";
+import { BackendDownError, RpcError, RpcTimeoutError } from "@robwot/sim-client";
 
 export type Details = Record<string, unknown>;
 
@@ -48,6 +48,7 @@ export function fromBackendError(err: unknown): ServientError {
     return new ServientError(status, err.code, err.message, err.code === "E_INTERNAL" ? err.data : rest);
   }
   if (err instanceof RpcTimeoutError) return new ServientError(504, "E_BACKEND_TIMEOUT", err.message);
+  if (err instanceof BackendDownError) return backendDown(err.message, err.details);
   // no JSON-RPC error object: the connection or the process failed
   const message = err instanceof Error ? err.message : String(err);
   return backendDown(`simulation backend unavailable: ${message}`);

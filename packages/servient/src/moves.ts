@@ -18,7 +18,7 @@
  */
 import type { MoveResult as BackendMoveResult, PlanChecks } from "@robwot/sim-client";
 import { MIN_SPEED, type MoveResult, type Quaternion, type ValidationReport, vec, type Vec3 } from "@robwot/core";
-import type { BackendSupervisor } from "./supervisor.js";
+import type { BackendSupervisor } from "@robwot/sim-client";
 import { badInput, ServientError } from "./errors.js";
 import { answered, STOP_DEADLINE_MS, type PhysicalStopReport, type Relay, type RelayReport } from "./relay.js";
 import type { Twin } from "./twin.js";

@@ -12,14 +12,13 @@ import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
 import { registerActions } from "./actions.js";
-import { BackendSupervisor } from "./supervisor.js";
-import { ServientError } from "./errors.js";
+import { BackendSupervisor, launchConnector, urlConnector } from "@robwot/sim-client";
+import { fromBackendError, ServientError } from "./errors.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
 import { registerProperties } from "./properties.js";
 import { Relay } from "./relay.js";
-import { launchConnector, urlConnector } from "./sim-connector.js";
 import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
 import { produceInit, servedTd } from "./thing-td.js";
@@ -97,7 +96,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   const ids = new Set<string>();
   const connector = opts.backendUrl ? urlConnector(opts.backendUrl) : launchConnector({ python: opts.python });
   // the world is built from the twins below; restore runs only at start()
-  const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call));
+  const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call), { mapError: fromBackendError });
   for (const folder of folders) {
     const base = slugify(folder.td.title, { lower: true });
     let slug = base;

@@ -6,7 +6,7 @@
 import { EventEmitter } from "node:events";
 import { type CollisionEvent, type Contact, FrameMap, type MotionStatus, quat, type Quaternion, type RobotModelLike, tdContact, type Vec3, xyz, type Xyz } from "@robwot/core";
 import type { PoseResult, RobotStateNotification } from "@robwot/sim-client";
-import type { BackendSupervisor } from "./supervisor.js";
+import type { BackendSupervisor } from "@robwot/sim-client";
 import { badInput } from "./errors.js";
 import type { TwinFolder } from "./twin-folder.js";
 

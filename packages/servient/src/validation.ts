@@ -10,7 +10,7 @@
  */
 import { quatArr, type Quaternion, tdContact, TWIN_FILES, type ValidationReport, type Vec3 } from "@robwot/core";
 import type { Plan, PlanChecks } from "@robwot/sim-client";
-import type { BackendSupervisor } from "./supervisor.js";
+import type { BackendSupervisor } from "@robwot/sim-client";
 import type { Twin } from "./twin.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
 

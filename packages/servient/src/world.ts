@@ -7,7 +7,7 @@
 import { EventEmitter } from "node:events";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import type { ObstacleMoveParams, SimClient } from "@robwot/sim-client";
-import type { BackendSupervisor } from "./supervisor.js";
+import type { BackendSupervisor } from "@robwot/sim-client";
 import { ServientError } from "./errors.js";
 import { confine } from "./static-files.js";
 import type { SceneObstacle } from "./twin-folder.js";

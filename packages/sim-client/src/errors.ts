@@ -62,6 +62,15 @@ export class BackendStartError extends RobwotError {
   }
 }
 
+/** A supervised backend is down, restarting, or was declared dead (`BackendSupervisor`); `details.method`
+ *  names the call that could not be made. */
+export class BackendDownError extends RobwotError {
+  override readonly name = "BackendDownError";
+  constructor(message: string, details: Record<string, unknown> = {}) {
+    super("E_BACKEND_DOWN", message, details);
+  }
+}
+
 /** True for a JSON-RPC error from the backend with the given `data.code`. */
 export function isRpcError(err: unknown, dataCode?: string): err is RpcError {
   return err instanceof RpcError && (dataCode === undefined || err.data.code === dataCode);

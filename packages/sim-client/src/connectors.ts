@@ -2,7 +2,8 @@
  * Connectors from the supervisor to a backend: launch our own `robwot_sim` process (restarted by the
  * supervisor when it dies), or connect to an external `ws://` URL (reconnected when it drops).
  */
-import { launchBackend, RpcConnection } from "@robwot/sim-client";
+import { launchBackend } from "./launcher.js";
+import { RpcConnection } from "./rpc-connection.js";
 import type { SimConnector, SimSession } from "./supervisor.js";
 
 function session(
@@ -20,9 +21,12 @@ function session(
   };
 }
 
-export function launchConnector(options: { python?: string | undefined } = {}): SimConnector {
+/** Per-request timeout of the connections made here (ms): long methods carry none (the heartbeat bounds them). */
+const REQUEST_TIMEOUT_MS = 60_000;
+
+export function launchConnector(options: { python?: string | undefined; requestTimeoutMs?: number } = {}): SimConnector {
   return async () => {
-    const b = await launchBackend({ requestTimeoutMs: 60_000, ...(options.python ? { python: options.python } : {}) });
+    const b = await launchBackend({ requestTimeoutMs: options.requestTimeoutMs ?? REQUEST_TIMEOUT_MS, ...(options.python ? { python: options.python } : {}) });
     const conn = b.client.connection;
     return session(conn, {
       pid: b.pid,
@@ -36,6 +40,6 @@ export function launchConnector(options: { python?: string | undefined } = {}): 
   };
 }
 
-export function urlConnector(url: string): SimConnector {
-  return async () => session(await RpcConnection.open(url, { requestTimeoutMs: 60_000 }), {});
+export function urlConnector(url: string, options: { requestTimeoutMs?: number } = {}): SimConnector {
+  return async () => session(await RpcConnection.open(url, { requestTimeoutMs: options.requestTimeoutMs ?? REQUEST_TIMEOUT_MS }), {});
 }

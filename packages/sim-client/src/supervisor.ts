@@ -16,8 +16,11 @@
  * emitted (`restartFailed`), and retried after a growing pause.
  */
 import { EventEmitter } from "node:events";
-import { deadlineFromEnv, SimClient, startHeartbeat, type CallOptions, type RpcCaller } from "@robwot/sim-client";
-import { backendDown, fromBackendError } from "./errors.js";
+import { BackendDownError, RpcTimeoutError } from "./errors.js";
+import { startHeartbeat } from "./heartbeat.js";
+import { deadlineFromEnv } from "./launcher.js";
+import type { CallOptions } from "./rpc-connection.js";
+import { SimClient, type RpcCaller } from "./sim-client.js";
 
 /** One live connection to a backend. */
 export interface SimSession extends RpcCaller {
@@ -56,6 +59,16 @@ export interface SupervisorEvents {
   restartFailed: [err: Error, attempt: number];
 }
 
+export interface SupervisorOptions {
+  /** pause before a restart attempt, times the attempt number (ms, default 250; at most 5 s) */
+  retryDelayMs?: number;
+  deadlines?: Deadlines;
+  /** relaunch / reconnect a backend that died, restoring the world (default true); false: it stays down */
+  restart?: boolean;
+  /** what a call of `sim` throws for a backend error (default: the error as it is) */
+  mapError?: (err: unknown) => Error;
+}
+
 export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private session: SimSession | null = null;
   private up = false;
@@ -63,15 +76,28 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private recovering: Promise<void> | null = null;
   private stopHeartbeat: (() => void) | null = null;
   private deadReason: string | null = null;
+  /** the end of the last session that died: its process reaped once it has exited */
+  private ended: Promise<void> = Promise.resolve();
   /** number of successful restarts since start */
   restarts = 0;
 
+  private readonly retryDelayMs: number;
+  private readonly deadlines: Deadlines;
+  private readonly restart: boolean;
+  private readonly mapError: (err: unknown) => Error;
+
   /**
-   * The typed client every caller uses: 503 `E_BACKEND_DOWN` while the backend is down or restarting,
-   * backend errors mapped to ServientError, a call that times out declares the backend dead.
+   * The typed client every caller uses: `BackendDownError` while the backend is down or restarting, a call
+   * that times out declares the backend dead; errors through `mapError`.
    */
   readonly sim = new SimClient({
-    call: <T>(method: string, params?: object, options?: CallOptions) => this.call(method, params, options) as Promise<T>,
+    call: async <T>(method: string, params?: object, options?: CallOptions): Promise<T> => {
+      try {
+        return (await this.call(method, params, options)) as T;
+      } catch (err) {
+        throw this.mapError(err);
+      }
+    },
     onNotification: (method, listener) => {
       const forward = (m: string, p: Record<string, unknown>): void => {
         if (method === "*" || m === method) listener(m, p);
@@ -86,10 +112,13 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     private readonly connect: SimConnector,
     /** builds the world on a fresh backend, through a client of that session alone */
     private readonly restore: (sim: SimClient) => Promise<void>,
-    private readonly retryDelayMs = 250,
-    private readonly deadlines: Deadlines = DEFAULT_DEADLINES,
+    options: SupervisorOptions = {},
   ) {
     super();
+    this.retryDelayMs = options.retryDelayMs ?? 250;
+    this.deadlines = options.deadlines ?? DEFAULT_DEADLINES;
+    this.restart = options.restart ?? true;
+    this.mapError = options.mapError ?? ((err) => (err instanceof Error ? err : new Error(String(err))));
     // one `down` listener per twin (its Mover) besides the servient's own
     this.setMaxListeners(0);
   }
@@ -108,17 +137,18 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
 
   private async call(method: string, params?: object, options?: CallOptions): Promise<unknown> {
     const s = this.session;
-    if (!s || !this.up) throw backendDown("simulation backend is restarting; retry shortly", { method });
+    if (!s || !this.up) {
+      throw new BackendDownError(this.restart ? "simulation backend is restarting; retry shortly" : `simulation backend is down (${this.deadReason ?? "connection closed"})`, { method });
+    }
     try {
       return await s.call(method, params, options);
     } catch (err) {
-      const e = fromBackendError(err);
-      if (e.code === "E_BACKEND_TIMEOUT") {
+      if (err instanceof RpcTimeoutError) {
         // the backend may still apply the call later: only a restart from the record keeps state consistent
         this.declareDead(s, `${method} got no answer in time`);
-        throw backendDown(`simulation backend did not answer ${method} in time; restarting it`, { method });
+        throw new BackendDownError(`simulation backend did not answer ${method} in time; ${this.restart ? "restarting it" : "stopped it"}`, { method });
       }
-      throw e;
+      throw err;
     }
   }
 
@@ -149,7 +179,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     await new Promise<void>((resolve, reject) => {
       const t = setTimeout(() => {
         this.off("up", onUp);
-        reject(backendDown(`backend not up after ${timeoutMs} ms`));
+        reject(new BackendDownError(`backend not up after ${timeoutMs} ms`));
       }, timeoutMs);
       const onUp = (): void => {
         clearTimeout(t);
@@ -167,6 +197,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     this.session = null;
     // stopping: a session whose connection is already gone needs no closing
     if (s) await s.close().catch(() => undefined);
+    await this.ended;
   }
 
   private async open(restart: boolean): Promise<void> {
@@ -179,7 +210,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
         try {
           return await s.call<T>(method, params, options);
         } catch (err) {
-          throw fromBackendError(err);
+          throw this.mapError(err);
         }
       },
       onNotification: (method, listener) => s.onNotification(method, listener),
@@ -219,7 +250,9 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     this.clearHeartbeat();
     this.up = false;
     this.session = null;
+    this.ended = s.close().catch(() => undefined); // a dead session is already gone: closing only waits for it
     this.emit("down", this.deadReason ?? "backend connection closed");
+    if (!this.restart) return;
     this.recovering ??= this.recover().finally(() => {
       this.recovering = null;
     });
