@@ -78,6 +78,14 @@ async function renderTypes(doc) {
   const scalars = Object.entries(doc.components.schemas)
     .filter(([, v]) => ["number", "integer", "string", "array", "boolean"].includes(v.type))
     .map(([name, v]) => `  ${name}: ${JSON.stringify(v)},`);
+  // the obstacle shape, its references resolved: the TD's scene-editing schemas are derived from it
+  const deref = (schema) => {
+    if (Array.isArray(schema)) return schema.map(deref);
+    if (schema === null || typeof schema !== "object") return schema;
+    if (schema.$ref) return deref(doc.components.schemas[refName(schema.$ref)]);
+    return Object.fromEntries(Object.entries(schema).map(([k, v]) => [k, deref(v)]));
+  };
+  const obstacleShape = JSON.stringify(deref(doc.components.schemas.ObstacleShape));
   const methods = doc.methods.map((m) => `  ${JSON.stringify(m.name)}: { params: ${pascal(m.name)}Params; result: ${pascal(m.name)}Result };`);
   const notes = doc["x-notifications"].map((n) => `  ${JSON.stringify(n.name)}: ${refName(n.params.$ref)};`);
   return [
@@ -114,6 +122,9 @@ async function renderTypes(doc) {
     "} as const;",
     "",
     "export type ErrorCode = keyof typeof ERRORS;",
+    "",
+    "/** The contract's obstacle shape (`ObstacleShape`, references resolved) as data: one `oneOf` member per shape. */",
+    `export const OBSTACLE_SHAPE = ${obstacleShape} as const;`,
     "",
     "/** The contract's value schemas (ranges, lengths, defaults) as data: what a check outside the backend uses. */",
     "export const VALUE_SCHEMAS = {",

@@ -960,6 +960,9 @@ export const ERRORS = {
 
 export type ErrorCode = keyof typeof ERRORS;
 
+/** The contract's obstacle shape (`ObstacleShape`, references resolved) as data: one `oneOf` member per shape. */
+export const OBSTACLE_SHAPE = {"oneOf":[{"type":"object","properties":{"type":{"const":"box"},"size":{"type":"array","items":{"type":"number","exclusiveMinimum":0,"maximum":10000},"minItems":3,"maxItems":3,"description":"full extents (m)"}},"required":["type","size"],"additionalProperties":false,"title":"BoxShape"},{"type":"object","properties":{"type":{"const":"sphere"},"radius":{"type":"number","exclusiveMinimum":0,"maximum":10000}},"required":["type","radius"],"additionalProperties":false,"title":"SphereShape"},{"type":"object","properties":{"type":{"const":"cylinder"},"radius":{"type":"number","exclusiveMinimum":0,"maximum":10000},"length":{"type":"number","exclusiveMinimum":0,"maximum":10000}},"required":["type","radius","length"],"additionalProperties":false,"description":"along the local Z axis","title":"CylinderShape"},{"type":"object","properties":{"type":{"const":"mesh"},"file":{"type":"string","minLength":1,"maxLength":4096,"description":"a file or folder path (the longest path Linux accepts: 4096 bytes)"},"scale":{"oneOf":[{"type":"number","exclusiveMinimum":0,"maximum":10000},{"type":"array","items":{"type":"number","exclusiveMinimum":0,"maximum":10000},"minItems":3,"maxItems":3}]}},"required":["type","file"],"additionalProperties":false,"description":"STL, OBJ or DAE; parsed by the backend before PyBullet reads it","title":"MeshShape"}],"description":"box (full extents), sphere, cylinder (along local Z) or mesh"} as const;
+
 /** The contract's value schemas (ranges, lengths, defaults) as data: what a check outside the backend uses. */
 export const VALUE_SCHEMAS = {
   Vec3: {"type":"array","items":{"type":"number"},"minItems":3,"maxItems":3,"description":"[x, y, z] (m), or [roll, pitch, yaw] (rad)"},

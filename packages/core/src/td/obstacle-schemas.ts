@@ -1,5 +1,5 @@
 /** Data schemas of the scene-editing actions (obstacle shapes as in Contract 1). */
-import { VALUE_SCHEMAS } from "../backend-contract.js";
+import { OBSTACLE_SHAPE, VALUE_SCHEMAS } from "../backend-contract.js";
 import { MIN_QUATERNION_NORM, UNIT_M, vec3Schema } from "./schemas.js";
 import type { DataSchema } from "./types.js";
 
@@ -9,14 +9,6 @@ export const MAX_WORLD_COORDINATE = VALUE_SCHEMAS.Position.items.maximum;
 
 /** An obstacle name as the backend accepts it (the contract's `Name`). */
 const NAME: DataSchema = { type: "string", minLength: VALUE_SCHEMAS.Name.minLength, maxLength: VALUE_SCHEMAS.Name.maxLength };
-
-const positive = (description: string, unit: string | null = UNIT_M): DataSchema => ({
-  type: "number",
-  ...(unit === null ? {} : { unit }),
-  exclusiveMinimum: 0,
-  maximum: MAX_WORLD_COORDINATE,
-  description,
-});
 
 const bounded = (description: string, unit: string): DataSchema => ({
   ...vec3Schema(description),
@@ -38,33 +30,36 @@ export function shapeSchema(): DataSchema {
   };
 }
 
+/** Units of the shape's lengths (metres); a scale has none. */
+const SHAPE_UNITS: Record<string, string> = { size: UNIT_M, radius: UNIT_M, length: UNIT_M };
+
+type ContractSchema = { readonly [k: string]: unknown };
+
+/**
+ * A contract schema of the obstacle shape as a TD data schema: every schema typed (consumers build typed
+ * schemas from it), lengths with their unit; where the contract accepts a number or an array (a uniform
+ * or per-axis mesh scale) the TD offers the array, which the backend accepts as well.
+ */
+function tdSchema(schema: ContractSchema, name = ""): DataSchema {
+  const alternatives = schema["oneOf"] as readonly ContractSchema[] | undefined;
+  if (alternatives) return tdSchema(alternatives.find((m) => m["type"] === "array") ?? alternatives[0]!, name);
+  if ("const" in schema) return { type: "string", const: schema["const"] };
+  const out: DataSchema = { type: schema["type"] as DataSchema["type"] };
+  for (const key of ["minimum", "maximum", "exclusiveMinimum", "minItems", "maxItems", "minLength", "maxLength", "description"] as const) {
+    if (schema[key] !== undefined) (out as Record<string, unknown>)[key] = schema[key];
+  }
+  if (out.type === "number" && SHAPE_UNITS[name]) out.unit = SHAPE_UNITS[name];
+  if (schema["items"]) out.items = tdSchema(schema["items"] as ContractSchema, name);
+  if (schema["properties"]) {
+    out.properties = Object.fromEntries(Object.entries(schema["properties"] as Record<string, ContractSchema>).map(([k, v]) => [k, tdSchema(v, k)]));
+    out.required = [...(schema["required"] as readonly string[])];
+  }
+  return out;
+}
+
+/** One member per shape of the contract's `ObstacleShape` (box, sphere, cylinder, mesh). */
 function shapeMembers(): (DataSchema & { properties: Record<string, DataSchema> })[] {
-  return [
-    {
-      type: "object",
-      properties: { type: { type: "string", const: "box" }, size: { ...vec3Schema("full extents x, y, z"), items: positive("extent") } },
-      required: ["type", "size"],
-    },
-    {
-      type: "object",
-      properties: { type: { type: "string", const: "sphere" }, radius: positive("radius") },
-      required: ["type", "radius"],
-    },
-    {
-      type: "object",
-      properties: { type: { type: "string", const: "cylinder" }, radius: positive("radius"), length: positive("length along z") },
-      required: ["type", "radius", "length"],
-    },
-    {
-      type: "object",
-      properties: {
-        type: { type: "string", const: "mesh" },
-        file: { type: "string", minLength: VALUE_SCHEMAS.FilePath.minLength, maxLength: VALUE_SCHEMAS.FilePath.maxLength },
-        scale: { ...vec3Schema("scale per axis x, y, z", null), items: positive("scale", null) },
-      },
-      required: ["type", "file"],
-    },
-  ];
+  return OBSTACLE_SHAPE.oneOf.map((m) => tdSchema(m) as DataSchema & { properties: Record<string, DataSchema> });
 }
 
 const ORIENTATION: DataSchema = {
