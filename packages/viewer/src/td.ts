@@ -2,7 +2,7 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
-import { jointLimits, type JointLimit, liveUrl, REACHABILITY_REL, RobwotError, speedRange, type ThingDescriptionLike, TWIN_FILES } from "@robwot/core/browser";
+import { jointLimits, type JointLimit, linkUrl, liveUrl, REACHABILITY_REL, RobwotError, speedRange, TdError, type ThingDescriptionLike, TWIN_FILES } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
 
@@ -28,12 +28,14 @@ export async function loadTd(slug: string): Promise<TwinTd> {
   const raw = await fetchJson(url);
   if (!isRecord(raw)) throw new ViewerError("E_TD", `TD at ${url} is not a JSON object`);
   const base = typeof raw["base"] === "string" ? ensureSlash(raw["base"]) : `${url}/`;
+  // core's TD reading; a link the TD does not have is null here (only the model is required)
   const link = (rel: string): string | null => {
-    const links = Array.isArray(raw["links"]) ? raw["links"] : [];
-    for (const l of links) {
-      if (isRecord(l) && l["rel"] === rel && typeof l["href"] === "string") return sameOrigin(new URL(l["href"], base).href);
+    try {
+      return sameOrigin(linkUrl({ ...(raw as ThingDescriptionLike), base }, rel, url));
+    } catch (err) {
+      if (err instanceof TdError) return null;
+      throw err;
     }
-    return null;
   };
   const model = link("model");
   if (model === null) throw new ViewerError("E_TD", `TD at ${url} has no link with rel "model" (the URDF)`);
