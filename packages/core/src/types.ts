@@ -70,6 +70,19 @@ export interface MoveResult {
   path?: "straight" | "detour";
 }
 
+/** What relaying a command to the physical robot's Thing gave (`--relay`): `result` is its answer. */
+export interface RelayReport {
+  ok: boolean;
+  /** the physical robot's TD URL */
+  target: string;
+  action: string;
+  result?: unknown;
+  error?: string;
+}
+
+/** A move's output with, under `--relay`, the physical robot's part. */
+export type RelayedMoveResult = MoveResult & { relay?: RelayReport };
+
 export interface MotionStatus {
   state: "idle" | "moving" | "stopped" | "collision";
   /** absent when the last operation succeeded */

@@ -17,7 +17,7 @@
  * and servient shutdown (`shutdown`).
  */
 import type { MoveResult as BackendMoveResult, PlanChecks } from "@robwot/sim-client";
-import { MIN_SPEED, type MoveResult, type Quaternion, type ValidationReport, vec, type Vec3 } from "@robwot/core";
+import { MIN_SPEED, type Quaternion, type RelayedMoveResult, type ValidationReport, vec, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { badInput, ServientError } from "./errors.js";
 import { answered, STOP_DEADLINE_MS, type PhysicalStopReport, type Relay, type RelayReport } from "./relay.js";
@@ -25,7 +25,7 @@ import type { Twin } from "./twin.js";
 import { poseTarget, report, staticChecks, validateCartesian, validateJoints, type PoseTarget } from "./validation.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
 
-export type RelayedMoveResult = MoveResult & { relay?: RelayReport };
+export type { RelayedMoveResult };
 
 export interface JointInput {
   joints: Record<string, unknown>;

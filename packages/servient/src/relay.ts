@@ -10,6 +10,7 @@
  * wins). node-wot's HTTP client has no request timeout, so an attempt to a hung Thing is left pending
  * (closed with the client at shutdown); attempts are bounded by the deadline.
  */
+import type { RelayReport } from "@robwot/core";
 
 /** A stop to the physical robot is retried until it answers or this deadline passes (ms). */
 export const STOP_DEADLINE_MS = 5_000;
@@ -28,13 +29,7 @@ interface ConsumedLike {
   invokeAction(name: string, input?: unknown): Promise<{ value(): Promise<unknown> } | undefined>;
 }
 
-export interface RelayReport {
-  ok: boolean;
-  target: string;
-  action: string;
-  result?: unknown;
-  error?: string;
-}
+export type { RelayReport };
 
 /** The physical robot's part of a `stop` answer. */
 export interface PhysicalStopReport {

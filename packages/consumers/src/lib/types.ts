@@ -3,10 +3,10 @@
  * from @robwot/core so producer and consumers cannot drift apart.
  */
 export type { MotionStatus, MoveResult, ValidationReport, CollisionEvent, Xyz, Quaternion } from "@robwot/core";
-import type { MoveResult, Quaternion, Xyz } from "@robwot/core";
+import type { Quaternion, Xyz } from "@robwot/core";
 
 /** A move result from a twin served with `--relay`: what the physical robot's Thing answered. */
-export type RelayedMoveResult = MoveResult & { relay?: { ok: boolean; target: string; action: string; result?: unknown; error?: string } };
+export type { RelayedMoveResult } from "@robwot/core";
 
 /** `getCartesianPosition` value. */
 export interface CartesianPose extends Xyz {
