@@ -261,3 +261,58 @@ def test_a_shutdown_during_a_plan_stops_it_and_exits_cleanly(two_arms: BackendPr
     assert two_arms.proc.wait(10) == 0
     assert time.monotonic() - t < 1.0
     assert "Traceback" not in two_arms.stderr()
+
+
+def _bumpy_plate_stl(path: Path, side: int = 317) -> int:
+    """A binary STL of a bumpy plate, 2 (side - 1)^2 triangles (a large concave mesh obstacle)."""
+    import numpy as np
+
+    xs, ys = np.meshgrid(np.linspace(-1, 1, side), np.linspace(-0.3, 0.3, side))
+    vertices = np.stack([xs, ys, 0.02 * np.sin(20 * xs) * np.cos(20 * ys)], -1).reshape(-1, 3)
+    idx = np.arange(side * side).reshape(side, side)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel()
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([b, d, c], 1)])
+    records = np.zeros(len(faces), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+    records["v"] = vertices[faces]
+    path.write_bytes(b"\0" * 80 + np.uint32(len(faces)).tobytes() + records.tobytes())
+    return len(faces)
+
+
+def test_pings_are_served_while_a_large_mesh_obstacle_is_added(tmp_path: Path) -> None:
+    """A mesh obstacle of 200,000 triangles is parsed and its hull computed off the world's thread (PyBullet
+    building the hull from the file held the interpreter, pings waited for it): pings and the other
+    robot's steps are served within 50 ms meanwhile; the obstacle collides where its mesh is."""
+    triangles = _bumpy_plate_stl(tmp_path / "plate.stl")
+    assert triangles > 190_000
+    proc = BackendProcess()
+    client, prober = proc.client(), proc.client()
+    watch = StateWatch(proc, "other")
+    try:
+        client.call("robot.load", {"urdf": str(MODELS / "planar2.urdf"), "id": "other"})
+        move = client.send("robot.move", {"robot": "other", "target": [1.2, 1.0], "speed": 0.08})
+        time.sleep(0.3)
+        sent = time.monotonic()
+        plate = {"type": "mesh", "file": str(tmp_path / "plate.stl")}
+        add = client.send("obstacle.add", {"name": "plate", "shape": plate, "position": [5, 5, 0]})
+        pings: list[float] = []
+        while add not in client.replies and time.monotonic() - sent < 120:
+            t = time.monotonic()
+            prober.call("ping", timeout=10)
+            pings.append(time.monotonic() - t)
+            with contextlib.suppress(TimeoutError):  # collect the reply when it comes
+                client.replies.update({(d := client._next_reply(0.01))["id"]: d})
+        done = time.monotonic()
+        assert client.wait(add)["name"] == "plate"
+        gaps = _gaps(watch.times, sent, done)
+        print(f"\nduring a {done - sent:.2f} s mesh obstacle add ({triangles} triangles): ping round trip "
+              f"{_ms(pings)}; the other robot's robot.state gaps {_ms(gaps)}")
+        assert len(pings) >= 5, "the add was not slow enough to measure anything"
+        _served(pings, "ping round trips during the add")
+        _served(gaps, "the other robot's state gaps during the add", 1 / 60)
+        client.call("robot.stop", {"robot": "other"})
+        client.wait(move)
+    finally:
+        watch.close()
+        client.close()
+        prober.close()
+        assert proc.stop() == 0

@@ -102,6 +102,20 @@ def read_mesh(path: Path) -> MeshData | None:
     return None
 
 
+def mesh_points(path: Path) -> npt.NDArray[np.float64] | None:
+    """Every vertex position of a checked STL or OBJ file, repeats kept ([n, 3]; None for DAE): enough for
+    its convex hull, without the merging of shared vertices ``read_mesh`` does."""
+    suffix = path.suffix.lower()
+    if suffix == ".stl":
+        data = _read(path)
+        if _binary_stl_triangles(data) is None:
+            return _parse_ascii_stl(path, data).astype(np.float64)
+        return _check_binary_stl(path, data).reshape(-1, 3).astype(np.float64)
+    if suffix == ".obj":
+        return _parse_obj(path, _read(path)).vertices
+    return None
+
+
 def _triangles(corners: npt.NDArray[np.float64]) -> MeshData:
     """Triangle soup [3m, 3] -> shared vertices and faces."""
     vertices, inverse = np.unique(corners, axis=0, return_inverse=True)

@@ -15,6 +15,9 @@ Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 
 
+#: the key of a read mesh shape holding its convex hull's scaled vertices (``world_scene.mesh_hull``)
+HULL = "hull"
+
 class JointInfo(NamedTuple):
     idx: int
     name: str
@@ -218,8 +221,10 @@ class Bullet:
     def create_static(
         self, shape: dict[str, Any], position: Sequence[float], quat_xyzw: Sequence[float]
     ) -> int:
-        """A mass-0 body with one collision shape, no visual (``shape`` as in Contract 1, file resolved)."""
-        key = json.dumps(shape, sort_keys=True)
+        """A mass-0 body with one collision shape, no visual (``shape`` as in Contract 1, file resolved; a
+        mesh with ``hull``: its convex hull's scaled vertices, the shape Bullet builds from the file)."""
+        hull = shape.get(HULL)
+        key = json.dumps({k: v for k, v in shape.items() if k != HULL}, sort_keys=True)
         parked = self._parked.get(key)
         if parked:
             body = parked.pop()
@@ -237,6 +242,8 @@ class Bullet:
             col = pb.createCollisionShape(
                 pb.GEOM_CYLINDER, radius=shape["radius"], height=shape["length"], physicsClientId=self.cid
             )
+        elif hull is not None:
+            col = pb.createCollisionShape(pb.GEOM_MESH, vertices=hull, physicsClientId=self.cid)
         else:
             scale = shape.get("scale", 1.0)
             s3 = [scale] * 3 if isinstance(scale, (int, float)) else list(scale)

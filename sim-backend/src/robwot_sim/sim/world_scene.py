@@ -7,16 +7,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
 from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams, MeshError, UnknownObject
-from robwot_sim.model.meshcheck import check_mesh
+from robwot_sim.model.meshcheck import check_mesh, mesh_points
 from robwot_sim.model.rotations import quat_from_rpy
 from robwot_sim.scene import normalise_obstacle, read_scene, resolve_file
+from robwot_sim.sim.client import HULL
 from robwot_sim.sim.loader import RobotFiles
 from robwot_sim.sim.world_base import Quat, Vec3, WorldBase, _owned
 
 #: an obstacle spec as stored (normalised) and the shape PyBullet loads (a checked, maybe converted, mesh)
 ReadObstacle = tuple[dict[str, Any], dict[str, Any]]
+#: the most hull vertices PyBullet is handed as a list (its command buffer refuses far larger lists)
+MAX_HULL_POINTS = 40_000
 
 
 @dataclass
@@ -34,16 +40,38 @@ class SceneFiles:
 
 def read_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False) -> ReadObstacle:
     """An obstacle spec normalised (``scene.normalise_obstacle``) and, for a mesh, the mesh parsed by our
-    own reader (PyBullet crashes on some broken meshes): work that needs no world, any thread."""
+    own reader (PyBullet crashes on some broken meshes) and its convex hull computed: work that needs no
+    world, any thread."""
     norm = normalise_obstacle(spec, base, checked=checked)
     shape = norm["shape"]
     if shape["type"] == "mesh":
         try:
             shape = {**shape, "file": str(check_mesh(Path(shape["file"])))}
+            hull = mesh_hull(Path(shape["file"]), shape.get("scale", 1.0))
         except MeshError as e:
             name = norm["name"]
             raise MeshError(f"obstacle {name!r}: {e.message}", obstacle=name, **e.data) from None
+        if hull is not None:
+            shape = {**shape, HULL: hull}
     return norm, shape
+
+
+def mesh_hull(path: Path, scale: float | list[float]) -> list[list[float]] | None:
+    """The vertices of the convex hull of a mesh obstacle (scaled), the shape PyBullet gives a mesh body:
+    computed here, off the world's thread, so the world only builds a hull of these few points (PyBullet
+    building it from the whole mesh holds the interpreter for as long). None for a mesh we do not read
+    (DAE) or whose hull has more vertices than PyBullet takes as a list: PyBullet then reads the file."""
+    raw = mesh_points(path)
+    if raw is None:
+        return None
+    points = raw * np.asarray(scale, dtype=np.float64)
+    try:
+        hull = ConvexHull(points)
+    except QhullError:  # flat or degenerate: the joggled hull keeps every point it needs
+        hull = ConvexHull(points, qhull_options="QJ")
+    if len(hull.vertices) > MAX_HULL_POINTS:
+        return None
+    return [[float(c) for c in p] for p in points[hull.vertices]]
 
 
 class WorldScene(WorldBase):
