@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
@@ -33,14 +32,13 @@ def test_a_first_load_decomposing_a_mesh_does_not_hold_the_loop(tmp_path: Path,
     proc = BackendProcess()
     try:
         client = proc.client()
-        t0 = time.monotonic()
         load = client.send("robot.load", {"urdf": str(tmp_path / "u_arm.urdf"), "id": "u"})
         ping = client.send("ping")
         client.wait(ping, timeout=10)
         assert load not in client.replies  # the ping's answer came first
         model = client.wait(load, timeout=300)
-        assert model["id"] == "u" and time.monotonic() - t0 > 0.2  # it decomposed: a cached load is instant
-        assert any((tmp_path / "cache").rglob("*.obj"))
+        assert model["id"] == "u"
+        assert any((tmp_path / "cache").rglob("*.obj"))  # it decomposed (a fresh cache), not a cached load
         client.close()
     finally:
         assert proc.stop() == 0
