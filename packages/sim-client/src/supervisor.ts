@@ -1,14 +1,16 @@
 /**
- * Backend supervision. One simulation backend (a `robwot_sim` process, or an external URL) serves the
- * whole world. When the connection or the process dies the supervisor marks the backend down (calls
- * answer 503 `E_BACKEND_DOWN`), reconnects / relaunches it, lets the world restore robots, scene and
- * the last joint state (`restore` hook), and marks it up again.
+ * Backend supervision, the one for every user of a backend (the servient restarts, the CLI does not). One
+ * simulation backend (a `robwot_sim` process, or an external URL) serves the whole world. When the
+ * connection or the process dies the supervisor marks the backend down (calls fail with
+ * `BackendDownError`, which the servient answers as 503 `E_BACKEND_DOWN`) and, with `restart`, relaunches /
+ * reconnects it, lets the caller restore robots, scene and the last joint state (`restore` hook), and
+ * marks it up again; without it the backend stays down and its calls fail with the reason.
  *
  * Deadlines: a backend that stops answering (hung, SIGSTOPped) is declared dead — the heartbeat `ping`
  * gets no answer within `deadAfterMs`, or any call times out — and is killed (a launched process) or
- * dropped (an external URL); every call in flight then fails with 503 and the restart above follows.
- * Because the world is rebuilt from the servient's record of confirmed operations, an operation that
- * timed out is never half-applied: the backend that might have applied it late is gone.
+ * dropped (an external URL); every call in flight then fails and the restart above follows. Because the
+ * world is rebuilt from the caller's record of confirmed operations, an operation that timed out is never
+ * half-applied: the backend that might have applied it late is gone.
  *
  * The restore that rebuilds the world runs under the same heartbeat (its long methods carry no request
  * deadline), and at a restart it is bounded as a whole by `restoreMs`: a backend that hangs or never
