@@ -72,3 +72,21 @@ def test_a_pose_beyond_reach_is_refused_naming_the_distance() -> None:
         error = pytest.approx(0.739, abs=1e-5)
         assert far.checks["ik"] == {"ok": False, "positionError": error, "solutions": 1}
         assert plan_pose(w, m.id, (0.4, 0.1, 0.6), None, 1.0, 1 / 240).valid
+
+
+def test_a_reachable_pose_inside_an_obstacle_is_refused_naming_what_it_touches() -> None:
+    """IK reaches a target inside a block (the position is reached, within tolerance), so the refusal says
+    the solutions collide at the target and names the block, not that IK found nothing within 0.001 m
+    (which read as a contradiction beside an error of 1e-8 m)."""
+    from robwot_sim.sim.planner import plan_pose
+
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.add_obstacle({"name": "block", "shape": {"type": "box", "size": [0.3, 0.3, 0.3]},
+                        "position": [0.45, 0.1, 0.55]})
+        plan = plan_pose(w, m.id, (0.45, 0.1, 0.55), None, 1.0, 1 / 240)
+        assert not plan.valid and len(plan.reasons) == 1
+        reason = plan.reasons[0]
+        assert reason.startswith("every IK solution reaching (0.4500, 0.1000, 0.5500) m")
+        assert "collides at the target (" in reason and "block" in reason
+        assert "0.001 m" not in reason

@@ -127,7 +127,8 @@ function describeReport(report: unknown): string {
     if (!isRecord(c)) continue;
     const extra = Object.entries(c)
       .filter(([k, v]) => k !== "ok" && typeof v === "number")
-      .map(([k, v]) => `${k}=${fmt(v as number, 4)}`)
+      // counts (IK solutions tried) as integers, lengths (m) with 4 decimals
+      .map(([k, v]) => `${k}=${Number.isInteger(v) ? String(v) : fmt(v as number, 4)}`)
       .join(" ");
     lines.push(`${c["ok"] === true ? "ok " : c["ok"] === false ? "NO " : "–  "} ${name} ${extra}`);
   }

@@ -139,6 +139,8 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     where = f"({', '.join(_fmt(v) for v in position)}) m"
     seeds: list[list[float] | None] = [None, *_alternative_seeds(model, position, orientation, alternatives)]
     first: tuple[tuple[float, ...], float, list[Contact]] | None = None
+    #: an IK solution that reaches the target but whose configuration collides
+    reached_colliding: Sequence[float] | None = None
     tried = 0
     best_error = float("inf")
     for seed in seeds:
@@ -158,6 +160,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
             continue
         best_error = min(best_error, ik.position_error)
         if not ik.collision_free:
+            reached_colliding = reached_colliding if reached_colliding is not None else ik.positions
             continue
         ok, contacts = _path(world, robot, ik.positions, speed, dt)
         if first is None:
@@ -168,8 +171,15 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
             return Plan(True, ik.positions, (), checks)
     if first is None:
         error = best_error if best_error != float("inf") else -1.0
-        reason = (f"IK found no collision-free solution within 0.001 m of {where} (error {_fmt(error)} m)"
-                  if error >= 0 else f"target {where} is not reachable by IK")
+        if reached_colliding is not None:
+            # IK reached the target: what stands in the way is a collision at the target itself
+            touching = world.check_collision(robot, reached_colliding).contacts
+            reason = (f"every IK solution reaching {where} ({tried} tried, within {_fmt(error)} m) collides "
+                      f"at the target{_contact_words(touching)}")
+        elif error >= 0:
+            reason = f"IK found no solution within 0.001 m of {where} (closest {_fmt(error)} m away)"
+        else:
+            reason = f"target {where} is not reachable by IK"
         return Plan(False, None, (reason,), {"ik": {"ok": False, "positionError": error, "solutions": tried}})
     positions, error, contacts = first
     checks = {"ik": {"ok": True, "positionError": error, "solutions": tried}, "limits": {"ok": True}}
