@@ -205,6 +205,42 @@ def test_a_long_job_serves_short_jobs_at_its_checkpoints_with_its_robot_restored
         world.close()
 
 
+def _served_during(proc: BackendProcess, method: str, params: dict[str, object],
+                   what: str) -> dict[str, object]:
+    """Runs ``method`` while another robot moves and a second client pings: every ping and every gap
+    between the other robot's states is served within the bounds meanwhile. Returns the method's reply."""
+    client, prober = proc.client(), proc.client()
+    watch = StateWatch(proc, "other")
+    try:
+        client.call("robot.load", {"urdf": str(MODELS / "planar2.urdf"), "id": "other"})
+        move = client.send("robot.move", {"robot": "other", "target": [1.2, 1.0], "speed": 0.08})
+        time.sleep(0.3)
+        sent = time.monotonic()
+        request = client.send(method, params)
+        pings: list[float] = []
+        while request not in client.replies and time.monotonic() - sent < 120:
+            t = time.monotonic()
+            prober.call("ping", timeout=10)
+            pings.append(time.monotonic() - t)
+            with contextlib.suppress(TimeoutError):  # collect the reply when it comes
+                client.replies.update({(d := client._next_reply(0.01))["id"]: d})
+        done = time.monotonic()
+        reply: dict[str, object] = client.wait(request)
+        gaps = _gaps(watch.times, sent, done)
+        print(f"\nduring a {done - sent:.2f} s {what}: ping round trip {_ms(pings)}; "
+              f"the other robot's robot.state gaps {_ms(gaps)}")
+        assert len(pings) >= 5, f"the {what} was not slow enough to measure anything"
+        _served(pings, f"ping round trips during the {what}")
+        _served(gaps, f"the other robot's state gaps during the {what}", 1 / 60)
+        client.call("robot.stop", {"robot": "other"})
+        client.wait(move)
+        return reply
+    finally:
+        watch.close()
+        client.close()
+        prober.close()
+
+
 def test_pings_are_served_during_a_first_load_decomposing_a_mesh(tmp_path: Path,
                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     """A robot's first load decomposes its concave mesh (a fresh cache) off the world's thread: pings
@@ -217,35 +253,11 @@ def test_pings_are_served_during_a_first_load_decomposing_a_mesh(tmp_path: Path,
     (tmp_path / "u_arm.urdf").write_text(URDF)
     monkeypatch.setenv("ROBWOT_COLLISION_CACHE", str(tmp_path / "cache"))
     proc = BackendProcess()
-    client, prober = proc.client(), proc.client()
-    watch = StateWatch(proc, "other")
     try:
-        client.call("robot.load", {"urdf": str(MODELS / "planar2.urdf"), "id": "other"})
-        move = client.send("robot.move", {"robot": "other", "target": [1.2, 1.0], "speed": 0.08})
-        time.sleep(0.3)
-        sent = time.monotonic()
-        load = client.send("robot.load", {"urdf": str(tmp_path / "u_arm.urdf"), "id": "u"})
-        pings: list[float] = []
-        while load not in client.replies and time.monotonic() - sent < 120:
-            t = time.monotonic()
-            prober.call("ping", timeout=10)
-            pings.append(time.monotonic() - t)
-            with contextlib.suppress(TimeoutError):  # collect the load's reply when it comes
-                client.replies.update({(d := client._next_reply(0.01))["id"]: d})
-        done = time.monotonic()
-        assert client.wait(load)["id"] == "u" and any((tmp_path / "cache").rglob("*.obj"))
-        gaps = _gaps(watch.times, sent, done)
-        print(f"\nduring a {done - sent:.2f} s first load: ping round trip {_ms(pings)}; "
-              f"the other robot's robot.state gaps {_ms(gaps)}")
-        assert len(pings) >= 5, "the load was not slow enough to measure anything"
-        _served(pings, "ping round trips during the load")
-        _served(gaps, "the other robot's state gaps during the load", 1 / 60)
-        client.call("robot.stop", {"robot": "other"})
-        client.wait(move)
+        model = _served_during(proc, "robot.load", {"urdf": str(tmp_path / "u_arm.urdf"), "id": "u"},
+                               "first load")
+        assert model["id"] == "u" and any((tmp_path / "cache").rglob("*.obj"))
     finally:
-        watch.close()
-        client.close()
-        prober.close()
         assert proc.stop() == 0
 
 
@@ -281,38 +293,14 @@ def _bumpy_plate_stl(path: Path, side: int = 317) -> int:
 def test_pings_are_served_while_a_large_mesh_obstacle_is_added(tmp_path: Path) -> None:
     """A mesh obstacle of 200,000 triangles is parsed and its hull computed off the world's thread (PyBullet
     building the hull from the file held the interpreter, pings waited for it): pings and the other
-    robot's steps are served within 50 ms meanwhile; the obstacle collides where its mesh is."""
+    robot's steps are served within 50 ms meanwhile."""
     triangles = _bumpy_plate_stl(tmp_path / "plate.stl")
     assert triangles > 190_000
     proc = BackendProcess()
-    client, prober = proc.client(), proc.client()
-    watch = StateWatch(proc, "other")
     try:
-        client.call("robot.load", {"urdf": str(MODELS / "planar2.urdf"), "id": "other"})
-        move = client.send("robot.move", {"robot": "other", "target": [1.2, 1.0], "speed": 0.08})
-        time.sleep(0.3)
-        sent = time.monotonic()
         plate = {"type": "mesh", "file": str(tmp_path / "plate.stl")}
-        add = client.send("obstacle.add", {"name": "plate", "shape": plate, "position": [5, 5, 0]})
-        pings: list[float] = []
-        while add not in client.replies and time.monotonic() - sent < 120:
-            t = time.monotonic()
-            prober.call("ping", timeout=10)
-            pings.append(time.monotonic() - t)
-            with contextlib.suppress(TimeoutError):  # collect the reply when it comes
-                client.replies.update({(d := client._next_reply(0.01))["id"]: d})
-        done = time.monotonic()
-        assert client.wait(add)["name"] == "plate"
-        gaps = _gaps(watch.times, sent, done)
-        print(f"\nduring a {done - sent:.2f} s mesh obstacle add ({triangles} triangles): ping round trip "
-              f"{_ms(pings)}; the other robot's robot.state gaps {_ms(gaps)}")
-        assert len(pings) >= 5, "the add was not slow enough to measure anything"
-        _served(pings, "ping round trips during the add")
-        _served(gaps, "the other robot's state gaps during the add", 1 / 60)
-        client.call("robot.stop", {"robot": "other"})
-        client.wait(move)
+        added = _served_during(proc, "obstacle.add", {"name": "plate", "shape": plate, "position": [5, 5, 0]},
+                               f"mesh obstacle add ({triangles} triangles)")
+        assert added["name"] == "plate"
     finally:
-        watch.close()
-        client.close()
-        prober.close()
         assert proc.stop() == 0
