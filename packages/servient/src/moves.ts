@@ -17,7 +17,7 @@
  * and servient shutdown (`shutdown`).
  */
 import type { MoveResult as BackendMoveResult, PlanChecks } from "@robwot/sim-client";
-import { MIN_SPEED, type Quaternion, type RelayedMoveResult, type ValidationReport, vec, type Vec3 } from "@robwot/core";
+import { MIN_QUATERNION_NORM, MIN_SPEED, type Quaternion, type RelayedMoveResult, type ValidationReport, vec, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { badInput, ServientError } from "./errors.js";
 import { answered, STOP_DEADLINE_MS, type PhysicalStopReport, type Relay, type RelayReport } from "./relay.js";
@@ -57,8 +57,8 @@ export function cartesianTarget(input: CartesianInput): { real: Vec3; orientatio
   const o = input.orientation;
   if (o !== undefined) {
     const n = Math.hypot(o.x, o.y, o.z, o.w);
-    if (![o.x, o.y, o.z, o.w].every((v) => typeof v === "number" && Number.isFinite(v)) || n < 1e-6) {
-      throw badInput("orientation must be a non-zero quaternion {x, y, z, w}", { param: "orientation", value: o });
+    if (![o.x, o.y, o.z, o.w].every((v) => typeof v === "number" && Number.isFinite(v)) || n < MIN_QUATERNION_NORM) {
+      throw badInput(`orientation must be a quaternion {x, y, z, w} of norm >= ${MIN_QUATERNION_NORM}`, { param: "orientation", value: o });
     }
     return { real: vec(input), orientation: { x: o.x / n, y: o.y / n, z: o.z / n, w: o.w / n } };
   }
