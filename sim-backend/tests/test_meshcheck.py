@@ -17,6 +17,19 @@ BROKEN_FACET = (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 
 DOCTYPE = b'<?xml version="1.0"?>\n<!DOCTYPE x [<!ENTITY a "b">]>\n<COLLADA/>'
 
 
+def dae(positions: str, indices: str, count: int | None = None, node: str = "") -> bytes:
+    """A COLLADA file with one triangle mesh instantiated by a node of its scene."""
+    n = len(positions.split()) if count is None else count
+    return (f'<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema"><library_geometries>'
+            f'<geometry id="g"><mesh><source id="s"><float_array id="a" count="{n}">{positions}</float_array>'
+            f'</source><vertices id="v"><input semantic="POSITION" source="#s"/></vertices>'
+            f'<triangles count="1"><input semantic="VERTEX" source="#v" offset="0"/>'
+            f'<p>{indices}</p></triangles>'
+            f'</mesh></geometry></library_geometries><library_visual_scenes><visual_scene id="vs">'
+            f'<node id="n"><instance_geometry url="#g"/>{node}</node></visual_scene></library_visual_scenes>'
+            f'<scene><instance_visual_scene url="#vs"/></scene></COLLADA>').encode()
+
+
 def binary_stl(n_claimed: int, triangles: bytes) -> bytes:
     return b"\0" * 80 + struct.pack("<I", n_claimed) + triangles
 
@@ -32,10 +45,11 @@ HOSTILE: dict[str, tuple[str, bytes, str]] = {
     "OBJ index out of range": ("obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "face index 9"),
     "OBJ non-finite vertex": ("obj", b"v 0 0 inf\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "3 finite coordinates"),
     "DAE with DOCTYPE": ("dae", DOCTYPE, "DOCTYPE"),
-    "DAE index out of range": ("dae", b'<COLLADA><float_array id="p" count="3">0 0 0</float_array>'
-                               b"<triangles><p>0 1 7</p></triangles></COLLADA>", "outside the arrays"),
-    "DAE count lies": ("dae", b'<COLLADA><float_array id="p" count="9">0 0 0</float_array>'
-                       b"<triangles><p>0 0 0</p></triangles></COLLADA>", "count=9"),
+    "DAE index out of range": ("dae", dae("0 0 0 1 0 0 0 1 0", "0 1 7"), "points outside its 3 positions"),
+    "DAE count lies": ("dae", dae("0 0 0 1 0 0 0 1 0", "0 1 2", count=12), "count=12"),
+    "DAE without triangles": ("dae", b"<COLLADA><library_geometries/></COLLADA>", "without triangles"),
+    "DAE nodes in a loop": ("dae", dae("0 0 0 1 0 0 0 1 0", "0 1 2", node='<instance_node url="#n"/>'),
+                            "nested deeper"),
 }
 
 

@@ -54,8 +54,8 @@ class ExampleRobot:
 
 
 def example_robot(name: str) -> ExampleRobot:
-    """``ur10``, ``ur5``, ``ur3``, ``panda`` or ``z1`` from example-robot-data
-    (``package://example-robot-data/...``)."""
+    """``ur10``, ``ur5``, ``ur3``, ``panda``, ``z1``, ``xarm7`` or ``kinova`` (Jaco 2, COLLADA collision
+    meshes) from example-robot-data (``package://example-robot-data/...``)."""
     root = example_robot_data()
     files = {
         "ur10": ("ur_description/urdf/ur10_robot.urdf", None),
@@ -63,6 +63,8 @@ def example_robot(name: str) -> ExampleRobot:
         "ur3": ("ur_description/urdf/ur3_robot.urdf", None),
         "panda": ("panda_description/urdf/panda.urdf", "panda_description/srdf/panda.srdf"),
         "z1": ("z1_description/urdf/z1.urdf", "z1_description/srdf/z1.srdf"),
+        "xarm7": ("xarm_description/urdf/xarm7.urdf", None),
+        "kinova": ("kinova_description/robots/kinova.urdf", "kinova_description/srdf/kinova.srdf"),
     }
     urdf, srdf = files[name]
     return ExampleRobot(name, root / "robots" / urdf, root / "robots" / srdf if srdf else None,

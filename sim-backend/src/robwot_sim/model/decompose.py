@@ -64,6 +64,8 @@ COVER_TOLERANCE = 1e-4
 #: How far (metres) a part's slimmed hull may lie outside the points it covers (see ``slim``).
 SLIM_MARGIN = 1e-4
 MANIFEST = "parts.json"
+#: mesh formats whose convex meshes become one part too, so PyBullet never reads them for collision
+WHOLE_AS_PART = (".dae",)
 #: bounds of a manifest read from a cache (a twin folder's may be hostile); ours hold a few names
 MAX_MANIFEST_BYTES = 1024 * 1024
 MAX_PARTS = 4096
@@ -77,10 +79,12 @@ class Decomposition:
     parts: tuple[Path, ...]
 
 
-def cache_key(mesh_bytes: bytes, scale: tuple[float, float, float]) -> str:
-    """Digest of what determines the parts: mesh content, scale, the library, its version and parameters."""
+def cache_key(mesh_bytes: bytes, scale: tuple[float, float, float], whole_as_part: bool = False) -> str:
+    """Digest of what determines the parts: mesh content, scale, the library, its version and parameters
+    (and whether a convex mesh becomes one part: ``decompose``)."""
     h = hashlib.sha256(mesh_bytes)
     h.update(json.dumps({"scale": scale, "coacd": [version("coacd"), COACD_PARAMS],
+                         **({"whole_as_part": True} if whole_as_part else {}),
                          "remesh": [REMESH_VOXEL, REMESH_RESOLUTION],
                          "cover": [COVER_TOLERANCE, 2], "slim": SLIM_MARGIN}, sort_keys=True).encode())
     return h.hexdigest()[:24]
@@ -96,19 +100,44 @@ def is_convex(vertices: FloatArray, faces: IndexArray) -> bool:
     except QhullError:
         return True  # flat or degenerate: PyBullet's hull of it is the shape itself
     probes = np.vstack([vertices, vertices[faces].mean(axis=1)])
-    # hull.equations: n·x + d <= 0 inside; the distance to the surface is -max over facets
-    depth = -np.max(probes @ hull.equations[:, :3].T + hull.equations[:, 3], axis=1)
-    return bool(np.all(depth <= CONVEX_TOLERANCE * size))
+    # hull.equations: n·x + d <= 0 inside; the distance to the surface is -max over facets. In blocks of
+    # probes (a probes x facets matrix of a detailed mesh is gigabytes); a concave mesh stops at its first
+    # deep probe.
+    for block in _blocks(len(probes), len(hull.equations)):
+        depth = -np.max(probes[block] @ hull.equations[:, :3].T + hull.equations[:, 3], axis=1)
+        if np.any(depth > CONVEX_TOLERANCE * size):
+            return False
+    return True
 
 
-def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path) -> Decomposition:
-    """The cached decomposition of a mesh (``vertices`` [n, 3] already scaled, ``faces`` [m, 3])."""
+def _blocks(rows: int, columns: int, cells: int = 1 << 20) -> list[slice]:
+    """Row slices of a rows x columns computation holding at most about ``cells`` values at a time."""
+    step = max(1, cells // max(1, columns))
+    return [slice(i, i + step) for i in range(0, rows, step)]
+
+
+def _outside(points: FloatArray, equations: FloatArray) -> FloatArray:
+    """Signed distance of each point outside a convex hull (its facet planes ``equations``): the largest
+    plane distance, <= 0 inside. Computed in blocks of points."""
+    out = np.empty(len(points))
+    for block in _blocks(len(points), len(equations)):
+        out[block] = np.max(points[block] @ equations[:, :3].T + equations[:, 3], axis=1)
+    return out
+
+
+def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path,
+              whole_as_part: bool = False) -> Decomposition:
+    """The cached decomposition of a mesh (``vertices`` [n, 3] already scaled, ``faces`` [m, 3]). A convex
+    mesh has no parts (PyBullet's hull of the file is exact), unless ``whole_as_part``: then its hull is
+    the one part, so PyBullet never reads the file for collision (a DAE: PyBullet reads only its
+    ``<triangles>``; ours reads polylists and polygons too)."""
     folder = cache_dir / key
     cached = _read_manifest(folder)
     if cached is not None:
         return cached
     if is_convex(vertices, faces):
-        _write(folder, [])
+        _write(folder, [_compact(vertices, ConvexHull(vertices, qhull_options="QJ").simplices)]
+               if whole_as_part else [])
     else:
         _write(folder, cover(surface_points(vertices, faces), convex_parts(vertices, faces)))
     written = _read_manifest(folder)
@@ -162,16 +191,25 @@ def cover(vertices: FloatArray, parts: list[FloatArray]) -> list[tuple[FloatArra
     """
     pts = [p for p in parts if len(p) >= 4]
     size = float(np.ptp(vertices, axis=0).max())
+    tolerance = COVER_TOLERANCE * size
     for _ in range(4):
         eqs = [ConvexHull(p, qhull_options="QJ").equations for p in pts]
-        # signed distance outside each hull (max over its facet planes), points x parts
-        outside = np.stack([np.max(vertices @ e[:, :3].T + e[:, 3], axis=1) for e in eqs], axis=1)
-        best = np.argmin(outside, axis=1)
-        lost = outside[np.arange(len(vertices)), best] > COVER_TOLERANCE * size
-        if not lost.any():
+        # a point is covered by a part it lies in (within the tolerance); only points in a part's bounding
+        # ball, grown by the tolerance, can be, so only those are measured against its facet planes
+        covered = np.zeros(len(vertices), dtype=bool)
+        for p, e in zip(pts, eqs, strict=True):
+            centre = p.mean(axis=0)
+            radius = float(np.max(np.linalg.norm(p - centre, axis=1)))
+            in_ball = np.linalg.norm(vertices - centre, axis=1) <= radius + tolerance
+            near = np.flatnonzero(~covered & in_ball)
+            covered[near[_outside(vertices[near], e) <= tolerance]] = True
+        lost = np.flatnonzero(~covered)
+        if not len(lost):
             break
-        for k in np.unique(best[lost]):
-            pts[k] = np.vstack([pts[k], vertices[lost & (best == k)]])
+        # each lost point joins the part it lies least outside of
+        best = np.argmin(np.stack([_outside(vertices[lost], e) for e in eqs], axis=1), axis=1)
+        for k in np.unique(best):
+            pts[k] = np.vstack([pts[k], vertices[lost[best == k]]])
     return [slim(p, SLIM_MARGIN) for p in pts]
 
 
@@ -316,7 +354,7 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
     (MeshError): only ``robwot generate`` decomposes. Returns the cache folders used."""
     found: list[tuple[ET.Element, ET.Element, str]] = []
     known: dict[str, Decomposition] = {}
-    todo: dict[str, tuple[FloatArray, IndexArray]] = {}
+    todo: dict[str, tuple[FloatArray, IndexArray, bool]] = {}
     for link in root.iter("link"):
         for col in list(link.findall("collision")):
             mesh = col.find("geometry/mesh")
@@ -327,7 +365,8 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
             read = read_mesh(path)
             if read is None:
                 continue
-            key = cache_key(path.read_bytes(), scale)
+            whole = path.suffix.lower() in WHOLE_AS_PART
+            key = cache_key(path.read_bytes(), scale, whole)
             found.append((link, col, key))
             if key in known or key in todo:
                 continue
@@ -335,7 +374,7 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
             if cached is not None:
                 known[key] = cached
             elif allow_decompose:
-                todo[key] = (read[0] * np.asarray(scale), read[1])
+                todo[key] = (read[0] * np.asarray(scale), read[1], whole)
             elif is_convex(read[0] * np.asarray(scale), read[1]):
                 known[key] = Decomposition(convex=True, parts=())  # kept whole: nothing to decompose
             else:
@@ -365,15 +404,15 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
     return tuple(dict.fromkeys(cache_dir / key for _, _, key in found if (cache_dir / key).is_dir()))
 
 
-def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray]], cache_dir: Path) -> None:
-    """Decomposes meshes (key -> scaled vertices, triangles) into the cache: convex ones at once, concave
-    ones on one thread per core, largest first. A robot's first load decomposes all its meshes; CoACD
-    releases the GIL, so the threads run side by side, and its parts do not depend on what runs beside it
-    (seeded)."""
+def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray, bool]], cache_dir: Path) -> None:
+    """Decomposes meshes (key -> scaled vertices, triangles, whole_as_part) into the cache: convex ones at
+    once, concave ones on one thread per core, largest first. A robot's first load decomposes all its
+    meshes; CoACD releases the GIL, so the threads run side by side, and its parts do not depend on what
+    runs beside it (seeded)."""
     concave = []
-    for key, (vertices, faces) in meshes.items():
+    for key, (vertices, faces, whole) in meshes.items():
         if is_convex(vertices, faces):
-            _write(cache_dir / key, [])
+            decompose(vertices, faces, key, cache_dir, whole)
         else:
             concave.append((len(faces), key, vertices, faces))
     concave.sort(key=lambda job: -job[0])
