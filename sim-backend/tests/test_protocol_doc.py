@@ -19,7 +19,7 @@ from robwot_sim import errors
 ROOT = Path(__file__).resolve().parents[1]
 DOC = (ROOT / "PROTOCOL.md").read_text()
 EXAMPLE = ROOT / "examples" / "plain_client.py"
-NOTIFICATIONS = {"robot.state", "robot.collision", "workspace.progress"}
+NOTIFICATIONS = {"robot.state", "robot.collision", "workspace.progress", "robot.loadProgress"}
 
 
 @pytest.fixture(scope="module")

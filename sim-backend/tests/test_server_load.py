@@ -39,6 +39,15 @@ def test_a_first_load_decomposing_a_mesh_does_not_hold_the_loop(tmp_path: Path,
         model = client.wait(load, timeout=300)
         assert model["id"] == "u"
         assert any((tmp_path / "cache").rglob("*.obj"))  # it decomposed (a fresh cache), not a cached load
+        # the caller heard of it: the start, then the mesh with its parts and an estimate of the time left
+        progress = [p for m, p in client.notifications if m == "robot.loadProgress"]
+        assert [(p["done"], p["total"]) for p in progress] == [(0, 1), (1, 1)]
+        assert progress[1]["mesh"] == "u.obj" and progress[1]["parts"] >= 2 and progress[1]["eta"] == 0
+        assert 0 < progress[1]["seconds"] <= progress[1]["elapsed"]
+        # a second load of the same robot finds its parts cached: nothing to report
+        client.notifications.clear()
+        client.wait(client.send("robot.load", {"urdf": str(tmp_path / "u_arm.urdf"), "id": "u2"}), timeout=60)
+        assert not [m for m, _ in client.notifications if m == "robot.loadProgress"]
         client.close()
     finally:
         assert proc.stop() == 0

@@ -3,10 +3,10 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription } from "@robwot/core";
-import { BackendSupervisor, deadlineFromEnv, launchConnector, urlConnector, type CollisionReport, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
+import { BackendSupervisor, deadlineFromEnv, launchConnector, urlConnector, type CollisionReport, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotLoadProgressNotification, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
-export type { RobotModel, WorkspaceSummary, WorldList };
+export type { RobotLoadProgressNotification, RobotModel, WorkspaceSummary, WorldList };
 export interface Progress {
   stage: string;
   done: number;
@@ -16,7 +16,8 @@ export interface Progress {
 export interface Backend {
   /** `pybullet_data.getDataPath()` of the backend (for example robots). */
   readonly pybulletData: string;
-  loadRobot(params: RobotLoadParams): Promise<RobotModel>;
+  /** Loads a robot; a first load reports each collision mesh it decomposes to `onMesh`. */
+  loadRobot(params: RobotLoadParams, onMesh?: (mesh: RobotLoadProgressNotification) => void): Promise<RobotModel>;
   removeRobot(id: string): Promise<void>;
   loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void>;
   listWorld(): Promise<WorldList>;
@@ -79,8 +80,8 @@ class SimBackend implements Backend {
     }
   }
 
-  loadRobot(params: RobotLoadParams): Promise<RobotModel> {
-    return this.guard(this.client.loadRobot(params));
+  loadRobot(params: RobotLoadParams, onMesh?: (mesh: RobotLoadProgressNotification) => void): Promise<RobotModel> {
+    return this.guard(this.client.loadRobot(params, onMesh));
   }
   async removeRobot(id: string): Promise<void> {
     await this.guard(this.client.removeRobot(id));

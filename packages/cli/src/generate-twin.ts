@@ -6,12 +6,12 @@
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { buildThingModel, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
-import type { Backend, RobotModel, WorkspaceSummary, WorldList } from "./backend.js";
+import type { Backend, RobotLoadProgressNotification, RobotModel, WorkspaceSummary, WorldList } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError, describeError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
-import { type ProgressSink, whileSlow } from "./progress.js";
+import { formatDuration, type ProgressSink, whileSlow } from "./progress.js";
 import { prepareRosInput, type RosInput } from "./ros-input.js";
 import { sceneDocument } from "./scene-doc.js";
 import { StagedDir } from "./twin-dir.js";
@@ -133,14 +133,20 @@ async function refuseDegenerate(summary: WorkspaceSummary, dir: string, backend:
  * when one of them is the robot being generated, that one is the twin (reloaded with `--ee` if given, at
  * the scene's pose); every other robot is an obstacle.
  */
-async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: string, packageRoots: Record<string, string>): Promise<RobotModel> {
+async function loadRobotInScene(
+  opts: GenerateOptions,
+  backend: Backend,
+  urdf: string,
+  packageRoots: Record<string, string>,
+  onMesh: (mesh: RobotLoadProgressNotification) => void,
+): Promise<RobotModel> {
   const srdf = { ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}), clearance: opts.clearance };
   const base = opts.base ? { basePosition: opts.base.position, baseOrientation: opts.base.orientation } : {};
   const own = { urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf, ...base };
-  if (!opts.scene) return backend.loadRobot(own);
+  if (!opts.scene) return backend.loadRobot(own, onMesh);
   await backend.loadScene({ path: opts.scene, packageRoots });
   const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf));
-  if (!placed) return backend.loadRobot(own);
+  if (!placed) return backend.loadRobot(own, onMesh);
   if (opts.base) {
     // two placements of one robot: neither silently wins
     throw new CliError(
@@ -158,15 +164,33 @@ async function loadRobotInScene(opts: GenerateOptions, backend: Backend, urdf: s
     eeLink: opts.ee ?? placed.eeLink,
     packageRoots,
     ...srdf,
-  });
+  }, onMesh);
 }
 
-/** A load that takes longer than this is (nearly always) the first decomposition of a robot's meshes. */
+/** A load that takes longer than this without a mesh reported is (nearly always) the first decomposition
+ * of the meshes of a scene's other robots, which report no progress. */
 const SLOW_LOAD_MS = 10_000;
-const SLOW_LOAD =
-  "still loading: the first time a robot is used, its concave collision meshes are split into convex parts " +
-  "(minutes for a 7-joint arm on 2 cores; cached in $ROBWOT_COLLISION_CACHE, else " +
-  "$XDG_CACHE_HOME/robwot/collision or ~/.cache/robwot/collision, and in the twin folder)";
+const CACHED_WHERE =
+  "cached in $ROBWOT_COLLISION_CACHE, else $XDG_CACHE_HOME/robwot/collision or ~/.cache/robwot/collision, and in the twin folder";
+const SLOW_LOAD = `still loading: the first time a robot is used, its concave collision meshes are split into convex parts (${CACHED_WHERE})`;
+
+/** Progress of a robot's first load: what happens, then one step per collision mesh with an ETA. */
+function meshProgress(progress: ProgressSink): { onMesh: (m: RobotLoadProgressNotification) => void; seen: () => boolean } {
+  let seen = false;
+  return {
+    seen: () => seen,
+    onMesh(m) {
+      seen = true;
+      if (m.done === 0) {
+        progress.info(`first use of this robot: its ${m.total} new collision mesh(es) are split into convex parts where concave (${CACHED_WHERE})`);
+        progress.stage("decompose");
+        return;
+      }
+      const what = m.parts === 0 ? "convex, kept" : `${m.parts} convex parts`;
+      progress.step("decompose", m.done, m.total, `${m.mesh} (${what}, ${formatDuration(m.seconds)})`, m.eta ?? undefined);
+    },
+  };
+}
 
 /**
  * Runs the whole pipeline against an open backend whose world is empty. `staged` must have been created
@@ -212,7 +236,10 @@ async function generateFrom(
   input: RosInput,
 ): Promise<GenerateResult> {
   const { source, urdf, packageRoots } = input;
-  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots), SLOW_LOAD_MS, () => progress.info(SLOW_LOAD));
+  const meshes = meshProgress(progress);
+  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots, meshes.onMesh), SLOW_LOAD_MS, () => {
+    if (!meshes.seen()) progress.info(SLOW_LOAD);
+  });
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
 

@@ -28,6 +28,22 @@ describe("progress", () => {
     expect(text()).not.toContain("\r");
   });
 
+  it("prints one line per step with the caller's ETA when not a TTY, redraws it on a TTY", () => {
+    const plain = sink(false);
+    plain.p.step("decompose", 1, 3, "link1.stl (5 convex parts, 2.0s)", 12);
+    plain.p.step("decompose", 2, 3, "link2.stl (convex, kept, 0.1s)");
+    plain.p.end();
+    expect(plain.text().trim().split("\n")).toEqual([
+      "robwot: decompose...",
+      "robwot: decompose 1/3, ETA 12s: link1.stl (5 convex parts, 2.0s)",
+      "robwot: decompose 2/3: link2.stl (convex, kept, 0.1s)",
+      "robwot: decompose done in 0.0s",
+    ]);
+    const tty = sink(true);
+    tty.p.step("decompose", 1, 3, "link1.stl (5 convex parts, 2.0s)", 12);
+    expect(tty.text()).toMatch(/\r\x1b\[2Kdecompose 1\/3, ETA 12s: link1\.stl \(5 convex parts, 2\.0s\)$/);
+  });
+
   it("redraws one bar with percentage and ETA on a TTY", () => {
     const { p, advance, text } = sink(true);
     p.stage("collide");

@@ -10,6 +10,10 @@ export interface ProgressSink {
   update(name: string, done: number, total: number): void;
   /** Free text (kept on its own line). */
   info(text: string): void;
+  /** One step of a stage whose steps are uneven (a mesh decomposed): `text` says what was done, `eta` is
+   * the caller's estimate of the time left (s; undefined when it has none). A redrawn line on a
+   * terminal, one plain line per step otherwise. */
+  step(name: string, done: number, total: number, text: string, eta?: number): void;
   /** Clears the bar; call once at the end (`ok` false: the current stage did not finish). */
   end(ok?: boolean): void;
 }
@@ -38,7 +42,7 @@ export function createProgress(opts: ProgressOptions = {}): ProgressSink {
   const now = opts.now ?? (() => performance.now() / 1000);
   const tty = opts.tty ?? Boolean(stream.isTTY);
   if (opts.silent) {
-    return { stage() {}, update() {}, info() {}, end() {} };
+    return { stage() {}, update() {}, info() {}, step() {}, end() {} };
   }
   let current: string | null = null;
   let stageStart = now();
@@ -97,6 +101,16 @@ export function createProgress(opts: ProgressOptions = {}): ProgressSink {
     info(text) {
       clearBar();
       stream.write(`robwot: ${text}\n`);
+    },
+    step(name, done, total, text, eta) {
+      if (name !== current) this.stage(name);
+      const left = eta === undefined ? "" : `, ETA ${formatDuration(eta)}`;
+      if (tty) {
+        stream.write(`\r\x1b[2K${name} ${done}/${total}${left}: ${text}`);
+        barShown = true;
+      } else {
+        stream.write(`robwot: ${name} ${done}/${total}${left}: ${text}\n`);
+      }
     },
     end(ok = true) {
       if (ok) finishStage();

@@ -633,6 +633,36 @@ export interface WorkspaceProgressNotification {
   done: number;
   total: number;
 }
+export interface RobotLoadProgressNotification {
+  /**
+   * the mesh's file name (empty when `done` is 0)
+   */
+  mesh: string;
+  /**
+   * new meshes done so far, this one included (0: the decomposition begins)
+   */
+  done: number;
+  /**
+   * new meshes of this load
+   */
+  total: number;
+  /**
+   * this mesh's time (s)
+   */
+  seconds: number;
+  /**
+   * its convex parts (0: convex, kept whole)
+   */
+  parts: number;
+  /**
+   * time since the load's decomposition began (s)
+   */
+  elapsed: number;
+  /**
+   * estimated time left (s): the triangles still to decompose at the rate of those done; null until a concave mesh is done
+   */
+  eta: number | null;
+}
 /**
  * Params of `ping`.
  */
@@ -924,6 +954,7 @@ export interface Notifications {
   "robot.state": RobotStateNotification;
   "robot.collision": RobotCollisionNotification;
   "workspace.progress": WorkspaceProgressNotification;
+  "robot.loadProgress": RobotLoadProgressNotification;
 }
 
 export type MethodName = keyof Methods;

@@ -7,7 +7,7 @@
  * deadlines and restarts (the servient's) — so method names live here and nowhere else.
  */
 import { RpcConnection, type CallOptions, type RpcConnectionOptions } from "./rpc-connection.js";
-import type { MethodName, Methods, Notifications, WorkspaceProgressNotification } from "@robwot/core/backend-contract";
+import type { MethodName, Methods, Notifications, RobotLoadProgressNotification, WorkspaceProgressNotification } from "@robwot/core/backend-contract";
 
 /** What the client needs from a transport: call a method, listen to notifications. */
 export interface RpcCaller {
@@ -85,8 +85,14 @@ export class SimClient {
   }
 
   // ---- robots ----
-  loadRobot(params: Params<"robot.load">): Result<"robot.load"> {
-    return this.request("robot.load", params);
+  /** Loads a robot; a first load's new collision meshes are reported to `onMesh` as each is decomposed. */
+  async loadRobot(params: Params<"robot.load">, onMesh?: (mesh: RobotLoadProgressNotification) => void): Result<"robot.load"> {
+    const off = onMesh ? this.on("robot.loadProgress", onMesh) : undefined;
+    try {
+      return await this.request("robot.load", params);
+    } finally {
+      off?.();
+    }
   }
   removeRobot(robot: string): Result<"robot.remove"> {
     return this.request("robot.remove", { robot });

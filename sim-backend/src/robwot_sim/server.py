@@ -8,7 +8,8 @@ processes, writing exports) runs in threads of its own (`off_world`). The loop t
 a stop (answered from the loop's record of robots and motions) or another robot's motion step never
 waits for a plan, an IK search, a decomposition or a mesh load.
 
-`robot.state` / `robot.collision` go to every connected client, `workspace.progress` to the caller.
+`robot.state` / `robot.collision` go to every connected client, `workspace.progress` and
+`robot.loadProgress` to the caller.
 Each client has a bounded outbox (`Peer`): replies are never dropped, a robot's `robot.state` replaces
 its older one not yet sent, a client with too much unsent is closed (1008, with the reason), and no
 more of its frames are read while its unsent backlog is high or it has `MAX_IN_FLIGHT` requests

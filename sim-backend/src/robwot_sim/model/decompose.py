@@ -22,6 +22,8 @@ import json
 import os
 import shutil
 import tempfile
+import threading
+import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -69,6 +71,25 @@ WHOLE_AS_PART = (".dae",)
 #: bounds of a manifest read from a cache (a twin folder's may be hostile); ours hold a few names
 MAX_MANIFEST_BYTES = 1024 * 1024
 MAX_PARTS = 4096
+
+
+@dataclass(frozen=True)
+class MeshDone:
+    """A mesh of a robot's first load decomposed: its file name, how many of the load's new meshes are done
+    (convex ones count at once), the mesh's own time and parts, the load's elapsed time and an estimate
+    of the time left (seconds; None until a concave mesh is done: from the triangles still to do at the
+    rate of those done). The first report, before any work, has ``done`` 0 and no mesh name."""
+
+    mesh: str
+    done: int
+    total: int
+    seconds: float
+    parts: int
+    elapsed: float
+    eta: float | None
+
+
+OnMesh = Callable[[MeshDone], None]
 
 
 @dataclass(frozen=True)
@@ -345,16 +366,17 @@ def collision_cache(urdf_dir: Path) -> Path:
 
 
 def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *,
-                     allow_decompose: bool = True) -> tuple[Path, ...]:
+                     allow_decompose: bool = True, on_mesh: OnMesh | None = None) -> tuple[Path, ...]:
     """Replaces, in a URDF tree whose mesh filenames are absolute, every ``<collision>`` holding a concave
     mesh by one ``<collision>`` per convex part (same origin and name). ``read_mesh`` gives a mesh's
     vertices and triangles, or None for a format that is kept as it is. Meshes not yet in the cache are
     decomposed first, in parallel (``decompose_all``); with ``allow_decompose`` False (serving a twin
     folder, whose parts generate wrote) a concave mesh without cached parts is refused instead
-    (MeshError): only ``robwot generate`` decomposes. Returns the cache folders used."""
+    (MeshError): only ``robwot generate`` decomposes. ``on_mesh`` hears of each new mesh done. Returns the
+    cache folders used."""
     found: list[tuple[ET.Element, ET.Element, str]] = []
     known: dict[str, Decomposition] = {}
-    todo: dict[str, tuple[FloatArray, IndexArray, bool]] = {}
+    todo: dict[str, tuple[FloatArray, IndexArray, bool, str]] = {}
     for link in root.iter("link"):
         for col in list(link.findall("collision")):
             mesh = col.find("geometry/mesh")
@@ -374,7 +396,7 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
             if cached is not None:
                 known[key] = cached
             elif allow_decompose:
-                todo[key] = (read[0] * np.asarray(scale), read[1], whole)
+                todo[key] = (read[0] * np.asarray(scale), read[1], whole, path.name)
             elif is_convex(read[0] * np.asarray(scale), read[1]):
                 known[key] = Decomposition(convex=True, parts=())  # kept whole: nothing to decompose
             else:
@@ -382,7 +404,7 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
                     f"collision mesh {path} is concave and has no convex parts in {cache_dir / key}: this "
                     "load may not decompose meshes (robwot serve never does): re-run robwot generate",
                     file=str(path), reason="no cached convex parts", cache=str(cache_dir / key))
-    decompose_all(todo, cache_dir)
+    decompose_all(todo, cache_dir, on_mesh)
     for link, col, key in found:
         parts = known.get(key) or _read_manifest(cache_dir / key)
         if parts is None:
@@ -404,21 +426,39 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
     return tuple(dict.fromkeys(cache_dir / key for _, _, key in found if (cache_dir / key).is_dir()))
 
 
-def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray, bool]], cache_dir: Path) -> None:
-    """Decomposes meshes (key -> scaled vertices, triangles, whole_as_part) into the cache: convex ones at
-    once, concave ones on one thread per core, largest first. A robot's first load decomposes all its
-    meshes; CoACD releases the GIL, so the threads run side by side, and its parts do not depend on what
-    runs beside it (seeded)."""
-    concave = []
-    for key, (vertices, faces, whole) in meshes.items():
-        if is_convex(vertices, faces):
-            decompose(vertices, faces, key, cache_dir, whole)
-        else:
-            concave.append((len(faces), key, vertices, faces))
-    concave.sort(key=lambda job: -job[0])
+def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray, bool, str]], cache_dir: Path,
+                  on_mesh: OnMesh | None = None) -> None:
+    """Decomposes meshes (key -> scaled vertices, triangles, whole_as_part, file name) into the cache:
+    convex ones at once, concave ones on one thread per core, largest first, each reported to ``on_mesh``
+    (from the thread that did it). A robot's first load decomposes all its meshes; CoACD releases the GIL,
+    so the threads run side by side, and its parts do not depend on what runs beside it (seeded)."""
+    start = time.perf_counter()
+    convex = {key for key, (v, f, _, _) in meshes.items() if is_convex(v, f)}
+    left = sum(len(f) for key, (_, f, _, _) in meshes.items() if key not in convex)
+    lock = threading.Lock()
+    done = {"meshes": 0, "faces": 0}
+
+    def one(key: str) -> None:
+        vertices, faces, whole, name = meshes[key]
+        t = time.perf_counter()
+        parts = decompose(vertices, faces, key, cache_dir, whole)
+        if on_mesh is None:
+            return
+        with lock:
+            now = time.perf_counter()
+            done["meshes"] += 1
+            done["faces"] += 0 if key in convex else len(faces)
+            eta = (now - start) / done["faces"] * (left - done["faces"]) if done["faces"] else None
+            on_mesh(MeshDone(name, done["meshes"], len(meshes), now - t, len(parts.parts), now - start, eta))
+
+    if on_mesh is not None and meshes:
+        on_mesh(MeshDone("", 0, len(meshes), 0.0, 0, 0.0, None))
+    for key in convex:
+        one(key)
+    concave = sorted((key for key in meshes if key not in convex), key=lambda k: -len(meshes[k][1]))
     with ThreadPoolExecutor(max(1, min(len(concave), os.cpu_count() or 1))) as pool:
-        for done in [pool.submit(decompose, v, f, key, cache_dir) for _, key, v, f in concave]:
-            done.result()
+        for job in [pool.submit(one, key) for key in concave]:
+            job.result()
 
 
 def _scale(text: str | None) -> tuple[float, float, float]:

@@ -21,7 +21,7 @@ import pybullet_data
 
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UnknownPackage, UrdfError
 from robwot_sim.model import xmlsafe
-from robwot_sim.model.decompose import FloatArray, IndexArray, collision_cache, split_collisions
+from robwot_sim.model.decompose import FloatArray, IndexArray, OnMesh, collision_cache, split_collisions
 from robwot_sim.model.meshcheck import check_mesh, read_mesh, snippet
 from robwot_sim.model.ros_packages import enclosing_package, find_on_ros_package_path
 
@@ -209,13 +209,13 @@ class PreparedUrdf:
 
 def prepare_urdf(
     path: str | Path, package_roots: Mapping[str, str | Path] | None = None, doc: UrdfDoc | None = None,
-    *, decompose: bool = True,
+    *, decompose: bool = True, on_mesh: OnMesh | None = None,
 ) -> PreparedUrdf:
     """Resolve every mesh (visual and collision) and write a temp URDF PyBullet can load as is.
 
     Visual elements are dropped from the temp copy (DIRECT mode never renders them). With ``decompose``
     False a concave collision mesh must already have its convex parts in the cache (a twin folder's
-    ``collision/``), else MeshError: nothing is decomposed.
+    ``collision/``), else MeshError: nothing is decomposed. ``on_mesh`` hears of each mesh decomposed.
     """
     doc = doc or parse_urdf(path)
     udir = doc.file.parent
@@ -246,7 +246,8 @@ def prepare_urdf(
     for el in root.iter("mesh"):
         el.set("filename", str(meshes[el.get("filename", "")]))
     # PyBullet would turn each concave collision mesh into one convex hull: split it into convex parts
-    parts = split_collisions(root, collision_cache(udir), _triangles, allow_decompose=decompose)
+    parts = split_collisions(root, collision_cache(udir), _triangles, allow_decompose=decompose,
+                             on_mesh=on_mesh)
     return PreparedUrdf(doc, _write_for_bullet(root, Path(tmpdir)), meshes, tmpdir, parts)
 
 

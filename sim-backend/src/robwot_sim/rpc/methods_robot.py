@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from robwot_sim.errors import Busy, NameTaken, UnknownRobot
+from robwot_sim.model.decompose import MeshDone
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
@@ -33,9 +34,16 @@ def register(d: Dispatcher, s: Services) -> None:
             raise NameTaken(p["id"])
         # off the world's thread: a robot's first load decomposes its concave meshes (minutes); the world
         # then only creates the body
+        progress = s.threadsafe(call.notify)
+
+        def mesh_done(m: MeshDone) -> None:
+            progress("robot.loadProgress", {"mesh": m.mesh, "done": m.done, "total": m.total,
+                                            "seconds": m.seconds, "parts": m.parts, "elapsed": m.elapsed,
+                                            "eta": m.eta})
+
         files = await s.off_world(lambda: World.read_robot(
             p["urdf"], robot_id=p["id"], ee_link=p["eeLink"], package_roots=p["packageRoots"],
-            srdf=p["srdf"], decompose=bool(p["decompose"])), background=True)
+            srdf=p["srdf"], decompose=bool(p["decompose"]), on_mesh=mesh_done), background=True)
         try:
             model = await s.change_world(lambda: s.world.add_robot(
                 files, robot_id=p["id"], base_position=base_position, base_orientation=base_orientation,

@@ -10,6 +10,7 @@ import numpy as np
 import pybullet as pb
 
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
+from robwot_sim.model.decompose import OnMesh
 from robwot_sim.model.joints import UrdfModel, parse_model
 from robwot_sim.model.srdf import disabled_pairs
 from robwot_sim.model.urdf import PreparedUrdf, UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
@@ -98,6 +99,7 @@ def read_robot_files(
     base_dir: Path | None = None,
     srdf: str | Path | None = None,
     decompose: bool = True,
+    on_mesh: OnMesh | None = None,
 ) -> RobotFiles:
     """Check the URDF (and SRDF) completely and prepare it for PyBullet; touches no PyBullet client.
 
@@ -113,7 +115,7 @@ def read_robot_files(
         raise UnknownLink(ee, urdf_model.links)
     srdf_path = Path(srdf).expanduser().resolve() if srdf is not None else None
     srdf_pairs = disabled_pairs(srdf_path, urdf_model.links) if srdf_path is not None else frozenset()
-    prepared = prepare_urdf(path, package_roots, doc, decompose=decompose)
+    prepared = prepare_urdf(path, package_roots, doc, decompose=decompose, on_mesh=on_mesh)
     return RobotFiles(path, doc, urdf_model, ee, srdf_path, frozenset(srdf_pairs), prepared,
                       dict(package_roots))
 

@@ -16,6 +16,7 @@ import numpy.typing as npt
 
 from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams, NameTaken, UnknownRobot
+from robwot_sim.model.decompose import OnMesh
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.fastworld import FastWorld
@@ -120,10 +121,11 @@ class WorldBase:
         srdf: str | Path | None = None,
         _base_dir: Path | None = None,
         decompose: bool = True,
+        on_mesh: OnMesh | None = None,
     ) -> RobotFiles:
         """The part of a load that needs no world (any thread): params checked, URDF/SRDF read, meshes
         parsed, concave ones split into convex parts (minutes for a robot's first load). ``add_robot``
-        then creates the body."""
+        then creates the body. ``on_mesh`` hears of each mesh decomposed."""
         if robot_id is not None:
             v.name("id", robot_id)
         if ee_link is not None:
@@ -133,7 +135,7 @@ class WorldBase:
         roots = v.string_map("packageRoots", package_roots)
         if srdf is not None and (not isinstance(srdf, (str, Path)) or not str(srdf)):
             raise InvalidParams("srdf must be a file path", param="srdf", expected="string", got=srdf)
-        return read_robot_files(urdf, ee_link, roots, _base_dir, srdf, decompose)
+        return read_robot_files(urdf, ee_link, roots, _base_dir, srdf, decompose, on_mesh)
 
     @_owned
     def load_robot(
