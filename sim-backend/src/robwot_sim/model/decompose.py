@@ -68,6 +68,11 @@ SLIM_MARGIN = 1e-4
 MANIFEST = "parts.json"
 #: mesh formats whose convex meshes become one part too, so PyBullet never reads them for collision
 WHOLE_AS_PART = (".dae",)
+#: The convex parts of the bundled robots' meshes, shipped with the package so that their first use does
+#: not decompose (``npm run ship:parts`` writes them). A folder is named by its cache key, which digests
+#: the mesh's content and every parameter: a changed mesh or parameter finds nothing here and is
+#: decomposed as any other; ``tests/shipped-parts.test.ts`` fails when a bundled robot's parts are stale.
+SHIPPED_PARTS = Path(__file__).resolve().parent.parent / "data" / COLLISION_DIR
 #: bounds of a manifest read from a cache (a twin folder's may be hostile); ours hold a few names
 MAX_MANIFEST_BYTES = 1024 * 1024
 MAX_PARTS = 4096
@@ -376,6 +381,7 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
     cache folders used."""
     found: list[tuple[ET.Element, ET.Element, str]] = []
     known: dict[str, Decomposition] = {}
+    folders: dict[str, Path] = {}  # key -> the cache folder its parts come from
     todo: dict[str, tuple[FloatArray, IndexArray, bool, str]] = {}
     for link in root.iter("link"):
         for col in list(link.findall("collision")):
@@ -392,9 +398,9 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
             found.append((link, col, key))
             if key in known or key in todo:
                 continue
-            cached = _read_manifest(cache_dir / key)
+            cached = _cached(key, cache_dir)
             if cached is not None:
-                known[key] = cached
+                known[key], folders[key] = cached
             elif allow_decompose:
                 todo[key] = (read[0] * np.asarray(scale), read[1], whole, path.name)
             elif is_convex(read[0] * np.asarray(scale), read[1]):
@@ -406,7 +412,8 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
                     file=str(path), reason="no cached convex parts", cache=str(cache_dir / key))
     decompose_all(todo, cache_dir, on_mesh)
     for link, col, key in found:
-        parts = known.get(key) or _read_manifest(cache_dir / key)
+        folders.setdefault(key, cache_dir / key)
+        parts = known.get(key) or _read_manifest(folders[key])
         if parts is None:
             raise OSError(f"convex decomposition cache {cache_dir / key} could not be read back")
         if parts.convex:
@@ -423,7 +430,16 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
             geometry = ET.SubElement(piece, "geometry")
             ET.SubElement(geometry, "mesh", {"filename": str(part)})
             link.insert(at + i, piece)
-    return tuple(dict.fromkeys(cache_dir / key for _, _, key in found if (cache_dir / key).is_dir()))
+    return tuple(dict.fromkeys(folders[key] for _, _, key in found if folders[key].is_dir()))
+
+
+def _cached(key: str, cache_dir: Path) -> tuple[Decomposition, Path] | None:
+    """The parts of a key and their folder: from the cache, else from the shipped parts."""
+    for folder in (cache_dir / key, SHIPPED_PARTS / key):
+        cached = _read_manifest(folder)
+        if cached is not None:
+            return cached, folder
+    return None
 
 
 def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray, bool, str]], cache_dir: Path,
