@@ -188,7 +188,8 @@ def main() -> None:
     print(head)
     print("-" * len(head))
     rows = [(name, False) for name in args.robots.split(",")]
-    rows += [(name, True) for name in args.robots.split(",") if name in ("ur5", "panda")]  # ship an SRDF
+    rows += [(name, True) for name in args.robots.split(",")  # those published with an SRDF
+             if name != "kuka" and example_robot(name).srdf is not None]
     for name, with_srdf in rows:
         r = measure(name, args.samples, args.seed, with_srdf)
         print(f"{r['robot']:<7}{r['srdf']:>5}{r['ref_free']:>10}{r['ours_free']:>11}{r['false_accept']:>14}"

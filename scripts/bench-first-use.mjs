@@ -1,0 +1,108 @@
+#!/usr/bin/env node
+// First use of robots the project never tuned for: `robwot generate` from an empty collision cache (every
+// concave collision mesh decomposed), then again with the cache warm, then the fidelity of the labels
+// against the exact-mesh reference with the parts just made. Every generation is a full CLI process,
+// backend start included; the robots come from example-robot-data (installed with the dev extras).
+//
+//   npm run bench:first-use                                # Unitree Z1, xArm7, Kinova Jaco 2 (DAE meshes)
+//   npm run bench:first-use -- --robots z1 --runs 3 --fidelity-samples 0
+//   options: --robots a,b (reference.py names), --runs N (cold runs per robot; median), --samples N,
+//            --fidelity-samples N (0: skip)
+import { spawnSync } from "node:child_process";
+import { existsSync, mkdtempSync, rmSync } from "node:fs";
+import { loadavg, tmpdir } from "node:os";
+import { dirname, join } from "node:path";
+import { fileURLToPath } from "node:url";
+import { parseArgs } from "node:util";
+
+const root = join(dirname(fileURLToPath(import.meta.url)), "..");
+const cli = join(root, "packages", "cli", "dist", "main.js");
+const python = join(root, "sim-backend", ".venv", "bin", "python");
+const { values } = parseArgs({
+  options: {
+    robots: { type: "string", default: "z1,xarm7,kinova" },
+    runs: { type: "string", default: "1" },
+    samples: { type: "string", default: "20000" },
+    "fidelity-samples": { type: "string", default: "20000" },
+  },
+});
+const robots = values.robots.split(",").filter(Boolean);
+const runs = Number(values.runs);
+if (!existsSync(cli)) {
+  console.error(`bench-first-use: ${cli} not found: run npm run build first`);
+  process.exit(1);
+}
+
+/** URDF and package root of an example-robot-data robot, as the fidelity reference names them. */
+function robotFiles(name) {
+  const code = `import json; from robwot_bench.reference import example_robot as e; r = e(${JSON.stringify(name)}); ` +
+    "print(json.dumps({'urdf': str(r.urdf), 'roots': r.package_roots}))";
+  const out = spawnSync(python, ["-c", code], { encoding: "utf8" });
+  if (out.status !== 0) throw new Error(`robot ${name}: ${out.stderr.trim().split("\n").at(-1)}`);
+  return JSON.parse(out.stdout);
+}
+
+const median = (xs) => {
+  const s = [...xs].sort((a, b) => a - b);
+  const m = s.length >> 1;
+  return s.length % 2 ? s[m] : (s[m - 1] + s[m]) / 2;
+};
+
+/** One `robwot generate` process: wall seconds and the per-mesh lines it printed. */
+function generate(files, cache, out) {
+  const roots = Object.entries(files.roots).flatMap(([k, v]) => ["--package-root", `${k}=${v}`]);
+  const t0 = performance.now();
+  const r = spawnSync(process.execPath, [cli, "generate", files.urdf, ...roots, "--samples", values.samples, "--out", out, "--force"], {
+    encoding: "utf8",
+    env: { ...process.env, ROBWOT_COLLISION_CACHE: cache },
+  });
+  const seconds = (performance.now() - t0) / 1000;
+  if (r.status !== 0) throw new Error(`generate ${files.urdf} failed:\n${r.stderr}`);
+  const meshes = [...r.stderr.matchAll(/decompose (\d+)\/(\d+)(?:, ETA [^:]+)?: (\S+) \((convex, kept|(\d+) convex parts), ([\d.]+m?[\d.]*s)\)/g)].map((m) => ({
+    mesh: m[3],
+    parts: m[5] === undefined ? 0 : Number(m[5]),
+    time: m[6],
+  }));
+  return { seconds, meshes };
+}
+
+const work = mkdtempSync(join(tmpdir(), "robwot-first-use-"));
+const load = loadavg().map((x) => x.toFixed(2)).join(" ");
+console.log(`bench-first-use: ${robots.join(", ")}; ${values.samples} samples; ${runs} cold run(s) each; load average ${load}`);
+const rows = [];
+try {
+  for (const name of robots) {
+    const files = robotFiles(name);
+    const cold = [];
+    let meshes = [];
+    for (let i = 0; i < runs; i++) {
+      const cache = join(work, `${name}-cache-${i}`);
+      const run = generate(files, cache, join(work, `${name}-twin`));
+      cold.push(run.seconds);
+      meshes = run.meshes;
+      if (i < runs - 1) rmSync(cache, { recursive: true, force: true });
+    }
+    const warm = generate(files, join(work, `${name}-cache-${runs - 1}`), join(work, `${name}-twin`));
+    rows.push({ name, cold: median(cold), warm: warm.seconds, meshes, cache: join(work, `${name}-cache-${runs - 1}`) });
+    console.log(`\n${name}: first twin ${median(cold).toFixed(1)} s (runs: ${cold.map((s) => s.toFixed(1)).join(", ")}), cached ${warm.seconds.toFixed(1)} s`);
+    console.log(`  ${"mesh".padEnd(30)}${"parts".padStart(6)}${"time".padStart(8)}  (as each finished; two at a time on 2 cores)`);
+    for (const m of meshes) console.log(`  ${m.mesh.padEnd(30)}${String(m.parts).padStart(6)}${m.time.padStart(8)}`);
+  }
+  console.log(`\n${"robot".padEnd(8)}${"new meshes".padStart(11)}${"concave".padStart(9)}${"first twin (s)".padStart(16)}${"cached (s)".padStart(12)}`);
+  for (const r of rows) {
+    console.log(`${r.name.padEnd(8)}${String(r.meshes.length).padStart(11)}${String(r.meshes.filter((m) => m.parts > 0).length).padStart(9)}${r.cold.toFixed(1).padStart(16)}${r.warm.toFixed(1).padStart(12)}`);
+  }
+  if (Number(values["fidelity-samples"]) > 0) {
+    for (const r of rows) {
+      console.log("");
+      const f = spawnSync(python, ["-m", "robwot_bench.fidelity", "--robots", r.name, "--samples", values["fidelity-samples"], "--targets", "0", "--grazes", "0"], {
+        encoding: "utf8",
+        env: { ...process.env, ROBWOT_COLLISION_CACHE: r.cache },
+      });
+      if (f.status !== 0) throw new Error(`fidelity ${r.name} failed:\n${f.stderr}`);
+      process.stdout.write(f.stdout.split("\n\n")[0] + "\n");
+    }
+  }
+} finally {
+  rmSync(work, { recursive: true, force: true });
+}
