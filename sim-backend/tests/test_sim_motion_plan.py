@@ -90,3 +90,24 @@ def test_a_reachable_pose_inside_an_obstacle_is_refused_naming_what_it_touches()
         assert reason.startswith("every IK solution reaching (0.4500, 0.1000, 0.5500) m")
         assert "collides at the target (" in reason and "block" in reason
         assert "0.001 m" not in reason
+
+
+def test_a_refused_joint_target_says_whether_a_detour_was_searched_and_why_none_was_found() -> None:
+    """A pillar in the one way the shoulder can turn (its limits do not wrap): the straight path collides,
+    the detour search finds nothing and the refusal says both, naming the pillar; a target inside the
+    pillar is refused as colliding itself, with no search."""
+    from robwot_sim.sim.planner import plan_joints
+
+    with World() as w:
+        m = w.load_robot(MODELS / "planar2.urdf")
+        w.set_joint_positions(m.id, [-1.5, 0.0])
+        w.add_obstacle({"name": "pillar", "shape": {"type": "box", "size": [0.05, 0.3, 0.05]},
+                        "position": [0.0, 0.0, 0.35]})
+        plan = plan_joints(w, m.id, [1.5, 0.0], 1.0, 1 / 240)
+        assert not plan.valid and plan.checks["path"]["detour"] == "not found"
+        assert plan.reasons[0].startswith("the straight path to the target collides (")
+        assert "pillar" in plan.reasons[0] and "no detour around it found within 2 s (RRT-Connect)" in plan.reasons[0]
+        plan = plan_joints(w, m.id, [0.0, 0.0], 1.0, 1 / 240)
+        assert not plan.valid and plan.checks["path"]["detour"] == "not searched"
+        assert plan.reasons[0].startswith("the target configuration itself collides (")
+        assert "pillar" in plan.reasons[0] and plan.reasons[0].endswith(": no path reaches it")

@@ -455,6 +455,10 @@ export interface PlanChecks {
      * m kept to other bodies along the path (the robot's clearance)
      */
     clearance: number;
+    /**
+     * the search for a detour when the straight path collides: found (then `planned` is detour), not found (RRT-Connect found no collision-free path within its budget), not searched (the target configuration itself collides: no path reaches it); absent when the straight path is free
+     */
+    detour?: "found" | "not found" | "not searched";
   };
 }
 export interface StopResult {

@@ -207,6 +207,11 @@ export function validationReportSchema(): DataSchema {
             properties: {
               ok,
               planned: { type: "string", enum: ["straight", "detour"], description: "a detour is planned when no straight path is free" },
+              detour: {
+                type: "string",
+                enum: ["found", "not found", "not searched"],
+                description: "when the straight path collides: a detour found, none found within the search's budget, or none searched (the target itself collides)",
+              },
               clearance: { type: "number", unit: UNIT_M, description: "kept to other bodies along the path (the twin's --clearance)" },
               contacts: { type: "array", items: contactSchema() },
             },

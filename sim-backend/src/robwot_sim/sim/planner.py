@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from robwot_sim.errors import Unreachable
+from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.types import Contact, RobotModel
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
@@ -85,9 +86,14 @@ def _path(world: World, robot: str, q: Sequence[float], speed: float,
     return report.collision_free, contacts
 
 
-def _path_check(clearance: float, ok: bool, contacts: Sequence[Contact],
-                planned: str = "straight") -> dict[str, Any]:
-    return {"ok": ok, "planned": planned, "clearance": clearance, "contacts": [c.to_json() for c in contacts]}
+def _path_check(clearance: float, ok: bool, contacts: Sequence[Contact], planned: str = "straight",
+                detour: str | None = None) -> dict[str, Any]:
+    out = {"ok": ok, "planned": planned, "clearance": clearance, "contacts": [c.to_json() for c in contacts]}
+    return out if detour is None else {**out, "detour": detour}
+
+
+#: what a refusal adds when the detour search (``PlanChecks.path.detour``) found nothing
+_NO_DETOUR = f"; no detour around it found within {DETOUR_BUDGET:g} s (RRT-Connect)"
 
 
 def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str, Any]) -> Plan | None:
@@ -95,7 +101,7 @@ def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str,
     waypoints = world.detour(robot, target)
     if waypoints is None:
         return None
-    path = _path_check(world.robot_model(robot).clearance, True, [], "detour")
+    path = _path_check(world.robot_model(robot).clearance, True, [], "detour", "found")
     return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": path}, tuple(waypoints[:-1]))
 
 
@@ -112,13 +118,22 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float,
                         f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}]" for v in violations)
         return Plan(False, None, reasons, checks)
     ok, contacts = _path(world, robot, target, speed, dt)
-    if not ok and world.check_collision(robot, target).collision_free:
+    if ok:
+        checks["path"] = _path_check(model.clearance, True, [])
+        return Plan(True, tuple(float(v) for v in target), (), checks)
+    at_target = world.check_collision(robot, target)
+    if at_target.collision_free:
         detour = _detour(world, robot, target, checks)
         if detour is not None:
             return detour
-    checks["path"] = _path_check(model.clearance, ok, contacts)
-    reasons = () if ok else (f"the path to the target collides{_contact_words(contacts)}",)
-    return Plan(ok, tuple(float(v) for v in target), reasons, checks)
+        searched = "not found"
+        reason = f"the straight path to the target collides{_contact_words(contacts)}{_NO_DETOUR}"
+    else:
+        searched = "not searched"
+        contacts = list(at_target.contacts)
+        reason = f"the target configuration itself collides{_contact_words(contacts)}: no path reaches it"
+    checks["path"] = _path_check(model.clearance, False, contacts, detour=searched)
+    return Plan(False, tuple(float(v) for v in target), (reason,), checks)
 
 
 def _alternative_seeds(model: RobotModel, position: Sequence[float], orientation: Sequence[float] | None,
@@ -186,6 +201,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     detour = _detour(world, robot, positions, checks)
     if detour is not None:
         return detour
-    checks["path"] = _path_check(model.clearance, False, contacts)
-    reason = f"the path to every IK solution tried ({tried}) collides{_contact_words(contacts)}"
+    checks["path"] = _path_check(model.clearance, False, contacts, detour="not found")
+    reason = (f"the straight path to every IK solution tried ({tried}) collides{_contact_words(contacts)}"
+              f"{_NO_DETOUR} to the first")
     return Plan(False, positions, (reason,), checks)
