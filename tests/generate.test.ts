@@ -219,6 +219,24 @@ describe("determinism, obstacles, replacement, placement", () => {
     expect(summary.bounds.max[0]).toBeLessThan(1.55);
   });
 
+  it("a scene's other robot is reported, warned about within reach, and named when it stands where this robot stands", async () => {
+    const near = join(work, "near.json");
+    writeFileSync(near, JSON.stringify({ version: 1, robots: [{ id: "neighbour", urdf: "kuka_iiwa/model.urdf", basePosition: [0.3, 0.3, 0] }], obstacles: [] }));
+    const r = await runCli(["generate", join(work, "tiny.urdf"), "--samples", String(SAMPLES), "--out", join(work, "near"), "--scene", near]);
+    expect(r.code, r.stderr).toBe(0);
+    expect(r.stdout).toMatch(/scene {6}0 obstacle\(s\), 1 other robot\(s\): neighbour at \[0\.300, 0\.300, 0\.000\] m/);
+    expect(r.stderr).toMatch(/robwot: warning: the scene's robot neighbour stands within this robot \(\w+\)'s reach \(0\.424 m apart\)/);
+    const json = await generate(join(work, "tiny.urdf"), join(work, "near-json"), ["--scene", near]);
+    expect(json["otherRobots"]).toEqual([{ id: "neighbour", basePosition: [0.3, 0.3, 0] }]);
+    expect((json["warnings"] as string[])[0]).toMatch(/stands within this robot/);
+    // at the same place nothing is collision-free: the refusal names the pairs and says why
+    const same = join(work, "same.json");
+    writeFileSync(same, JSON.stringify({ version: 1, robots: [{ id: "stowaway", urdf: "kuka_iiwa/model.urdf", basePosition: [0.01, 0, 0] }], obstacles: [] }));
+    const bad = await runCli(["generate", join(work, "tiny.urdf"), "--samples", String(SAMPLES), "--out", join(work, "same"), "--scene", same]);
+    expect(bad.code).toBe(1);
+    expect(bad.stderr).toMatch(/no collision-free configuration .*stowaway\/lbr_iiwa_link_\d touches .*; this robot \(\w+\) and the scene's robot stowaway stand at the same place/);
+  });
+
   it("--package-root resolves package:// meshes, which are copied into the folder", async () => {
     // outside the URDF's folder, so only --package-root can find it
     const pkg = join(mkdtempSync(join(tmpdir(), "robwot-pkg-")), "tinypkg");

@@ -11,7 +11,10 @@ import { startServient, type RunningServient } from "../packages/servient/src/in
 import { generateTwin, http, invoke, kukaPose, live, placeTwin } from "./serve-helpers.js";
 
 let s: RunningServient;
+const overlaps: string[] = [];
+const onWarning = (w: Error & { code?: string }): void => void (w.code === "ROBWOT_TWINS_OVERLAP" && overlaps.push(w.message));
 beforeAll(async () => {
+  process.on("warning", onWarning);
   const a = await generateTwin("kuka_iiwa", 3000);
   const b = await generateTwin("kuka_iiwa", 3000);
   placeTwin(b, Math.PI, [1.0, 0, 0]);
@@ -23,7 +26,16 @@ beforeAll(async () => {
   writeFileSync(join(b, "scene.json"), JSON.stringify({ version: 1, obstacles: [rock], robots: [] }));
   s = await startServient({ twins: [a, b], port: 0, realtime: 0 });
 });
-afterAll(async () => s?.stop());
+afterAll(async () => {
+  process.off("warning", onWarning);
+  await s?.stop();
+});
+
+it("says at start that the two twins can touch each other", async () => {
+  await new Promise((r) => setImmediate(r)); // process warnings are emitted on the next tick
+  expect(overlaps).toHaveLength(1);
+  expect(overlaps[0]).toMatch(/robwot serve: twin lbr_iiwa(_2)? stands within twin lbr_iiwa(_2)?'s reach \(1\.000 m apart\)|can reach into the same space/);
+});
 
 it("serves both twins and lets each see the other as an obstacle", async () => {
   expect(s.things.map((t) => t.slug)).toEqual(["lbr_iiwa", "lbr_iiwa_2"]);

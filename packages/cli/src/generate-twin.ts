@@ -5,7 +5,7 @@
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { buildThingModel, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
+import { buildThingModel, mulberry32, reachOverlaps, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
 import type { Backend, RobotLoadProgressNotification, RobotModel, WorkspaceSummary, WorldList } from "./backend.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
@@ -25,6 +25,10 @@ export interface GenerateResult {
   summary: WorkspaceSummary;
   td: { id: string; title: string; file: string };
   seconds: number;
+  /** the scene's other robots (id, base position in m) */
+  otherRobots: { id: string; basePosition: number[] }[];
+  /** what the user should know: robots of the scene this one can touch */
+  warnings: string[];
 }
 
 /** Same shape as the real summary; only the numbers differ (used to pre-validate the TD). */
@@ -109,11 +113,12 @@ async function touchingPairs(backend: Backend, model: RobotModel, seed: number):
  * line of end-effector positions) could never validate a Cartesian target, and serve would refuse it:
  * it is not written. Exit 1 with what to check.
  */
-async function refuseDegenerate(summary: WorkspaceSummary, dir: string, backend: Backend, model: RobotModel): Promise<void> {
+async function refuseDegenerate(summary: WorkspaceSummary, dir: string, backend: Backend, model: RobotModel, crowded: readonly string[]): Promise<void> {
   if (summary.collisionFree === 0) {
     const touching = await touchingPairs(backend, model, summary.seed);
+    const why = crowded.length > 0 ? `; ${crowded.join("; ")}` : "";
     throw new CliError(
-      `no collision-free configuration in ${summary.samples} samples: the robot touches itself or the scene everywhere; ${touching} (check the scene, the base pose and the URDF's collision geometry)`,
+      `no collision-free configuration in ${summary.samples} samples: the robot touches itself or the scene everywhere; ${touching}${why} (check the scene, the base pose and the URDF's collision geometry)`,
       "E_WORKSPACE",
       1,
     );
@@ -291,7 +296,13 @@ async function generateFrom(
   );
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
   const summary = await generating;
-  await refuseDegenerate(summary, staged.tmp, backend, model);
+  const others = world.robots.filter((r) => r.id !== model.id);
+  const base = (p: readonly number[]): [number, number, number] => [p[0] ?? 0, p[1] ?? 0, p[2] ?? 0];
+  const warnings = reachOverlaps([
+    { name: `this robot (${model.id})`, base: base(model.basePosition ?? [0, 0, 0]), ...(summary.reachBounds ? { reach: summary.reachBounds } : {}) },
+    ...others.map((r) => ({ name: `the scene's robot ${r.id}`, base: base(r.basePosition) })),
+  ]);
+  await refuseDegenerate(summary, staged.tmp, backend, model, warnings);
   writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
   writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
   if (summary.method === "convex-hull") {
@@ -316,5 +327,7 @@ async function generateFrom(
     summary,
     td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
     seconds: (performance.now() - t0) / 1000,
+    otherRobots: others.map((r) => ({ id: r.id, basePosition: r.basePosition })),
+    warnings,
   };
 }

@@ -7,7 +7,7 @@ import { createRequire } from "node:module";
 import { dirname, join } from "node:path";
 import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
-import { MAX_SLUG_LENGTH, targetBounds, TWIN_FILES, type Bounds } from "@robwot/core";
+import { MAX_SLUG_LENGTH, reachOverlaps, targetBounds, TWIN_FILES, type Bounds } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
@@ -111,6 +111,12 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     twins.set(slug, new Twin(slug, folder, backend));
   }
   const world = new World([...twins.values()], opts.meshRoots ?? []);
+  // twins of one world that can touch each other: said once, at start (each is an obstacle to the other)
+  const placed = [...twins.entries()].map(([slug, t]) => {
+    const p = t.folder.manifest.robot.basePosition ?? [0, 0, 0];
+    return { name: `twin ${slug}`, base: [p[0] ?? 0, p[1] ?? 0, p[2] ?? 0] as [number, number, number], reach: targetBounds(t.folder.workspace) };
+  });
+  for (const w of reachOverlaps(placed)) process.emitWarning(`robwot serve: ${w}`, { code: "ROBWOT_TWINS_OVERLAP" });
   backend.sim.on("robot.state", (p) => twins.get(p.robot)?.onState(p));
   backend.sim.on("robot.collision", (p) => twins.get(p.robot)?.onCollision(p.contacts, p.positions));
   backend.on("down", (reason) => {

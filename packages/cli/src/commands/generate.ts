@@ -65,7 +65,7 @@ function printHuman(r: GenerateResult, seconds: number): void {
   const lines = [
     `robwot: twin "${r.robot.name}" written to ${rel.startsWith("..") ? r.out : rel}/ in ${seconds.toFixed(1)} s`,
     `  robot      ${r.robot.controllable.length} joints (${r.robot.controllable.join(", ")}), end effector ${r.robot.eeLink}`,
-    `  scene      ${r.obstacles} obstacle(s)${r.scene ? ` from ${r.scene}` : ""}`,
+    `  scene      ${r.obstacles} obstacle(s)${r.otherRobots.length ? `, ${r.otherRobots.length} other robot(s): ${r.otherRobots.map((o) => `${o.id} at [${o.basePosition.map((v) => v.toFixed(3)).join(", ")}] m`).join(", ")}` : ""}${r.scene ? ` from ${r.scene}` : ""}`,
     `  workspace  ${s.samples} samples, ${s.collisionFree} collision-free (${((100 * s.collisionFree) / Math.max(1, s.samples)).toFixed(1)}%), ` +
       `${s.method}${s.alpha !== null ? ` alpha ${s.alpha.toFixed(3)} m` : ""}, volume ${s.volume.toFixed(3)} m^3`,
     `  bounds     ${s.bounds.min === null || s.bounds.max === null ? "none (no collision-free sample)" : `min [${s.bounds.min.map((v) => v.toFixed(3)).join(", ")}] max [${s.bounds.max.map((v) => v.toFixed(3)).join(", ")}] m`}`,
@@ -73,6 +73,7 @@ function printHuman(r: GenerateResult, seconds: number): void {
     `  td         ${r.td.file} (id ${r.td.id})`,
   ];
   process.stdout.write(`${lines.join("\n")}\n`);
+  for (const w of r.warnings) process.stderr.write(`robwot: warning: ${w}\n`);
 }
 
 /** Validates, generates and reports. Returns the exit code. */
