@@ -10,5 +10,7 @@ export default defineConfig({
     maxWorkers: 2,
     // backends started by the tests check every result against their contract (E_INTERNAL otherwise)
     env: { ROBWOT_CHECK_RESULTS: "1" },
+    // ajv's "unknown format ... ignored" lines, dropped as the CLI drops them (every other line kept)
+    setupFiles: ["packages/cli/src/quiet-console.setup.ts"],
   },
 });

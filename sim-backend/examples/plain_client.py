@@ -60,7 +60,13 @@ async def session(url: str, token: str) -> None:
 
 def main() -> int:
     if len(sys.argv) > 1:  # a running backend: its token comes from the environment
-        asyncio.run(session(sys.argv[1], os.environ["ROBWOT_BACKEND_TOKEN"]))
+        token = os.environ.get("ROBWOT_BACKEND_TOKEN")
+        if not token:
+            print(f"plain_client.py: connecting to {sys.argv[1]} needs the server's token: set "
+                  "ROBWOT_BACKEND_TOKEN to the token the server was started with (or printed in its ready line)",
+                  file=sys.stderr)
+            return 2
+        asyncio.run(session(sys.argv[1], token))
         return 0
     server = subprocess.Popen([sys.executable, "-m", "robwot_sim", "serve", "--port", "0"],
                               stdout=subprocess.PIPE, text=True)
