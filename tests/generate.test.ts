@@ -204,6 +204,19 @@ describe("determinism, obstacles, replacement, placement", () => {
     expect(readdirSync(work).filter((n) => n.includes(".tmp-") || n.includes(".old-"))).toEqual([]);
   });
 
+  it("a twin of another robot is not replaced without --force; the same robot's is", async () => {
+    const out = join(work, "someone-elses");
+    await generate(join(work, "tiny.urdf"), out);
+    const before = readFileSync(join(out, "td.json"), "utf8");
+    const r = await runCli(["generate", "ur3", "--samples", String(SAMPLES), "--out", out]);
+    expect(r.code).toBe(2);
+    expect(r.stderr).toMatch(/robwot: error: output .*someone-elses holds the twin of robot "\w+", not "ur3": refusing to replace it \(use --force, or another --out\)/);
+    expect(readFileSync(join(out, "td.json"), "utf8")).toBe(before);
+    expect(readdirSync(work).filter((n) => n.includes(".tmp-"))).toEqual([]);
+    await generate("ur3", out, ["--force"]);
+    expect(json(join(out, "twin.json"))["robot"]["name"]).toBe("ur3");
+  });
+
   it("a scene that places the generated robot sets its base pose; --csv-joints adds joint columns", async () => {
     const sceneFile = join(work, "placed.json");
     writeFileSync(sceneFile, JSON.stringify({ version: 1, robots: [{ id: "tiny", urdf: join(work, "tiny.urdf"), basePosition: [1, 0, 0] }], obstacles: [] }));

@@ -245,6 +245,7 @@ async function generateFrom(
   const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots, meshes.onMesh), SLOW_LOAD_MS, () => {
     if (!meshes.seen()) progress.info(SLOW_LOAD);
   });
+  staged.refuseOtherRobot(model.name, opts.force);
   const world = await backend.listWorld();
   const obstacles = world.obstacles;
 

@@ -4,7 +4,7 @@
  * is replaced only after the new one is complete: rename old away, rename new in, delete old.
  */
 import { randomBytes } from "node:crypto";
-import { chmodSync, existsSync, mkdirSync, mkdtempSync, readdirSync, realpathSync, renameSync, rmdirSync, rmSync, statSync } from "node:fs";
+import { chmodSync, existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, realpathSync, renameSync, rmdirSync, rmSync, statSync } from "node:fs";
 import { homedir } from "node:os";
 import { basename, dirname, join, parse, relative, resolve } from "node:path";
 import { TWIN_FILES } from "@robwot/core";
@@ -96,6 +96,27 @@ export class StagedDir {
       throw new CliError(`output folder ${parent} is not writable: ${(err as Error).message}`, "E_OUTPUT");
     }
     return new StagedDir(out, tmp, createdRoot);
+  }
+
+  /**
+   * Refuses (`E_OUTPUT`, exit 2) to replace a twin of another robot (its twin.json names another robot)
+   * unless `force`: regenerating a twin is routine, overwriting someone else's by a typo in `--out` is not.
+   */
+  refuseOtherRobot(robot: string, force: boolean): void {
+    if (force || !existsSync(join(this.out, TWIN_MARKER))) return;
+    let existing: unknown;
+    try {
+      existing = (JSON.parse(readFileSync(join(this.out, TWIN_MARKER), "utf8")) as { robot?: { name?: unknown } }).robot?.name;
+    } catch {
+      return; // not readable as a twin.json: the folder is replaced as any twin folder
+    }
+    if (typeof existing === "string" && existing !== robot) {
+      throw new CliError(
+        `output ${this.out} holds the twin of robot "${existing}", not "${robot}": refusing to replace it (use --force, or another --out)`,
+        "E_OUTPUT",
+        2,
+      );
+    }
   }
 
   /** Moves the finished folder into place, replacing a previous output only now. */

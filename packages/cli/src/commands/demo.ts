@@ -3,7 +3,7 @@
  * scene) into `twins/demo-kuka`, or reuses it when it is complete, then serves it and prints the TD and
  * viewer URLs.
  */
-import { existsSync, readFileSync } from "node:fs";
+import { existsSync, readFileSync, statSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { TWIN_FILES } from "@robwot/core";
@@ -107,6 +107,14 @@ export async function run(argv: string[]): Promise<number> {
     if (code !== 0) return code;
   } else {
     process.stdout.write(`robwot: reusing the demo twin in ${out} (--regenerate to rebuild it)\n`);
+    // a calibration written by an earlier session's calibrate action applies to this one too: say so
+    const calibration = join(out, TWIN_FILES.calibration);
+    if (existsSync(calibration)) {
+      process.stdout.write(
+        `robwot: note: ${calibration} (written by a calibrate action on ${statSync(calibration).mtime.toISOString()}) applies: ` +
+          "the TD's Cartesian frame is the calibrated one (delete the file, or --regenerate, to start uncalibrated)\n",
+      );
+    }
   }
   if (values["no-serve"]) return 0;
   return serve({ folders: [out], port, host, realtime, corsOrigins, allowedHosts, json: false });

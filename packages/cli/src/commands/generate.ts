@@ -53,7 +53,7 @@ Options:
   --csv-joints            add the joint values to workspace.csv
   --backend ws://HOST:PORT use a running backend instead of starting one
   --json                  print a machine-readable summary on stdout
-  --force                 replace --out even if it is not a twin folder
+  --force                 replace --out even if it is not a twin folder, or the twin of another robot
 
 Example robots:
 ${exampleHelp()}
