@@ -206,6 +206,27 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     expect(existsSync(join(work, "never-group"))).toBe(false);
   }, 180_000);
 
+  it("the SRDF's home state is the pose serve starts in; twin.json records it and where it came from", async () => {
+    const srdf = join(work, "home.srdf");
+    writeFileSync(
+      srdf,
+      '<?xml version="1.0"?>\n<robot name="tiny">\n  <group name="arm">\n    <chain base_link="base" tip_link="tip"/>\n  </group>\n' +
+        '  <group_state name="home" group="arm">\n    <joint name="shoulder" value="0.5"/>\n    <joint name="elbow" value="-0.25"/>\n  </group_state>\n' +
+        '  <end_effector name="hand" parent_link="tip" group="arm" parent_group="arm"/>\n</robot>\n',
+    );
+    const out = join(work, "homed");
+    const r = await runCli(["generate", join(work, "tiny.urdf"), "--srdf", srdf, "--samples", SAMPLES, "--out", out]);
+    expect(r.code, r.stderr).toBe(0);
+    expect(json(join(out, "twin.json")).robot.home).toEqual({ joints: { shoulder: 0.5, elbow: -0.25 }, from: 'SRDF group_state "home" of group "arm"' });
+    const served = await startServient({ twins: [out], port: 0, realtime: 0 });
+    try {
+      const joints = (await http(`${served.things[0]!.tdUrl}/properties/getJointPosition`)).body;
+      expect(joints).toEqual({ yaw: 0, shoulder: 0.5, elbow: -0.25 });
+    } finally {
+      await served.stop();
+    }
+  }, 120_000);
+
   it("refuses an SRDF written for another robot with file:line", async () => {
     const srdf = join(work, "other.srdf");
     writeFileSync(srdf, '<?xml version="1.0"?>\n<robot name="other">\n  <group name="arm">\n    <chain base_link="base" tip_link="panda_link8"/>\n  </group>\n</robot>\n');

@@ -209,3 +209,23 @@ def test_relative_mesh_of_a_xacro_outside_any_package(tmp_path: Path) -> None:
             assert list(w.load_robot(urdf, package_roots=roots).controllable) == ["j"]
     finally:
         shutil.rmtree(urdf.parent)
+
+
+def test_package_in_an_ament_prefix(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """ROS 2: package://NAME is PREFIX/share/NAME of an AMENT_PREFIX_PATH install prefix (its package.xml
+    names it); a share folder of that name whose package.xml names another package is not it."""
+    from robwot_sim.model.ros_packages import find_on_ros_package_path
+
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    impostor = tmp_path / "first" / "share" / "tinytool"
+    impostor.mkdir(parents=True)
+    (impostor / "package.xml").write_text("<package><name>other</name></package>")
+    installed = tmp_path / "install" / "share" / "tinytool"
+    shutil.copytree(TOOL_PKG, installed)
+    monkeypatch.setenv("AMENT_PREFIX_PATH", f"{tmp_path / 'first'}:{tmp_path / 'install'}")
+    assert find_on_ros_package_path("tinytool") == installed.resolve()
+    urdf, roots = _expanded(ARM, {"with_tool": "true"})
+    try:
+        assert roots["tinytool"] == str(installed.resolve())
+    finally:
+        shutil.rmtree(urdf.parent)

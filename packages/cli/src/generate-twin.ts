@@ -284,6 +284,8 @@ async function generateFrom(
       ...(input.xacro ? { xacro: input.xacro } : {}),
       // the SRDF planning group chosen with --group (its end effector is eeLink unless --ee)
       ...(input.group !== undefined ? { group: input.group } : {}),
+      // the SRDF's home state: the pose serve starts the twin in
+      ...(input.home !== undefined ? { home: input.home } : {}),
     },
     scene: TWIN_FILES.scene,
     generatedAt: new Date().toISOString(),

@@ -21,6 +21,8 @@ export interface RosInput {
   /** the end effector: `--ee`, else the SRDF's (see `srdfEndEffector`), else the backend's default */
   ee?: string;
   group?: string;
+  /** the start pose: the SRDF's group state named `home` (see `srdfHome`) */
+  home?: { joints: Record<string, number>; from: string };
   /** recorded in twin.json: the xacro file's name and its arguments */
   xacro?: { file: string; args: Record<string, string> };
   /** the temporary folder of the expansion, if any (the caller removes it, or keeps it for an error) */
@@ -44,6 +46,22 @@ export function srdfEndEffector(info: SrdfInfo, group: string | undefined): stri
     return info.endEffectors.find((e) => e.parentGroup === group)?.parentLink ?? g.chains.at(-1)?.tip;
   }
   return info.endEffectors[0]?.parentLink;
+}
+
+/** The group states taken as the twin's start pose, in this order of names (MoveIt setups name it so). */
+export const HOME_STATES = ["home"] as const;
+
+/**
+ * The SRDF's `home` group state: of `--group` G when given, else of the end effector's group, else the
+ * first state named `home`. Undefined when the SRDF has none (the twin then starts at all joints 0).
+ */
+export function srdfHome(info: SrdfInfo, group: string | undefined): RosInput["home"] {
+  const eeGroup = info.endEffectors[0]?.parentGroup;
+  const homes = info.groupStates.filter((s) => (HOME_STATES as readonly string[]).includes(s.name));
+  const state = homes.find((s) => s.group === (group ?? eeGroup)) ?? (group === undefined ? homes[0] : undefined);
+  if (!state) return undefined;
+  const joints = Object.fromEntries(Object.entries(state.joints).filter((e): e is [string, number] => e[1] !== undefined));
+  return { joints, from: `SRDF group_state "${state.name}" of group "${state.group}"` };
 }
 
 /** Resolves the robot's files; on failure removes what it created. */
@@ -75,6 +93,8 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
     const ee = opts.ee ?? (info ? srdfEndEffector(info, opts.group) : undefined);
     if (ee !== undefined) input.ee = ee;
     if (opts.group !== undefined) input.group = opts.group;
+    const home = info ? srdfHome(info, opts.group) : undefined;
+    if (home !== undefined) input.home = home;
     return input;
   } catch (err) {
     if (input.expandedDir !== undefined) rmSync(input.expandedDir, { recursive: true, force: true });

@@ -50,7 +50,17 @@ export interface RobotModelLike {
 export interface TwinManifest {
   version: 1;
   /** `srdf`: the robot's SRDF copied into the folder (its disabled collision pairs are never checked) */
-  robot: { urdf: string; eeLink: string; basePosition: Vec3; baseOrientation: QuatXyzw; name: string; srdf?: string; clearance?: number };
+  robot: {
+    urdf: string;
+    eeLink: string;
+    basePosition: Vec3;
+    baseOrientation: QuatXyzw;
+    name: string;
+    srdf?: string;
+    clearance?: number;
+    /** the start pose `serve` takes (rad or m by joint name; joints not named stay at 0): the SRDF's `home` */
+    home?: { joints: Record<string, number>; from: string };
+  };
   scene: string;
   generatedAt: string;
   tool: string;

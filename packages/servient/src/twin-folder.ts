@@ -189,6 +189,12 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
   }
   const urdfPath = jail.path(TWIN_FILES.manifest, "robot.urdf", robot.urdf, { required: true })!;
   if (robot.srdf !== undefined) jail.path(TWIN_FILES.manifest, "robot.srdf", robot.srdf, { required: true });
+  const home = robot.home as { joints?: unknown; from?: unknown } | undefined;
+  if (home !== undefined) {
+    const joints = home?.joints;
+    const ok = typeof joints === "object" && joints !== null && !Array.isArray(joints) && Object.values(joints).every((v) => typeof v === "number" && Number.isFinite(v)) && typeof home?.from === "string";
+    if (!ok) throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.home must be {joints: {name: finite number}, from: text}`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.home" });
+  }
   const sceneFile = manifest.scene === undefined || manifest.scene === "" ? TWIN_FILES.scene : manifest.scene;
   const sceneReal = jail.path(TWIN_FILES.manifest, "scene", sceneFile, { required: false });
   const sceneName = typeof sceneFile === "string" ? sceneFile : TWIN_FILES.scene;

@@ -6,6 +6,7 @@
  */
 import { EventEmitter } from "node:events";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
+import { TWIN_FILES } from "@robwot/core";
 import type { ObstacleMoveParams, SimClient } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { ServientError } from "./errors.js";
@@ -87,7 +88,13 @@ export class World extends EventEmitter<{ scene: [] }> {
         decompose: false, // generate wrote the convex parts: serve never decomposes (refused instead)
       });
       twin.model = model;
-      if (twin.q.length === model.controllable.length) {
+      if (twin.q.length === 0 && m.home !== undefined) {
+        // the first start: the SRDF's home pose (its joints checked against the URDF's limits by the backend)
+        const home = m.home.joints;
+        await sim.setJointPositions(twin.robotId, model.controllable.map((j) => home[j] ?? 0)).catch((err: unknown) => {
+          throw new ServientError(400, "E_TWIN_FOLDER", `${join(twin.folder.dir, TWIN_FILES.manifest)}: robot.home (${m.home!.from}) cannot be taken: ${err instanceof Error ? err.message : String(err)}`, { folder: twin.folder.dir, file: TWIN_FILES.manifest, field: "robot.home" });
+        });
+      } else if (twin.q.length === model.controllable.length) {
         // best effort: if the last state cannot be restored, the loop below reads back the state the
         // backend really has, so the twin never reports joints the simulation does not hold
         await sim.setJointPositions(twin.robotId, twin.q).catch(() => undefined);

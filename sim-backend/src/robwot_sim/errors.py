@@ -153,9 +153,9 @@ class UnknownPackage(FileNotFound):
         SimError.__init__(
             self,
             f"{where}{reference}: ROS package {package!r} not found (not a --package-root, not a package "
-            f"holding the file, not on ROS_PACKAGE_PATH, not in pybullet_data): give --package-root "
-            f"{package}=DIR (the folder holding its package.xml) or add the folder it is in to "
-            "ROS_PACKAGE_PATH",
+            f"holding the file, not on ROS_PACKAGE_PATH, not in an AMENT_PREFIX_PATH prefix, not in "
+            f"pybullet_data): give --package-root {package}=DIR (the folder holding its package.xml) or add "
+            "the folder it is in to ROS_PACKAGE_PATH",
             file=reference, package=package, reference=reference, searched=list(searched),
             urdf=urdf, line=line,
         )

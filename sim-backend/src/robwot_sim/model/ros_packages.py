@@ -1,10 +1,11 @@
 """ROS packages found the way ROS finds them: a folder is the package NAME when its ``package.xml`` says
 ``<name>NAME</name>`` (a folder that merely has the name, such as ``/tmp``, is not a package).
 
-Two places are searched, beside the caller's explicit ``NAME -> DIR`` roots: the ancestors of a file (the
-package that holds a URDF or a xacro file) and the folders of ``ROS_PACKAGE_PATH`` (colon-separated), each
+Three places are searched, beside the caller's explicit ``NAME -> DIR`` roots: the ancestors of a file (the
+package that holds a URDF or a xacro file), the folders of ``ROS_PACKAGE_PATH`` (colon-separated), each
 crawled as ``rospack`` does: a folder with a ``package.xml`` is a package and is not descended into,
-folders holding ``CATKIN_IGNORE``/``COLCON_IGNORE``/``AMENT_IGNORE`` and hidden folders are skipped.
+folders holding ``CATKIN_IGNORE``/``COLCON_IGNORE``/``AMENT_IGNORE`` and hidden folders are skipped, and the
+ROS 2 install prefixes of ``AMENT_PREFIX_PATH`` (``PREFIX/share/NAME``).
 """
 
 from __future__ import annotations
@@ -86,9 +87,15 @@ def packages_below(folder: Path) -> dict[str, Path]:
 
 
 def find_on_ros_package_path(name: str) -> Path | None:
-    """The package ``name`` from the ROS_PACKAGE_PATH folders (the first folder holding it wins), or None."""
+    """The package ``name`` from the ROS_PACKAGE_PATH folders (the first folder holding it wins), else from
+    the install prefixes of ``AMENT_PREFIX_PATH`` (ROS 2: ``PREFIX/share/NAME`` with its package.xml, as
+    ament_index finds it), or None."""
     for folder in ros_package_path():
         hit = packages_below(folder).get(name)
         if hit is not None:
             return hit.resolve()
+    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+        share = Path(prefix) / "share" / name if prefix else None
+        if share is not None and share.is_dir() and package_name(share) == name:
+            return share.resolve()
     return None

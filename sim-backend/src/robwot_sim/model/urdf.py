@@ -136,11 +136,12 @@ def resolve_mesh(
     ``package://NAME/rest`` (NAME must not be empty) is looked up in ``package_roots[NAME]``, then in the
     ROS package NAME that holds the URDF (an ancestor folder with a ``package.xml`` naming NAME: a folder
     that merely has the name, such as ``/tmp``, is not a package), then in the package NAME found on
-    ``ROS_PACKAGE_PATH`` (ros_packages.py), then ``pybullet_data/NAME``, then the URDF folder (PyBullet's
-    own rule, used by pybullet_data's panda). ``file://`` and absolute paths are taken as is; others are
-    relative to the URDF folder. Raises PathEscape when the result leaves the allowed roots (``..``,
-    symlinks), UnknownPackage when NAME is found nowhere and no fallback file exists (naming the option
-    that fixes it), FileNotFound when missing. ``line`` is the referencing element's line in ``urdf``.
+    ``ROS_PACKAGE_PATH`` and ``AMENT_PREFIX_PATH`` (ros_packages.py), then ``pybullet_data/NAME``, then the
+    URDF folder (PyBullet's own rule, used by pybullet_data's panda). ``file://`` and absolute paths are
+    taken as is; others are relative to the URDF folder. Raises PathEscape when the result leaves the
+    allowed roots (``..``, symlinks), UnknownPackage when NAME is found nowhere and no fallback file exists
+    (naming the option that fixes it), FileNotFound when missing. ``line`` is the referencing element's
+    line in ``urdf``.
     """
     udir = Path(urdf_dir).resolve()
     roots = allowed_roots(udir, package_roots)
