@@ -305,6 +305,36 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     await until("the page status to say stopped", async () => (await debug()).lastStatus?.state === "stopped");
   });
 
+  it("a rejected target lists what its path touches and draws those bodies red", async () => {
+    const { page } = browser;
+    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
+    const pose = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
+    // a block around a target 10 cm below the end effector: every IK solution reaching it collides there
+    const target = { x: pose.x, y: pose.y, z: pose.z - 0.1 };
+    await invoke(twin, "addObstacle", { name: "wall", shape: { type: "box", size: [0.2, 0.2, 0.2] }, position: [target.x, target.y, target.z] });
+    try {
+      for (const axis of ["x", "y", "z"] as const) await page.locator(`#cartesian input[name=${axis}]`).fill(target[axis].toFixed(3));
+      const report = await invoke<{ valid: boolean; checks: { path?: { contacts: { a: { body: string }; b: { body: string } }[] } } }>(twin, "validateCartesianPosition", {
+        x: Number(target.x.toFixed(3)),
+        y: Number(target.y.toFixed(3)),
+        z: Number(target.z.toFixed(3)),
+      });
+      const contacts = report.checks.path?.contacts ?? [];
+      await page.locator("#cartesian button", { hasText: "Validate" }).click();
+      const seen = await until("the page to show the touching bodies", async () => {
+        const d = await debug();
+        return d.target?.valid === false && d.highlighted.length > 0 ? d : null;
+      });
+      expect(report.valid).toBe(false);
+      expect(contacts.length).toBeGreaterThan(0);
+      expect(seen.highlighted).toContain("wall");
+      const text = (await page.locator("#cartesian .verdict").textContent()) ?? "";
+      expect(text).toMatch(/touching: .*wall/);
+    } finally {
+      await invoke(twin, "removeObstacle", { name: "wall" });
+    }
+  });
+
   it("a collision event highlights the colliding link in the page", async () => {
     const q = await read<Joints>(twin, "getJointPosition");
     const a: Joints = { ...q, [J1]: 0.8, lbr_iiwa_joint_2: 0.6, lbr_iiwa_joint_4: -1.0 };

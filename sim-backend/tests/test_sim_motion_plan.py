@@ -90,6 +90,10 @@ def test_a_reachable_pose_inside_an_obstacle_is_refused_naming_what_it_touches()
         assert reason.startswith("every IK solution reaching (0.4500, 0.1000, 0.5500) m")
         assert "collides at the target (" in reason and "block" in reason
         assert "0.001 m" not in reason
+        # the path check names what touches at the target, and says no detour was searched
+        path = plan.checks["path"]
+        assert path["ok"] is False and path["detour"] == "not searched"
+        assert any("block" in (c["a"]["body"], c["b"]["body"]) for c in path["contacts"])
 
 
 def test_a_refused_joint_target_says_whether_a_detour_was_searched_and_why_none_was_found() -> None:

@@ -23,7 +23,8 @@ export class CartesianPanel {
     parent: HTMLElement,
     private readonly commander: Commander,
     /** The target and its verdict (null: not validated, e.g. edited since), to mark it in the view. */
-    private readonly onVerdict: (target: Target, valid: boolean | null) => void = () => undefined,
+    /** `contacts`: what the rejected plan's path touches (`checks.path.contacts`; empty when none) */
+    private readonly onVerdict: (target: Target, valid: boolean | null, contacts?: readonly unknown[]) => void = () => undefined,
   ) {
     const input = (axis: keyof Target): HTMLInputElement => {
       const i = el("input", { type: "number", step: "0.01", name: axis, "aria-label": `${axis} (m)`, value: "0" });
@@ -90,7 +91,7 @@ export class CartesianPanel {
       this.show(valid, describeReport(report));
       this.validated = valid ? JSON.stringify(t) : null;
       this.moveButton.disabled = !valid;
-      this.onVerdict(t, valid);
+      this.onVerdict(t, valid, pathContacts(report));
     } catch (err) {
       showError("validateCartesianPosition", err);
       this.invalidate();
@@ -118,10 +119,25 @@ export class CartesianPanel {
   }
 }
 
+/** The contacts of a plan's path check (the first colliding state's), or none. */
+function pathContacts(report: unknown): unknown[] {
+  const checks = isRecord(report) && isRecord(report["checks"]) ? report["checks"] : {};
+  const path = isRecord(checks["path"]) ? checks["path"] : {};
+  return Array.isArray(path["contacts"]) ? path["contacts"] : [];
+}
+
+/** "body/link" or "body" of one side of a contact. */
+function side(s: unknown): string {
+  if (!isRecord(s)) return "?";
+  return typeof s["link"] === "string" ? `${String(s["body"])}/${s["link"]}` : String(s["body"]);
+}
+
 function describeReport(report: unknown): string {
   if (!isRecord(report)) return `unexpected answer: ${JSON.stringify(report)}`;
   const lines = [report["valid"] === true ? "✔ valid: the twin can move there" : "✘ rejected"];
   if (Array.isArray(report["reasons"])) for (const r of report["reasons"]) lines.push(`• ${String(r)}`);
+  // the touching pairs, drawn red in the view as well
+  for (const c of pathContacts(report).slice(0, 3)) if (isRecord(c)) lines.push(`  touching: ${side(c["a"])} ↔ ${side(c["b"])}`);
   const checks = isRecord(report["checks"]) ? report["checks"] : {};
   for (const [name, c] of Object.entries(checks)) {
     if (!isRecord(c)) continue;

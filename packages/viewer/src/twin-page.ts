@@ -45,11 +45,14 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   // x_real = s·R·x_virtual + t: Cartesian inputs are in the real frame, the 3D view in the virtual one
   let calibration: SimilarityTransform | null = null;
   const marker = new TargetMarker(stage);
-  const cartesian = new CartesianPanel(content, commander, (t, valid) => {
+  const cartesian = new CartesianPanel(content, commander, (t, valid, contacts = []) => {
     const position = calibration ? invertCalibration(calibration, t) : ([t.x, t.y, t.z] as [number, number, number]);
     marker.show(position, valid);
     debugState.target = { position, valid };
     publishDebug();
+    // a rejected path: its touching bodies drawn red, as a collision event's are
+    const sides = contacts.flatMap((c) => (isRecord(c) ? [c["a"], c["b"]] : []));
+    if (sides.length > 0) highlightBodies(stage, robot, sides);
   });
   const showCalibration = (c: unknown): void => {
     try {
@@ -196,10 +199,11 @@ function startLive(
 }
 
 
-function highlightCollision(stage: Stage, robot: URDFRobot | null, msg: Record<string, unknown>): void {
-  const pair = isRecord(msg["pair"]) ? msg["pair"] : {};
+/** Draws the named bodies red for HIGHLIGHT_MS (a link of this robot, else an obstacle by name); the
+ * names go to the debug state. Returns them. */
+function highlightBodies(stage: Stage, robot: URDFRobot | null, sides: readonly unknown[]): string[] {
   const names: string[] = [];
-  for (const side of [pair["a"], pair["b"]]) {
+  for (const side of sides) {
     const link = isRecord(side) ? side["link"] : side;
     const body = isRecord(side) ? side["body"] : null;
     if (typeof link === "string" && robot?.links[link]) {
@@ -211,6 +215,20 @@ function highlightCollision(stage: Stage, robot: URDFRobot | null, msg: Record<s
       names.push(body);
     }
   }
+  debugState.highlighted = names;
+  publishDebug();
+  stage.invalidate();
+  window.setTimeout(() => {
+    debugState.highlighted = [];
+    publishDebug();
+    stage.invalidate();
+  }, HIGHLIGHT_MS + 50);
+  return names;
+}
+
+function highlightCollision(stage: Stage, robot: URDFRobot | null, msg: Record<string, unknown>): void {
+  const pair = isRecord(msg["pair"]) ? msg["pair"] : {};
+  const names = highlightBodies(stage, robot, [pair["a"], pair["b"]]);
   const p = msg["position"];
   if (isRecord(p) && typeof p["x"] === "number" && typeof p["y"] === "number" && typeof p["z"] === "number") {
     const marker = new Mesh(new SphereGeometry(0.02, 16, 8), new MeshBasicMaterial({ color: 0xff0000 }));
@@ -222,14 +240,6 @@ function highlightCollision(stage: Stage, robot: URDFRobot | null, msg: Record<s
     }, HIGHLIGHT_MS);
   }
   showNotice("collision", `motion stopped by contact between ${names.join(" and ") || "unknown bodies"}`);
-  debugState.highlighted = names;
-  publishDebug();
-  stage.invalidate();
-  window.setTimeout(() => {
-    debugState.highlighted = [];
-    publishDebug();
-    stage.invalidate();
-  }, HIGHLIGHT_MS + 50);
 }
 
 function flash(mesh: Mesh): void {

@@ -186,16 +186,20 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
             return Plan(True, ik.positions, (), checks)
     if first is None:
         error = best_error if best_error != float("inf") else -1.0
+        ik_check = {"ok": False, "positionError": error, "solutions": tried}
         if reached_colliding is not None:
-            # IK reached the target: what stands in the way is a collision at the target itself
+            # IK reached the target: what stands in the way is a collision at the target itself, so no
+            # path can reach it (the path check names what touches there; no detour is searched)
             touching = world.check_collision(robot, reached_colliding).contacts
             reason = (f"every IK solution reaching {where} ({tried} tried, within {_fmt(error)} m) collides "
                       f"at the target{_contact_words(touching)}")
+            path = _path_check(model.clearance, False, touching, detour="not searched")
+            return Plan(False, None, (reason,), {"ik": ik_check, "path": path})
         elif error >= 0:
             reason = f"IK found no solution within 0.001 m of {where} (closest {_fmt(error)} m away)"
         else:
             reason = f"target {where} is not reachable by IK"
-        return Plan(False, None, (reason,), {"ik": {"ok": False, "positionError": error, "solutions": tried}})
+        return Plan(False, None, (reason,), {"ik": ik_check})
     positions, error, contacts = first
     checks = {"ik": {"ok": True, "positionError": error, "solutions": tried}, "limits": {"ok": True}}
     detour = _detour(world, robot, positions, checks)
