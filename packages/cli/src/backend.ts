@@ -3,7 +3,7 @@
  * connects to `--backend ws://...`) and exposes the few RPC methods the commands need.
  */
 import { validateThingDescription } from "@robwot/core";
-import { BackendSupervisor, deadlineFromEnv, launchConnector, urlConnector, type CollisionReport, type MoveitConfig, type RobotExpandXacroParams, type RobotLoadParams, type RobotLoadProgressNotification, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
+import { BackendSupervisor, deadlineFromEnv, launchConnector, urlConnector, type CollisionReport, type MoveitConfig, type RobotExpandXacroParams, type RobotAttachToolParams, type RobotLoadParams, type RobotLoadProgressNotification, type ToolAttached, type RobotMoveitConfigParams, type RobotReadSrdfParams, type RobotModel, type SimClient, type WorkspaceGenerateParams, type WorkspaceSummary, type SrdfInfo, type WorldList, type XacroExpanded } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 export type { RobotLoadProgressNotification, RobotModel, WorkspaceSummary, WorldList };
@@ -30,6 +30,8 @@ export interface Backend {
   moveitConfig(params: RobotMoveitConfigParams): Promise<MoveitConfig>;
   /** An SRDF's groups, states and end effectors, every name checked against the URDF. */
   readSrdf(params: RobotReadSrdfParams): Promise<SrdfInfo>;
+  /** A URDF with a tool (TCP link, optional mesh) mounted on its end effector, in a temporary folder. */
+  attachTool(params: RobotAttachToolParams): Promise<ToolAttached>;
   /** Starts the backend's collision workers ahead of `generateWorkspace` (an optimisation: never fails). */
   warmUp(workers?: number): Promise<void>;
   generateWorkspace(
@@ -103,6 +105,9 @@ class SimBackend implements Backend {
   }
   readSrdf(params: RobotReadSrdfParams): Promise<SrdfInfo> {
     return this.guard(this.client.readSrdf(params));
+  }
+  attachTool(params: RobotAttachToolParams): Promise<ToolAttached> {
+    return this.guard(this.client.attachTool(params));
   }
   async exportRobot(params: { robot: string; outDir: string }): Promise<void> {
     await this.guard(this.client.exportRobot(params.robot, params.outDir));

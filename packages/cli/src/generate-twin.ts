@@ -229,6 +229,7 @@ export async function generateTwin(
     throw err;
   } finally {
     if (input.expandedDir !== undefined && !keep) rmSync(input.expandedDir, { recursive: true, force: true });
+    if (input.toolDir !== undefined) rmSync(input.toolDir, { recursive: true, force: true });
   }
 }
 
@@ -286,6 +287,8 @@ async function generateFrom(
       ...(input.group !== undefined ? { group: input.group } : {}),
       // the SRDF's home state: the pose serve starts the twin in
       ...(input.home !== undefined ? { home: input.home } : {}),
+      // --tcp / --tool-mesh: robot.urdf carries the tool (links robwot_tool, robwot_tcp); eeLink is the TCP
+      ...(input.tool !== undefined ? { tool: input.tool } : {}),
     },
     scene: TWIN_FILES.scene,
     generatedAt: new Date().toISOString(),
@@ -294,7 +297,7 @@ async function generateFrom(
 
   // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
   // make a valid TD fails fast (the validator was loaded and warmed while the backend started).
-  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl).validate())().catch(
+  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool).validate())().catch(
     (err: unknown) => [err instanceof Error ? err.message : String(err)],
   );
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
@@ -315,7 +318,7 @@ async function generateFrom(
   }
 
   progress.stage("td");
-  const td = buildTd(model, summary, scene, opts.baseUrl);
+  const td = buildTd(model, summary, scene, opts.baseUrl, input.tool);
   const errors = await td.validate();
   if (errors.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(errors)}`, "E_TD_INVALID", 1);
   writeJson(join(staged.tmp, TWIN_FILES.td), td.td);

@@ -27,6 +27,10 @@ export interface RosInput {
   xacro?: { file: string; args: Record<string, string> };
   /** the temporary folder of the expansion, if any (the caller removes it, or keeps it for an error) */
   expandedDir?: string;
+  /** `--tcp` / `--tool-mesh`: the flange the tool is mounted on, the TCP offset and the mesh's file name */
+  tool?: { flange: string; tcp: number[]; mesh?: string };
+  /** the temporary folder of the URDF with the tool (the caller removes it) */
+  toolDir?: string;
 }
 
 const definedStrings = (roots: Record<string, string | undefined>): Record<string, string> =>
@@ -95,9 +99,28 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
     if (opts.group !== undefined) input.group = opts.group;
     const home = info ? srdfHome(info, opts.group) : undefined;
     if (home !== undefined) input.home = home;
+    if (opts.tcp !== undefined || opts.toolMesh !== undefined) {
+      // the tool goes on the end effector chosen above (--ee, the SRDF's, else the backend's default); the
+      // TCP link it adds is then the end effector
+      const [x = 0, y = 0, z = 0, roll = 0, pitch = 0, yaw = 0] = opts.tcp ?? [];
+      const tcp: [number, number, number, number, number, number] = [x, y, z, roll, pitch, yaw];
+      const attached = await backend.attachTool({
+        urdf: input.urdf,
+        packageRoots: input.packageRoots,
+        tcp,
+        ...(input.ee !== undefined ? { eeLink: input.ee } : {}),
+        ...(opts.toolMesh !== undefined ? { mesh: opts.toolMesh } : {}),
+      });
+      input.toolDir = dirname(attached.urdf);
+      input.urdf = attached.urdf;
+      input.packageRoots = definedStrings(attached.packageRoots);
+      input.ee = attached.tcpLink;
+      input.tool = { flange: attached.flange, tcp, ...(opts.toolMesh !== undefined ? { mesh: basename(opts.toolMesh) } : {}) };
+    }
     return input;
   } catch (err) {
     if (input.expandedDir !== undefined) rmSync(input.expandedDir, { recursive: true, force: true });
+    if (input.toolDir !== undefined) rmSync(input.toolDir, { recursive: true, force: true });
     throw err;
   }
 }

@@ -1,5 +1,5 @@
 /** Builds the twin's Thing Description with `@robwot/core` and validates it with the official validator. */
-import { buildThingDescription, canonicalJson, fnv1a64, type ThingDescription, validateThingDescription } from "@robwot/core";
+import { type BuildThingDescriptionOptions, buildThingDescription, canonicalJson, fnv1a64, type ThingDescription, validateThingDescription } from "@robwot/core";
 import type { RobotModel, WorkspaceSummary } from "./backend.js";
 
 export interface BuiltTd {
@@ -8,8 +8,8 @@ export interface BuiltTd {
   validate(): Promise<string[]>;
 }
 
-export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unknown, baseUrl: string): BuiltTd {
-  const td = buildThingDescription({ model, summary, baseUrl, sceneId: fnv1a64(canonicalJson(scene)), srdf: model.srdf !== undefined });
+export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unknown, baseUrl: string, tool?: BuildThingDescriptionOptions["tool"]): BuiltTd {
+  const td = buildThingDescription({ model, summary, baseUrl, sceneId: fnv1a64(canonicalJson(scene)), srdf: model.srdf !== undefined, ...(tool ? { tool } : {}) });
   return {
     td,
     async validate() {

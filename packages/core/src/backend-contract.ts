@@ -134,6 +134,10 @@ export type RobotMoveitConfigResult = MoveitConfig;
  */
 export type RobotReadSrdfResult = SrdfInfo;
 /**
+ * Result of `robot.attachTool`.
+ */
+export type RobotAttachToolResult = ToolAttached;
+/**
  * Result of `robot.getJointPositions`.
  */
 export type RobotGetJointPositionsResult = JointPositions;
@@ -667,6 +671,26 @@ export interface RobotLoadProgressNotification {
    */
   eta: number | null;
 }
+export interface ToolAttached {
+  /**
+   * the URDF with the tool, in a new temporary folder
+   */
+  urdf: string;
+  /**
+   * roots to load it with
+   */
+  packageRoots: {
+    [k: string]: string | undefined;
+  };
+  /**
+   * the link the tool is mounted on
+   */
+  flange: string;
+  /**
+   * the TCP's link: the end effector to load the robot with
+   */
+  tcpLink: string;
+}
 /**
  * Params of `ping`.
  */
@@ -779,6 +803,25 @@ export interface RobotMoveitConfigParams {
 export interface RobotReadSrdfParams {
   srdf: FilePath;
   urdf: FilePath;
+}
+/**
+ * Params of `robot.attachTool`.
+ */
+export interface RobotAttachToolParams {
+  urdf: FilePath;
+  packageRoots?: PackageRoots;
+  /**
+   * the flange the tool is mounted on (default: the URDF's default end effector, the tip of its longest chain)
+   */
+  eeLink?: string;
+  /**
+   * X, Y, Z (m) and ROLL, PITCH, YAW (rad, fixed axes as a URDF `<origin rpy>`) of the TCP in the flange's frame
+   *
+   * @minItems 6
+   * @maxItems 6
+   */
+  tcp?: [number, number, number, number, number, number];
+  mesh?: FilePath;
 }
 /**
  * Params of `robot.getJointPositions`.
@@ -937,6 +980,7 @@ export interface Methods {
   "robot.expandXacro": { params: RobotExpandXacroParams; result: RobotExpandXacroResult };
   "robot.moveitConfig": { params: RobotMoveitConfigParams; result: RobotMoveitConfigResult };
   "robot.readSrdf": { params: RobotReadSrdfParams; result: RobotReadSrdfResult };
+  "robot.attachTool": { params: RobotAttachToolParams; result: RobotAttachToolResult };
   "robot.getJointPositions": { params: RobotGetJointPositionsParams; result: RobotGetJointPositionsResult };
   "robot.setJointPositions": { params: RobotSetJointPositionsParams; result: RobotSetJointPositionsResult };
   "robot.fk": { params: RobotFkParams; result: RobotFkResult };

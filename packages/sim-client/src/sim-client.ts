@@ -109,6 +109,9 @@ export class SimClient {
   moveitConfig(params: Params<"robot.moveitConfig">): Result<"robot.moveitConfig"> {
     return this.request("robot.moveitConfig", params);
   }
+  attachTool(params: Params<"robot.attachTool">): Result<"robot.attachTool"> {
+    return this.request("robot.attachTool", params);
+  }
   readSrdf(params: Params<"robot.readSrdf">): Result<"robot.readSrdf"> {
     return this.request("robot.readSrdf", params);
   }

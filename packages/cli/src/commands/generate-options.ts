@@ -50,6 +50,10 @@ export interface GenerateOptions {
   packageRoots: Record<string, string>;
   /** `--base`: the robot's base pose in the world (scene) frame; absent = the origin, or the scene's placement */
   base?: BasePose;
+  /** `--tcp`: X, Y, Z (m), ROLL, PITCH, YAW (rad) of the tool centre point from the end-effector link */
+  tcp?: number[];
+  /** `--tool-mesh`: the tool's geometry in the end-effector link's frame */
+  toolMesh?: string;
   csvJoints: boolean;
   backend?: string;
   json: boolean;
@@ -71,6 +75,8 @@ export const GENERATE_OPTIONS = {
   cluster: { type: "string" },
   "package-root": { type: "string", multiple: true },
   base: { type: "string" },
+  tcp: { type: "string" },
+  "tool-mesh": { type: "string" },
   "xacro-arg": { type: "string", multiple: true },
   "moveit-config": { type: "string" },
   group: { type: "string" },
@@ -123,6 +129,21 @@ export function parseBase(value: string | undefined): BasePose | undefined {
   };
   const q = quatMul(axis(yaw, 2), quatMul(axis(pitch, 1), axis(roll, 0)));
   return { position: [x, y, z], orientation: quatArr(q) };
+}
+
+/** The tool's reach from the flange the contract takes (`robot.attachTool`'s `tcp`). */
+const TCP_MAX = 10;
+
+/** `--tcp X,Y,Z[,ROLL,PITCH,YAW]`: metres and radians in the end-effector link's frame, as a URDF `<origin>`. */
+export function parseTcp(value: string | undefined): number[] | undefined {
+  if (value === undefined) return undefined;
+  const parts = value.split(",").map((p) => p.trim());
+  const nums = parts.map(Number);
+  if ((parts.length !== 3 && parts.length !== 6) || parts.some((p) => p === "") || nums.some((n) => !Number.isFinite(n))) {
+    throw new CliError(`--tcp must be X,Y,Z or X,Y,Z,ROLL,PITCH,YAW (metres, radians), got "${value}"`);
+  }
+  if (nums.some((v) => Math.abs(v) > TCP_MAX)) throw new CliError(`--tcp: every value must be within ±${TCP_MAX}, got "${value}"`);
+  return [...nums, 0, 0, 0].slice(0, 6);
 }
 
 /** `--xacro-arg NAME:=VALUE` (repeatable, xacro's own syntax) → `{NAME: VALUE}`; a name given twice is refused. */
@@ -207,6 +228,8 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, Clearance.minimum, Clearance.maximum);
   const packageRoots = parsePackageRoots(values["package-root"]);
   const base = parseBase(values.base);
+  const tcp = parseTcp(values.tcp);
+  const toolMesh = values["tool-mesh"] === undefined ? undefined : existingFile("tool mesh", values["tool-mesh"]);
   const xacroArgs = parseXacroArgs(values["xacro-arg"]);
   const isXacro = (urdfFile?.endsWith(".xacro") ?? false) || moveitConfig !== undefined;
   if (!isXacro && Object.keys(xacroArgs).length > 0) {
@@ -246,6 +269,8 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(cluster !== undefined ? { cluster } : {}),
     packageRoots,
     ...(base ? { base } : {}),
+    ...(tcp ? { tcp } : {}),
+    ...(toolMesh ? { toolMesh } : {}),
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),
     json: values.json ?? false,

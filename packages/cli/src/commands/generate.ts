@@ -36,6 +36,11 @@ Options:
   --base X,Y,Z[,ROLL,PITCH,YAW]
                           the robot's base pose in the world (scene) frame: metres, and radians as a
                           URDF <origin rpy> (default: the origin, or where --scene's robots entry puts it)
+  --tcp X,Y,Z[,ROLL,PITCH,YAW]
+                          the tool centre point in the end-effector link's frame (metres, radians): it becomes
+                          the end effector (link robwot_tcp) of every Cartesian check, the workspace and the TD
+  --tool-mesh FILE        the tool's geometry (STL, OBJ or DAE, metres, in the end-effector link's frame):
+                          checked for collisions with the scene and the robot like a link, drawn by the viewer
   --out DIR, -o DIR       output folder (default twins/<example name or URDF robot name>);
                           an existing twin there is replaced only on success
   --base-url URL          base URL of the servient for the TD (default ${DEFAULT_BASE_URL})

@@ -52,6 +52,8 @@ export interface BuildThingDescriptionOptions {
   liveUrl?: string | null;
   /** The twin folder holds robot.srdf (linked with rel "srdf"). */
   srdf?: boolean;
+  /** A tool mounted on `flange` (`--tcp`, `--tool-mesh`): the model's end effector is its TCP link. */
+  tool?: { flange: string; tcp: readonly number[]; mesh?: string };
 }
 
 function controllableJoints(model: RobotModelLike): JointSpec[] {
@@ -230,7 +232,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     "@type": ["Thing", "robwot:RobotArmTwin"],
     id: options.id ?? thingId(model, slug, options.sceneId),
     title,
-    description: options.description ?? defaultDescription(model, joints, summary),
+    description: options.description ?? defaultDescription(model, joints, summary, options.tool),
     base: `${base.href}${slug}/`,
     securityDefinitions: { nosec_sc: { scheme: "nosec" } },
     // the ActionStatus of the asynchronous moves (`async-actions.ts`); their output is the move result
@@ -245,6 +247,16 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     "robwot:eeLink": model.eeLink,
     "robwot:controllableJoints": joints.map((j) => j.name),
     ...(model.clearance !== undefined ? { "robwot:clearance": model.clearance } : {}),
+    // the TCP (m, rad: fixed-axis roll, pitch, yaw as a URDF <origin>) from the flange the tool is mounted on
+    ...(options.tool
+      ? {
+          "robwot:tool": {
+            flange: options.tool.flange,
+            tcp: { xyz: options.tool.tcp.slice(0, 3), rpy: options.tool.tcp.slice(3, 6), unit: ["m", "rad"] },
+            ...(options.tool.mesh !== undefined ? { mesh: options.tool.mesh } : {}),
+          },
+        }
+      : {}),
   };
   if (summary) {
     td["robwot:workspace"] = {
@@ -289,8 +301,8 @@ export function withAbsoluteForms<T extends object>(td: T, newBase?: string): T 
   return td;
 }
 
-function defaultDescription(model: RobotModelLike, joints: JointSpec[], summary: WorkspaceSummary | null): string {
-  let text = `Digital twin of the robot arm '${model.name}' (${joints.length} controllable joints, end effector '${model.eeLink}'), simulated with PyBullet.`;
+function defaultDescription(model: RobotModelLike, joints: JointSpec[], summary: WorkspaceSummary | null, tool?: { flange: string }): string {
+  let text = `Digital twin of the robot arm '${model.name}' (${joints.length} controllable joints, end effector '${model.eeLink}'${tool ? `: the TCP of a tool on '${tool.flange}'` : ""}), simulated with PyBullet.`;
   if (summary) {
     text += ` Workspace: ${summary.samples} sampled configurations, ${summary.collisionFree} collision-free, ${summary.method} of volume ${summary.volume.toFixed(4)} m³.`;
   }

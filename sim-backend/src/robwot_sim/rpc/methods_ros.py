@@ -1,6 +1,6 @@
 """Robots as ROS users have them, read without a world (each in a thread of its own, so the loop and the
 world keep serving): `robot.expandXacro` (xacro_expand.py), `robot.moveitConfig` (moveit_config.py),
-`robot.readSrdf` (srdf.py, every name checked against the URDF)."""
+`robot.readSrdf` (srdf.py, every name checked against the URDF), `robot.attachTool` (tool.py)."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from typing import Any
 
 from robwot_sim.model.moveit_config import find_moveit_config
 from robwot_sim.model.srdf import read_srdf
+from robwot_sim.model.tool import attach_tool
 from robwot_sim.model.urdf import parse_urdf
 from robwot_sim.model.xacro_expand import expand_xacro
 from robwot_sim.rpc.dispatch import Call, Dispatcher
@@ -43,3 +44,12 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("robot.readSrdf")
     async def srdf(p: Params, call: Call) -> dict[str, Any]:
         return await s.off_world(lambda: _srdf(p["srdf"], p["urdf"]))
+
+    @d.method("robot.attachTool")
+    async def tool(p: Params, call: Call) -> dict[str, Any]:
+        roots = _strings(p["packageRoots"])
+        tcp = [float(v) for v in p["tcp"]]
+        mesh = p["mesh"] if p.has("mesh") else None
+        done = await s.off_world(lambda: attach_tool(p["urdf"], roots, p["eeLink"], tcp, mesh))
+        return {"urdf": str(done.urdf), "packageRoots": done.package_roots, "flange": done.flange,
+                "tcpLink": done.tcp_link}
