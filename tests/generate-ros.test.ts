@@ -188,7 +188,8 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     const served = await startServient({ twins: [out], port: 0, realtime: 0 });
     try {
       const pose = (await http(`${served.things[0]!.tdUrl}/properties/getCartesianPosition`)).body;
-      expect(pose.z).toBeCloseTo(0.1 + 0.05 + 0.25, 6); // the elbow, where fore starts
+      // the elbow, where fore starts, with the SRDF's home state applied (shoulder 0.5 rad, the upper arm 0.25 m)
+      expect(pose.z).toBeCloseTo(0.1 + 0.05 + 0.25 * Math.cos(0.5), 6);
     } finally {
       await served.stop();
     }

@@ -5,7 +5,7 @@
  * refused by our parser (the backend lives to say so); a missing part is refused at once, never
  * decomposed again. Real servient, real backend, real CLI.
  */
-import { copyFileSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, renameSync, statSync, symlinkSync, writeFileSync } from "node:fs";
+import { copyFileSync, mkdtempSync, readdirSync, readFileSync, renameSync, statSync, symlinkSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { beforeAll, describe, expect, it } from "vitest";
@@ -208,13 +208,21 @@ describe("convex parts pass our mesh parser before PyBullet", () => {
 
   it("a folder without its convex parts is refused (re-run generate), never decomposed at serve time", async () => {
     const dir = await twin();
-    const { folder } = partsFolder(dir);
-    mkdirSync(join(outside, "moved"), { recursive: true });
-    renameSync(folder, join(outside, "moved", folder.split("/").pop()!));
+    // parts are found by the mesh's content (the twin's collision/, else the parts shipped for the bundled
+    // robots): a mesh edited after generate has none anywhere
+    const before = readdirSync(join(dir, "collision")).sort();
+    // the collision meshes are binary STL: a new 80-byte header changes their content, not their shape
+    const meshes = readdirSync(join(dir, "meshes"), { recursive: true }).map(String).filter((f) => f.endsWith(".stl"));
+    expect(meshes.length).toBeGreaterThan(0);
+    for (const f of meshes) {
+      const data = readFileSync(join(dir, "meshes", f));
+      Buffer.from("edited after robwot generate".padEnd(80, " ")).copy(data, 0);
+      writeFileSync(join(dir, "meshes", f), data);
+    }
     const r = await refusal(dir);
     expect(r.code).toBe("E_MESH");
     expect(r.message).toMatch(/is concave and has no convex parts.*re-run robwot generate/);
-    expect(readdirSync(join(dir, "collision"))).not.toContain(folder.split("/").pop());
+    expect(readdirSync(join(dir, "collision")).sort()).toEqual(before);
   }, 120_000);
 });
 
