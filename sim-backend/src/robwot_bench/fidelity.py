@@ -195,11 +195,12 @@ def main() -> None:
         print(f"{r['robot']:<7}{r['srdf']:>5}{r['ref_free']:>10}{r['ours_free']:>11}{r['false_accept']:>14}"
               f"{r['false_reject']:>14}{r['false_reject_pct']:>10.1f}%{r['ms_per_config']:>11.3f}")
 
-    print(f"\nverdicts on {args.targets} reachable targets (reference-free configurations, SRDF where "
-          "published), position only, from the home pose")
-    print(f"{'robot':<7}{'accepted':>10}{'false reject':>14}{'other IK':>10}{'reached ≤ 1 mm':>16}")
+    if args.targets > 0:
+        print(f"\nverdicts on {args.targets} reachable targets (reference-free configurations, SRDF where "
+              "published), position only, from the home pose")
+        print(f"{'robot':<7}{'accepted':>10}{'false reject':>14}{'other IK':>10}{'reached ≤ 1 mm':>16}")
     for name in ("ur10", "panda"):
-        if name in args.robots.split(","):
+        if name in args.robots.split(",") and args.targets > 0:
             v = verdicts(name, args.targets, args.seed)
             print(f"{v['robot']:<7}{v['accepted']:>10}{v['false_reject_pct']:>13.1f}%{v['alternative']:>10}"
                   f"{v['reached_pct']:>15.1f}%")
