@@ -45,11 +45,11 @@ IndexArray = npt.NDArray[np.uint32]
 MeshReader = Callable[[Path], "tuple[FloatArray, IndexArray] | None"]
 
 #: CoACD parameters (``coacd.run_coacd`` keyword names): concavity threshold 0.05 (of the mesh's size);
-#: a shallow tree search, one cut deep (CoACD's default search takes many times as long for parts about as
-#: close to the mesh; two cuts deep took 2-3x as long as one for labels within 0.5 percentage point of the
-#: exact-mesh reference's); at most 8 parts per mesh, merged by CoACD where the concavity grows least: Bullet's cost per
-#: check grows with the parts, and the cap leaves the labels against the exact-mesh reference as they
-#: were (README "Fidelity" and "Running on a Ray cluster" have the measurements).
+#: a shallow tree search, one cut deep (deeper searches cost a robot's first use much more time for labels
+#: as close to the exact-mesh reference's); at most 8 parts per mesh, merged by CoACD where the concavity
+#: grows least: Bullet's cost per check grows with the parts, and the cap leaves the labels against the
+#: exact-mesh reference as they were (README "Fidelity", "First use of your own robot" and "Running on a
+#: Ray cluster" have the measurements).
 COACD_PARAMS: dict[str, Any] = {"threshold": 0.05, "preprocess_mode": "auto",
                                 "resolution": 1000, "mcts_nodes": 10, "mcts_iterations": 30,
                                 "mcts_max_depth": 1, "merge": True, "max_convex_hull": 8,
