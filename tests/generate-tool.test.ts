@@ -61,6 +61,17 @@ it("a tool on the KUKA's flange: the TCP is the end effector, described in twin.
   expect(json(join(tooled, "workspace.json"))["reachBounds"].max[2] - json(join(plain, "workspace.json"))["reachBounds"].max[2]).toBeCloseTo(0.15, 2);
 }, 300_000);
 
+it("a scene that places the robot places it with its tool too (the scene names the file, the twin loads its copy)", async () => {
+  const scene = join(work, "placed.json");
+  writeFileSync(scene, JSON.stringify({ version: 1, robots: [{ id: "kuka", urdf: "kuka_iiwa/model.urdf", basePosition: [1, 0, 0] }], obstacles: [] }));
+  const out = join(work, "placed");
+  const r = await runCli(["generate", "kuka_iiwa", "--tcp", "0,0,0.1", "--scene", scene, "--samples", "1000", "--out", out]);
+  expect(r.code, r.stderr).toBe(0);
+  expect(json(join(out, "twin.json"))["robot"]["basePosition"]).toEqual([1, 0, 0]);
+  expect(json(join(out, "scene.json"))["robots"]).toEqual([]); // not a second KUKA standing in it
+  expect(r.stderr).not.toMatch(/warning/);
+}, 120_000);
+
 it("refuses a bad --tcp and a missing --tool-mesh before any work", async () => {
   const bad = await runCli(["generate", "kuka_iiwa", "--tcp", "0,0", "--out", join(work, "never")]);
   expect(bad.code).toBe(2);

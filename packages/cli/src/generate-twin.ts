@@ -144,13 +144,15 @@ async function loadRobotInScene(
   urdf: string,
   packageRoots: Record<string, string>,
   onMesh: (mesh: RobotLoadProgressNotification) => void,
+  source: string = urdf,
 ): Promise<RobotModel> {
   const srdf = { ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}), clearance: opts.clearance };
   const base = opts.base ? { basePosition: opts.base.position, baseOrientation: opts.base.orientation } : {};
   const own = { urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf, ...base };
   if (!opts.scene) return backend.loadRobot(own, onMesh);
   await backend.loadScene({ path: opts.scene, packageRoots });
-  const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf));
+  // the scene names the user's file; the robot loaded may be a copy of it (with a tool, or expanded)
+  const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf) || samePath(r.urdf, source));
   if (!placed) return backend.loadRobot(own, onMesh);
   if (opts.base) {
     // two placements of one robot: neither silently wins
@@ -243,7 +245,7 @@ async function generateFrom(
 ): Promise<GenerateResult> {
   const { source, urdf, packageRoots } = input;
   const meshes = meshProgress(progress);
-  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots, meshes.onMesh), SLOW_LOAD_MS, () => {
+  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots, meshes.onMesh, source), SLOW_LOAD_MS, () => {
     if (!meshes.seen()) progress.info(SLOW_LOAD);
   });
   staged.refuseOtherRobot(model.name, opts.force);
