@@ -228,6 +228,29 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     }
   }, 120_000);
 
+  it("--limits FILE: a joint_limits.yaml's velocities replace the URDF's, recorded in twin.json; bad values are refused", async () => {
+    const yaml = join(work, "joint_limits.yaml");
+    writeFileSync(yaml, "joint_limits:\n  shoulder:\n    has_velocity_limits: true\n    max_velocity: 0.25\n  elbow:\n    has_velocity_limits: false\n    max_velocity: 9\n");
+    const out = join(work, "limited");
+    const r = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", out]);
+    expect(r.code, r.stderr).toBe(0);
+    const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
+    const velocity = (joint: string) => new RegExp(`<joint name="${joint}"[\\s\\S]*?velocity="([^"]+)"`).exec(urdf)?.[1];
+    expect([velocity("yaw"), velocity("shoulder"), velocity("elbow")]).toEqual(["1", "0.25", "1.5"]);
+    const robot = json(join(out, "twin.json")).robot;
+    expect(robot.limits).toEqual({ file: "joint_limits.yaml", velocities: { shoulder: 0.25 } });
+    expect(robot.xacro).toBeUndefined(); // a plain URDF, not a xacro
+    writeFileSync(yaml, "joint_limits:\n  wrist:\n    has_velocity_limits: true\n    max_velocity: 1\n");
+    const unknown = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", join(work, "never-limits")]);
+    expect(unknown.code).toBe(1);
+    expect(unknown.stderr).toMatch(/wrist/);
+    writeFileSync(yaml, "joint_limits:\n  shoulder:\n    has_velocity_limits: true\n    max_velocity: -2\n");
+    const bad = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", join(work, "never-limits")]);
+    expect(bad.code).toBe(1);
+    expect(bad.stderr).toContain("joint 'shoulder': max_velocity -2 must be a positive number");
+    expect(existsSync(join(work, "never-limits"))).toBe(false);
+  }, 120_000);
+
   it("refuses an SRDF written for another robot with file:line", async () => {
     const srdf = join(work, "other.srdf");
     writeFileSync(srdf, '<?xml version="1.0"?>\n<robot name="other">\n  <group name="arm">\n    <chain base_link="base" tip_link="panda_link8"/>\n  </group>\n</robot>\n');

@@ -289,6 +289,8 @@ async function generateFrom(
       ...(input.group !== undefined ? { group: input.group } : {}),
       // the SRDF's home state: the pose serve starts the twin in
       ...(input.home !== undefined ? { home: input.home } : {}),
+      // --limits: the joint_limits.yaml whose velocities robot.urdf carries
+      ...(input.limits !== undefined ? { limits: input.limits } : {}),
       // --tcp / --tool-mesh: robot.urdf carries the tool (links robwot_tool, robwot_tcp); eeLink is the TCP
       ...(input.tool !== undefined ? { tool: input.tool } : {}),
     },

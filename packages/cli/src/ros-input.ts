@@ -27,6 +27,8 @@ export interface RosInput {
   xacro?: { file: string; args: Record<string, string> };
   /** the temporary folder of the expansion, if any (the caller removes it, or keeps it for an error) */
   expandedDir?: string;
+  /** `--limits`: the joint_limits.yaml's name and the velocity limits it put into the URDF */
+  limits?: { file: string; velocities: Record<string, number> };
   /** `--tcp` / `--tool-mesh`: the flange the tool is mounted on, the TCP offset and the mesh's file name */
   tool?: { flange: string; tcp: number[]; mesh?: string };
   /** the temporary folder of the URDF with the tool (the caller removes it) */
@@ -74,6 +76,7 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
   let srdf = opts.srdf;
   let xacroArgs = opts.xacroArgs;
   let velocityLimits: Record<string, number> = {};
+  let limitsRecord: RosInput["limits"];
   if (opts.moveitConfig !== undefined) {
     const config = await backend.moveitConfig({ dir: opts.moveitConfig, packageRoots });
     source = config.urdf;
@@ -84,13 +87,21 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
     xacroArgs = { ...definedStrings(config.xacroArgs), ...(opts.xacroArgs ?? {}) };
     velocityLimits = definedNumbers(config.velocityLimits);
   }
-  const input: RosInput = { source, urdf: source, packageRoots, ...(srdf !== undefined ? { srdf } : {}) };
+  if (opts.limits !== undefined) {
+    // a joint_limits.yaml for any robot: its velocities go into the URDF through the same expansion
+    const velocities = await backend.jointLimits(opts.limits);
+    velocityLimits = { ...velocityLimits, ...velocities };
+    xacroArgs ??= {};
+    limitsRecord = { file: basename(opts.limits), velocities };
+  }
+  const input: RosInput = { source, urdf: source, packageRoots, ...(srdf !== undefined ? { srdf } : {}), ...(limitsRecord ? { limits: limitsRecord } : {}) };
   if (xacroArgs !== undefined) {
     const expanded = await backend.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits });
     input.urdf = expanded.urdf;
     input.expandedDir = dirname(expanded.urdf);
     input.packageRoots = definedStrings(expanded.packageRoots);
-    input.xacro = { file: basename(source), args: xacroArgs };
+    // a plain URDF goes through the expansion only for its velocity limits: it was no xacro
+    if (source.endsWith(".xacro") || opts.moveitConfig !== undefined) input.xacro = { file: basename(source), args: xacroArgs };
   }
   try {
     const info = srdf !== undefined ? await backend.readSrdf({ srdf, urdf: input.urdf }) : undefined;

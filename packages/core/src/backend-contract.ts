@@ -130,6 +130,17 @@ export type RobotExpandXacroResult = XacroExpanded;
  */
 export type RobotMoveitConfigResult = MoveitConfig;
 /**
+ * Result of `robot.jointLimits`.
+ */
+export type RobotJointLimitsResult = {
+  /**
+   * joint -> max velocity (rad/s or m/s)
+   */
+  velocityLimits: {
+    [k: string]: number | undefined;
+  };
+};
+/**
  * Result of `robot.readSrdf`.
  */
 export type RobotReadSrdfResult = SrdfInfo;
@@ -798,6 +809,12 @@ export interface RobotMoveitConfigParams {
   packageRoots?: PackageRoots;
 }
 /**
+ * Params of `robot.jointLimits`.
+ */
+export interface RobotJointLimitsParams {
+  file: FilePath;
+}
+/**
  * Params of `robot.readSrdf`.
  */
 export interface RobotReadSrdfParams {
@@ -979,6 +996,7 @@ export interface Methods {
   "robot.export": { params: RobotExportParams; result: RobotExportResult };
   "robot.expandXacro": { params: RobotExpandXacroParams; result: RobotExpandXacroResult };
   "robot.moveitConfig": { params: RobotMoveitConfigParams; result: RobotMoveitConfigResult };
+  "robot.jointLimits": { params: RobotJointLimitsParams; result: RobotJointLimitsResult };
   "robot.readSrdf": { params: RobotReadSrdfParams; result: RobotReadSrdfResult };
   "robot.attachTool": { params: RobotAttachToolParams; result: RobotAttachToolResult };
   "robot.getJointPositions": { params: RobotGetJointPositionsParams; result: RobotGetJointPositionsResult };

@@ -109,6 +109,9 @@ export class SimClient {
   moveitConfig(params: Params<"robot.moveitConfig">): Result<"robot.moveitConfig"> {
     return this.request("robot.moveitConfig", params);
   }
+  jointLimits(params: Params<"robot.jointLimits">): Result<"robot.jointLimits"> {
+    return this.request("robot.jointLimits", params);
+  }
   attachTool(params: Params<"robot.attachTool">): Result<"robot.attachTool"> {
     return this.request("robot.attachTool", params);
   }

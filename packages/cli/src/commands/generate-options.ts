@@ -54,6 +54,8 @@ export interface GenerateOptions {
   tcp?: number[];
   /** `--tool-mesh`: the tool's geometry in the end-effector link's frame */
   toolMesh?: string;
+  /** `--limits`: a MoveIt-style joint_limits.yaml whose velocity limits replace the URDF's */
+  limits?: string;
   csvJoints: boolean;
   backend?: string;
   json: boolean;
@@ -76,6 +78,7 @@ export const GENERATE_OPTIONS = {
   "package-root": { type: "string", multiple: true },
   base: { type: "string" },
   tcp: { type: "string" },
+  limits: { type: "string" },
   "tool-mesh": { type: "string" },
   "xacro-arg": { type: "string", multiple: true },
   "moveit-config": { type: "string" },
@@ -230,6 +233,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const base = parseBase(values.base);
   const tcp = parseTcp(values.tcp);
   const toolMesh = values["tool-mesh"] === undefined ? undefined : existingFile("tool mesh", values["tool-mesh"]);
+  const limits = values.limits === undefined ? undefined : existingFile("joint limits file", values.limits);
   const xacroArgs = parseXacroArgs(values["xacro-arg"]);
   const isXacro = (urdfFile?.endsWith(".xacro") ?? false) || moveitConfig !== undefined;
   if (!isXacro && Object.keys(xacroArgs).length > 0) {
@@ -271,6 +275,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(base ? { base } : {}),
     ...(tcp ? { tcp } : {}),
     ...(toolMesh ? { toolMesh } : {}),
+    ...(limits ? { limits } : {}),
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),
     json: values.json ?? false,

@@ -123,8 +123,12 @@ def _launch_robot_description(config: Path, roots: dict[str, str]) -> tuple[Path
     return None
 
 
-def _velocity_limits(file: Path) -> dict[str, float]:
+def velocity_limits(file: Path, *, required: bool = False) -> dict[str, float]:
+    """Joint -> max velocity of a MoveIt ``joint_limits.yaml`` (joints with ``has_velocity_limits``). A
+    missing file gives none, or FileNotFound when ``required`` (``robwot generate --limits FILE``)."""
     if not file.is_file():
+        if required:
+            raise FileNotFound(str(file), what="joint limits file")
         return {}
     doc = _yaml(file)
     table = doc.get("joint_limits") if isinstance(doc, dict) else None
@@ -184,5 +188,5 @@ def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | No
     for f, what in ((urdf, "URDF/xacro"), (srdf, "SRDF")):
         if not f.is_file():
             raise FileNotFound(str(f), what=f"MoveIt config {what} file")
-    limits = _velocity_limits(config / "config" / "joint_limits.yaml")
+    limits = velocity_limits(config / "config" / "joint_limits.yaml")
     return MoveitConfig(urdf, xacro_args, srdf, roots, limits)

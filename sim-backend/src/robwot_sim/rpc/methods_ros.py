@@ -4,9 +4,10 @@ world keep serving): `robot.expandXacro` (xacro_expand.py), `robot.moveitConfig`
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
-from robwot_sim.model.moveit_config import find_moveit_config
+from robwot_sim.model.moveit_config import find_moveit_config, velocity_limits
 from robwot_sim.model.srdf import read_srdf
 from robwot_sim.model.tool import attach_tool
 from robwot_sim.model.urdf import parse_urdf
@@ -40,6 +41,11 @@ def register(d: Dispatcher, s: Services) -> None:
         roots = _strings(p["packageRoots"])
         config = await s.off_world(lambda: find_moveit_config(p["dir"], roots))
         return config.to_json()
+
+    @d.method("robot.jointLimits")
+    async def joint_limits(p: Params, call: Call) -> dict[str, Any]:
+        file = Path(p["file"]).expanduser()
+        return {"velocityLimits": await s.off_world(lambda: velocity_limits(file, required=True))}
 
     @d.method("robot.readSrdf")
     async def srdf(p: Params, call: Call) -> dict[str, Any]:
