@@ -45,7 +45,9 @@ it("a tool on the KUKA's flange: the TCP is the end effector, described in twin.
   expect(robot.eeLink).toBe("robwot_tcp");
   expect(robot.tool).toEqual({ flange: "lbr_iiwa_link_7", tcp: [0, 0, 0.15, 0, 0, 0], mesh: "gripper.stl" });
   const urdf = readFileSync(join(tooled, "robot.urdf"), "utf8");
-  expect(urdf).toMatch(/<link name="robwot_tool">[\s\S]*<mesh filename="meshes\/[^"]*robwot_tool\.stl"/);
+  // the tool's mesh beside the KUKA's, never under a copy of the machine's absolute paths
+  expect(urdf).toMatch(/<link name="robwot_tool">[\s\S]*<mesh filename="meshes\/robwot_tool\.stl"/);
+  expect(urdf).toMatch(/<mesh filename="meshes\/link_0\.stl"/);
   expect(urdf).toMatch(/<joint name="robwot_tcp_joint" type="fixed">[\s\S]*<origin xyz="0 0 0.15" rpy="0 0 0"/);
   const td = json(join(tooled, "td.json"));
   expect(td["robwot:eeLink"]).toBe("robwot_tcp");

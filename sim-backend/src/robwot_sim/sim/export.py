@@ -11,7 +11,7 @@ import os
 import re
 import shutil
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,11 @@ def _companions(mesh: Path) -> list[Path]:
     return out
 
 
+def _common_folder(paths: Iterable[Path]) -> Path:
+    folders = [str(p.parent) for p in paths]
+    return Path(os.path.commonpath(folders)) if folders else Path("/")
+
+
 def export_urdf(
     path: str | Path,
     out_dir: str | Path,
@@ -56,15 +61,23 @@ def export_urdf(
         fn = el.get("filename", "")
         if fn not in sources:
             sources[fn] = resolve_mesh(fn, doc.file.parent, package_roots, urdf=str(doc.file))
-    mapping: dict[str, str] = {}
-    if sources:
-        common = Path(os.path.commonpath([str(p.parent) for p in sources.values()]))
-        for fn, src in sources.items():
-            mapping[fn] = (Path(MESHES_DIR) / src.relative_to(common)).as_posix()
-            for extra in [src, *_companions(src)]:
-                dst = out / MESHES_DIR / extra.relative_to(common)
-                dst.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(extra, dst)
+    # meshes beside the URDF (a mounted tool's) keep their place relative to it; the others are laid out
+    # below their own common folder, so the twin never holds a copy of the machine's absolute paths
+    udir = doc.file.parent.resolve()
+    beside = {fn: src for fn, src in sources.items() if udir in src.parents}
+    others = {fn: src for fn, src in sources.items() if fn not in beside}
+    common = {**{fn: udir for fn in beside}, **{fn: _common_folder(others.values()) for fn in others}}
+    mapping = {fn: (Path(MESHES_DIR) / src.relative_to(common[fn])).as_posix() for fn, src in sources.items()}
+    placed: dict[str, Path] = {}
+    for fn, target in mapping.items():  # one file per place (two names of one file share it)
+        if placed.setdefault(target, sources[fn]) != sources[fn]:
+            raise ValueError(f"{path}: meshes {placed[target]} and {sources[fn]} would both be copied to "
+                             f"{target}")
+    for fn, src in sources.items():
+        for extra in [src, *_companions(src)]:
+            dst = out / MESHES_DIR / extra.relative_to(common[fn])
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(extra, dst)
     for el in root.iter("mesh"):
         el.set("filename", mapping[el.get("filename", "")])
     out.mkdir(parents=True, exist_ok=True)
