@@ -74,6 +74,16 @@ it("a scene that places the robot places it with its tool too (the scene names t
   expect(r.stderr).not.toMatch(/warning/);
 }, 120_000);
 
+it("--tool-box: the tool as a box from the flange along its z axis, recorded in twin.json and the TD", async () => {
+  const out = join(work, "boxed");
+  const r = await runCli(["generate", "kuka_iiwa", "--tcp", "0,0,0.12", "--tool-box", "0.04,0.04,0.12", "--samples", "1000", "--out", out]);
+  expect(r.code, r.stderr).toBe(0);
+  const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
+  expect(urdf).toMatch(/<link name="robwot_tool">[\s\S]*<collision>\s*<origin xyz="0 0 0.06" rpy="0 0 0" \/>\s*<geometry>\s*<box size="0.04 0.04 0.12" \/>/);
+  expect(json(join(out, "twin.json"))["robot"]["tool"]).toEqual({ flange: "lbr_iiwa_link_7", tcp: [0, 0, 0.12, 0, 0, 0], shape: { type: "box", size: [0.04, 0.04, 0.12] } });
+  expect(json(join(out, "td.json"))["robwot:tool"].shape).toEqual({ type: "box", size: [0.04, 0.04, 0.12] });
+}, 120_000);
+
 it("refuses a bad --tcp and a missing --tool-mesh before any work", async () => {
   const bad = await runCli(["generate", "kuka_iiwa", "--tcp", "0,0", "--out", join(work, "never")]);
   expect(bad.code).toBe(2);
@@ -81,4 +91,10 @@ it("refuses a bad --tcp and a missing --tool-mesh before any work", async () => 
   const missing = await runCli(["generate", "kuka_iiwa", "--tool-mesh", join(work, "nope.stl"), "--out", join(work, "never")]);
   expect(missing.code).toBe(1); // as every missing input file
   expect(missing.stderr).toMatch(/robwot: error: tool mesh not found: .*nope\.stl/);
+  const both = await runCli(["generate", "kuka_iiwa", "--tool-box", "0.1,0.1,0.1", "--tool-cylinder", "0.1,0.2", "--out", join(work, "never")]);
+  expect(both.code).toBe(2);
+  expect(both.stderr).toContain("give --tool-box or --tool-cylinder, not both");
+  const flat = await runCli(["generate", "kuka_iiwa", "--tool-cylinder", "0.1,0", "--out", join(work, "never")]);
+  expect(flat.code).toBe(2);
+  expect(flat.stderr).toContain('--tool-cylinder must be RADIUS,LENGTH (metres, each in (0, 10]), got "0.1,0"');
 });

@@ -75,3 +75,26 @@ def test_refusals_name_the_problem(gripper: Path, tmp_path: Path) -> None:
     twice = attach_tool(KUKA, {}, None, TCP)
     with pytest.raises(UrdfError, match="already has a link named 'robwot_tcp'"):
         attach_tool(twice.urdf, {}, None, TCP)
+
+
+def test_a_primitive_tool_extends_from_the_flange_along_its_z_axis() -> None:
+    """A 20 cm cylinder from the flange: a ball 15 cm out along the flange's z axis touches it, one 25 cm
+    out does not; the TCP may be given alone (no geometry: no robwot_tool link)."""
+    tool = attach_tool(KUKA, {}, None, (0, 0, 0.2, 0, 0, 0), shape={"type": "cylinder", "radius": 0.02,
+                                                                     "length": 0.2})
+    bare = attach_tool(KUKA, {}, None, (0, 0, 0.2, 0, 0, 0))
+    q = [0.0, 0.6, 0.0, -1.2, 0.0, 0.6, 0.0]
+    with World() as w:
+        m = w.load_robot(str(tool.urdf), package_roots=tool.package_roots, ee_link=tool.tcp_link)
+        assert TOOL_LINK in m.links
+        assert TOOL_LINK not in w.load_robot(str(bare.urdf), package_roots=bare.package_roots,
+                                             ee_link=bare.tcp_link, base_position=[0, 3, 0]).links
+        assert w.check_collision(m.id, q).collision_free
+        pose = w.fk(m.id, q)  # the TCP: 20 cm out along the flange's z axis
+        axis = quat_matrix(pose.quat_xyzw)[:, 2]
+        flange = np.asarray(pose.position) - 0.2 * axis
+        ball = {"type": "sphere", "radius": 0.01}
+        w.add_obstacle({"name": "near", "shape": ball, "position": list(flange + 0.15 * axis)})
+        assert any(TOOL_LINK in (c.a.link, c.b.link) for c in w.check_collision(m.id, q).contacts)
+        w.move_obstacle("near", list(flange + 0.25 * axis))
+        assert w.check_collision(m.id, q).collision_free

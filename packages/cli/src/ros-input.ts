@@ -8,7 +8,7 @@ import { rmSync } from "node:fs";
 import { basename, dirname } from "node:path";
 import type { SrdfInfo } from "@robwot/sim-client";
 import type { Backend } from "./backend.js";
-import type { GenerateOptions } from "./commands/generate-options.js";
+import type { GenerateOptions, ToolShape } from "./commands/generate-options.js";
 import { CliError } from "./errors.js";
 
 export interface RosInput {
@@ -30,7 +30,7 @@ export interface RosInput {
   /** `--limits`: the joint_limits.yaml's name and the velocity limits it put into the URDF */
   limits?: { file: string; velocities: Record<string, number> };
   /** `--tcp` / `--tool-mesh`: the flange the tool is mounted on, the TCP offset and the mesh's file name */
-  tool?: { flange: string; tcp: number[]; mesh?: string };
+  tool?: { flange: string; tcp: number[]; mesh?: string; shape?: ToolShape };
   /** the temporary folder of the URDF with the tool (the caller removes it) */
   toolDir?: string;
 }
@@ -110,7 +110,7 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
     if (opts.group !== undefined) input.group = opts.group;
     const home = info ? srdfHome(info, opts.group) : undefined;
     if (home !== undefined) input.home = home;
-    if (opts.tcp !== undefined || opts.toolMesh !== undefined) {
+    if (opts.tcp !== undefined || opts.toolMesh !== undefined || opts.toolShape !== undefined) {
       // the tool goes on the end effector chosen above (--ee, the SRDF's, else the backend's default); the
       // TCP link it adds is then the end effector
       const [x = 0, y = 0, z = 0, roll = 0, pitch = 0, yaw = 0] = opts.tcp ?? [];
@@ -121,12 +121,18 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
         tcp,
         ...(input.ee !== undefined ? { eeLink: input.ee } : {}),
         ...(opts.toolMesh !== undefined ? { mesh: opts.toolMesh } : {}),
+        ...(opts.toolShape !== undefined ? { shape: opts.toolShape } : {}),
       });
       input.toolDir = dirname(attached.urdf);
       input.urdf = attached.urdf;
       input.packageRoots = definedStrings(attached.packageRoots);
       input.ee = attached.tcpLink;
-      input.tool = { flange: attached.flange, tcp, ...(opts.toolMesh !== undefined ? { mesh: basename(opts.toolMesh) } : {}) };
+      input.tool = {
+        flange: attached.flange,
+        tcp,
+        ...(opts.toolMesh !== undefined ? { mesh: basename(opts.toolMesh) } : {}),
+        ...(opts.toolShape !== undefined ? { shape: opts.toolShape } : {}),
+      };
     }
     return input;
   } catch (err) {

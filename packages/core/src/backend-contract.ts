@@ -839,6 +839,31 @@ export interface RobotAttachToolParams {
    */
   tcp?: [number, number, number, number, number, number];
   mesh?: FilePath;
+  /**
+   * the tool's geometry as a box or a cylinder (its axis along z) extending from the flange along its z axis, besides or instead of `mesh`
+   */
+  shape?:
+    | {
+        type: "box";
+        /**
+         * m
+         *
+         * @minItems 3
+         * @maxItems 3
+         */
+        size: [number, number, number];
+      }
+    | {
+        type: "cylinder";
+        /**
+         * m
+         */
+        radius: number;
+        /**
+         * m
+         */
+        length: number;
+      };
 }
 /**
  * Params of `robot.getJointPositions`.

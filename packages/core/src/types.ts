@@ -61,7 +61,7 @@ export interface TwinManifest {
     /** the start pose `serve` takes (rad or m by joint name; joints not named stay at 0): the SRDF's `home` */
     home?: { joints: Record<string, number>; from: string };
     /** `--tcp` / `--tool-mesh`: the tool robot.urdf carries, mounted on `flange`; `eeLink` is its TCP link */
-    tool?: { flange: string; tcp: number[]; mesh?: string };
+    tool?: { flange: string; tcp: number[]; mesh?: string; shape?: { type: "box"; size: number[] } | { type: "cylinder"; radius: number; length: number } };
   };
   scene: string;
   generatedAt: string;

@@ -54,6 +54,8 @@ export interface GenerateOptions {
   tcp?: number[];
   /** `--tool-mesh`: the tool's geometry in the end-effector link's frame */
   toolMesh?: string;
+  /** `--tool-box` / `--tool-cylinder`: the tool as a primitive from the flange along its z axis */
+  toolShape?: ToolShape;
   /** `--limits`: a MoveIt-style joint_limits.yaml whose velocity limits replace the URDF's */
   limits?: string;
   csvJoints: boolean;
@@ -78,6 +80,8 @@ export const GENERATE_OPTIONS = {
   "package-root": { type: "string", multiple: true },
   base: { type: "string" },
   tcp: { type: "string" },
+  "tool-box": { type: "string" },
+  "tool-cylinder": { type: "string" },
   limits: { type: "string" },
   "tool-mesh": { type: "string" },
   "xacro-arg": { type: "string", multiple: true },
@@ -132,6 +136,29 @@ export function parseBase(value: string | undefined): BasePose | undefined {
   };
   const q = quatMul(axis(yaw, 2), quatMul(axis(pitch, 1), axis(roll, 0)));
   return { position: [x, y, z], orientation: quatArr(q) };
+}
+
+export type ToolShape = { type: "box"; size: [number, number, number] } | { type: "cylinder"; radius: number; length: number };
+
+/** `--tool-box SX,SY,SZ` or `--tool-cylinder RADIUS,LENGTH` (metres, each in (0, 10]); not both. */
+export function parseToolShape(box: string | undefined, cylinder: string | undefined): ToolShape | undefined {
+  if (box !== undefined && cylinder !== undefined) throw new CliError("give --tool-box or --tool-cylinder, not both");
+  const nums = (option: string, value: string, count: number, what: string): number[] => {
+    const parts = value.split(",").map((p) => Number(p.trim()));
+    if (parts.length !== count || parts.some((v) => !Number.isFinite(v) || v <= 0 || v > TCP_MAX)) {
+      throw new CliError(`--${option} must be ${what} (metres, each in (0, ${TCP_MAX}]), got "${value}"`);
+    }
+    return parts;
+  };
+  if (box !== undefined) {
+    const [x, y, z] = nums("tool-box", box, 3, "SX,SY,SZ") as [number, number, number];
+    return { type: "box", size: [x, y, z] };
+  }
+  if (cylinder !== undefined) {
+    const [radius, length] = nums("tool-cylinder", cylinder, 2, "RADIUS,LENGTH") as [number, number];
+    return { type: "cylinder", radius, length };
+  }
+  return undefined;
 }
 
 /** The tool's reach from the flange the contract takes (`robot.attachTool`'s `tcp`). */
@@ -233,6 +260,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const base = parseBase(values.base);
   const tcp = parseTcp(values.tcp);
   const toolMesh = values["tool-mesh"] === undefined ? undefined : existingFile("tool mesh", values["tool-mesh"]);
+  const toolShape = parseToolShape(values["tool-box"], values["tool-cylinder"]);
   const limits = values.limits === undefined ? undefined : existingFile("joint limits file", values.limits);
   const xacroArgs = parseXacroArgs(values["xacro-arg"]);
   const isXacro = (urdfFile?.endsWith(".xacro") ?? false) || moveitConfig !== undefined;
@@ -275,6 +303,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(base ? { base } : {}),
     ...(tcp ? { tcp } : {}),
     ...(toolMesh ? { toolMesh } : {}),
+    ...(toolShape ? { toolShape } : {}),
     ...(limits ? { limits } : {}),
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),

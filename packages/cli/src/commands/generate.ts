@@ -41,6 +41,8 @@ Options:
                           the end effector (link robwot_tcp) of every Cartesian check, the workspace and the TD
   --tool-mesh FILE        the tool's geometry (STL, OBJ or DAE, metres, in the end-effector link's frame):
                           checked for collisions with the scene and the robot like a link, drawn by the viewer
+  --tool-box SX,SY,SZ     the tool as a box (metres) from the end-effector link along its z axis
+  --tool-cylinder R,L     the tool as a cylinder (radius, length in metres) likewise; with or without --tool-mesh
   --limits FILE           a MoveIt-style joint_limits.yaml: its max_velocity values (joints with
                           has_velocity_limits) replace the URDF's <limit velocity> (over a --moveit-config's)
   --out DIR, -o DIR       output folder (default twins/<example name or URDF robot name>);

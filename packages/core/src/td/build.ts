@@ -53,7 +53,7 @@ export interface BuildThingDescriptionOptions {
   /** The twin folder holds robot.srdf (linked with rel "srdf"). */
   srdf?: boolean;
   /** A tool mounted on `flange` (`--tcp`, `--tool-mesh`): the model's end effector is its TCP link. */
-  tool?: { flange: string; tcp: readonly number[]; mesh?: string };
+  tool?: { flange: string; tcp: readonly number[]; mesh?: string; shape?: Record<string, unknown> };
 }
 
 function controllableJoints(model: RobotModelLike): JointSpec[] {
@@ -254,6 +254,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
             flange: options.tool.flange,
             tcp: { xyz: options.tool.tcp.slice(0, 3), rpy: options.tool.tcp.slice(3, 6), unit: ["m", "rad"] },
             ...(options.tool.mesh !== undefined ? { mesh: options.tool.mesh } : {}),
+            ...(options.tool.shape !== undefined ? { shape: options.tool.shape } : {}),
           },
         }
       : {}),

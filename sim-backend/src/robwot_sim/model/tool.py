@@ -1,7 +1,8 @@
 """A tool on the robot's end effector, written into the URDF as ROS users mount one.
 
 ``attach_tool`` writes a copy of a URDF with two fixed links added below the end-effector link (the
-flange): ``robwot_tool``, carrying the tool's mesh as visual and collision geometry (optional), and
+flange): ``robwot_tool``, carrying the tool's mesh and/or a box or cylinder as visual and collision
+geometry (optional), and
 ``robwot_tcp``, the tool centre point at its offset from the flange. The TCP link then is the end effector:
 every Cartesian affordance, the workspace samples, the STL and the reachability map refer to it; the tool
 is a collision body of the robot like its links, checked against the scene and the other links, except
@@ -18,6 +19,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
 from robwot_sim.model.joints import parse_model
@@ -58,11 +60,26 @@ def _fixed(name: str, parent: str, child: str, xyz: Sequence[float], rpy: Sequen
     return joint
 
 
+def _primitive(shape: Mapping[str, Any]) -> tuple[ET.Element, float]:
+    """A URDF ``<geometry>`` of a box (``size`` [x, y, z]) or cylinder (``radius``, ``length``) and its
+    length along z: the shape extends from the flange along its z axis (centred at half its length)."""
+    geometry = ET.Element("geometry")
+    if shape["type"] == "box":
+        sx, sy, sz = (float(v) for v in shape["size"])
+        ET.SubElement(geometry, "box", {"size": f"{sx:.9g} {sy:.9g} {sz:.9g}"})
+        return geometry, sz
+    radius, length = float(shape["radius"]), float(shape["length"])
+    ET.SubElement(geometry, "cylinder", {"radius": f"{radius:.9g}", "length": f"{length:.9g}"})
+    return geometry, length
+
+
 def attach_tool(urdf: str | Path, package_roots: Mapping[str, str], ee_link: str | None,
-                tcp: Sequence[float], mesh: str | Path | None = None) -> AttachedTool:
+                tcp: Sequence[float], mesh: str | Path | None = None,
+                shape: Mapping[str, Any] | None = None) -> AttachedTool:
     """The URDF with the tool mounted on ``ee_link`` (default: the URDF's default end effector). ``tcp``:
     X, Y, Z (m), ROLL, PITCH, YAW (rad, fixed axes as a URDF ``<origin rpy>``) of the TCP in the flange's
-    frame. ``mesh``: the tool's STL, OBJ or DAE in the flange's frame (checked by our mesh parser).
+    frame. ``mesh``: the tool's STL, OBJ or DAE in the flange's frame (checked by our mesh parser);
+    ``shape``: a box or cylinder from the flange along its z axis (``_primitive``); both may be given.
     Raises UnknownLink, UrdfError (the URDF already has the tool's links), FileNotFound, MeshError."""
     doc = parse_urdf(urdf)
     model = parse_model(doc)
@@ -95,13 +112,20 @@ def attach_tool(urdf: str | Path, package_roots: Mapping[str, str], ee_link: str
             el.set("filename", str(real))
     out_dir = Path(tempfile.mkdtemp(prefix="robwot-tool-"))
     parent = flange
-    if tool_mesh is not None:
-        copied = out_dir / f"{TOOL_LINK}{tool_mesh.suffix.lower()}"
-        shutil.copyfile(tool_mesh, copied)
+    if tool_mesh is not None or shape is not None:
         link = _link(root, TOOL_LINK)
-        for kind in ("visual", "collision"):
-            geometry = ET.SubElement(ET.SubElement(link, kind), "geometry")
-            ET.SubElement(geometry, "mesh", {"filename": copied.name})
+        if tool_mesh is not None:
+            copied = out_dir / f"{TOOL_LINK}{tool_mesh.suffix.lower()}"
+            shutil.copyfile(tool_mesh, copied)
+            for kind in ("visual", "collision"):
+                geometry = ET.SubElement(ET.SubElement(link, kind), "geometry")
+                ET.SubElement(geometry, "mesh", {"filename": copied.name})
+        if shape is not None:
+            for kind in ("visual", "collision"):
+                geometry, length = _primitive(shape)
+                element = ET.SubElement(link, kind)
+                ET.SubElement(element, "origin", {"xyz": f"0 0 {length / 2:.9g}", "rpy": "0 0 0"})
+                element.append(geometry)
         root.append(_fixed(f"{TOOL_LINK}_mount", flange, TOOL_LINK, (0, 0, 0), (0, 0, 0)))
         parent = TOOL_LINK
     _link(root, TCP_LINK)

@@ -56,6 +56,7 @@ def register(d: Dispatcher, s: Services) -> None:
         roots = _strings(p["packageRoots"])
         tcp = [float(v) for v in p["tcp"]]
         mesh = p["mesh"] if p.has("mesh") else None
-        done = await s.off_world(lambda: attach_tool(p["urdf"], roots, p["eeLink"], tcp, mesh))
+        shape = dict(p["shape"]) if p.has("shape") else None
+        done = await s.off_world(lambda: attach_tool(p["urdf"], roots, p["eeLink"], tcp, mesh, shape))
         return {"urdf": str(done.urdf), "packageRoots": done.package_roots, "flange": done.flange,
                 "tcpLink": done.tcp_link}
