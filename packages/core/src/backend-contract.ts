@@ -463,9 +463,9 @@ export interface PlanChecks {
      */
     contacts: Contact[];
     /**
-     * straight: the straight joint-space path; detour: a path planned around obstacles (RRT-Connect, shortcut), its waypoints in `via`
+     * straight: the straight joint-space path; detour: a path planned around obstacles (RRT-Connect, shortcut), its waypoints in `via`; lin: the end effector on the straight line (its joint waypoints in `via`)
      */
-    planned: "straight" | "detour";
+    planned: "straight" | "detour" | "lin";
     /**
      * m kept to other bodies along the path (the robot's clearance)
      */
@@ -925,6 +925,10 @@ export interface RobotPlanParams {
   orientation?: QuatXyzw;
   speed?: Speed;
   dt?: Dt;
+  /**
+   * ptp: joint interpolation (a straight joint-space path, or a detour); lin: the end effector on the straight line to `position`, its orientation turned by slerp (`orientation`, default: kept), IK continuous along it (no configuration flip), within 0.5 mm of the line, every segment collision-free; the waypoints in `via`. `lin` takes `position`, not `target`.
+   */
+  motion?: "ptp" | "lin";
 }
 /**
  * Params of `robot.move`.
@@ -940,6 +944,10 @@ export interface RobotMoveParams {
    */
   realtime?: 0 | RealtimeFactor;
   dt?: Dt;
+  /**
+   * ptp: joint interpolation (a straight joint-space path, or a detour); lin: the end effector on the straight line to `position`, its orientation turned by slerp (`orientation`, default: kept), IK continuous along it (no configuration flip), within 0.5 mm of the line, every segment collision-free; the waypoints in `via`. `lin` takes `position`, not `target`.
+   */
+  motion?: "ptp" | "lin";
 }
 /**
  * Params of `robot.stop`.

@@ -52,3 +52,20 @@ def quat_angle(a: Sequence[float], b: Sequence[float]) -> float:
     d = abs(sum(x * y for x, y in zip(a, b, strict=True)))
     na = math.sqrt(sum(x * x for x in a) * sum(y * y for y in b))
     return 2.0 * math.acos(min(1.0, d / na)) if na > 0 else math.pi
+
+
+def quat_slerp(a: Sequence[float], b: Sequence[float], t: float) -> Quat:
+    """The rotation a fraction ``t`` (0..1) of the way from ``a`` to ``b`` along the shorter arc, as a
+    unit quaternion [x, y, z, w] (spherical linear interpolation)."""
+    qa = np.asarray(a, dtype=np.float64) / np.linalg.norm(a)
+    qb = np.asarray(b, dtype=np.float64) / np.linalg.norm(b)
+    dot = float(qa @ qb)
+    if dot < 0.0:  # the other sign of b is the shorter way
+        qb, dot = -qb, -dot
+    if dot > 0.9995:  # nearly equal: linear, normalised (sin of a tiny angle loses precision)
+        q = qa + t * (qb - qa)
+    else:
+        theta = math.acos(dot)
+        q = (math.sin((1 - t) * theta) * qa + math.sin(t * theta) * qb) / math.sin(theta)
+    q = q / np.linalg.norm(q)
+    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))

@@ -11,7 +11,7 @@ from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
-from robwot_sim.sim.planner import Plan, plan_joints, plan_pose
+from robwot_sim.sim.planner import Plan, plan_joints, plan_lin, plan_pose
 from robwot_sim.sim.world_thread import Kind
 
 
@@ -25,6 +25,13 @@ def _planner(p: Params, s: Services) -> Callable[[], Plan]:
         raise invalid_param("orientation", "'orientation' only together with 'position'", p["orientation"])
     speed, dt = float(p["speed"]), float(p["dt"])
     target = p.joint_vector("target", model.dof)
+    if p["motion"] == "lin":
+        if target is not None:
+            raise invalid_param("motion", "'lin' moves the end effector to a pose: give 'position' (and "
+                                "'orientation'), not 'target'", p["motion"])
+        pose, turn = p.floats("position"), p.quaternion("orientation")
+        assert pose is not None
+        return lambda: plan_lin(s.world, model.id, pose, turn)
     if target is not None:
         joints = target
         return lambda: plan_joints(s.world, model.id, joints, speed, dt)

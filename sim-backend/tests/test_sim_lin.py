@@ -1,0 +1,89 @@
+"""LIN (lin.py): the end effector on the straight line, measured by forward kinematics of the returned
+waypoints and of the states between them; refusals name where and why."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from rpc_backend import RpcClient
+
+from robwot_sim.model.rotations import quat_angle
+from robwot_sim.model.urdf import pybullet_data_path
+from robwot_sim.sim.lin import MAX_DEVIATION
+from robwot_sim.sim.planner import plan_lin
+from robwot_sim.sim.world import World
+
+KUKA = str(pybullet_data_path() / "kuka_iiwa/model.urdf")
+START = [0.0, 0.6, 0.0, -1.2, 0.0, 0.6, 0.0]
+
+
+def distance_to_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    t = float(np.clip((p - a) @ (b - a) / max((b - a) @ (b - a), 1e-18), 0, 1))
+    return float(np.linalg.norm(p - (a + t * (b - a))))
+
+
+def test_the_tcp_stays_on_the_line_with_its_orientation() -> None:
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, START)
+        start = w.fk(m.id)
+        a = np.asarray(start.position)
+        b = a + np.array([0.0, 0.3, -0.1])
+        plan = plan_lin(w, m.id, tuple(b), None)
+        assert plan.valid and plan.target is not None and plan.checks["path"]["planned"] == "lin"
+        path = [np.asarray(START), *map(np.asarray, plan.via), np.asarray(plan.target)]
+        assert len(path) > 60  # 5 mm samples along 316 mm
+        worst, turn = 0.0, 0.0
+        for qa, qb in itertools.pairwise(path):
+            for t in np.linspace(0, 1, 5):  # the waypoints and the states the motion passes between them
+                pose = w.fk(m.id, list(qa + t * (qb - qa)))
+                worst = max(worst, distance_to_segment(np.asarray(pose.position), a, b))
+                turn = max(turn, quat_angle(pose.quat_xyzw, start.quat_xyzw))
+        assert worst <= MAX_DEVIATION
+        assert np.degrees(turn) <= 0.5
+        assert np.linalg.norm(np.asarray(w.fk(m.id, list(plan.target)).position) - b) <= 1e-4
+        assert list(w.get_joint_positions(m.id)) == pytest.approx(START)  # read-only
+
+
+def test_a_line_through_an_obstacle_is_refused_naming_it() -> None:
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, START)
+        a = np.asarray(w.fk(m.id).position)
+        b = a + np.array([0.0, 0.3, -0.1])
+        w.add_obstacle({"name": "post", "shape": {"type": "box", "size": [0.3, 0.02, 0.3]},
+                        "position": list(a + np.array([0.0, 0.15, -0.05]))})
+        plan = plan_lin(w, m.id, tuple(b), None)
+        assert not plan.valid
+        assert plan.reasons[0].startswith("LIN refused: the line collides (") and "post" in plan.reasons[0]
+        assert plan.checks["path"]["ok"] is False and plan.checks["path"]["planned"] == "lin"
+
+
+def test_a_line_out_of_reach_is_refused_saying_where() -> None:
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, START)
+        a = np.asarray(w.fk(m.id).position)
+        plan = plan_lin(w, m.id, tuple(a + np.array([2.0, 0.0, 0.0])), None)
+        assert not plan.valid
+        assert "LIN refused: the line leaves the robot's reach" in plan.reasons[0]
+        assert "mm along the line" in plan.reasons[0]
+
+
+def test_lin_over_the_wire(client: RpcClient) -> None:
+    """robot.plan / robot.move with motion 'lin': the move ends on the target pose; a joint target is
+    refused for LIN."""
+    client.call("robot.setJointPositions", {"robot": "kuka", "positions": START})  # the fixture's robot
+    pose = client.call("robot.fk", {"robot": "kuka"})
+    target = [pose["position"][0], pose["position"][1] + 0.2, pose["position"][2]]
+    plan = client.call("robot.plan", {"robot": "kuka", "position": target, "motion": "lin"})
+    assert plan["valid"], plan
+    assert plan["checks"]["path"]["planned"] == "lin" and len(plan["via"]) > 30
+    done = client.call("robot.move", {"robot": "kuka", "position": target, "motion": "lin", "realtime": 0})
+    assert done["status"] == "reached"
+    end = client.call("robot.fk", {"robot": "kuka"})
+    assert np.linalg.norm(np.asarray(end["position"]) - target) <= 1e-3
+    err = client.error("robot.plan", {"robot": "kuka", "target": START, "motion": "lin"})
+    assert err.data["param"] == "motion"
