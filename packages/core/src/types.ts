@@ -78,8 +78,8 @@ export interface MoveResult {
   duration: number;
   /** m, Cartesian moves */
   positionError?: number;
-  /** the path the twin planned: the straight joint-space one, or a detour around obstacles */
-  path?: "straight" | "detour";
+  /** the path the twin planned: the straight joint-space one, a detour around obstacles, or a LIN */
+  path?: "straight" | "detour" | "lin";
 }
 
 /** What relaying a command to the physical robot's Thing gave (`--relay`): `result` is its answer. */

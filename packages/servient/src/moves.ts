@@ -38,6 +38,8 @@ export interface CartesianInput {
   z: number;
   orientation?: Quaternion;
   speed?: number;
+  /** "ptp" (default) or "lin" (the schema allows no other) */
+  motion?: string;
 }
 
 export function speedOf(input: { speed?: unknown }): number {
@@ -127,7 +129,7 @@ export class Mover {
 
   async validateCartesian(input: CartesianInput): Promise<ValidationReport> {
     const t = cartesianTarget(input);
-    return validateCartesian(this.backend, this.twin, this.ws, poseTarget(this.twin, t.real, t.orientation), speedOf(input));
+    return validateCartesian(this.backend, this.twin, this.ws, poseTarget(this.twin, t.real, t.orientation, input.motion), speedOf(input));
   }
 
   async moveJoints(input: JointInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
@@ -146,7 +148,7 @@ export class Mover {
   async moveCartesian(input: CartesianInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
     const t = cartesianTarget(input);
     const speed = speedOf(input);
-    const target = poseTarget(this.twin, t.real, t.orientation);
+    const target = poseTarget(this.twin, t.real, t.orientation, input.motion);
     return this.guarded(watch, async (move) => {
       const result = await this.execute(move, target, speed, staticChecks(this.ws, target.position));
       const p = result.position;
@@ -155,6 +157,7 @@ export class Mover {
       if (result.status === "reached" && this.relay && !move.cancelled) {
         const cmd: Record<string, unknown> = { x: t.real[0], y: t.real[1], z: t.real[2], speed };
         if (t.orientation) cmd.orientation = t.orientation;
+        if (target.motion) cmd.motion = target.motion;
         result.relay = await this.relayMove(move, this.relay, "moveToCartesianPosition", cmd, result.duration);
       }
       return result;

@@ -20,11 +20,14 @@ const fmt = (v: number): string => (Math.abs(v) >= 1e-3 || v === 0 ? v.toFixed(4
 export interface PoseTarget {
   position: Vec3;
   orientation?: [number, number, number, number];
+  /** "lin": the end effector on the straight line (the backend's `motion`); absent: joint interpolation */
+  motion?: "lin";
 }
 
-export function poseTarget(twin: Twin, real: Vec3, orientation: Quaternion | undefined): PoseTarget {
+export function poseTarget(twin: Twin, real: Vec3, orientation: Quaternion | undefined, motion?: string): PoseTarget {
   const position = twin.frames.pointToVirtual(real);
-  return orientation ? { position, orientation: quatArr(twin.frames.quatToVirtual(orientation)) } : { position };
+  const lin = motion === "lin" ? { motion: "lin" as const } : {};
+  return orientation ? { position, orientation: quatArr(twin.frames.quatToVirtual(orientation)), ...lin } : { position, ...lin };
 }
 
 /** The static checks of a Cartesian target on workspace.stl and workspace.csv, and their evidence. */

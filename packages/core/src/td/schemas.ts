@@ -86,9 +86,21 @@ export function cartesianSchema(bounds: Bounds | null, withSpeed: boolean, descr
     ...s.properties,
     orientation: quaternionSchema("End-effector orientation quaternion {x,y,z,w}; any orientation if absent"),
   };
-  if (withSpeed) s.properties.speed = speedSchema();
+  if (withSpeed) {
+    s.properties.speed = speedSchema();
+    s.properties.motion = motionSchema();
+  }
   return s;
 }
+
+/** How a Cartesian target is reached: the backend contract's `motion` of `robot.plan` / `robot.move`. */
+export const motionSchema = (): DataSchema => ({
+  type: "string",
+  enum: ["ptp", "lin"],
+  default: "ptp",
+  description:
+    "ptp: joint interpolation from the current joints (a detour when the straight one collides); lin: the end effector on the straight line to the target, its orientation turned on the way (kept when absent), within 0.5 mm of the line, refused at a configuration flip or singularity",
+});
 
 export function jointTargetSchema(joints: JointSpec[], description: string): DataSchema {
   return {
@@ -144,7 +156,7 @@ export function moveResultSchema(joints: JointSpec[]): DataSchema {
       positionError: { type: "number", unit: UNIT_M, minimum: 0, description: "Cartesian moves: distance to the target" },
       path: {
         type: "string",
-        enum: ["straight", "detour"],
+        enum: ["straight", "detour", "lin"],
         description: "straight joint-space path, or a detour planned around obstacles (RRT-Connect) when no straight one was free",
       },
     },
@@ -206,7 +218,7 @@ export function validationReportSchema(): DataSchema {
             type: "object",
             properties: {
               ok,
-              planned: { type: "string", enum: ["straight", "detour"], description: "a detour is planned when no straight path is free" },
+              planned: { type: "string", enum: ["straight", "detour", "lin"], description: "a detour is planned when no straight path is free; lin: the end effector on the straight line (motion lin)" },
               detour: {
                 type: "string",
                 enum: ["found", "not found", "not searched"],

@@ -1,0 +1,43 @@
+/**
+ * `motion: "lin"` on validateCartesianPosition / moveToCartesianPosition: the twin moves its end effector
+ * on the straight line (the backend's LIN), says so in its answer, and the TD's schema takes only ptp/lin.
+ */
+import { afterAll, beforeAll, expect, it } from "vitest";
+import { startServient, type RunningServient } from "../packages/servient/src/index.js";
+import { generateTwin, http, invoke, kukaPose } from "./serve-helpers.js";
+
+let s: RunningServient;
+let base: string;
+beforeAll(async () => {
+  s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0 });
+  base = s.things[0]!.tdUrl;
+});
+afterAll(async () => s?.stop());
+
+it("validates and moves along the straight line, answering path 'lin'", async () => {
+  const start = await invoke(base, "moveToJointPosition", { joints: kukaPose([0, 0.6, 0, -1.2, 0, 0.6, 0]) });
+  expect(start.status).toBe(200);
+  const p = (await http(`${base}/properties/getCartesianPosition`)).body;
+  const target = { x: p.x, y: p.y + 0.15, z: p.z - 0.05, motion: "lin" };
+  const v = await invoke(base, "validateCartesianPosition", target);
+  expect(v.status).toBe(200);
+  expect(v.body.valid).toBe(true);
+  expect(v.body.checks.path.planned).toBe("lin");
+  const m = await invoke(base, "moveToCartesianPosition", target);
+  expect(m.status).toBe(200);
+  expect(m.body.status).toBe("reached");
+  expect(m.body.path).toBe("lin");
+  expect(m.body.positionError).toBeLessThan(1e-3);
+  const td = (await http(base)).body;
+  expect(td.actions.moveToCartesianPosition.input.properties.motion.enum).toEqual(["ptp", "lin"]);
+});
+
+it("refuses a motion the schema does not know, and a LIN out of reach with where it leaves it", async () => {
+  const p = (await http(`${base}/properties/getCartesianPosition`)).body;
+  const bad = await invoke(base, "validateCartesianPosition", { x: p.x, y: p.y, z: p.z, motion: "circ" });
+  expect(bad.status).toBe(400);
+  const far = await invoke(base, "validateCartesianPosition", { x: p.x, y: p.y, z: Math.max(p.z - 0.8, -0.3), motion: "lin" });
+  expect(far.status).toBe(200);
+  expect(far.body.valid).toBe(false);
+  expect(far.body.reasons[0]).toMatch(/^LIN refused: /);
+});
