@@ -1,6 +1,6 @@
 /**
- * `motion: "lin"` on validateCartesianPosition / moveToCartesianPosition: the twin moves its end effector
- * on the straight line (the backend's LIN), says so in its answer, and the TD's schema takes only ptp/lin.
+ * `motion: "lin"` / `"circ"` on validateCartesianPosition / moveToCartesianPosition: the twin moves its end effector
+ * on the straight line or the arc through a via point (the backend's LIN / CIRC), says so in its answer, and the TD's schema takes only ptp/lin/circ.
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
@@ -29,12 +29,28 @@ it("validates and moves along the straight line, answering path 'lin'", async ()
   expect(m.body.path).toBe("lin");
   expect(m.body.positionError).toBeLessThan(1e-3);
   const td = (await http(base)).body;
-  expect(td.actions.moveToCartesianPosition.input.properties.motion.enum).toEqual(["ptp", "lin"]);
+  expect(td.actions.moveToCartesianPosition.input.properties.motion.enum).toEqual(["ptp", "lin", "circ"]);
+});
+
+it("moves on the arc through a via point (circ); a circ without one is refused", async () => {
+  const p = (await http(`${base}/properties/getCartesianPosition`)).body;
+  const via = { x: p.x, y: p.y + 0.08, z: p.z + 0.08 };
+  const arc = { x: p.x, y: p.y + 0.16, z: p.z, motion: "circ", via };
+  const v = await invoke(base, "validateCartesianPosition", arc);
+  expect(v.status).toBe(200);
+  expect(v.body.valid).toBe(true);
+  expect(v.body.checks.path.planned).toBe("circ");
+  const m = await invoke(base, "moveToCartesianPosition", arc);
+  expect(m.status).toBe(200);
+  expect(m.body.path).toBe("circ");
+  expect(m.body.positionError).toBeLessThan(1e-3);
+  const missing = await invoke(base, "validateCartesianPosition", { x: p.x, y: p.y, z: p.z, motion: "circ" });
+  expect(missing.status).toBe(400);
 });
 
 it("refuses a motion the schema does not know, and a LIN out of reach with where it leaves it", async () => {
   const p = (await http(`${base}/properties/getCartesianPosition`)).body;
-  const bad = await invoke(base, "validateCartesianPosition", { x: p.x, y: p.y, z: p.z, motion: "circ" });
+  const bad = await invoke(base, "validateCartesianPosition", { x: p.x, y: p.y, z: p.z, motion: "spline" });
   expect(bad.status).toBe(400);
   const far = await invoke(base, "validateCartesianPosition", { x: p.x, y: p.y, z: Math.max(p.z - 0.8, -0.3), motion: "lin" });
   expect(far.status).toBe(200);

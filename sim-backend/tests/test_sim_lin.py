@@ -87,3 +87,39 @@ def test_lin_over_the_wire(client: RpcClient) -> None:
     assert np.linalg.norm(np.asarray(end["position"]) - target) <= 1e-3
     err = client.error("robot.plan", {"robot": "kuka", "target": START, "motion": "lin"})
     assert err.data["param"] == "motion"
+
+
+def test_circ_keeps_the_tcp_on_the_arc_through_the_via_point() -> None:
+    """A half circle of 10 cm radius in the vertical y-z plane: every waypoint and every state between
+    two of them within 0.5 mm of the circle, the via point passed, the target reached."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, START)
+        a = np.asarray(w.fk(m.id).position)
+        centre = a + np.array([0.0, 0.1, 0.0])
+        via, end = centre + np.array([0.0, 0.0, 0.1]), centre + np.array([0.0, 0.1, 0.0])
+        plan = plan_lin(w, m.id, tuple(end), None, tuple(via))
+        assert plan.valid, plan.reasons
+        assert plan.target is not None and plan.checks["path"]["planned"] == "circ"
+        path = [np.asarray(START), *map(np.asarray, plan.via), np.asarray(plan.target)]
+        off_circle, off_plane, nearest_via = 0.0, 0.0, np.inf
+        for qa, qb in itertools.pairwise(path):
+            for t in np.linspace(0, 1, 5):
+                x = np.asarray(w.fk(m.id, list(qa + t * (qb - qa))).position)
+                off_circle = max(off_circle, abs(float(np.linalg.norm(x - centre)) - 0.1))
+                off_plane = max(off_plane, abs(float(x[0] - centre[0])))
+                nearest_via = min(nearest_via, float(np.linalg.norm(x - via)))
+        assert off_circle <= MAX_DEVIATION and off_plane <= MAX_DEVIATION
+        assert nearest_via <= 0.003  # samples every 5 mm of arc: the via point lies between two
+        assert np.linalg.norm(np.asarray(w.fk(m.id, list(plan.target)).position) - end) <= 1e-4
+
+
+def test_circ_through_a_point_on_the_line_is_refused() -> None:
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, START)
+        a = np.asarray(w.fk(m.id).position)
+        end, via = a + np.array([0.0, 0.2, 0.0]), a + np.array([0.0, 0.1, 0.0])
+        plan = plan_lin(w, m.id, tuple(end), None, tuple(via))
+        assert not plan.valid
+        assert plan.reasons[0].startswith("CIRC refused: the start, via point and target lie on one line")

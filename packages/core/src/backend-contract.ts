@@ -463,9 +463,9 @@ export interface PlanChecks {
      */
     contacts: Contact[];
     /**
-     * straight: the straight joint-space path; detour: a path planned around obstacles (RRT-Connect, shortcut), its waypoints in `via`; lin: the end effector on the straight line (its joint waypoints in `via`)
+     * straight: the straight joint-space path; detour: a path planned around obstacles (RRT-Connect, shortcut), its waypoints in `via`; lin: the end effector on the straight line (its joint waypoints in `via`); circ: on the arc through the via point
      */
-    planned: "straight" | "detour" | "lin";
+    planned: "straight" | "detour" | "lin" | "circ";
     /**
      * m kept to other bodies along the path (the robot's clearance)
      */
@@ -926,9 +926,10 @@ export interface RobotPlanParams {
   speed?: Speed;
   dt?: Dt;
   /**
-   * ptp: joint interpolation (a straight joint-space path, or a detour); lin: the end effector on the straight line to `position`, its orientation turned by slerp (`orientation`, default: kept), IK continuous along it (no configuration flip), within 0.5 mm of the line, every segment collision-free; the waypoints in `via`. `lin` takes `position`, not `target`.
+   * ptp: joint interpolation (a straight joint-space path, or a detour); lin: the end effector on the straight line to `position`, its orientation turned by slerp (`orientation`, default: kept), IK continuous along it (no configuration flip), within 0.5 mm of the line, every segment collision-free; the waypoints in `via`. circ: the same on the arc of the circle through the start, `via` and `position`. `lin` and `circ` take `position`, not `target`.
    */
-  motion?: "ptp" | "lin";
+  motion?: "ptp" | "lin" | "circ";
+  via?: Position;
 }
 /**
  * Params of `robot.move`.
@@ -945,9 +946,10 @@ export interface RobotMoveParams {
   realtime?: 0 | RealtimeFactor;
   dt?: Dt;
   /**
-   * ptp: joint interpolation (a straight joint-space path, or a detour); lin: the end effector on the straight line to `position`, its orientation turned by slerp (`orientation`, default: kept), IK continuous along it (no configuration flip), within 0.5 mm of the line, every segment collision-free; the waypoints in `via`. `lin` takes `position`, not `target`.
+   * ptp: joint interpolation (a straight joint-space path, or a detour); lin: the end effector on the straight line to `position`, its orientation turned by slerp (`orientation`, default: kept), IK continuous along it (no configuration flip), within 0.5 mm of the line, every segment collision-free; the waypoints in `via`. circ: the same on the arc of the circle through the start, `via` and `position`. `lin` and `circ` take `position`, not `target`.
    */
-  motion?: "ptp" | "lin";
+  motion?: "ptp" | "lin" | "circ";
+  via?: Position;
 }
 /**
  * Params of `robot.stop`.

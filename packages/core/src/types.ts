@@ -79,7 +79,7 @@ export interface MoveResult {
   /** m, Cartesian moves */
   positionError?: number;
   /** the path the twin planned: the straight joint-space one, a detour around obstacles, or a LIN */
-  path?: "straight" | "detour" | "lin";
+  path?: "straight" | "detour" | "lin" | "circ";
 }
 
 /** What relaying a command to the physical robot's Thing gave (`--relay`): `result` is its answer. */

@@ -38,8 +38,15 @@ export interface CartesianInput {
   z: number;
   orientation?: Quaternion;
   speed?: number;
-  /** "ptp" (default) or "lin" (the schema allows no other) */
+  /** "ptp" (default), "lin" or "circ" (the schema allows no other) */
   motion?: string;
+  /** circ: a point of the arc, in the frame of x, y, z */
+  via?: { x: number; y: number; z: number };
+}
+
+/** The via point of a circ in the frame of x, y, z; the schema checks its numbers. */
+function viaOf(input: CartesianInput): Vec3 | undefined {
+  return input.via === undefined ? undefined : [input.via.x, input.via.y, input.via.z];
 }
 
 export function speedOf(input: { speed?: unknown }): number {
@@ -129,7 +136,7 @@ export class Mover {
 
   async validateCartesian(input: CartesianInput): Promise<ValidationReport> {
     const t = cartesianTarget(input);
-    return validateCartesian(this.backend, this.twin, this.ws, poseTarget(this.twin, t.real, t.orientation, input.motion), speedOf(input));
+    return validateCartesian(this.backend, this.twin, this.ws, poseTarget(this.twin, t.real, t.orientation, input.motion, viaOf(input)), speedOf(input));
   }
 
   async moveJoints(input: JointInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
@@ -148,7 +155,7 @@ export class Mover {
   async moveCartesian(input: CartesianInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
     const t = cartesianTarget(input);
     const speed = speedOf(input);
-    const target = poseTarget(this.twin, t.real, t.orientation, input.motion);
+    const target = poseTarget(this.twin, t.real, t.orientation, input.motion, viaOf(input));
     return this.guarded(watch, async (move) => {
       const result = await this.execute(move, target, speed, staticChecks(this.ws, target.position));
       const p = result.position;
@@ -158,6 +165,7 @@ export class Mover {
         const cmd: Record<string, unknown> = { x: t.real[0], y: t.real[1], z: t.real[2], speed };
         if (t.orientation) cmd.orientation = t.orientation;
         if (target.motion) cmd.motion = target.motion;
+        if (input.via) cmd.via = input.via;
         result.relay = await this.relayMove(move, this.relay, "moveToCartesianPosition", cmd, result.duration);
       }
       return result;

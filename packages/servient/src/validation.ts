@@ -20,14 +20,18 @@ const fmt = (v: number): string => (Math.abs(v) >= 1e-3 || v === 0 ? v.toFixed(4
 export interface PoseTarget {
   position: Vec3;
   orientation?: [number, number, number, number];
-  /** "lin": the end effector on the straight line (the backend's `motion`); absent: joint interpolation */
-  motion?: "lin";
+  /** "lin"/"circ": the end effector on the straight line or the arc through `via` (the backend's
+   * `motion`); absent: joint interpolation */
+  motion?: "lin" | "circ";
+  via?: Vec3;
 }
 
-export function poseTarget(twin: Twin, real: Vec3, orientation: Quaternion | undefined, motion?: string): PoseTarget {
+export function poseTarget(twin: Twin, real: Vec3, orientation: Quaternion | undefined, motion?: string, via?: Vec3): PoseTarget {
   const position = twin.frames.pointToVirtual(real);
-  const lin = motion === "lin" ? { motion: "lin" as const } : {};
-  return orientation ? { position, orientation: quatArr(twin.frames.quatToVirtual(orientation)), ...lin } : { position, ...lin };
+  const how = motion === "lin" ? { motion: "lin" as const } : motion === "circ" ? { motion: "circ" as const } : {};
+  // the via point travels in the same frame as the target (real frame in, virtual frame to the backend)
+  const through = via !== undefined ? { via: twin.frames.pointToVirtual(via) } : {};
+  return orientation ? { position, orientation: quatArr(twin.frames.quatToVirtual(orientation)), ...how, ...through } : { position, ...how, ...through };
 }
 
 /** The static checks of a Cartesian target on workspace.stl and workspace.csv, and their evidence. */

@@ -89,6 +89,7 @@ export function cartesianSchema(bounds: Bounds | null, withSpeed: boolean, descr
   if (withSpeed) {
     s.properties.speed = speedSchema();
     s.properties.motion = motionSchema();
+    s.properties.via = xyzSchema("motion circ: a point of the arc (m), in the frame of x, y, z", bounds);
   }
   return s;
 }
@@ -96,10 +97,10 @@ export function cartesianSchema(bounds: Bounds | null, withSpeed: boolean, descr
 /** How a Cartesian target is reached: the backend contract's `motion` of `robot.plan` / `robot.move`. */
 export const motionSchema = (): DataSchema => ({
   type: "string",
-  enum: ["ptp", "lin"],
+  enum: ["ptp", "lin", "circ"],
   default: "ptp",
   description:
-    "ptp: joint interpolation from the current joints (a detour when the straight one collides); lin: the end effector on the straight line to the target, its orientation turned on the way (kept when absent), within 0.5 mm of the line, refused at a configuration flip or singularity",
+    "ptp: joint interpolation from the current joints (a detour when the straight one collides); lin: the end effector on the straight line to the target, its orientation turned on the way (kept when absent), within 0.5 mm of the line, refused at a configuration flip or singularity; circ: the same on the arc of the circle through the current position, via and the target",
 });
 
 export function jointTargetSchema(joints: JointSpec[], description: string): DataSchema {
@@ -156,7 +157,7 @@ export function moveResultSchema(joints: JointSpec[]): DataSchema {
       positionError: { type: "number", unit: UNIT_M, minimum: 0, description: "Cartesian moves: distance to the target" },
       path: {
         type: "string",
-        enum: ["straight", "detour", "lin"],
+        enum: ["straight", "detour", "lin", "circ"],
         description: "straight joint-space path, or a detour planned around obstacles (RRT-Connect) when no straight one was free",
       },
     },
@@ -218,7 +219,7 @@ export function validationReportSchema(): DataSchema {
             type: "object",
             properties: {
               ok,
-              planned: { type: "string", enum: ["straight", "detour", "lin"], description: "a detour is planned when no straight path is free; lin: the end effector on the straight line (motion lin)" },
+              planned: { type: "string", enum: ["straight", "detour", "lin", "circ"], description: "a detour is planned when no straight path is free; lin: the end effector on the straight line (motion lin)" },
               detour: {
                 type: "string",
                 enum: ["found", "not found", "not searched"],

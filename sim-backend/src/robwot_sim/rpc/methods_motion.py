@@ -25,13 +25,17 @@ def _planner(p: Params, s: Services) -> Callable[[], Plan]:
         raise invalid_param("orientation", "'orientation' only together with 'position'", p["orientation"])
     speed, dt = float(p["speed"]), float(p["dt"])
     target = p.joint_vector("target", model.dof)
-    if p["motion"] == "lin":
+    if p.has("via") and p["motion"] != "circ":
+        raise invalid_param("via", "'via' only with motion 'circ'", p["via"])
+    if p["motion"] in ("lin", "circ"):
         if target is not None:
-            raise invalid_param("motion", "'lin' moves the end effector to a pose: give 'position' (and "
-                                "'orientation'), not 'target'", p["motion"])
-        pose, turn = p.floats("position"), p.quaternion("orientation")
+            raise invalid_param("motion", f"'{p['motion']}' moves the end effector to a pose: give "
+                                "'position' (and 'orientation'), not 'target'", p["motion"])
+        if p["motion"] == "circ" and not p.has("via"):
+            raise invalid_param("via", "motion 'circ' needs 'via', a point of the arc", None, missing=True)
+        pose, turn, through = p.floats("position"), p.quaternion("orientation"), p.floats("via")
         assert pose is not None
-        return lambda: plan_lin(s.world, model.id, pose, turn)
+        return lambda: plan_lin(s.world, model.id, pose, turn, through)
     if target is not None:
         joints = target
         return lambda: plan_joints(s.world, model.id, joints, speed, dt)

@@ -1,11 +1,11 @@
-"""LIN: the end effector (the TCP with a tool) on the straight line from its current pose to a target pose,
-its orientation turned by slerp on the way.
+"""LIN and CIRC: the end effector (the TCP with a tool) on the straight line, or on the circular arc through
+a via point, from its current pose to a target pose, its orientation turned by slerp on the way.
 
 The line is followed by IK samples, each seeded with the previous one, so the configuration stays on one
 branch: a joint that would jump more than ``MAX_JOINT_STEP`` between neighbouring samples (a
 configuration flip, or a singularity where the joints race) is refused, naming the joint and where on the
 line. Samples are ``LIN_STEP`` / ``LIN_ANGLE_STEP`` apart and split further where the end effector, moved
-straight in joint space between two samples, would leave the line by more than ``MAX_DEVIATION``. Every
+straight in joint space between two samples, would leave the curve by more than ``MAX_DEVIATION``. Every
 segment between samples is then checked for contacts as any path is (clearance kept). The result is the
 joint waypoints from the current state to the target.
 """
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,9 +60,53 @@ def lin_path(world: World, robot: str, position: Sequence[float],
     q0 = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
     start = world.fk(robot, q0)
     p0, p1 = np.asarray(start.position), np.asarray(position, dtype=np.float64)
-    r0 = tuple(start.quat_xyzw)
-    r1 = tuple(orientation) if orientation is not None else r0
     length = float(np.linalg.norm(p1 - p0))
+    return _follow(world, robot, q0, start.quat_xyzw, orientation, lambda s: p0 + s * (p1 - p0), length,
+                   "the line")
+
+
+def circ_path(world: World, robot: str, via: Sequence[float], position: Sequence[float],
+              orientation: Sequence[float] | None) -> LinPath:
+    """The CIRC from the robot's current state through ``via`` to ``position`` (+ ``orientation``): the
+    arc of the circle through the three points that passes ``via``. Three points on one line (or two of
+    them the same) make no circle: refused. Read-only."""
+    q0 = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
+    start = world.fk(robot, q0)
+    a, b, c = (np.asarray(x, dtype=np.float64) for x in (start.position, via, position))
+    normal = np.cross(b - a, c - b)
+    if np.linalg.norm(normal) < 1e-6 * max(1e-9, float(np.linalg.norm(c - a)) ** 2) or min(
+            np.linalg.norm(b - a), np.linalg.norm(c - b)) < 1e-4:
+        return LinPath(reason="the start, via point and target lie on one line (or two of them coincide): "
+                              "they define no arc")
+    n = normal / np.linalg.norm(normal)
+    # the centre: the point of the plane equidistant from the three (intersection of the bisectors)
+    u_ac, u_bc = a - c, b - c
+    cross = np.cross(u_ac, u_bc)
+    centre = c + np.cross(u_ac @ u_ac * u_bc - u_bc @ u_bc * u_ac, cross) / (2 * cross @ cross)
+    radius = float(np.linalg.norm(a - centre))
+    e1 = (a - centre) / radius
+    e2 = np.cross(n, e1)
+
+    def angle(x: FloatArray) -> float:
+        d = x - centre
+        return float(np.arctan2(d @ e2, d @ e1)) % (2 * math.pi)
+
+    sweep = angle(c)  # a -> via -> c turns positively about n, so the arc's sweep is c's angle
+
+    def point(s: float) -> FloatArray:
+        t = s * sweep
+        return centre + radius * (math.cos(t) * e1 + math.sin(t) * e2)
+
+    return _follow(world, robot, q0, start.quat_xyzw, orientation, point, radius * sweep, "the arc")
+
+
+def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
+            orientation: Sequence[float] | None, point: Callable[[float], FloatArray], length: float,
+            curve: str) -> LinPath:
+    """Joint waypoints keeping the end effector on ``point(s)``, s in [0, 1] (``length`` metres long),
+    its orientation from ``r0_`` to ``orientation`` by slerp."""
+    r0 = tuple(r0_)
+    r1 = tuple(orientation) if orientation is not None else r0
     turn = quat_angle(r0, r1)
     steps = max(1, math.ceil(length / LIN_STEP), math.ceil(turn / LIN_ANGLE_STEP))
     names = world.robot_model(robot).controllable
@@ -70,19 +114,19 @@ def lin_path(world: World, robot: str, position: Sequence[float],
 
     def where(s: float) -> str:
         if length > 0:
-            return f"{1000 * s * length:.0f} mm along the line"
+            return f"{1000 * s * length:.0f} mm along {curve}"
         return f"{math.degrees(s * turn):.1f} deg into the turn"
 
     def solve(s: float, seed: FloatArray) -> FloatArray | None:
         checkpoint()
-        target = p0 + s * (p1 - p0)
+        target = point(s)
         try:
             ik = world.ik(robot, tuple(target), quat_slerp(r0, r1, s), seed=list(seed), collision_free=False)
         except Unreachable:
             ik = None
         if (ik is None or ik.position_error > IK_POSITION_TOLERANCE
                 or ik.orientation_error > IK_ORIENTATION_TOLERANCE):
-            out.reason = f"the line leaves the robot's reach {where(s)}: no IK solution keeps the pose there"
+            out.reason = f"{curve} leaves the robot's reach {where(s)}: no IK solution keeps the pose there"
             return None
         return np.asarray(ik.positions, dtype=np.float64)
 
@@ -90,7 +134,7 @@ def lin_path(world: World, robot: str, position: Sequence[float],
         """Appends the waypoints after ``qa`` up to ``qb``, splitting where needed."""
         jump = np.abs(qb - qa)
         mid_q = (qa + qb) / 2
-        mid_line = p0 + (sa + sb) / 2 * (p1 - p0)
+        mid_line = point((sa + sb) / 2)
         deviation = float(np.linalg.norm(np.asarray(world.fk(robot, mid_q).position) - mid_line))
         if jump.max() <= MAX_JOINT_STEP and deviation <= MAX_DEVIATION:
             out.deviation = max(out.deviation, deviation)
@@ -101,9 +145,9 @@ def lin_path(world: World, robot: str, position: Sequence[float],
                 j = int(np.argmax(jump))
                 out.reason = (f"joint {names[j]} would turn {jump[j]:.2f} rad within "
                               f"{1000 * (sb - sa) * length:.2f} mm {where(sa)}: a configuration flip or a "
-                              "singularity on the line")
+                              f"singularity on {curve}")
             else:
-                out.reason = f"the end effector leaves the line by {1000 * deviation:.2f} mm {where(sa)}"
+                out.reason = f"the end effector leaves {curve} by {1000 * deviation:.2f} mm {where(sa)}"
             return False
         sm = (sa + sb) / 2
         qm = solve(sm, qa)
@@ -123,7 +167,7 @@ def lin_path(world: World, robot: str, position: Sequence[float],
         report = world.check_step(robot, qa, qb, clearance)
         if not report.collision_free:
             out.contacts = list(report.contacts)
-            out.reason = "the line collides"
+            out.reason = f"{curve} collides"
             out.waypoints = []
             return out
     return out

@@ -26,7 +26,7 @@ import numpy as np
 
 from robwot_sim.errors import Unreachable
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
-from robwot_sim.sim.lin import lin_path
+from robwot_sim.sim.lin import circ_path, lin_path
 from robwot_sim.sim.types import Contact, RobotModel
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
@@ -213,26 +213,30 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
 
 
 def plan_lin(world: World, robot: str, position: Sequence[float],
-             orientation: Sequence[float] | None) -> Plan:
-    """The verdict on a LIN to a pose (``lin.py``): the end effector on the straight line, every sample
-    within the joint limits, every segment collision-free; the waypoints as ``via``."""
+             orientation: Sequence[float] | None, via: Sequence[float] | None = None) -> Plan:
+    """The verdict on a LIN to a pose, or a CIRC through ``via`` (``lin.py``): the end effector on the
+    straight line or the arc, every sample within the joint limits, every segment collision-free; the
+    waypoints as ``via``."""
     model = world.robot_model(robot)
-    path = lin_path(world, robot, position, orientation)
+    kind = "lin" if via is None else "circ"
+    path = lin_path(world, robot, position, orientation) if via is None else circ_path(
+        world, robot, via, position, orientation)
     if path.reason is not None:
         checks: dict[str, Any] = {"limits": {"ok": True}}
         if path.contacts:
-            checks["path"] = _path_check(model.clearance, False, path.contacts, "lin")
-        return Plan(False, None, (f"LIN refused: {path.reason}{_contact_words(path.contacts)}",), checks)
+            checks["path"] = _path_check(model.clearance, False, path.contacts, kind)
+        return Plan(False, None, (f"{kind.upper()} refused: {path.reason}{_contact_words(path.contacts)}",),
+                    checks)
     for i, q in enumerate(path.waypoints):
         violations = _limit_violations(model, [float(v) for v in q])
         if violations:
             v = violations[0]
-            reason = (f"LIN refused: joint {v['joint']} = {_fmt(v['value'])} leaves its limits "
+            reason = (f"{kind.upper()} refused: joint {v['joint']} = {_fmt(v['value'])} leaves its limits "
                       f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}] at waypoint {i} of "
                       f"{len(path.waypoints) - 1}")
             return Plan(False, None, (reason,), {"limits": {"ok": False, "violations": violations}})
     checks = {"ik": {"ok": True, "positionError": 0.0, "solutions": len(path.waypoints) - 1},
-              "limits": {"ok": True}, "path": _path_check(model.clearance, True, [], "lin")}
+              "limits": {"ok": True}, "path": _path_check(model.clearance, True, [], kind)}
     target = tuple(float(v) for v in path.waypoints[-1])
-    via = tuple(tuple(float(v) for v in w) for w in path.waypoints[1:-1])
-    return Plan(True, target, (), checks, via)
+    waypoints = tuple(tuple(float(v) for v in w) for w in path.waypoints[1:-1])
+    return Plan(True, target, (), checks, waypoints)
