@@ -287,6 +287,25 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     });
   });
 
+  it("LIN from the panel: the straight line is validated and moved along (planned=lin)", async () => {
+    const { page } = browser;
+    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
+    const pose = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
+    const target = { x: pose.x, y: pose.y + 0.05, z: pose.z };
+    for (const axis of ["x", "y", "z"] as const) await page.locator(`#cartesian input[name=${axis}]`).fill(target[axis].toFixed(3));
+    await page.locator("#cartesian select[name=motion]").selectOption("lin");
+    await page.locator("#cartesian button", { hasText: "Validate" }).click();
+    const verdict = page.locator("#cartesian .verdict");
+    await until("the LIN verdict", async () => ((await verdict.textContent()) ?? "").includes("planned=lin"));
+    expect((await verdict.textContent())?.startsWith("✔ valid")).toBe(true);
+    await page.locator("#cartesian button", { hasText: "Move" }).click();
+    await until("the end effector to reach the LIN target", async () => {
+      const p = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
+      return Math.hypot(p.x - target.x, p.y - target.y, p.z - target.z) < 0.005;
+    });
+    await page.locator("#cartesian select[name=motion]").selectOption("ptp");
+  });
+
   it("the Stop button stops a running motion", async () => {
     // the previous test's move may still be answering (its pose was reached first): a move now would be 409
     await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");

@@ -8,12 +8,15 @@ import { showError } from "./errors.js";
 import { isRecord } from "./http.js";
 
 type Target = { x: number; y: number; z: number };
+/** How the end effector gets there: joint interpolation, or the straight line (the TD's `motion`). */
+type Motion = "ptp" | "lin";
 
 export class CartesianPanel {
   private readonly inputs: Record<keyof Target, HTMLInputElement>;
   private readonly verdict = el("div", { class: "verdict", hidden: "" });
   private readonly validateButton = el("button", { type: "button", text: "Validate" });
   private readonly moveButton = el("button", { type: "button", text: "Move", disabled: "" });
+  private readonly motion = el("select", { name: "motion", "aria-label": "motion" }, el("option", { value: "ptp", text: "PTP (joint interpolation)" }), el("option", { value: "lin", text: "LIN (straight line)" }));
   private validated: string | null = null;
   private edited = false;
 
@@ -38,6 +41,7 @@ export class CartesianPanel {
     const row = el("div", { class: "row" });
     for (const axis of ["x", "y", "z"] as const) row.append(el("label", { text: axis }), this.inputs[axis]);
     row.append(el("span", { text: "m" }));
+    this.motion.addEventListener("change", () => this.invalidate());
     this.validateButton.addEventListener("click", () => void this.validate());
     this.moveButton.addEventListener("click", () => void this.move());
     parent.append(
@@ -46,7 +50,7 @@ export class CartesianPanel {
         { id: "cartesian" },
         this.heading,
         row,
-        el("div", { class: "row" }, this.validateButton, this.moveButton),
+        el("div", { class: "row" }, this.motion, this.validateButton, this.moveButton),
         this.verdict,
       ),
     );
@@ -70,6 +74,10 @@ export class CartesianPanel {
       : null;
   }
 
+  private chosenMotion(): Motion {
+    return this.motion.value === "lin" ? "lin" : "ptp";
+  }
+
   private invalidate(): void {
     this.validated = null;
     this.moveButton.disabled = true;
@@ -86,7 +94,7 @@ export class CartesianPanel {
     }
     this.validateButton.disabled = true;
     try {
-      const report = await this.commander.validateCartesian(t);
+      const report = await this.commander.validateCartesian(t, this.chosenMotion());
       const valid = isRecord(report) && report["valid"] === true;
       this.show(valid, describeReport(report));
       this.validated = valid ? JSON.stringify(t) : null;
@@ -108,7 +116,7 @@ export class CartesianPanel {
     }
     this.moveButton.disabled = true;
     this.edited = false;
-    await this.commander.moveCartesian(t);
+    await this.commander.moveCartesian(t, this.chosenMotion());
     this.invalidate();
   }
 
@@ -146,7 +154,8 @@ function describeReport(report: unknown): string {
       // counts (IK solutions tried) as integers, lengths (m) with 4 decimals
       .map(([k, v]) => `${k}=${Number.isInteger(v) ? String(v) : fmt(v as number, 4)}`)
       .join(" ");
-    lines.push(`${c["ok"] === true ? "ok " : c["ok"] === false ? "NO " : "–  "} ${name} ${extra}`);
+    const planned = typeof c["planned"] === "string" ? ` planned=${c["planned"]}` : "";
+    lines.push(`${c["ok"] === true ? "ok " : c["ok"] === false ? "NO " : "–  "} ${name} ${extra}${planned}`);
   }
   return lines.join("\n");
 }

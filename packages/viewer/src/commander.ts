@@ -55,17 +55,18 @@ export class Commander {
       });
   }
 
-  async moveCartesian(target: { x: number; y: number; z: number }): Promise<void> {
+  async moveCartesian(target: { x: number; y: number; z: number }, motion: "ptp" | "lin" = "ptp"): Promise<void> {
     try {
-      const r = await invokeAction(this.td, "moveToCartesianPosition", { ...target, speed: this.hooks.speed() });
+      const how = motion === "lin" ? { motion } : {};
+      const r = await invokeAction(this.td, "moveToCartesianPosition", { ...target, speed: this.hooks.speed(), ...how });
       this.hooks.result("moveToCartesianPosition", r);
     } catch (err) {
       this.hooks.error("moveToCartesianPosition", err);
     }
   }
 
-  async validateCartesian(target: { x: number; y: number; z: number }): Promise<unknown> {
-    return invokeAction(this.td, "validateCartesianPosition", target);
+  async validateCartesian(target: { x: number; y: number; z: number }, motion: "ptp" | "lin" = "ptp"): Promise<unknown> {
+    return invokeAction(this.td, "validateCartesianPosition", motion === "lin" ? { ...target, motion } : target);
   }
 
   async stop(): Promise<void> {
