@@ -177,6 +177,10 @@ export type RobotCheckPathResult = PathReport;
  */
 export type RobotPlanResult = Plan;
 /**
+ * Result of `program.plan`.
+ */
+export type ProgramPlanResult = ProgramPlan;
+/**
  * Result of `robot.move`.
  */
 export type RobotMoveResult = MoveResult;
@@ -703,6 +707,58 @@ export interface ToolAttached {
   tcpLink: string;
 }
 /**
+ * one step: `target` (joints, PTP) or `position` (+ `orientation`) reached by `motion`; `via` for circ
+ */
+export interface ProgramStep {
+  motion?: "ptp" | "lin" | "circ";
+  target?: JointVector;
+  position?: Position;
+  orientation?: QuatXyzw;
+  via?: Position;
+  speed?: Speed;
+}
+export interface ProgramPlan {
+  valid: boolean;
+  /**
+   * index of the first refused step; null when every step passes
+   */
+  firstFailingStep: number | null;
+  /**
+   * s: the sum of the steps' durations
+   */
+  cycleTime: number;
+  steps: {
+    step: number;
+    ok: boolean;
+    reasons: string[];
+    checks: PlanChecks;
+    /**
+     * s
+     */
+    duration: number;
+    planned?: "straight" | "detour" | "lin" | "circ";
+    /**
+     * the joints the step ends at
+     */
+    target?: number[];
+  }[];
+  trajectory: {
+    /**
+     * Hz
+     */
+    rate: number;
+    /**
+     * s between samples
+     */
+    dt: number;
+    names: string[];
+    /**
+     * one joint vector per sample (rad or m), from the current state
+     */
+    positions: number[][];
+  };
+}
+/**
  * Params of `ping`.
  */
 export interface PingParams {}
@@ -932,6 +988,24 @@ export interface RobotPlanParams {
   via?: Position;
 }
 /**
+ * Params of `program.plan`.
+ */
+export interface ProgramPlanParams {
+  robot: Name;
+  /**
+   * the program's steps, in order
+   *
+   * @minItems 1
+   * @maxItems 100
+   */
+  steps: [ProgramStep, ...ProgramStep[]];
+  dt?: Dt;
+  /**
+   * samples per second of the returned trajectory (Hz)
+   */
+  rate?: number;
+}
+/**
  * Params of `robot.move`.
  */
 export interface RobotMoveParams {
@@ -1041,6 +1115,7 @@ export interface Methods {
   "robot.checkCollision": { params: RobotCheckCollisionParams; result: RobotCheckCollisionResult };
   "robot.checkPath": { params: RobotCheckPathParams; result: RobotCheckPathResult };
   "robot.plan": { params: RobotPlanParams; result: RobotPlanResult };
+  "program.plan": { params: ProgramPlanParams; result: ProgramPlanResult };
   "robot.move": { params: RobotMoveParams; result: RobotMoveResult };
   "robot.stop": { params: RobotStopParams; result: RobotStopResult };
   "obstacle.add": { params: ObstacleAddParams; result: ObstacleAddResult };

@@ -140,6 +140,10 @@ export class SimClient {
   plan(params: Params<"robot.plan">): Result<"robot.plan"> {
     return this.request("robot.plan", params);
   }
+  /** A program's steps planned one after the other (nothing moves): verdicts, durations, cycle time. */
+  planProgram(params: Params<"program.plan">): Result<"program.plan"> {
+    return this.request("program.plan", params);
+  }
   /** Plans (refused with E_REJECTED when no valid plan) and moves; resolves when the motion ends (no
    * timeout unless given). */
   move(params: Params<"robot.move">, options: CallOptions = {}): Result<"robot.move"> {

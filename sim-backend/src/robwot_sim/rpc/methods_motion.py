@@ -12,6 +12,7 @@ from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.sim.planner import Plan, plan_joints, plan_lin, plan_pose
+from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.world_thread import Kind
 
 
@@ -55,6 +56,24 @@ def register(d: Dispatcher, s: Services) -> None:
             lambda: s.world.check_path(model.id, target, start=start, speed=speed, dt=dt), Kind.LONG,
             robot=model.id)
         return report.to_json()
+
+    @d.method("program.plan")
+    async def program(p: Params, call: Call) -> dict[str, Any]:
+        model = robot_param(p, s)
+        steps = [dict(step) for step in p["steps"]]
+        for k, step in enumerate(steps):
+            motion = step.get("motion", "ptp")
+            if ("target" in step) == ("position" in step):
+                raise invalid_param(f"steps[{k}]", "exactly one of 'target' (joints) or 'position' (pose)",
+                                    step)
+            if "target" in step and (motion != "ptp" or len(step["target"]) != model.dof):
+                raise invalid_param(f"steps[{k}].target", f"{model.dof} joint values, with motion 'ptp'",
+                                    step)
+            if ("via" in step) != (motion == "circ"):
+                raise invalid_param(f"steps[{k}].via", "'via' exactly with motion 'circ'", step)
+        dt, rate = float(p["dt"]), float(p["rate"])
+        return await s.on_world(lambda: plan_program(s.world, model.id, steps, dt, rate), Kind.LONG,
+                                robot=model.id)
 
     @d.method("robot.plan")
     async def plan(p: Params, call: Call) -> dict[str, Any]:

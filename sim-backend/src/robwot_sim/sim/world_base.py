@@ -80,6 +80,23 @@ class WorldBase:
         with holding(robot_id, park):
             yield
 
+    @contextlib.contextmanager
+    def hypothetical(self, robot_id: str) -> Iterator[None]:
+        """Within this block ``place`` puts the robot in states it is not in (a program planned step after
+        step); checkpoints show others its true state, and the block ends with the robot back there."""
+        b = self._entry(robot_id).bound
+        saved = b.q.copy()
+        with self._holding(robot_id):
+            try:
+                yield
+            finally:
+                b.apply(saved)
+
+    def place(self, robot_id: str, q: JointVector) -> None:
+        """Puts the robot at ``q`` for planning from there (inside ``hypothetical``; limits checked)."""
+        b = self._entry(robot_id).bound
+        b.apply(b.validate(q))
+
     def __enter__(self) -> Self:
         return self
 
