@@ -57,3 +57,26 @@ it("refuses a motion the schema does not know, and a LIN out of reach with where
   expect(far.body.valid).toBe(false);
   expect(far.body.reasons[0]).toMatch(/^LIN refused: /);
 });
+
+it("validateProgram: PTP, LIN and CIRC steps planned one after the other, with durations and the cycle time", async () => {
+  const home = kukaPose([0, 0.6, 0, -1.2, 0, 0.6, 0]);
+  expect((await invoke(base, "moveToJointPosition", { joints: home })).status).toBe(200);
+  const p = (await http(`${base}/properties/getCartesianPosition`)).body;
+  const before = (await http(`${base}/properties/getJointPosition`)).body;
+  const steps = [
+    { joints: home, speed: 0.5 },
+    { motion: "lin", x: p.x, y: p.y + 0.12, z: p.z },
+    { motion: "circ", via: { x: p.x, y: p.y + 0.06, z: p.z + 0.05 }, x: p.x, y: p.y, z: p.z },
+  ];
+  const r = await invoke(base, "validateProgram", { steps });
+  expect(r.status).toBe(200);
+  expect(r.body.valid).toBe(true);
+  expect(r.body.firstFailingStep).toBeUndefined();
+  expect(r.body.steps.map((s: { planned: string }) => s.planned)).toEqual(["straight", "lin", "circ"]);
+  expect(r.body.cycleTime).toBeCloseTo(r.body.steps.reduce((t: number, s: { duration: number }) => t + s.duration, 0), 9);
+  expect(r.body.trajectory.names).toHaveLength(7);
+  expect((await http(`${base}/properties/getJointPosition`)).body).toEqual(before); // nothing moved
+  const both = await invoke(base, "validateProgram", { steps: [{ joints: home, x: p.x, y: p.y, z: p.z }] });
+  expect(both.status).toBe(400);
+  expect(JSON.stringify(both.body)).toContain("steps[0]: give joints (a PTP step) or x, y, z, not both");
+});

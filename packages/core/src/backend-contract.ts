@@ -90,6 +90,11 @@ export type Speed = number;
  */
 export type Dt = number;
 /**
+ * @minItems 1
+ * @maxItems 100
+ */
+export type ProgramSteps = [ProgramStep, ...ProgramStep[]];
+/**
  * Result of `ping`.
  */
 export type PingResult = Ping;
@@ -992,13 +997,7 @@ export interface RobotPlanParams {
  */
 export interface ProgramPlanParams {
   robot: Name;
-  /**
-   * the program's steps, in order
-   *
-   * @minItems 1
-   * @maxItems 100
-   */
-  steps: [ProgramStep, ...ProgramStep[]];
+  steps: ProgramSteps;
   dt?: Dt;
   /**
    * samples per second of the returned trajectory (Hz)
@@ -1191,4 +1190,5 @@ export const VALUE_SCHEMAS = {
   Speed: {"type":"number","minimum":0.001,"maximum":1,"default":1,"description":"fraction of the URDF velocity limits"},
   Dt: {"type":"number","minimum":0.0001,"maximum":0.1,"default":0.004166666666666667,"description":"time step (s)"},
   Clearance: {"type":"number","minimum":0.0005,"maximum":0.02,"default":0.002,"description":"clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states"},
+  ProgramSteps: {"type":"array","minItems":1,"maxItems":100,"items":{"$ref":"#/components/schemas/ProgramStep"}},
 } as const;

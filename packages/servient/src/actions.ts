@@ -8,7 +8,7 @@ import type { BackendSupervisor } from "@robwot/sim-client";
 import { calibrate, type CalibrateInput } from "./calibrate.js";
 import { badInput, backendDown } from "./errors.js";
 import { ASYNC_ACTIONS } from "@robwot/core";
-import type { CartesianInput, JointInput, Mover, MoveWatch } from "./moves.js";
+import type { CartesianInput, JointInput, Mover, MoveWatch, ProgramInput } from "./moves.js";
 import { recordErrors, requestContext } from "./request-context.js";
 import type { SceneObstacle } from "./twin-folder.js";
 import type { Twin } from "./twin.js";
@@ -67,6 +67,7 @@ export function registerActions(thing: WoT.ExposedThing, d: ActionDeps): Map<str
   }
   on<JointInput>("validateJointPosition", (i) => d.mover.validateJoints(i));
   on<CartesianInput>("validateCartesianPosition", (i) => d.mover.validateCartesian(i));
+  on<ProgramInput>("validateProgram", (i) => d.mover.validateProgram(i));
   // a stop is never refused, not even while the backend restarts or hangs: it cancels a pending move,
   // stops the physical robot at once and reports the simulation's and the physical robot's outcomes
   on("stop", () => d.mover.stop(), false);

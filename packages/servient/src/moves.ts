@@ -16,7 +16,7 @@
  * simulation), an asynchronous move cancelled, the backend going down, the relayed move's deadline,
  * and servient shutdown (`shutdown`).
  */
-import type { MoveResult as BackendMoveResult, PlanChecks } from "@robwot/sim-client";
+import type { MoveResult as BackendMoveResult, PlanChecks, ProgramSteps } from "@robwot/sim-client";
 import { MIN_QUATERNION_NORM, MIN_SPEED, type Quaternion, type RelayedMoveResult, type ValidationReport, vec, type Vec3 } from "@robwot/core";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { badInput, ServientError } from "./errors.js";
@@ -42,6 +42,19 @@ export interface CartesianInput {
   motion?: string;
   /** circ: a point of the arc, in the frame of x, y, z */
   via?: { x: number; y: number; z: number };
+}
+
+export interface ProgramInput {
+  steps: (Partial<CartesianInput> & { joints?: Record<string, unknown> })[];
+}
+
+export interface ProgramReport {
+  valid: boolean;
+  /** absent when every step passes */
+  firstFailingStep?: number;
+  cycleTime: number;
+  steps: { step: number; ok: boolean; reasons: string[]; duration: number; planned?: string }[];
+  trajectory: { rate: number; names: string[]; positions: number[][] };
 }
 
 /** The via point of a circ in the frame of x, y, z; the schema checks its numbers. */
@@ -137,6 +150,33 @@ export class Mover {
   async validateCartesian(input: CartesianInput): Promise<ValidationReport> {
     const t = cartesianTarget(input);
     return validateCartesian(this.backend, this.twin, this.ws, poseTarget(this.twin, t.real, t.orientation, input.motion, viaOf(input)), speedOf(input));
+  }
+
+  /** A program's steps planned by the backend one after the other (nothing moves); Cartesian steps in the
+   * frame of the TD (real with a calibration), like validateCartesianPosition's. */
+  async validateProgram(input: ProgramInput): Promise<ProgramReport> {
+    const steps = input.steps.map((step, k) => {
+      const speed = speedOf(step);
+      const hasXyz = step.x !== undefined || step.y !== undefined || step.z !== undefined;
+      if ((step.joints !== undefined) === hasXyz) {
+        throw badInput(`steps[${k}]: give joints (a PTP step) or x, y, z, not ${hasXyz ? "both" : "neither"}`, { param: `steps[${k}]` });
+      }
+      if (step.joints !== undefined) {
+        if (step.motion !== undefined && step.motion !== "ptp") throw badInput(`steps[${k}]: a joint target is a PTP step, not ${step.motion}`, { param: `steps[${k}].motion` });
+        return { target: this.twin.jointsVector(step.joints), speed };
+      }
+      if ((step.via !== undefined) !== (step.motion === "circ")) throw badInput(`steps[${k}]: via goes with motion circ, and only with it`, { param: `steps[${k}].via` });
+      const t = cartesianTarget(step as CartesianInput);
+      return { ...poseTarget(this.twin, t.real, t.orientation, step.motion, viaOf(step as CartesianInput)), speed };
+    });
+    const plan = await this.backend.sim.planProgram({ robot: this.twin.robotId, steps: steps as ProgramSteps });
+    return {
+      valid: plan.valid,
+      ...(plan.firstFailingStep !== null ? { firstFailingStep: plan.firstFailingStep } : {}),
+      cycleTime: plan.cycleTime,
+      steps: plan.steps.map((s) => ({ step: s.step, ok: s.ok, reasons: s.reasons, duration: s.duration, ...(s.planned ? { planned: s.planned } : {}) })),
+      trajectory: { rate: plan.trajectory.rate, names: plan.trajectory.names, positions: plan.trajectory.positions },
+    };
   }
 
   async moveJoints(input: JointInput, watch?: MoveWatch): Promise<RelayedMoveResult> {

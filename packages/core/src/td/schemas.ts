@@ -94,6 +94,73 @@ export function cartesianSchema(bounds: Bounds | null, withSpeed: boolean, descr
   return s;
 }
 
+/** validateProgram's input: steps, each a joint target (PTP) or a Cartesian one reached by `motion`. */
+export function programInputSchema(joints: JointSpec[], bounds: Bounds | null): DataSchema {
+  const xyz = xyzSchema("", bounds).properties ?? {};
+  return {
+    type: "object",
+    description: "A program: its steps in order, each from where the previous one ends",
+    properties: {
+      steps: {
+        type: "array",
+        minItems: 1,
+        maxItems: VALUE_SCHEMAS.ProgramSteps.maxItems,
+        items: {
+          type: "object",
+          description: "joints (PTP to a joint target), or x, y, z (+ orientation) reached by motion (via for circ); speed a fraction of the velocity limits",
+          properties: {
+            motion: motionSchema(),
+            joints: jointsSchema(joints, "Target position of every controllable joint (a PTP step)"),
+            ...xyz,
+            orientation: quaternionSchema("End-effector orientation quaternion {x,y,z,w}; any orientation (PTP) or kept (LIN, CIRC) if absent"),
+            via: xyzSchema("circ: a point of the arc (m)", bounds),
+            speed: speedSchema(),
+          },
+          additionalProperties: false,
+        },
+      },
+    },
+    required: ["steps"],
+    additionalProperties: false,
+  };
+}
+
+/** validateProgram's answer. */
+export function programReportSchema(): DataSchema {
+  return {
+    type: "object",
+    properties: {
+      valid: { type: "boolean" },
+      firstFailingStep: { type: "integer", minimum: 0, description: "index of the first refused step; absent when every step passes" },
+      cycleTime: { type: "number", unit: UNIT_S, minimum: 0, description: "the sum of the steps' durations: what running them one after the other takes at real time" },
+      steps: {
+        type: "array",
+        items: {
+          type: "object",
+          properties: {
+            step: { type: "integer", minimum: 0 },
+            ok: { type: "boolean" },
+            reasons: { type: "array", items: { type: "string" } },
+            duration: { type: "number", unit: UNIT_S, minimum: 0 },
+            planned: { type: "string", enum: ["straight", "detour", "lin", "circ"] },
+          },
+          required: ["step", "ok", "reasons", "duration"],
+        },
+      },
+      trajectory: {
+        type: "object",
+        description: "the joint states the steps pass, sampled at rate",
+        properties: {
+          rate: { type: "number", unit: "Hz" },
+          names: { type: "array", items: { type: "string" } },
+          positions: { type: "array", items: { type: "array", items: { type: "number" } } },
+        },
+      },
+    },
+    required: ["valid", "cycleTime", "steps", "trajectory"],
+  };
+}
+
 /** How a Cartesian target is reached: the backend contract's `motion` of `robot.plan` / `robot.move`. */
 export const motionSchema = (): DataSchema => ({
   type: "string",
