@@ -2,6 +2,8 @@
  * `motion: "lin"` / `"circ"` on validateCartesianPosition / moveToCartesianPosition: the twin moves its end effector
  * on the straight line or the arc through a via point (the backend's LIN / CIRC), says so in its answer, and the TD's schema takes only ptp/lin/circ.
  */
+import { readFileSync, writeFileSync } from "node:fs";
+import { join } from "node:path";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { generateTwin, http, invoke, kukaPose } from "./serve-helpers.js";
@@ -79,4 +81,20 @@ it("validateProgram: PTP, LIN and CIRC steps planned one after the other, with d
   const both = await invoke(base, "validateProgram", { steps: [{ joints: home, x: p.x, y: p.y, z: p.z }] });
   expect(both.status).toBe(400);
   expect(JSON.stringify(both.body)).toContain("steps[0]: give joints (a PTP step) or x, y, z, not both");
+});
+
+it("a twin folder generated before validateProgram existed is still served, without that action", async () => {
+  const dir = await generateTwin("kuka_iiwa", 3000);
+  const td = JSON.parse(readFileSync(join(dir, "td.json"), "utf8"));
+  delete td.actions.validateProgram;
+  writeFileSync(join(dir, "td.json"), JSON.stringify(td));
+  const old = await startServient({ twins: [dir], port: 0, realtime: 0 });
+  try {
+    const url = old.things[0]!.tdUrl;
+    expect((await http(url)).body.actions.validateProgram).toBeUndefined();
+    expect((await invoke(url, "validateProgram", { steps: [] })).status).toBe(404);
+    expect((await invoke(url, "validateJointPosition", { joints: kukaPose([0, 0, 0, 0, 0, 0, 0]) })).status).toBe(200);
+  } finally {
+    await old.stop();
+  }
 });
