@@ -61,12 +61,14 @@ def export_urdf(
         fn = el.get("filename", "")
         if fn not in sources:
             sources[fn] = resolve_mesh(fn, doc.file.parent, package_roots, urdf=str(doc.file))
-    # meshes beside the URDF (a mounted tool's) keep their place relative to it; the others are laid out
-    # below their own common folder, so the twin never holds a copy of the machine's absolute paths
+    # meshes below the URDF's folder and the others (a mounted tool's copy sits beside meshes found
+    # elsewhere) are each laid out below their group's common folder, so the twin never holds a copy of
+    # the machine's absolute paths
     udir = doc.file.parent.resolve()
     beside = {fn: src for fn, src in sources.items() if udir in src.parents}
     others = {fn: src for fn, src in sources.items() if fn not in beside}
-    common = {**{fn: udir for fn in beside}, **{fn: _common_folder(others.values()) for fn in others}}
+    common = {**{fn: _common_folder(beside.values()) for fn in beside},
+              **{fn: _common_folder(others.values()) for fn in others}}
     mapping = {fn: (Path(MESHES_DIR) / src.relative_to(common[fn])).as_posix() for fn, src in sources.items()}
     placed: dict[str, Path] = {}
     for fn, target in mapping.items():  # one file per place (two names of one file share it)
