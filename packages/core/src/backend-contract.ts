@@ -95,6 +95,15 @@ export type Dt = number;
  */
 export type ProgramSteps = [ProgramStep, ...ProgramStep[]];
 /**
+ * @minItems 6
+ * @maxItems 6
+ */
+export type ToolOffset = [number, number, number, number, number, number];
+/**
+ * m
+ */
+export type ToolSize = number;
+/**
  * Result of `ping`.
  */
 export type PingResult = Ping;
@@ -892,13 +901,7 @@ export interface RobotAttachToolParams {
    * the flange the tool is mounted on (default: the URDF's default end effector, the tip of its longest chain)
    */
   eeLink?: string;
-  /**
-   * X, Y, Z (m) and ROLL, PITCH, YAW (rad, fixed axes as a URDF `<origin rpy>`) of the TCP in the flange's frame
-   *
-   * @minItems 6
-   * @maxItems 6
-   */
-  tcp?: [number, number, number, number, number, number];
+  tcp?: ToolOffset;
   mesh?: FilePath;
   /**
    * the tool's geometry as a box or a cylinder (its axis along z) extending from the flange along its z axis, besides or instead of `mesh`
@@ -912,18 +915,12 @@ export interface RobotAttachToolParams {
          * @minItems 3
          * @maxItems 3
          */
-        size: [number, number, number];
+        size: [ToolSize, ToolSize, ToolSize];
       }
     | {
         type: "cylinder";
-        /**
-         * m
-         */
-        radius: number;
-        /**
-         * m
-         */
-        length: number;
+        radius: ToolSize;
+        length: ToolSize;
       };
 }
 /**
@@ -1191,4 +1188,6 @@ export const VALUE_SCHEMAS = {
   Dt: {"type":"number","minimum":0.0001,"maximum":0.1,"default":0.004166666666666667,"description":"time step (s)"},
   Clearance: {"type":"number","minimum":0.0005,"maximum":0.02,"default":0.002,"description":"clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states"},
   ProgramSteps: {"type":"array","minItems":1,"maxItems":100,"items":{"$ref":"#/components/schemas/ProgramStep"}},
+  ToolOffset: {"type":"array","items":{"type":"number","minimum":-10,"maximum":10},"minItems":6,"maxItems":6,"default":[0,0,0,0,0,0]},
+  ToolSize: {"type":"number","exclusiveMinimum":0,"maximum":10,"description":"m"},
 } as const;

@@ -10,7 +10,7 @@ import { quatArr, quatMul } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { CliError } from "../errors.js";
 
-const { Clearance, Position, ReachVoxel, Rpy, Samples, Seed, Workers } = VALUE_SCHEMAS;
+const { Clearance, Position, ReachVoxel, Rpy, Samples, Seed, ToolOffset, ToolSize, Workers } = VALUE_SCHEMAS;
 /** The clearance (m) a robot keeps unless told (the backend contract's default). */
 export const DEFAULT_CLEARANCE = Clearance.default;
 import { EXAMPLE_NAMES, type ExampleRobot, findExample, looksLikeExampleName } from "../examples.js";
@@ -145,8 +145,8 @@ export function parseToolShape(box: string | undefined, cylinder: string | undef
   if (box !== undefined && cylinder !== undefined) throw new CliError("give --tool-box or --tool-cylinder, not both");
   const nums = (option: string, value: string, count: number, what: string): number[] => {
     const parts = value.split(",").map((p) => Number(p.trim()));
-    if (parts.length !== count || parts.some((v) => !Number.isFinite(v) || v <= 0 || v > TCP_MAX)) {
-      throw new CliError(`--${option} must be ${what} (metres, each in (0, ${TCP_MAX}]), got "${value}"`);
+    if (parts.length !== count || parts.some((v) => !Number.isFinite(v) || v <= ToolSize.exclusiveMinimum || v > ToolSize.maximum)) {
+      throw new CliError(`--${option} must be ${what} (metres, each in (${ToolSize.exclusiveMinimum}, ${ToolSize.maximum}]), got "${value}"`);
     }
     return parts;
   };
@@ -161,8 +161,6 @@ export function parseToolShape(box: string | undefined, cylinder: string | undef
   return undefined;
 }
 
-/** The tool's reach from the flange the contract takes (`robot.attachTool`'s `tcp`). */
-const TCP_MAX = 10;
 
 /** `--tcp X,Y,Z[,ROLL,PITCH,YAW]`: metres and radians in the end-effector link's frame, as a URDF `<origin>`. */
 export function parseTcp(value: string | undefined): number[] | undefined {
@@ -172,7 +170,8 @@ export function parseTcp(value: string | undefined): number[] | undefined {
   if ((parts.length !== 3 && parts.length !== 6) || parts.some((p) => p === "") || nums.some((n) => !Number.isFinite(n))) {
     throw new CliError(`--tcp must be X,Y,Z or X,Y,Z,ROLL,PITCH,YAW (metres, radians), got "${value}"`);
   }
-  if (nums.some((v) => Math.abs(v) > TCP_MAX)) throw new CliError(`--tcp: every value must be within ±${TCP_MAX}, got "${value}"`);
+  const { minimum, maximum } = ToolOffset.items;
+  if (nums.some((v) => v < minimum || v > maximum)) throw new CliError(`--tcp: every value must be within [${minimum}, ${maximum}], got "${value}"`);
   return [...nums, 0, 0, 0].slice(0, 6);
 }
 

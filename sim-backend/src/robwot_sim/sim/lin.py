@@ -38,6 +38,8 @@ MAX_JOINT_STEP = 0.35
 #: IK residuals a sample must meet (m, rad)
 IK_POSITION_TOLERANCE = 1e-4
 IK_ORIENTATION_TOLERANCE = math.radians(0.5)
+#: the sine of the angle at the via point below which start, via and target count as on one line
+ONE_LINE = 1e-6
 #: times a segment may be halved to keep the deviation or the joint step
 MAX_SPLITS = 5
 
@@ -74,7 +76,7 @@ def circ_path(world: World, robot: str, via: Sequence[float], position: Sequence
     start = world.fk(robot, q0)
     a, b, c = (np.asarray(x, dtype=np.float64) for x in (start.position, via, position))
     normal = np.cross(b - a, c - b)
-    if np.linalg.norm(normal) < 1e-6 * max(1e-9, float(np.linalg.norm(c - a)) ** 2) or min(
+    if np.linalg.norm(normal) < ONE_LINE * max(1e-9, float(np.linalg.norm(c - a)) ** 2) or min(
             np.linalg.norm(b - a), np.linalg.norm(c - b)) < 1e-4:
         return LinPath(reason="the start, via point and target lie on one line (or two of them coincide): "
                               "they define no arc")
