@@ -153,16 +153,16 @@ def _outside(points: FloatArray, equations: FloatArray) -> FloatArray:
 
 
 def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path,
-              whole_as_part: bool = False) -> Decomposition:
+              whole_as_part: bool = False, convex: bool | None = None) -> Decomposition:
     """The cached decomposition of a mesh (``vertices`` [n, 3] already scaled, ``faces`` [m, 3]). A convex
     mesh has no parts (PyBullet's hull of the file is exact), unless ``whole_as_part``: then its hull is
     the one part, so PyBullet never reads the file for collision (a DAE: PyBullet reads only its
-    ``<triangles>``; ours reads polylists and polygons too)."""
+    ``<triangles>``; ours reads polylists and polygons too). ``convex``: ``is_convex`` already known."""
     folder = cache_dir / key
     cached = _read_manifest(folder)
     if cached is not None:
         return cached
-    if is_convex(vertices, faces):
+    if convex if convex is not None else is_convex(vertices, faces):
         _write(folder, [_compact(vertices, ConvexHull(vertices, qhull_options="QJ").simplices)]
                if whole_as_part else [])
     else:
@@ -458,7 +458,7 @@ def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray, bool, str]], c
     def one(key: str) -> None:
         vertices, faces, whole, name = meshes[key]
         t = time.perf_counter()
-        parts = decompose(vertices, faces, key, cache_dir, whole)
+        parts = decompose(vertices, faces, key, cache_dir, whole, key in convex)
         if on_mesh is None:
             return
         with lock:
