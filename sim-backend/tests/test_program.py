@@ -3,6 +3,11 @@ durations those of the joint paths a move runs, the first refused step named; th
 
 from __future__ import annotations
 
+import math
+import time
+from typing import Any
+
+import numpy as np
 import pytest
 from rpc_backend import RpcClient
 
@@ -55,3 +60,119 @@ def test_steps_that_make_no_sense_are_refused_naming_the_step(client: RpcClient)
     assert err.data["param"] == "steps[1].via"
     err = client.error("program.plan", {"robot": "kuka", "steps": [{"motion": "lin", "target": START}]})
     assert err.data["param"] == "steps[0].target"
+
+
+def _slices(plan: dict[str, Any], dt: float) -> list[slice]:
+    """The states of each step in a trajectory sampled every ``dt`` (each from its start to its end)."""
+    out, start = [], 0
+    for s in plan["steps"]:
+        n = round(s["duration"] / dt)
+        out.append(slice(start, start + n + 1))
+        start += n
+    return out
+
+
+def _fk(client: RpcClient, states: Any) -> list[dict[str, Any]]:
+    return [client.call("robot.fk", {"robot": "kuka", "positions": [float(v) for v in q]}) for q in states]
+
+
+def test_every_step_keeps_the_velocity_and_acceleration_limits_and_lin_and_circ_keep_their_curve(
+        client: RpcClient) -> None:
+    """The full-rate trajectory: no joint beyond its velocity limit x speed nor its acceleration limit (the
+    KUKA has none in a joint_limits.yaml: each reaches its velocity limit in 0.25 s); by forward
+    kinematics of every state, the LIN within 0.5 mm of its line and the CIRC of its arc, the orientation
+    within 0.5 degrees of the start's (kept); at rest where each step ends."""
+    dt = 1 / 240
+    steps = program(client)
+    plan = client.call("program.plan", {"robot": "kuka", "steps": steps, "dt": dt, "rate": 1 / dt})
+    assert plan["valid"]
+    q = np.asarray(plan["trajectory"]["positions"])
+    model = client.call("robot.model", {"robot": "kuka"})
+    vmax = np.array([j["velocity"] for j in model["joints"] if j["name"] in model["controllable"]])
+    parts = _slices(plan, dt)
+    for k, part in enumerate(parts):
+        speed = float(steps[k].get("speed", 1.0))  # type: ignore[arg-type]
+        vel = np.diff(q[part], axis=0) / dt
+        assert np.all(np.abs(vel) <= vmax * speed * 1.01 + 1e-9), k
+        acc = np.diff(vel, axis=0) / dt
+        assert np.all(np.abs(acc) <= vmax / 0.25 * 1.05 + 1e-6), (k, np.abs(acc).max(axis=0))
+    fk = _fk(client, q[parts[1]])
+    p = np.array([f["position"] for f in fk])
+    a, b = p[0], np.asarray(steps[1]["position"])
+    u = (b - a) / np.linalg.norm(b - a)
+    off_line = np.linalg.norm((p - a) - ((p - a) @ u)[:, None] * u[None, :], axis=1)
+    assert off_line.max() <= 0.0005
+    r0 = np.array(fk[0]["orientation"])
+    turn = [2 * math.degrees(math.acos(min(1.0, abs(float(np.dot(r0, f["orientation"])))))) for f in fk]
+    assert max(turn) <= 0.5
+    fk = _fk(client, q[parts[2]])
+    p = np.array([f["position"] for f in fk])
+    via = np.asarray(steps[2]["via"])
+    # the circle through start, via and target: all states at its radius from its centre, in its plane
+    a, c = p[0], p[-1]
+    n = np.cross(via - a, c - via)
+    n /= np.linalg.norm(n)
+    m = np.array([via - a, c - via, n])
+    rhs = np.array([(via @ via - a @ a) / 2, (c @ c - via @ via) / 2, n @ a])
+    centre = np.linalg.solve(m, rhs)
+    radius = np.linalg.norm(a - centre)
+    assert np.abs(np.linalg.norm(p - centre, axis=1) - radius).max() <= 0.0005
+    assert np.abs((p - a) @ n).max() <= 0.0005
+
+
+def test_a_lin_the_joints_cannot_keep_at_its_speed_is_refused_naming_the_joint(client: RpcClient) -> None:
+    """At 3 m/s along a 15 cm line at 10 % of the velocity limits, some joint would need more than its
+    limit: refused as step 1, naming the joint and tcpSpeed; at the default speed it passes."""
+    steps = program(client)[:2]
+    steps[0]["speed"] = 0.1
+    steps[1] = {**steps[1], "speed": 0.1, "tcpSpeed": 3.0}
+    plan = client.call("program.plan", {"robot": "kuka", "steps": steps})
+    assert plan["firstFailingStep"] == 1
+    reason = plan["steps"][1]["reasons"][0]
+    assert reason.startswith("LIN refused: joint lbr_iiwa_joint_") and "tcpSpeed" in reason
+    steps[1]["tcpSpeed"] = 0.25
+    steps[1]["speed"] = 1.0
+    assert client.call("program.plan", {"robot": "kuka", "steps": steps})["valid"]
+
+
+def test_a_lower_acceleration_or_tcp_speed_makes_a_step_longer(client: RpcClient) -> None:
+    steps = program(client)[:2]
+    base = client.call("program.plan", {"robot": "kuka", "steps": steps})["steps"]
+    slow = client.call("program.plan", {"robot": "kuka", "steps": [
+        {**steps[0], "acceleration": 0.2}, {**steps[1], "tcpSpeed": 0.1}]})["steps"]
+    assert slow[0]["duration"] > base[0]["duration"] and slow[1]["duration"] > base[1]["duration"]
+
+
+def test_a_run_takes_the_cycle_time_it_was_validated_with(client: RpcClient) -> None:
+    """program.run at real time 1: the simulated duration equals program.plan's cycle time, the wall time
+    follows it (the bench measures how closely: `npm run bench:program`), and the states name the step
+    running, in order; the robot ends at the last target."""
+    steps = program(client)
+    plan = client.call("program.plan", {"robot": "kuka", "steps": steps})
+    client.notifications.clear()
+    t0 = time.monotonic()
+    run = client.call("program.run", {"robot": "kuka", "steps": steps, "realtime": 1})
+    wall = time.monotonic() - t0
+    assert run["status"] == "reached" and run["step"] == 3
+    assert run["duration"] == pytest.approx(plan["cycleTime"], abs=1e-9)
+    assert run["program"]["cycleTime"] == pytest.approx(plan["cycleTime"], abs=1e-9)
+    assert run["wallTime"] == pytest.approx(plan["cycleTime"], rel=0.1)
+    assert wall >= plan["cycleTime"]
+    seen = [p["step"] for m, p in client.notifications if m == "robot.state" and p["robot"] == "kuka"]
+    assert seen == sorted(seen) and set(seen) == {0, 1, 2, 3}
+    assert client.call("robot.getJointPositions", {"robot": "kuka"})["positions"] == pytest.approx([0.0] * 7)
+
+
+def test_a_refused_program_does_not_move_and_a_stop_ends_a_run(client: RpcClient) -> None:
+    steps = program(client)
+    before = client.call("robot.getJointPositions", {"robot": "kuka"})["positions"]
+    bad = [*steps[:1], {"target": [0.0, 3.0, 0, 0, 0, 0, 0]}]
+    err = client.error("program.run", {"robot": "kuka", "steps": bad})
+    assert err.data["code"] == "E_REJECTED" and err.data["program"]["firstFailingStep"] == 1
+    assert err.data["reasons"][0].startswith("step 1: ")
+    assert client.call("robot.getJointPositions", {"robot": "kuka"})["positions"] == pytest.approx(before)
+    pending = client.send("program.run", {"robot": "kuka", "steps": steps, "realtime": 1})
+    time.sleep(0.5)
+    assert client.call("robot.stop", {"robot": "kuka"})["stopped"]
+    run = client.wait(pending)
+    assert run["status"] == "stopped" and run["duration"] < run["program"]["cycleTime"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from simhelp import KUKA, MODELS
@@ -10,17 +12,49 @@ from robwot_sim.errors import InvalidParams, OutOfLimits
 from robwot_sim.sim.world import World
 
 
-def test_plan_respects_velocity_limits_and_dt() -> None:
-    """Steps are dt apart; no joint moves faster than velocity * speed; start and target included."""
+def test_plan_respects_velocity_and_acceleration_limits_and_dt() -> None:
+    """Steps are dt apart; no joint moves faster than velocity * speed nor accelerates faster than its
+    acceleration limit (velocity / 0.25 s without a joint_limits.yaml); the duration is the trapezoid's,
+    time-optimal for the straight line, rounded up to whole steps; start and target included."""
     with World() as w:
         m = w.load_robot(MODELS / "planar2.urdf")  # velocities 1.5 and 3.0 rad/s
-        for speed, dt in [(1.0, 1 / 240), (0.25, 0.01)]:
-            path = w.plan_motion(m.id, [1.5, -2.0], start=[0.0, 0.0], speed=speed, dt=dt)
-            assert np.allclose(path[0], [0, 0]) and np.allclose(path[-1], [1.5, -2.0])
-            vel = np.abs(np.diff(path, axis=0)) / dt
-            assert np.all(vel <= np.array([1.5, 3.0]) * speed + 1e-9)
-            assert (len(path) - 1) * dt == pytest.approx(1.0 / speed, abs=dt)
+        accel = m.acceleration_limits()
+        assert accel.tolist() == pytest.approx([6.0, 12.0])
+        for speed, dt, duration in [(1.0, 1 / 240, 1.0 + 0.25), (0.25, 0.01, 4.0 + 0.0625),
+                                    (1.0, 0.01, 2 * math.sqrt(0.1 / 4))]:
+            goal = [1.5, -2.0] if duration > 0.5 else [0.15, -0.2]  # the last: too short to reach vmax
+            path = w.plan_motion(m.id, goal, start=[0.0, 0.0], speed=speed, dt=dt)
+            assert np.allclose(path[0], [0, 0]) and np.allclose(path[-1], goal)
+            vel = np.diff(path, axis=0) / dt
+            assert np.all(np.abs(vel) <= np.array([1.5, 3.0]) * speed * (1 + 1e-9))
+            # a finite difference of positions sampled from the profile: within the limit up to the
+            # sampling of its kinks
+            acc = np.abs(np.diff(vel, axis=0)) / dt
+            assert np.all(acc <= accel * 1.01 + 1e-6), acc.max(axis=0)
+            assert (len(path) - 1) * dt == pytest.approx(duration, abs=dt)
         assert len(w.plan_motion(m.id, [0.0, 0.0], start=[0.0, 0.0])) == 1
+
+
+def test_a_curve_is_timed_along_its_samples_within_every_limit() -> None:
+    """A LIN's samples (a joint-space arc here) timed by TOPP-RA: it starts and ends at rest at the first and
+    last sample, passes within a hair of every sample, keeps the joint velocity and acceleration limits
+    and the end effector's speed along the curve, and is no slower than needed: some limit is met."""
+    with World() as w:
+        m = w.load_robot(MODELS / "planar2.urdf")
+        t = np.linspace(0.0, 1.0, 41)
+        points = np.stack([0.8 * t, -0.6 * np.sin(math.pi * t)], axis=1)
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]) * 0.5
+        dt = 0.005
+        path = w.plan_motion(m.id, points[-1], start=points[0], dt=dt, via=points[1:-1], arc=arc,
+                             tcp_speed=0.3)
+        assert np.allclose(path[0], points[0]) and np.allclose(path[-1], points[-1])
+        vel = np.diff(path, axis=0) / dt
+        assert np.all(np.abs(vel) <= np.array([1.5, 3.0]) * 1.01)
+        # the end effector's speed along the curve: arc length is half the joint-space length here
+        speed = np.linalg.norm(vel, axis=1) * 0.5
+        assert speed.max() <= 0.3 * 1.02 and speed.max() >= 0.3 * 0.9
+        nearest = np.min(np.linalg.norm(path[:, None, :] - points[None, :, :], axis=2), axis=0)
+        assert nearest.max() < 0.01
 
 
 def test_plan_rejects_bad_parameters() -> None:

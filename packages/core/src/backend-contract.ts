@@ -86,6 +86,14 @@ export type Workers = number;
  */
 export type Speed = number;
 /**
+ * fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2)
+ */
+export type Acceleration = number;
+/**
+ * speed (m/s) of the end effector (the TCP with a tool) along a LIN or CIRC; a configuration whose joints cannot keep it within their velocity limits x speed (near a singularity) is refused
+ */
+export type TcpSpeed = number;
+/**
  * time step (s)
  */
 export type Dt = number;
@@ -194,6 +202,10 @@ export type RobotPlanResult = Plan;
  * Result of `program.plan`.
  */
 export type ProgramPlanResult = ProgramPlan;
+/**
+ * Result of `program.run`.
+ */
+export type ProgramRunResult = ProgramOutcome;
 /**
  * Result of `robot.move`.
  */
@@ -655,6 +667,10 @@ export interface RobotStateNotification {
   moving: boolean;
   position: Vec3;
   orientation: QuatXyzw;
+  /**
+   * during `program.run`: the index of the step running
+   */
+  step?: number;
 }
 export interface RobotCollisionNotification {
   robot: string;
@@ -721,7 +737,7 @@ export interface ToolAttached {
   tcpLink: string;
 }
 /**
- * one step: `target` (joints, PTP) or `position` (+ `orientation`) reached by `motion`; `via` for circ
+ * one step: `target` (joints, PTP) or `position` (+ `orientation`) reached by `motion`; `via` for circ; `speed` and `acceleration` scale the joint limits, `tcpSpeed` is a LIN's or CIRC's speed
  */
 export interface ProgramStep {
   motion?: "ptp" | "lin" | "circ";
@@ -730,6 +746,8 @@ export interface ProgramStep {
   orientation?: QuatXyzw;
   via?: Position;
   speed?: Speed;
+  acceleration?: Acceleration;
+  tcpSpeed?: TcpSpeed;
 }
 export interface ProgramPlan {
   valid: boolean;
@@ -771,6 +789,27 @@ export interface ProgramPlan {
      */
     positions: number[][];
   };
+}
+/**
+ * a run's outcome: the motion's (as `MoveResult`), the step it ended in and the program's plan
+ */
+export interface ProgramOutcome {
+  status: MoveStatus;
+  positions: JointVector;
+  /**
+   * s of simulated time run
+   */
+  duration: number;
+  /**
+   * s of wall-clock time the run took
+   */
+  wallTime: number;
+  contacts: Contact[];
+  /**
+   * index of the step the run ended in (the last one when reached)
+   */
+  step: number;
+  program?: ProgramPlan;
 }
 /**
  * Params of `ping`.
@@ -1002,6 +1041,18 @@ export interface ProgramPlanParams {
   rate?: number;
 }
 /**
+ * Params of `program.run`.
+ */
+export interface ProgramRunParams {
+  robot: Name;
+  steps: ProgramSteps;
+  dt?: Dt;
+  /**
+   * real-time factor: 1 = wall clock, 2 = twice as fast, 0 = as fast as possible
+   */
+  realtime?: 0 | RealtimeFactor;
+}
+/**
  * Params of `robot.move`.
  */
 export interface RobotMoveParams {
@@ -1112,6 +1163,7 @@ export interface Methods {
   "robot.checkPath": { params: RobotCheckPathParams; result: RobotCheckPathResult };
   "robot.plan": { params: RobotPlanParams; result: RobotPlanResult };
   "program.plan": { params: ProgramPlanParams; result: ProgramPlanResult };
+  "program.run": { params: ProgramRunParams; result: ProgramRunResult };
   "robot.move": { params: RobotMoveParams; result: RobotMoveResult };
   "robot.stop": { params: RobotStopParams; result: RobotStopResult };
   "obstacle.add": { params: ObstacleAddParams; result: ObstacleAddResult };
@@ -1185,6 +1237,8 @@ export const VALUE_SCHEMAS = {
   MoveStatus: {"type":"string","enum":["reached","stopped","collision"]},
   Workers: {"type":"integer","minimum":1,"maximum":256},
   Speed: {"type":"number","minimum":0.001,"maximum":1,"default":1,"description":"fraction of the URDF velocity limits"},
+  Acceleration: {"type":"number","minimum":0.01,"maximum":1,"default":1,"description":"fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2)","x-accelerationTime":0.25,"x-tcpAcceleration":1.2},
+  TcpSpeed: {"type":"number","minimum":0.001,"maximum":3,"default":0.25,"description":"speed (m/s) of the end effector (the TCP with a tool) along a LIN or CIRC; a configuration whose joints cannot keep it within their velocity limits x speed (near a singularity) is refused"},
   Dt: {"type":"number","minimum":0.0001,"maximum":0.1,"default":0.004166666666666667,"description":"time step (s)"},
   Clearance: {"type":"number","minimum":0.0005,"maximum":0.02,"default":0.002,"description":"clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states"},
   ProgramSteps: {"type":"array","minItems":1,"maxItems":100,"items":{"$ref":"#/components/schemas/ProgramStep"}},

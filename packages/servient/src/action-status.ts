@@ -22,6 +22,8 @@ import { sendJson } from "./static-files.js";
 export interface ActionStatus {
   status: ActionStatusValue;
   progress: number;
+  /** runProgram: the index of the step running, then the one it ended in */
+  step?: number;
   output?: unknown;
   error?: Record<string, unknown>;
   href: string;
@@ -35,7 +37,7 @@ interface Entry {
   requested: Date;
   handle: MoveHandle;
   /** set when the invocation has ended */
-  end: { status: "completed" | "failed" | "cancelled"; progress: number; output?: unknown; error?: Record<string, unknown>; at: Date } | null;
+  end: { status: "completed" | "failed" | "cancelled"; progress: number; step?: number; output?: unknown; error?: Record<string, unknown>; at: Date } | null;
   cancelRequested: boolean;
   /** resolves once the invocation has ended (never rejects) */
   settled: Promise<void>;
@@ -83,7 +85,8 @@ export class ActionStatusStore {
         // a cancel that came after the target was reached stopped nothing
         const reached = (output as { status?: unknown } | null)?.status === "reached";
         const status = entry.cancelRequested && !reached ? "cancelled" : "completed";
-        entry.end = { status, progress: handle.progress(), output, at: this.now() };
+        const step = handle.step();
+        entry.end = { status, progress: handle.progress(), ...(step !== undefined ? { step } : {}), output, at: this.now() };
       },
       (err: unknown) => {
         const e = toServientError(err);
@@ -117,9 +120,12 @@ export class ActionStatusStore {
 
   private view(e: Entry): ActionStatus {
     const base = { href: e.href, timeRequested: e.requested.toISOString() };
-    if (!e.end) return { status: e.handle.phase(), progress: e.handle.progress(), ...base };
-    const { status, progress, output, error, at } = e.end;
-    return { status, progress, ...(output !== undefined ? { output } : {}), ...(error ? { error } : {}), ...base, timeEnded: at.toISOString() };
+    if (!e.end) {
+      const step = e.handle.step();
+      return { status: e.handle.phase(), progress: e.handle.progress(), ...(step !== undefined ? { step } : {}), ...base };
+    }
+    const { status, progress, step, output, error, at } = e.end;
+    return { status, progress, ...(step !== undefined ? { step } : {}), ...(output !== undefined ? { output } : {}), ...(error ? { error } : {}), ...base, timeEnded: at.toISOString() };
   }
 
   /** Forgets ended resources older than the TTL; with `room`, also the oldest ended ones until one more fits. */

@@ -58,6 +58,7 @@ export function registerActions(thing: WoT.ExposedThing, d: ActionDeps): Map<str
   const moves: Record<string, (input: never, watch?: MoveWatch) => Promise<unknown>> = {
     moveToJointPosition: (i: JointInput, w?: MoveWatch) => d.mover.moveJoints(i, w),
     moveToCartesianPosition: (i: CartesianInput, w?: MoveWatch) => d.mover.moveCartesian(i, w),
+    runProgram: (i: ProgramInput, w?: MoveWatch) => d.mover.runProgram(i, w),
   };
   const asyncActions = new Map<string, AsyncAction>();
   for (const [name, move] of Object.entries(moves)) {

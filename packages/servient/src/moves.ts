@@ -45,7 +45,19 @@ export interface CartesianInput {
 }
 
 export interface ProgramInput {
-  steps: (Partial<CartesianInput> & { joints?: Record<string, unknown> })[];
+  steps: (Partial<CartesianInput> & { joints?: Record<string, unknown>; acceleration?: number; tcpSpeed?: number })[];
+}
+
+/** runProgram's answer (`programRunResultSchema`). */
+export interface ProgramRunResult {
+  status: RelayedMoveResult["status"];
+  step: number;
+  joints: Record<string, number>;
+  position: RelayedMoveResult["position"];
+  orientation: RelayedMoveResult["orientation"];
+  duration: number;
+  cycleTime: number;
+  relay?: { ok: boolean; steps: { step: number; ok: boolean; error?: string }[]; error?: string };
 }
 
 export interface ProgramReport {
@@ -121,6 +133,8 @@ export interface MoveHandle {
   progress(): number;
   /** the stop path (`stop`) for this move only: nothing once it has ended */
   cancel(): Promise<void>;
+  /** a program's: the index of the step running (undefined before its motion starts, and for a move) */
+  step(): number | undefined;
 }
 
 /** Called when a move is accepted (busy taken), before it is validated. */
@@ -155,28 +169,104 @@ export class Mover {
   /** A program's steps planned by the backend one after the other (nothing moves); Cartesian steps in the
    * frame of the TD (real with a calibration), like validateCartesianPosition's. */
   async validateProgram(input: ProgramInput): Promise<ProgramReport> {
-    const steps = input.steps.map((step, k) => {
+    const plan = await this.backend.sim.planProgram({ robot: this.twin.robotId, steps: this.programSteps(input).sim });
+    return programReport(plan);
+  }
+
+  /**
+   * Runs a program: the backend plans it as validateProgram does (a refused step answers 422
+   * `E_REJECTED` with the report in `details.program`; nothing moves) and runs its timed states as one
+   * motion (a stop or cancel ends it at once). With `--relay`, once the simulation has run every step,
+   * the physical robot gets them one after the other as the move actions relay theirs, each awaited
+   * within its own deadline; the first that fails ends the relay (the physical robot is stopped when it
+   * did not answer) and the report says which.
+   */
+  async runProgram(input: ProgramInput, watch?: MoveWatch): Promise<ProgramRunResult> {
+    const { sim, relay } = this.programSteps(input);
+    return this.guarded(watch, async (move) => {
+      const twin = this.twin;
+      if (move.cancelled) {
+        const r = this.cancelled();
+        return { status: r.status, step: 0, joints: r.joints, position: r.position, orientation: r.orientation, duration: 0, cycleTime: 0 };
+      }
+      const res = await this.motion(
+        move,
+        () => this.backend.sim.runProgram({ robot: twin.robotId, steps: sim, realtime: this.realtime }),
+        (e) => {
+          const reasons = (e.details.reasons ?? []) as string[];
+          const program = e.details.program as Parameters<typeof programReport>[0] | undefined;
+          return new ServientError(422, "E_REJECTED", `program rejected by validation: ${reasons.join("; ")}`, {
+            reasons,
+            ...(program ? { program: programReport(program) } : {}),
+          });
+        },
+      );
+      const pose = twin.realPose();
+      const out: ProgramRunResult = {
+        status: res.status,
+        step: res.step,
+        joints: twin.jointsRecord(res.positions),
+        position: pose.position,
+        orientation: pose.orientation,
+        duration: res.duration,
+        cycleTime: res.program?.cycleTime ?? 0,
+      };
+      const lastError =
+        res.status === "collision"
+          ? { code: "E_COLLISION", message: `program stopped by a collision in step ${res.step}` }
+          : res.status === "stopped"
+            ? { code: "E_STOPPED", message: `program stopped in step ${res.step}` }
+            : null;
+      const { relay: _, cycleTime: __, step: ___, ...motion } = out;
+      twin.setStatus({ state: res.status === "reached" ? "idle" : res.status, lastError, lastResult: motion });
+      if (res.status === "reached" && this.relay && !move.cancelled) {
+        const durations = (res.program?.steps ?? []).map((s) => s.duration);
+        out.relay = await this.relayProgram(move, this.relay, relay, durations);
+      }
+      return out;
+    });
+  }
+
+  /** The steps of a program relayed one after the other, each like a move's (`relayMove`); stops at the first that fails. */
+  private async relayProgram(move: PendingMove, relay: Relay, steps: { action: string; input: unknown }[], durations: number[]): Promise<NonNullable<ProgramRunResult["relay"]>> {
+    const reports: { step: number; ok: boolean; error?: string }[] = [];
+    for (const [k, step] of steps.entries()) {
+      if (move.cancelled) return { ok: false, steps: reports, error: `stopped before step ${k}` };
+      const r = await this.relayMove(move, relay, step.action, step.input, durations[k] ?? 0);
+      reports.push(r.ok ? { step: k, ok: true } : { step: k, ok: false, error: r.error ?? "failed" });
+      if (!r.ok) return { ok: false, steps: reports, error: `step ${k}: ${r.error ?? "failed"}` };
+    }
+    return { ok: true, steps: reports };
+  }
+
+  /** A program's steps for the backend (joint vectors; Cartesian in the simulation's frame) and as the
+   * physical robot's move actions take them (in the frame of the TD). */
+  private programSteps(input: ProgramInput): { sim: ProgramSteps; relay: { action: string; input: unknown }[] } {
+    const relay: { action: string; input: unknown }[] = [];
+    const sim = input.steps.map((step, k) => {
       const speed = speedOf(step);
+      // acceleration and tcpSpeed: the schema bounds them (the contract's Acceleration and TcpSpeed)
+      const timing = { ...(step.acceleration !== undefined ? { acceleration: step.acceleration } : {}), ...(step.tcpSpeed !== undefined ? { tcpSpeed: step.tcpSpeed } : {}) };
       const hasXyz = step.x !== undefined || step.y !== undefined || step.z !== undefined;
       if ((step.joints !== undefined) === hasXyz) {
         throw badInput(`steps[${k}]: give joints (a PTP step) or x, y, z, not ${hasXyz ? "both" : "neither"}`, { param: `steps[${k}]` });
       }
       if (step.joints !== undefined) {
         if (step.motion !== undefined && step.motion !== "ptp") throw badInput(`steps[${k}]: a joint target is a PTP step, not ${step.motion}`, { param: `steps[${k}].motion` });
-        return { target: this.twin.jointsVector(step.joints), speed };
+        const q = this.twin.jointsVector(step.joints);
+        relay.push({ action: "moveToJointPosition", input: { joints: this.twin.jointsRecord(q), speed } });
+        return { target: q, speed, ...timing };
       }
       if ((step.via !== undefined) !== (step.motion === "circ")) throw badInput(`steps[${k}]: via goes with motion circ, and only with it`, { param: `steps[${k}].via` });
       const t = cartesianTarget(step as CartesianInput);
-      return { ...poseTarget(this.twin, t.real, t.orientation, step.motion, viaOf(step as CartesianInput)), speed };
+      const cmd: Record<string, unknown> = { x: t.real[0], y: t.real[1], z: t.real[2], speed };
+      if (t.orientation) cmd.orientation = t.orientation;
+      if (step.motion) cmd.motion = step.motion;
+      if (step.via) cmd.via = step.via;
+      relay.push({ action: "moveToCartesianPosition", input: cmd });
+      return { ...poseTarget(this.twin, t.real, t.orientation, step.motion, viaOf(step as CartesianInput)), speed, ...timing };
     });
-    const plan = await this.backend.sim.planProgram({ robot: this.twin.robotId, steps: steps as ProgramSteps });
-    return {
-      valid: plan.valid,
-      ...(plan.firstFailingStep !== null ? { firstFailingStep: plan.firstFailingStep } : {}),
-      cycleTime: plan.cycleTime,
-      steps: plan.steps.map((s) => ({ step: s.step, ok: s.ok, reasons: s.reasons, duration: s.duration, ...(s.planned ? { planned: s.planned } : {}) })),
-      trajectory: { rate: plan.trajectory.rate, names: plan.trajectory.names, positions: plan.trajectory.positions },
-    };
+    return { sim: sim as ProgramSteps, relay };
   }
 
   async moveJoints(input: JointInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
@@ -299,7 +389,7 @@ export class Mover {
   }
 
   /** One move at a time per twin: the busy flag and the pending move are taken before validation starts. */
-  private async guarded(watch: MoveWatch | undefined, run: (move: PendingMove) => Promise<RelayedMoveResult>): Promise<RelayedMoveResult> {
+  private async guarded<T>(watch: MoveWatch | undefined, run: (move: PendingMove) => Promise<T>): Promise<T> {
     if (this.twin.busy) {
       throw new ServientError(409, "E_BUSY", `${this.twin.slug} is already moving; call stop first or wait for the motion to end`, {
         thing: this.twin.slug,
@@ -319,7 +409,7 @@ export class Mover {
   }
 
   private handle(move: PendingMove): MoveHandle {
-    const motion = (): { time: number; planned: number } | null => (move.sent ? this.twin.motion : null);
+    const motion = (): Twin["motion"] => (move.sent ? this.twin.motion : null);
     return {
       phase: () => (motion() ? "running" : "pending"),
       progress: () => {
@@ -330,6 +420,7 @@ export class Mover {
       cancel: async () => {
         if (this.pending === move) await this.stop();
       },
+      step: () => motion()?.step,
     };
   }
 
@@ -347,6 +438,40 @@ export class Mover {
   }
 
   /**
+   * One backend motion call for `move` (a move's or a program's): the twin is "moving" while it runs;
+   * a refused plan (`E_REJECTED`) is answered as `refuse` makes it (422) with the twin's state as before,
+   * any other failure leaves the twin "stopped"; a collision emits the collision event once.
+   */
+  private async motion<T extends { status: string; contacts: BackendMoveResult["contacts"]; positions: number[] }>(
+    move: PendingMove,
+    call: () => Promise<T>,
+    refuse: (e: ServientError) => ServientError,
+  ): Promise<T> {
+    const twin = this.twin;
+    const before = twin.status.state;
+    twin.collisionSeen = false;
+    twin.setStatus({ state: "moving", lastError: null });
+    // the states of this motion follow the request on the same ordered connection
+    twin.motion = null;
+    move.sent = true;
+    let res: T;
+    try {
+      res = await call();
+    } catch (err) {
+      const e = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
+      if (e.code === "E_REJECTED") {
+        const rejected = refuse(e);
+        twin.setStatus({ state: before === "moving" ? "idle" : before, lastError: { code: rejected.code, message: rejected.message } });
+        throw rejected;
+      }
+      twin.setStatus({ state: "stopped", lastError: { code: e.code, message: e.message } });
+      throw e;
+    }
+    if (res.status === "collision" && !twin.collisionSeen) twin.onCollision(res.contacts, res.positions);
+    return res;
+  }
+
+  /**
    * The move as one backend operation (plan: limits, IK solutions, a collision-free path; then the
    * motion), unless a stop came first. A refused plan answers 422 `E_REJECTED` with its reasons and
    * checks (and the static checks of a Cartesian target beside them); the twin has not moved.
@@ -359,32 +484,19 @@ export class Mover {
   ): Promise<RelayedMoveResult> {
     if (move.cancelled) return this.cancelled();
     const twin = this.twin;
-    const before = twin.status.state;
-    twin.collisionSeen = false;
-    twin.setStatus({ state: "moving", lastError: null });
-    // the states of this motion follow the request on the same ordered connection
-    twin.motion = null;
-    move.sent = true;
-    let res: BackendMoveResult;
-    try {
-      // the twin's joints and pose are already those of the motion's end: the backend sends its final
-      // robot.state (applied by Twin.onState) before it answers the move
-      res = await this.backend.sim.move({ robot: twin.robotId, ...target, speed, realtime: this.realtime });
-    } catch (err) {
-      const e = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
-      if (e.code === "E_REJECTED") {
+    // the twin's joints and pose are already those of the motion's end: the backend sends its final
+    // robot.state (applied by Twin.onState) before it answers the move
+    const res = await this.motion(
+      move,
+      () => this.backend.sim.move({ robot: twin.robotId, ...target, speed, realtime: this.realtime }),
+      (e) => {
         const verdict = report({ valid: false, reasons: (e.details.reasons ?? []) as string[], checks: (e.details.checks ?? {}) as PlanChecks }, statics ?? undefined);
-        const rejected = new ServientError(422, "E_REJECTED", `target rejected by validation: ${verdict.reasons.join("; ")}`, {
+        return new ServientError(422, "E_REJECTED", `target rejected by validation: ${verdict.reasons.join("; ")}`, {
           reasons: verdict.reasons,
           checks: verdict.checks,
         });
-        twin.setStatus({ state: before === "moving" ? "idle" : before, lastError: { code: rejected.code, message: rejected.message } });
-        throw rejected;
-      }
-      twin.setStatus({ state: "stopped", lastError: { code: e.code, message: e.message } });
-      throw e;
-    }
-    if (res.status === "collision" && !twin.collisionSeen) twin.onCollision(res.contacts, res.positions);
+      },
+    );
     const pose = twin.realPose();
     const result: RelayedMoveResult = {
       status: res.status,
@@ -404,4 +516,15 @@ export class Mover {
     twin.setStatus({ state, lastError, lastResult: result });
     return result;
   }
+}
+
+/** The twin's program report (`programReportSchema`) from the backend's plan. */
+function programReport(plan: Awaited<ReturnType<BackendSupervisor["sim"]["planProgram"]>>): ProgramReport {
+  return {
+    valid: plan.valid,
+    ...(plan.firstFailingStep !== null ? { firstFailingStep: plan.firstFailingStep } : {}),
+    cycleTime: plan.cycleTime,
+    steps: plan.steps.map((s) => ({ step: s.step, ok: s.ok, reasons: s.reasons, duration: s.duration, ...(s.planned ? { planned: s.planned } : {}) })),
+    trajectory: { rate: plan.trajectory.rate, names: plan.trajectory.names, positions: plan.trajectory.positions },
+  };
 }

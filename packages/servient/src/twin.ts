@@ -44,7 +44,7 @@ export class Twin extends EventEmitter<TwinEvents> {
   collisionSeen = false;
   /** the motion streamed by the backend since the last move was sent (`robot.state`: simulated time and
    *  planned duration); null until its first state */
-  motion: { time: number; planned: number } | null = null;
+  motion: { time: number; planned: number; step?: number } | null = null;
 
   constructor(
     slug: string,
@@ -120,7 +120,7 @@ export class Twin extends EventEmitter<TwinEvents> {
    */
   onState(params: RobotStateNotification): void {
     this.time = params.time;
-    this.motion = { time: params.time, planned: params.planned };
+    this.motion = { time: params.time, planned: params.planned, ...(params.step !== undefined ? { step: params.step } : {}) };
     this.applyPose(params.positions, params);
   }
 

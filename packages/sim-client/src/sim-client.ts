@@ -31,6 +31,7 @@ export interface GenerateOptions extends CallOptions {
  */
 export const LONG_METHODS: ReadonlySet<MethodName> = new Set<MethodName>([
   "robot.move",
+  "program.run",
   "workspace.generate",
   "robot.load",
   "world.loadScene",
@@ -143,6 +144,11 @@ export class SimClient {
   /** A program's steps planned one after the other (nothing moves): verdicts, durations, cycle time. */
   planProgram(params: Params<"program.plan">): Result<"program.plan"> {
     return this.request("program.plan", params);
+  }
+  /** Plans a program as `planProgram` (refused with E_REJECTED and the report when a step is refused) and
+   * runs it; resolves when it ends (no timeout unless given). `robot.state` carries the running step. */
+  runProgram(params: Params<"program.run">, options: CallOptions = {}): Result<"program.run"> {
+    return this.request("program.run", params, options);
   }
   /** Plans (refused with E_REJECTED when no valid plan) and moves; resolves when the motion ends (no
    * timeout unless given). */

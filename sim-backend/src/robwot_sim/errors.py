@@ -235,13 +235,17 @@ class Busy(SimError):
 
 class Rejected(SimError):
     """A move whose plan is not valid (limits, no IK solution, every path collides): nothing moved.
-    ``reasons`` in words, ``checks`` as `robot.plan` reports them."""
+    ``reasons`` in words, ``checks`` as `robot.plan` reports them; a program's (``program.run``) also its
+    ``program`` report."""
 
     rpc_code = -32012
     code = "E_REJECTED"
 
-    def __init__(self, reasons: Sequence[str], checks: dict[str, Any]) -> None:
-        super().__init__(f"target rejected: {'; '.join(reasons)}", reasons=list(reasons), checks=checks)
+    def __init__(self, reasons: Sequence[str], checks: dict[str, Any],
+                 program: dict[str, Any] | None = None) -> None:
+        extra: dict[str, Any] = {} if program is None else {"program": program}
+        super().__init__(f"target rejected: {'; '.join(reasons)}", reasons=list(reasons), checks=checks,
+                         **extra)
 
 
 class MeshError(SimError):

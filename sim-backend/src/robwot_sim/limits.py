@@ -51,6 +51,14 @@ class Range:
 #: fraction of the URDF velocity limits a motion runs at, and the default
 SPEED = Range.of("Speed")
 DEFAULT_SPEED = float(value_schema("Speed")["default"])
+#: fraction of the acceleration limits a motion runs at; seconds a joint without an acceleration limit takes
+#: to reach its velocity limit from rest; the end effector's acceleration (m/s^2) along a LIN or CIRC
+ACCELERATION = Range.of("Acceleration")
+ACCELERATION_TIME = float(value_schema("Acceleration")["x-accelerationTime"])
+TCP_ACCELERATION = float(value_schema("Acceleration")["x-tcpAcceleration"])
+#: the end effector's speed (m/s) along a LIN or CIRC, and the default
+TCP_SPEED = Range.of("TcpSpeed")
+DEFAULT_TCP_SPEED = float(value_schema("TcpSpeed")["default"])
 #: time step (s) of an interpolated motion, and the default
 DT = Range.of("Dt")
 DEFAULT_DT = float(value_schema("Dt")["default"])

@@ -25,11 +25,12 @@ every step of this motion checked again.
 from __future__ import annotations
 
 import asyncio
+import bisect
 import contextlib
 import functools
 import math
 import threading
-from collections.abc import Awaitable, Callable, Sequence
+from collections.abc import Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, TypeVar
 
@@ -37,7 +38,8 @@ import numpy as np
 
 from robwot_sim.errors import Busy, Rejected
 from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
-from robwot_sim.sim.planner import Plan
+from robwot_sim.sim.planner import Plan, timed_path
+from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.types import CollisionReport, Pose
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Cancelled, Kind
@@ -46,6 +48,8 @@ Broadcast = Callable[[str, dict[str, Any]], None]
 T = TypeVar("T")
 
 STATE_PERIOD = 1.0 / 60.0
+#: samples per second (Hz) of the trajectory in a run program's report
+PROGRAM_RATE = 50.0
 
 
 class OnWorld(Protocol):
@@ -88,6 +92,9 @@ class _Prepared:
     stamp: tuple[int, int]
     path: np.ndarray[Any, Any] | None = None
     clearance: float = 0.0
+    #: a program's: index in ``path`` where each step starts, and the program's report
+    starts: tuple[int, ...] = ()
+    program: dict[str, Any] | None = None
 
 
 class MotionRunner:
@@ -123,6 +130,20 @@ class MotionRunner:
                    realtime: float = 1.0, dt: float = DEFAULT_DT) -> dict[str, Any]:
         """Plan with `planner` and move `robot` to the plan's joint target; returns the MoveResult dict
         (with the plan). `Rejected` when the plan is not valid: nothing moved."""
+        job = functools.partial(self._prepare, robot, planner, speed, dt)
+        result = await self._perform(robot, job, realtime, dt)
+        return {k: v for k, v in result.items() if k not in ("step", "program")}
+
+    async def run_program(self, robot: str, steps: Sequence[Mapping[str, Any]], *, realtime: float = 1.0,
+                          dt: float = DEFAULT_DT) -> dict[str, Any]:
+        """Plan the program (``sim/program.py``) and run its states; returns the ProgramRunResult dict.
+        `Rejected` (with the program's report) when a step is refused: nothing moved."""
+        job = functools.partial(self._prepare_program, robot, steps, dt)
+        result = await self._perform(robot, job, realtime, dt)
+        return {"step": 0, **{k: v for k, v in result.items() if k != "plan"}}
+
+    async def _perform(self, robot: str, job: Callable[[], _Prepared], realtime: float,
+                       dt: float) -> dict[str, Any]:
         if robot in self._active:
             raise Busy(robot)
         motion = _Motion(robot)
@@ -130,7 +151,6 @@ class MotionRunner:
         loop = asyncio.get_running_loop()
         t0 = loop.time()
         try:
-            job = functools.partial(self._prepare, robot, planner, speed, dt)
             try:
                 prepared = await self._on_world(job, Kind.LONG, robot=robot, cancel=motion.abort)
             except Cancelled:  # stopped while planning: nothing moved
@@ -139,8 +159,11 @@ class MotionRunner:
                         "wallTime": loop.time() - t0, "contacts": []}
             plan = prepared.plan
             if prepared.path is None:
-                raise Rejected(plan.reasons, plan.checks)
-            result = await self._run(motion, prepared.path, realtime, dt, prepared.stamp, prepared.clearance)
+                raise Rejected(plan.reasons, plan.checks, prepared.program)
+            result = await self._run(motion, prepared.path, realtime, dt, prepared.stamp, prepared.clearance,
+                                     prepared.starts)
+            if prepared.program is not None:
+                result["program"] = prepared.program
             return {**result, "plan": plan.to_json()}
         finally:
             del self._active[robot]
@@ -151,19 +174,34 @@ class MotionRunner:
         The plan checks exactly this path in this world: steps are checked again once anything else
         changes from here on (stamped before planning: a change during or after it counts)."""
         stamp = self._world.others_stamp(robot)
-        plan = planner()
-        if not plan.valid or plan.target is None:
+        plan, path = timed_path(self._world, robot, planner(), speed=speed, dt=dt)
+        if path is None:
             return _Prepared(plan, stamp)
-        path = self._world.plan_motion(robot, plan.target, speed=speed, dt=dt, via=plan.via)
         return _Prepared(plan, stamp, np.asarray(path, dtype=np.float64), self._world.motion_clearance(robot))
 
+    def _prepare_program(self, robot: str, steps: Sequence[Mapping[str, Any]], dt: float) -> _Prepared:
+        """On the world's thread: the program's plan (``plan_program``); when every step passes, its states.
+        Like a move's, the states are checked again once anything else changes from the stamp on."""
+        stamp = self._world.others_stamp(robot)
+        program = plan_program(self._world, robot, steps, dt, PROGRAM_RATE)
+        report = program.report
+        if program.path is None:
+            k = int(report["firstFailingStep"])
+            failing = report["steps"][k]
+            plan = Plan(False, None, tuple(f"step {k}: {r}" for r in failing["reasons"]), failing["checks"])
+            return _Prepared(plan, stamp, program=report)
+        plan = Plan(True, tuple(float(v) for v in program.path[-1]))
+        return _Prepared(plan, stamp, program.path, self._world.motion_clearance(robot),
+                         tuple(program.starts), report)
+
     def _state(self, robot: str, time: float, q: Any, pose: Pose, moving: bool,
-               planned: float) -> dict[str, Any]:
+               planned: float, step: int | None = None) -> dict[str, Any]:
         """A ``robot.state`` notification: joints and the end-effector pose at the robot's current state
         (``q``, just applied), so no client needs an FK round trip per notification; ``planned`` is the
         simulated duration of the whole path (``time / planned`` = the motion's progress)."""
-        return {"robot": robot, "time": time, "planned": planned, "positions": _floats(q), "moving": moving,
-                "position": _floats(pose.position), "orientation": _floats(pose.quat_xyzw)}
+        out = {"robot": robot, "time": time, "planned": planned, "positions": _floats(q), "moving": moving,
+               "position": _floats(pose.position), "orientation": _floats(pose.quat_xyzw)}
+        return out if step is None else {**out, "step": step}
 
     def _step(self, robot: str, reached: Any, q: Any, clearance: float, checked: tuple[int, int],
               want_pose: bool) -> tuple[str, CollisionReport | None, Pose | None]:
@@ -182,16 +220,18 @@ class MotionRunner:
     def _final_pose(self, robot: str) -> Pose | None:
         return self._world.fk(robot) if robot in self._world.robot_ids() else None
 
-    async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float,
-                   dt: float, checked: tuple[int, int], clearance: float) -> dict[str, Any]:
+    async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float, dt: float,
+                   checked: tuple[int, int], clearance: float, starts: Sequence[int] = ()) -> dict[str, Any]:
         loop = asyncio.get_running_loop()
         robot = motion.robot
         t0 = loop.time()
         reached = plan[0]
-        reached_time = 0.0
+        reached_time, reached_index = 0.0, 0
         status = "reached"
         contacts: list[dict[str, Any]] = []
         planned = (len(plan) - 1) * dt
+        # the program step state i belongs to: the last step starting before it (None for a move)
+        step_of = (lambda i: max(0, bisect.bisect_left(starts, i) - 1)) if starts else (lambda i: None)
         for i in range(1, len(plan)):
             sim_time = i * dt
             await motion.pause(t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0)
@@ -214,15 +254,17 @@ class MotionRunner:
                     "robot": robot, "contacts": contacts, "positions": _floats(reached),
                     "time": reached_time})
                 break
-            reached, reached_time = q, sim_time
+            reached, reached_time, reached_index = q, sim_time, i
             if pose is not None:
-                self._broadcast("robot.state", self._state(robot, sim_time, q, pose, True, planned))
+                state = self._state(robot, sim_time, q, pose, True, planned, step_of(i))
+                self._broadcast("robot.state", state)
         wall = loop.time() - t0
         final = await self._on_world(functools.partial(self._final_pose, robot), robot=robot)
         if final is not None:
-            self._broadcast("robot.state", self._state(robot, reached_time, reached, final, False, planned))
+            self._broadcast("robot.state", self._state(robot, reached_time, reached, final, False, planned,
+                                                       step_of(max(1, reached_index))))
         return {"status": status, "positions": _floats(reached), "duration": reached_time,
-                "wallTime": wall, "contacts": contacts}
+                "wallTime": wall, "contacts": contacts, "step": step_of(max(1, reached_index)) or 0}
 
 
 def _floats(values: Any) -> list[float]:

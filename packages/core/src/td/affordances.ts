@@ -11,6 +11,7 @@ import {
   moveResultSchema,
   programInputSchema,
   programReportSchema,
+  programRunResultSchema,
   quaternionSchema,
   stopResultSchema,
   UNIT_M,
@@ -117,6 +118,15 @@ export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): R
       output: programReportSchema(),
       safe: true,
       idempotent: true,
+    },
+    runProgram: {
+      title: "Run a program",
+      description:
+        "Plans the program as validateProgram does (refused with 422 and the report when a step is refused: nothing moves), then runs its timed trajectory; completes when it ends. With a relay, the physical robot then gets the steps one after the other. Asynchronous with Prefer: respond-async (query shows the running step and progress; cancel stops it).",
+      input: programInputSchema(joints, bounds),
+      output: programRunResultSchema(joints),
+      safe: false,
+      idempotent: false,
     },
     stop: {
       title: "Stop",

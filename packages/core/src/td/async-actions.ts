@@ -16,7 +16,7 @@
 import type { ActionAffordance, DataSchema, Form } from "./types.js";
 
 /** The long move actions that also answer asynchronously (and have query/cancel forms). */
-export const ASYNC_ACTIONS: readonly string[] = ["moveToJointPosition", "moveToCartesianPosition"];
+export const ASYNC_ACTIONS: readonly string[] = ["moveToJointPosition", "moveToCartesianPosition", "runProgram"];
 /** The URI variable naming an ActionStatus resource in the queryaction / cancelaction forms. */
 export const ACTION_ID_VARIABLE = "actionID";
 /** Name of the ActionStatus data schema in the TD's `schemaDefinitions`. */
@@ -46,6 +46,7 @@ export function actionStatusSchema(output: DataSchema, error: DataSchema): DataS
         maximum: 1,
         description: "share of the planned motion done (simulated time / planned duration); 0 before the motion starts, 1 once the target is reached",
       },
+      step: { type: "integer", minimum: 0, description: "runProgram: index of the step running (then the one it ended in)" },
       output,
       error: {
         ...error,

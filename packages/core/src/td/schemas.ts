@@ -115,6 +115,21 @@ export function programInputSchema(joints: JointSpec[], bounds: Bounds | null): 
             orientation: quaternionSchema("End-effector orientation quaternion {x,y,z,w}; any orientation (PTP) or kept (LIN, CIRC) if absent"),
             via: xyzSchema("circ: a point of the arc (m)", bounds),
             speed: speedSchema(),
+            acceleration: {
+              type: "number",
+              minimum: VALUE_SCHEMAS.Acceleration.minimum,
+              maximum: VALUE_SCHEMAS.Acceleration.maximum,
+              default: VALUE_SCHEMAS.Acceleration.default,
+              description: `Fraction of the joint acceleration limits (joint_limits.yaml; else each joint reaches its velocity limit in ${VALUE_SCHEMAS.Acceleration["x-accelerationTime"]} s) and of the TCP's acceleration along a LIN or CIRC (${VALUE_SCHEMAS.Acceleration["x-tcpAcceleration"]} m/s^2)`,
+            },
+            tcpSpeed: {
+              type: "number",
+              unit: "m/s",
+              minimum: VALUE_SCHEMAS.TcpSpeed.minimum,
+              maximum: VALUE_SCHEMAS.TcpSpeed.maximum,
+              default: VALUE_SCHEMAS.TcpSpeed.default,
+              description: "lin, circ: the TCP's speed along the line or arc; a step whose joints cannot keep it within their velocity limits x speed (near a singularity) is refused",
+            },
           },
           additionalProperties: false,
         },
@@ -122,6 +137,42 @@ export function programInputSchema(joints: JointSpec[], bounds: Bounds | null): 
     },
     required: ["steps"],
     additionalProperties: false,
+  };
+}
+
+/** runProgram's answer: the motion's outcome, the step it ended in, the plan's cycle time, the relay's steps. */
+export function programRunResultSchema(joints: JointSpec[]): DataSchema {
+  const motion = moveResultSchema(joints);
+  return {
+    type: "object",
+    description: "Result of a program run: the motion's end, the step it ended in and, with a relay, the physical robot's answer per step",
+    properties: {
+      status: motion.properties?.status ?? {},
+      step: { type: "integer", minimum: 0, description: "index of the step the run ended in (the last one when reached)" },
+      joints: motion.properties?.joints ?? {},
+      position: motion.properties?.position ?? {},
+      orientation: motion.properties?.orientation ?? {},
+      duration: { type: "number", unit: UNIT_S, minimum: 0, description: "simulated time run" },
+      cycleTime: { type: "number", unit: UNIT_S, minimum: 0, description: "the planned cycle time (validateProgram's)" },
+      relay: {
+        type: "object",
+        description: "with --relay: the physical robot ran the steps one after the other, after the simulation had run them all",
+        properties: {
+          ok: { type: "boolean" },
+          steps: {
+            type: "array",
+            items: {
+              type: "object",
+              properties: { step: { type: "integer", minimum: 0 }, ok: { type: "boolean" }, status: { type: "integer" }, error: { type: "string" } },
+              required: ["step", "ok"],
+            },
+          },
+          error: { type: "string" },
+        },
+        required: ["ok", "steps"],
+      },
+    },
+    required: ["status", "step", "joints", "position", "orientation", "duration", "cycleTime"],
   };
 }
 

@@ -36,13 +36,28 @@ def _planner(p: Params, s: Services) -> Callable[[], Plan]:
             raise invalid_param("via", "motion 'circ' needs 'via', a point of the arc", None, missing=True)
         pose, turn, through = p.floats("position"), p.quaternion("orientation"), p.floats("via")
         assert pose is not None
-        return lambda: plan_lin(s.world, model.id, pose, turn, through)
+        return lambda: plan_lin(s.world, model.id, pose, turn, through, speed=speed)
     if target is not None:
         joints = target
         return lambda: plan_joints(s.world, model.id, joints, speed, dt)
     position, orientation = p.floats("position"), p.quaternion("orientation")
     assert position is not None
     return lambda: plan_pose(s.world, model.id, position, orientation, speed, dt)
+
+
+def _program_steps(p: Params, dof: int) -> list[dict[str, Any]]:
+    """A program's steps, each with exactly one target, joint targets of ``dof`` values by PTP only, and
+    ``via`` exactly with a CIRC."""
+    steps = [dict(step) for step in p["steps"]]
+    for k, step in enumerate(steps):
+        motion = step.get("motion", "ptp")
+        if ("target" in step) == ("position" in step):
+            raise invalid_param(f"steps[{k}]", "exactly one of 'target' (joints) or 'position' (pose)", step)
+        if "target" in step and (motion != "ptp" or len(step["target"]) != dof):
+            raise invalid_param(f"steps[{k}].target", f"{dof} joint values, with motion 'ptp'", step)
+        if ("via" in step) != (motion == "circ"):
+            raise invalid_param(f"steps[{k}].via", "'via' exactly with motion 'circ'", step)
+    return steps
 
 
 def register(d: Dispatcher, s: Services) -> None:
@@ -60,20 +75,16 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("program.plan")
     async def program(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        steps = [dict(step) for step in p["steps"]]
-        for k, step in enumerate(steps):
-            motion = step.get("motion", "ptp")
-            if ("target" in step) == ("position" in step):
-                raise invalid_param(f"steps[{k}]", "exactly one of 'target' (joints) or 'position' (pose)",
-                                    step)
-            if "target" in step and (motion != "ptp" or len(step["target"]) != model.dof):
-                raise invalid_param(f"steps[{k}].target", f"{model.dof} joint values, with motion 'ptp'",
-                                    step)
-            if ("via" in step) != (motion == "circ"):
-                raise invalid_param(f"steps[{k}].via", "'via' exactly with motion 'circ'", step)
+        steps = _program_steps(p, model.dof)
         dt, rate = float(p["dt"]), float(p["rate"])
-        return await s.on_world(lambda: plan_program(s.world, model.id, steps, dt, rate), Kind.LONG,
+        return await s.on_world(lambda: plan_program(s.world, model.id, steps, dt, rate).report, Kind.LONG,
                                 robot=model.id)
+
+    @d.method("program.run")
+    async def run(p: Params, call: Call) -> dict[str, Any]:
+        model = robot_param(p, s)
+        steps = _program_steps(p, model.dof)
+        return await s.motions.run_program(model.id, steps, realtime=float(p["realtime"]), dt=float(p["dt"]))
 
     @d.method("robot.plan")
     async def plan(p: Params, call: Call) -> dict[str, Any]:

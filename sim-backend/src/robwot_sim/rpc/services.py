@@ -32,6 +32,9 @@ class Motions(Protocol):
     async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = DEFAULT_SPEED,
                    realtime: float = 1.0, dt: float = DEFAULT_DT) -> dict[str, Any]: ...
 
+    async def run_program(self, robot: str, steps: Sequence[Mapping[str, Any]], *, realtime: float = 1.0,
+                          dt: float = DEFAULT_DT) -> dict[str, Any]: ...
+
 
 class Services(Protocol):
     """The world (through its thread), the motion runner and the server's I/O hooks."""

@@ -53,6 +53,8 @@ class LinPath:
     contacts: list[Contact] = field(default_factory=list)
     #: the largest deviation from the line (m) at the midpoints between samples
     deviation: float = 0.0
+    #: the end effector's distance along the curve (m) at each waypoint
+    arc: list[float] = field(default_factory=list)
 
 
 def lin_path(world: World, robot: str, position: Sequence[float],
@@ -112,7 +114,7 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
     turn = quat_angle(r0, r1)
     steps = max(1, math.ceil(length / LIN_STEP), math.ceil(turn / LIN_ANGLE_STEP))
     names = world.robot_model(robot).controllable
-    out = LinPath(waypoints=[q0])
+    out = LinPath(waypoints=[q0], arc=[0.0])
 
     def where(s: float) -> str:
         if length > 0:
@@ -141,6 +143,7 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
         if jump.max() <= MAX_JOINT_STEP and deviation <= MAX_DEVIATION:
             out.deviation = max(out.deviation, deviation)
             out.waypoints.append(qb)
+            out.arc.append(sb * length)
             return True
         if splits >= MAX_SPLITS:
             if jump.max() > MAX_JOINT_STEP:
@@ -160,7 +163,7 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
         s = i / steps
         q = solve(s, q_prev)
         if q is None or not segment((i - 1) / steps, q_prev, s, q, 0):
-            out.waypoints = []
+            out.waypoints, out.arc = [], []
             return out
         q_prev = q
     clearance = world.motion_clearance(robot)
@@ -170,6 +173,6 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
         if not report.collision_free:
             out.contacts = list(report.contacts)
             out.reason = f"{curve} collides"
-            out.waypoints = []
+            out.waypoints, out.arc = [], []
             return out
     return out

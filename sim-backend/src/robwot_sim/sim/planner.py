@@ -25,9 +25,10 @@ from typing import Any
 import numpy as np
 
 from robwot_sim.errors import Unreachable
+from robwot_sim.limits import DEFAULT_TCP_SPEED
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.lin import circ_path, lin_path
-from robwot_sim.sim.types import Contact, RobotModel
+from robwot_sim.sim.types import Contact, FloatArray, RobotModel
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
 
@@ -43,8 +44,16 @@ class Plan:
     target: tuple[float, ...] | None
     reasons: tuple[str, ...] = ()
     checks: dict[str, Any] = field(default_factory=dict)
-    #: waypoints before ``target`` (a detour); empty for a straight path
+    #: waypoints before ``target`` (a detour, or a LIN's or CIRC's samples); empty for a straight path
     via: tuple[tuple[float, ...], ...] = ()
+    #: a LIN or CIRC: the end effector's distance along its curve (m) at the start, each waypoint and the
+    #: target, and its speed along it (m/s); the motion runs through the waypoints without stopping
+    arc: tuple[float, ...] = ()
+    tcp_speed: float = DEFAULT_TCP_SPEED
+
+    def motion_kwargs(self) -> dict[str, Any]:
+        """What ``World.plan_motion`` needs besides the target to time this plan's path."""
+        return {"via": self.via, "arc": self.arc, "tcp_speed": self.tcp_speed}
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"valid": self.valid, "reasons": list(self.reasons), "checks": self.checks}
@@ -213,10 +222,12 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
 
 
 def plan_lin(world: World, robot: str, position: Sequence[float],
-             orientation: Sequence[float] | None, via: Sequence[float] | None = None) -> Plan:
+             orientation: Sequence[float] | None, via: Sequence[float] | None = None, *,
+             speed: float = 1.0, tcp_speed: float = DEFAULT_TCP_SPEED) -> Plan:
     """The verdict on a LIN to a pose, or a CIRC through ``via`` (``lin.py``): the end effector on the
-    straight line or the arc, every sample within the joint limits, every segment collision-free; the
-    waypoints as ``via``."""
+    straight line or the arc, every sample within the joint limits, the joints able to keep the end
+    effector at ``tcp_speed`` (m/s) within their velocity limits x ``speed`` (near a singularity they
+    are not), every segment collision-free; the waypoints as ``via``."""
     model = world.robot_model(robot)
     kind = "lin" if via is None else "circ"
     path = lin_path(world, robot, position, orientation) if via is None else circ_path(
@@ -235,8 +246,56 @@ def plan_lin(world: World, robot: str, position: Sequence[float],
                       f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}] at waypoint {i} of "
                       f"{len(path.waypoints) - 1}")
             return Plan(False, None, (reason,), {"limits": {"ok": False, "violations": violations}})
+    too_fast = _joint_rate_violation(world, robot, path.waypoints, path.arc, speed, tcp_speed)
+    if too_fast is not None:
+        return Plan(False, None, (f"{kind.upper()} refused: {too_fast}",), {"limits": {"ok": True}})
     checks = {"ik": {"ok": True, "positionError": 0.0, "solutions": len(path.waypoints) - 1},
               "limits": {"ok": True}, "path": _path_check(model.clearance, True, [], kind)}
     target = tuple(float(v) for v in path.waypoints[-1])
     waypoints = tuple(tuple(float(v) for v in w) for w in path.waypoints[1:-1])
-    return Plan(True, target, (), checks, waypoints)
+    return Plan(True, target, (), checks, waypoints, tuple(path.arc), tcp_speed)
+
+
+def timed_path(world: World, robot: str, plan: Plan, *, speed: float, dt: float, acceleration: float = 1.0,
+               start: Sequence[float] | None = None) -> tuple[Plan, FloatArray | None]:
+    """The joint states, one per ``dt``, that a move of the valid ``plan`` runs (``World.plan_motion``),
+    with the plan; None for a refused plan. The states of a LIN or CIRC lie on the spline through its
+    checked samples, not on the chords between them: they are checked again, and a contact refuses the
+    plan (naming the bodies), so every state a motion runs was checked in this world."""
+    if not plan.valid or plan.target is None:
+        return plan, None
+    path = world.plan_motion(robot, plan.target, start, speed, dt, acceleration=acceleration,
+                             **plan.motion_kwargs())
+    if not plan.arc:
+        return plan, path
+    report = world.check_states(robot, path, dt)
+    if report.collision_free or report.first_collision is None:
+        return plan, path
+    contacts = report.first_collision.contacts
+    kind = str(plan.checks.get("path", {}).get("planned", "lin"))
+    reason = (f"{kind.upper()} refused: the timed path between its checked samples collides"
+              f"{_contact_words(contacts)}")
+    checks = {**plan.checks, "path": _path_check(world.robot_model(robot).clearance, False, contacts, kind)}
+    return Plan(False, None, (reason,), checks), None
+
+
+def _joint_rate_violation(world: World, robot: str, waypoints: Sequence[Any], arc: Sequence[float],
+                          speed: float, tcp_speed: float) -> str | None:
+    """Why the joints cannot keep the end effector at ``tcp_speed`` between two waypoints (the first such
+    joint and place), or None. Joint i turns dq_i per metre of curve, so it needs |dq_i/ds| x tcp_speed."""
+    model = world.robot_model(robot)
+    limits = model.velocity_limits() * speed
+    q, s = np.asarray(waypoints, dtype=np.float64), np.asarray(arc, dtype=np.float64)
+    ds = np.diff(s)
+    moving = ds > 0
+    if not moving.any():
+        return None
+    rates = np.abs(np.diff(q, axis=0))[moving] / ds[moving, None] * tcp_speed
+    over = rates / limits[None, :]
+    k, j = np.unravel_index(int(np.argmax(over)), over.shape)
+    if over[k, j] <= 1.0:
+        return None
+    at = float(s[1:][moving][k])
+    return (f"joint {model.controllable[j]} would need {rates[k, j]:.2f} rad/s (limit {limits[j]:.2f} x "
+            f"speed) to keep the end effector at {tcp_speed:g} m/s {1000 * at:.0f} mm along the path: a "
+            f"singularity or near one; lower tcpSpeed or move around it")

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from robwot_sim.limits import DEFAULT_CLEARANCE
+from robwot_sim.limits import ACCELERATION_TIME, DEFAULT_CLEARANCE
 from robwot_sim.model.joints import JointInfo
 
 FloatArray = npt.NDArray[np.float64]
@@ -144,6 +144,8 @@ class RobotModel:
     srdf: str | None = None
     #: clearance (m) its paths and motions keep to other bodies
     clearance: float = DEFAULT_CLEARANCE
+    #: joint -> acceleration limit (rad/s^2 or m/s^2) from a joint_limits.yaml (see acceleration_limits)
+    accelerations: dict[str, float] = field(default_factory=dict)
 
     @property
     def dof(self) -> int:
@@ -170,6 +172,13 @@ class RobotModel:
         """
         v = [self.joint(n).velocity for n in self.controllable]
         return np.array([x if x > 0 and math.isfinite(x) else DEFAULT_VELOCITY for x in v], dtype=np.float64)
+
+    def acceleration_limits(self) -> FloatArray:
+        """Acceleration limits (rad/s^2 or m/s^2) of the controllable joints: those of ``accelerations``;
+        a joint without one reaches its velocity limit from rest in ``ACCELERATION_TIME``."""
+        v = self.velocity_limits()
+        return np.array([self.accelerations.get(n, v[i] / ACCELERATION_TIME)
+                         for i, n in enumerate(self.controllable)], dtype=np.float64)
 
     def to_json(self) -> dict[str, Any]:
         return {

@@ -23,13 +23,19 @@ import numpy.typing as npt
 
 from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams
-from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
+from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED, DEFAULT_TCP_SPEED, TCP_SPEED
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.detour import find_detour
 from robwot_sim.sim.export import export_urdf
 from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
-from robwot_sim.sim.motion import check_speed_dt, plan_joint_path
+from robwot_sim.sim.motion import (
+    TCP_ACCELERATION,
+    check_fraction,
+    check_speed_dt,
+    plan_curve_path,
+    plan_joint_path,
+)
 from robwot_sim.sim.pathcheck import check_joint_path, first_contact, path_clearance
 from robwot_sim.sim.surehit import SureHits, build_sure_hits
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
@@ -209,16 +215,35 @@ class World(WorldScene):
         speed: float = DEFAULT_SPEED,
         dt: float = DEFAULT_DT,
         via: Sequence[JointVector] = (),
+        *,
+        acceleration: float = 1.0,
+        arc: Sequence[float] = (),
+        tcp_speed: float = DEFAULT_TCP_SPEED,
     ) -> npt.NDArray[np.float64]:
         """Joint states [steps + 1, dof] from ``start`` (default current) through the waypoints ``via`` to
-        ``target``, one per ``dt``; each segment straight in joint space, at rest at every waypoint."""
+        ``target``, one per ``dt``, within the joint velocity limits x ``speed`` and acceleration limits x
+        ``acceleration`` (``motion.py``). Without ``arc``: each segment straight in joint space, at rest at
+        every waypoint. With ``arc`` (the end effector's distance along its curve at start, every waypoint
+        and target, metres): one smooth motion through them, the end effector at most ``tcp_speed``."""
         e = self._entry(robot_id)
         tgt = e.bound.validate(target, "target")
         st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
         points = [st, *(e.bound.validate(w, f"via[{i}]") for i, w in enumerate(via)), tgt]
         sp, step = check_speed_dt(speed, dt)
-        limits = e.model.velocity_limits()
-        segments = [plan_joint_path(a, b, limits, sp, step) for a, b in itertools.pairwise(points)]
+        accel = check_fraction("acceleration", acceleration)
+        velocity = e.model.velocity_limits() * sp
+        accelerations = e.model.acceleration_limits() * accel
+        if len(arc):
+            if len(arc) != len(points):
+                raise InvalidParams("arc needs one distance per point", param="arc", expected=len(points),
+                                    got=len(arc))
+            tcp = check_fraction("tcpSpeed", tcp_speed, TCP_SPEED)
+            curve = plan_curve_path(points, arc, velocity, accelerations, tcp, TCP_ACCELERATION * accel, step)
+            # the spline through samples within the limits may overshoot one by a hair between two of them
+            lower, upper = e.model.limits()
+            return np.clip(curve, lower, upper)
+        segments = [plan_joint_path(a, b, velocity, accelerations, step)
+                    for a, b in itertools.pairwise(points)]
         return np.concatenate([segments[0], *(seg[1:] for seg in segments[1:])])
 
     @_owned
@@ -232,7 +257,13 @@ class World(WorldScene):
         via: Sequence[JointVector] = (),
     ) -> PathReport:
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
-        path = self.plan_motion(robot_id, target, start, speed, dt, via)
+        return self.check_states(robot_id, self.plan_motion(robot_id, target, start, speed, dt, via), dt)
+
+    @_owned
+    def check_states(self, robot_id: str, path: npt.NDArray[np.float64],
+                     dt: float = DEFAULT_DT) -> PathReport:
+        """Check the joint states ``path`` (one per ``dt``, within the joint limits: ``plan_motion``'s) and
+        the moves between them for collision (world unchanged)."""
         e = self._entry(robot_id)
         with self._holding(robot_id):
             return check_joint_path(e.bound, e.checker, path, float(dt), e.guard)
