@@ -223,6 +223,21 @@ describe("async-move", () => {
   });
 });
 
+describe("program", () => {
+  it("validates the pick-and-place program as a whole, runs it at real time in its cycle time, and ends home", async () => {
+    // the live twin runs at real time 1: the run's wall time follows the cycle time
+    const run = await runScenario("program", [tdUrl(live)], AUTH_ENV);
+    expect(run.code, run.stdout + run.stderr).toBe(0);
+    const { report, run: result, wall, atHome } = run.result;
+    expect(report.valid).toBe(true);
+    expect([1, 2, 4, 5].map((k) => report.steps[k].planned)).toEqual(["lin", "lin", "lin", "lin"]);
+    expect(result.status).toBe("reached");
+    expect(result.duration).toBeCloseTo(report.cycleTime, 9);
+    expect(wall).toBeGreaterThanOrEqual(report.cycleTime);
+    expect(atHome).toBe(true);
+  });
+});
+
 describe("calibrate-and-relay", () => {
   it("recovers the physical placement from four pairs and lands the physical robot within 1 mm of a real-frame target", async () => {
     const run = await runScenario("calibrate-and-relay", [tdUrl(virtual), tdUrl(physical)]);

@@ -228,9 +228,12 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     }
   }, 120_000);
 
-  it("--limits FILE: a joint_limits.yaml's velocities replace the URDF's, recorded in twin.json; bad values are refused", async () => {
+  it("--limits FILE: a joint_limits.yaml's velocities replace the URDF's and its accelerations time the moves, recorded in twin.json; bad values are refused", async () => {
     const yaml = join(work, "joint_limits.yaml");
-    writeFileSync(yaml, "joint_limits:\n  shoulder:\n    has_velocity_limits: true\n    max_velocity: 0.25\n  elbow:\n    has_velocity_limits: false\n    max_velocity: 9\n");
+    writeFileSync(
+      yaml,
+      "joint_limits:\n  shoulder:\n    has_velocity_limits: true\n    max_velocity: 0.25\n    has_acceleration_limits: true\n    max_acceleration: 0.5\n  elbow:\n    has_velocity_limits: false\n    max_velocity: 9\n",
+    );
     const out = join(work, "limited");
     const r = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", out]);
     expect(r.code, r.stderr).toBe(0);
@@ -238,8 +241,27 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     const velocity = (joint: string) => new RegExp(`<joint name="${joint}"[\\s\\S]*?velocity="([^"]+)"`).exec(urdf)?.[1];
     expect([velocity("yaw"), velocity("shoulder"), velocity("elbow")]).toEqual(["1", "0.25", "1.5"]);
     const robot = json(join(out, "twin.json")).robot;
-    expect(robot.limits).toEqual({ file: "joint_limits.yaml", velocities: { shoulder: 0.25 } });
+    expect(robot.limits).toEqual({ file: "joint_limits.yaml", velocities: { shoulder: 0.25 }, accelerations: { shoulder: 0.5 } });
+    expect(robot.accelerations).toEqual({ shoulder: 0.5 });
     expect(robot.xacro).toBeUndefined(); // a plain URDF, not a xacro
+    // served: 0.5 rad of the shoulder at 0.25 rad/s and 0.5 rad/s^2 is a trapezoid of 0.5 / 0.25 + 0.25 / 0.5 = 2.5 s
+    const served = await startServient({ twins: [out], port: 0, realtime: 0 });
+    try {
+      const base = served.things[0]!.tdUrl;
+      const plan = await http(`${base}/actions/validateProgram`, {
+        method: "POST",
+        headers: { "content-type": "application/json" },
+        body: JSON.stringify({ steps: [{ joints: { yaw: 0, shoulder: 0.5, elbow: 0 } }] }),
+      });
+      expect(plan.status, JSON.stringify(plan.body)).toBe(200);
+      expect(plan.body.cycleTime).toBeCloseTo(2.5, 1);
+    } finally {
+      await served.stop();
+    }
+    writeFileSync(yaml, "joint_limits:\n  wrist:\n    has_acceleration_limits: true\n    max_acceleration: 1\n");
+    const noJoint = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", join(work, "never-limits")]);
+    expect(noJoint.code).toBe(1);
+    expect(noJoint.stderr).toContain("accelerationLimits: 'wrist' is not a movable joint");
     writeFileSync(yaml, "joint_limits:\n  wrist:\n    has_velocity_limits: true\n    max_velocity: 1\n");
     const unknown = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", join(work, "never-limits")]);
     expect(unknown.code).toBe(1);

@@ -306,6 +306,42 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     await page.locator("#cartesian select[name=motion]").selectOption("ptp");
   });
 
+  it("a program: validated, its TCP path drawn per step, a refused step drawn red, played, then run on the twin", async () => {
+    const { page } = browser;
+    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
+    await page.locator("#program button", { hasText: "Example" }).click();
+    const steps = JSON.parse(await page.locator("#program textarea").inputValue());
+    expect(steps).toHaveLength(5);
+    await page.locator("#program button", { hasText: "Validate" }).click();
+    const verdict = page.locator("#program .verdict");
+    await until("the program's verdict", async () => ((await verdict.textContent()) ?? "").includes("cycle time"));
+    expect((await verdict.textContent())?.startsWith("✔ valid")).toBe(true);
+    const drawn = await page.evaluate(() => window.__robwot.program);
+    expect(drawn?.valid).toBe(true);
+    expect(drawn?.failing).toBeNull();
+    expect(drawn?.points).toHaveLength(5);
+    // the square's four LINs drawn with several TCP samples each
+    for (const n of drawn!.points.slice(0, 4)) expect(n).toBeGreaterThan(5);
+    await page.locator("#program button", { hasText: "Play" }).click();
+    await until("the path played", async () => ((await page.evaluate(() => window.__robwot.program?.played)) ?? 0) >= 1, 30_000);
+    // step 1 a LIN at 3 m/s with the joints at 0.1 % of their velocity limits: refused (no joint can keep
+    // that speed), drawn red from the end of step 0 to its target
+    const far = [steps[0], { ...steps[1], speed: 0.001, tcpSpeed: 3 }];
+    await page.locator("#program textarea").fill(JSON.stringify(far));
+    await page.locator("#program button", { hasText: "Validate" }).click();
+    await until("the refusal", async () => ((await verdict.textContent()) ?? "").includes("refused at step 1"));
+    const refused = await page.evaluate(() => window.__robwot.program);
+    expect(refused).toMatchObject({ valid: false, failing: 1 });
+    expect(refused?.points).toHaveLength(1);
+    // run the valid program: the twin ends back at its joints
+    const before = await read<Record<string, number>>(twin, "getJointPosition");
+    await page.locator("#program textarea").fill(JSON.stringify(steps));
+    await page.locator("#program button", { hasText: "Run" }).click();
+    await until("the run's answer", async () => ((await verdict.textContent()) ?? "").startsWith("run: reached"), 60_000);
+    const after = await read<Record<string, number>>(twin, "getJointPosition");
+    for (const [j, v] of Object.entries(before)) expect(after[j]).toBeCloseTo(v, 4);
+  });
+
   it("the Stop button stops a running motion", async () => {
     // the previous test's move may still be answering (its pose was reached first): a move now would be 409
     await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");

@@ -28,14 +28,16 @@ def _no_ros_package_path(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_setup_assistant_names_urdf_args_srdf_and_limits() -> None:
     """.setup_assistant gives the description package (found as a sibling folder), its xacro and args,
-    the SRDF; joint_limits.yaml the velocities of joints that have them."""
+    the SRDF; joint_limits.yaml the velocities and accelerations of joints that have them."""
     c = find_moveit_config(CONFIG)
     assert c.urdf == DESCRIPTION / "urdf" / "arm.urdf.xacro"
     assert c.xacro_args == {"upper_length": "0.25"}
     assert c.srdf == CONFIG / "config" / "tinyxacro.srdf"
     assert c.package_roots == {"tinyxacro_moveit_config": str(CONFIG),
                                "tinyxacro_description": str(DESCRIPTION)}
-    assert c.velocity_limits == {"yaw": 0.5, "elbow": 0.75}
+    assert c.limits.velocities == {"yaw": 0.5, "elbow": 0.75}
+    assert c.limits.accelerations == {"elbow": 2.0}
+    assert c.to_json()["accelerationLimits"] == {"elbow": 2.0}
 
 
 def test_config_folder_without_setup_assistant(tmp_path: Path) -> None:
@@ -51,7 +53,7 @@ def test_config_folder_without_setup_assistant(tmp_path: Path) -> None:
     shutil.copy(CONFIG / "config" / "tinyxacro.srdf", cfg / "arm.srdf")
     c = find_moveit_config(cfg.parent)
     assert (c.urdf, c.srdf) == (cfg / "arm.urdf.xacro", cfg / "arm.srdf")
-    assert (c.xacro_args, c.velocity_limits) == ({}, {})
+    assert (c.xacro_args, c.limits.velocities, c.limits.accelerations) == ({}, {}, {})
     shutil.copy(cfg / "arm.srdf", cfg / "other.srdf")
     with pytest.raises(UrdfError) as two:
         find_moveit_config(cfg.parent)

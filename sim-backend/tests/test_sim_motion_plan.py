@@ -150,3 +150,19 @@ def test_a_refused_joint_target_says_whether_a_detour_was_searched_and_why_none_
         assert not plan.valid and plan.checks["path"]["detour"] == "not searched"
         assert plan.reasons[0].startswith("the target configuration itself collides (")
         assert "pillar" in plan.reasons[0] and plan.reasons[0].endswith(": no path reaches it")
+
+
+def test_acceleration_limits_given_at_load_replace_the_default_and_are_checked() -> None:
+    """A joint_limits.yaml's accelerations (robot.load accelerationLimits) time the motion; a joint that
+    is not the robot's, or a value that is not a positive number, is refused and nothing is loaded."""
+    with World() as w:
+        files = World.read_robot(MODELS / "planar2.urdf")
+        m = w.add_robot(files, accelerations={"shoulder": 1.5})
+        assert m.acceleration_limits().tolist() == pytest.approx([1.5, 12.0])
+        path = w.plan_motion(m.id, [1.5, 0.0], start=[0.0, 0.0], dt=0.01)
+        # 1.5 rad: v 1.5 rad/s is never reached at 1.5 rad/s^2 (needs 1.5 rad to reach it): a triangle
+        assert (len(path) - 1) * 0.01 == pytest.approx(2 * math.sqrt(1.5 / 1.5), abs=0.01)
+        for bad in ({"nope": 1.0}, {"shoulder": 0.0}, {"shoulder": float("inf")}):
+            with pytest.raises(InvalidParams):
+                w.add_robot(World.read_robot(MODELS / "planar2.urdf"), robot_id="other", accelerations=bad)
+            assert w.robot_ids() == [m.id]

@@ -30,8 +30,8 @@ export interface Backend {
   moveitConfig(params: RobotMoveitConfigParams): Promise<MoveitConfig>;
   /** An SRDF's groups, states and end effectors, every name checked against the URDF. */
   readSrdf(params: RobotReadSrdfParams): Promise<SrdfInfo>;
-  /** The velocity limits of a MoveIt-style joint_limits.yaml. */
-  jointLimits(file: string): Promise<Record<string, number>>;
+  /** The velocity and acceleration limits of a MoveIt-style joint_limits.yaml. */
+  jointLimits(file: string): Promise<{ velocities: Record<string, number>; accelerations: Record<string, number> }>;
   /** A URDF with a tool (TCP link, optional mesh) mounted on its end effector, in a temporary folder. */
   attachTool(params: RobotAttachToolParams): Promise<ToolAttached>;
   /** Starts the backend's collision workers ahead of `generateWorkspace` (an optimisation: never fails). */
@@ -108,9 +108,11 @@ class SimBackend implements Backend {
   readSrdf(params: RobotReadSrdfParams): Promise<SrdfInfo> {
     return this.guard(this.client.readSrdf(params));
   }
-  async jointLimits(file: string): Promise<Record<string, number>> {
-    const { velocityLimits } = await this.guard(this.client.jointLimits({ file }));
-    return Object.fromEntries(Object.entries(velocityLimits).filter((e): e is [string, number] => e[1] !== undefined));
+  async jointLimits(file: string): Promise<{ velocities: Record<string, number>; accelerations: Record<string, number> }> {
+    const { velocityLimits, accelerationLimits } = await this.guard(this.client.jointLimits({ file }));
+    const defined = (r: Record<string, number | undefined>): Record<string, number> =>
+      Object.fromEntries(Object.entries(r).filter((e): e is [string, number] => e[1] !== undefined));
+    return { velocities: defined(velocityLimits), accelerations: defined(accelerationLimits) };
   }
   attachTool(params: RobotAttachToolParams): Promise<ToolAttached> {
     return this.guard(this.client.attachTool(params));

@@ -145,8 +145,14 @@ async function loadRobotInScene(
   packageRoots: Record<string, string>,
   onMesh: (mesh: RobotLoadProgressNotification) => void,
   source: string = urdf,
+  accelerations?: Record<string, number>,
 ): Promise<RobotModel> {
-  const srdf = { ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}), clearance: opts.clearance };
+  // the acceleration limits are checked against the robot's joints here, as serve will load them
+  const srdf = {
+    ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}),
+    clearance: opts.clearance,
+    ...(accelerations !== undefined ? { accelerationLimits: accelerations } : {}),
+  };
   const base = opts.base ? { basePosition: opts.base.position, baseOrientation: opts.base.orientation } : {};
   const own = { urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf, ...base };
   if (!opts.scene) return backend.loadRobot(own, onMesh);
@@ -245,7 +251,7 @@ async function generateFrom(
 ): Promise<GenerateResult> {
   const { source, urdf, packageRoots } = input;
   const meshes = meshProgress(progress);
-  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots, meshes.onMesh, source), SLOW_LOAD_MS, () => {
+  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots, meshes.onMesh, source, input.accelerations), SLOW_LOAD_MS, () => {
     if (!meshes.seen()) progress.info(SLOW_LOAD);
   });
   staged.refuseOtherRobot(model.name, opts.force);
@@ -291,6 +297,8 @@ async function generateFrom(
       ...(input.home !== undefined ? { home: input.home } : {}),
       // --limits: the joint_limits.yaml whose velocities robot.urdf carries
       ...(input.limits !== undefined ? { limits: input.limits } : {}),
+      // its (or a MoveIt config's) accelerations, which a URDF cannot carry: serve passes them to robot.load
+      ...(input.accelerations !== undefined ? { accelerations: input.accelerations } : {}),
       // --tcp / --tool-mesh: robot.urdf carries the tool (links robwot_tool, robwot_tcp); eeLink is the TCP
       ...(input.tool !== undefined ? { tool: input.tool } : {}),
     },

@@ -28,7 +28,9 @@ export interface RosInput {
   /** the temporary folder of the expansion, if any (the caller removes it, or keeps it for an error) */
   expandedDir?: string;
   /** `--limits`: the joint_limits.yaml's name and the velocity limits it put into the URDF */
-  limits?: { file: string; velocities: Record<string, number> };
+  limits?: { file: string; velocities: Record<string, number>; accelerations: Record<string, number> };
+  /** joint -> acceleration limit (rad/s^2 or m/s^2) of a MoveIt config's or `--limits`' joint_limits.yaml */
+  accelerations?: Record<string, number>;
   /** `--tcp` / `--tool-mesh`: the flange the tool is mounted on, the TCP offset and the mesh's file name */
   tool?: { flange: string; tcp: number[]; mesh?: string; shape?: ToolShape };
   /** the temporary folder of the URDF with the tool (the caller removes it) */
@@ -76,6 +78,7 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
   let srdf = opts.srdf;
   let xacroArgs = opts.xacroArgs;
   let velocityLimits: Record<string, number> = {};
+  let accelerations: Record<string, number> = {};
   let limitsRecord: RosInput["limits"];
   if (opts.moveitConfig !== undefined) {
     const config = await backend.moveitConfig({ dir: opts.moveitConfig, packageRoots });
@@ -86,15 +89,19 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
     // are written into the expansion, never into the user's file
     xacroArgs = { ...definedStrings(config.xacroArgs), ...(opts.xacroArgs ?? {}) };
     velocityLimits = definedNumbers(config.velocityLimits);
+    accelerations = definedNumbers(config.accelerationLimits);
   }
   if (opts.limits !== undefined) {
     // a joint_limits.yaml for any robot: its velocities go into the URDF through the same expansion
-    const velocities = await backend.jointLimits(opts.limits);
-    velocityLimits = { ...velocityLimits, ...velocities };
+    const limits = await backend.jointLimits(opts.limits);
+    velocityLimits = { ...velocityLimits, ...limits.velocities };
+    accelerations = { ...accelerations, ...limits.accelerations };
     xacroArgs ??= {};
-    limitsRecord = { file: basename(opts.limits), velocities };
+    limitsRecord = { file: basename(opts.limits), ...limits };
   }
   const input: RosInput = { source, urdf: source, packageRoots, ...(srdf !== undefined ? { srdf } : {}), ...(limitsRecord ? { limits: limitsRecord } : {}) };
+  // a URDF has no acceleration limits: they go to twin.json and robot.load
+  if (Object.keys(accelerations).length > 0) input.accelerations = accelerations;
   if (xacroArgs !== undefined) {
     const expanded = await backend.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits });
     input.urdf = expanded.urdf;

@@ -19,6 +19,7 @@ import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
 import { activeCalibration, invertCalibration, norm, sub, vec, xyz, type Vec3 } from "@robwot/core";
 import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
 import { runScenario } from "./lib/run.js";
+import { tableStations } from "./lib/targets.js";
 import { cartesianBounds, TWIN_FILES, type Bounds3 } from "@robwot/core";
 import type { CalibrationState, MoveResult, ValidationReport } from "./lib/types.js";
 
@@ -34,21 +35,12 @@ interface Target {
  * of its height above the floor: pick at +90°, place at -90°, pick at 0°, place at 180°, each preceded by an
  * approach point 10 cm higher, then one point near the top corner of the bounding box (out of reach).
  */
+/** The stations of `tableStations`, each with its approach point 10 cm above, and one point out of reach. */
 export function defaultTargets(b: Bounds3): Target[] {
-  const c: Vec3 = [(b.min[0] + b.max[0]) / 2, (b.min[1] + b.max[1]) / 2, 0];
-  const r = 0.45 * Math.min(b.max[0] - b.min[0], b.max[1] - b.min[1]) / 2;
-  // Z up with the floor at z = 0 (URDF convention); a workspace sampled without a floor reaches below it.
-  const floor = Math.max(b.min[2], 0);
-  const z = floor + 0.3 * (b.max[2] - floor);
+  const { stations, outOfReach } = tableStations(b);
   const out: Target[] = [];
-  const stations: [string, number][] = [["pick A", 90], ["place A", -90], ["pick B", 0], ["place B", 180]];
-  for (const [label, deg] of stations) {
-    const a = (deg * Math.PI) / 180;
-    const p: Vec3 = [c[0] + r * Math.cos(a), c[1] + r * Math.sin(a), z];
-    out.push({ label: `${label} approach`, p: [p[0], p[1], p[2] + 0.1] }, { label, p });
-  }
-  // A corner of the bounding box: inside the bounds the TD declares, outside a roughly round workspace.
-  out.push({ label: "out of reach", p: [0.95 * b.max[0] + 0.05 * c[0], 0.95 * b.max[1] + 0.05 * c[1], 0.95 * b.max[2] + 0.05 * floor] });
+  for (const { label, p } of stations) out.push({ label: `${label} approach`, p: [p[0], p[1], p[2] + 0.1] }, { label, p });
+  out.push({ label: "out of reach", p: outOfReach });
   return out;
 }
 

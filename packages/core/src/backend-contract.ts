@@ -161,6 +161,12 @@ export type RobotJointLimitsResult = {
   velocityLimits: {
     [k: string]: number | undefined;
   };
+  /**
+   * joint -> max acceleration (rad/s^2 or m/s^2)
+   */
+  accelerationLimits: {
+    [k: string]: number | undefined;
+  };
 };
 /**
  * Result of `robot.readSrdf`.
@@ -548,6 +554,12 @@ export interface MoveitConfig {
   velocityLimits: {
     [k: string]: number | undefined;
   };
+  /**
+   * joint -> max acceleration (rad/s^2 or m/s^2) from config/joint_limits.yaml
+   */
+  accelerationLimits: {
+    [k: string]: number | undefined;
+  };
 }
 /**
  * an SRDF's groups (links, joints, chains, subgroups), named group states, end effectors (in file order)
@@ -652,6 +664,12 @@ export interface WorkspaceSummary {
 }
 export interface WarmUpResult {
   workers: Workers;
+}
+/**
+ * joint name -> acceleration limit (rad/s^2 or m/s^2) of controllable joints, as a MoveIt joint_limits.yaml gives them (`max_acceleration`)
+ */
+export interface JointAccelerations {
+  [k: string]: number | undefined;
 }
 export interface RobotStateNotification {
   robot: string;
@@ -868,6 +886,7 @@ export interface RobotLoadParams {
    * false: a concave collision mesh without cached convex parts (a twin folder's `collision/`) is refused with `E_MESH` instead of decomposed (`robwot serve` never decomposes; only `robwot generate` does)
    */
   decompose?: boolean;
+  accelerationLimits?: JointAccelerations;
 }
 /**
  * Params of `robot.remove`.

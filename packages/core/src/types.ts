@@ -60,6 +60,10 @@ export interface TwinManifest {
     clearance?: number;
     /** the start pose `serve` takes (rad or m by joint name; joints not named stay at 0): the SRDF's `home` */
     home?: { joints: Record<string, number>; from: string };
+    /** `--limits FILE`: its name and the limits it gave (the velocities are robot.urdf's) */
+    limits?: { file: string; velocities: Record<string, number>; accelerations?: Record<string, number> };
+    /** joint -> acceleration limit (rad/s^2 or m/s^2) from a joint_limits.yaml; other joints reach their velocity limit in the contract's `Acceleration.x-accelerationTime` */
+    accelerations?: Record<string, number>;
     /** `--tcp` / `--tool-mesh`: the tool robot.urdf carries, mounted on `flange`; `eeLink` is its TCP link */
     tool?: { flange: string; tcp: number[]; mesh?: string; shape?: { type: "box"; size: number[] } | { type: "cylinder"; radius: number; length: number } };
   };

@@ -85,6 +85,7 @@ export class World extends EventEmitter<{ scene: [] }> {
         ...(m.eeLink ? { eeLink: m.eeLink } : {}),
         ...(m.srdf ? { srdf: join(twin.folder.dir, m.srdf) } : {}),
         ...(m.clearance !== undefined ? { clearance: m.clearance } : {}),
+        ...(m.accelerations !== undefined ? { accelerationLimits: m.accelerations } : {}),
         decompose: false, // generate wrote the convex parts: serve never decomposes (refused instead)
       });
       twin.model = model;

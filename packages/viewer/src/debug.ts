@@ -2,6 +2,8 @@
  * Read-only debug state exposed as `window.__robwot` for tests and curious users. The page writes it;
  * nothing reads it back, so tampering with it from the console changes nothing.
  */
+import type { ProgramDrawn } from "./program-panel.js";
+
 export interface DebugState {
   /** "loading" until the TD, model and data are loaded, then "ready" (or "error" if the model failed). */
   phase: "loading" | "ready" | "error" | "list";
@@ -27,6 +29,8 @@ export interface DebugState {
   obstacles: string[];
   /** Robots of the other twins sharing this world: base position (URDF world, m) and joints shown. */
   otherRobots: Record<string, { base: number[]; joints: Record<string, number> }>;
+  /** The program drawn by the program panel (TCP points per passed step, the refused step), null before one. */
+  program: ProgramDrawn | null;
   errors: string[];
   twins: string[];
 }
@@ -48,6 +52,7 @@ export const debugState: DebugState = {
   reachability: null,
   obstacles: [],
   otherRobots: {},
+  program: null,
   errors: [],
   twins: [],
 };

@@ -6,6 +6,7 @@ import { Mesh, MeshBasicMaterial, type Object3D, SphereGeometry } from "three";
 import type { URDFRobot } from "urdf-loader";
 import { activeCalibration, invertCalibration, type SimilarityTransform, TWIN_FILES } from "@robwot/core/browser";
 import { CartesianPanel } from "./cartesian-panel.js";
+import { ProgramPanel } from "./program-panel.js";
 import { Commander } from "./commander.js";
 import { debugState, publishDebug } from "./debug.js";
 import { showError, showNotice } from "./errors.js";
@@ -67,6 +68,33 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
 
   let robot: URDFRobot | null = null;
   let latest: Record<string, number> | null = null;
+  // the TCP position the twin last reported (the TD's frame): the program panel's example starts there
+  let tcpNow: { x: number; y: number; z: number } | null = null;
+  new ProgramPanel(
+    content,
+    td,
+    stage,
+    {
+      tcpOf: (names, configurations) => {
+        const ee = robot && td.eeLink ? robot.links[td.eeLink] : undefined;
+        if (!robot || !ee) return [];
+        const saved = Object.fromEntries(Object.entries(robot.joints).map(([n, j]) => [n, Number(j.angle)]));
+        const out = configurations.map((q) => {
+          applyJoints(robot!, Object.fromEntries(names.map((n, i) => [n, q[i] ?? 0])));
+          const p = stage.positionInWorld(ee);
+          return [p?.x ?? 0, p?.y ?? 0, p?.z ?? 0] as [number, number, number];
+        });
+        applyJoints(robot, saved);
+        return out;
+      },
+      current: () => (tcpNow ? { joints: { ...debugState.joints }, tcp: tcpNow } : null),
+      toView: (t) => (calibration ? invertCalibration(calibration, t) : [t.x, t.y, t.z]),
+    },
+    (drawn) => {
+      debugState.program = drawn;
+      publishDebug();
+    },
+  );
   const reportedUnknown = new Set<string>();
   stage.onFrame(() => {
     if (!robot || !latest) return false;
@@ -114,7 +142,10 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     joints: (q, msg) => {
       latest = q;
       const p = msg["position"];
-      if (isRecord(p) && typeof p["x"] === "number") cartesian.showCurrent(p as { x: number; y: number; z: number });
+      if (isRecord(p) && typeof p["x"] === "number") {
+        tcpNow = p as { x: number; y: number; z: number };
+        cartesian.showCurrent(tcpNow);
+      }
     },
     status: (msg) => {
       motion.showStatus(msg);

@@ -72,10 +72,13 @@ def example_robot(name: str) -> ExampleRobot:
 
 
 class ExactReference:
-    """Self-collision of one robot on its exact meshes, for joint vectors in the twin's joint order."""
+    """Self-collision of one robot on its exact meshes, for joint vectors in the twin's joint order, and its
+    contacts with fixed boxes (``obstacles``: size, position, quaternion xyzw in the robot's base frame),
+    which every geometry of a moving link is checked against."""
 
     def __init__(self, urdf: Path, package_roots: dict[str, str], joint_names: Sequence[str],
-                 srdf: Path | None = None) -> None:
+                 srdf: Path | None = None,
+                 obstacles: Sequence[tuple[Sequence[float], Sequence[float], Sequence[float]]] = ()) -> None:
         import pinocchio as pin
 
         self._pin = pin
@@ -92,6 +95,7 @@ class ExactReference:
                 self.geometry.removeCollisionPair(pair)
         if srdf is not None:
             pin.removeCollisionPairs(self.model, self.geometry, str(srdf))
+        self._add_boxes(obstacles)
         self.pairs = len(self.geometry.collisionPairs)
         self._data = self.model.createData()
         self._gdata = pin.GeometryData(self.geometry)
@@ -99,6 +103,18 @@ class ExactReference:
         for name in joint_names:
             joint = self.model.joints[self.model.getJointId(name)]
             self._slots.append((joint.idx_q, joint.nq))
+
+    def _add_boxes(self, boxes: Sequence[tuple[Sequence[float], Sequence[float], Sequence[float]]]) -> None:
+        import coal
+
+        pin: Any = self._pin
+        moving = [i for i, g in enumerate(self.geometry.geometryObjects) if g.parentJoint != 0]
+        for k, (size, position, (x, y, z, w)) in enumerate(boxes):
+            placement = pin.SE3(pin.Quaternion(w, x, y, z).matrix(), np.asarray(position, dtype=np.float64))
+            box = pin.GeometryObject(f"obstacle_{k}", 0, placement, coal.Box(*(float(s) for s in size)))
+            gid = self.geometry.addGeometryObject(box)
+            for g in moving:
+                self.geometry.addCollisionPair(pin.CollisionPair(g, gid))
 
     def configuration(self, q: Sequence[float]) -> npt.NDArray[np.float64]:
         """Pinocchio's q for a twin joint vector (continuous joints as cos, sin)."""

@@ -2,7 +2,8 @@
 
 `robot.move` takes the robot (busy from here: `E_BUSY` for a second move, `stop` ends it), plans the
 target (`sim/planner.py`: limits, IK solutions, a collision-free path; `Rejected` when none), asks the
-world for the interpolated path (`World.plan_motion`, velocity limits x speed, fixed dt), then for every
+world for the timed path (`World.plan_motion`: time-optimal within the velocity limits x speed and the
+acceleration limits, fixed dt; a program's states come from `sim/program.py`), then for every
 step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with realtime 0 it only yields to
 the loop) and teleports the robot there. The plan checked this very path; once anything else in the
 world changes during the motion (an obstacle added or moved, another robot moving: `World.others_stamp`)

@@ -4,7 +4,7 @@
  */
 import type { Twin } from "./connect.js";
 import { invoke } from "./connect.js";
-import type { JointLimit } from "@robwot/core";
+import type { Bounds3, JointLimit, Vec3 } from "@robwot/core";
 import type { ValidationReport } from "./types.js";
 
 export type Joints = Record<string, number>;
@@ -55,3 +55,23 @@ export async function acceptedTargets(
   }
   return accepted;
 }
+
+/**
+ * Four stations around the middle of the TD's Cartesian bounds, at 0.45 of the smaller horizontal half
+ * extent from it (pick A on +y, place A on -y, pick B on +x, place B on -x), 30 % up from the floor (z = 0,
+ * the URDF convention; a workspace sampled without a floor reaches below it); and a corner of the bounding
+ * box, inside the bounds the TD declares but outside a roughly round workspace.
+ */
+export function tableStations(b: Bounds3): { stations: { label: string; p: Vec3 }[]; outOfReach: Vec3 } {
+  const c: Vec3 = [(b.min[0] + b.max[0]) / 2, (b.min[1] + b.max[1]) / 2, 0];
+  const r = (0.45 * Math.min(b.max[0] - b.min[0], b.max[1] - b.min[1])) / 2;
+  const floor = Math.max(b.min[2], 0);
+  const z = floor + 0.3 * (b.max[2] - floor);
+  const named: [string, number][] = [["pick A", 90], ["place A", -90], ["pick B", 0], ["place B", 180]];
+  const stations = named.map(([label, deg]) => {
+    const a = (deg * Math.PI) / 180;
+    return { label, p: [c[0] + r * Math.cos(a), c[1] + r * Math.sin(a), z] as Vec3 };
+  });
+  return { stations, outOfReach: [0.95 * b.max[0] + 0.05 * c[0], 0.95 * b.max[1] + 0.05 * c[1], 0.95 * b.max[2] + 0.05 * floor] };
+}
+

@@ -14,8 +14,10 @@ Where the files are, in the order the MoveIt setup assistant records them:
   whose value is itself a launch substitution are left to the xacro's defaults); and exactly one
   ``config/*.srdf``.
 
-``joint_limits.yaml``: ``joint_limits: {JOINT: {has_velocity_limits: true, max_velocity: V}}``; MoveIt plans
-with these instead of the URDF's, so the twin does too (xacro_expand writes them into the expanded URDF).
+``joint_limits.yaml``: ``joint_limits: {JOINT: {has_velocity_limits: true, max_velocity: V,
+has_acceleration_limits: true, max_acceleration: A}}``; MoveIt plans with these instead of the URDF's, so the
+twin does too (xacro_expand writes the velocities into the expanded URDF; the accelerations, which a URDF
+cannot carry, go to twin.json and ``robot.load``).
 """
 
 from __future__ import annotations
@@ -47,12 +49,13 @@ class MoveitConfig:
     xacro_args: dict[str, str]
     srdf: Path
     package_roots: dict[str, str]
-    #: joint -> max velocity (rad/s or m/s) from joint_limits.yaml
-    velocity_limits: dict[str, float]
+    #: the velocity and acceleration limits of its joint_limits.yaml
+    limits: JointLimits
 
     def to_json(self) -> dict[str, Any]:
         return {"urdf": str(self.urdf), "xacroArgs": self.xacro_args, "srdf": str(self.srdf),
-                "packageRoots": self.package_roots, "velocityLimits": self.velocity_limits}
+                "packageRoots": self.package_roots, "velocityLimits": self.limits.velocities,
+                "accelerationLimits": self.limits.accelerations}
 
 
 def _yaml(path: Path) -> Any:
@@ -123,25 +126,38 @@ def _launch_robot_description(config: Path, roots: dict[str, str]) -> tuple[Path
     return None
 
 
-def velocity_limits(file: Path, *, required: bool = False) -> dict[str, float]:
-    """Joint -> max velocity of a MoveIt ``joint_limits.yaml`` (joints with ``has_velocity_limits``). A
-    missing file gives none, or FileNotFound when ``required`` (``robwot generate --limits FILE``)."""
+@dataclass(frozen=True)
+class JointLimits:
+    """What a ``joint_limits.yaml`` says: joint -> max velocity (rad/s or m/s), joint -> max acceleration
+    (rad/s^2 or m/s^2), each only for the joints whose ``has_..._limits`` is true."""
+
+    velocities: dict[str, float]
+    accelerations: dict[str, float]
+
+
+def joint_limits(file: Path, *, required: bool = False) -> JointLimits:
+    """The velocity and acceleration limits of a MoveIt ``joint_limits.yaml``. A missing file gives none,
+    or FileNotFound when ``required`` (``robwot generate --limits FILE``)."""
     if not file.is_file():
         if required:
             raise FileNotFound(str(file), what="joint limits file")
-        return {}
+        return JointLimits({}, {})
     doc = _yaml(file)
     table = doc.get("joint_limits") if isinstance(doc, dict) else None
     if not isinstance(table, dict):
         raise UrdfError("no joint_limits: mapping", file=str(file))
-    out: dict[str, float] = {}
+    out = JointLimits({}, {})
     for joint, limits in table.items():
-        if isinstance(limits, dict) and limits.get("has_velocity_limits") and "max_velocity" in limits:
-            v = limits["max_velocity"]
+        if not isinstance(limits, dict):
+            continue
+        for flag, key, into in (("has_velocity_limits", "max_velocity", out.velocities),
+                                ("has_acceleration_limits", "max_acceleration", out.accelerations)):
+            if not limits.get(flag) or key not in limits:
+                continue
+            v = limits[key]
             if not isinstance(v, int | float) or isinstance(v, bool) or not 0 < float(v) < 1e4:
-                raise UrdfError(f"joint {joint!r}: max_velocity {v!r} must be a positive number",
-                                file=str(file))
-            out[str(joint)] = float(v)
+                raise UrdfError(f"joint {joint!r}: {key} {v!r} must be a positive number", file=str(file))
+            into[str(joint)] = float(v)
     return out
 
 
@@ -188,5 +204,5 @@ def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | No
     for f, what in ((urdf, "URDF/xacro"), (srdf, "SRDF")):
         if not f.is_file():
             raise FileNotFound(str(f), what=f"MoveIt config {what} file")
-    limits = velocity_limits(config / "config" / "joint_limits.yaml")
+    limits = joint_limits(config / "config" / "joint_limits.yaml")
     return MoveitConfig(urdf, xacro_args, srdf, roots, limits)

@@ -47,7 +47,7 @@ def register(d: Dispatcher, s: Services) -> None:
         try:
             model = await s.change_world(lambda: s.world.add_robot(
                 files, robot_id=p["id"], base_position=base_position, base_orientation=base_orientation,
-                clearance=float(p["clearance"])), Kind.LONG)
+                clearance=float(p["clearance"]), accelerations=dict(p["accelerationLimits"])), Kind.LONG)
         finally:
             files.cleanup()  # add_robot did, unless it never ran
         return model.to_json()

@@ -7,7 +7,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from robwot_sim.model.moveit_config import find_moveit_config, velocity_limits
+from robwot_sim.model.moveit_config import find_moveit_config
+from robwot_sim.model.moveit_config import joint_limits as read_joint_limits
 from robwot_sim.model.srdf import read_srdf
 from robwot_sim.model.tool import attach_tool
 from robwot_sim.model.urdf import parse_urdf
@@ -45,7 +46,8 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("robot.jointLimits")
     async def joint_limits(p: Params, call: Call) -> dict[str, Any]:
         file = Path(p["file"]).expanduser()
-        return {"velocityLimits": await s.off_world(lambda: velocity_limits(file, required=True))}
+        limits = await s.off_world(lambda: read_joint_limits(file, required=True))
+        return {"velocityLimits": limits.velocities, "accelerationLimits": limits.accelerations}
 
     @d.method("robot.readSrdf")
     async def srdf(p: Params, call: Call) -> dict[str, Any]:

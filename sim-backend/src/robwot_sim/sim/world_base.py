@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import replace
@@ -188,8 +189,10 @@ class WorldBase:
         base_position: Vec3 = (0.0, 0.0, 0.0),
         base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
         clearance: float = CLEARANCE,
+        accelerations: Mapping[str, float] | None = None,
     ) -> RobotModel:
-        """Create the body of ``files`` (``read_robot``) in the world; removes their temporary copy."""
+        """Create the body of ``files`` (``read_robot``) in the world; removes their temporary copy.
+        ``accelerations``: joint -> acceleration limit (rad/s^2 or m/s^2) of controllable joints."""
         try:
             if robot_id is not None:
                 self._check_free_name(v.name("id", robot_id))
@@ -199,6 +202,8 @@ class WorldBase:
                 raise InvalidParams(f"clearance must be in [{MIN_CLEARANCE}, {MAX_CLEARANCE}] m",
                                     param="clearance",
                                     expected=f"number in [{MIN_CLEARANCE}, {MAX_CLEARANCE}]", got=clearance)
+            movable = [j.name for j in files.urdf_model.joints if j.type != "fixed"]
+            limits = _accelerations(movable, accelerations or {})
         except Exception:
             files.cleanup()
             raise
@@ -209,7 +214,7 @@ class WorldBase:
                 rid, k = f"{base}-{k}", k + 1
             entry.model = replace(entry.model, id=rid)
         entry.clearance = float(clearance)
-        entry.model = replace(entry.model, clearance=entry.clearance)
+        entry.model = replace(entry.model, clearance=entry.clearance, accelerations=limits)
         rid = entry.model.id
         self._robots[rid] = entry
         self.table.names[entry.bound.body] = rid
@@ -244,3 +249,18 @@ class WorldBase:
         b = self._entry(robot_id).bound
         b.apply(b.validate(q))
         self._moves[robot_id] = self._moves.get(robot_id, 0) + 1
+
+
+def _accelerations(movable: Sequence[str], given: Mapping[str, float]) -> dict[str, float]:
+    """``given`` checked: each a movable joint's, a positive finite number."""
+    out: dict[str, float] = {}
+    for joint, value in given.items():
+        if joint not in movable:
+            raise InvalidParams(f"accelerationLimits: {joint!r} is not a movable joint of the robot",
+                                param="accelerationLimits", expected=list(movable), got=joint)
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
+            raise InvalidParams(f"accelerationLimits: {joint!r} must be a positive number, got {value!r}",
+                                param="accelerationLimits", expected="positive number", got=value)
+        out[joint] = float(value)
+    return out
+

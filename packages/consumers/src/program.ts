@@ -1,0 +1,106 @@
+/**
+ * Scenario 6: a pick-and-place program (README "Programs"), validated as a whole, then run.
+ *
+ * A pick station and a place station either side of the workspace (from the TD's Cartesian bounds, as the
+ * pick-and-place scenario places them) and the program a UR or KUKA programmer writes between them, from
+ * where the robot stands (its joints are "home"): PTP above the pick, LIN down, LIN up, PTP above the place,
+ * LIN down, LIN up, PTP home; the LINs keep the TCP orientation the PTP arrived with. `validateProgram`
+ * checks it step by step; when a step is refused, the scenario prints the step and why and moves the
+ * stations closer to the middle. The accepted program runs with `runProgram`: the scenario prints each
+ * step's planned duration, the cycle time, and the simulated duration and wall time of the run; the
+ * simulated duration must equal the cycle time.
+ *
+ *   node packages/consumers/dist/program.js [TD URL] [--lift 0.08] [--tcp-speed 0.2] [--json]
+ */
+import { numberOption, parseArgs } from "./lib/args.js";
+import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
+import { fmt, fmtXyz, printJsonSummary, table } from "./lib/format.js";
+import { runScenario } from "./lib/run.js";
+import { tableStations } from "./lib/targets.js";
+import { cartesianBounds, xyz, type Vec3 } from "@robwot/core";
+
+const USAGE = "program [TD URL] [--lift 0.01..0.3] [--tcp-speed 0.01..1] [--json]";
+/** times the stations are moved closer to the middle of the workspace after a refusal */
+const RETRIES = 3;
+
+interface ProgramReport {
+  valid: boolean;
+  firstFailingStep?: number;
+  cycleTime: number;
+  steps: { step: number; ok: boolean; reasons: string[]; duration: number; planned?: string }[];
+}
+
+interface RunResult {
+  status: string;
+  step: number;
+  duration: number;
+  cycleTime: number;
+}
+
+type Step = Record<string, unknown>;
+
+/** The pick-and-place program from `pick` to `place`, approached `lift` m above, back to `home`. */
+function pickAndPlace(home: Record<string, number>, pick: Vec3, place: Vec3, lift: number, tcpSpeed: number): { label: string; step: Step }[] {
+  const at = (p: Vec3, dz: number): Step => ({ x: p[0], y: p[1], z: p[2] + dz });
+  return [
+    { label: "PTP above pick", step: { ...at(pick, lift), speed: 0.8 } },
+    { label: "LIN down to pick", step: { ...at(pick, 0), motion: "lin", tcpSpeed } },
+    { label: "LIN up", step: { ...at(pick, lift), motion: "lin", tcpSpeed } },
+    { label: "PTP above place", step: { ...at(place, lift), speed: 0.8 } },
+    { label: "LIN down to place", step: { ...at(place, 0), motion: "lin", tcpSpeed } },
+    { label: "LIN up", step: { ...at(place, lift), motion: "lin", tcpSpeed } },
+    { label: "PTP home", step: { joints: home, acceleration: 0.5 } },
+  ];
+}
+
+async function main(): Promise<void> {
+  const args = parseArgs(process.argv.slice(2), { lift: "value", "tcp-speed": "value", json: "flag" });
+  const url = args.positional[0] ?? defaultTdUrl();
+  const lift = numberOption(args, "lift", 0.08, 0.01, 0.3);
+  const tcpSpeed = numberOption(args, "tcp-speed", 0.2, 0.01, 1);
+  const session = await openSession();
+  try {
+    const twin = await session.connect(url);
+    if (!twin.td.actions?.["runProgram"]) throw new Error(`${url}: the TD has no runProgram action (a twin generated before programs existed: generate it again)`);
+    const home = await read<Record<string, number>>(twin, "getJointPosition");
+    const bounds = cartesianBounds(twin.td);
+    const middle: Vec3 = [(bounds.min[0] + bounds.max[0]) / 2, (bounds.min[1] + bounds.max[1]) / 2, 0];
+    const { stations } = tableStations(bounds);
+    let [pick, place] = [stations[0]!.p, stations[1]!.p];
+    const closer = (p: Vec3): Vec3 => [middle[0] + 0.7 * (p[0] - middle[0]), middle[1] + 0.7 * (p[1] - middle[1]), p[2]];
+    console.log(`pick ${fmtXyz(xyz(pick))}, place ${fmtXyz(xyz(place))}, approach ${fmt(lift)} m above, LIN at ${fmt(tcpSpeed)} m/s`);
+    let program = pickAndPlace(home, pick, place, lift, tcpSpeed);
+    let report = await invoke<ProgramReport>(twin, "validateProgram", { steps: program.map((s) => s.step) });
+    // a station out of reach or in the way: bring the stations closer, as a programmer would
+    for (let retry = 0; !report.valid && retry < RETRIES; retry++) {
+      const k = report.firstFailingStep ?? 0;
+      console.log(`step ${k} (${program[k]?.label}) refused: ${report.steps[k]?.reasons.join("; ")}`);
+      [pick, place] = [closer(pick), closer(place)];
+      console.log(`trying pick ${fmtXyz(xyz(pick))}, place ${fmtXyz(xyz(place))}`);
+      program = pickAndPlace(home, pick, place, lift, tcpSpeed);
+      report = await invoke<ProgramReport>(twin, "validateProgram", { steps: program.map((s) => s.step) });
+    }
+    const rows = report.steps.map((s) => [String(s.step), program[s.step]?.label ?? "", s.planned ?? "", s.ok ? "ok" : s.reasons.join("; "), `${fmt(s.duration, 3)} s`]);
+    console.log(table(["step", "what", "path", "verdict", "duration"], rows));
+    if (!report.valid) {
+      console.log(`the program is refused at step ${report.firstFailingStep}: nothing runs`);
+      process.exitCode = 1;
+      if (args.options.has("json")) printJsonSummary({ pick, place, report });
+      return;
+    }
+    console.log(`cycle time ${fmt(report.cycleTime, 3)} s; running it`);
+    const t0 = performance.now();
+    const run = await invoke<RunResult>(twin, "runProgram", { steps: program.map((s) => s.step) });
+    const wall = (performance.now() - t0) / 1000;
+    console.log(`run: ${run.status} in step ${run.step}; simulated ${fmt(run.duration, 3)} s, wall ${fmt(wall, 3)} s (the servient's real-time factor applies)`);
+    const back = await read<Record<string, number>>(twin, "getJointPosition");
+    const atHome = Object.keys(home).every((j) => Math.abs((back[j] ?? NaN) - (home[j] ?? NaN)) < 1e-6);
+    console.log(`back home: ${atHome ? "yes" : "no"}`);
+    if (run.status !== "reached" || Math.abs(run.duration - report.cycleTime) > 1e-6 || !atHome) process.exitCode = 1;
+    if (args.options.has("json")) printJsonSummary({ pick, place, report, run, wall, atHome });
+  } finally {
+    await session.close();
+  }
+}
+
+runScenario("program", USAGE, main);
