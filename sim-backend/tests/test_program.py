@@ -176,3 +176,30 @@ def test_a_refused_program_does_not_move_and_a_stop_ends_a_run(client: RpcClient
     assert client.call("robot.stop", {"robot": "kuka"})["stopped"]
     run = client.wait(pending)
     assert run["status"] == "stopped" and run["duration"] < run["program"]["cycleTime"]
+
+
+def test_blended_steps_run_through_without_stopping_and_take_less_time(client: RpcClient) -> None:
+    """A square of four LINs: with blend radii the run does not stop at the corners (its speed stays above
+    zero through them), stays within each radius of the corner (by forward kinematics), is faster than the
+    unblended program, and runs in its cycle time. (That blended motions touch nothing is measured against
+    the exact-mesh reference in test_program_fidelity.py.)"""
+    client.call("robot.setJointPositions", {"robot": "kuka", "positions": START})
+    x, y, z = client.call("robot.fk", {"robot": "kuka", "positions": START})["position"]
+    corners = [[x, y + 0.1, z], [x - 0.1, y + 0.1, z], [x - 0.1, y, z], [x, y, z]]
+    sharp = [{"motion": "lin", "position": c, "tcpSpeed": 0.2} for c in corners]
+    round_ = [{**s, "blend": 0.03} for s in sharp[:-1]] + [sharp[-1]]
+    dt = 1 / 240
+    a = client.call("program.plan", {"robot": "kuka", "steps": sharp, "dt": dt, "rate": 1 / dt})
+    b = client.call("program.plan", {"robot": "kuka", "steps": round_, "dt": dt, "rate": 1 / dt})
+    assert a["valid"] and b["valid"], b["steps"]
+    assert b["cycleTime"] < 0.85 * a["cycleTime"]
+    assert [s.get("blended", False) for s in b["steps"]] == [True, True, True, False]
+    q = np.asarray(b["trajectory"]["positions"])
+    p = np.array([f["position"] for f in _fk(client, q)])
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) / dt
+    for c in corners[:3]:
+        near = int(np.argmin(np.linalg.norm(p - np.asarray(c), axis=1)))
+        assert 0.01 < np.linalg.norm(p[near] - np.asarray(c)) <= 0.03  # rounded, within the radius
+        assert speed[near - 1] > 0.05  # not at rest at the corner
+    run = client.call("program.run", {"robot": "kuka", "steps": round_, "realtime": 0, "dt": dt})
+    assert run["status"] == "reached" and run["duration"] == pytest.approx(b["cycleTime"], abs=1e-9)

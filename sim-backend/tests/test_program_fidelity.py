@@ -1,9 +1,10 @@
-"""Programs against the independent exact-mesh reference (Pinocchio + Coal, ``robwot_bench.reference``) with
-the scene's boxes added to it: on the UR5 as published for ROS (example-robot-data, with its SRDF) carrying
-a 12 cm box tool, random programs of PTP (joints and poses) and LIN steps are validated by the twin, and every
-state a run of each valid one passes (the timed states, subdivided so no point of the arm moves more than
-2 mm between two checked ones) is checked by the reference: none may touch an obstacle or the robot itself.
-The reference is first shown to catch a known positive (the tool inside a box)."""
+"""Programs against the independent exact-mesh reference (Pinocchio + Coal, ``robwot_bench.reference``)
+with the scene's boxes added to it: on the UR5 as published for ROS (example-robot-data, with its SRDF)
+carrying a 12 cm box tool, random programs of PTP (joints and poses) and LIN steps, some blended, are
+validated by the twin, and every state a run of each valid one passes (the timed states, subdivided so no
+point of the arm moves more than 2 mm between two checked ones) is checked by the reference: none may touch
+an obstacle or the robot itself. The reference is first shown to catch a known positive (the tool inside a
+box)."""
 
 from __future__ import annotations
 
@@ -68,11 +69,13 @@ def test_every_state_of_every_valid_program_is_free_for_the_exact_reference(ur5_
         lo, hi = model.limits()
         world.set_joint_positions(rid, home)
         p0 = np.asarray(world.fk(rid, home).position)
+        blended = 0
         for _ in range(PROGRAMS):
             world.set_joint_positions(rid, home)
             steps = [
-                {"motion": "lin", "position": (p0 + rng.uniform(-0.15, 0.15, 3)).tolist(), "tcpSpeed": 0.3},
-                {"motion": "ptp", "position": (p0 + rng.uniform(-0.2, 0.2, 3)).tolist()},
+                {"motion": "lin", "position": (p0 + rng.uniform(-0.15, 0.15, 3)).tolist(), "tcpSpeed": 0.3,
+                 "blend": 0.05},
+                {"motion": "ptp", "position": (p0 + rng.uniform(-0.2, 0.2, 3)).tolist(), "blend": 0.05},
                 {"motion": "lin", "position": (p0 + rng.uniform(-0.15, 0.15, 3)).tolist()},
                 {"target": np.clip(home + rng.uniform(-0.8, 0.8, len(home)), lo, hi).tolist(), "speed": 0.8},
                 {"target": home.tolist(), "acceleration": 0.5},
@@ -80,8 +83,10 @@ def test_every_state_of_every_valid_program_is_free_for_the_exact_reference(ur5_
             program = plan_program(world, rid, steps, DT, 50.0)
             if program.path is not None:
                 runs.append(program.path)
+                blended += sum(bool(s.get("blended")) for s in program.report["steps"])
         joints = model.controllable
         assert len(runs) >= PROGRAMS // 2, f"{len(runs)} of {PROGRAMS} programs valid: the test proves little"
+        assert blended >= len(runs), f"only {blended} blended junctions in {len(runs)} valid programs"
         # a known positive first: a small box around the tool's tip at a state of a valid run
         mid = runs[0][len(runs[0]) // 2]
         tip = list(world.fk(rid, mid).position)

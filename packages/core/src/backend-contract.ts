@@ -94,6 +94,10 @@ export type Acceleration = number;
  */
 export type TcpSpeed = number;
 /**
+ * m: within this distance of the TCP from where the step ends, the motion may leave the programmed path to go on into the next step without stopping (0: it stops there; the last step always stops)
+ */
+export type BlendRadius = number;
+/**
  * time step (s)
  */
 export type Dt = number;
@@ -766,6 +770,7 @@ export interface ProgramStep {
   speed?: Speed;
   acceleration?: Acceleration;
   tcpSpeed?: TcpSpeed;
+  blend?: BlendRadius;
 }
 export interface ProgramPlan {
   valid: boolean;
@@ -791,6 +796,10 @@ export interface ProgramPlan {
      * the joints the step ends at
      */
     target?: number[];
+    /**
+     * the motion goes on into the next step without stopping (its `blend` radius); the step's duration ends where the blended motion is nearest the next step's path
+     */
+    blended?: boolean;
   }[];
   trajectory: {
     /**
@@ -1258,6 +1267,7 @@ export const VALUE_SCHEMAS = {
   Speed: {"type":"number","minimum":0.001,"maximum":1,"default":1,"description":"fraction of the URDF velocity limits"},
   Acceleration: {"type":"number","minimum":0.01,"maximum":1,"default":1,"description":"fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2)","x-accelerationTime":0.25,"x-tcpAcceleration":1.2},
   TcpSpeed: {"type":"number","minimum":0.001,"maximum":3,"default":0.25,"description":"speed (m/s) of the end effector (the TCP with a tool) along a LIN or CIRC; a configuration whose joints cannot keep it within their velocity limits x speed (near a singularity) is refused"},
+  BlendRadius: {"type":"number","minimum":0,"maximum":1,"default":0,"description":"m: within this distance of the TCP from where the step ends, the motion may leave the programmed path to go on into the next step without stopping (0: it stops there; the last step always stops)"},
   Dt: {"type":"number","minimum":0.0001,"maximum":0.1,"default":0.004166666666666667,"description":"time step (s)"},
   Clearance: {"type":"number","minimum":0.0005,"maximum":0.02,"default":0.002,"description":"clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states"},
   ProgramSteps: {"type":"array","minItems":1,"maxItems":100,"items":{"$ref":"#/components/schemas/ProgramStep"}},

@@ -45,7 +45,7 @@ export interface CartesianInput {
 }
 
 export interface ProgramInput {
-  steps: (Partial<CartesianInput> & { joints?: Record<string, unknown>; acceleration?: number; tcpSpeed?: number })[];
+  steps: (Partial<CartesianInput> & { joints?: Record<string, unknown>; acceleration?: number; tcpSpeed?: number; blend?: number })[];
 }
 
 /** runProgram's answer (`programRunResultSchema`). */
@@ -65,7 +65,7 @@ export interface ProgramReport {
   /** absent when every step passes */
   firstFailingStep?: number;
   cycleTime: number;
-  steps: { step: number; ok: boolean; reasons: string[]; duration: number; planned?: string }[];
+  steps: { step: number; ok: boolean; reasons: string[]; duration: number; planned?: string; blended?: boolean }[];
   trajectory: { rate: number; names: string[]; positions: number[][] };
 }
 
@@ -246,7 +246,11 @@ export class Mover {
     const sim = input.steps.map((step, k) => {
       const speed = speedOf(step);
       // acceleration and tcpSpeed: the schema bounds them (the contract's Acceleration and TcpSpeed)
-      const timing = { ...(step.acceleration !== undefined ? { acceleration: step.acceleration } : {}), ...(step.tcpSpeed !== undefined ? { tcpSpeed: step.tcpSpeed } : {}) };
+      const timing = {
+        ...(step.acceleration !== undefined ? { acceleration: step.acceleration } : {}),
+        ...(step.tcpSpeed !== undefined ? { tcpSpeed: step.tcpSpeed } : {}),
+        ...(step.blend !== undefined ? { blend: step.blend } : {}),
+      };
       const hasXyz = step.x !== undefined || step.y !== undefined || step.z !== undefined;
       if ((step.joints !== undefined) === hasXyz) {
         throw badInput(`steps[${k}]: give joints (a PTP step) or x, y, z, not ${hasXyz ? "both" : "neither"}`, { param: `steps[${k}]` });
@@ -524,7 +528,7 @@ function programReport(plan: Awaited<ReturnType<BackendSupervisor["sim"]["planPr
     valid: plan.valid,
     ...(plan.firstFailingStep !== null ? { firstFailingStep: plan.firstFailingStep } : {}),
     cycleTime: plan.cycleTime,
-    steps: plan.steps.map((s) => ({ step: s.step, ok: s.ok, reasons: s.reasons, duration: s.duration, ...(s.planned ? { planned: s.planned } : {}) })),
+    steps: plan.steps.map((s) => ({ step: s.step, ok: s.ok, reasons: s.reasons, duration: s.duration, ...(s.planned ? { planned: s.planned } : {}), ...(s.blended ? { blended: true } : {}) })),
     trajectory: { rate: plan.trajectory.rate, names: plan.trajectory.names, positions: plan.trajectory.positions },
   };
 }

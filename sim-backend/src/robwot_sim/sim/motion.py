@@ -118,14 +118,14 @@ def plan_curve_path(
     arc: Sequence[float],
     velocity: FloatArray,
     acceleration: FloatArray,
-    tcp_speed: float,
+    tcp_speed: float | None,
     tcp_acceleration: float,
     dt: float,
 ) -> FloatArray:
     """States ``[steps + 1, dof]`` one per ``dt`` along the cubic spline through ``points`` (the first is the
     start, the last the target), at rest at both ends, time-optimal (TOPP-RA) under the joint limits and
-    the end effector's ``tcp_speed`` (m/s) and ``tcp_acceleration`` (m/s^2) along the curve, whose arc
-    length at each point is ``arc`` (metres, from 0, increasing)."""
+    the end effector's ``tcp_speed`` (m/s) and ``tcp_acceleration`` (m/s^2) along the curve (None: the joint
+    limits only), whose arc length at each point is ``arc`` (metres, from 0, increasing)."""
     import toppra
     import toppra.algorithm
     import toppra.constraint
@@ -142,10 +142,13 @@ def plan_curve_path(
         return np.array([q[0]], dtype=np.float64)
     ss = np.concatenate([[0.0], np.cumsum(gaps[gaps > 0])])
     ss /= ss[-1]
-    waypoints = np.hstack([q, length[:, None]])
+    if tcp_speed is None:
+        waypoints, vlim, alim = q, velocity, acceleration
+    else:
+        waypoints = np.hstack([q, length[:, None]])
+        vlim = np.hstack([velocity, [tcp_speed]])
+        alim = np.hstack([acceleration, [tcp_acceleration]])
     path = toppra.SplineInterpolator(ss, waypoints)
-    vlim = np.hstack([velocity, [tcp_speed]])
-    alim = np.hstack([acceleration, [tcp_acceleration]])
     constraints = [toppra.constraint.JointVelocityConstraint(np.stack([-vlim, vlim], axis=1)),
                    toppra.constraint.JointAccelerationConstraint(np.stack([-alim, alim], axis=1))]
     grid = np.unique(np.concatenate([ss, np.linspace(0.0, 1.0, 2 * len(ss))]))
@@ -156,7 +159,8 @@ def plan_curve_path(
         raise InvalidParams("no time parametrisation of the curve meets the joint limits", param="path")
     duration = float(trajectory.duration)
     steps = max(1, _steps(duration, dt))
-    states = np.asarray(trajectory(np.arange(steps + 1, dtype=np.float64) * (duration / steps)))[:, :-1]
+    times = np.arange(steps + 1, dtype=np.float64) * (duration / steps)
+    states = np.asarray(trajectory(times))[:, : q.shape[1]]
     states[0], states[-1] = q[0], q[-1]
     out: FloatArray = states
     return out

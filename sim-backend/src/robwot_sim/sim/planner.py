@@ -68,7 +68,7 @@ def _fmt(v: float) -> str:
     return f"{v:.4f}" if abs(v) >= 1e-3 or v == 0 else f"{v:.2e}"
 
 
-def _contact_words(contacts: Sequence[Contact]) -> str:
+def contact_words(contacts: Sequence[Contact]) -> str:
     if not contacts:
         return ""
     c = contacts[0]
@@ -137,11 +137,11 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float,
         if detour is not None:
             return detour
         searched = "not found"
-        reason = f"the straight path to the target collides{_contact_words(contacts)}{_NO_DETOUR}"
+        reason = f"the straight path to the target collides{contact_words(contacts)}{_NO_DETOUR}"
     else:
         searched = "not searched"
         contacts = list(at_target.contacts)
-        reason = f"the target configuration itself collides{_contact_words(contacts)}: no path reaches it"
+        reason = f"the target configuration itself collides{contact_words(contacts)}: no path reaches it"
     checks["path"] = _path_check(model.clearance, False, contacts, detour=searched)
     return Plan(False, tuple(float(v) for v in target), (reason,), checks)
 
@@ -202,7 +202,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
             # path can reach it (the path check names what touches there; no detour is searched)
             touching = world.check_collision(robot, reached_colliding).contacts
             reason = (f"every IK solution reaching {where} ({tried} tried, within {_fmt(error)} m) collides "
-                      f"at the target{_contact_words(touching)}")
+                      f"at the target{contact_words(touching)}")
             path = _path_check(model.clearance, False, touching, detour="not searched")
             return Plan(False, None, (reason,), {"ik": ik_check, "path": path})
         elif error >= 0:
@@ -216,7 +216,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     if detour is not None:
         return detour
     checks["path"] = _path_check(model.clearance, False, contacts, detour="not found")
-    reason = (f"the straight path to every IK solution tried ({tried}) collides{_contact_words(contacts)}"
+    reason = (f"the straight path to every IK solution tried ({tried}) collides{contact_words(contacts)}"
               f"{_NO_DETOUR} to the first")
     return Plan(False, positions, (reason,), checks)
 
@@ -236,7 +236,7 @@ def plan_lin(world: World, robot: str, position: Sequence[float],
         checks: dict[str, Any] = {"limits": {"ok": True}}
         if path.contacts:
             checks["path"] = _path_check(model.clearance, False, path.contacts, kind)
-        return Plan(False, None, (f"{kind.upper()} refused: {path.reason}{_contact_words(path.contacts)}",),
+        return Plan(False, None, (f"{kind.upper()} refused: {path.reason}{contact_words(path.contacts)}",),
                     checks)
     for i, q in enumerate(path.waypoints):
         violations = _limit_violations(model, [float(v) for v in q])
@@ -274,7 +274,7 @@ def timed_path(world: World, robot: str, plan: Plan, *, speed: float, dt: float,
     contacts = report.first_collision.contacts
     kind = str(plan.checks.get("path", {}).get("planned", "lin"))
     reason = (f"{kind.upper()} refused: the timed path between its checked samples collides"
-              f"{_contact_words(contacts)}")
+              f"{contact_words(contacts)}")
     checks = {**plan.checks, "path": _path_check(world.robot_model(robot).clearance, False, contacts, kind)}
     return Plan(False, None, (reason,), checks), None
 

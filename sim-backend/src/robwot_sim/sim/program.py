@@ -11,6 +11,8 @@ is that path sampled at ``rate``.
 
 from __future__ import annotations
 
+import itertools
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -18,10 +20,16 @@ from typing import Any
 import numpy as np
 
 from robwot_sim.limits import DEFAULT_TCP_SPEED
-from robwot_sim.sim.planner import Plan, plan_joints, plan_lin, plan_pose, timed_path
+from robwot_sim.sim.planner import Plan, contact_words, plan_joints, plan_lin, plan_pose, timed_path
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
+
+#: radians a joint may turn between two points of a PTP step's path in a blended group (the spline the
+#: group is timed along passes through them: dense points keep it on the straight line)
+BLEND_POINT_STEP = 0.02
+#: points of the Bezier curve that rounds a junction
+BLEND_POINTS = 24
 
 
 @dataclass
@@ -48,6 +56,91 @@ def _plan_step(world: World, robot: str, step: Mapping[str, Any], dt: float) -> 
                     tcp_speed=float(step.get("tcpSpeed", DEFAULT_TCP_SPEED)))
 
 
+@dataclass
+class _Step:
+    """A planned step: its plan and the joint state it starts from."""
+
+    plan: Plan
+    start: FloatArray
+    speed: float
+    acceleration: float
+    tcp_speed: float | None  # a LIN's or CIRC's
+    blend: float
+
+
+def _detour(step: _Step) -> bool:
+    return bool(step.plan.checks.get("path", {}).get("planned") == "detour")
+
+
+def _points(step: _Step) -> list[FloatArray]:
+    """The step's joint path as points: a LIN's or CIRC's samples, or each straight segment of a PTP
+    (detour legs included) split so no joint turns more than ``BLEND_POINT_STEP`` between two points."""
+    assert step.plan.target is not None
+    corners = [step.start, *(np.asarray(w, dtype=np.float64) for w in step.plan.via),
+               np.asarray(step.plan.target, dtype=np.float64)]
+    if step.plan.arc:
+        return corners
+    out = [corners[0]]
+    for a, b in itertools.pairwise(corners):
+        n = max(1, math.ceil(float(np.max(np.abs(b - a))) / BLEND_POINT_STEP))
+        out.extend(a + k / n * (b - a) for k in range(1, n + 1))
+    return out
+
+
+def _blend_group(world: World, robot: str, group: list[_Step],
+                 dt: float) -> tuple[FloatArray | None, list[int], str | None, int]:
+    """One motion through the steps of ``group`` that rounds each junction within the blend radius of the
+    step ending there: the points of the incoming step closer to the junction's TCP than its radius, and of
+    the outgoing one, are replaced by the quadratic Bezier (joint space) from the last point outside on one
+    side, through the junction, to the first point outside on the other (at most half of either step). The
+    whole is timed by ``plan_motion`` along its points (TOPP-RA; the smallest speed, acceleration and, with
+    a LIN or CIRC among them, TCP speed of the group's steps) and checked again. Returns the states, the
+    index where each step starts, and on a contact the reason and the step whose blend (or path) touches."""
+    paths = [_points(st) for st in group]
+    tcp = [np.array([world.fk(robot, q).position for q in pts]) for pts in paths]
+    points: list[FloatArray] = list(paths[0])
+    owners: list[int] = [0] * len(points)
+    for k in range(1, len(group)):
+        radius = group[k - 1].blend
+        corner = tcp[k - 1][-1]
+        # incoming: drop the points inside the radius (keep at least the first half of the step)
+        n_in = len(paths[k - 1])
+        keep = n_in - 1
+        while keep > n_in // 2 and np.linalg.norm(tcp[k - 1][keep - 1] - corner) < radius:
+            keep -= 1
+        drop = (n_in - 1) - keep  # points removed from the end of the incoming step (the junction included)
+        del points[len(points) - drop - 1:]
+        del owners[len(owners) - drop - 1:]
+        qa = points[-1]
+        # outgoing: the first point outside the radius (at most half the step)
+        n_out = len(paths[k])
+        first = 1
+        while first < n_out // 2 and np.linalg.norm(tcp[k][first] - corner) < radius:
+            first += 1
+        qb, qj = paths[k][first], paths[k][0]
+        bezier = [(1 - t) ** 2 * qa + 2 * t * (1 - t) * qj + t**2 * qb
+                  for t in np.linspace(0.0, 1.0, BLEND_POINTS)[1:-1]]
+        points.extend(bezier)
+        owners.extend([k - 1] * (len(bezier) // 2) + [k] * (len(bezier) - len(bezier) // 2))
+        points.extend(paths[k][first:])
+        owners.extend([k] * (n_out - first))
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(
+        np.array([world.fk(robot, q).position for q in points]), axis=0), axis=1))])
+    lin_speeds = [st.tcp_speed for st in group if st.tcp_speed is not None]
+    states = world.plan_motion(robot, points[-1], points[0], min(st.speed for st in group), dt, points[1:-1],
+                               acceleration=min(st.acceleration for st in group), arc=arc.tolist(),
+                               tcp_speed=min(lin_speeds) if lin_speeds else None)
+    # each state belongs to the step of its nearest point of the path
+    nearest = [int(np.argmin(np.linalg.norm(np.asarray(points) - q, axis=1))) for q in states]
+    starts = [0] + [next(i for i, n in enumerate(nearest) if owners[n] >= k) for k in range(1, len(group))]
+    report = world.check_states(robot, states, dt)
+    if report.collision_free or report.first_collision is None:
+        return states, starts, None, 0
+    hit = round(report.first_collision.time / dt)
+    k = max(i for i, s0 in enumerate(starts) if s0 <= hit)
+    return None, starts, contact_words(report.first_collision.contacts), k
+
+
 def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], dt: float,
                  rate: float) -> ProgramPlan:
     """Per-step verdicts (from the first step to the first refused one), the index of the first refused
@@ -55,30 +148,70 @@ def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], d
     names = list(world.robot_model(robot).controllable)
     verdicts: list[dict[str, Any]] = []
     first_failing: int | None = None
-    segments: list[FloatArray] = []
-    starts: list[int] = []
+    planned: list[_Step] = []
     with world.hypothetical(robot):
         q = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
-        done = 0
         for k, step in enumerate(steps):
             checkpoint()
             world.place(robot, q)
-            plan, path = timed_path(world, robot, _plan_step(world, robot, step, dt),
-                                    speed=float(step.get("speed", 1.0)), dt=dt,
-                                    acceleration=float(step.get("acceleration", 1.0)))
-            verdict: dict[str, Any] = {"step": k, "ok": plan.valid, "reasons": list(plan.reasons),
-                                       "checks": plan.checks, "duration": 0.0}
-            verdicts.append(verdict)
-            if path is None or plan.target is None:
+            plan = _plan_step(world, robot, step, dt)
+            verdicts.append({"step": k, "ok": plan.valid, "reasons": list(plan.reasons),
+                             "checks": plan.checks, "duration": 0.0})
+            if not plan.valid or plan.target is None:
                 first_failing = k
                 break
-            verdict["duration"] = (len(path) - 1) * dt
-            verdict["planned"] = plan.checks.get("path", {}).get("planned", "straight")
-            verdict["target"] = list(plan.target)
-            starts.append(done)
-            segments.append(path if not segments else path[1:])
-            done += len(path) - 1
+            motion = str(step.get("motion", "ptp"))
+            planned.append(_Step(plan, q, float(step.get("speed", 1.0)), float(step.get("acceleration", 1.0)),
+                                 float(step.get("tcpSpeed", DEFAULT_TCP_SPEED)) if motion != "ptp" else None,
+                                 float(step.get("blend", 0.0))))
             q = np.asarray(plan.target, dtype=np.float64)
+    segments: list[FloatArray] = []
+    starts: list[int] = []
+    done = 0
+    k = 0
+    while k < len(planned):
+        # a group: steps joined by blends (the last step's blend has nothing to go on to; a detour's corners
+        # are stops, so a step planned as a detour is neither blended into nor out of)
+        end = k
+        while (end + 1 < len(planned) and planned[end].blend > 0 and not _detour(planned[end])
+               and not _detour(planned[end + 1])):
+            end += 1
+        group = planned[k:end + 1]
+        checkpoint()
+        if len(group) == 1:
+            st = group[0]
+            plan, states = timed_path(world, robot, st.plan, speed=st.speed, dt=dt,
+                                      acceleration=st.acceleration, start=st.start.tolist())
+            group_starts, failed = [0], None if states is not None else 0
+            if states is None:
+                verdicts[k] = {**verdicts[k], "ok": False, "reasons": list(plan.reasons),
+                               "checks": plan.checks}
+        else:
+            states, group_starts, contact, failed_at = _blend_group(world, robot, group, dt)
+            failed = None if contact is None else failed_at
+            if contact is not None:
+                at = k + failed_at
+                where = (f"through the end of step {at} (blend radius {planned[at].blend:g} m)"
+                         if planned[at].blend > 0 and at < end else f"in step {at}")
+                reason = f"the blended motion of steps {k} to {end} collides {where}{contact}"
+                verdicts[at] = {**verdicts[at], "ok": False, "checks": {}, "reasons": [reason]}
+        if failed is not None:
+            # the steps of the group before the failing one keep their verdicts, without a duration
+            del verdicts[k + failed + 1:]
+            first_failing = k + failed
+            break
+        assert states is not None
+        bounds = [*group_starts, len(states) - 1]
+        for i in range(len(group)):
+            verdicts[k + i]["duration"] = (bounds[i + 1] - bounds[i]) * dt
+            verdicts[k + i]["planned"] = group[i].plan.checks.get("path", {}).get("planned", "straight")
+            verdicts[k + i]["target"] = [float(v) for v in group[i].plan.target or ()]
+            if group[i].blend > 0 and i < len(group) - 1:
+                verdicts[k + i]["blended"] = True
+            starts.append(done + bounds[i])
+        segments.append(states if not segments else states[1:])
+        done += len(states) - 1
+        k = end + 1
     trajectory = np.concatenate(segments) if segments else np.asarray([world.get_joint_positions(robot)])
     stride = max(1, round(1.0 / (rate * dt)))
     picked = trajectory[::stride]

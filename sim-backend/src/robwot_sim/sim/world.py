@@ -218,13 +218,14 @@ class World(WorldScene):
         *,
         acceleration: float = 1.0,
         arc: Sequence[float] = (),
-        tcp_speed: float = DEFAULT_TCP_SPEED,
+        tcp_speed: float | None = DEFAULT_TCP_SPEED,
     ) -> npt.NDArray[np.float64]:
         """Joint states [steps + 1, dof] from ``start`` (default current) through the waypoints ``via`` to
         ``target``, one per ``dt``, within the joint velocity limits x ``speed`` and acceleration limits x
         ``acceleration`` (``motion.py``). Without ``arc``: each segment straight in joint space, at rest at
         every waypoint. With ``arc`` (the end effector's distance along its curve at start, every waypoint
-        and target, metres): one smooth motion through them, the end effector at most ``tcp_speed``."""
+        and target, metres): one smooth motion through them, the end effector at most ``tcp_speed`` (None:
+        the joint limits only, a blended group of PTP steps)."""
         e = self._entry(robot_id)
         tgt = e.bound.validate(target, "target")
         st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
@@ -237,7 +238,7 @@ class World(WorldScene):
             if len(arc) != len(points):
                 raise InvalidParams("arc needs one distance per point", param="arc", expected=len(points),
                                     got=len(arc))
-            tcp = check_fraction("tcpSpeed", tcp_speed, TCP_SPEED)
+            tcp = None if tcp_speed is None else check_fraction("tcpSpeed", tcp_speed, TCP_SPEED)
             curve = plan_curve_path(points, arc, velocity, accelerations, tcp, TCP_ACCELERATION * accel, step)
             # the spline through samples within the limits may overshoot one by a hair between two of them
             lower, upper = e.model.limits()
