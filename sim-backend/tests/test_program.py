@@ -203,3 +203,15 @@ def test_blended_steps_run_through_without_stopping_and_take_less_time(client: R
         assert speed[near - 1] > 0.05  # not at rest at the corner
     run = client.call("program.run", {"robot": "kuka", "steps": round_, "realtime": 0, "dt": dt})
     assert run["status"] == "reached" and run["duration"] == pytest.approx(b["cycleTime"], abs=1e-9)
+
+
+def test_a_step_beyond_the_reach_or_the_joint_limits_is_the_first_failing_one(client: RpcClient) -> None:
+    """Step 2 a pose 2 m up (beyond the reach), or step 1 a joint target beyond a limit: refused as that
+    step, with the distance beyond the reach or the joint and its limits named."""
+    steps = program(client)
+    far = [*steps[:2], {"position": [0.0, 0.0, 2.0]}, *steps[2:]]
+    plan = client.call("program.plan", {"robot": "kuka", "steps": far})
+    assert plan["firstFailingStep"] == 2 and "beyond the robot's reach" in plan["steps"][2]["reasons"][0]
+    outside = [steps[0], {"target": [0.0, 2.5, 0, 0, 0, 0, 0]}]
+    plan = client.call("program.plan", {"robot": "kuka", "steps": outside})
+    assert plan["firstFailingStep"] == 1 and "lbr_iiwa_joint_2" in plan["steps"][1]["reasons"][0]
