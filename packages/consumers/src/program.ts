@@ -4,9 +4,11 @@
  * A pick station and a place station either side of the workspace (from the TD's Cartesian bounds, as the
  * pick-and-place scenario places them) and the program a UR or KUKA programmer writes between them, from
  * where the robot stands (its joints are "home"): PTP above the pick, LIN down, LIN up, PTP above the place,
- * LIN down, LIN up, PTP home; the LINs keep the TCP orientation the PTP arrived with. `validateProgram`
- * checks it step by step; when a step is refused, the scenario prints the step and why and moves the
- * stations closer to the middle. The accepted program runs with `runProgram`: the scenario prints each
+ * LIN down, LIN up, PTP home, the tool pointing down (the end-effector frame's z axis along -z, as a
+ * flange's is when it points at a table); the LINs keep that orientation. `validateProgram` checks it step
+ * by step; when a step is refused, the scenario prints the step and why and tries the next layout: the
+ * stations on the other axis, then without a fixed orientation (the PTP's IK chooses one, the LINs keep
+ * it), then closer to the middle. The accepted program runs with `runProgram`: the scenario prints each
  * step's planned duration, the cycle time, and the simulated duration and wall time of the run; the
  * simulated duration must equal the cycle time.
  *
@@ -20,8 +22,8 @@ import { tableStations } from "./lib/targets.js";
 import { cartesianBounds, xyz, type Vec3 } from "@robwot/core";
 
 const USAGE = "program [TD URL] [--lift 0.01..0.3] [--tcp-speed 0.01..1] [--json]";
-/** times the stations are moved closer to the middle of the workspace after a refusal */
-const RETRIES = 3;
+/** the end-effector frame's z axis pointing down (a half turn about x), quaternion {x, y, z, w} */
+const DOWN = { x: 1, y: 0, z: 0, w: 0 };
 
 interface ProgramReport {
   valid: boolean;
@@ -40,8 +42,8 @@ interface RunResult {
 type Step = Record<string, unknown>;
 
 /** The pick-and-place program from `pick` to `place`, approached `lift` m above, back to `home`. */
-function pickAndPlace(home: Record<string, number>, pick: Vec3, place: Vec3, lift: number, tcpSpeed: number): { label: string; step: Step }[] {
-  const at = (p: Vec3, dz: number): Step => ({ x: p[0], y: p[1], z: p[2] + dz });
+function pickAndPlace(home: Record<string, number>, pick: Vec3, place: Vec3, lift: number, tcpSpeed: number, down: boolean): { label: string; step: Step }[] {
+  const at = (p: Vec3, dz: number): Step => ({ x: p[0], y: p[1], z: p[2] + dz, ...(down ? { orientation: DOWN } : {}) });
   return [
     { label: "PTP above pick", step: { ...at(pick, lift), speed: 0.8 } },
     { label: "LIN down to pick", step: { ...at(pick, 0), motion: "lin", tcpSpeed } },
@@ -65,21 +67,32 @@ async function main(): Promise<void> {
     const home = await read<Record<string, number>>(twin, "getJointPosition");
     const bounds = cartesianBounds(twin.td);
     const middle: Vec3 = [(bounds.min[0] + bounds.max[0]) / 2, (bounds.min[1] + bounds.max[1]) / 2, 0];
-    const { stations } = tableStations(bounds);
-    let [pick, place] = [stations[0]!.p, stations[1]!.p];
     const closer = (p: Vec3): Vec3 => [middle[0] + 0.7 * (p[0] - middle[0]), middle[1] + 0.7 * (p[1] - middle[1]), p[2]];
-    console.log(`pick ${fmtXyz(xyz(pick))}, place ${fmtXyz(xyz(place))}, approach ${fmt(lift)} m above, LIN at ${fmt(tcpSpeed)} m/s`);
-    let program = pickAndPlace(home, pick, place, lift, tcpSpeed);
-    let report = await invoke<ProgramReport>(twin, "validateProgram", { steps: program.map((s) => s.step) });
-    // a station out of reach or in the way: bring the stations closer, as a programmer would
-    for (let retry = 0; !report.valid && retry < RETRIES; retry++) {
-      const k = report.firstFailingStep ?? 0;
-      console.log(`step ${k} (${program[k]?.label}) refused: ${report.steps[k]?.reasons.join("; ")}`);
-      [pick, place] = [closer(pick), closer(place)];
-      console.log(`trying pick ${fmtXyz(xyz(pick))}, place ${fmtXyz(xyz(place))}`);
-      program = pickAndPlace(home, pick, place, lift, tcpSpeed);
-      report = await invoke<ProgramReport>(twin, "validateProgram", { steps: program.map((s) => s.step) });
+    const [pickA, placeA, pickB, placeB] = tableStations(bounds).stations.map((s) => s.p) as [Vec3, Vec3, Vec3, Vec3];
+    // the layouts tried in turn until the twin accepts one
+    const layouts: { pick: Vec3; place: Vec3; down: boolean }[] = [];
+    for (const scale of [false, true]) {
+      for (const down of [true, false]) {
+        for (const [pick, place] of [[pickA, placeA], [pickB, placeB]] as [Vec3, Vec3][]) {
+          layouts.push({ pick: scale ? closer(pick) : pick, place: scale ? closer(place) : place, down });
+        }
+      }
     }
+    let program: { label: string; step: Step }[] = [];
+    let report: ProgramReport | null = null;
+    let chosen = layouts[0]!;
+    for (const layout of layouts) {
+      chosen = layout;
+      const { pick, place, down } = layout;
+      console.log(`pick ${fmtXyz(xyz(pick))}, place ${fmtXyz(xyz(place))}${down ? ", tool pointing down" : ""}, approach ${fmt(lift)} m above, LIN at ${fmt(tcpSpeed)} m/s`);
+      program = pickAndPlace(home, pick, place, lift, tcpSpeed, down);
+      report = await invoke<ProgramReport>(twin, "validateProgram", { steps: program.map((s) => s.step) });
+      if (report.valid) break;
+      const k = report.firstFailingStep ?? 0;
+      console.log(`  step ${k} (${program[k]?.label}) refused: ${report.steps[k]?.reasons.join("; ")}`);
+    }
+    if (!report) throw new Error("no layout to try");
+    const { pick, place } = chosen;
     const rows = report.steps.map((s) => [String(s.step), program[s.step]?.label ?? "", s.planned ?? "", s.ok ? "ok" : s.reasons.join("; "), `${fmt(s.duration, 3)} s`]);
     console.log(table(["step", "what", "path", "verdict", "duration"], rows));
     if (!report.valid) {

@@ -12,6 +12,7 @@ function controlled() {
   const handle: MoveHandle = {
     phase: () => state.phase,
     progress: () => state.progress,
+    step: () => undefined,
     cancel: async () => {
       state.cancels++;
       finish({ status: "stopped" });

@@ -1,10 +1,16 @@
 /** Property read handlers: served from the twin's in-memory state (no backend round trip). */
 import { calibrationProperty } from "./calibrate.js";
+import type { PhysicalState } from "./follow.js";
 import { recordErrors } from "./request-context.js";
 import type { Twin } from "./twin.js";
 
-export function registerProperties(thing: WoT.ExposedThing, twin: Twin): void {
+/** `physical`: the follower's state (serve --follow), null when the twin follows no physical robot. */
+export function registerProperties(thing: WoT.ExposedThing, twin: Twin, physical: () => PhysicalState | null = () => null): void {
   const read = (fn: () => unknown): WoT.PropertyReadHandler => recordErrors(async () => fn() as WoT.InteractionInput);
+  // a twin folder generated before physicalState existed does not describe it: not served
+  if (thing.getThingDescription().properties?.["physicalState"]) {
+    thing.setPropertyReadHandler("physicalState", read(() => physical() ?? { following: false, followed: 0 }));
+  }
   thing.setPropertyReadHandler("getJointPosition", read(() => twin.jointsRecord()));
   thing.setPropertyReadHandler(
     "getCartesianPosition",
@@ -34,6 +40,7 @@ export function registerProperties(thing: WoT.ExposedThing, twin: Twin): void {
     else timer = setTimeout(emitPose, wait);
   });
   twin.on("status", () => change("motionStatus"));
+  twin.on("physical", () => change("physicalState"));
   twin.on("collision", (e) => {
     try {
       thing.emitEvent("collision", e as unknown as WoT.InteractionInput);

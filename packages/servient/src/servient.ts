@@ -19,6 +19,7 @@ import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
 import { registerProperties } from "./properties.js";
 import { Relay } from "./relay.js";
+import { Follower, FOLLOW_RATE } from "./follow.js";
 import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
 import { produceInit, servedTd } from "./thing-td.js";
@@ -44,6 +45,11 @@ export interface ServientOptions {
   realtime?: number;
   /** TD URL of the physical robot's Thing */
   relay?: string;
+  /** TD URL of the physical robot the twin mirrors (`physicalState`; the twin follows it when it moves
+   *  without a twin command) */
+  follow?: string;
+  /** readings of the physical robot per second (`FOLLOW_RATE`) */
+  followRate?: number;
   auth?: AuthConfig;
   /** ws:// URL of an already running backend (default: launch one) */
   backendUrl?: string;
@@ -160,6 +166,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   servient.addClientFactory(new HttpClientFactory());
   let live: LiveServer | null = null;
   const movers: Mover[] = [];
+  const followers: Follower[] = [];
   try {
     const wot = await servient.start();
     port = http.getPort();
@@ -169,6 +176,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     // the port is known only now (port 0): node-wot's forms must use the address actually served
     (http as unknown as { baseUri: string }).baseUri = url;
     const relay = opts.relay ? new Relay(wot as never, opts.relay) : null;
+    if (opts.follow && twins.size !== 1) throw new Error(`--follow mirrors one physical robot into one twin; ${twins.size} twin folders given`);
     if (relay) await relay.connect().catch(() => undefined /* retried at the first command; failures are reported */);
 
     for (const [slug, twin] of twins) {
@@ -179,7 +187,11 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       const thing = await wot.produce(produceInit(twin.folder.td));
       const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
       movers.push(mover);
-      registerProperties(thing, twin);
+      const follower = opts.follow
+        ? new Follower(wot as never, opts.follow, twin, backend, opts.followRate ?? FOLLOW_RATE.default, () => twin.emit("physical"))
+        : null;
+      if (follower) followers.push(follower);
+      registerProperties(thing, twin, () => follower?.view() ?? null);
       const asyncActions = registerActions(thing, { backend, twin, mover, world, onCalibrated: () => (cached = null) });
       await thing.expose();
       const entry: ServedThing = {
@@ -198,7 +210,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       served.set(slug, entry);
     }
     live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth, guard);
+    for (const f of followers) f.start();
   } catch (err) {
+    for (const f of followers) f.stop();
     // start-up failed: the original error is rethrown below, a failing shutdown adds nothing to it
     await servient.shutdown().catch(() => undefined);
     await backend.stop();
@@ -227,6 +241,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         // first, while node-wot's HTTP client still works: a relayed command running on the physical
         // robot is stopped there (the servient that watched it is going away)
         await Promise.all(movers.map((m) => m.shutdown()));
+        for (const f of followers) f.stop();
         await live?.close();
         // stopping: node-wot failing to unregister a Thing changes nothing, the server closes anyway
         const shut = servient.shutdown().catch(() => undefined);

@@ -23,6 +23,8 @@ export interface TwinEvents {
   joints: [msg: LiveJoints];
   status: [status: MotionStatus];
   collision: [event: CollisionEvent];
+  /** a new reading of the physical robot (serve --follow) */
+  physical: [];
 }
 
 export class Twin extends EventEmitter<TwinEvents> {

@@ -4,7 +4,8 @@ import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { TWIN_FILES } from "@robwot/core";
-import { parseInteger, parseRealtime, parseUrl, usageError } from "../args.js";
+import { FOLLOW_RATE } from "@robwot/servient";
+import { parseInteger, parseNumber, parseRealtime, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 
 export type AuthOption = { scheme: "basic"; user: string; password: string } | { scheme: "bearer"; token: string };
@@ -15,6 +16,8 @@ export interface ServeOptions {
   host: string;
   realtime: number;
   relay?: string;
+  follow?: string;
+  followRate?: number;
   auth?: AuthOption;
   backend?: string;
   /** browser origins granted CORS and allowed to send commands (--cors-origin, repeatable) */
@@ -31,6 +34,8 @@ export const SERVE_OPTIONS = {
   host: { type: "string" },
   realtime: { type: "string" },
   relay: { type: "string" },
+  follow: { type: "string" },
+  "follow-rate": { type: "string" },
   auth: { type: "string" },
   backend: { type: "string" },
   "cors-origin": { type: "string", multiple: true },
@@ -108,6 +113,9 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   const host = values.host ?? "127.0.0.1";
   if (host.trim() === "") throw new CliError("--host must not be empty");
   const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
+  const follow = parseUrl("follow", values.follow, ["http", "https"])?.href;
+  if (values["follow-rate"] !== undefined && follow === undefined) throw new CliError("--follow-rate goes with --follow URL");
+  if (follow !== undefined && folders.length !== 1) throw new CliError(`--follow mirrors one physical robot into one twin: give one twin folder, not ${folders.length}`);
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const auth = parseAuth(values.auth);
   return {
@@ -116,6 +124,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     host,
     realtime: parseRealtime(values.realtime),
     ...(relay ? { relay } : {}),
+    ...(follow ? { follow, followRate: parseNumber("follow-rate", values["follow-rate"], FOLLOW_RATE.default, FOLLOW_RATE.minimum, FOLLOW_RATE.maximum) } : {}),
     ...(auth ? { auth } : {}),
     ...(backend ? { backend } : {}),
     corsOrigins: parseCorsOrigins(values["cors-origin"]),

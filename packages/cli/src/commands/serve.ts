@@ -1,6 +1,6 @@
 /** `robwot serve`: wires CLI flags to the servient (`@robwot/servient`) and prints where things are. */
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
-import { startServient, type RunningServient } from "@robwot/servient";
+import { FOLLOW_RATE, startServient, type RunningServient } from "@robwot/servient";
 import { onCleanup } from "../lifecycle.js";
 import { isLoopback, parseServeArgs, type ServeOptions } from "./serve-options.js";
 
@@ -14,6 +14,10 @@ Options:
   --host ADDR                  interface to bind (default 127.0.0.1)
   --realtime F                 motion speed vs wall clock (default 1; 0 = as fast as possible, else ${VALUE_SCHEMAS.RealtimeFactor.minimum}-${VALUE_SCHEMAS.RealtimeFactor.maximum})
   --relay URL                  TD URL of the physical robot's Thing: validated commands are relayed there
+  --follow URL                 TD URL of the physical robot the twin mirrors: its joints read --follow-rate
+                               times a second (default ${FOLLOW_RATE.default}) into the property physicalState; when it moves
+                               without a twin command the twin is set to its state. One twin folder
+  --follow-rate HZ             readings of the physical robot per second (${FOLLOW_RATE.minimum}-${FOLLOW_RATE.maximum})
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one
   --cors-origin ORIGIN         let a web page of this origin (e.g. https://dash.example:3000) call the twin;
@@ -60,6 +64,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
     port: opts.port,
     realtime: opts.realtime,
     ...(opts.relay ? { relay: opts.relay } : {}),
+    ...(opts.follow ? { follow: opts.follow, followRate: opts.followRate } : {}),
     ...(opts.auth ? { auth: opts.auth } : {}),
     ...(opts.backend ? { backendUrl: opts.backend } : {}),
     corsOrigins: opts.corsOrigins,

@@ -15,6 +15,7 @@ import {
   quaternionSchema,
   stopResultSchema,
   UNIT_M,
+  UNIT_S,
   validationReportSchema,
   xyzSchema,
 } from "./schemas.js";
@@ -55,6 +56,27 @@ export function propertyAffordances(joints: JointSpec[]): Record<string, NoForms
         lastResult: { ...moveResultSchema(joints), description: "result of the last move; absent before the first" },
       },
       required: ["state"],
+    },
+    physicalState: {
+      title: "Physical robot state",
+      description:
+        "What the twin last read from the physical robot it follows (serve --follow): its joints, the end-effector pose by the twin's forward kinematics (in the TD's frame), when they were read and how old they are; following: false when the twin follows none. When the physical robot moves without a twin command, the twin is set to its state (followed counts those readings).",
+      type: "object",
+      readOnly: true,
+      observable: true,
+      properties: {
+        following: { type: "boolean" },
+        source: { type: "string", format: "uri", description: "the physical robot's TD URL" },
+        joints: jointsSchema(joints, "the physical robot's joints as last read"),
+        position: xyzSchema("end-effector position at those joints (m)"),
+        orientation: quaternionSchema("end-effector orientation at those joints"),
+        timestamp: { type: "string", format: "date-time", description: "when the joints were read" },
+        age: { type: "number", unit: UNIT_S, minimum: 0, description: "time since then" },
+        followed: { type: "integer", minimum: 0, description: "readings that set the twin to the physical state (it moved without a twin command)" },
+        lastFollowed: { type: "string", format: "date-time" },
+        lastError: { type: "string", description: "why the last reading failed (the physical Thing unreachable, a joint it lacks)" },
+      },
+      required: ["following"],
     },
     calibration: {
       title: "Calibration",

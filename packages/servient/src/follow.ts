@@ -1,0 +1,125 @@
+/**
+ * Follow (`serve --follow <TD URL>`): the twin reads the physical robot's joint state from that Thing
+ * (consumed with node-wot) and shows it as its own observable property `physicalState` (joints, the
+ * end-effector pose by the simulation's forward kinematics in the TD's frame, when it was read, its age).
+ *
+ * The state is read by polling `getJointPosition` at `rate` Hz. A consumed Thing's long-poll observation
+ * only answers when the value changes, so a robot standing still and a connection that has died would look
+ * the same; polling gives every value a time, and `age` says how old the last one is.
+ *
+ * When the physical robot moves without a command of the twin (a pendant jog, another client: the twin is
+ * not busy with a move and the states differ by more than `FOLLOW_TOLERANCE`), the simulated robot is set to
+ * the physical state, so the twin shows where the robot is, and `physicalState.followed` counts it. A move
+ * of the twin (validated, simulated, relayed) is never interrupted by a reading.
+ */
+import type { BackendSupervisor } from "@robwot/sim-client";
+import type { Twin } from "./twin.js";
+
+/** rad or m: a larger difference between the physical and the simulated joints moves the simulated robot */
+export const FOLLOW_TOLERANCE = 1e-4;
+/** readings of the physical robot per second: the default and the range `--follow-rate` accepts */
+export const FOLLOW_RATE = { default: 30, minimum: 1, maximum: 100 } as const;
+
+/** The part of node-wot's WoT API the follower needs. */
+export interface FollowWoT {
+  requestThingDescription(url: string): Promise<unknown>;
+  consume(td: unknown): Promise<{ readProperty(name: string): Promise<{ value(): Promise<unknown> }> }>;
+}
+
+/** `physicalState`: what the twin last read from the physical robot. */
+export interface PhysicalState {
+  following: boolean;
+  source?: string;
+  joints?: Record<string, number>;
+  position?: { x: number; y: number; z: number };
+  orientation?: { x: number; y: number; z: number; w: number };
+  /** when the joints were read (ISO 8601) */
+  timestamp?: string;
+  /** s since then */
+  age?: number;
+  /** readings that moved the simulated robot to the physical one (it moved without a twin command) */
+  followed: number;
+  /** when the last of them was read (ISO 8601) */
+  lastFollowed?: string;
+  lastError?: string;
+}
+
+export class Follower {
+  private state: { joints: Record<string, number>; position: { x: number; y: number; z: number }; orientation: PhysicalState["orientation"]; at: number } | null = null;
+  private followed = 0;
+  private lastFollowed = 0;
+  private lastError: string | undefined;
+  private timer: NodeJS.Timeout | null = null;
+  private stopped = false;
+  private thing: Awaited<ReturnType<FollowWoT["consume"]>> | null = null;
+
+  constructor(
+    private readonly wot: FollowWoT,
+    readonly url: string,
+    private readonly twin: Twin,
+    private readonly backend: BackendSupervisor,
+    private readonly rate: number,
+    private readonly onChange: () => void,
+  ) {}
+
+  start(): void {
+    this.schedule(0);
+  }
+
+  stop(): void {
+    this.stopped = true;
+    if (this.timer) clearTimeout(this.timer);
+  }
+
+  view(): PhysicalState {
+    const base = {
+      following: true,
+      source: this.url,
+      followed: this.followed,
+      ...(this.lastFollowed ? { lastFollowed: new Date(this.lastFollowed).toISOString() } : {}),
+      ...(this.lastError ? { lastError: this.lastError } : {}),
+    };
+    if (!this.state) return base;
+    const { joints, position, orientation, at } = this.state;
+    return { ...base, joints, position, ...(orientation ? { orientation } : {}), timestamp: new Date(at).toISOString(), age: (Date.now() - at) / 1000 };
+  }
+
+  private schedule(ms: number): void {
+    if (this.stopped) return;
+    this.timer = setTimeout(() => void this.read().finally(() => this.schedule(1000 / this.rate)), ms);
+  }
+
+  /** One reading: the joints, their pose, and the simulated robot set to them when it is not moving. */
+  private async read(): Promise<void> {
+    try {
+      if (!this.thing) this.thing = await this.wot.consume(await this.wot.requestThingDescription(this.url));
+      const out = await (await this.thing.readProperty("getJointPosition")).value();
+      const at = Date.now();
+      const twin = this.twin;
+      const q = twin.jointsVector((out ?? {}) as Record<string, unknown>);
+      if (!this.backend.isUp) throw new Error("simulation backend down: the physical pose is not computed");
+      const fk = await this.backend.sim.fk(twin.robotId, q);
+      const pose = twin.realPose([fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0], {
+        x: fk.orientation[0] ?? 0,
+        y: fk.orientation[1] ?? 0,
+        z: fk.orientation[2] ?? 0,
+        w: fk.orientation[3] ?? 1,
+      });
+      this.state = { joints: twin.jointsRecord(q), position: pose.position, orientation: pose.orientation, at };
+      this.lastError = undefined;
+      const apart = q.some((v, i) => Math.abs(v - (twin.q[i] ?? v)) > FOLLOW_TOLERANCE);
+      // checked and sent in one turn of the event loop: a move accepted after this reading is sent after
+      // it on the same ordered connection, so it plans from the physical state
+      if (apart && !twin.busy && twin.q.length === q.length) {
+        const set = this.backend.sim.setJointPositions(twin.robotId, q);
+        this.followed++;
+        this.lastFollowed = at;
+        await set;
+        if (!twin.busy) twin.applyPose(q, fk);
+      }
+    } catch (err) {
+      this.lastError = err instanceof Error ? err.message : String(err);
+    }
+    this.onChange();
+  }
+}
