@@ -14,6 +14,7 @@ const COMMANDS: Record<string, () => Promise<{ run(argv: string[]): Promise<numb
   serve: () => import("./commands/serve.js"),
   demo: () => import("./commands/demo.js"),
   openapi: () => import("./commands/openapi.js"),
+  emulate: () => import("./commands/emulate.js"),
 };
 
 const HELP = `robwot ${VERSION}: turn a robot arm's URDF into a Web of Things digital twin
@@ -23,6 +24,7 @@ Usage:
   robwot serve <twin-folder>... [options]                 serve twins as node-wot Things
   robwot demo                                             generate the bundled demo twin and serve it
   robwot openapi <twin-folder> [--out FILE] [--base URL]  the OpenAPI 3.0 document of a twin's HTTP API
+  robwot emulate <twin-folder> [options]                  a stand-in physical robot for the twin to relay to
   robwot <command> --help                                 options of a command
 
 Example robots:

@@ -7,18 +7,38 @@
  * only answers when the value changes, so a robot standing still and a connection that has died would look
  * the same; polling gives every value a time, and `age` says how old the last one is.
  *
+ * While a move is relayed to the physical robot, each reading is compared with the simulated motion at the
+ * same time since the command was sent (`Twin.relayed`; the simulated states interpolated, the last one
+ * held): `divergence` (largest joint difference, end-effector distance) and its largest value during the
+ * move; passing `divergenceBound` emits the `divergence` event once per relayed command.
+ *
  * When the physical robot moves without a command of the twin (a pendant jog, another client: the twin is
  * not busy with a move and the states differ by more than `FOLLOW_TOLERANCE`), the simulated robot is set to
  * the physical state, so the twin shows where the robot is, and `physicalState.followed` counts it. A move
  * of the twin (validated, simulated, relayed) is never interrupted by a reading.
  */
 import type { BackendSupervisor } from "@robwot/sim-client";
-import type { Twin } from "./twin.js";
+import type { Vec3 } from "@robwot/core";
+import type { TrajectoryState, Twin } from "./twin.js";
 
 /** rad or m: a larger difference between the physical and the simulated joints moves the simulated robot */
 export const FOLLOW_TOLERANCE = 1e-4;
 /** readings of the physical robot per second: the default and the range `--follow-rate` accepts */
 export const FOLLOW_RATE = { default: 30, minimum: 1, maximum: 100 } as const;
+/** rad or m: the default largest joint difference from the relayed motion before the `divergence` event */
+export const DIVERGENCE_BOUND = 0.05;
+
+/** The relayed motion's joints and end-effector position (virtual frame) `t` s after the command. */
+function expectedAt(states: TrajectoryState[], t: number): TrajectoryState | null {
+  if (states.length === 0) return null;
+  const i = states.findIndex((s) => s.time >= t);
+  if (i <= 0) return i === 0 ? states[0]! : states[states.length - 1]!;
+  const a = states[i - 1]!;
+  const b = states[i]!;
+  const f = b.time > a.time ? (t - a.time) / (b.time - a.time) : 1;
+  const mix = (x: number[], y: number[]): number[] => x.map((v, k) => v + f * ((y[k] ?? v) - v));
+  return { time: t, q: mix(a.q, b.q), position: mix(a.position, b.position) as Vec3 };
+}
 
 /** The part of node-wot's WoT API the follower needs. */
 export interface FollowWoT {
@@ -41,6 +61,10 @@ export interface PhysicalState {
   followed: number;
   /** when the last of them was read (ISO 8601) */
   lastFollowed?: string;
+  /** while a move is relayed: how far the physical robot is from the simulated motion at the same time */
+  divergence?: { joint: number; tcp: number };
+  /** the largest divergence during the last relayed command, and the bound of the `divergence` event */
+  maxDivergence?: { joint: number; tcp: number; bound: number };
   lastError?: string;
 }
 
@@ -48,6 +72,8 @@ export class Follower {
   private state: { joints: Record<string, number>; position: { x: number; y: number; z: number }; orientation: PhysicalState["orientation"]; at: number } | null = null;
   private followed = 0;
   private lastFollowed = 0;
+  private divergence: { joint: number; tcp: number } | null = null;
+  private maxDivergence: { joint: number; tcp: number; sentAt: number; reported: boolean } | null = null;
   private lastError: string | undefined;
   private timer: NodeJS.Timeout | null = null;
   private stopped = false;
@@ -60,6 +86,7 @@ export class Follower {
     private readonly backend: BackendSupervisor,
     private readonly rate: number,
     private readonly onChange: () => void,
+    private readonly bound: number = DIVERGENCE_BOUND,
   ) {}
 
   start(): void {
@@ -78,6 +105,8 @@ export class Follower {
       followed: this.followed,
       ...(this.lastFollowed ? { lastFollowed: new Date(this.lastFollowed).toISOString() } : {}),
       ...(this.lastError ? { lastError: this.lastError } : {}),
+      ...(this.divergence ? { divergence: this.divergence } : {}),
+      ...(this.maxDivergence ? { maxDivergence: { joint: this.maxDivergence.joint, tcp: this.maxDivergence.tcp, bound: this.bound } } : {}),
     };
     if (!this.state) return base;
     const { joints, position, orientation, at } = this.state;
@@ -107,6 +136,7 @@ export class Follower {
       });
       this.state = { joints: twin.jointsRecord(q), position: pose.position, orientation: pose.orientation, at };
       this.lastError = undefined;
+      this.compare(q, [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0], at);
       const apart = q.some((v, i) => Math.abs(v - (twin.q[i] ?? v)) > FOLLOW_TOLERANCE);
       // checked and sent in one turn of the event loop: a move accepted after this reading is sent after
       // it on the same ordered connection, so it plans from the physical state
@@ -121,5 +151,28 @@ export class Follower {
       this.lastError = err instanceof Error ? err.message : String(err);
     }
     this.onChange();
+  }
+
+  /** The divergence of a reading taken at `at` from the relayed motion, if one is being relayed. */
+  private compare(q: number[], position: Vec3, at: number): void {
+    const relayed = this.twin.relayed;
+    if (!relayed) {
+      this.divergence = null;
+      return;
+    }
+    const t = (at - relayed.sentAt) / 1000;
+    const expected = expectedAt(relayed.states, t);
+    if (!expected) return;
+    const joint = Math.max(...q.map((v, i) => Math.abs(v - (expected.q[i] ?? v))));
+    const tcp = Math.hypot(...position.map((v, i) => v - (expected.position[i] ?? v)));
+    this.divergence = { joint, tcp };
+    if (this.maxDivergence?.sentAt !== relayed.sentAt) this.maxDivergence = { joint: 0, tcp: 0, sentAt: relayed.sentAt, reported: false };
+    const max = this.maxDivergence;
+    max.joint = Math.max(max.joint, joint);
+    max.tcp = Math.max(max.tcp, tcp);
+    if (joint > this.bound && !max.reported) {
+      max.reported = true;
+      this.twin.emit("divergence", { joint, tcp, time: t, bound: this.bound, joints: this.twin.jointsRecord(q), expected: this.twin.jointsRecord(expected.q) });
+    }
   }
 }

@@ -3,5 +3,7 @@ export { startServient } from "./servient.js";
 export type { RunningServient, ServientOptions, ThingInfo } from "./servient.js";
 export type { AuthConfig } from "./auth.js";
 export { ServientError } from "./errors.js";
-export { FOLLOW_RATE } from "./follow.js";
+export { DIVERGENCE_BOUND, FOLLOW_RATE } from "./follow.js";
+export { startEmulator } from "./emulate.js";
+export type { EmulatorOptions, RunningEmulator } from "./emulate.js";
 export type { LiveJoints } from "./twin.js";

@@ -232,7 +232,11 @@ export class Mover {
     const reports: { step: number; ok: boolean; error?: string }[] = [];
     for (const [k, step] of steps.entries()) {
       if (move.cancelled) return { ok: false, steps: reports, error: `stopped before step ${k}` };
-      const r = await this.relayMove(move, relay, step.action, step.input, durations[k] ?? 0);
+      // the states of step k, from where the previous one ended
+      const recorded = this.twin.trajectory ?? [];
+      const mine = recorded.flatMap((s, i) => (s.step === k ? [i] : []));
+      const states = mine.length === 0 ? [] : recorded.slice(Math.max(0, mine[0]! - 1), mine[mine.length - 1]! + 1);
+      const r = await this.relayMove(move, relay, step.action, step.input, durations[k] ?? 0, states);
       reports.push(r.ok ? { step: k, ok: true } : { step: k, ok: false, error: r.error ?? "failed" });
       if (!r.ok) return { ok: false, steps: reports, error: `step ${k}: ${r.error ?? "failed"}` };
     }
@@ -369,9 +373,12 @@ export class Mover {
    * `RELAY_MOVE_DEADLINE` after the simulated duration; past it the physical robot is stopped. When
    * the twin stopped the physical robot (backend down, deadline) the report says why.
    */
-  private async relayMove(move: PendingMove, relay: Relay, action: string, input: unknown, duration: number): Promise<RelayReport> {
+  private async relayMove(move: PendingMove, relay: Relay, action: string, input: unknown, duration: number, states = this.twin.trajectory ?? []): Promise<RelayReport> {
     const deadlineMs = Math.ceil(duration * 1000 * RELAY_MOVE_DEADLINE.factor + RELAY_MOVE_DEADLINE.marginMs);
     move.relaying = true;
+    // what the physical robot should do from now on: the simulated states, their time from the first
+    const t0 = states[0]?.time ?? 0;
+    this.twin.relayed = { states: states.map((s) => ({ ...s, time: s.time - t0 })), sentAt: Date.now() };
     let r: RelayReport;
     try {
       r = await relay.forward(action, input, deadlineMs);
@@ -381,6 +388,7 @@ export class Mover {
       }
     } finally {
       move.relaying = false;
+      this.twin.relayed = null;
     }
     const stop = move.physicalStop;
     if (stop) {
@@ -455,8 +463,10 @@ export class Mover {
     const before = twin.status.state;
     twin.collisionSeen = false;
     twin.setStatus({ state: "moving", lastError: null });
-    // the states of this motion follow the request on the same ordered connection
+    // the states of this motion follow the request on the same ordered connection; they are recorded (from
+    // the state it starts in) as what a relay of it should make the physical robot do
     twin.motion = null;
+    twin.trajectory = [{ time: 0, q: [...twin.q], position: [...twin.position] }];
     move.sent = true;
     let res: T;
     try {

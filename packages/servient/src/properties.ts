@@ -41,6 +41,15 @@ export function registerProperties(thing: WoT.ExposedThing, twin: Twin, physical
   });
   twin.on("status", () => change("motionStatus"));
   twin.on("physical", () => change("physicalState"));
+  twin.on("divergence", (e) => {
+    // a twin folder generated before the divergence event existed does not describe it
+    if (!thing.getThingDescription().events?.["divergence"]) return;
+    try {
+      thing.emitEvent("divergence", e as unknown as WoT.InteractionInput);
+    } catch {
+      /* a failing long-poll subscriber must not take the notification path down */
+    }
+  });
   twin.on("collision", (e) => {
     try {
       thing.emitEvent("collision", e as unknown as WoT.InteractionInput);

@@ -50,6 +50,8 @@ export interface ServientOptions {
   follow?: string;
   /** readings of the physical robot per second (`FOLLOW_RATE`) */
   followRate?: number;
+  /** rad or m: the joint divergence from a relayed motion that emits the `divergence` event (`DIVERGENCE_BOUND`) */
+  divergenceBound?: number;
   auth?: AuthConfig;
   /** ws:// URL of an already running backend (default: launch one) */
   backendUrl?: string;
@@ -188,9 +190,12 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
       movers.push(mover);
       const follower = opts.follow
-        ? new Follower(wot as never, opts.follow, twin, backend, opts.followRate ?? FOLLOW_RATE.default, () => twin.emit("physical"))
+        ? new Follower(wot as never, opts.follow, twin, backend, opts.followRate ?? FOLLOW_RATE.default, () => twin.emit("physical"), opts.divergenceBound)
         : null;
-      if (follower) followers.push(follower);
+      if (follower) {
+        followers.push(follower);
+        twin.physical = () => follower.view();
+      }
       registerProperties(thing, twin, () => follower?.view() ?? null);
       const asyncActions = registerActions(thing, { backend, twin, mover, world, onCalibrated: () => (cached = null) });
       await thing.expose();
@@ -255,12 +260,15 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
 
 /** What the SSE forms stream: the twin's observable properties (its own change events) and events. */
 function sseSource(twin: Twin, kind: "properties" | "events", name: string): SseSource | null {
-  const on = <E extends "joints" | "status" | "collision">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
+  const on = <E extends "joints" | "status" | "collision" | "divergence" | "physical">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
     const listener = (...args: never[]): void => send(value(...args));
     twin.on(event, listener as never);
     return () => void twin.off(event, listener as never);
   };
-  if (kind === "events") return name === "collision" ? { subscribe: on("collision", (e: unknown) => e) } : null;
+  if (kind === "events") {
+    if (name === "collision") return { subscribe: on("collision", (e: unknown) => e) };
+    return name === "divergence" ? { subscribe: on("divergence", (e: unknown) => e) } : null;
+  }
   const pose = (): unknown => {
     const p = twin.realPose();
     return { ...p.position, orientation: p.orientation };

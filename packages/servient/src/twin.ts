@@ -25,6 +25,30 @@ export interface TwinEvents {
   collision: [event: CollisionEvent];
   /** a new reading of the physical robot (serve --follow) */
   physical: [];
+  /** the physical robot's divergence from the relayed motion passed the bound (serve --follow) */
+  divergence: [event: DivergenceEvent];
+}
+
+/** A state of the twin's last simulated motion: simulated time (s), joints, end-effector position (virtual frame). */
+export interface TrajectoryState {
+  time: number;
+  q: number[];
+  position: Vec3;
+  /** a program's step */
+  step?: number;
+}
+
+/** `divergence` event: how far the physical robot was from the relayed motion when it passed the bound. */
+export interface DivergenceEvent {
+  /** rad or m: the largest joint difference */
+  joint: number;
+  /** m: distance of the end effectors */
+  tcp: number;
+  /** s since the relayed command was sent */
+  time: number;
+  bound: number;
+  joints: Record<string, number>;
+  expected: Record<string, number>;
 }
 
 export class Twin extends EventEmitter<TwinEvents> {
@@ -47,6 +71,12 @@ export class Twin extends EventEmitter<TwinEvents> {
   /** the motion streamed by the backend since the last move was sent (`robot.state`: simulated time and
    *  planned duration); null until its first state */
   motion: { time: number; planned: number; step?: number } | null = null;
+  /** the states of the motion the backend streams, while a move records them (`Mover`: for the relay) */
+  trajectory: TrajectoryState[] | null = null;
+  /** while a move is relayed: its simulated states and when the command was sent (ms, Date.now()) */
+  relayed: { states: TrajectoryState[]; sentAt: number } | null = null;
+  /** `serve --follow`: the physical robot's state as `physicalState` reports it */
+  physical: (() => object) | null = null;
 
   constructor(
     slug: string,
@@ -122,6 +152,8 @@ export class Twin extends EventEmitter<TwinEvents> {
    */
   onState(params: RobotStateNotification): void {
     this.time = params.time;
+    const position: Vec3 = [params.position[0] ?? 0, params.position[1] ?? 0, params.position[2] ?? 0];
+    this.trajectory?.push({ time: params.time, q: [...params.positions], position, ...(params.step !== undefined ? { step: params.step } : {}) });
     this.motion = { time: params.time, planned: params.planned, ...(params.step !== undefined ? { step: params.step } : {}) };
     this.applyPose(params.positions, params);
   }

@@ -4,7 +4,7 @@ import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { TWIN_FILES } from "@robwot/core";
-import { FOLLOW_RATE } from "@robwot/servient";
+import { DIVERGENCE_BOUND, FOLLOW_RATE } from "@robwot/servient";
 import { parseInteger, parseNumber, parseRealtime, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 
@@ -18,6 +18,7 @@ export interface ServeOptions {
   relay?: string;
   follow?: string;
   followRate?: number;
+  divergenceBound?: number;
   auth?: AuthOption;
   backend?: string;
   /** browser origins granted CORS and allowed to send commands (--cors-origin, repeatable) */
@@ -36,6 +37,7 @@ export const SERVE_OPTIONS = {
   relay: { type: "string" },
   follow: { type: "string" },
   "follow-rate": { type: "string" },
+  "divergence-bound": { type: "string" },
   auth: { type: "string" },
   backend: { type: "string" },
   "cors-origin": { type: "string", multiple: true },
@@ -114,7 +116,9 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   if (host.trim() === "") throw new CliError("--host must not be empty");
   const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
   const follow = parseUrl("follow", values.follow, ["http", "https"])?.href;
-  if (values["follow-rate"] !== undefined && follow === undefined) throw new CliError("--follow-rate goes with --follow URL");
+  for (const o of ["follow-rate", "divergence-bound"] as const) {
+    if (values[o] !== undefined && follow === undefined) throw new CliError(`--${o} goes with --follow URL`);
+  }
   if (follow !== undefined && folders.length !== 1) throw new CliError(`--follow mirrors one physical robot into one twin: give one twin folder, not ${folders.length}`);
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const auth = parseAuth(values.auth);
@@ -124,7 +128,13 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     host,
     realtime: parseRealtime(values.realtime),
     ...(relay ? { relay } : {}),
-    ...(follow ? { follow, followRate: parseNumber("follow-rate", values["follow-rate"], FOLLOW_RATE.default, FOLLOW_RATE.minimum, FOLLOW_RATE.maximum) } : {}),
+    ...(follow
+      ? {
+          follow,
+          followRate: parseNumber("follow-rate", values["follow-rate"], FOLLOW_RATE.default, FOLLOW_RATE.minimum, FOLLOW_RATE.maximum),
+          divergenceBound: parseNumber("divergence-bound", values["divergence-bound"], DIVERGENCE_BOUND, 0, 10),
+        }
+      : {}),
     ...(auth ? { auth } : {}),
     ...(backend ? { backend } : {}),
     corsOrigins: parseCorsOrigins(values["cors-origin"]),

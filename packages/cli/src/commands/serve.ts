@@ -1,6 +1,6 @@
 /** `robwot serve`: wires CLI flags to the servient (`@robwot/servient`) and prints where things are. */
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
-import { FOLLOW_RATE, startServient, type RunningServient } from "@robwot/servient";
+import { DIVERGENCE_BOUND, FOLLOW_RATE, startServient, type RunningServient } from "@robwot/servient";
 import { onCleanup } from "../lifecycle.js";
 import { isLoopback, parseServeArgs, type ServeOptions } from "./serve-options.js";
 
@@ -18,6 +18,8 @@ Options:
                                times a second (default ${FOLLOW_RATE.default}) into the property physicalState; when it moves
                                without a twin command the twin is set to its state. One twin folder
   --follow-rate HZ             readings of the physical robot per second (${FOLLOW_RATE.minimum}-${FOLLOW_RATE.maximum})
+  --divergence-bound RAD       while a command is relayed, a physical joint this far from the simulated motion at
+                               the same time emits the divergence event (default ${DIVERGENCE_BOUND})
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one
   --cors-origin ORIGIN         let a web page of this origin (e.g. https://dash.example:3000) call the twin;
@@ -64,7 +66,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
     port: opts.port,
     realtime: opts.realtime,
     ...(opts.relay ? { relay: opts.relay } : {}),
-    ...(opts.follow ? { follow: opts.follow, followRate: opts.followRate } : {}),
+    ...(opts.follow ? { follow: opts.follow, followRate: opts.followRate, divergenceBound: opts.divergenceBound } : {}),
     ...(opts.auth ? { auth: opts.auth } : {}),
     ...(opts.backend ? { backendUrl: opts.backend } : {}),
     corsOrigins: opts.corsOrigins,

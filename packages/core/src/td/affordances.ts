@@ -75,6 +75,16 @@ export function propertyAffordances(joints: JointSpec[]): Record<string, NoForms
         followed: { type: "integer", minimum: 0, description: "readings that set the twin to the physical state (it moved without a twin command)" },
         lastFollowed: { type: "string", format: "date-time" },
         lastError: { type: "string", description: "why the last reading failed (the physical Thing unreachable, a joint it lacks)" },
+        divergence: {
+          type: "object",
+          description: "while a command is relayed: the physical robot's difference from the simulated motion at the same time since the command",
+          properties: { joint: { type: "number", minimum: 0, description: "rad or m: the largest joint difference" }, tcp: { type: "number", unit: UNIT_M, minimum: 0 } },
+        },
+        maxDivergence: {
+          type: "object",
+          description: "the largest divergence during the last relayed command, and the bound of the divergence event",
+          properties: { joint: { type: "number", minimum: 0 }, tcp: { type: "number", unit: UNIT_M, minimum: 0 }, bound: { type: "number", minimum: 0 } },
+        },
       },
       required: ["following"],
     },
@@ -201,6 +211,23 @@ export function eventAffordances(joints: JointSpec[]): Record<string, NoForms<Ev
           joints: jointsSchema(joints, "Joint positions when the motion stopped"),
         },
         required: ["pair", "position", "depth", "joints"],
+      },
+    },
+    divergence: {
+      title: "Divergence",
+      description:
+        "While a command is relayed to the physical robot the twin follows (serve --follow), the physical robot's largest joint difference from the simulated motion at the same time passed the bound (serve --divergence-bound); once per relayed command.",
+      data: {
+        type: "object",
+        properties: {
+          joint: { type: "number", minimum: 0, description: "rad or m: the largest joint difference" },
+          tcp: { type: "number", unit: UNIT_M, minimum: 0, description: "distance of the end effectors" },
+          time: { type: "number", unit: UNIT_S, minimum: 0, description: "since the relayed command was sent" },
+          bound: { type: "number", minimum: 0 },
+          joints: jointsSchema(joints, "the physical robot's joints"),
+          expected: jointsSchema(joints, "the simulated motion's joints at the same time"),
+        },
+        required: ["joint", "tcp", "time", "bound", "joints", "expected"],
       },
     },
   };
