@@ -12,6 +12,13 @@
  * held): `divergence` (largest joint difference, end-effector distance) and its largest value during the
  * move; passing `divergenceBound` emits the `divergence` event once per relayed command.
  *
+ * The safety monitor: every reading of a moving robot is checked against the scene (the twin's world: its
+ * obstacles and other robots, and the robot itself) with the twin's clearance, over the straight joint-space
+ * path to where its current velocity (from the last two readings) takes it within `horizon` s. A contact on
+ * that path emits `collisionImminent` with the bodies, and with `monitor: "stop"` stops the physical robot
+ * through its Thing's `stop`; once per approach (until a reading is clear again). A robot already within the
+ * clearance may move where it does not touch (out of it, as a jog after a stop does).
+ *
  * When the physical robot moves without a command of the twin (a pendant jog, another client: the twin is
  * not busy with a move and the states differ by more than `FOLLOW_TOLERANCE`), the simulated robot is set to
  * the physical state, so the twin shows where the robot is, and `physicalState.followed` counts it. A move
@@ -19,7 +26,7 @@
  */
 import type { BackendSupervisor } from "@robwot/sim-client";
 import type { Vec3 } from "@robwot/core";
-import type { TrajectoryState, Twin } from "./twin.js";
+import type { CollisionImminentEvent, TrajectoryState, Twin } from "./twin.js";
 
 /** rad or m: a larger difference between the physical and the simulated joints moves the simulated robot */
 export const FOLLOW_TOLERANCE = 1e-4;
@@ -27,6 +34,13 @@ export const FOLLOW_TOLERANCE = 1e-4;
 export const FOLLOW_RATE = { default: 30, minimum: 1, maximum: 100 } as const;
 /** rad or m: the default largest joint difference from the relayed motion before the `divergence` event */
 export const DIVERGENCE_BOUND = 0.05;
+/** s: how far ahead the safety monitor looks at the current joint velocity, by default */
+export const MONITOR_HORIZON = 0.2;
+/** rad/s (or m/s): a robot whose joints all move slower is standing still for the monitor */
+const STILL = 1e-3;
+
+/** The safety monitor's reaction to a predicted contact: stop the physical robot, only warn, or nothing. */
+export type MonitorMode = "stop" | "warn" | "off";
 
 /** The relayed motion's joints and end-effector position (virtual frame) `t` s after the command. */
 function expectedAt(states: TrajectoryState[], t: number): TrajectoryState | null {
@@ -43,7 +57,18 @@ function expectedAt(states: TrajectoryState[], t: number): TrajectoryState | nul
 /** The part of node-wot's WoT API the follower needs. */
 export interface FollowWoT {
   requestThingDescription(url: string): Promise<unknown>;
-  consume(td: unknown): Promise<{ readProperty(name: string): Promise<{ value(): Promise<unknown> }> }>;
+  consume(td: unknown): Promise<{
+    readProperty(name: string): Promise<{ value(): Promise<unknown> }>;
+    invokeAction(name: string, input?: unknown): Promise<unknown>;
+  }>;
+}
+
+export interface FollowOptions {
+  /** readings per second */
+  rate: number;
+  divergenceBound?: number;
+  monitor?: MonitorMode;
+  horizon?: number;
 }
 
 /** `physicalState`: what the twin last read from the physical robot. */
@@ -59,6 +84,9 @@ export interface PhysicalState {
   age?: number;
   /** readings that moved the simulated robot to the physical one (it moved without a twin command) */
   followed: number;
+  /** the safety monitor's reaction, and how many approaches it reported */
+  monitor?: MonitorMode;
+  collisionImminent?: number;
   /** when the last of them was read (ISO 8601) */
   lastFollowed?: string;
   /** while a move is relayed: how far the physical robot is from the simulated motion at the same time */
@@ -84,10 +112,19 @@ export class Follower {
     readonly url: string,
     private readonly twin: Twin,
     private readonly backend: BackendSupervisor,
-    private readonly rate: number,
+    private readonly options: FollowOptions,
     private readonly onChange: () => void,
-    private readonly bound: number = DIVERGENCE_BOUND,
-  ) {}
+  ) {
+    this.rate = options.rate;
+    this.bound = options.divergenceBound ?? DIVERGENCE_BOUND;
+  }
+
+  private readonly rate: number;
+  private readonly bound: number;
+  /** the previous reading (joints, ms) for the joint velocity, and whether the current approach was reported */
+  private previous: { q: number[]; at: number } | null = null;
+  private warned = false;
+  private imminent = 0;
 
   start(): void {
     this.schedule(0);
@@ -107,6 +144,8 @@ export class Follower {
       ...(this.lastError ? { lastError: this.lastError } : {}),
       ...(this.divergence ? { divergence: this.divergence } : {}),
       ...(this.maxDivergence ? { maxDivergence: { joint: this.maxDivergence.joint, tcp: this.maxDivergence.tcp, bound: this.bound } } : {}),
+      monitor: this.options.monitor ?? "stop",
+      collisionImminent: this.imminent,
     };
     if (!this.state) return base;
     const { joints, position, orientation, at } = this.state;
@@ -137,6 +176,7 @@ export class Follower {
       this.state = { joints: twin.jointsRecord(q), position: pose.position, orientation: pose.orientation, at };
       this.lastError = undefined;
       this.compare(q, [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0], at);
+      await this.monitor(q, at);
       const apart = q.some((v, i) => Math.abs(v - (twin.q[i] ?? v)) > FOLLOW_TOLERANCE);
       // checked and sent in one turn of the event loop: a move accepted after this reading is sent after
       // it on the same ordered connection, so it plans from the physical state
@@ -175,4 +215,54 @@ export class Follower {
       this.twin.emit("divergence", { joint, tcp, time: t, bound: this.bound, joints: this.twin.jointsRecord(q), expected: this.twin.jointsRecord(expected.q) });
     }
   }
+
+  /** The safety monitor on a reading `q` taken at `at` (see the module comment). */
+  private async monitor(q: number[], at: number): Promise<void> {
+    const mode = this.options.monitor ?? "stop";
+    const previous = this.previous;
+    this.previous = { q, at };
+    if (mode === "off" || !previous || at <= previous.at) return;
+    const dt = (at - previous.at) / 1000;
+    const velocity = q.map((v, i) => (v - (previous.q[i] ?? v)) / dt);
+    if (velocity.every((v) => Math.abs(v) < STILL)) return;
+    const horizon = this.options.horizon ?? MONITOR_HORIZON;
+    const lower = this.twin.model?.joints ?? [];
+    const ahead = q.map((v, i) => {
+      const j = lower.find((x) => x.name === this.twin.joints[i]);
+      return Math.min(j?.upper ?? Infinity, Math.max(j?.lower ?? -Infinity, v + (velocity[i] ?? 0) * horizon));
+    });
+    const report = await this.backend.sim.checkPath({ robot: this.twin.robotId, from: q, target: ahead });
+    if (report.collisionFree || !report.firstCollision) {
+      this.warned = false;
+      return;
+    }
+    const hit = report.firstCollision;
+    const span = Math.max(...ahead.map((v, i) => Math.abs(v - (q[i] ?? v))));
+    const travelled = Math.max(...hit.positions.map((v, i) => Math.abs(v - (q[i] ?? v))));
+    // already within the clearance (a robot the monitor stopped there): moving out of it is allowed, only
+    // a motion into contact is stopped
+    if (travelled === 0 && (await this.backend.sim.checkCollision(this.twin.robotId, ahead)).collisionFree) {
+      this.warned = false;
+      return;
+    }
+    if (this.warned) return;
+    this.warned = true;
+    this.imminent++;
+    const event: CollisionImminentEvent = {
+      contacts: hit.contacts.map((c) => ({ a: c.a, b: c.b })),
+      in: span > 0 ? (travelled / span) * horizon : 0,
+      joints: this.twin.jointsRecord(q),
+      stopped: false,
+    };
+    if (mode === "stop" && this.thing) {
+      try {
+        await this.thing.invokeAction("stop");
+        event.stopped = true;
+      } catch (err) {
+        event.error = `the stop to the physical robot failed: ${err instanceof Error ? err.message : String(err)}`;
+      }
+    }
+    this.twin.emit("collisionImminent", event);
+  }
 }
+

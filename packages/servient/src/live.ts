@@ -54,10 +54,10 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
   const send = (ws: WebSocket, key: string | null, msg: unknown): void => {
     clients.get(ws)?.queue.push(key, Buffer.from(JSON.stringify(msg)));
   };
-  const broadcast = (slug: string, kind: "joints" | "status" | "scene" | "collision" | "divergence" | "physical", msg: unknown): void => {
+  const broadcast = (slug: string, kind: "joints" | "status" | "scene" | "collision" | "divergence" | "collisionImminent" | "physical", msg: unknown): void => {
     let data: Buffer | null = null;
     // events are kept (up to a bound); of a state, the latest replaces a queued one
-    const key = kind === "collision" || kind === "divergence" ? null : `${kind}:${slug}`;
+    const key = kind === "collision" || kind === "divergence" || kind === "collisionImminent" ? null : `${kind}:${slug}`;
     for (const { things, queue } of clients.values()) {
       if (!things.has(slug)) continue;
       data ??= Buffer.from(JSON.stringify(msg));
@@ -92,6 +92,7 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
     const onStatus = (s: object): void => broadcast(slug, "status", { thing: slug, type: "status", ...s });
     const onCollision = (e: object): void => broadcast(slug, "collision", { thing: slug, type: "collision", ...e });
     const onDivergence = (e: object): void => broadcast(slug, "divergence", { thing: slug, type: "divergence", ...e });
+    const onImminent = (e: object): void => broadcast(slug, "collisionImminent", { thing: slug, type: "collisionImminent", ...e });
     const onPhysical = (): void => {
       const state = twin.physical?.();
       if (state) broadcast(slug, "physical", { thing: slug, type: "physical", ...state });
@@ -100,12 +101,14 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
     twin.on("status", onStatus);
     twin.on("collision", onCollision);
     twin.on("divergence", onDivergence);
+    twin.on("collisionImminent", onImminent);
     twin.on("physical", onPhysical);
     detach.push(() => {
       twin.off("joints", onJoints);
       twin.off("status", onStatus);
       twin.off("collision", onCollision);
       twin.off("divergence", onDivergence);
+      twin.off("collisionImminent", onImminent);
       twin.off("physical", onPhysical);
     });
   }

@@ -41,15 +41,17 @@ export function registerProperties(thing: WoT.ExposedThing, twin: Twin, physical
   });
   twin.on("status", () => change("motionStatus"));
   twin.on("physical", () => change("physicalState"));
-  twin.on("divergence", (e) => {
-    // a twin folder generated before the divergence event existed does not describe it
-    if (!thing.getThingDescription().events?.["divergence"]) return;
+  // a twin folder generated before these events existed does not describe them
+  const emit = (name: string, e: unknown): void => {
+    if (!thing.getThingDescription().events?.[name]) return;
     try {
-      thing.emitEvent("divergence", e as unknown as WoT.InteractionInput);
+      thing.emitEvent(name, e as WoT.InteractionInput);
     } catch {
       /* a failing long-poll subscriber must not take the notification path down */
     }
-  });
+  };
+  twin.on("divergence", (e) => emit("divergence", e));
+  twin.on("collisionImminent", (e) => emit("collisionImminent", e));
   twin.on("collision", (e) => {
     try {
       thing.emitEvent("collision", e as unknown as WoT.InteractionInput);

@@ -19,7 +19,7 @@ import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
 import { registerProperties } from "./properties.js";
 import { Relay } from "./relay.js";
-import { Follower, FOLLOW_RATE } from "./follow.js";
+import { Follower, FOLLOW_RATE, type MonitorMode } from "./follow.js";
 import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
 import { produceInit, servedTd } from "./thing-td.js";
@@ -52,6 +52,10 @@ export interface ServientOptions {
   followRate?: number;
   /** rad or m: the joint divergence from a relayed motion that emits the `divergence` event (`DIVERGENCE_BOUND`) */
   divergenceBound?: number;
+  /** the safety monitor on the followed robot: stop it (default), only warn, or off */
+  monitor?: MonitorMode;
+  /** s the monitor looks ahead at the current joint velocity (`MONITOR_HORIZON`) */
+  horizon?: number;
   auth?: AuthConfig;
   /** ws:// URL of an already running backend (default: launch one) */
   backendUrl?: string;
@@ -190,7 +194,19 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
       movers.push(mover);
       const follower = opts.follow
-        ? new Follower(wot as never, opts.follow, twin, backend, opts.followRate ?? FOLLOW_RATE.default, () => twin.emit("physical"), opts.divergenceBound)
+        ? new Follower(
+            wot as never,
+            opts.follow,
+            twin,
+            backend,
+            {
+              rate: opts.followRate ?? FOLLOW_RATE.default,
+              ...(opts.divergenceBound !== undefined ? { divergenceBound: opts.divergenceBound } : {}),
+              ...(opts.monitor !== undefined ? { monitor: opts.monitor } : {}),
+              ...(opts.horizon !== undefined ? { horizon: opts.horizon } : {}),
+            },
+            () => twin.emit("physical"),
+          )
         : null;
       if (follower) {
         followers.push(follower);
@@ -260,13 +276,14 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
 
 /** What the SSE forms stream: the twin's observable properties (its own change events) and events. */
 function sseSource(twin: Twin, kind: "properties" | "events", name: string): SseSource | null {
-  const on = <E extends "joints" | "status" | "collision" | "divergence" | "physical">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
+  const on = <E extends "joints" | "status" | "collision" | "divergence" | "collisionImminent">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
     const listener = (...args: never[]): void => send(value(...args));
     twin.on(event, listener as never);
     return () => void twin.off(event, listener as never);
   };
   if (kind === "events") {
     if (name === "collision") return { subscribe: on("collision", (e: unknown) => e) };
+    if (name === "collisionImminent") return { subscribe: on("collisionImminent", (e: unknown) => e) };
     return name === "divergence" ? { subscribe: on("divergence", (e: unknown) => e) } : null;
   }
   const pose = (): unknown => {

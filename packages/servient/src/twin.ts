@@ -27,6 +27,18 @@ export interface TwinEvents {
   physical: [];
   /** the physical robot's divergence from the relayed motion passed the bound (serve --follow) */
   divergence: [event: DivergenceEvent];
+  /** the safety monitor predicts a contact of the physical robot (serve --follow) */
+  collisionImminent: [event: CollisionImminentEvent];
+}
+
+/** `collisionImminent` event: what the physical robot would touch within the horizon, and whether it was stopped. */
+export interface CollisionImminentEvent {
+  contacts: { a: unknown; b: unknown }[];
+  /** s until the contact at the current joint velocity (0: already within the clearance) */
+  in: number;
+  joints: Record<string, number>;
+  stopped: boolean;
+  error?: string;
 }
 
 /** A state of the twin's last simulated motion: simulated time (s), joints, end-effector position (virtual frame). */

@@ -4,7 +4,7 @@ import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { TWIN_FILES } from "@robwot/core";
-import { DIVERGENCE_BOUND, FOLLOW_RATE } from "@robwot/servient";
+import { DIVERGENCE_BOUND, FOLLOW_RATE, MONITOR_HORIZON, type MonitorMode } from "@robwot/servient";
 import { parseInteger, parseNumber, parseRealtime, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 
@@ -19,6 +19,8 @@ export interface ServeOptions {
   follow?: string;
   followRate?: number;
   divergenceBound?: number;
+  monitor?: MonitorMode;
+  horizon?: number;
   auth?: AuthOption;
   backend?: string;
   /** browser origins granted CORS and allowed to send commands (--cors-origin, repeatable) */
@@ -38,6 +40,8 @@ export const SERVE_OPTIONS = {
   follow: { type: "string" },
   "follow-rate": { type: "string" },
   "divergence-bound": { type: "string" },
+  monitor: { type: "string" },
+  horizon: { type: "string" },
   auth: { type: "string" },
   backend: { type: "string" },
   "cors-origin": { type: "string", multiple: true },
@@ -98,6 +102,15 @@ export function checkTwinFolder(folder: string): string {
   return dir;
 }
 
+const MONITOR_MODES: readonly MonitorMode[] = ["stop", "warn", "off"];
+
+function parseMonitor(value: string | undefined): MonitorMode {
+  if (value === undefined) return "stop";
+  const mode = MONITOR_MODES.find((m) => m === value);
+  if (!mode) throw new CliError(`--monitor must be one of ${MONITOR_MODES.join(", ")}, got "${value}"`);
+  return mode;
+}
+
 export function parseServeArgs(argv: string[]): ServeOptions {
   let parsed;
   try {
@@ -116,7 +129,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   if (host.trim() === "") throw new CliError("--host must not be empty");
   const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
   const follow = parseUrl("follow", values.follow, ["http", "https"])?.href;
-  for (const o of ["follow-rate", "divergence-bound"] as const) {
+  for (const o of ["follow-rate", "divergence-bound", "monitor", "horizon"] as const) {
     if (values[o] !== undefined && follow === undefined) throw new CliError(`--${o} goes with --follow URL`);
   }
   if (follow !== undefined && folders.length !== 1) throw new CliError(`--follow mirrors one physical robot into one twin: give one twin folder, not ${folders.length}`);
@@ -133,6 +146,8 @@ export function parseServeArgs(argv: string[]): ServeOptions {
           follow,
           followRate: parseNumber("follow-rate", values["follow-rate"], FOLLOW_RATE.default, FOLLOW_RATE.minimum, FOLLOW_RATE.maximum),
           divergenceBound: parseNumber("divergence-bound", values["divergence-bound"], DIVERGENCE_BOUND, 0, 10),
+          monitor: parseMonitor(values.monitor),
+          horizon: parseNumber("horizon", values.horizon, MONITOR_HORIZON, 0.01, 5),
         }
       : {}),
     ...(auth ? { auth } : {}),

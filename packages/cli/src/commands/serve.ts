@@ -1,6 +1,6 @@
 /** `robwot serve`: wires CLI flags to the servient (`@robwot/servient`) and prints where things are. */
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
-import { DIVERGENCE_BOUND, FOLLOW_RATE, startServient, type RunningServient } from "@robwot/servient";
+import { DIVERGENCE_BOUND, FOLLOW_RATE, MONITOR_HORIZON, startServient, type RunningServient } from "@robwot/servient";
 import { onCleanup } from "../lifecycle.js";
 import { isLoopback, parseServeArgs, type ServeOptions } from "./serve-options.js";
 
@@ -20,6 +20,10 @@ Options:
   --follow-rate HZ             readings of the physical robot per second (${FOLLOW_RATE.minimum}-${FOLLOW_RATE.maximum})
   --divergence-bound RAD       while a command is relayed, a physical joint this far from the simulated motion at
                                the same time emits the divergence event (default ${DIVERGENCE_BOUND})
+  --monitor stop|warn|off      the safety monitor on the followed robot: a contact predicted within --horizon
+                               at its current joint velocity emits collisionImminent and (stop, the default)
+                               stops it through its Thing
+  --horizon S                  how far ahead the monitor looks (default ${MONITOR_HORIZON} s)
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one
   --cors-origin ORIGIN         let a web page of this origin (e.g. https://dash.example:3000) call the twin;
@@ -66,7 +70,9 @@ export async function serve(opts: ServeOptions): Promise<number> {
     port: opts.port,
     realtime: opts.realtime,
     ...(opts.relay ? { relay: opts.relay } : {}),
-    ...(opts.follow ? { follow: opts.follow, followRate: opts.followRate, divergenceBound: opts.divergenceBound } : {}),
+    ...(opts.follow
+      ? { follow: opts.follow, followRate: opts.followRate, divergenceBound: opts.divergenceBound, monitor: opts.monitor, horizon: opts.horizon }
+      : {}),
     ...(opts.auth ? { auth: opts.auth } : {}),
     ...(opts.backend ? { backendUrl: opts.backend } : {}),
     corsOrigins: opts.corsOrigins,

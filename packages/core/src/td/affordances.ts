@@ -230,5 +230,21 @@ export function eventAffordances(joints: JointSpec[]): Record<string, NoForms<Ev
         required: ["joint", "tcp", "time", "bound", "joints", "expected"],
       },
     },
+    collisionImminent: {
+      title: "Collision imminent",
+      description:
+        "The safety monitor (serve --follow): the physical robot, at its current joint velocity, would touch the named bodies within the horizon (or is within the clearance already); with --monitor stop (the default) the physical robot was stopped through its Thing. Once per approach.",
+      data: {
+        type: "object",
+        properties: {
+          contacts: { type: "array", items: { type: "object", properties: { a: contact.properties?.a ?? {}, b: contact.properties?.b ?? {} }, required: ["a", "b"] } },
+          in: { type: "number", unit: UNIT_S, minimum: 0, description: "until the contact at the current joint velocity" },
+          joints: jointsSchema(joints, "the physical robot's joints"),
+          stopped: { type: "boolean", description: "the physical robot was stopped" },
+          error: { type: "string", description: "why the stop failed" },
+        },
+        required: ["contacts", "in", "joints", "stopped"],
+      },
+    },
   };
 }
