@@ -31,7 +31,7 @@ import type { CollisionImminentEvent, TrajectoryState, Twin } from "./twin.js";
 /** rad or m: a larger difference between the physical and the simulated joints moves the simulated robot */
 export const FOLLOW_TOLERANCE = 1e-4;
 /** readings of the physical robot per second: the default and the range `--follow-rate` accepts */
-export const FOLLOW_RATE = { default: 30, minimum: 1, maximum: 100 } as const;
+export const FOLLOW_RATE = { default: 50, minimum: 1, maximum: 100 } as const;
 /** rad or m: the default largest joint difference from the relayed motion before the `divergence` event */
 export const DIVERGENCE_BOUND = 0.05;
 /** s: how far ahead the safety monitor looks at the current joint velocity, by default */
