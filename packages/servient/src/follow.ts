@@ -26,6 +26,7 @@
  */
 import type { BackendSupervisor } from "@robwot/sim-client";
 import type { Vec3 } from "@robwot/core";
+import { jointsFromPhysical, type RelayMap } from "./relay-map.js";
 import type { CollisionImminentEvent, TrajectoryState, Twin } from "./twin.js";
 
 /** rad or m: a larger difference between the physical and the simulated joints moves the simulated robot */
@@ -66,6 +67,8 @@ export interface FollowWoT {
 export interface FollowOptions {
   /** readings per second */
   rate: number;
+  /** the physical Thing's own names (`--relay-map`) */
+  map?: RelayMap | null;
   divergenceBound?: number;
   monitor?: MonitorMode;
   horizon?: number;
@@ -161,10 +164,11 @@ export class Follower {
   private async read(): Promise<void> {
     try {
       if (!this.thing) this.thing = await this.wot.consume(await this.wot.requestThingDescription(this.url));
-      const out = await (await this.thing.readProperty("getJointPosition")).value();
+      const map = this.options.map ?? null;
+      const out = await (await this.thing.readProperty(map ? map.jointState : "getJointPosition")).value();
       const at = Date.now();
       const twin = this.twin;
-      const q = twin.jointsVector((out ?? {}) as Record<string, unknown>);
+      const q = twin.jointsVector(map ? jointsFromPhysical(map, out) : ((out ?? {}) as Record<string, unknown>));
       if (!this.backend.isUp) throw new Error("simulation backend down: the physical pose is not computed");
       const fk = await this.backend.sim.fk(twin.robotId, q);
       const pose = twin.realPose([fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0], {
@@ -256,7 +260,7 @@ export class Follower {
     };
     if (mode === "stop" && this.thing) {
       try {
-        await this.thing.invokeAction("stop");
+        await this.thing.invokeAction(this.options.map ? this.options.map.stop : "stop");
         event.stopped = true;
       } catch (err) {
         event.error = `the stop to the physical robot failed: ${err instanceof Error ? err.message : String(err)}`;

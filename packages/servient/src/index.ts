@@ -6,5 +6,7 @@ export { ServientError } from "./errors.js";
 export { DIVERGENCE_BOUND, FOLLOW_RATE, MONITOR_HORIZON } from "./follow.js";
 export type { MonitorMode } from "./follow.js";
 export { startEmulator } from "./emulate.js";
+export { loadRelayMap, RelayMapError } from "./relay-map.js";
+export type { RelayMap } from "./relay-map.js";
 export type { EmulatorOptions, RunningEmulator } from "./emulate.js";
 export type { LiveJoints } from "./twin.js";

@@ -11,6 +11,7 @@
  * (closed with the client at shutdown); attempts are bounded by the deadline.
  */
 import type { RelayReport } from "@robwot/core";
+import { toPhysical, type RelayMap } from "./relay-map.js";
 
 /** A stop to the physical robot is retried until it answers or this deadline passes (ms). */
 export const STOP_DEADLINE_MS = 5_000;
@@ -61,6 +62,8 @@ export class Relay {
   constructor(
     private readonly wot: WoTLike,
     readonly url: string,
+    /** the physical Thing's own names (`--relay-map`); null: the twin's */
+    private readonly map: RelayMap | null = null,
   ) {}
 
   /** Fetches and consumes the physical robot's TD (also retried lazily by `forward`). */
@@ -93,8 +96,10 @@ export class Relay {
     const base = { target: this.url, action };
     try {
       if (!this.thing) await this.connect();
-      const out = await (this.thing as ConsumedLike).invokeAction(action, input);
-      const result = out ? await out.value() : undefined;
+      const sent = this.map ? toPhysical(this.map, action, input) : { action, input };
+      const out = await (this.thing as ConsumedLike).invokeAction(sent.action, sent.input);
+      // a vendor's Thing (mapped) may describe no output: that it answered is the answer
+      const result = this.map ? ((out ? await out.value().catch(() => null) : null) ?? {}) : out ? await out.value() : undefined;
       const status = (result as { status?: unknown } | undefined)?.status;
       if (typeof status === "string" && status !== "reached" && action !== "stop") {
         return { ...base, ok: false, result, error: `physical robot ended its motion with status "${status}"` };

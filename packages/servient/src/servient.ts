@@ -20,6 +20,7 @@ import { Mover } from "./moves.js";
 import { registerProperties } from "./properties.js";
 import { Relay } from "./relay.js";
 import { Follower, FOLLOW_RATE, type MonitorMode } from "./follow.js";
+import { loadRelayMap, type RelayMap } from "./relay-map.js";
 import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
 import { produceInit, servedTd } from "./thing-td.js";
@@ -52,6 +53,9 @@ export interface ServientOptions {
   followRate?: number;
   /** rad or m: the joint divergence from a relayed motion that emits the `divergence` event (`DIVERGENCE_BOUND`) */
   divergenceBound?: number;
+  /** a JSON file naming the physical Thing's own affordances, joint order and units (`--relay-map`,
+   *  `relay-map.ts`), checked against the twin's joints at start */
+  relayMap?: string;
   /** the safety monitor on the followed robot: stop it (default), only warn, or off */
   monitor?: MonitorMode;
   /** s the monitor looks ahead at the current joint velocity (`MONITOR_HORIZON`) */
@@ -181,7 +185,10 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     liveUrl = `ws://${urlHost}:${http.getPort()}/live`;
     // the port is known only now (port 0): node-wot's forms must use the address actually served
     (http as unknown as { baseUri: string }).baseUri = url;
-    const relay = opts.relay ? new Relay(wot as never, opts.relay) : null;
+    const first = [...twins.values()][0];
+    const jointNames = Object.keys((first?.folder.td.properties?.["getJointPosition"]?.properties ?? {}) as object);
+    const relayMap: RelayMap | null = opts.relayMap ? loadRelayMap(opts.relayMap, jointNames) : null;
+    const relay = opts.relay ? new Relay(wot as never, opts.relay, relayMap) : null;
     if (opts.follow && twins.size !== 1) throw new Error(`--follow mirrors one physical robot into one twin; ${twins.size} twin folders given`);
     if (relay) await relay.connect().catch(() => undefined /* retried at the first command; failures are reported */);
 
@@ -201,6 +208,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
             backend,
             {
               rate: opts.followRate ?? FOLLOW_RATE.default,
+              map: relayMap,
               ...(opts.divergenceBound !== undefined ? { divergenceBound: opts.divergenceBound } : {}),
               ...(opts.monitor !== undefined ? { monitor: opts.monitor } : {}),
               ...(opts.horizon !== undefined ? { horizon: opts.horizon } : {}),

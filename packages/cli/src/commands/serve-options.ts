@@ -21,6 +21,7 @@ export interface ServeOptions {
   divergenceBound?: number;
   monitor?: MonitorMode;
   horizon?: number;
+  relayMap?: string;
   auth?: AuthOption;
   backend?: string;
   /** browser origins granted CORS and allowed to send commands (--cors-origin, repeatable) */
@@ -42,6 +43,7 @@ export const SERVE_OPTIONS = {
   "divergence-bound": { type: "string" },
   monitor: { type: "string" },
   horizon: { type: "string" },
+  "relay-map": { type: "string" },
   auth: { type: "string" },
   backend: { type: "string" },
   "cors-origin": { type: "string", multiple: true },
@@ -129,6 +131,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   if (host.trim() === "") throw new CliError("--host must not be empty");
   const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
   const follow = parseUrl("follow", values.follow, ["http", "https"])?.href;
+  if (values["relay-map"] !== undefined && relay === undefined && follow === undefined) throw new CliError("--relay-map goes with --relay URL or --follow URL");
   for (const o of ["follow-rate", "divergence-bound", "monitor", "horizon"] as const) {
     if (values[o] !== undefined && follow === undefined) throw new CliError(`--${o} goes with --follow URL`);
   }
@@ -141,6 +144,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     host,
     realtime: parseRealtime(values.realtime),
     ...(relay ? { relay } : {}),
+    ...(values["relay-map"] !== undefined ? { relayMap: resolve(values["relay-map"]) } : {}),
     ...(follow
       ? {
           follow,

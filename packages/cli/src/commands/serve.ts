@@ -24,6 +24,8 @@ Options:
                                at its current joint velocity emits collisionImminent and (stop, the default)
                                stops it through its Thing
   --horizon S                  how far ahead the monitor looks (default ${MONITOR_HORIZON} s)
+  --relay-map FILE             JSON naming the physical Thing's own joint state property, joint order and units,
+                               and its joint move, Cartesian move and stop actions (README "--relay-map")
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one
   --cors-origin ORIGIN         let a web page of this origin (e.g. https://dash.example:3000) call the twin;
@@ -70,6 +72,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
     port: opts.port,
     realtime: opts.realtime,
     ...(opts.relay ? { relay: opts.relay } : {}),
+    ...(opts.relayMap ? { relayMap: opts.relayMap } : {}),
     ...(opts.follow
       ? { follow: opts.follow, followRate: opts.followRate, divergenceBound: opts.divergenceBound, monitor: opts.monitor, horizon: opts.horizon }
       : {}),
