@@ -16,6 +16,7 @@
  * file and the field.
  */
 import { readFileSync } from "node:fs";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 
 export interface RelayMap {
   joints: string[];
@@ -45,7 +46,9 @@ export function loadRelayMap(file: string, twinJoints: readonly string[]): Relay
   const d = doc as Record<string, unknown>;
   const known = ["joints", "unit", "jointState", "moveJoints", "moveCartesian", "stop"];
   for (const k of Object.keys(d)) if (!known.includes(k)) fail(k, `unknown field (known: ${known.join(", ")})`);
-  const name = (field: string, v: unknown): string => (typeof v === "string" && v.length > 0 && v.length <= 200 ? v : fail(field, "expected a name (1-200 characters)"));
+  const { minLength, maxLength } = VALUE_SCHEMAS.Name;
+  const name = (field: string, v: unknown): string =>
+    typeof v === "string" && v.length >= minLength && v.length <= maxLength ? v : fail(field, `expected a name (${minLength}-${maxLength} characters)`);
   const joints = Array.isArray(d["joints"]) ? d["joints"].map((j, i) => name(`joints[${i}]`, j)) : fail("joints", "expected an array of the twin's joint names");
   const missing = twinJoints.filter((j) => !joints.includes(j));
   const unknown = joints.filter((j) => !twinJoints.includes(j));
