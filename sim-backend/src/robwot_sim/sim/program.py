@@ -99,6 +99,8 @@ def _blend_group(world: World, robot: str, group: list[_Step],
     paths = [_points(st) for st in group]
     tcp = [np.array([world.fk(robot, q).position for q in pts]) for pts in paths]
     points: list[FloatArray] = list(paths[0])
+    # the TCP position of each point, kept beside it: the arc length needs them all
+    where: list[FloatArray] = list(tcp[0])
     owners: list[int] = [0] * len(points)
     for k in range(1, len(group)):
         radius = group[k - 1].blend
@@ -110,6 +112,7 @@ def _blend_group(world: World, robot: str, group: list[_Step],
             keep -= 1
         drop = (n_in - 1) - keep  # points removed from the end of the incoming step (the junction included)
         del points[len(points) - drop - 1:]
+        del where[len(where) - drop - 1:]
         del owners[len(owners) - drop - 1:]
         qa = points[-1]
         # outgoing: the first point outside the radius (at most half the step)
@@ -121,11 +124,12 @@ def _blend_group(world: World, robot: str, group: list[_Step],
         bezier = [(1 - t) ** 2 * qa + 2 * t * (1 - t) * qj + t**2 * qb
                   for t in np.linspace(0.0, 1.0, BLEND_POINTS)[1:-1]]
         points.extend(bezier)
+        where.extend(np.asarray(world.fk(robot, q).position) for q in bezier)
         owners.extend([k - 1] * (len(bezier) // 2) + [k] * (len(bezier) - len(bezier) // 2))
         points.extend(paths[k][first:])
+        where.extend(tcp[k][first:])
         owners.extend([k] * (n_out - first))
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(
-        np.array([world.fk(robot, q).position for q in points]), axis=0), axis=1))])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.array(where), axis=0), axis=1))])
     lin_speeds = [st.tcp_speed for st in group if st.tcp_speed is not None]
     states = world.plan_motion(robot, points[-1], points[0], min(st.speed for st in group), dt, points[1:-1],
                                acceleration=min(st.acceleration for st in group), arc=arc.tolist(),
