@@ -187,6 +187,28 @@ export async function waitMoved(thingBase: string, joint: string, from: number, 
   throw new Error(`${joint} did not move ${by} rad within ${timeoutMs} ms`);
 }
 
+/** Polls getJointPosition until every joint of `joints` is within `tolerance` (a following twin reaches
+ * what it mirrors: it follows a difference above FOLLOW_TOLERANCE, 1e-4 rad). */
+export async function waitJoints(thingBase: string, joints: Record<string, number>, tolerance = 2e-4, timeoutMs = 10_000): Promise<void> {
+  const end = Date.now() + timeoutMs;
+  for (;;) {
+    const q = (await http(`${thingBase}/properties/getJointPosition`)).body as Record<string, number>;
+    if (Object.entries(joints).every(([j, v]) => Math.abs((q[j] ?? NaN) - v) <= tolerance)) return;
+    if (Date.now() > end) throw new Error(`the twin did not reach ${JSON.stringify(joints)}: ${JSON.stringify(q)}`);
+    await sleep(20);
+  }
+}
+
+/** Adds a box of edge `size` to the twin where its tool will be once joint 1 has turned `angle` rad from now
+ * (the KUKA's joint 1 turns about the world's z axis through the origin). */
+export async function boxOnJoint1Arc(thingBase: string, angle: number, size: number): Promise<void> {
+  const p = (await http(`${thingBase}/properties/getCartesianPosition`)).body;
+  const [c, s] = [Math.cos(angle), Math.sin(angle)];
+  const box = { name: "fixture", shape: { type: "box", size: [size, size, size] }, position: [c * p.x - s * p.y, s * p.x + c * p.y, p.z] };
+  const r = await invoke(thingBase, "addObstacle", box);
+  if (r.status !== 200) throw new Error(`addObstacle answered ${r.status}: ${JSON.stringify(r.body)}`);
+}
+
 /**
  * A stand-in physical robot: a KUKA twin whose URDF joint velocities are 20x lower than the model its
  * relaying twin simulates, served in real time, so a relayed motion runs for many seconds there.

@@ -7,7 +7,7 @@
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startEmulator, startServient, type RunningEmulator, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, live, sleep, type LiveClient } from "./serve-helpers.js";
+import { boxOnJoint1Arc, generateTwin, http, invoke, kukaPose, live, sleep, waitJoints, type LiveClient } from "./serve-helpers.js";
 
 const J1 = "lbr_iiwa_joint_1";
 const START = kukaPose([0, 1.0, 0, -1.0, 0, 0.5, 0]);
@@ -26,10 +26,7 @@ beforeAll(async () => {
   expect((await invoke(robot.tdUrl, "moveToJointPosition", { joints: START })).body.status).toBe("reached");
   // the twin follows the robot to START; the box is where the tool will be after 0.6 rad of joint 1
   await atStart();
-  const p = (await http(`${base}/properties/getCartesianPosition`)).body;
-  const [c, s] = [Math.cos(0.6), Math.sin(0.6)];
-  const box = { name: "fixture", shape: { type: "box", size: [0.12, 0.12, 0.12] }, position: [c * p.x - s * p.y, s * p.x + c * p.y, p.z] };
-  expect((await invoke(base, "addObstacle", box)).status).toBe(200);
+  await boxOnJoint1Arc(base, 0.6, 0.12);
 }, 120_000);
 
 afterAll(async () => {
@@ -39,16 +36,7 @@ afterAll(async () => {
 });
 
 /** Until the twin (following the robot) stands at START. */
-async function atStart(): Promise<void> {
-  const end = Date.now() + 10_000;
-  for (;;) {
-    const q = (await http(`${base}/properties/getJointPosition`)).body as Record<string, number>;
-    // the twin follows a difference above FOLLOW_TOLERANCE (1e-4 rad)
-    if (Object.entries(START).every(([j, v]) => Math.abs((q[j] ?? NaN) - v) <= 2e-4)) return;
-    if (Date.now() > end) throw new Error(`the twin did not follow the robot to START: ${JSON.stringify(q)}`);
-    await sleep(20);
-  }
-}
+const atStart = (): Promise<void> => waitJoints(base, START);
 
 const imminent = (): any[] => stream.messages.filter((m) => m.type === "collisionImminent");
 

@@ -94,6 +94,9 @@ export interface RelayReport {
   action: string;
   result?: unknown;
   error?: string;
+  /** a move sent as several commands (a detour's legs, then the target): the last one sent (from 0), of `legs` */
+  leg?: number;
+  legs?: number;
 }
 
 /** A move's output with, under `--relay`, the physical robot's part. */

@@ -27,6 +27,12 @@ import type { WorkspaceChecks } from "./workspace-checks.js";
 
 export type { RelayedMoveResult };
 
+/** One command to the physical robot: a move action of the twin's TD and its input. */
+interface RelayLeg {
+  action: string;
+  input: unknown;
+}
+
 export interface JointInput {
   joints: Record<string, unknown>;
   speed?: number;
@@ -236,7 +242,7 @@ export class Mover {
       const recorded = this.twin.trajectory ?? [];
       const mine = recorded.flatMap((s, i) => (s.step === k ? [i] : []));
       const states = mine.length === 0 ? [] : recorded.slice(Math.max(0, mine[0]! - 1), mine[mine.length - 1]! + 1);
-      const r = await this.relayMove(move, relay, step.action, step.input, durations[k] ?? 0, states);
+      const r = await this.relayMove(move, relay, [step], durations[k] ?? 0, states);
       reports.push(r.ok ? { step: k, ok: true } : { step: k, ok: false, error: r.error ?? "failed" });
       if (!r.ok) return { ok: false, steps: reports, error: `step ${k}: ${r.error ?? "failed"}` };
     }
@@ -281,10 +287,10 @@ export class Mover {
     const q = this.twin.jointsVector(input.joints);
     const speed = speedOf(input);
     return this.guarded(watch, async (move) => {
-      const result = await this.execute(move, { target: q }, speed, null);
+      const { result, detour } = await this.execute(move, { target: q }, speed, null);
       // a stop that came after the simulated motion ended still keeps the command from the physical robot
       if (result.status === "reached" && this.relay && !move.cancelled) {
-        result.relay = await this.relayMove(move, this.relay, "moveToJointPosition", { joints: this.twin.jointsRecord(q), speed }, result.duration);
+        result.relay = await this.relayMove(move, this.relay, [...this.detourLegs(detour, speed), this.jointLeg(q, speed)], result.duration);
       }
       return result;
     });
@@ -295,7 +301,7 @@ export class Mover {
     const speed = speedOf(input);
     const target = poseTarget(this.twin, t.real, t.orientation, input.motion, viaOf(input));
     return this.guarded(watch, async (move) => {
-      const result = await this.execute(move, target, speed, staticChecks(this.ws, target.position));
+      const { result, detour } = await this.execute(move, target, speed, staticChecks(this.ws, target.position));
       const p = result.position;
       result.positionError = Math.hypot(p.x - t.real[0], p.y - t.real[1], p.z - t.real[2]);
       // a stop that came after the simulated motion ended still keeps the command from the physical robot
@@ -304,7 +310,10 @@ export class Mover {
         if (t.orientation) cmd.orientation = t.orientation;
         if (target.motion) cmd.motion = target.motion;
         if (input.via) cmd.via = input.via;
-        result.relay = await this.relayMove(move, this.relay, "moveToCartesianPosition", cmd, result.duration);
+        // after a detour the last leg is the joint target the twin reached: the physical robot's own IK
+        // could pick another solution for the pose, on a path nobody checked
+        const last = detour.length > 0 ? this.jointLeg(this.twin.q, speed) : { action: "moveToCartesianPosition", input: cmd };
+        result.relay = await this.relayMove(move, this.relay, [...this.detourLegs(detour, speed), last], result.duration);
       }
       return result;
     });
@@ -368,23 +377,41 @@ export class Mover {
     return move.physicalStop ?? { reason, report: Promise.resolve({ ok: false, attempts: 0, stopped: false, error: "no relay" }) };
   }
 
+  /** A joint move of the physical robot to `q`. */
+  private jointLeg(q: readonly number[], speed: number): RelayLeg {
+    return { action: "moveToJointPosition", input: { joints: this.twin.jointsRecord([...q]), speed } };
+  }
+
+  /** A detour's waypoints as joint moves: each leg is a straight joint-space segment the twin checked, as
+   * a physical robot's joint move runs it; sent as one command, the target alone would go straight. */
+  private detourLegs(detour: readonly number[][], speed: number): RelayLeg[] {
+    return detour.map((q) => this.jointLeg(q, speed));
+  }
+
   /**
-   * Relays a move the simulation has completed and waits for the physical robot's answer, at most
-   * `RELAY_MOVE_DEADLINE` after the simulated duration; past it the physical robot is stopped. When
-   * the twin stopped the physical robot (backend down, deadline) the report says why.
+   * Relays a move the simulation has completed, as one or more commands (a detour's legs) sent one after
+   * the other, each once the previous one is answered, and waits for the physical robot's answers, at most
+   * `RELAY_MOVE_DEADLINE` after the simulated duration in all; past it the physical robot is stopped. The
+   * first leg that fails ends the relay. When the twin stopped the physical robot (backend down,
+   * deadline) the report says why.
    */
-  private async relayMove(move: PendingMove, relay: Relay, action: string, input: unknown, duration: number, states = this.twin.trajectory ?? []): Promise<RelayReport> {
-    const deadlineMs = Math.ceil(duration * 1000 * RELAY_MOVE_DEADLINE.factor + RELAY_MOVE_DEADLINE.marginMs);
+  private async relayMove(move: PendingMove, relay: Relay, legs: RelayLeg[], duration: number, states = this.twin.trajectory ?? []): Promise<RelayReport> {
+    const deadline = Date.now() + Math.ceil(duration * 1000 * RELAY_MOVE_DEADLINE.factor + RELAY_MOVE_DEADLINE.marginMs);
     move.relaying = true;
     // what the physical robot should do from now on: the simulated states, their time from the first
     const t0 = states[0]?.time ?? 0;
     this.twin.relayed = { states: states.map((s) => ({ ...s, time: s.time - t0 })), sentAt: Date.now() };
-    let r: RelayReport;
+    let r: RelayReport = { ok: false, target: relay.url, action: legs[0]?.action ?? "", error: "nothing relayed" };
     try {
-      r = await relay.forward(action, input, deadlineMs);
-      if (!answered(r) && !move.cancelled) {
-        // no answer in time, or the connection failed mid-command: the command may be running there
-        this.stopPhysical(move, `relayed ${action} without an answer (${r.error})`);
+      for (const [k, leg] of legs.entries()) {
+        if (move.cancelled) break;
+        r = await relay.forward(leg.action, leg.input, Math.max(1, deadline - Date.now()));
+        if (legs.length > 1) r = { ...r, leg: k, legs: legs.length };
+        if (!answered(r) && !move.cancelled) {
+          // no answer in time, or the connection failed mid-command: the command may be running there
+          this.stopPhysical(move, `relayed ${leg.action} without an answer (${r.error})`);
+        }
+        if (!r.ok) break;
       }
     } finally {
       move.relaying = false;
@@ -495,8 +522,8 @@ export class Mover {
     target: { target: number[] } | PoseTarget,
     speed: number,
     statics: ReturnType<typeof staticChecks> | null,
-  ): Promise<RelayedMoveResult> {
-    if (move.cancelled) return this.cancelled();
+  ): Promise<{ result: RelayedMoveResult; detour: number[][] }> {
+    if (move.cancelled) return { result: this.cancelled(), detour: [] };
     const twin = this.twin;
     // the twin's joints and pose are already those of the motion's end: the backend sends its final
     // robot.state (applied by Twin.onState) before it answers the move
@@ -528,7 +555,7 @@ export class Mover {
           ? { code: "E_STOPPED", message: "motion stopped before reaching the target" }
           : null;
     twin.setStatus({ state, lastError, lastResult: result });
-    return result;
+    return { result, detour: result.path === "detour" ? (res.plan?.via ?? []) : [] };
   }
 }
 

@@ -47,8 +47,9 @@ export interface ServientOptions {
   /** TD URL of the physical robot's Thing */
   relay?: string;
   /** TD URL of the physical robot the twin mirrors (`physicalState`; the twin follows it when it moves
-   *  without a twin command) */
-  follow?: string;
+   *  without a twin command). Default: the `relay` Thing when one twin is served (a twin that commands a
+   *  robot also watches it); `false`: no mirroring */
+  follow?: string | false;
   /** readings of the physical robot per second (`FOLLOW_RATE`) */
   followRate?: number;
   /** rad or m: the joint divergence from a relayed motion that emits the `divergence` event (`DIVERGENCE_BOUND`) */
@@ -190,6 +191,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     const relayMap: RelayMap | null = opts.relayMap ? loadRelayMap(opts.relayMap, jointNames) : null;
     const relay = opts.relay ? new Relay(wot as never, opts.relay, relayMap) : null;
     if (opts.follow && twins.size !== 1) throw new Error(`--follow mirrors one physical robot into one twin; ${twins.size} twin folders given`);
+    const followUrl = opts.follow === false ? null : (opts.follow ?? (twins.size === 1 ? (opts.relay ?? null) : null));
     if (relay) await relay.connect().catch(() => undefined /* retried at the first command; failures are reported */);
 
     for (const [slug, twin] of twins) {
@@ -200,10 +202,10 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       const thing = await wot.produce(produceInit(twin.folder.td));
       const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
       movers.push(mover);
-      const follower = opts.follow
+      const follower = followUrl
         ? new Follower(
             wot as never,
-            opts.follow,
+            followUrl,
             twin,
             backend,
             {

@@ -44,6 +44,20 @@ describe("serve options", () => {
     expect(() => parseServeArgs([])).toThrow(/missing twin folder/);
   });
 
+  it("--relay with one twin folder mirrors that Thing too, unless --no-follow", () => {
+    const twin = join(dir, "twin");
+    const url = "http://127.0.0.1:8081/robot-emulated";
+    expect(parseServeArgs([twin, "--relay", url])).toMatchObject({ relay: url, follow: url, followRate: 50, monitor: "stop" });
+    expect(parseServeArgs([twin, "--relay", url, "--follow-rate", "20"]).followRate).toBe(20);
+    const off = parseServeArgs([twin, "--relay", url, "--no-follow"]);
+    expect(off).toMatchObject({ relay: url, follow: false });
+    expect(off.followRate).toBeUndefined();
+    expect(() => parseServeArgs([twin, "--relay", url, "--no-follow", "--monitor", "warn"])).toThrow(/--monitor goes with --follow URL/);
+    expect(() => parseServeArgs([twin, "--follow", url, "--no-follow"])).toThrow(/contradict/);
+    const other = "http://127.0.0.1:8082/robot";
+    expect(parseServeArgs([twin, "--relay", url, "--follow", other])).toMatchObject({ relay: url, follow: other });
+  });
+
   it("refuses a folder given twice (two robots on one base: every pose would collide)", () => {
     expect(() => parseServeArgs([join(dir, "twin"), join(dir, ".", "twin") + "/"])).toThrow(/twin folder given twice: .*twin \(copy the folder/);
   });

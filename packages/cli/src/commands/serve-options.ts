@@ -16,7 +16,8 @@ export interface ServeOptions {
   host: string;
   realtime: number;
   relay?: string;
-  follow?: string;
+  /** the mirrored Thing (--follow, or the --relay Thing with one twin folder); false: --no-follow */
+  follow?: string | false;
   followRate?: number;
   divergenceBound?: number;
   monitor?: MonitorMode;
@@ -39,6 +40,7 @@ export const SERVE_OPTIONS = {
   realtime: { type: "string" },
   relay: { type: "string" },
   follow: { type: "string" },
+  "no-follow": { type: "boolean" },
   "follow-rate": { type: "string" },
   "divergence-bound": { type: "string" },
   monitor: { type: "string" },
@@ -130,12 +132,17 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   const host = values.host ?? "127.0.0.1";
   if (host.trim() === "") throw new CliError("--host must not be empty");
   const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
-  const follow = parseUrl("follow", values.follow, ["http", "https"])?.href;
+  const explicit = parseUrl("follow", values.follow, ["http", "https"])?.href;
+  if (values["no-follow"] && explicit !== undefined) throw new CliError("--follow URL and --no-follow contradict each other");
+  if (explicit !== undefined && folders.length !== 1) throw new CliError(`--follow mirrors one physical robot into one twin: give one twin folder, not ${folders.length}`);
+  // a twin that relays to one robot also mirrors it, unless told not to (a Thing without a readable joint state)
+  const follow = values["no-follow"] ? undefined : (explicit ?? (folders.length === 1 ? relay : undefined));
   if (values["relay-map"] !== undefined && relay === undefined && follow === undefined) throw new CliError("--relay-map goes with --relay URL or --follow URL");
   for (const o of ["follow-rate", "divergence-bound", "monitor", "horizon"] as const) {
-    if (values[o] !== undefined && follow === undefined) throw new CliError(`--${o} goes with --follow URL`);
+    if (values[o] !== undefined && follow === undefined) {
+      throw new CliError(`--${o} goes with --follow URL (or --relay URL with one twin folder and without --no-follow)`);
+    }
   }
-  if (follow !== undefined && folders.length !== 1) throw new CliError(`--follow mirrors one physical robot into one twin: give one twin folder, not ${folders.length}`);
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const auth = parseAuth(values.auth);
   return {
@@ -145,6 +152,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     realtime: parseRealtime(values.realtime),
     ...(relay ? { relay } : {}),
     ...(values["relay-map"] !== undefined ? { relayMap: resolve(values["relay-map"]) } : {}),
+    ...(values["no-follow"] ? { follow: false as const } : {}),
     ...(follow
       ? {
           follow,

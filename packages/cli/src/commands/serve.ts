@@ -13,10 +13,12 @@ Options:
   --port N, -p N               HTTP port (default 8080; 0 = any free port)
   --host ADDR                  interface to bind (default 127.0.0.1)
   --realtime F                 motion speed vs wall clock (default 1; 0 = as fast as possible, else ${VALUE_SCHEMAS.RealtimeFactor.minimum}-${VALUE_SCHEMAS.RealtimeFactor.maximum})
-  --relay URL                  TD URL of the physical robot's Thing: validated commands are relayed there
+  --relay URL                  TD URL of the physical robot's Thing: validated commands are relayed there;
+                               with one twin folder the twin also mirrors it (as --follow URL)
   --follow URL                 TD URL of the physical robot the twin mirrors: its joints read --follow-rate
                                times a second (default ${FOLLOW_RATE.default}) into the property physicalState; when it moves
                                without a twin command the twin is set to its state. One twin folder
+  --no-follow                  relay without mirroring (a physical Thing whose joint state cannot be read)
   --follow-rate HZ             readings of the physical robot per second (${FOLLOW_RATE.minimum}-${FOLLOW_RATE.maximum})
   --divergence-bound RAD       while a command is relayed, a physical joint this far from the simulated motion at
                                the same time emits the divergence event (default ${DIVERGENCE_BOUND})
@@ -73,6 +75,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
     realtime: opts.realtime,
     ...(opts.relay ? { relay: opts.relay } : {}),
     ...(opts.relayMap ? { relayMap: opts.relayMap } : {}),
+    ...(opts.follow === false ? { follow: false as const } : {}),
     ...(opts.follow
       ? { follow: opts.follow, followRate: opts.followRate, divergenceBound: opts.divergenceBound, monitor: opts.monitor, horizon: opts.horizon }
       : {}),
