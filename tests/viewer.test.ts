@@ -12,7 +12,7 @@ import { join, resolve } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { invoke, openSession, read, type Session, type Twin } from "@robwot/consumers";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
-import { startServient } from "@robwot/servient";
+import { startEmulator, startServient } from "@robwot/servient";
 import { CHROMIUM, openBrowser, pixelStats, type BrowserSession } from "./helpers/browser.js";
 
 const ROOT = resolve(import.meta.dirname, "..");
@@ -46,6 +46,7 @@ type Debug = {
   lastStatus: { state?: string } | null;
   collisions: number;
   highlighted: string[];
+  physical: { joints: Joints; age: number | null; drawn: boolean; ghost: boolean } | null;
 };
 
 function run(cmd: string, args: string[]): Promise<string> {
@@ -466,6 +467,51 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
       expect((await debug()).errors).toEqual([]);
       expect(problems).toEqual([]);
       await page.screenshot({ path: join(ARTIFACTS, "viewer-two-robots.png") });
+    });
+  });
+
+  describe("a twin following its physical robot", () => {
+    let robot: Awaited<ReturnType<typeof startEmulator>>;
+    let following: Awaited<ReturnType<typeof startServient>>;
+    beforeAll(async () => {
+      const copy = join(dir, "kuka-followed");
+      cpSync(join(dir, "kuka"), copy, { recursive: true });
+      robot = await startEmulator({ folder: join(dir, "kuka"), port: 0 });
+      following = await startServient({ twins: [copy], port: 0, host: "127.0.0.1", relay: robot.tdUrl, monitor: "off" });
+    });
+    afterAll(async () => {
+      await following?.stop();
+      await robot?.stop();
+    });
+
+    it("draws the real robot with its joints and the simulated one as a ghost", async () => {
+      const { page, problems } = browser;
+      problems.length = 0;
+      const mine = following.things[0]!.slug;
+      await page.goto(`${following.url}/viewer/?thing=${encodeURIComponent(mine)}`);
+      await until("the physical robot to be drawn", async () => {
+        const d = await debug();
+        return d.phase === "ready" && d.physical?.drawn && d.physical.ghost;
+      });
+      // a pendant jog of the real robot: the page's real robot follows it
+      const jog = await fetch(`${robot.tdUrl}/actions/jog`, {
+        method: "POST",
+        headers: { "content-type": "application/json" },
+        body: JSON.stringify({ velocities: { [J1]: 0.5 }, duration: 0.6 }),
+      });
+      expect(jog.status).toBe(200);
+      const real = (await (await fetch(`${robot.tdUrl}/properties/getJointPosition`)).json()) as Joints;
+      await until("the page to show the real robot's joints", async () => maxDiff(real, (await debug()).physical?.joints ?? {}) < 1e-6);
+      expect((await debug()).errors).toEqual([]);
+      expect(problems).toEqual([]);
+      await page.screenshot({ path: join(ARTIFACTS, "viewer-physical-robot.png") });
+    });
+
+    it("a twin that follows nothing draws no second robot", async () => {
+      await browser.page.goto(`${base}viewer/?thing=${encodeURIComponent(slug)}`);
+      await until("the page", async () => (await debug()).phase === "ready");
+      await new Promise((r) => setTimeout(r, 300));
+      expect((await debug()).physical).toBeNull();
     });
   });
 

@@ -29,6 +29,9 @@ export interface DebugState {
   obstacles: string[];
   /** Robots of the other twins sharing this world: base position (URDF world, m) and joints shown. */
   otherRobots: Record<string, { base: number[]; joints: Record<string, number> }>;
+  /** The physical robot the twin follows (`/live` `physical`): its joints, the reading's age (s), whether it
+   *  is drawn and the simulated robot shown as a ghost; null when the twin follows nothing. */
+  physical: { joints: Record<string, number>; age: number | null; drawn: boolean; ghost: boolean } | null;
   /** The program drawn by the program panel (TCP points per passed step, the refused step), null before one. */
   program: ProgramDrawn | null;
   errors: string[];
@@ -52,6 +55,7 @@ export const debugState: DebugState = {
   reachability: null,
   obstacles: [],
   otherRobots: {},
+  physical: null,
   program: null,
   errors: [],
   twins: [],

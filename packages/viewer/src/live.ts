@@ -1,6 +1,6 @@
 /**
  * Live state over the servient's `/live` WebSocket (Contract 4): send `{"subscribe": slug}`, receive
- * `{thing, type: "joints" | "status" | "collision" | "scene", ...}`. The newest joint message wins; the render loop
+ * `{thing, type: "joints" | "status" | "collision" | "scene" | "physical", ...}`. The newest joint message wins; the render loop
  * picks it up at display rate. Reconnects with back-off and reports the connection state.
  */
 import { ViewerError } from "./errors.js";
@@ -12,6 +12,8 @@ export interface LiveHandlers {
   collision(msg: Record<string, unknown>): void;
   /** `{type: "scene", obstacles}`: the shared world's obstacles after a run-time edit (and on subscribe). */
   scene(msg: Record<string, unknown>): void;
+  /** `{type: "physical", ...physicalState}`: a reading of the physical robot the twin follows. */
+  physical?(msg: Record<string, unknown>): void;
   connection(open: boolean): void;
   error(err: ViewerError): void;
 }
@@ -86,6 +88,9 @@ export class LiveClient {
         return;
       case "scene":
         this.handlers.scene(msg);
+        return;
+      case "physical":
+        this.handlers.physical?.(msg);
         return;
       case "error":
         this.handlers.error(new ViewerError("E_LIVE", String(msg["message"] ?? "live error"), { msg }));

@@ -16,6 +16,7 @@ import { JointPanel } from "./joint-panel.js";
 import { LiveClient } from "./live.js";
 import { MotionPanel } from "./motion-panel.js";
 import { showOtherRobots } from "./other-robots.js";
+import { PhysicalRobotLayer } from "./physical-robot.js";
 import { applyJoints, highlightLink, loadRobot } from "./robot.js";
 import { ObstacleLayer } from "./scene-layer.js";
 import { Stage, TargetMarker } from "./stage.js";
@@ -129,6 +130,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     motion.addLayer("robot", true, (v) => stage.setVisible(r, v));
     return r;
   });
+  const physical = new PhysicalRobotLayer(stage, motion, td.links.model, poseTask, () => robot);
   const obstacles = new ObstacleLayer(stage, motion, td.base);
   const sceneTask = loadScene(td, obstacles);
   const cloudTask = loadCloud(td, stage, motion);
@@ -156,6 +158,7 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     scene: (msg) => {
       obstacles.show(msg, true).catch((e: unknown) => showError("scene (live)", e));
     },
+    physical: (msg) => physical.show(msg),
     collision: (msg) => {
       debugState.collisions++;
       publishDebug();
@@ -202,7 +205,7 @@ async function loadState(
 function startLive(
   url: string,
   slug: string,
-  on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision" | "scene">,
+  on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision" | "scene" | "physical">,
 ): void {
   const badge = document.getElementById("connection");
   // Count every message so tests and users can see the stream is flowing.
@@ -217,6 +220,7 @@ function startLive(
     status: counted(on.status),
     collision: counted(on.collision),
     scene: counted(on.scene),
+    ...(on.physical ? { physical: counted(on.physical) } : {}),
     connection: (open) => {
       debugState.liveConnected = open;
       publishDebug();
