@@ -57,7 +57,7 @@ def test_move_around_an_obstacle_in_the_straight_path(client: RpcClient) -> None
         [np.linalg.norm(steps[:-1], axis=1), np.linalg.norm(steps[1:], axis=1)], axis=0)
     assert len(plan["via"]) > 8 and np.degrees(np.arccos(np.clip(cosine, -1, 1))).max() < 60
     again = client.call("robot.plan", {"robot": "kuka", "target": target})
-    assert again["via"] == plan["via"]  # seeded: the same request gets the same path
+    assert again["via"] == plan["via"]  # remembered: the same request gets the same path
     moved = client.call("robot.move", {"robot": "kuka", "target": target, "realtime": 0})
     assert moved["status"] == "reached" and moved["contacts"] == []
     assert moved["positions"] == pytest.approx(target)

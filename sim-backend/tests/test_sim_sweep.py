@@ -29,18 +29,18 @@ def _gap(w: World, rid: str, other: str) -> float:
 
 
 def test_the_clearance_is_kept_to_the_millimetre_and_can_be_configured() -> None:
-    """A sphere beside the end of a swing about joint 1: the path is refused when the exact closest
-    distance along it (PyBullet's distance query on 60 states) is below the robot's clearance (default
-    2 mm; 15 mm when loaded with it) and accepted when it is above."""
-    start = np.array([0, 0.6, 0, -0.6, 0, 0, 0], dtype=float)
-    target = np.array([0.8, 0.6, 0, -0.6, 0, 0, 0], dtype=float)
+    """A sphere beside the middle of a swing about joint 1 (its ends far from it): the path is refused
+    when the exact closest distance along it (PyBullet's distance query on 60 states) is below the robot's
+    clearance (default 2 mm; 15 mm when loaded with it) and accepted when it is above."""
+    start = np.array([-0.4, 0.6, 0, -0.6, 0, 0, 0], dtype=float)
+    target = np.array([0.4, 0.6, 0, -0.6, 0, 0, 0], dtype=float)
     seen = {"refused": 0, "accepted": 0}
     with World() as w:
         for rid, clearance, base in (("k2", 0.002, 0.0), ("k15", 0.015, 5.0)):
             w.load_robot("kuka_iiwa/model.urdf", robot_id=rid, clearance=clearance,
                          base_position=(base, 0, 0))
             assert w.robot_model(rid).clearance == clearance
-            p = np.array(w.fk(rid, target.tolist()).position)
+            p = np.array(w.fk(rid, ((start + target) / 2).tolist()).position)
             out = (p - np.array([base, 0, 0])) * np.array([1, 1, 0])
             out /= np.linalg.norm(out)
             w.add_obstacle({"name": f"s{rid}", "shape": {"type": "sphere", "radius": 0.02},

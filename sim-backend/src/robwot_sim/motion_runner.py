@@ -178,7 +178,8 @@ class MotionRunner:
         plan, path = timed_path(self._world, robot, planner(), speed=speed, dt=dt)
         if path is None:
             return _Prepared(plan, stamp)
-        return _Prepared(plan, stamp, np.asarray(path, dtype=np.float64), self._world.motion_clearance(robot))
+        return _Prepared(plan, stamp, np.asarray(path, dtype=np.float64),
+                         self._world.motion_clearance(robot, path[-1]))
 
     def _prepare_program(self, robot: str, steps: Sequence[Mapping[str, Any]], dt: float) -> _Prepared:
         """On the world's thread: the program's plan (``plan_program``); when every step passes, its states.
@@ -192,7 +193,8 @@ class MotionRunner:
             plan = Plan(False, None, tuple(f"step {k}: {r}" for r in failing["reasons"]), failing["checks"])
             return _Prepared(plan, stamp, program=report)
         plan = Plan(True, tuple(float(v) for v in program.path[-1]))
-        return _Prepared(plan, stamp, program.path, self._world.motion_clearance(robot),
+        ends = [program.path[i] for i in program.starts] + [program.path[-1]]
+        return _Prepared(plan, stamp, program.path, self._world.motion_clearance(robot, *ends),
                          tuple(program.starts), report)
 
     def _state(self, robot: str, time: float, q: Any, pose: Pose, moving: bool,

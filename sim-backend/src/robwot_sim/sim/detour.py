@@ -2,22 +2,30 @@
 
 OMPL's RRT-Connect searches the robot's joint space (bounds = joint limits; a state is valid when the
 robot keeps the path clearance to everything), and OMPL's path simplifier shortcuts the result. OMPL
-only proposes: every segment of the final path is then checked by our own path check (no point of the
-robot travels more than twice the clearance unchecked, clearance kept — `pathcheck.first_contact`), and
-a path that fails it is not used. The search is seeded, so the same request gets the same path.
+checks a motion at states a fixed fraction of the joint space apart; every segment of its path is then
+checked by our own path check (no point of the robot travels more than twice the clearance unchecked,
+clearance kept — `pathcheck.first_contact`). A segment ours refuses is replaced by a second search
+between its ends (valid states) in which every motion OMPL checks is our path check (`_PathCheck`: slower,
+so only there). Throwing such a path away instead made the search depend on luck: one way found a
+detour, the way back failed where the reverse of that detour passed.
 
 The shortcut path still turns sharply at its waypoints. `smooth` cuts its corners (Chaikin: each round
 replaces every segment by its points at 1/4 and 3/4, converging to a quadratic B-spline through the
 same region; start and goal stay) for up to `SMOOTH_ROUNDS` rounds, keeping the last round whose
 segments all pass our path check: each round about halves the turn at every corner (a 90 degree corner
 becomes about 8 turns of 11 degrees after 3 rounds).
+
+A detour found is remembered (`DetourMemory`, per robot, for the world version it was found in): a
+request between two of its states, in either direction (above all the move back from its end to its
+start), takes that stretch of it again once it passes our path check again, instead of a new random
+search that may find nothing where a way is known to exist.
 """
 
 from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 from ompl import base as ob
@@ -27,27 +35,60 @@ from ompl import util as ou
 from robwot_sim.sim.collision import CollisionChecker
 from robwot_sim.sim.pathcheck import Guard, first_contact
 from robwot_sim.sim.robot import BoundRobot
+from robwot_sim.sim.sweep import substeps
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world_thread import checkpoint
 
 #: seconds a detour search (planning and shortcutting) may take
 BUDGET = 2.0
+
 #: OMPL's own check spacing along a motion, as a fraction of the joint space's extent (its default is
 #: 0.01: ~0.1 rad on a 7-joint arm, too coarse to find gaps our check accepts)
 RESOLUTION = 0.002
-
+#: the spacing of the quick look at a motion before our path check (`find_detour`), in path-check steps
+COARSE = 8
 #: corner-cutting rounds of a detour (each doubles the waypoints)
 SMOOTH_ROUNDS = 3
+#: OMPL's random seed (the process's first search)
+SEED = 26
+#: detours remembered per robot (the most recent ones)
+REMEMBERED = 4
+#: how close (rad or m, per joint) a request's state must be to a remembered detour's to reuse it
+SAME_STATE = 1e-6
 
 ou.setLogLevel(ou.LOG_WARN)
+# OMPL takes its seed only before its first random number: once per process. Its searches are therefore
+# not reproducible per request; the same request again reuses the detour found (`DetourMemory`).
+ou.RNG.setSeed(SEED)
 
 
 def find_detour(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goal: FloatArray,
-                guard: Guard, clearance: float, seed: int,
-                budget: float = BUDGET) -> list[FloatArray] | None:
+                guard: Guard, clearance: float, budget: float = BUDGET) -> list[FloatArray] | None:
     """Waypoints from ``start`` (excluded) to ``goal`` (included) whose segments all pass our path
     check, or None when none was found within ``budget`` seconds. Moves the robot: the caller restores
     its state."""
+    deadline = time.monotonic() + budget
+    path = _search(robot, checker, start, goal, guard, clearance, deadline, exact=False)
+    if path is None:
+        return None
+    joined = [path[0]]
+    for a, b in itertools.pairwise(path):
+        if first_contact(robot, checker, a, b, guard, clearance) is not None:
+            # OMPL's spaced states passed where ours do not: join the two (valid) ends by a search
+            # whose every motion is our path check
+            way = _search(robot, checker, a, b, guard, clearance, deadline, exact=True)
+            # other robots may have moved at a checkpoint during the search: checked once more
+            if way is None or not _passes(robot, checker, way, guard, clearance):
+                return None
+            joined += way[1:-1]
+        joined.append(b)
+    return smooth(robot, checker, joined, guard, clearance, SMOOTH_ROUNDS)[1:]
+
+
+def _search(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goal: FloatArray,
+            guard: Guard, clearance: float, deadline: float, exact: bool) -> list[FloatArray] | None:
+    """OMPL's path from ``start`` to ``goal`` (both included), shortcut, or None by ``deadline``. Its
+    motions are checked at states `RESOLUTION` apart, or with ``exact`` by our path check."""
     dof = len(start)
     space = ob.RealVectorStateSpace(dof)
     bounds = ob.RealVectorBounds(dof)
@@ -59,26 +100,114 @@ def find_detour(robot: BoundRobot, checker: CollisionChecker, start: FloatArray,
 
     def valid(state: ob.State) -> bool:
         checkpoint()  # raising Cancelled here unwinds through OMPL's solve: the setup is not reused
-        robot.apply(np.array([state[i] for i in range(dof)], dtype=np.float64))
+        robot.apply(_vector(state, dof))
         return checker.is_free(clearance)
+
+    def motion(a: FloatArray, b: FloatArray) -> bool:
+        # most motions a search tries are refused: a few states spread over the motion in bisection order
+        # find most refusals before the dense walk from its start (which alone decides an acceptance)
+        n = substeps(a, b, guard.reach, COARSE * guard.max_sweep)
+        for k in _bisection(n):
+            robot.apply(a + (b - a) * (k / n))
+            if not checker.is_free(clearance):
+                return False
+        return first_contact(robot, checker, a, b, guard, clearance) is None
 
     setup.setStateValidityChecker(valid)
     info = setup.getSpaceInformation()
     info.setStateValidityCheckingResolution(RESOLUTION)
+    validator = _PathCheck(info, motion, dof)  # referenced until the search ends
+    if exact:
+        info.setMotionValidator(validator)
     setup.setPlanner(og.RRTConnect(info))
     begin, end = _state(space, start), _state(space, goal)
     setup.setStartAndGoalStates(begin, end)
-    ou.RNG.setSeed(seed)
-    t0 = time.monotonic()
-    if not setup.solve(budget) or not setup.haveExactSolutionPath():
+    left = deadline - time.monotonic()
+    if left <= 0 or not setup.solve(left) or not setup.haveExactSolutionPath():
         return None
-    setup.simplifySolution(max(0.05, budget - (time.monotonic() - t0)))
-    states = setup.getSolutionPath().getStates()
-    path = [np.array([s[i] for i in range(dof)], dtype=np.float64) for s in states]
+    setup.simplifySolution(max(0.05, deadline - time.monotonic()))
+    path = [_vector(s, dof) for s in setup.getSolutionPath().getStates()]
     path[0], path[-1] = start.copy(), goal.copy()
-    if not _passes(robot, checker, path, guard, clearance):
-        return None
-    return smooth(robot, checker, path, guard, clearance, SMOOTH_ROUNDS)[1:]
+    return path
+
+
+class _PathCheck(ob.MotionValidator):  # type: ignore[misc]
+    """OMPL's motion check made ours (`pathcheck.first_contact`): a motion the search or its shortcuts
+    take passes our path check, so a path found is a path we accept, whichever way it was searched."""
+
+    def __init__(self, info: ob.SpaceInformation, motion: Callable[[FloatArray, FloatArray], bool],
+                 dof: int) -> None:
+        super().__init__(info)
+        self._motion, self._dof = motion, dof
+
+    def checkMotion(self, a: ob.State, b: ob.State, *_: object) -> bool:
+        return self._motion(_vector(a, self._dof), _vector(b, self._dof))
+
+
+def _bisection(n: int) -> list[int]:
+    """1..n-1 in bisection order (n/2 first, then the quarters, ...)."""
+    out: list[int] = []
+    seen = {0, n}
+    width = n
+    while width > 1:
+        for k in range(width // 2, n, width):
+            if k not in seen:
+                seen.add(k)
+                out.append(k)
+        width = (width + 1) // 2
+    out += [k for k in range(1, n) if k not in seen]
+    return out
+
+
+def _vector(state: ob.State, dof: int) -> FloatArray:
+    return np.array([state[i] for i in range(dof)], dtype=np.float64)
+
+
+class DetourMemory:
+    """The last `REMEMBERED` detours of one robot, each with the world version it was found in."""
+
+    def __init__(self) -> None:
+        self._paths: list[tuple[int, list[FloatArray]]] = []
+
+    def remember(self, version: int, path: list[FloatArray]) -> None:
+        """``path``: start and goal included."""
+        kept = [(v, p) for v, p in self._paths if v == version][-(REMEMBERED - 1):]
+        self._paths = [*kept, (version, path)]
+
+    def stretches(self, version: int, start: FloatArray, goal: FloatArray) -> list[list[FloatArray]]:
+        """The stretches of remembered detours (newest first) from a state at ``start`` to a later or
+        earlier state at ``goal``, in the order they were found (a move back: reversed), their ends
+        replaced by the given states."""
+        out = []
+        for v, path in reversed(self._paths):
+            if v != version:
+                continue
+            i, j = _index(path, start), _index(path, goal)
+            if i is None or j is None or i == j:
+                continue
+            lo, hi = min(i, j), max(i, j)
+            first, last = (start, goal) if i < j else (goal, start)
+            out.append([first.copy(), *path[lo + 1:hi], last.copy()])
+        return out
+
+
+def _index(path: list[FloatArray], q: FloatArray) -> int | None:
+    for k, p in enumerate(path):
+        if float(np.max(np.abs(p - q))) <= SAME_STATE:
+            return k
+    return None
+
+
+def recall(robot: BoundRobot, checker: CollisionChecker, memory: DetourMemory, version: int,
+           start: FloatArray, goal: FloatArray, guard: Guard, clearance: float) -> list[FloatArray] | None:
+    """Waypoints like `find_detour`'s along a remembered detour from ``start`` to ``goal`` that passes
+    our path check now, or None. A stretch is checked in the order it was found: a move back asks our
+    path check the very states the search's check asked. Moves the robot: the caller restores it."""
+    for path in memory.stretches(version, start, goal):
+        if _passes(robot, checker, path, guard, clearance):
+            forward = np.array_equal(path[0], start)
+            return path[1:] if forward else path[::-1][1:]
+    return None
 
 
 def smooth(robot: BoundRobot, checker: CollisionChecker, path: list[FloatArray], guard: Guard,

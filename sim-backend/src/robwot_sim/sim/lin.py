@@ -166,7 +166,7 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
             out.waypoints, out.arc = [], []
             return out
         q_prev = q
-    clearance = world.motion_clearance(robot)
+    clearance = world.motion_clearance(robot, out.waypoints[-1])
     for qa, qb in itertools.pairwise(out.waypoints):
         checkpoint()
         report = world.check_step(robot, qa, qb, clearance)

@@ -3,9 +3,9 @@
 Between the planned states (one per ``dt``) the path is subdivided so that no point of the robot travels
 more than twice the robot's clearance between two checked states, and other bodies must stay that
 clearance away (a `Guard`; 2 mm unless the robot was loaded with another): then no contact can hide
-between checked states, at any speed (see ``sweep.py``). A path that starts within
-the clearance (e.g. after a motion stopped on contact) is checked for contact only, so the robot can
-always move away.
+between checked states, at any speed (see ``sweep.py``). A path that starts or ends within the
+clearance (e.g. after a motion stopped on contact) is checked for contact only, so the robot can always
+move away from such a state and back to it: the verdict on a path never depends on its direction.
 """
 
 from __future__ import annotations
@@ -44,12 +44,18 @@ class Guard:
         return 2.0 * self.clearance
 
 
-def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, guard: Guard) -> float:
-    """The clearance a path from ``start`` keeps: the guard's, or contact only when the start is closer."""
+def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, guard: Guard,
+                   *ends: FloatArray) -> float:
+    """The clearance a path from ``start`` (through or to ``ends``) keeps: the guard's, or contact only
+    when one of those states is closer. Both ends count alike, so a path and its reverse keep the same
+    clearance (a path keeping the guard's clearance could not end at a state closer than it)."""
     saved = robot.q.copy()
     try:
-        robot.apply(start)
-        return guard.clearance if checker.is_free(guard.clearance) else TOUCH
+        for q in (start, *ends):
+            robot.apply(q)
+            if not checker.is_free(guard.clearance):
+                return TOUCH
+        return guard.clearance
     finally:
         robot.apply(saved)
 
@@ -103,7 +109,7 @@ def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatAr
     saved = robot.q.copy()
     duration = (len(path) - 1) * dt
     try:
-        clearance = path_clearance(robot, checker, path[0], guard)
+        clearance = path_clearance(robot, checker, path[0], guard, path[-1])
         robot.apply(path[0])
         if not checker.is_free():
             start = FirstCollision(0.0, tuple(float(x) for x in path[0]), tuple(checker.contacts()))

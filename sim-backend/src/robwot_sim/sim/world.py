@@ -25,7 +25,7 @@ from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams
 from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED, DEFAULT_TCP_SPEED, TCP_SPEED
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
-from robwot_sim.sim.detour import find_detour
+from robwot_sim.sim.detour import DetourMemory, find_detour, recall
 from robwot_sim.sim.export import export_urdf
 from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
@@ -118,10 +118,12 @@ class World(WorldScene):
         return CollisionReport(not contacts, tuple(contacts))
 
     @_owned
-    def motion_clearance(self, robot_id: str) -> float:
-        """The clearance (m) a motion from the current state keeps (see pathcheck.path_clearance)."""
+    def motion_clearance(self, robot_id: str, *through: JointVector) -> float:
+        """The clearance (m) a motion from the current state through (or to) the states ``through``
+        keeps (see pathcheck.path_clearance)."""
         e = self._entry(robot_id)
-        return path_clearance(e.bound, e.checker, e.bound.q.copy(), e.guard)
+        return path_clearance(e.bound, e.checker, e.bound.q.copy(), e.guard,
+                              *(e.bound.validate(q, "through") for q in through))
 
     @_owned
     def check_step(
@@ -273,16 +275,22 @@ class World(WorldScene):
     def detour(self, robot_id: str, target: JointVector,
                budget: float = DETOUR_BUDGET) -> list[tuple[float, ...]] | None:
         """Waypoints (ending at ``target``) of a collision-free path from the current state around what
-        blocks the straight one (RRT-Connect, each segment checked like a path), or None. World unchanged."""
+        blocks the straight one, or None. World unchanged. A stretch of a detour found before in this
+        world (either way along it: `detour.DetourMemory`) is taken again when it still passes the path
+        check; else RRT-Connect searches one (each segment checked like a path), remembered when found."""
         e = self._entry(robot_id)
         tgt = e.bound.validate(target, "target")
         saved = e.bound.q.copy()
+        memory = self._detours.setdefault(robot_id, DetourMemory())
+        version = self.table.version
         try:
-            clearance = path_clearance(e.bound, e.checker, saved, e.guard)
-            digest = hashlib.sha256(np.concatenate([saved, tgt]).tobytes()).digest()
-            seed = int.from_bytes(digest[:4], "little")
+            clearance = path_clearance(e.bound, e.checker, saved, e.guard, tgt)
             with self._holding(robot_id):
-                found = find_detour(e.bound, e.checker, saved, tgt, e.guard, clearance, seed, budget)
+                found = recall(e.bound, e.checker, memory, version, saved, tgt, e.guard, clearance)
+                if found is None:
+                    found = find_detour(e.bound, e.checker, saved, tgt, e.guard, clearance, budget)
+                    if found is not None:
+                        memory.remember(version, [saved, *found])
         finally:
             e.bound.apply(saved)
         return None if found is None else [tuple(float(x) for x in w) for w in found]

@@ -20,6 +20,7 @@ from robwot_sim.errors import InvalidParams, NameTaken, UnknownRobot
 from robwot_sim.model.decompose import OnMesh
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
+from robwot_sim.sim.detour import DetourMemory
 from robwot_sim.sim.fastworld import FastWorld
 from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body, read_robot_files
 from robwot_sim.sim.pathcheck import MAX_CLEARANCE, MIN_CLEARANCE
@@ -60,6 +61,7 @@ class WorldBase:
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
         self._sure: dict[str, tuple[int, SureHits]] = {}  # sure-hit tests by robot, with table.version
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
+        self._detours: dict[str, DetourMemory] = {}  # per robot: its last detours (World.detour)
 
     def bind(self) -> None:
         """From now on only the calling thread may use the world (the server's `WorldThread`): a call
@@ -229,6 +231,7 @@ class WorldBase:
         del self._robots[robot_id]
         del self.table.names[e.bound.body]
         del self.table.robots[e.bound.body]
+        self._detours.pop(robot_id, None)
         self._changed()
 
     @_owned
