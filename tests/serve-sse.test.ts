@@ -1,10 +1,16 @@
 /**
  * The WoT Profile's HTTP SSE mechanism: the TD's `subprotocol: "sse"` forms stream an observable property
- * (current value first, then every change) and the collision event, over real HTTP.
+ * (current value first, then every change) and the collision event, over real HTTP. Streams resume: ids
+ * increase per Thing and stream across connections (and restarts), `Last-Event-ID` replays the events
+ * missed, a gap the history no longer covers is announced (`robwot:gap`); `/live` resumes by `seq` the
+ * same way. Clients: raw fetch (every field), the `ws` WebSocket, and Chromium's EventSource across a
+ * restart of the servient.
  */
-import { afterAll, beforeAll, expect, it } from "vitest";
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+import { openBrowser } from "./helpers/browser.js";
+import { openSse } from "./helpers/sse.js";
+import { generateTwin, http, invoke, kukaPose, live, sleep } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -96,3 +102,153 @@ it("answers an event stream's headers at once, with a retry line, before any eve
     ctl.abort();
   }
 });
+
+describe("resuming", () => {
+  let twin: import("node:events").EventEmitter;
+  let eventHref: string;
+  // synthetic instances in the twin's own emitter: what is tested here is their way to the clients
+  const collide = (n: number): void => void twin.emit("collision", { pair: { a: { body: "robot" }, b: { body: `test-${n}` } }, n });
+  const ids = (stream: { events(): { id: string | null }[] }): number[] => stream.events().map((e) => Number(e.id));
+
+  beforeAll(async () => {
+    twin = s.twins.values().next().value!;
+    eventHref = (await http(base)).body.events.collision.forms.find((f: { subprotocol?: string }) => f.subprotocol === "sse").href;
+  });
+
+  it("a property stream's ids increase across connections", async () => {
+    const href = `${base}/properties/motionStatus/sse`;
+    const a = await openSse(href);
+    await a.wait((m) => m.some((x) => x.data !== null), 5000);
+    a.close();
+    const b = await openSse(href, { "last-event-id": a.events()[0]!.id! });
+    await b.wait((m) => m.some((x) => x.data !== null), 5000);
+    b.close();
+    expect(ids(b)[0]).toBeGreaterThan(ids(a)[0]!);
+    // a property is a state: a resumed stream starts with the current value, nothing replayed, no gap
+    expect(b.events().map((e) => e.event)).toEqual(["motionStatus"]);
+  });
+
+  it("Last-Event-ID replays the events missed while disconnected, in order, then the live ones", async () => {
+    const a = await openSse(eventHref);
+    collide(1);
+    await a.wait((m) => m.some((x) => x.data !== null), 5000);
+    a.close();
+    await sleep(100);
+    collide(2);
+    collide(3);
+    const last = a.events().at(-1)!.id!;
+    const b = await openSse(eventHref, { "last-event-id": last });
+    expect(b.status).toBe(200);
+    await b.wait((m) => m.filter((x) => x.data !== null).length >= 2, 5000);
+    collide(4);
+    await b.wait((m) => m.filter((x) => x.data !== null).length >= 3, 5000);
+    b.close();
+    expect(b.events().map((e) => e.data.n)).toEqual([2, 3, 4]);
+    expect(b.messages.some((m) => m.event === "robwot:gap")).toBe(false);
+    const all = [...ids(a), ...ids(b)];
+    for (let i = 1; i < all.length; i++) expect(all[i]).toBe(all[i - 1]! + 1);
+    // a new client without Last-Event-ID gets only what happens from now on
+    const c = await openSse(eventHref);
+    collide(5);
+    await c.wait((m) => m.some((x) => x.data !== null), 5000);
+    c.close();
+    expect(c.events().map((e) => e.data.n)).toEqual([5]);
+  });
+
+  it("a gap older than the history is announced (robwot:gap, overflow), then the kept events follow", async () => {
+    const a = await openSse(eventHref);
+    collide(100);
+    await a.wait((m) => m.some((x) => x.data !== null), 5000);
+    a.close();
+    await sleep(100);
+    for (let i = 101; i <= 200; i++) collide(i);
+    const b = await openSse(eventHref, { "last-event-id": a.events()[0]!.id! });
+    await b.wait((m) => m.filter((x) => x.data !== null).length >= 64, 5000);
+    b.close();
+    const [gap, ...rest] = b.events();
+    expect(gap!.event).toBe("robwot:gap");
+    expect(gap!.id).toBeNull();
+    expect(gap!.data).toMatchObject({ lastEventId: Number(a.events()[0]!.id), reason: "overflow" });
+    // the history keeps the last 63: 138..200
+    expect(rest.map((e) => e.data.n)).toEqual(Array.from({ length: 63 }, (_, i) => 138 + i));
+    expect(Number(rest[0]!.id)).toBe(gap!.data.firstKept);
+  });
+
+  it("a Last-Event-ID of an earlier run of the servient: robwot:gap with reason restart", async () => {
+    const b = await openSse(eventHref, { "last-event-id": "1" });
+    await b.wait((m) => m.some((x) => x.data !== null), 5000);
+    b.close();
+    expect(b.events()[0]).toMatchObject({ event: "robwot:gap", data: { lastEventId: 1, reason: "restart" } });
+  });
+
+  it("/live: every stream message has a seq; resume=<seq> replays the missed events before the snapshot", async () => {
+    const slug = s.things[0]!.slug;
+    const a = await live(`${s.liveUrl}?thing=${slug}`);
+    collide(300);
+    const seen = await a.waitFor((m) => m.type === "collision" && m.n === 300);
+    a.close();
+    for (const m of a.messages) expect(m.seq, JSON.stringify(m)).toBeTypeOf("number");
+    const seqs = a.messages.map((m) => m.seq as number);
+    for (let i = 1; i < seqs.length; i++) expect(seqs[i]).toBeGreaterThan(seqs[i - 1]!);
+    await sleep(100);
+    collide(301);
+    collide(302);
+    const b = await live(`${s.liveUrl}?thing=${slug}&resume=${seen.seq}`);
+    await b.waitFor((m) => m.type === "scene");
+    b.close();
+    expect(b.messages.slice(0, 2).map((m) => [m.type, m.n])).toEqual([["collision", 301], ["collision", 302]]);
+    expect(b.messages.slice(2).map((m) => m.type).sort()).toEqual(["joints", "scene", "status"]);
+    const later = b.messages.map((m) => m.seq as number);
+    expect(later[0]).toBeGreaterThan(seen.seq);
+    for (let i = 1; i < later.length; i++) expect(later[i]).toBeGreaterThan(later[i - 1]!);
+    // resuming by message, and from a seq the history no longer covers
+    const c = await live(s.liveUrl);
+    c.ws.send(JSON.stringify({ subscribe: slug, resume: 5 }));
+    const gap = await c.waitFor((m) => m.type === "gap");
+    await c.waitFor((m) => m.type === "scene");
+    c.close();
+    expect(gap).toMatchObject({ thing: slug, resume: 5, reason: "restart" });
+    expect(gap.seq).toBeUndefined();
+    expect(c.messages[0]).toBe(gap);
+  });
+});
+
+it("Chromium's EventSource resumes across a restart of the servient: told of the gap, ids keep increasing", async () => {
+  const dir = await generateTwin("kuka_iiwa", 3000);
+  let a: RunningServient | null = await startServient({ twins: [dir], port: 0, realtime: 1 });
+  const port = Number(new URL(a.url).port);
+  const href = `${a.things[0]!.tdUrl}/events/collision/sse`;
+  const browser = await openBrowser();
+  let b: RunningServient | null = null;
+  try {
+    await browser.page.goto(`${a.url}/robwot.json`);
+    await browser.page.evaluate((url) => {
+      const w = window as unknown as { got: unknown[]; es: EventSource };
+      w.got = [];
+      w.es = new EventSource(url);
+      w.es.addEventListener("collision", (e) => w.got.push({ event: "collision", id: e.lastEventId, data: JSON.parse(e.data) }));
+      w.es.addEventListener("robwot:gap", (e) => w.got.push({ event: "gap", id: e.lastEventId, data: JSON.parse(e.data) }));
+    }, href);
+    const got = (): Promise<any[]> => browser.page.evaluate(() => (window as unknown as { got: unknown[] }).got);
+    const twinA = a.twins.values().next().value!;
+    await sleep(500);
+    twinA.emit("collision", { n: 1 });
+    await browser.page.waitForFunction(() => (window as unknown as { got: unknown[] }).got.length >= 1);
+    await a.stop();
+    a = null;
+    b = await startServient({ twins: [dir], port, realtime: 1 });
+    // the EventSource reconnects on its own (retry: 3000) with the last id it saw
+    await browser.page.waitForFunction(() => (window as unknown as { got: unknown[] }).got.length >= 2, undefined, { timeout: 20_000 });
+    b.twins.values().next().value!.emit("collision", { n: 2 });
+    await browser.page.waitForFunction(() => (window as unknown as { got: unknown[] }).got.length >= 3);
+    const [first, gap, second] = await got();
+    expect(first).toMatchObject({ event: "collision", data: { n: 1 } });
+    expect(gap).toMatchObject({ event: "gap", data: { lastEventId: Number(first.id), reason: "restart" } });
+    expect(second).toMatchObject({ event: "collision", data: { n: 2 } });
+    expect(Number(second.id)).toBeGreaterThan(Number(first.id));
+  } finally {
+    await browser.close();
+    await a?.stop();
+    await b?.stop();
+  }
+}, 120_000);

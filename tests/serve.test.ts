@@ -204,7 +204,7 @@ describe("bad input -> 400 JSON, state unchanged", () => {
     const statusBefore = await readStatus();
     const r = await invoke(base, action, body);
     expect(r.status).toBe(400);
-    expect(r.type).toContain("application/json");
+    expect(r.type).toContain("application/problem+json");
     expect(typeof r.body.code).toBe("string");
     expect(typeof r.body.message).toBe("string");
     expect(r.body.details).toBeTypeOf("object");

@@ -5,15 +5,16 @@
  * moveToJointPosition through the form that states `Prefer: respond-async` (`htv:headers`; node-wot
  * sends a form's headers when asked for it by `formIndex`): the answer is the ActionStatus, at once. It
  * polls the status through the `queryaction` form (its `{actionID}` filled in), printing the progress;
- * with `--cancel-at F` it cancels through the `cancelaction` form once the progress passes F and checks
- * that the robot then stands still.
+ * with `--cancel-at F` it cancels through the `cancelaction` form once the progress passes F (204: the
+ * move has stopped and, as the WoT Profile says, its ActionStatus is deleted: a query then answers 404)
+ * and checks that the robot then stands still.
  *
  *   node packages/consumers/dist/async-move.js [TD URL] [--speed 0.3] [--fraction 0.3] [--cancel-at 0..1] [--json]
  */
 import type { FormLike } from "@robwot/core";
 import { jointLimits } from "@robwot/core";
 import { numberOption, speedOption, parseArgs } from "./lib/args.js";
-import { authHeaders, defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
+import { authHeaders, defaultTdUrl, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtJoints, printJsonSummary } from "./lib/format.js";
 import { runScenario } from "./lib/run.js";
 import { acceptedTargets, spreadTargets } from "./lib/targets.js";
@@ -22,11 +23,11 @@ const USAGE = "async-move [TD URL] [--speed 0..1] [--fraction 0..0.9] [--cancel-
 const ACTION = "moveToJointPosition";
 
 interface ActionStatus {
-  status: "pending" | "running" | "completed" | "failed" | "cancelled";
+  status: "pending" | "running" | "completed" | "failed";
   progress: number;
   href: string;
   output?: { status: string; joints: Record<string, number> };
-  error?: { code: string; message: string };
+  error?: { code: string; detail: string };
   timeRequested: string;
   timeEnded?: string;
 }
@@ -76,14 +77,18 @@ async function main(): Promise<void> {
     // no client is cached yet: the asynchronous invocation is the first interaction of its own
     // ConsumedThing
     const fresh = await session.connect(url);
-    const accepted = await invoke<ActionStatus>(fresh, ACTION, { joints: target, speed }, { formIndex: forms.index });
+    // the action is `synchronous: true` (a plain POST answers the move's result) and node-wot 0.9.2 then
+    // checks every answer against the action's output schema: the 201's ActionStatus is read as bytes
+    const out = await fresh.thing.invokeAction(ACTION, { joints: target, speed }, { formIndex: forms.index });
+    if (!out) throw new Error(`${ACTION}: no answer`);
+    const accepted = JSON.parse(Buffer.from(await out.arrayBuffer()).toString("utf8")) as ActionStatus;
     const id = accepted.href.split("/").pop() ?? "";
     console.log(`accepted: ${accepted.status}, status resource ${accepted.href}`);
     const seen: { status: string; progress: number }[] = [];
     let cancelled = false;
     let st = accepted;
     const deadline = Date.now() + 120_000;
-    while (st.status === "pending" || st.status === "running") {
+    while (!cancelled && (st.status === "pending" || st.status === "running")) {
       if (Date.now() > deadline) throw new Error(`${accepted.href} still ${st.status} after 120 s`);
       await sleep(50);
       st = (await (await request(twin, forms.query, id, "GET")).json()) as ActionStatus;
@@ -93,20 +98,22 @@ async function main(): Promise<void> {
         console.log(`  ${st.status} ${fmt(st.progress * 100, 0)} %`);
       }
       if (cancelAt !== null && !cancelled && st.status === "running" && st.progress >= cancelAt) {
-        await request(twin, forms.cancel, id, "DELETE");
+        const del = await request(twin, forms.cancel, id, "DELETE");
+        const gone = await fetch(forms.query.href.replace("{actionID}", encodeURIComponent(id)), { headers: authHeaders(twin.auth) });
         cancelled = true;
-        console.log(`  cancelled at ${fmt(st.progress * 100, 0)} %`);
+        console.log(`  cancelled at ${fmt(st.progress * 100, 0)} % (DELETE ${del.status}; the status resource then answers ${gone.status})`);
+        if (del.status !== 204 || gone.status !== 404) process.exitCode = 1;
       }
     }
-    console.log(`final: ${st.status}${st.output ? ` (move ${st.output.status})` : ""}${st.error ? ` (${st.error.code}: ${st.error.message})` : ""}`);
+    console.log(`final: ${cancelled ? "cancelled" : st.status}${st.output ? ` (move ${st.output.status})` : ""}${st.error ? ` (${st.error.code}: ${st.error.detail})` : ""}`);
     const final = await read<Record<string, number>>(twin, "getJointPosition");
     // a cancelled move has ended: the robot stands still
     await sleep(300);
     const later = await read<Record<string, number>>(twin, "getJointPosition");
     const still = Object.keys(final).every((k) => final[k] === later[k]);
     console.log(`joints: ${fmtJoints(final)}${still ? " (standing still)" : " (still moving!)"}`);
-    if (st.status !== (cancelAt === null ? "completed" : "cancelled") || !still) process.exitCode = 1;
-    if (args.options.has("json")) printJsonSummary({ target, accepted, seen, final: st, joints: final, still });
+    if (!(cancelAt === null ? st.status === "completed" : cancelled) || !still) process.exitCode = 1;
+    if (args.options.has("json")) printJsonSummary({ target, accepted, seen, final: st, cancelled, joints: final, still });
   } finally {
     await session.close();
   }

@@ -29,6 +29,16 @@ const href = (id: string): string => `http://h/arm/actions/moveToJointPosition/$
 const idOf = (h: string): string => h.split("/").pop()!;
 const A = "moveToJointPosition";
 
+/** The status of `id`, null when the store answers 404 (unknown, expired or cancelled). */
+function statusOf(store: ActionStatusStore, id: string): string | null {
+  try {
+    return store.get(A, id).status;
+  } catch (err) {
+    expect(err).toMatchObject({ status: 404, code: "E_NOT_FOUND" });
+    return null;
+  }
+}
+
 function clock(start = Date.parse("2026-01-01T00:00:00Z")) {
   const c = { t: start, now: () => new Date(c.t) };
   return c;
@@ -45,7 +55,7 @@ describe("ActionStatusStore", () => {
     m.state.phase = "running";
     m.state.progress = 0.4;
     expect(store.get(A, id)).toMatchObject({ status: "running", progress: 0.4 });
-    expect(store.get("moveToCartesianPosition", id)).toBeNull();
+    expect(() => store.get("moveToCartesianPosition", id)).toThrow(/unknown/);
     c.t += 1500;
     m.state.progress = 1;
     m.finish({ status: "reached" });
@@ -60,7 +70,7 @@ describe("ActionStatusStore", () => {
     await expect(refused).rejects.toMatchObject({ status: 409, code: "E_BUSY" });
   });
 
-  it("a failure after acceptance: failed, with the error body, its title and HTTP status", async () => {
+  it("a failure after acceptance: failed, with the error as RFC 7807 problem details", async () => {
     const store = new ActionStatusStore();
     const m = controlled();
     const id = idOf((await store.start(A, href, m.run)).href);
@@ -68,25 +78,47 @@ describe("ActionStatusStore", () => {
     await new Promise((r) => setImmediate(r));
     expect(store.get(A, id)).toMatchObject({
       status: "failed",
-      error: { code: "E_REJECTED", message: "target rejected", title: "target rejected", status: 422, details: { reasons: ["x"] } },
+      error: {
+        type: "https://robwot.dev/errors#E_REJECTED",
+        title: "Rejected",
+        status: 422,
+        detail: "target rejected",
+        code: "E_REJECTED",
+        message: "target rejected",
+        details: { reasons: ["x"] },
+      },
     });
   });
 
-  it("cancel stops a move once, answers cancelled; a move that had reached stays completed", async () => {
+  it("cancel stops a move once and deletes its status (404 naming the cancel); an ended move: nothing cancelled, stays", async () => {
     const store = new ActionStatusStore();
     const m = controlled();
     const id = idOf((await store.start(A, href, m.run)).href);
-    expect(await store.cancel(A, id)).toMatchObject({ status: "cancelled", output: { status: "stopped" } });
-    expect(await store.cancel(A, id)).toMatchObject({ status: "cancelled" });
+    // two DELETEs at once share the one cancel
+    expect(await Promise.all([store.cancel(A, id), store.cancel(A, id)])).toEqual([true, true]);
     expect(m.state.cancels).toBe(1);
-    expect(await store.cancel(A, "nope")).toBeNull();
+    expect(statusOf(store, id)).toBeNull();
+    expect(() => store.get(A, id)).toThrow(/was cancelled at/);
+    await expect(store.cancel(A, id)).rejects.toMatchObject({ status: 404 });
+    await expect(store.cancel(A, "nope")).rejects.toMatchObject({ status: 404 });
 
     const r = controlled();
     const rid = idOf((await store.start(A, href, r.run)).href);
     r.finish({ status: "reached" });
     await new Promise((x) => setImmediate(x));
-    expect(await store.cancel(A, rid)).toMatchObject({ status: "completed" });
+    expect(await store.cancel(A, rid)).toBe(false);
     expect(r.state.cancels).toBe(0);
+    expect(statusOf(store, rid)).toBe("completed");
+  });
+
+  it("a move that reaches its target while the cancel is on its way was not cancelled: completed, kept", async () => {
+    const store = new ActionStatusStore();
+    const m = controlled();
+    // the stop arrives as the last step ends: the move answers reached
+    const run: AsyncRun = (watch) => m.run((h) => watch({ ...h, cancel: async () => m.finish({ status: "reached" }) }));
+    const id = idOf((await store.start(A, href, run)).href);
+    expect(await store.cancel(A, id)).toBe(false);
+    expect(statusOf(store, id)).toBe("completed");
   });
 
   it("forgets ended resources after the TTL, never a move still going", async () => {
@@ -99,11 +131,11 @@ describe("ActionStatusStore", () => {
     ended.finish({ status: "reached" });
     await new Promise((x) => setImmediate(x));
     c.t += 1000;
-    expect(store.get(A, e)?.status).toBe("completed");
+    expect(statusOf(store, e)).toBe("completed");
     c.t += 1;
-    expect(store.get(A, e)).toBeNull();
+    expect(statusOf(store, e)).toBeNull();
     c.t += 1e9;
-    expect(store.get(A, g)?.status).toBe("pending");
+    expect(statusOf(store, g)).toBe("pending");
   });
 
   it("keeps the last `limit` resources: the oldest ended ones go first", async () => {
@@ -116,6 +148,6 @@ describe("ActionStatusStore", () => {
       m.finish({ status: "reached" });
       await new Promise((x) => setImmediate(x));
     }
-    expect(ids.map((id) => store.get(A, id)?.status ?? null)).toEqual(["pending", null, null, "completed", "completed"]);
+    expect(ids.map((id) => statusOf(store, id))).toEqual(["pending", null, null, "completed", "completed"]);
   });
 });

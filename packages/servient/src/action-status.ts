@@ -5,11 +5,13 @@
  * answer; once accepted it gets an ActionStatus resource `<base>actions/<name>/<id>`: `pending`
  * (validation, IK, path planning), `running` (the backend streams the motion; `progress` =
  * simulated time / planned duration), then `completed` with the output the synchronous invocation
- * answers, `failed` with its error, or `cancelled` when a DELETE stopped it (`cancel`: the `stop`
- * path for this move only, so a pending move never starts).
+ * answers, or `failed` with its error as problem details. A DELETE (`cancel`: the `stop` path for this
+ * move only, so a pending move never starts) that stopped the move deletes its resource, as the Profile
+ * says (a later GET: 404 naming the cancel); one that came after the end stopped nothing: 409, the
+ * resource stays as it was. The Profile's four status values are the only ones.
  *
  * Per twin the store keeps the last `limit` (64) resources and forgets ended ones `ttlMs` (10 min)
- * after they ended.
+ * after they ended; a cancelled id is remembered as long (for the 404's detail only).
  */
 import { randomUUID } from "node:crypto";
 import type { IncomingMessage, ServerResponse } from "node:http";
@@ -37,8 +39,9 @@ interface Entry {
   requested: Date;
   handle: MoveHandle;
   /** set when the invocation has ended */
-  end: { status: "completed" | "failed" | "cancelled"; progress: number; step?: number; output?: unknown; error?: Record<string, unknown>; at: Date } | null;
-  cancelRequested: boolean;
+  end: { status: "completed" | "failed"; progress: number; step?: number; output?: unknown; error?: Record<string, unknown>; at: Date } | null;
+  /** the DELETE under way: true once it stopped the move (the resource is then deleted) */
+  cancelling: Promise<boolean> | null;
   /** resolves once the invocation has ended (never rejects) */
   settled: Promise<void>;
 }
@@ -54,6 +57,8 @@ export type AsyncRun = (watch: MoveWatch) => Promise<unknown>;
 
 export class ActionStatusStore {
   private readonly entries = new Map<string, Entry>();
+  /** ids deleted by a cancel -> when, for the 404 of a later query (bounded like the entries) */
+  private readonly cancelled = new Map<string, Date>();
   readonly limit: number;
   readonly ttlMs: number;
   private readonly now: () => Date;
@@ -79,18 +84,15 @@ export class ActionStatusStore {
       throw toServientError(err);
     });
     const id = randomUUID();
-    const entry: Entry = { action, href: hrefOf(id), requested, handle, end: null, cancelRequested: false, settled: Promise.resolve() };
+    const entry: Entry = { action, href: hrefOf(id), requested, handle, end: null, cancelling: null, settled: Promise.resolve() };
     entry.settled = result.then(
       (output) => {
-        // a cancel that came after the target was reached stopped nothing
-        const reached = (output as { status?: unknown } | null)?.status === "reached";
-        const status = entry.cancelRequested && !reached ? "cancelled" : "completed";
         const step = handle.step();
-        entry.end = { status, progress: handle.progress(), ...(step !== undefined ? { step } : {}), output, at: this.now() };
+        entry.end = { status: "completed", progress: handle.progress(), ...(step !== undefined ? { step } : {}), output, at: this.now() };
       },
       (err: unknown) => {
         const e = toServientError(err);
-        entry.end = { status: "failed", progress: handle.progress(), error: { ...e.toJSON(), title: e.message, status: e.status }, at: this.now() };
+        entry.end = { status: "failed", progress: handle.progress(), error: { ...e.problem() }, at: this.now() };
       },
     );
     this.prune(true);
@@ -98,24 +100,47 @@ export class ActionStatusStore {
     return this.view(entry);
   }
 
-  /** The current ActionStatus of `id` under `action`, null when unknown (or expired). */
-  get(action: string, id: string): ActionStatus | null {
-    this.prune();
-    const e = this.entries.get(id);
-    return e && e.action === action ? this.view(e) : null;
+  /** The current ActionStatus of `id` under `action`; a 404 error when unknown, expired or cancelled. */
+  get(action: string, id: string): ActionStatus {
+    return this.view(this.entry(action, id));
   }
 
-  /** Stops the invocation (nothing when it has ended) and resolves with its final ActionStatus. */
-  async cancel(action: string, id: string): Promise<ActionStatus | null> {
+  /**
+   * cancelaction: stops the invocation and, once it has ended, deletes its resource (true). False when
+   * nothing was stopped: it had ended before (or reached its target while the stop was on its way);
+   * its resource stays. A 404 error when unknown.
+   */
+  async cancel(action: string, id: string): Promise<boolean> {
+    const e = this.entry(action, id);
+    if (e.end && !e.cancelling) return false;
+    // concurrent DELETEs share the one cancel and its answer
+    e.cancelling ??= this.stop(e, id);
+    return e.cancelling;
+  }
+
+  private async stop(e: Entry, id: string): Promise<boolean> {
+    await e.handle.cancel();
+    await e.settled;
+    // a cancel that came after the target was reached stopped nothing
+    if (this.reached(e)) return false;
+    this.entries.delete(id);
+    this.cancelled.set(id, this.now());
+    return true;
+  }
+
+  private reached(e: Entry): boolean {
+    return e.end?.status === "completed" && (e.end.output as { status?: unknown } | null)?.status === "reached";
+  }
+
+  private entry(action: string, id: string): Entry {
     this.prune();
     const e = this.entries.get(id);
-    if (!e || e.action !== action) return null;
-    if (!e.end) {
-      e.cancelRequested = true;
-      await e.handle.cancel();
-    }
-    await e.settled;
-    return this.view(e);
+    if (e && e.action === action) return e;
+    const at = this.cancelled.get(id);
+    const why = at
+      ? `was cancelled at ${at.toISOString()} (a cancelled invocation's ActionStatus is deleted)`
+      : `is unknown, or forgotten (the last ${this.limit} are kept, ended ones for ${this.ttlMs / 1000} s)`;
+    throw new ServientError(404, "E_NOT_FOUND", `ActionStatus ${id} of ${action} ${why}`, { action, id, ...(at ? { cancelled: at.toISOString() } : {}) });
   }
 
   private view(e: Entry): ActionStatus {
@@ -132,6 +157,7 @@ export class ActionStatusStore {
   private prune(room = false): void {
     const now = this.now().getTime();
     for (const [id, e] of this.entries) if (e.end && now - e.end.at.getTime() > this.ttlMs) this.entries.delete(id);
+    for (const [id, at] of this.cancelled) if (now - at.getTime() > this.ttlMs || this.cancelled.size > this.limit) this.cancelled.delete(id);
     for (const [id, e] of this.entries) {
       if (!room || this.entries.size < this.limit) break;
       if (e.end) this.entries.delete(id);
@@ -159,20 +185,15 @@ export async function respondAsync(res: ServerResponse, store: ActionStatusStore
 }
 
 /**
- * `GET` (queryaction) and `DELETE` (cancelaction) on `<base>actions/<name>/<id>`: 200 with the
- * ActionStatus; a DELETE answers 204 once the move has ended (200 with the final ActionStatus under
- * `Prefer: return=representation`); 404 for an unknown or expired id.
+ * `GET` (queryaction) and `DELETE` (cancelaction) on `<base>actions/<name>/<id>`: GET 200 with the
+ * ActionStatus; DELETE 204 once the move has stopped (its resource deleted), 409 when it had already
+ * ended (nothing stopped); 404 for an unknown, expired or cancelled id.
  */
 export async function actionStatusRoute(req: IncomingMessage, res: ServerResponse, store: ActionStatusStore, name: string, id: string): Promise<void> {
-  const cancel = req.method === "DELETE";
-  const status = cancel ? await store.cancel(name, id) : store.get(name, id);
-  if (!status) {
-    throw new ServientError(404, "E_NOT_FOUND", `no ActionStatus ${id} of ${name} (unknown, or forgotten: the last ${store.limit} are kept, ended ones for ${store.ttlMs / 1000} s)`, { action: name, id });
-  }
-  if (!cancel) return sendJson(res, 200, status);
-  if (preferences(req).get("return") === "representation") {
-    res.setHeader("Preference-Applied", "return=representation");
-    return sendJson(res, 200, status);
+  if (req.method !== "DELETE") return sendJson(res, 200, store.get(name, id));
+  if (!(await store.cancel(name, id))) {
+    const { status } = store.get(name, id);
+    throw new ServientError(409, "E_NOT_CANCELLABLE", `${name} ${id} had already ended (${status}): nothing was cancelled; its ActionStatus stays`, { action: name, id, status });
   }
   res.writeHead(204);
   res.end();

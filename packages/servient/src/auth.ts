@@ -6,6 +6,7 @@
  */
 import { timingSafeEqual } from "node:crypto";
 import type { IncomingMessage, ServerResponse } from "node:http";
+import { sendProblem, ServientError } from "./errors.js";
 
 export type AuthConfig = { scheme: "basic"; user: string; password: string } | { scheme: "bearer"; token: string };
 
@@ -39,7 +40,6 @@ export function isAuthorized(req: IncomingMessage, auth: AuthConfig | undefined)
 
 export function challenge(res: ServerResponse, auth: AuthConfig): void {
   const scheme = auth.scheme === "basic" ? "Basic" : "Bearer";
-  res.setHeader("WWW-Authenticate", `${scheme} realm="robwot"`);
-  res.writeHead(401, { "Content-Type": "application/json" });
-  res.end(JSON.stringify({ code: "E_UNAUTHORIZED", message: `${scheme} credentials required`, details: { scheme: auth.scheme } }));
+  const err = new ServientError(401, "E_UNAUTHORIZED", `${scheme} credentials required`, { scheme: auth.scheme });
+  sendProblem(res, err, { "WWW-Authenticate": `${scheme} realm="robwot"` });
 }

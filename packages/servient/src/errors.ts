@@ -1,6 +1,7 @@
 /**
  * Errors of the servient. Every error has an HTTP status, a stable string `code` and structured
- * `details`; the HTTP middleware turns it into a JSON body `{code, message, details}`.
+ * `details`; every HTTP error answer (`sendProblem`) is its RFC 7807 problem details
+ * (`application/problem+json`: type, title, status, detail, and code, message, details; core `td/problem.ts`).
  *
  * Status codes (Contract 4, documented in the README; a backend error's status is the contract's):
  * - 400 schema violation / malformed JSON / degenerate calibration input (`E_BAD_INPUT`, `E_BAD_JSON`, ...)
@@ -10,7 +11,8 @@
  * - 422 the target was rejected by simulation-in-the-loop validation (`E_REJECTED`)
  * - 503 the simulation backend is down or restarting (`E_BACKEND_DOWN`)
  */
-import { RobwotError } from "@robwot/core";
+import type { ServerResponse } from "node:http";
+import { PROBLEM_JSON, problemDetails, RobwotError, type ProblemDetails } from "@robwot/core";
 import { ERRORS, type ErrorCode } from "@robwot/core/backend-contract";
 import { BackendDownError, RpcError, RpcTimeoutError } from "@robwot/sim-client";
 
@@ -25,6 +27,18 @@ export class ServientError extends RobwotError {
     super(code, message, details);
     this.status = status;
   }
+
+  /** RFC 7807 problem details of this error (the HTTP body, and a failed ActionStatus's `error`). */
+  problem(): ProblemDetails {
+    return problemDetails(this.status, this.code, this.message, this.details);
+  }
+}
+
+/** The problem details body of `err` with its status; `headers` (e.g. `Allow`, `WWW-Authenticate`) beside. */
+export function sendProblem(res: ServerResponse, err: ServientError, headers: Record<string, string> = {}): void {
+  const text = JSON.stringify(err.problem());
+  res.writeHead(err.status, { ...headers, "Content-Type": PROBLEM_JSON, "Content-Length": Buffer.byteLength(text) });
+  res.end(text);
 }
 
 export const badInput = (message: string, details: Details = {}): ServientError =>

@@ -2,21 +2,22 @@
  * RobWoT's HTTP middleware in front of node-wot's router (HttpServer `middleware` option):
  * auth for everything; `/robwot.json`; the viewer at `/viewer/`; the TDs at `/` and `/<slug>` (with
  * the real base, live URL and security); the twin folder files at `/<slug>/...`; action bodies parsed
- * and validated against the TD (400 JSON); handler errors mapped to their status with a JSON body.
+ * and validated against the TD (400); handler errors mapped to their status; every error answer is RFC 7807
+ * problem details (`application/problem+json`, `errors.ts`).
  * Only node-wot's affordance routes of a served slug reach node-wot, with their methods (404/405 JSON
  * otherwise).
  */
-import type { IncomingMessage, ServerResponse } from "node:http";
-import { RESPOND_ASYNC } from "@robwot/core";
+import { STATUS_CODES, type IncomingMessage, type ServerResponse } from "node:http";
+import { PROBLEM_JSON, RESPOND_ASYNC } from "@robwot/core";
 import { actionStatusRoute, preferences, respondAsync, type ActionStatusStore } from "./action-status.js";
 import type { AsyncAction } from "./actions.js";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
-import { ServientError } from "./errors.js";
+import { sendProblem, ServientError } from "./errors.js";
 import { parseBody, validateInput } from "./input-validation.js";
 import { requestContext, type RequestContext } from "./request-context.js";
 import { isJsonMediaType, RequestGuard } from "./request-guard.js";
 import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
-import { streamSse, type SseSource } from "./sse.js";
+import { SseChannel, streamSse, type SseSource } from "./sse.js";
 
 const MAX_BODY = 1 << 20;
 /** URL segment after `/<slug>/` → affordance kind named in a 404 */
@@ -81,26 +82,75 @@ async function readBody(req: IncomingMessage): Promise<string> {
   return Buffer.concat(chunks).toString("utf8");
 }
 
-/** Replaces node-wot's `500 <message>` by the recorded error's status and JSON body. */
+/** The code of an error answer node-wot writes itself (a status without a recorded error). */
+const NODE_WOT_CODES: Record<number, string> = {
+  400: "E_BAD_INPUT",
+  401: "E_UNAUTHORIZED",
+  404: "E_NOT_FOUND",
+  405: "E_METHOD_NOT_ALLOWED",
+  415: "E_UNSUPPORTED_MEDIA_TYPE",
+  500: "E_INTERNAL",
+};
+
+/**
+ * Every error answer node-wot writes becomes problem details (WoT Profile "Errors"): its `500 <message>`
+ * for a failed handler gets the recorded error's status and body; any other error status of its own, its
+ * text (or the reason phrase) as the detail.
+ */
 function mapErrors(res: ServerResponse, ctx: RequestContext): void {
   const writeHead = res.writeHead.bind(res) as (status: number, ...rest: unknown[]) => ServerResponse;
   const end = res.end.bind(res) as (...args: unknown[]) => ServerResponse;
+  let failed: number | null = null;
   (res as { writeHead: unknown }).writeHead = (status: number, ...rest: unknown[]): ServerResponse => {
-    if (status === 500 && ctx.error) {
-      res.setHeader("Content-Type", "application/json");
-      return writeHead(ctx.error.status);
-    }
-    return writeHead(status, ...rest);
+    if (status < 400) return writeHead(status, ...rest);
+    failed = ctx.error?.status ?? status;
+    res.removeHeader("Content-Length");
+    res.setHeader("Content-Type", PROBLEM_JSON);
+    return writeHead(failed);
   };
   (res as { end: unknown }).end = (...args: unknown[]): ServerResponse => {
-    if (ctx.error && res.statusCode === ctx.error.status && typeof args[0] !== "function") {
-      return end(JSON.stringify(ctx.error.toJSON()));
-    }
-    return end(...args);
+    if (failed === null || typeof args[0] === "function") return end(...args);
+    const text = typeof args[0] === "string" || Buffer.isBuffer(args[0]) ? String(args[0]) : "";
+    const err = ctx.error ?? new ServientError(failed, NODE_WOT_CODES[failed] ?? "E_INTERNAL", text || (STATUS_CODES[failed] ?? "error"));
+    return end(JSON.stringify(err.problem()));
   };
 }
 
+/**
+ * The SSE channels of each Thing (ids and history shared by its clients, `sse.ts`). A Thing's event
+ * channels are made by the first request that names the Thing (`of` / `touch`; a consumer reads the TD
+ * first), so every event after it is kept for a reconnecting client; a property's channel by its first stream.
+ */
+class SseChannels {
+  private readonly byThing = new WeakMap<ServedThing, Map<string, SseChannel>>();
+
+  /** the Thing's channels, its event channels made on the first call */
+  touch(thing: ServedThing): Map<string, SseChannel> {
+    let channels = this.byThing.get(thing);
+    if (!channels) {
+      this.byThing.set(thing, (channels = new Map()));
+      for (const event of Object.keys((thing.td().events ?? {}) as object)) this.make(thing, channels, "events", event);
+    }
+    return channels;
+  }
+
+  /** the channel of a property or event, null when it is not observable */
+  of(thing: ServedThing, kind: "properties" | "events", name: string): SseChannel | null {
+    const channels = this.touch(thing);
+    return channels.get(`${kind}/${name}`) ?? this.make(thing, channels, kind, name);
+  }
+
+  private make(thing: ServedThing, channels: Map<string, SseChannel>, kind: "properties" | "events", name: string): SseChannel | null {
+    const source = thing.observe(kind, name);
+    if (!source) return null;
+    const channel = new SseChannel(name, source);
+    channels.set(`${kind}/${name}`, channel);
+    return channel;
+  }
+}
+
 export function createMiddleware(env: MiddlewareEnv) {
+  const channels = new SseChannels();
   return async (req: IncomingMessage, res: ServerResponse, next: () => void): Promise<void> => {
     try {
       const url = new URL(req.url ?? "/", "http://localhost");
@@ -135,6 +185,8 @@ export function createMiddleware(env: MiddlewareEnv) {
       // nothing but our routes reaches node-wot: its second route per Thing (`/<url-encoded id>`) would
       // skip every check above and below
       if (!thing) return notFound(res, path);
+      // the Thing's event channels start recording (for Last-Event-ID) no later than its first request
+      channels.touch(thing);
       const rest = segments.slice(1).join("/");
       if (segments.length === 1 || isTwinFile(rest, thing.urdfName)) {
         if (!get) throw methodNotAllowed(res, method, path, READ);
@@ -159,9 +211,9 @@ export function createMiddleware(env: MiddlewareEnv) {
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
       if (statusId !== undefined) return await actionStatusRoute(req, res, thing.statuses, name, statusId);
       if (segments[3] === "sse") {
-        const source = thing.observe(segments[1] as "properties" | "events", name);
-        if (!source) throw new ServientError(404, "E_NOT_FOUND", `${path}: not observable`, { path });
-        return streamSse(req, res, name, source);
+        const stream = channels.of(thing, segments[1] as "properties" | "events", name);
+        if (!stream) throw new ServientError(404, "E_NOT_FOUND", `${path}: not observable`, { path });
+        return streamSse(req, res, stream);
       }
       if (segments[3] === "observable") {
         // node-wot 0.9.2 unsubscribes a long-poll observer on 'finish' only: one that went away first
@@ -196,7 +248,7 @@ export function createMiddleware(env: MiddlewareEnv) {
       requestContext.run(ctx, next);
     } catch (err) {
       const se = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
-      if (!res.headersSent) sendJson(res, se.status, se.toJSON());
+      if (!res.headersSent) sendProblem(res, se);
       else res.end();
     }
   };

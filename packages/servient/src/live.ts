@@ -9,6 +9,14 @@
  * latest edit), `{type: "error", code, message, details}` for a bad message. A snapshot (joints, status,
  * scene) follows every subscription.
  *
+ * Resuming: every message of the stream (not an error reply) carries `seq`, one sequence per servient,
+ * increasing across connections and restarts (`event-history.ts`). Events (collision, divergence,
+ * collisionImminent) are kept, the last `EVENT_HISTORY` per twin: `?thing=<slug>&resume=<seq>` or
+ * `{"subscribe": "<slug>", "resume": <seq>}` first replays the kept events after `seq` (in order, with
+ * their own `seq`), then the snapshot; when events after `seq` are no longer known (the history
+ * overflowed, or `seq` is of an earlier run) a `{thing, type: "gap", resume, firstKept, reason:
+ * "overflow" | "restart"}` message (no `seq`) comes first. States need no replay: the snapshot is the latest.
+ *
  * Each client has a `PushQueue` (push-queue.ts): its joints, status and scene messages coalesce to the
  * latest of each per thing, collision events and error replies are kept up to a bound, and a client that
  * stays behind is closed with code 1008 and the reason. A broadcast is serialised once, into one buffer
@@ -17,7 +25,9 @@
 import type { IncomingMessage, Server } from "node:http";
 import type { Duplex } from "node:stream";
 import { WebSocketServer, WebSocket } from "ws";
+import { PROBLEM_JSON } from "@robwot/core";
 import { isAuthorized, type AuthConfig } from "./auth.js";
+import { EventHistory, resumePoint, Sequence } from "./event-history.js";
 import { ServientError } from "./errors.js";
 import { PushQueue, type PushTransport } from "./push-queue.js";
 import type { RequestGuard } from "./request-guard.js";
@@ -50,17 +60,24 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
   const wss = new WebSocketServer({ noServer: true, maxPayload: 64 * 1024 });
   const clients = new Map<WebSocket, { things: Set<string>; queue: PushQueue<Buffer> }>();
 
+  // one sequence for every message of the stream; the events of each twin kept for resuming clients
+  const seq = new Sequence();
+  const kept = new Map([...twins.keys()].map((slug) => [slug, new EventHistory<Buffer>(seq)]));
+  const stamp = (msg: object, n: number): Buffer => Buffer.from(JSON.stringify({ ...msg, seq: n }));
+
   /** key: what the message coalesces with (`<kind>:<slug>`), null for an event or a reply (kept) */
-  const send = (ws: WebSocket, key: string | null, msg: unknown): void => {
-    clients.get(ws)?.queue.push(key, Buffer.from(JSON.stringify(msg)));
+  const send = (ws: WebSocket, key: string | null, msg: object, numbered = true): void => {
+    clients.get(ws)?.queue.push(key, numbered ? stamp(msg, seq.take()) : Buffer.from(JSON.stringify(msg)));
   };
-  const broadcast = (slug: string, kind: "joints" | "status" | "scene" | "collision" | "divergence" | "collisionImminent" | "physical", msg: unknown): void => {
+  const broadcast = (slug: string, kind: "joints" | "status" | "scene" | "collision" | "divergence" | "collisionImminent" | "physical", msg: object): void => {
     let data: Buffer | null = null;
-    // events are kept (up to a bound); of a state, the latest replaces a queued one
-    const key = kind === "collision" || kind === "divergence" || kind === "collisionImminent" ? null : `${kind}:${slug}`;
+    // events are kept (up to a bound, also here for resuming clients); of a state, the latest replaces a queued one
+    const event = kind === "collision" || kind === "divergence" || kind === "collisionImminent";
+    if (event) data = kept.get(slug)!.record((n) => stamp(msg, n));
+    const key = event ? null : `${kind}:${slug}`;
     for (const { things, queue } of clients.values()) {
       if (!things.has(slug)) continue;
-      data ??= Buffer.from(JSON.stringify(msg));
+      data ??= stamp(msg, seq.take());
       queue.push(key, data);
     }
   };
@@ -88,7 +105,7 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
     },
   ];
   for (const [slug, twin] of twins) {
-    const onJoints = (m: unknown): void => broadcast(slug, "joints", m);
+    const onJoints = (m: object): void => broadcast(slug, "joints", m);
     const onStatus = (s: object): void => broadcast(slug, "status", { thing: slug, type: "status", ...s });
     const onCollision = (e: object): void => broadcast(slug, "collision", { thing: slug, type: "collision", ...e });
     const onDivergence = (e: object): void => broadcast(slug, "divergence", { thing: slug, type: "divergence", ...e });
@@ -113,17 +130,23 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
     });
   }
 
-  const subscribe = (ws: WebSocket, slug: string): void => {
-    const set = clients.get(ws)?.things;
-    if (!set) return;
+  /** `resume`: the last `seq` the client saw (its missed events are replayed first), null for none */
+  const subscribe = (ws: WebSocket, slug: string, resume: number | null): void => {
+    const client = clients.get(ws);
+    if (!client) return;
     const targets = slug === "*" ? [...twins.keys()] : [slug];
     for (const s of targets) {
       const twin = twins.get(s);
       if (!twin) {
-        send(ws, null, { type: "error", code: "E_UNKNOWN_THING", message: `no twin '${s}'`, details: { thing: s, available: [...twins.keys()] } });
+        send(ws, null, { type: "error", code: "E_UNKNOWN_THING", message: `no twin '${s}'`, details: { thing: s, available: [...twins.keys()] } }, false);
         continue;
       }
-      set.add(s);
+      if (resume !== null) {
+        const { replay, gap } = kept.get(s)!.since(resume);
+        if (gap) send(ws, null, { thing: s, type: "gap", resume, firstKept: gap.firstKept, reason: gap.reason }, false);
+        for (const data of replay) client.queue.push(null, data);
+      }
+      client.things.add(s);
       send(ws, `joints:${s}`, twin.liveJoints());
       send(ws, `status:${s}`, { thing: s, type: "status", ...twin.status });
       send(ws, `scene:${s}`, sceneOf(s));
@@ -142,8 +165,8 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
       guard.checkOrigin(req, true);
     } catch (err) {
       const e = err as ServientError;
-      const body = JSON.stringify(e.toJSON());
-      socket.end(`HTTP/1.1 ${e.status} ${e.code}\r\nContent-Type: application/json\r\nContent-Length: ${Buffer.byteLength(body)}\r\nConnection: close\r\n\r\n${body}`);
+      const body = JSON.stringify(e.problem());
+      socket.end(`HTTP/1.1 ${e.status} ${e.code}\r\nContent-Type: ${PROBLEM_JSON}\r\nContent-Length: ${Buffer.byteLength(body)}\r\nConnection: close\r\n\r\n${body}`);
       return;
     }
     if (auth && !isAuthorized(req, auth)) {
@@ -165,18 +188,18 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
         try {
           msg = JSON.parse(data.toString());
         } catch {
-          send(ws, null, { type: "error", code: "E_BAD_JSON", message: "message is not JSON", details: {} });
+          send(ws, null, { type: "error", code: "E_BAD_JSON", message: "message is not JSON", details: {} }, false);
           return;
         }
-        const m = (msg ?? {}) as { subscribe?: unknown; unsubscribe?: unknown };
-        if (typeof m.subscribe === "string") subscribe(ws, m.subscribe);
+        const m = (msg ?? {}) as { subscribe?: unknown; unsubscribe?: unknown; resume?: unknown };
+        if (typeof m.subscribe === "string") subscribe(ws, m.subscribe, resumePoint(typeof m.resume === "number" ? String(m.resume) : (m.resume as string | undefined)));
         else if (typeof m.unsubscribe === "string") clients.get(ws)?.things.delete(m.unsubscribe);
         else {
-          send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message: 'expected {"subscribe": "<slug>"} or {"unsubscribe": "<slug>"}', details: {} });
+          send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message: 'expected {"subscribe": "<slug>", "resume"?: <seq>} or {"unsubscribe": "<slug>"}', details: {} }, false);
         }
       });
       const initial = url.searchParams.get("thing");
-      if (initial) subscribe(ws, initial);
+      if (initial) subscribe(ws, initial, resumePoint(url.searchParams.get("resume")));
     });
   };
   server.on("upgrade", onUpgrade);

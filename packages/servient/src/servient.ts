@@ -286,7 +286,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
 
 /** What the SSE forms stream: the twin's observable properties (its own change events) and events. */
 function sseSource(twin: Twin, kind: "properties" | "events", name: string): SseSource | null {
-  const on = <E extends "joints" | "status" | "collision" | "divergence" | "collisionImminent">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
+  const on = <E extends "joints" | "status" | "physical" | "collision" | "divergence" | "collisionImminent">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
     const listener = (...args: never[]): void => send(value(...args));
     twin.on(event, listener as never);
     return () => void twin.off(event, listener as never);
@@ -303,5 +303,8 @@ function sseSource(twin: Twin, kind: "properties" | "events", name: string): Sse
   if (name === "getJointPosition") return { current: () => twin.jointsRecord(), subscribe: on("joints", () => twin.jointsRecord()) };
   if (name === "getCartesianPosition") return { current: pose, subscribe: on("joints", pose) };
   if (name === "motionStatus") return { current: () => twin.status, subscribe: on("status", () => twin.status) };
+  // the TD offers physicalState an SSE form too (its long-poll reads are properties.ts's)
+  const physical = (): unknown => twin.physical?.() ?? { following: false, followed: 0 };
+  if (name === "physicalState") return { current: physical, subscribe: on("physical", physical) };
   return null;
 }

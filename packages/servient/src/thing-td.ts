@@ -6,7 +6,7 @@
  *   pointing at this servient's `/live`, the security required (`securityFor`), and the Cartesian
  *   bounds in the real frame when a calibration is active.
  */
-import { type Bounds, type FrameMap, LIVE_REL, securityFor, TD_CONTEXT_V10, type ThingDescription, withAbsoluteForms } from "@robwot/core";
+import { type Bounds, type FrameMap, LIVE_REL, securityFor, TD_CONTEXT_V10, type ThingDescription, withAbsoluteForms, WOT_PROFILES } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
 import type { TdDocument } from "./twin-folder.js";
 
@@ -60,6 +60,12 @@ export interface ServeTdOptions {
 export function servedTd(td: TdDocument, o: ServeTdOptions): TdDocument {
   // forms absolute and moved to the served address (td.json of older versions had relative ones)
   const out = withAbsoluteForms(clone(td), `${o.url}/${o.slug}/`);
+  // the servient answers as the WoT Profiles say, also for a td.json written before it said so
+  const doc = out as Json;
+  doc.profile ??= [...WOT_PROFILES];
+  eachAffordance(out, (a, kind) => {
+    if (kind === "actions") a.synchronous ??= true;
+  });
   for (const l of (out.links ?? []) as Json[]) if (l.rel === LIVE_REL) l.href = o.liveUrl;
   if (o.bounds && o.frames.transform) {
     const b = o.frames.boundsToReal(o.bounds);

@@ -6,7 +6,8 @@
  * the action's output once the motion has ended. Asynchronous: `201 Created`, `Location` = the URL of an
  * ActionStatus resource, `Preference-Applied: respond-async`, and the ActionStatus as body; then `GET`
  * on that URL (queryaction) answers the current ActionStatus and `DELETE` (cancelaction) stops the move
- * and answers `204` (or `200` with the final ActionStatus under `Prefer: return=representation`).
+ * and answers `204`; as the Profile says, a cancelled invocation's ActionStatus is deleted (then `404`).
+ * A DELETE that cancels nothing (the move had already ended) answers `409` and leaves the status as it is.
  *
  * In the TD, each asynchronous action has: its synchronous `invokeaction` form first (consumers pick the
  * first), a second `invokeaction` form that states the `Prefer` header (`htv:headers`) and the 201
@@ -23,7 +24,8 @@ export const ACTION_ID_VARIABLE = "actionID";
 export const ACTION_STATUS_SCHEMA = "actionStatus";
 /** RFC 7240 preference of an asynchronous invocation. */
 export const RESPOND_ASYNC = "respond-async";
-export const ACTION_STATUSES = ["pending", "running", "completed", "failed", "cancelled"] as const;
+/** The WoT Profile's ActionStatus values, no more (a cancelled invocation has no status: it is deleted). */
+export const ACTION_STATUSES = ["pending", "running", "completed", "failed"] as const;
 export type ActionStatusValue = (typeof ACTION_STATUSES)[number];
 
 const JSON_TYPE = "application/json";
@@ -36,8 +38,8 @@ export function actionStatusSchema(output: DataSchema, error: DataSchema): DataS
     description:
       "Status of an asynchronous invocation (W3C WoT Profile ActionStatus): pending (accepted; validation, IK and path planning), " +
       "running (the motion), then completed (output = the result the synchronous invocation answers, also for a motion ended by " +
-      "`stop` or a collision), failed (error = the error the synchronous invocation answers) or cancelled (DELETE on href; output " +
-      "= the result of the stopped motion)",
+      "`stop` or a collision) or failed (error = the problem details the synchronous invocation answers); DELETE on href " +
+      "cancels (204) and deletes it",
     properties: {
       status: { type: "string", enum: [...ACTION_STATUSES] },
       progress: {
@@ -48,14 +50,10 @@ export function actionStatusSchema(output: DataSchema, error: DataSchema): DataS
       },
       step: { type: "integer", minimum: 0, description: "runProgram: index of the step running (then the one it ended in)" },
       output,
-      error: {
-        ...error,
-        description: "why it failed: the synchronous error body {code, message, details} with the RFC 7807 members title and status (HTTP status)",
-        properties: { ...error.properties, title: { type: "string" }, status: { type: "integer", minimum: 400, maximum: 599 } },
-      },
+      error: { ...error, description: "why it failed: the RFC 7807 problem details the synchronous invocation answers" },
       href: { type: "string", description: "URL of this ActionStatus resource (queryaction: GET, cancelaction: DELETE)" },
       timeRequested: time("when the invocation was received"),
-      timeEnded: time("when it completed, failed or was cancelled"),
+      timeEnded: time("when it completed or failed"),
     },
     required: ["status", "progress", "href", "timeRequested"],
   };
@@ -73,7 +71,15 @@ export function asyncActionForms(name: string, sync: Form, errors: object[]): Fo
       additionalResponses: [status(201), ...errors],
     },
     { href: resource, contentType: JSON_TYPE, op: ["queryaction"], "htv:methodName": "GET", additionalResponses: [status(200), ...errors] },
-    { href: resource, contentType: JSON_TYPE, op: ["cancelaction"], "htv:methodName": "DELETE", additionalResponses: [status(200), ...errors] },
+    {
+      href: resource,
+      contentType: JSON_TYPE,
+      op: ["cancelaction"],
+      "htv:methodName": "DELETE",
+      response: { contentType: JSON_TYPE, "htv:statusCodeValue": 204 },
+      // among the errors, 409: the invocation had already ended (nothing cancelled; its status stays queryable)
+      additionalResponses: errors,
+    },
   ];
 }
 

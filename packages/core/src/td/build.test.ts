@@ -90,7 +90,7 @@ describe("buildThingDescription", () => {
         contentType: "application/json",
         op: ["readproperty"],
         "htv:methodName": "GET",
-        additionalResponses: [{ success: false, contentType: "application/json", schema: "error" }],
+        additionalResponses: [{ success: false, contentType: "application/problem+json", schema: "error" }],
       },
       {
         href: "http://localhost:8080/lbr_iiwa/properties/getJointPosition/observable",
@@ -112,13 +112,14 @@ describe("buildThingDescription", () => {
         // one error answer per status, told apart by the HTTP binding's status code
         additionalResponses: [400, 404, 409, 413, 415, 422, 503, 504].map((status) => ({
           success: false,
-          contentType: "application/json",
+          contentType: "application/problem+json",
           schema: "error",
           "htv:statusCodeValue": status,
         })),
       },
     ]);
-    expect(td.schemaDefinitions?.["error"]).toMatchObject({ type: "object", required: ["code", "message", "details"] });
+    // RFC 7807 problem details, with the earlier body's members as extensions
+    expect(td.schemaDefinitions?.["error"]).toMatchObject({ type: "object", required: ["type", "title", "status", "detail", "code", "message", "details"] });
     expect(td.events.collision?.forms[0]).toMatchObject({ href: "http://localhost:8080/lbr_iiwa/events/collision", op: ["subscribeevent", "unsubscribeevent"] });
     const names = [...Object.keys(td.properties), ...Object.keys(td.actions), ...Object.keys(td.events)];
     for (const n of ["getJointPosition", "getCartesianPosition", "moveToJointPosition", "moveToCartesianPosition", "validateCartesianPosition", "calibrate", "collision", "motionStatus"]) {
@@ -154,12 +155,22 @@ describe("buildThingDescription", () => {
       expect(td.actions[name]?.uriVariables).toBeUndefined();
     }
     const status = td.schemaDefinitions as Record<string, DataSchema>;
-    expect(status.actionStatus?.properties?.status?.enum).toEqual(["pending", "running", "completed", "failed", "cancelled"]);
+    // the WoT Profile's four values: a cancelled invocation has no status (its resource is deleted)
+    expect(status.actionStatus?.properties?.status?.enum).toEqual(["pending", "running", "completed", "failed"]);
+    expect(td.actions.moveToJointPosition?.forms[3]?.response).toEqual({ contentType: "application/json", "htv:statusCodeValue": 204 });
     expect(status.actionStatus?.properties?.output).toEqual(td.actions.moveToJointPosition?.output);
     expect(status.actionStatus?.required).toEqual(["status", "progress", "href", "timeRequested"]);
     // moved to another address, the template moves with the other forms
     const moved = withAbsoluteForms(structuredClone(td), "https://twin.example:9443/arm/");
     expect(moved.actions.moveToJointPosition?.forms[2]?.href).toBe("https://twin.example:9443/arm/actions/moveToJointPosition/{actionID}");
+  });
+
+  it("declares the WoT Profiles, the TD 1.1 context they need, and synchronous on every action", () => {
+    expect(td.profile).toEqual(["https://www.w3.org/2022/wot/profile/http-basic/v1", "https://www.w3.org/2022/wot/profile/http-sse/v1"]);
+    expect(td["@context"]).toContain("https://www.w3.org/2022/wot/td/v1.1");
+    for (const [name, a] of Object.entries(td.actions)) expect(a.synchronous, name).toBe(true);
+    const basic = securityFor(td, { scheme: "basic" });
+    expect(basic.securityDefinitions).toEqual({ basic_sc: { scheme: "basic", in: "header", name: "Authorization" } });
   });
 
   it("maps Cartesian bounds through an active calibration", () => {

@@ -11,6 +11,7 @@ import type { Bounds, JointSpec, RobotModelLike, WorkspaceSummary } from "../typ
 import { ACTION_STATUS_SCHEMA, actionStatusSchema, ASYNC_ACTIONS, asyncActionForms, asyncActionVariables } from "./async-actions.js";
 import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
 import { canonicalJson, fnv1a64, MAX_SLUG_LENGTH, thingSlug } from "./hash.js";
+import { PROBLEM_JSON, PROBLEM_SCHEMA } from "./problem.js";
 import { closeSchema, moveResultSchema } from "./schemas.js";
 import type { ActionAffordance, DataSchema, EventAffordance, Form, Link, PropertyAffordance, ThingDescription } from "./types.js";
 
@@ -29,6 +30,11 @@ export const LIVE_REL = "robwot:live";
 /** Link relation of reachability.csv, the reachability map (README "Reachability map"). */
 export const REACHABILITY_REL = "robwot:reachability";
 export const DEFAULT_BASE_URL = "http://localhost:8080/";
+/**
+ * The W3C WoT Profiles every twin conforms to (TD `profile`; the Profile requires the TD 1.1 context):
+ * HTTP Basic (properties, actions, ActionStatus, errors) and HTTP SSE (the `subprotocol: "sse"` forms).
+ */
+export const WOT_PROFILES = ["https://www.w3.org/2022/wot/profile/http-basic/v1", "https://www.w3.org/2022/wot/profile/http-sse/v1"] as const;
 const JSON_TYPE = "application/json";
 
 export interface BuildThingDescriptionOptions {
@@ -136,19 +142,10 @@ export function thingId(model: RobotModelLike, slug: string, sceneId?: string): 
 
 /**
  * The body of every error answer (400 bad input, 401 unauthorised, 403/421 refused, 404, 409 busy or
- * name taken, 415, 422 rejected by validation, 503 backend down): `{code, message, details}`, declared on
- * every form so that a consumer can tell an error body from a result.
+ * name taken, 415, 422 rejected by validation, 503 backend down): RFC 7807 problem details
+ * (`problem.ts`), declared on every form so that a consumer can tell an error body from a result.
  */
-const ERROR_SCHEMA: DataSchema = {
-  type: "object",
-  description: "An error answer: stable code (E_...), readable message, structured details",
-  properties: {
-    code: { type: "string", description: "stable error code, e.g. E_BAD_INPUT, E_BUSY, E_REJECTED, E_BACKEND_DOWN" },
-    message: { type: "string" },
-    details: { type: "object", description: "structured fields of the error (param, reasons, checks, ...)" },
-  },
-  required: ["code", "message", "details"],
-};
+const ERROR_SCHEMA: DataSchema = PROBLEM_SCHEMA;
 /**
  * Error answers of an action, one per HTTP status (TD 1.1 Form `additionalResponses`: each one is told
  * apart from the others by a protocol-specific response code, here the HTTP binding's
@@ -156,9 +153,9 @@ const ERROR_SCHEMA: DataSchema = {
  * large, 415 not JSON, 422 rejected by validation, 503 backend down, 504 backend timeout.
  */
 export const ACTION_ERROR_STATUSES = [400, 404, 409, 413, 415, 422, 503, 504] as const;
-const ERROR_RESPONSES = ACTION_ERROR_STATUSES.map((status) => ({ success: false, contentType: JSON_TYPE, schema: "error", "htv:statusCodeValue": status }));
+const ERROR_RESPONSES = ACTION_ERROR_STATUSES.map((status) => ({ success: false, contentType: PROBLEM_JSON, schema: "error", "htv:statusCodeValue": status }));
 /** A property read answers from the twin's memory: an error (auth, host) has no status of its own. */
-const READ_ERROR_RESPONSES = [{ success: false, contentType: JSON_TYPE, schema: "error" }];
+const READ_ERROR_RESPONSES = [{ success: false, contentType: PROBLEM_JSON, schema: "error" }];
 
 function propertyForms(name: string, observable: boolean): Form[] {
   const forms: Form[] = [{ href: `properties/${name}`, contentType: JSON_TYPE, op: ["readproperty"], "htv:methodName": "GET", additionalResponses: READ_ERROR_RESPONSES }];
@@ -199,8 +196,11 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     const sync: Form = { href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST", additionalResponses: ERROR_RESPONSES };
     const isAsync = ASYNC_ACTIONS.includes(name);
     // inputs are closed: the servient refuses a property the schema does not name, and the TD says so
+    // the WoT Profile wants `synchronous` on every action: a plain POST answers once the action has ended
+    // (the moves' `Prefer: respond-async` form is a capability beyond the Profile, README "Asynchronous moves")
     actions[name] = {
       ...a,
+      synchronous: true,
       ...(a.input ? { input: closeSchema(a.input) as DataSchema } : {}),
       ...(isAsync ? { uriVariables: asyncActionVariables() } : {}),
       forms: isAsync ? [sync, ...asyncActionForms(name, sync, ERROR_RESPONSES)] : [sync],
@@ -231,6 +231,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     "@context": [TD_CONTEXT_V10, TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],
     "@type": ["Thing", "robwot:RobotArmTwin"],
     id: options.id ?? thingId(model, slug, options.sceneId),
+    profile: [...WOT_PROFILES],
     title,
     description: options.description ?? defaultDescription(model, joints, summary, options.tool),
     base: `${base.href}${slug}/`,

@@ -12,7 +12,8 @@ export function securityFor(td: ThingDescription, auth: AuthScheme | null): Thin
     def = { scheme: "nosec" };
   } else if (auth.scheme === "basic") {
     name = "basic_sc";
-    def = { scheme: "basic", in: "header" };
+    // WoT Profile: a basic scheme names its header ("Authorization"; "Proxy-Authorization" only behind a proxy)
+    def = { scheme: "basic", in: "header", name: "Authorization" };
   } else {
     name = "bearer_sc";
     def = { scheme: "bearer", in: "header" };

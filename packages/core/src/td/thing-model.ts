@@ -27,6 +27,8 @@ export function buildThingModel(): Json {
   const tm: Json = {
     "@context": td["@context"],
     "@type": "tm:ThingModel",
+    // every instance conforms to the WoT Profiles (HTTP Basic, HTTP SSE) its TD declares
+    profile: td["profile"],
     title: "{{ROBOT_NAME}}",
     description:
       "Web of Things digital twin of a robot arm ({{ROBOT_NAME}}, end effector {{EE_LINK}}) made by RobWoT from its URDF: " +

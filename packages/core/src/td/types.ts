@@ -80,6 +80,8 @@ export interface ThingDescription {
   "@context": [string, ...(string | Record<string, string>)[]];
   "@type"?: string | string[];
   id: string;
+  /** W3C WoT Profiles the Thing conforms to (URIs) */
+  profile?: string | string[];
   title: string;
   description?: string;
   base?: string;
