@@ -32,6 +32,7 @@ export async function generateTwin(robot = "kuka_iiwa", samples = 3000, extra: s
 export interface HttpAnswer {
   status: number;
   type: string | null;
+  headers: Headers;
   body: any;
 }
 
@@ -44,7 +45,7 @@ export async function http(url: string, init: RequestInit = {}): Promise<HttpAns
   } catch {
     /* not JSON */
   }
-  return { status: r.status, type: r.headers.get("content-type"), body };
+  return { status: r.status, type: r.headers.get("content-type"), headers: r.headers, body };
 }
 
 export function invoke(base: string, action: string, body: unknown, headers: Record<string, string> = {}): Promise<HttpAnswer> {

@@ -12,6 +12,7 @@ import { PROBLEM_JSON, RESPOND_ASYNC } from "@robwot/core";
 import { actionStatusRoute, preferences, respondAsync, type ActionStatusStore } from "./action-status.js";
 import type { AsyncAction } from "./actions.js";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
+import { type DirectoryEnv, directoryRoute, isDirectoryPath } from "./directory.js";
 import { sendProblem, ServientError } from "./errors.js";
 import { parseBody, validateInput } from "./input-validation.js";
 import { requestContext, type RequestContext } from "./request-context.js";
@@ -47,6 +48,8 @@ export interface MiddlewareEnv {
   things: Map<string, ServedThing>;
   viewerDir: string | null;
   index(): unknown;
+  /** `/.well-known/wot` and the read-only Thing Description Directory (`directory.ts`) */
+  directory: DirectoryEnv;
 }
 
 const READ = ["GET", "HEAD"] as const;
@@ -168,6 +171,10 @@ export function createMiddleware(env: MiddlewareEnv) {
       const get = method === "GET" || method === "HEAD";
 
       if (path === "/robwot.json" && get) return sendJson(res, 200, env.index());
+      if (isDirectoryPath(path)) {
+        if (!get) throw methodNotAllowed(res, method, path, READ);
+        return directoryRoute(req, res, path, url.searchParams, env.directory);
+      }
       if (path === "/viewer" && get) {
         res.writeHead(301, { Location: `/viewer/${url.search}` });
         return void res.end();

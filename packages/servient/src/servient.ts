@@ -19,6 +19,8 @@ import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
 import { registerProperties } from "./properties.js";
 import { Relay } from "./relay.js";
+import { DIRECTORY_SEGMENTS } from "./directory.js";
+import { Registrar } from "./register.js";
 import { Follower, FOLLOW_RATE, type MonitorMode } from "./follow.js";
 import { loadRelayMap, type RelayMap } from "./relay-map.js";
 import { defaultViewerDir } from "./static-files.js";
@@ -57,6 +59,8 @@ export interface ServientOptions {
   /** a JSON file naming the physical Thing's own affordances, joint order and units (`--relay-map`,
    *  `relay-map.ts`), checked against the twin's joints at start */
   relayMap?: string;
+  /** base URL of a Thing Description Directory to register the served TDs into (`register.ts`) */
+  register?: string;
   /** the safety monitor on the followed robot: stop it (default), only warn, or off */
   monitor?: MonitorMode;
   /** s the monitor looks ahead at the current joint velocity (`MONITOR_HORIZON`) */
@@ -109,7 +113,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
 
   const folders = opts.twins.map((t) => loadTwinFolder(t, opts.meshRoots ?? []));
   const twins = new Map<string, Twin>();
-  const slugs = new Set<string>();
+  // a twin's slug is the first segment of its paths: never one of the servient's own routes
+  const slugs = new Set<string>(["viewer", "live", "robwot.json", ...DIRECTORY_SEGMENTS]);
   const ids = new Set<string>();
   const connector = opts.backendUrl ? urlConnector(opts.backendUrl) : launchConnector({ python: opts.python });
   // the world is built from the twins below; restore runs only at start()
@@ -169,6 +174,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     things: served,
     viewerDir: existsSync(viewerDir) ? viewerDir : null,
     index: () => ({ url, live: liveUrl, viewer: `${url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: infos() }),
+    directory: { url: () => url, tds: () => [...served.values()].map((t) => t.td()), auth: opts.auth },
   });
   const http = new HttpServer({ port: opts.port ?? 8080, address: host, middleware });
   Object.assign(process.env, Object.fromEntries(Object.entries(saved).filter(([, v]) => v !== undefined)));
@@ -178,6 +184,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   let live: LiveServer | null = null;
   const movers: Mover[] = [];
   const followers: Follower[] = [];
+  const registrar = opts.register
+    ? new Registrar(opts.register, () => [...served.values()].flatMap((t) => (typeof t.td().id === "string" ? [{ id: t.td().id as string, td: () => t.td() }] : [])))
+    : null;
   try {
     const wot = await servient.start();
     port = http.getPort();
@@ -223,7 +232,16 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         twin.physical = () => follower.view();
       }
       registerProperties(thing, twin, () => follower?.view() ?? null);
-      const asyncActions = registerActions(thing, { backend, twin, mover, world, onCalibrated: () => (cached = null) });
+      const asyncActions = registerActions(thing, {
+        backend,
+        twin,
+        mover,
+        world,
+        onCalibrated: () => {
+          cached = null;
+          registrar?.changed(String(td().id ?? ""));
+        },
+      });
       await thing.expose();
       const entry: ServedThing = {
         slug,
@@ -242,6 +260,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     }
     live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth, guard);
     for (const f of followers) f.start();
+    if (registrar) await registrar.start();
   } catch (err) {
     for (const f of followers) f.stop();
     // start-up failed: the original error is rethrown below, a failing shutdown adds nothing to it
@@ -273,6 +292,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         // robot is stopped there (the servient that watched it is going away)
         await Promise.all(movers.map((m) => m.shutdown()));
         for (const f of followers) f.stop();
+        await registrar?.stop();
         await live?.close();
         // stopping: node-wot failing to unregister a Thing changes nothing, the server closes anyway
         const shut = servient.shutdown().catch(() => undefined);

@@ -23,6 +23,8 @@ export interface ServeOptions {
   monitor?: MonitorMode;
   horizon?: number;
   relayMap?: string;
+  /** base URL of a Thing Description Directory the TDs are registered into (--register) */
+  register?: string;
   auth?: AuthOption;
   backend?: string;
   /** browser origins granted CORS and allowed to send commands (--cors-origin, repeatable) */
@@ -46,6 +48,7 @@ export const SERVE_OPTIONS = {
   monitor: { type: "string" },
   horizon: { type: "string" },
   "relay-map": { type: "string" },
+  register: { type: "string" },
   auth: { type: "string" },
   backend: { type: "string" },
   "cors-origin": { type: "string", multiple: true },
@@ -144,6 +147,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     }
   }
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
+  const register = parseUrl("register", values.register, ["http", "https"])?.href;
   const auth = parseAuth(values.auth);
   return {
     folders,
@@ -164,6 +168,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
       : {}),
     ...(auth ? { auth } : {}),
     ...(backend ? { backend } : {}),
+    ...(register ? { register } : {}),
     corsOrigins: parseCorsOrigins(values["cors-origin"]),
     allowedHosts: parseAllowedHosts(values["allowed-host"]),
     meshRoots: (values["mesh-root"] ?? []).map((d) => {

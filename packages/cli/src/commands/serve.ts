@@ -28,6 +28,8 @@ Options:
   --horizon S                  how far ahead the monitor looks (default ${MONITOR_HORIZON} s)
   --relay-map FILE             JSON naming the physical Thing's own joint state property, joint order and units,
                                and its joint move, Cartesian move and stop actions (README "--relay-map")
+  --register URL               a Thing Description Directory (WoT Discovery) to register the TDs into
+                               (PUT URL/things/{id}; again after calibrate; DELETE on exit)
   --auth basic:USER:PASS | bearer:TOKEN   require credentials for every affordance and file
   --backend ws://HOST:PORT     use a running backend instead of starting one
   --cors-origin ORIGIN         let a web page of this origin (e.g. https://dash.example:3000) call the twin;
@@ -81,6 +83,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
       : {}),
     ...(opts.auth ? { auth: opts.auth } : {}),
     ...(opts.backend ? { backendUrl: opts.backend } : {}),
+    ...(opts.register ? { register: opts.register } : {}),
     corsOrigins: opts.corsOrigins,
     allowedHosts: opts.allowedHosts,
     meshRoots: opts.meshRoots ?? [],
