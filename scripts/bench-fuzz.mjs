@@ -7,6 +7,9 @@
  * status_code_conformance, content_type_conformance. Not fuzzed: the long-poll routes
  * (`.../observable`, `.../sse`, `events/...`), which answer only on the next change.
  * Prints one row per operation (requests, answers by status class, 5xx) and the failures by check.
+ * Then Schemathesis's stateful phase on its own (--stateful-examples N, default 20): it follows the
+ * OpenAPI links of an asynchronous move's 201 to its queryaction / cancelaction operations; counted are
+ * the links it covered and the requests that reached a real ActionStatus (an id a 201 had answered).
  * Exits 1 on any 5xx or failure. Options: --examples N (Schemathesis --max-examples per operation,
  * default 20), --seed N (default 1), --json (the figures as one JSON line).
  */
@@ -22,6 +25,7 @@ const arg = (name, def) => {
   return i > 0 ? Number(process.argv[i + 1]) : def;
 };
 const EXAMPLES = arg("examples", 20);
+const STATEFUL_EXAMPLES = arg("stateful-examples", 20);
 const SEED = arg("seed", 1);
 const JSON_OUT = process.argv.includes("--json");
 const CHECKS = ["not_a_server_error", "response_schema_conformance", "status_code_conformance", "content_type_conformance"];
@@ -52,22 +56,36 @@ try {
   const oa = spawnSync(process.execPath, [cli, "openapi", twin, "--base", info.url, "--out", doc], { stdio: ["ignore", "inherit", "pipe"], encoding: "utf8" });
   if (oa.status !== 0) throw new Error(`robwot openapi failed: ${oa.stderr}`);
   const reports = join(work, "reports");
-  const args = [
-    "run", doc, "--url", info.url, "--checks", CHECKS.join(","), "--exclude-path-regex", "/(observable|sse)$|/events/",
-    "--max-examples", String(EXAMPLES), "--seed", String(SEED), "--workers", "1", "--request-timeout", "60",
-    "--report", "json,har", "--report-dir", reports,
-  ];
-  const t0 = performance.now();
-  // cwd: Schemathesis keeps a cache folder (.schemathesis) in its working folder
-  const st = spawnSync(schemathesis, args, { cwd: work, encoding: "utf8", maxBuffer: 64 << 20 });
-  const seconds = (performance.now() - t0) / 1000;
-  const file = (prefix) => {
-    const f = readdirSync(reports).find((n) => n.startsWith(prefix));
-    if (!f) throw new Error(`schemathesis wrote no ${prefix} report (exit ${st.status}):\n${st.stdout}\n${st.stderr}`);
-    return JSON.parse(readFileSync(join(reports, f), "utf8"));
+  const run = (phases, examples, dir) => {
+    const args = [
+      "run", doc, "--url", info.url, "--checks", CHECKS.join(","), "--exclude-path-regex", "/(observable|sse)$|/events/",
+      "--phases", phases, "--max-examples", String(examples), "--seed", String(SEED), "--workers", "1",
+      "--request-timeout", "60", "--report", "json,har", "--report-dir", dir,
+    ];
+    // cwd: Schemathesis keeps a cache folder (.schemathesis) in its working folder
+    const st = spawnSync(schemathesis, args, { cwd: work, encoding: "utf8", maxBuffer: 64 << 20 });
+    const file = (prefix) => {
+      const f = readdirSync(dir).find((n) => n.startsWith(prefix));
+      if (!f) throw new Error(`schemathesis wrote no ${prefix} report (exit ${st.status}):\n${st.stdout}\n${st.stderr}`);
+      return JSON.parse(readFileSync(join(dir, f), "utf8"));
+    };
+    return { st, report: file("json-"), har: file("har-") };
   };
-  const report = file("json-");
-  const har = file("har-");
+  const t0 = performance.now();
+  const { report, har } = run("examples,coverage,fuzzing", EXAMPLES, reports);
+  const seconds = (performance.now() - t0) / 1000;
+  const stateful = run("stateful", STATEFUL_EXAMPLES, join(work, "stateful"));
+  // "API Links:    3 covered / 6 selected / 6 total": only the console says it
+  const links = /API Links:\s+(\d+) covered \/ (\d+) selected/.exec(stateful.st.stdout);
+  // requests on an ActionStatus a 201 had created (its Location): the links at work, by method and answer
+  const created = new Set();
+  const chained = {};
+  for (const e of stateful.har.log.entries) {
+    const location = e.response.headers.find((h) => h.name.toLowerCase() === "location")?.value;
+    if (e.response.status === 201 && location) created.add(new URL(location).pathname);
+    const path = new URL(e.request.url).pathname;
+    if (created.has(path)) chained[`${e.request.method} ${e.response.status}`] = (chained[`${e.request.method} ${e.response.status}`] ?? 0) + 1;
+  }
 
   // one row per documented operation; Schemathesis also probes other methods on its paths (405)
   const documented = JSON.parse(readFileSync(doc, "utf8")).paths;
@@ -82,8 +100,10 @@ try {
     if (cls in row) row[cls]++;
     rows.set(op, row);
   }
+  const failures = [...report.failures, ...stateful.report.failures];
+  const errors = [...report.errors, ...stateful.report.errors];
   const byKind = {};
-  for (const f of report.failures) {
+  for (const f of failures) {
     const kind = KINDS[f.code] ?? f.title;
     byKind[kind] = (byKind[kind] ?? 0) + f.count;
   }
@@ -92,12 +112,19 @@ try {
     operations: report.operations.tested,
     cases: report.test_cases.generated,
     requests: total.requests,
-    responses5xx: total["5xx"],
+    responses5xx: total["5xx"] + stateful.har.log.entries.filter((e) => e.response.status >= 500).length,
     schemaViolations: byKind["schema violation"] ?? 0,
     undocumentedStatus: byKind["undocumented status"] ?? 0,
     contentType: byKind["content type"] ?? 0,
-    failures: report.failures.map((f) => ({ code: f.code, title: f.title, count: f.count, operations: f.operations })),
-    errors: report.errors,
+    failures: failures.map((f) => ({ code: f.code, title: f.title, count: f.count, operations: f.operations })),
+    errors,
+    stateful: {
+      cases: stateful.report.test_cases.generated,
+      linksCovered: links ? Number(links[1]) : 0,
+      links: links ? Number(links[2]) : 0,
+      created: created.size,
+      chained,
+    },
     seconds: Math.round(seconds * 10) / 10,
     examples: EXAMPLES,
     seed: SEED,
@@ -114,11 +141,14 @@ try {
     lines.push("");
     lines.push(`operations ${figures.operations}, test cases ${figures.cases}, requests ${figures.requests}, in ${figures.seconds} s`);
     lines.push(`5xx answers ${figures.responses5xx}, schema violations ${figures.schemaViolations}, undocumented statuses ${figures.undocumentedStatus}, content-type failures ${figures.contentType}`);
-    for (const f of report.failures) lines.push(`  ${f.code} ${f.title} x${f.count}: ${f.operations.join(", ")}`);
-    for (const e of report.errors) lines.push(`  error: ${e.title} x${e.count}`);
+    const sf = figures.stateful;
+    const chain = Object.entries(sf.chained).map(([k, n]) => `${k} x${n}`).join(", ") || "none";
+    lines.push(`stateful (--max-examples ${STATEFUL_EXAMPLES}): ${sf.cases} cases, links ${sf.linksCovered} of ${sf.links} covered, ${sf.created} ActionStatus created, requests on them: ${chain}`);
+    for (const f of failures) lines.push(`  ${f.code} ${f.title} x${f.count}: ${f.operations.join(", ")}`);
+    for (const e of errors) lines.push(`  error: ${e.title} x${e.count}`);
     process.stdout.write(`${lines.join("\n")}\n`);
   }
-  code = figures.responses5xx === 0 && report.failures.length === 0 && report.errors.length === 0 && figures.cases > 0 ? 0 : 1;
+  code = figures.responses5xx === 0 && failures.length === 0 && errors.length === 0 && figures.cases > 0 ? 0 : 1;
 } finally {
   await served.stop();
   rmSync(work, { recursive: true, force: true });

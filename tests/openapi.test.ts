@@ -35,17 +35,42 @@ describe("robwot openapi", () => {
     for (const name of ["moveToJointPosition", "moveToCartesianPosition"]) {
       const post = doc.paths[`/${slug}/actions/${name}`].post;
       expect(Object.keys(post.responses)).toEqual(expect.arrayContaining(["200", "201"]));
-      expect(post.responses["201"].content["application/json"].schema).toEqual({ $ref: "#/components/schemas/actionStatus" });
-      expect(post.parameters).toEqual([expect.objectContaining({ name: "Prefer", in: "header", required: false })]);
+      const created = post.responses["201"];
+      expect(created.content["application/json"].schema).toEqual({ $ref: "#/components/schemas/actionStatus" });
+      // RFC 7240: unknown preferences are ignored, so Prefer is any string (respond-async its example)
+      expect(post.parameters).toEqual([expect.objectContaining({ name: "Prefer", in: "header", required: false, schema: { type: "string" }, example: "respond-async" })]);
+      // the 201's Location, and links a stateful client follows to the status resource
+      expect(created.headers.Location).toMatchObject({ required: true, schema: { type: "string", format: "uri" } });
+      expect(created.links).toEqual({
+        queryaction: expect.objectContaining({ operationId: `queryaction_${name}`, parameters: { actionID: "$response.body#/id" } }),
+        cancelaction: expect.objectContaining({ operationId: `cancelaction_${name}`, parameters: { actionID: "$response.body#/id" } }),
+      });
       const item = doc.paths[`/${slug}/actions/${name}/{actionID}`];
+      expect([item.get.operationId, item.delete.operationId]).toEqual([`queryaction_${name}`, `cancelaction_${name}`]);
       for (const method of ["get", "delete"]) {
         expect(item[method].parameters, `${name} ${method}`).toEqual([expect.objectContaining({ name: "actionID", in: "path", required: true })]);
-        expect(item[method].responses["200"].content["application/json"].schema).toEqual({ $ref: "#/components/schemas/actionStatus" });
         expect(item[method].requestBody).toBeUndefined();
       }
-      expect(item.delete.responses["204"]).toBeDefined();
+      expect(item.get.responses["200"].content["application/json"].schema).toEqual({ $ref: "#/components/schemas/actionStatus" });
+      // the WoT Profile's cancel: 204 without a body; 409 when the move had already ended
+      expect(item.delete.responses["204"]).toEqual({ description: expect.any(String) });
+      expect(item.delete.responses["200"]).toBeUndefined();
+      expect(item.delete.responses["409"].content["application/problem+json"].schema).toEqual({ $ref: "#/components/schemas/error" });
     }
     expect(JSON.stringify(doc)).not.toContain('"in":"query"'); // the action's uriVariable is a path parameter only
+  });
+
+  it("--base naming the Thing itself (http://host/<slug>/) does not repeat the slug in the paths", async () => {
+    const slug = new URL(td.base).pathname.split("/").filter(Boolean).pop()!;
+    for (const base of [`http://127.0.0.1:9123/${slug}/`, `http://127.0.0.1:9123/${slug}`]) {
+      const named = await thingOpenApi(td, { base });
+      expect(Object.keys(named.paths as object)).toEqual(Object.keys(doc.paths));
+      expect(named.servers).toEqual(doc.servers);
+    }
+    // behind a path prefix: the prefix stays, the slug once
+    const prefixed = await thingOpenApi(td, { base: "http://127.0.0.1:9123/robots/" });
+    expect(Object.keys(prefixed.paths as object)).toContain(`/robots/${slug}/actions/stop`);
+    expect(Object.keys(prefixed.paths as object).some((p) => p.includes(`${slug}/${slug}`))).toBe(false);
   });
 
   it("the official converter alone rejects its output for the TD (why the command corrects it)", async () => {
@@ -78,7 +103,7 @@ describe("robwot openapi", () => {
       expect(op.responses["200"].content["application/json"].schema.required ?? [], name).toEqual(td.actions[name].output?.required ?? []);
       // one response per error status the TD lists, with the error body; no catch-all
       for (const status of [400, 404, 409, 413, 415, 422, 503, 504]) {
-        expect(op.responses[String(status)].content["application/json"].schema, `${name} ${status}`).toEqual({ $ref: "#/components/schemas/error" });
+        expect(op.responses[String(status)].content["application/problem+json"].schema, `${name} ${status}`).toEqual({ $ref: "#/components/schemas/error" });
       }
       expect(op.responses.default, name).toBeUndefined();
     }
@@ -89,7 +114,7 @@ describe("robwot openapi", () => {
     // an event's long-poll answer is its data; readallproperties names every property
     expect(doc.paths[`/${slug}/events/collision`].get.responses["200"].content["application/json"].schema.required).toEqual(td.events.collision.data.required);
     expect(doc.paths[`/${slug}/properties`].get.responses["200"].content["application/json"].schema.required).toEqual(Object.keys(td.properties));
-    expect(doc.components.schemas.error.required).toEqual(["code", "message", "details"]);
+    expect(doc.components.schemas.error.required).toEqual(["type", "title", "status", "detail", "code", "message", "details"]);
     // TD terms without an OpenAPI keyword survive as extensions; numeric exclusive bounds are translated
     const joint = doc.paths[`/${slug}/properties/getJointPosition`].get.responses["200"].content["application/json"].schema.properties.lbr_iiwa_joint_1;
     expect(joint["x-unit"]).toBe("rad");
@@ -141,7 +166,8 @@ describe("thingOpenApi on a TD whose error answers carry no status (twin folders
 describe("thingOpenApi, other TD shapes", () => {
   it("is deterministic: the same TD gives the same document (no random examples)", async () => {
     expect(JSON.stringify(await thingOpenApi(td))).toBe(JSON.stringify(await thingOpenApi(td)));
-    expect(JSON.stringify(doc)).not.toContain('"example"');
+    // the one example is the value a form states (the Prefer header's), none faked
+    expect(JSON.stringify(doc).match(/"example":[^,}]*/g)?.every((e) => e === '"example":"respond-async"')).toBe(true);
   });
 
   it("answers with the status and type of a form's `response` when it names them", async () => {

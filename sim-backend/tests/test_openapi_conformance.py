@@ -77,6 +77,26 @@ def test_bounded_fuzz_run_finds_no_5xx_and_no_contradiction(api: Api) -> None:
     assert run.returncode == 0
 
 
+def test_stateful_phase_follows_the_links_to_real_action_statuses(api: Api) -> None:
+    """The document's links (an asynchronous move's 201 -> its queryaction / cancelaction) let
+    Schemathesis's stateful phase chain calls: it queries and cancels ActionStatus resources a 201
+    created (without links the phase has nothing to follow), and every answer conforms."""
+    env = {**os.environ, "ROBWOT_BENCH_TWIN": str(api.folder)}
+    run = subprocess.run([NODE, str(REPO / "scripts" / "bench-fuzz.mjs"), "--examples", "1",
+                          "--stateful-examples", "20", "--json"],
+                         capture_output=True, text=True, timeout=300, env=env)
+    figures = json.loads(run.stdout.strip().splitlines()[-1])
+    stateful = figures["stateful"]
+    assert stateful["links"] == 6 and stateful["linksCovered"] > 0, stateful
+    assert stateful["created"] > 0, stateful
+    chained = stateful["chained"]
+    assert chained.get("GET 200", 0) > 0, stateful
+    # a cancel either stopped the move (204) or came after its end (409, nothing cancelled)
+    assert chained.get("DELETE 204", 0) + chained.get("DELETE 409", 0) > 0, stateful
+    assert figures["failures"] == [] and figures["errors"] == [], figures
+    assert run.returncode == 0
+
+
 def test_successes_the_fuzzer_seldom_reaches_conform(api: Api) -> None:
     assert api.call("actions/validateCartesianPosition", REACHABLE).json()["valid"] is True
     assert api.call("actions/moveToCartesianPosition", REACHABLE).json()["status"] == "reached"

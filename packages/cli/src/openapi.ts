@@ -15,19 +15,24 @@
  *    catch-all `default` goes where the TD lists the statuses.
  * 4. It names the TD's `base` (`http://host/<slug>/`) as the server while its paths start at the host's
  *    root (`/<slug>/properties/...`), so base + path repeats the slug: the server is the base's origin.
+ *    (`--base`: the servient's URL, or the Thing's own `http://host/<slug>/`; the slug is not added twice.)
  * 5. Its examples are faked (json-schema-faker, random) from the truncated schemas: dropped.
  * 6. It leaves out the Server-Sent Events forms (it maps only long-poll observation to `GET`).
  * 7. It turns an action's `uriVariables` into a query parameter of every operation of the action (with
  *    a faked example): a variable is a required path parameter where the path holds its template
  *    (`actions/<name>/{actionID}`), nothing elsewhere. Forms on one path and method merge: the moves'
  *    synchronous form answers 200 with the output, the `Prefer: respond-async` form (its `htv:headers`
- *    become a header parameter) 201 with the ActionStatus; queryaction and cancelaction answer the
- *    ActionStatus their `additionalResponses` declare (cancel also 204, its default).
+ *    become a header parameter) 201 with the ActionStatus; queryaction answers the ActionStatus its
+ *    `additionalResponses` declare, cancelaction 204 without a body.
+ * 8. The 201 declares its `Location` header and OpenAPI `links` to the queryaction and cancelaction
+ *    operations (`operationId` `queryaction_<name>` / `cancelaction_<name>`, `actionID` from the body's
+ *    `id`), so a stateful client (Schemathesis) can chain them. A form's `htv:headers` value is an
+ *    example, not an enum: the `Prefer` header holds RFC 7240 preferences, and unknown ones are ignored.
  *
  * The result is validated against the OpenAPI 3.0 JSON Schema (`@seriousme/openapi-schema-validator`).
  */
 import { createRequire } from "node:module";
-import { withAbsoluteForms } from "@robwot/core";
+import { PROBLEM_JSON, withAbsoluteForms } from "@robwot/core";
 
 type Json = Record<string, unknown>;
 const require = createRequire(import.meta.url);
@@ -186,7 +191,7 @@ function fixUriVariables(op: Json, path: string, variables: string[]): void {
   for (const p of params) {
     const { example: _faked, ...rest } = p;
     const name = typeof p["name"] === "string" ? p["name"] : "";
-    if (!variables.includes(name)) kept.push(rest);
+    if (!variables.includes(name)) kept.push(p);
     else if (path.includes(`{${name}}`)) kept.push({ ...rest, in: "path", required: true });
   }
   if (kept.length > 0) op["parameters"] = kept;
@@ -214,6 +219,39 @@ function addEventStream(doc: Json, path: string, form: Json, data: Json | null):
   paths[path] = { ...(paths[path] ?? {}), get: op };
 }
 
+const PREFER_NOTE = " (RFC 7240 preferences: respond-async asks for the asynchronous answer, others are ignored)";
+
+/** `/<slug>/actions/<name>/{actionID}` -> `<name>` */
+const actionName = (path: string): string => path.split("/").at(-2) ?? "";
+
+/**
+ * (8) The asynchronous invocation's 201: its `Location` header, and links from its ActionStatus to the
+ * queryaction and cancelaction operations of the same invocation.
+ */
+function linkStatus(doc: Json, name: string, forms: Json[]): void {
+  const invoke = forms.find((f) => isObject(f["response"]) && f["response"]["htv:statusCodeValue"] === 201);
+  const where = invoke ? formOperations(invoke) : null;
+  const created = where ? (operation(doc, where.path, "post")?.["responses"] as Json | undefined)?.["201"] : undefined;
+  if (!isObject(created)) return;
+  created["headers"] = {
+    Location: { description: "URL of the ActionStatus resource (also its href)", required: true, schema: { type: "string", format: "uri" } },
+  };
+  const links: Json = {};
+  for (const op of ["queryaction", "cancelaction"]) {
+    const form = forms.find((f) => (Array.isArray(f["op"]) ? f["op"] : [f["op"]]).includes(op));
+    const at = form ? formOperations(form) : null;
+    if (!at) continue;
+    const variable = /\{(\w+)\}/.exec(at.path)?.[1];
+    if (!variable) continue;
+    links[op] = {
+      operationId: `${op}_${name}`,
+      parameters: { [variable]: "$response.body#/id" },
+      description: op === "queryaction" ? "the status of this invocation" : "cancels this invocation",
+    };
+  }
+  if (Object.keys(links).length > 0) created["links"] = links;
+}
+
 export interface OpenApiOptions {
   /** URL of the servient: the forms move to `<base>/<slug>/` first, as `robwot serve` moves them. */
   base?: string;
@@ -226,7 +264,10 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
     // the Thing lives at <servient>/<slug>/ (node-wot's layout): keep the slug of the TD's base
     const slug = typeof td["base"] === "string" ? new URL(td["base"]).pathname.split("/").filter(Boolean).pop() : undefined;
     if (slug === undefined) throw new Error("the TD has no base to take the Thing's path from");
-    withAbsoluteForms(td, new URL(`${slug}/`, options.base.endsWith("/") ? options.base : `${options.base}/`).href);
+    const base = options.base.endsWith("/") ? options.base : `${options.base}/`;
+    // `--base http://host/<slug>/` names the Thing itself: its slug is not added a second time
+    const named = new URL(base).pathname.split("/").filter(Boolean).pop() === slug;
+    withAbsoluteForms(td, named ? new URL(base).href : new URL(`${slug}/`, base).href);
   }
   const toOpenAPI = require("@thing-description-playground/td_to_openapi") as Converter;
   let converted: Json;
@@ -271,12 +312,15 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
         responses[status] = { description: "success", ...(response ? { content: jsonContent(responseType, response) } : {}) };
       }
       if (ops.includes("cancelaction")) {
-        responses["204"] = { description: "cancelled (the default answer; with Prefer: return=representation, 200 and the final status)" };
+        // the WoT Profile's answer: no body (the converter's guess carried the action's output)
+        responses["204"] = { description: "cancelled: the move has stopped and its ActionStatus is deleted (a query then answers 404)" };
+        op["operationId"] = `cancelaction_${actionName(where.path)}`;
       }
+      if (ops.includes("queryaction")) op["operationId"] = `queryaction_${actionName(where.path)}`;
       if (declared.listed) delete responses["default"];
       else if (isObject(responses["default"]) && "error" in definitions) {
         // the converter's catch-all, with the body every error answer of this TD has
-        responses["default"] = { description: "an error answer", content: jsonContent(type, schemaRef("error")) };
+        responses["default"] = { description: "an error answer", content: jsonContent(PROBLEM_JSON, schemaRef("error")) };
       }
       for (const [status, answer] of Object.entries(declared.responses)) {
         if (!(status in responses) || !filled.has(key) || declared.success) responses[status] = answer;
@@ -292,7 +336,10 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
         const params = Array.isArray(op["parameters"]) ? (op["parameters"] as Json[]) : [];
         if (params.some((p) => p["in"] === "header" && p["name"] === name)) continue;
         const value = typeof h["htv:fieldValue"] === "string" ? h["htv:fieldValue"] : undefined;
-        op["parameters"] = [...params, { name, in: "header", required: false, description: `sent by the form answering ${String((isObject(form["response"]) && form["response"]["htv:statusCodeValue"]) ?? "")}`.trim(), schema: { type: "string", ...(value ? { enum: [value] } : {}) } }];
+        const answers = String((isObject(form["response"]) && form["response"]["htv:statusCodeValue"]) ?? "");
+        const description = `${value ?? "the value"}: the form answering ${answers}` + (name.toLowerCase() === "prefer" ? PREFER_NOTE : "");
+        // RFC 7240: a preference the server does not know is ignored, so any value is a valid header
+        op["parameters"] = [...params, { name, in: "header", required: false, description, schema: { type: "string" }, ...(value ? { example: value } : {}) }];
       }
       fixUriVariables(op, where.path, variables);
     }
@@ -314,6 +361,7 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
     if (!isObject(e)) continue;
     for (const form of (e["forms"] ?? []) as Json[]) fill(form, isObject(e["data"]) ? toOasSchema(e["data"]) : null, null);
   }
+  for (const [name, a] of Object.entries(actions)) if (isObject(a)) linkStatus(doc, name, (a["forms"] ?? []) as Json[]);
   // readallproperties: every readable property by name (node-wot's answer)
   const readable = Object.entries(properties).filter(([, p]) => isObject(p) && p["writeOnly"] !== true);
   const all: Json = {

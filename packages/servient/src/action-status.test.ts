@@ -50,8 +50,8 @@ describe("ActionStatusStore", () => {
     const store = new ActionStatusStore({ now: c.now });
     const m = controlled();
     const first = await store.start(A, href, m.run);
-    expect(first).toEqual({ status: "pending", progress: 0, href: first.href, timeRequested: "2026-01-01T00:00:00.000Z" });
     const id = idOf(first.href);
+    expect(first).toEqual({ id, status: "pending", progress: 0, href: first.href, timeRequested: "2026-01-01T00:00:00.000Z" });
     m.state.phase = "running";
     m.state.progress = 0.4;
     expect(store.get(A, id)).toMatchObject({ status: "running", progress: 0.4 });

@@ -22,6 +22,8 @@ import { toServientError } from "./request-context.js";
 import { sendJson } from "./static-files.js";
 
 export interface ActionStatus {
+  /** the last segment of `href` (the `{actionID}` of the query/cancel forms; OpenAPI links read it) */
+  id: string;
   status: ActionStatusValue;
   progress: number;
   /** runProgram: the index of the step running, then the one it ended in */
@@ -34,6 +36,7 @@ export interface ActionStatus {
 }
 
 interface Entry {
+  id: string;
   action: string;
   href: string;
   requested: Date;
@@ -84,7 +87,7 @@ export class ActionStatusStore {
       throw toServientError(err);
     });
     const id = randomUUID();
-    const entry: Entry = { action, href: hrefOf(id), requested, handle, end: null, cancelling: null, settled: Promise.resolve() };
+    const entry: Entry = { id, action, href: hrefOf(id), requested, handle, end: null, cancelling: null, settled: Promise.resolve() };
     entry.settled = result.then(
       (output) => {
         const step = handle.step();
@@ -144,7 +147,7 @@ export class ActionStatusStore {
   }
 
   private view(e: Entry): ActionStatus {
-    const base = { href: e.href, timeRequested: e.requested.toISOString() };
+    const base = { id: e.id, href: e.href, timeRequested: e.requested.toISOString() };
     if (!e.end) {
       const step = e.handle.step();
       return { status: e.handle.phase(), progress: e.handle.progress(), ...(step !== undefined ? { step } : {}), ...base };

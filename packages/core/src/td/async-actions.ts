@@ -52,10 +52,11 @@ export function actionStatusSchema(output: DataSchema, error: DataSchema): DataS
       output,
       error: { ...error, description: "why it failed: the RFC 7807 problem details the synchronous invocation answers" },
       href: { type: "string", description: "URL of this ActionStatus resource (queryaction: GET, cancelaction: DELETE)" },
+      id: { type: "string", description: `the last segment of href: the {${ACTION_ID_VARIABLE}} of the queryaction and cancelaction forms` },
       timeRequested: time("when the invocation was received"),
       timeEnded: time("when it completed or failed"),
     },
-    required: ["status", "progress", "href", "timeRequested"],
+    required: ["status", "progress", "href", "id", "timeRequested"],
   };
 }
 

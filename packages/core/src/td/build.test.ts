@@ -159,7 +159,7 @@ describe("buildThingDescription", () => {
     expect(status.actionStatus?.properties?.status?.enum).toEqual(["pending", "running", "completed", "failed"]);
     expect(td.actions.moveToJointPosition?.forms[3]?.response).toEqual({ contentType: "application/json", "htv:statusCodeValue": 204 });
     expect(status.actionStatus?.properties?.output).toEqual(td.actions.moveToJointPosition?.output);
-    expect(status.actionStatus?.required).toEqual(["status", "progress", "href", "timeRequested"]);
+    expect(status.actionStatus?.required).toEqual(["status", "progress", "href", "id", "timeRequested"]);
     // moved to another address, the template moves with the other forms
     const moved = withAbsoluteForms(structuredClone(td), "https://twin.example:9443/arm/");
     expect(moved.actions.moveToJointPosition?.forms[2]?.href).toBe("https://twin.example:9443/arm/actions/moveToJointPosition/{actionID}");
