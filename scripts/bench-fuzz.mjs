@@ -7,7 +7,7 @@
  * status_code_conformance, content_type_conformance. Not fuzzed: the long-poll routes
  * (`.../observable`, `.../sse`, `events/...`), which answer only on the next change.
  * Prints one row per operation (requests, answers by status class, 5xx) and the failures by check.
- * Then Schemathesis's stateful phase on its own (--stateful-examples N, default 20): it follows the
+ * Then Schemathesis's stateful phase on its own (--stateful-examples N, default 50): it follows the
  * OpenAPI links of an asynchronous move's 201 to its queryaction / cancelaction operations; counted are
  * the links it covered and the requests that reached a real ActionStatus (an id a 201 had answered).
  * Exits 1 on any 5xx or failure. Options: --examples N (Schemathesis --max-examples per operation,
@@ -25,7 +25,7 @@ const arg = (name, def) => {
   return i > 0 ? Number(process.argv[i + 1]) : def;
 };
 const EXAMPLES = arg("examples", 20);
-const STATEFUL_EXAMPLES = arg("stateful-examples", 20);
+const STATEFUL_EXAMPLES = arg("stateful-examples", 50);
 const SEED = arg("seed", 1);
 const JSON_OUT = process.argv.includes("--json");
 const CHECKS = ["not_a_server_error", "response_schema_conformance", "status_code_conformance", "content_type_conformance"];

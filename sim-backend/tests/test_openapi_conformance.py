@@ -83,7 +83,7 @@ def test_stateful_phase_follows_the_links_to_real_action_statuses(api: Api) -> N
     created (without links the phase has nothing to follow), and every answer conforms."""
     env = {**os.environ, "ROBWOT_BENCH_TWIN": str(api.folder)}
     run = subprocess.run([NODE, str(REPO / "scripts" / "bench-fuzz.mjs"), "--examples", "1",
-                          "--stateful-examples", "20", "--json"],
+                          "--stateful-examples", "50", "--json"],
                          capture_output=True, text=True, timeout=300, env=env)
     figures = json.loads(run.stdout.strip().splitlines()[-1])
     stateful = figures["stateful"]
