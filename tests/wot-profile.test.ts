@@ -143,6 +143,12 @@ describe("Common Constraints", () => {
       expect(d.name).toBe("Authorization");
     }
   });
+  it("Security: a Thing whose TD needs authentication implements security bootstrapping (Discovery: 401 with WWW-Authenticate)", async () => {
+    const a = await request(s.things[0]!.tdUrl, {}, false);
+    expect(a.status).toBe(401);
+    expect(a.headers.get("www-authenticate")).toMatch(/^Basic realm=/);
+    expect((await request(s.things[0]!.tdUrl)).status).toBe(200);
+  });
   it("Errors: a failed operation answers an HTTP error code; a body is Problem Details (RFC 7807)", async () => {
     const read = formFor(td.properties.getJointPosition.forms, "readproperty");
     // 401 without credentials

@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { buildThingDescription, THING_MODEL_FILE, THING_MODEL_TYPE } from "./build.js";
+import { buildThingDescription, THING_MODEL_FILE, THING_MODEL_TYPE, WOT_PROFILES } from "./build.js";
 import { buildThingModel } from "./thing-model.js";
 import { validateThingModel } from "./validate.js";
 
@@ -24,5 +24,8 @@ describe("the robot-arm Thing Model", () => {
     expect(tm.properties.getJointPosition.properties).toBeUndefined();
     expect(JSON.stringify(tm)).not.toContain('"forms"');
     expect(td.links).toContainEqual({ rel: "type", href: THING_MODEL_FILE, type: THING_MODEL_TYPE });
+    // its instances conform to the WoT Profiles: the model says so, and keeps synchronous on every action
+    expect(tm.profile).toEqual([...WOT_PROFILES]);
+    for (const [name, a] of Object.entries(tm.actions as Record<string, { synchronous?: unknown }>)) expect(a.synchronous, name).toBe(true);
   });
 });
