@@ -15,7 +15,7 @@ import { createServer, type Server } from "node:http";
 import { connect, type AddressInfo, type Socket } from "node:net";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import WebSocket from "ws";
-import { streamSse } from "../packages/servient/src/sse.js";
+import { SseChannel, streamSse } from "../packages/servient/src/sse.js";
 import { CLI } from "./cli-run.js";
 import { generateTwin, invoke, kukaPose, live, sleep, type LiveClient } from "./serve-helpers.js";
 
@@ -188,14 +188,13 @@ it("an SSE stream its client does not read is ended with a comment saying why; v
     streamSse(
       req,
       res,
-      "big",
-      {
+      new SseChannel("big", {
         current: () => ({ n: 0, value }),
         subscribe: (send) => {
           timer = setInterval(() => send({ n: ++pushed, value }), 1);
           return () => clearInterval(timer!);
         },
-      },
+      }),
       { highWater: 16 * 1024, maxEvents: 64, stallMs: 1500, closeGraceMs: 30_000 },
     ),
   );
