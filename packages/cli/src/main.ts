@@ -14,6 +14,7 @@ const COMMANDS: Record<string, () => Promise<{ run(argv: string[]): Promise<numb
   serve: () => import("./commands/serve.js"),
   demo: () => import("./commands/demo.js"),
   openapi: () => import("./commands/openapi.js"),
+  asyncapi: () => import("./commands/asyncapi.js"),
   emulate: () => import("./commands/emulate.js"),
 };
 
@@ -24,6 +25,7 @@ Usage:
   robwot serve <twin-folder>... [options]                 serve twins as node-wot Things
   robwot demo                                             generate the bundled demo twin and serve it
   robwot openapi <twin-folder> [--out FILE] [--base URL]  the OpenAPI 3.0 document of a twin's HTTP API
+  robwot asyncapi <twin-folder> [--out FILE] [--base URL] the AsyncAPI 3.0 document of its streams
   robwot emulate <twin-folder> [options]                  a stand-in physical robot for the twin to relay to
   robwot <command> --help                                 options of a command
 

@@ -32,7 +32,8 @@
  * The result is validated against the OpenAPI 3.0 JSON Schema (`@seriousme/openapi-schema-validator`).
  */
 import { createRequire } from "node:module";
-import { PROBLEM_JSON, withAbsoluteForms } from "@robwot/core";
+import { PROBLEM_JSON } from "@robwot/core";
+import { placeTd } from "./td.js";
 
 type Json = Record<string, unknown>;
 const require = createRequire(import.meta.url);
@@ -259,16 +260,8 @@ export interface OpenApiOptions {
 
 /** The official converter's document for `td`, corrected (see the module comment) and validated. */
 export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Promise<Json> {
-  const td = structuredClone(tdIn);
-  if (options.base !== undefined) {
-    // the Thing lives at <servient>/<slug>/ (node-wot's layout): keep the slug of the TD's base
-    const slug = typeof td["base"] === "string" ? new URL(td["base"]).pathname.split("/").filter(Boolean).pop() : undefined;
-    if (slug === undefined) throw new Error("the TD has no base to take the Thing's path from");
-    const base = options.base.endsWith("/") ? options.base : `${options.base}/`;
-    // `--base http://host/<slug>/` names the Thing itself: its slug is not added a second time
-    const named = new URL(base).pathname.split("/").filter(Boolean).pop() === slug;
-    withAbsoluteForms(td, named ? new URL(base).href : new URL(`${slug}/`, base).href);
-  }
+  // the Thing lives at <servient>/<slug>/ (node-wot's layout); `--base http://host/<slug>/` names it
+  const td = options.base !== undefined ? placeTd(tdIn, options.base) : structuredClone(tdIn);
   const toOpenAPI = require("@thing-description-playground/td_to_openapi") as Converter;
   let converted: Json;
   try {
