@@ -152,3 +152,17 @@ def test_relative_mesh_obstacle_resolved_against_scene_folder(tmp_path) -> None:
         with pytest.raises(FileNotFound):
             w.load_scene(tmp_path / "t.json")
         assert [o["name"] for o in w.list()["obstacles"]] == ["m"]
+
+
+def test_a_batch_of_labels_with_an_ascii_stl_obstacle_uses_the_converted_mesh() -> None:
+    """The batch labelling's mirror world builds a mesh obstacle from the file the world converted (an
+    ASCII STL crashed PyBullet there: the process died), and labels as the world's own checks do."""
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="r")
+        w.add_obstacle({"name": "part", "shape": {"type": "mesh", "file": str(MODELS / "meshes" / "cube.stl"),
+                                                  "scale": [0.3, 0.3, 0.3]}, "position": [0.0, -0.3, 0.4]})
+        lo, hi = w.robot_model("r").limits()
+        qs = np.random.default_rng(0).uniform(lo, hi, (300, 7))
+        labels = w.collision_free_batch("r", qs)
+        assert labels.tolist() == [w.check_collision("r", q).collision_free for q in qs]
+        assert 0 < labels.sum() < len(qs)

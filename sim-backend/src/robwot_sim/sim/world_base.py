@@ -23,6 +23,7 @@ from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.detour import DetourMemory
 from robwot_sim.sim.fastworld import FastWorld
 from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body, read_robot_files
+from robwot_sim.sim.outerbounds import OuterBounds
 from robwot_sim.sim.pathcheck import MAX_CLEARANCE, MIN_CLEARANCE
 from robwot_sim.sim.surehit import SureHits
 from robwot_sim.sim.sweep import CLEARANCE
@@ -57,9 +58,13 @@ class WorldBase:
         self.table = BodyTable()
         self._robots: dict[str, RobotEntry] = {}
         self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
+        self._built: dict[str, dict[str, Any]] = {}  # per obstacle: the shape its body was built from
         self._ik_salt = ik_seed  # salts the per-request IK restart seeds (see World.ik)
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
+        self._alone: dict[str, FastWorld] = {}  # per robot: a mirror of it alone (its self-contact)
         self._sure: dict[str, tuple[int, SureHits]] = {}  # sure-hit tests by robot, with table.version
+        # free-for-sure tests by robot, with others_stamp
+        self._outer: dict[str, tuple[tuple[int, int], OuterBounds]] = {}
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
         self._detours: dict[str, DetourMemory] = {}  # per robot: its last detours (World.detour)
 
@@ -107,9 +112,10 @@ class WorldBase:
         self.close()
 
     def close(self) -> None:
-        if self._fast is not None:
-            self._fast.close()
-            self._fast = None
+        for fast in [self._fast, *self._alone.values()]:
+            if fast is not None:
+                fast.close()
+        self._fast, self._alone = None, {}
         self.bullet.close()
 
     def _entry(self, robot_id: str) -> RobotEntry:

@@ -153,9 +153,17 @@ class WorldScene(WorldBase):
                 f"obstacle {spec['name']!r}: {e}", param="shape", expected="loadable shape", got=spec["shape"]
             ) from None
         self._obstacles[spec["name"]] = (body, spec)
+        self._built[spec["name"]] = shape
         self.table.names[body] = spec["name"]
         self._changed()
         return spec
+
+    def _built_specs(self) -> list[dict[str, Any]]:
+        """The obstacles' specs with the shapes the world built them from (a mesh: the file PyBullet may
+        load, an ASCII STL converted, and its hull), for the mirror worlds: PyBullet crashes on some files
+        the specs name."""
+        return [{**spec, "shape": self._built.get(name, spec["shape"])}
+                for name, (_, spec) in self._obstacles.items()]
 
     @_owned
     def add_obstacle(self, spec: dict[str, Any] | ReadObstacle) -> dict[str, Any]:
@@ -192,6 +200,7 @@ class WorldScene(WorldBase):
         if name not in self._obstacles:
             raise UnknownObject(str(name), self._obstacles)
         body, _ = self._obstacles.pop(name)
+        self._built.pop(name, None)
         self.bullet.remove_body(body)
         del self.table.names[body]
         self._changed()

@@ -1,0 +1,116 @@
+"""Outer bounds side by side: ``python -m robwot_bench.bounds`` (``npm run bench:bounds``).
+
+For each robot and scene, the same seeded configurations labelled by ``World.collision_free_batch``
+without and with the outer bounds (``bounds=True``, ``robwot_sim/sim/outerbounds.py``), alternately in
+one process (the machine's load hits both alike): time per configuration of each and their ratio, the
+share of rows the bounds find apart from every other body and free of self-contact, the labels that
+differ, and how many rows Bullet itself labels differently when it checks them in reverse order (a
+grazing contact's manifold persists from one check to the next on some robots). Rows the bounds decide
+are checked by fresh Bullet distance queries (``unsound`` must be 0). Prints the load average.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+
+from robwot_bench.reference import example_robot
+from robwot_sim.model.urdf import pybullet_data_path
+from robwot_sim.sim.world import World
+
+SCENES = Path(__file__).resolve().parents[3] / "examples" / "scenes"
+BUNDLED = {"kuka": "kuka_iiwa/model.urdf", "panda": "franka_panda/panda.urdf",
+           "xarm6": "xarm/xarm6_robot.urdf", "xarm6_gripper": "xarm/xarm6_with_gripper.urdf",
+           "two_joint": "TwoJointRobot_wo_fixedJoints.urdf",
+           "ur3": str(Path(__file__).resolve().parents[3] / "packages" / "cli" / "robots" / "ur3.urdf")}
+REFERENCE = ["ur3_ros", "ur5", "ur10", "panda_ros", "z1", "xarm7", "kinova"]
+#: decided rows checked by fresh distance queries per robot and scene
+FRESH = 300
+
+
+def _load(world: World, name: str) -> str:
+    if name in BUNDLED:
+        path = BUNDLED[name]
+        urdf = path if Path(path).is_absolute() else str(pybullet_data_path() / path)
+        return world.load_robot(urdf, robot_id="r").id
+    r = example_robot(name.removesuffix("_ros"))
+    return world.load_robot(str(r.urdf), package_roots=r.package_roots, srdf=r.srdf, robot_id="r").id
+
+
+def _unsound(world: World, rid: str, qs: np.ndarray, apart: np.ndarray, free: np.ndarray) -> int:
+    """Decided rows that fresh Bullet distance queries contradict (apart: no other body within 0; free:
+    also no checked self pair touching)."""
+    bounds = world._outer_bounds(rid)
+    body, cid = world._entry(rid).bound.body, world.bullet.cid
+    links = [ln for ln in range(-1, pb.getNumJoints(body, physicsClientId=cid))
+             if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]
+    bad = 0
+    for i in np.flatnonzero(apart)[:FRESH]:
+        world.set_joint_positions(rid, qs[i])
+        near = any(c[8] <= 0.0 for other in world.table.names if other != body
+                   for c in pb.getClosestPoints(body, other, 0.0, physicsClientId=cid))
+        touch = free[i] and any(c[8] <= 0.0 for a, b in bounds.pairs
+                                for c in pb.getClosestPoints(body, body, 0.0, links[a], links[b],
+                                                             physicsClientId=cid))
+        bad += near or touch
+    return bad
+
+
+def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, float | int | str]:
+    with World() as world:
+        rid = _load(world, name)
+        if scene:
+            world.load_scene(SCENES / scene)
+        lo, hi = world.robot_model(rid).limits()
+        qs = np.random.default_rng(seed).uniform(lo, hi, size=(samples, len(lo)))
+        world.collision_free_batch(rid, qs[:100], bounds=True)  # builds every mirror world first
+        times = {False: 0.0, True: 0.0}
+        labels: dict[bool, list[np.ndarray]] = {False: [], True: []}
+        block = max(1000, samples // 10)
+        for a in range(0, samples, block):  # alternately, so a change of the machine's load hits both
+            for bounds in (False, True):
+                t0 = time.perf_counter()
+                labels[bounds].append(world.collision_free_batch(rid, qs[a:a + block], bounds=bounds))
+                times[bounds] += time.perf_counter() - t0
+        old, new = np.concatenate(labels[False]), np.concatenate(labels[True])
+        reverse = world.collision_free_batch(rid, qs[::-1])[::-1]
+        outer = world._outer_bounds(rid)
+        apart = outer.apart(qs)
+        free = np.zeros(samples, dtype=bool)
+        free[apart] = outer.self_free(qs[apart])
+        unsound = _unsound(world, rid, qs, apart, free)
+    return {"robot": name, "scene": scene or "-", "samples": samples,
+            "us_old": 1e6 * times[False] / samples, "us_new": 1e6 * times[True] / samples,
+            "ratio": times[True] / max(times[False], 1e-12), "apart": float(apart.mean()),
+            "free": float(free.mean()), "differ": int((old != new).sum()),
+            "order": int((old != reverse).sum()), "unsound": unsound}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--robots", default=",".join([*BUNDLED, *REFERENCE]))
+    p.add_argument("--scenes", default="-,obstacles-4.json,obstacles-239.json")
+    p.add_argument("--samples", type=int, default=100_000)
+    p.add_argument("--seed", type=int, default=26)
+    args = p.parse_args()
+    print(f"bench-bounds: {args.samples} samples per robot and scene; load average "
+          + " ".join(f"{x:.2f}" for x in os.getloadavg()), flush=True)
+    print(f"{'robot':14s} {'scene':20s} {'us old':>8s} {'us new':>8s} {'new/old':>8s} {'apart':>6s} "
+          f"{'free':>6s} {'differ':>7s} {'order':>6s} {'unsound':>7s}", flush=True)
+    for name in args.robots.split(","):
+        for scene in args.scenes.split(","):
+            r = measure(name, None if scene == "-" else scene, args.samples, args.seed)
+            print(f"{r['robot']:14s} {r['scene']:20s} {r['us_old']:8.1f} {r['us_new']:8.1f} "
+                  f"{r['ratio']:8.2f} {r['apart']:6.3f} {r['free']:6.3f} {r['differ']:7d} {r['order']:6d} "
+                  f"{r['unsound']:7d}",
+                  flush=True)
+    print("load average " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,150 @@
+"""Outer bounds (robwot_sim.sim.outerbounds): every configuration they call apart from the other bodies or
+free of self-contact is so for a fresh Bullet distance query (no contact manifold kept from an earlier
+state), and the labels of World.collision_free_batch with them equal Bullet's labels without them, on
+bundled robots (primitives, meshes, mimic joints), a robot as published for ROS with its SRDF and a tool,
+mesh obstacles and another robot in the scene. ``python -m robwot_bench.bounds`` runs the same on 10^5
+configurations per robot."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pybullet as pb
+import pytest
+from simhelp import MODELS
+
+from robwot_bench.reference import example_robot
+from robwot_sim.model.tool import attach_tool
+from robwot_sim.sim import outerbounds
+from robwot_sim.sim.outerbounds import OuterBounds
+from robwot_sim.sim.world import World
+
+SCENES = Path(__file__).resolve().parents[2] / "examples" / "scenes"
+ROWS = 1500
+#: decided rows checked against fresh distance queries per case
+FRESH = 150
+
+
+def fresh_apart(w: World, rid: str, margin: float) -> bool:
+    """No other body within ``margin`` of the robot at its current state (Bullet distance queries)."""
+    body, cid = w._entry(rid).bound.body, w.bullet.cid
+    return not any(c[8] <= margin for other in w.table.names if other != body
+                   for c in pb.getClosestPoints(body, other, margin, physicsClientId=cid))
+
+
+def fresh_self_free(w: World, rid: str, bounds: OuterBounds, links: list[int]) -> bool:
+    """No link pair the bounds test touches at the robot's current state (Bullet distance queries)."""
+    body, cid = w._entry(rid).bound.body, w.bullet.cid
+    return not any(c[8] <= 0.0 for a, b in bounds.pairs
+                   for c in pb.getClosestPoints(body, body, 0.0, links[a], links[b], physicsClientId=cid))
+
+
+def ur3_mesh_and_robot(w: World) -> str:
+    w.load_robot(str(Path(__file__).resolve().parents[2] / "packages/cli/robots/ur3.urdf"), robot_id="r")
+    w.load_robot("kuka_iiwa/model.urdf", robot_id="other", base_position=(0.55, 0.0, 0.0))
+    w.set_joint_positions("other", [0.5, 0.8, 0.0, -1.0, 0.0, 0.5, 0.0])
+    w.add_obstacle({"name": "part", "shape": {"type": "mesh", "file": str(MODELS / "meshes" / "cube.stl"),
+                                              "scale": [0.1, 0.1, 0.1]}, "position": [0.0, -0.3, 0.3]})
+    w.add_obstacle({"name": "post", "shape": {"type": "cylinder", "radius": 0.03, "length": 0.5},
+                    "position": [-0.25, 0.2, 0.25]})
+    return "r"
+
+
+def among_4_obstacles(urdf: str, name: str) -> Callable[[World], str]:
+    """A loader of a pybullet_data robot among the 4 obstacles of the example scene."""
+    def load(w: World) -> str:
+        w.load_robot(urdf, robot_id="r")
+        w.load_scene(SCENES / "obstacles-4.json")
+        return "r"
+    load.__name__ = name
+    return load
+
+
+def ur5_tool_table(w: World) -> str:
+    r = example_robot("ur5")
+    tool = attach_tool(r.urdf, r.package_roots, "tool0", [0, 0, 0.12, 0, 0, 0],
+                       shape={"type": "box", "size": [0.05, 0.05, 0.12]})
+    w.load_robot(str(tool.urdf), package_roots=tool.package_roots, srdf=r.srdf, robot_id="r",
+                 ee_link=tool.tcp_link)
+    w.add_obstacle({"name": "table", "shape": {"type": "box", "size": [1.4, 1.4, 0.02]},
+                    "position": [0.0, 0.0, -0.06]})
+    w.add_obstacle({"name": "ball", "shape": {"type": "sphere", "radius": 0.1}, "position": [0.4, 0.2, 0.3]})
+    return "r"
+
+
+CASES = [among_4_obstacles("kuka_iiwa/model.urdf", "kuka_4"), ur3_mesh_and_robot,
+         among_4_obstacles("xarm/xarm6_with_gripper.urdf", "xarm_gripper_4"), ur5_tool_table]
+
+
+def _links(w: World, rid: str) -> list[int]:
+    """The Bullet link index of each box of the robot's bounds (links with collision shapes, in order)."""
+    b = w._entry(rid).bound
+    return [ln for ln in range(-1, pb.getNumJoints(b.body, physicsClientId=w.bullet.cid))
+            if pb.getCollisionShapeData(b.body, ln, physicsClientId=w.bullet.cid)]
+
+
+@pytest.mark.parametrize("load", CASES, ids=[c.__name__ for c in CASES])
+def test_what_the_bounds_decide_holds_for_fresh_distance_queries(load: Callable[[World], str]) -> None:
+    """Rows called apart (with no margin and with a 2 mm margin) and rows called free of self-contact
+    are so for Bullet's distance queries; the bounds decide something in every case, and the fresh
+    queries catch a known positive (an arm folded into an obstacle's place)."""
+    with World() as w:
+        rid = load(w)
+        lo, hi = w.robot_model(rid).limits()
+        qs = np.random.default_rng(11).uniform(lo, hi, size=(ROWS, len(lo)))
+        bounds = w._outer_bounds(rid)
+        links = _links(w, rid)
+        assert not bounds.empty and len(bounds.boxes) == len(links)
+        for margin in (0.0, 0.002):
+            apart = bounds.apart(qs, margin, probe=False)
+            assert apart.sum() >= ROWS // 20, f"only {apart.sum()} rows apart: the test proves little"
+            close = 0
+            for i in np.flatnonzero(apart)[:FRESH]:
+                w.set_joint_positions(rid, qs[i])
+                assert fresh_apart(w, rid, margin), f"row {i} called apart within {margin} m of a body"
+            for i in np.flatnonzero(~apart)[:FRESH]:
+                w.set_joint_positions(rid, qs[i])
+                close += not fresh_apart(w, rid, margin)
+            assert close > 0, "the fresh queries found no body near any row not apart"
+        free = bounds.self_free(qs, probe=False)
+        for i in np.flatnonzero(free)[:FRESH]:
+            w.set_joint_positions(rid, qs[i])
+            assert fresh_self_free(w, rid, bounds, links), f"row {i} called free of self-contact"
+
+
+@pytest.mark.parametrize("load", CASES, ids=[c.__name__ for c in CASES])
+def test_labels_with_the_bounds_equal_bullets_labels(load: Callable[[World], str],
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """The labels of a batch with the bounds equal those without them (every row to the full world; an
+    ASCII STL obstacle is mirrored there as the world converted it: PyBullet crashes on the file itself).
+    On a robot where Bullet's label of a row depends on the row it checked before (a grazing contact's
+    manifold persists: the xArm's gripper fingers) a few rows differ, and each differing row gets the
+    label Bullet gives it after the row it followed there, in the world it was checked in (the robot
+    alone for a row apart from everything else)."""
+    with World() as w:
+        rid = load(w)
+        lo, hi = w.robot_model(rid).limits()
+        qs = np.random.default_rng(12).uniform(lo, hi, size=(ROWS, len(lo)))
+        with monkeypatch.context() as m:
+            # every row through the bounds, whatever they decide
+            m.setattr(outerbounds, "MIN_APART", 0.0)
+            m.setattr(outerbounds, "MIN_RATE", 0.0)
+            with_bounds = w.collision_free_batch(rid, qs, bounds=True)
+            bounds = w._outer_bounds(rid)
+            alone = bounds.apart(qs) & ~bounds.self_free(qs)
+            sure = w._sure_hits(rid).hits(qs)
+        bullet = w.collision_free_batch(rid, qs)
+        assert 0 < bullet.sum() < ROWS
+        differ = np.flatnonzero(with_bounds != bullet)
+        assert len(differ) <= ROWS // 100, differ
+        mimic = w._entry(rid).bound.mimic
+        for i in differ:
+            world = w._fast_world(rid) if alone[i] else w._fast_world()
+            same = np.flatnonzero((alone == alone[i]) & ~sure)
+            before = same[same < i][-1]  # the row checked just before it in that world
+            again = world.batch(rid, np.stack([qs[before], qs[i]]), {}, mimic)[1]
+            previous = np.flatnonzero(~sure[:i])[-1]  # without the bounds: every row not a sure hit
+            full = w._fast_world().batch(rid, np.stack([qs[previous], qs[i]]), {}, mimic)[1]
+            assert (again, full) == (with_bounds[i], bullet[i]), f"row {i}"
