@@ -210,6 +210,14 @@ describe("resuming", () => {
     expect(gap).toMatchObject({ thing: slug, resume: 5, reason: "restart" });
     expect(gap.seq).toBeUndefined();
     expect(c.messages[0]).toBe(gap);
+    // a resume point that is not a seq is refused (subscribing without it would lose events silently)
+    const d = await live(s.liveUrl);
+    for (const resume of [{ x: 1 }, "12abc", -3]) d.ws.send(JSON.stringify({ subscribe: slug, resume }));
+    d.ws.send(JSON.stringify({ subscribe: slug }));
+    await d.waitFor((m) => m.type === "scene");
+    d.close();
+    expect(d.messages.slice(0, 3).map((m) => [m.type, m.code])).toEqual(Array(3).fill(["error", "E_BAD_MESSAGE"]));
+    expect(d.messages.slice(3).map((m) => m.type).sort()).toEqual(["joints", "scene", "status"]);
   });
 });
 

@@ -121,6 +121,16 @@ describe("ActionStatusStore", () => {
     expect(statusOf(store, id)).toBe("completed");
   });
 
+  it("a relayed move the cancel cut off on the physical robot was cancelled, though the simulation had reached", async () => {
+    const store = new ActionStatusStore();
+    const m = controlled();
+    const stopped = { status: "reached", relay: { ok: false, error: "stopped by the twin (cancelled)" } };
+    const run: AsyncRun = (watch) => m.run((h) => watch({ ...h, cancel: async () => m.finish(stopped) }));
+    const id = idOf((await store.start(A, href, run)).href);
+    expect(await store.cancel(A, id)).toBe(true);
+    expect(statusOf(store, id)).toBeNull();
+  });
+
   it("forgets ended resources after the TTL, never a move still going", async () => {
     const c = clock();
     const store = new ActionStatusStore({ now: c.now, ttlMs: 1000 });

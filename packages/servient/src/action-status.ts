@@ -131,8 +131,11 @@ export class ActionStatusStore {
     return true;
   }
 
+  /** The move got all the way: the simulation reached the target and a relayed command (if any) ended
+   *  on the physical robot; a cancel then stopped nothing. A relay the cancel cut off is not "all the way". */
   private reached(e: Entry): boolean {
-    return e.end?.status === "completed" && (e.end.output as { status?: unknown } | null)?.status === "reached";
+    const out = e.end?.status === "completed" ? (e.end.output as { status?: unknown; relay?: { ok?: unknown } } | null) : null;
+    return out?.status === "reached" && out.relay?.ok !== false;
   }
 
   private entry(action: string, id: string): Entry {

@@ -153,6 +153,15 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
     }
   };
 
+  /** A resume point the client gave but that is not a `seq` is refused: subscribing without it would lose events silently. */
+  const subscribeResuming = (ws: WebSocket, slug: string, resume: unknown): void => {
+    if (resume === undefined || resume === null) return subscribe(ws, slug, null);
+    const point = typeof resume === "number" || typeof resume === "string" ? resumePoint(String(resume)) : null;
+    if (point !== null) return subscribe(ws, slug, point);
+    const message = `resume must be the seq of a message (a non-negative integer), got ${JSON.stringify(resume).slice(0, 40)}`;
+    send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message, details: { thing: slug } }, false);
+  };
+
   const onUpgrade = (req: IncomingMessage, socket: Duplex, head: Buffer): void => {
     const url = new URL(req.url ?? "/", "http://localhost");
     if (url.pathname !== "/live") {
@@ -192,14 +201,14 @@ export function attachLive(server: Server, twins: Map<string, Twin>, world: Worl
           return;
         }
         const m = (msg ?? {}) as { subscribe?: unknown; unsubscribe?: unknown; resume?: unknown };
-        if (typeof m.subscribe === "string") subscribe(ws, m.subscribe, resumePoint(typeof m.resume === "number" ? String(m.resume) : (m.resume as string | undefined)));
+        if (typeof m.subscribe === "string") subscribeResuming(ws, m.subscribe, m.resume);
         else if (typeof m.unsubscribe === "string") clients.get(ws)?.things.delete(m.unsubscribe);
         else {
           send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message: 'expected {"subscribe": "<slug>", "resume"?: <seq>} or {"unsubscribe": "<slug>"}', details: {} }, false);
         }
       });
       const initial = url.searchParams.get("thing");
-      if (initial) subscribe(ws, initial, resumePoint(url.searchParams.get("resume")));
+      if (initial) subscribeResuming(ws, initial, url.searchParams.get("resume") ?? undefined);
     });
   };
   server.on("upgrade", onUpgrade);
