@@ -10,7 +10,7 @@ import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { openBrowser } from "./helpers/browser.js";
 import { openSse } from "./helpers/sse.js";
-import { generateTwin, http, invoke, kukaPose, live, sleep } from "./serve-helpers.js";
+import { consumer, generateTwin, http, invoke, kukaPose, live, sleep } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -179,6 +179,35 @@ describe("resuming", () => {
     await b.wait((m) => m.some((x) => x.data !== null), 5000);
     b.close();
     expect(b.events()[0]).toMatchObject({ event: "robwot:gap", data: { lastEventId: 1, reason: "restart" } });
+  });
+
+  it("node-wot 0.9.2 receives events over the first (long-poll) form and nothing over the sse form (README: why)", async () => {
+    const c = await consumer();
+    const subscriptions: { stop(): Promise<void> }[] = [];
+    try {
+      const td = (await http(base)).body;
+      const sseForm = td.events.collision.forms.findIndex((f: { subprotocol?: string }) => f.subprotocol === "sse");
+      expect(sseForm).toBeGreaterThan(0);
+      const got: Record<"longpoll" | "sse", unknown[]> = { longpoll: [], sse: [] };
+      // one ConsumedThing per subscription (node-wot keeps one per event name); the body read as bytes:
+      // value() would check the synthetic instance against the event's schema
+      for (const [via, options] of [["longpoll", undefined], ["sse", { formIndex: sseForm }]] as const) {
+        const thing = await c.wot.consume(td);
+        const listener = async (out: WoT.InteractionOutput): Promise<void> => void got[via].push(JSON.parse(Buffer.from(await out.arrayBuffer()).toString()));
+        subscriptions.push(await thing.subscribeEvent("collision", listener, undefined, options));
+      }
+      await sleep(500);
+      collide(400);
+      const until = Date.now() + 5000;
+      while (got.longpoll.length === 0 && Date.now() < until) await sleep(50);
+      await sleep(1000);
+      expect(got.longpoll).toEqual([expect.objectContaining({ n: 400 })]);
+      // its SSE client listens to unnamed messages only; the Profile's messages are named (event: collision)
+      expect(got.sse).toEqual([]);
+    } finally {
+      for (const sub of subscriptions) await sub.stop().catch(() => undefined);
+      await c.stop();
+    }
   });
 
   it("/live: every stream message has a seq; resume=<seq> replays the missed events before the snapshot", async () => {
