@@ -91,6 +91,25 @@ def test_check_path_finds_first_collision_without_state_change() -> None:
         free = w.check_path(m.id, [-1.0, 1.0, 0, 0, 0, 0, 0])
         assert free.collision_free and free.first_collision is None
         assert free.to_json()["steps"] == free.steps
+        # the first contact's time is that of the timed path's state it names (the path accelerates)
+        path = w.plan_motion(m.id, [1.5, 1.0, 0, 0, 0, 0, 0], speed=0.5)
+        k = fc.time / (rep.duration / (rep.steps - 1))
+        row = path[int(k)] + (k - int(k)) * (path[min(int(k) + 1, len(path) - 1)] - path[int(k)])
+        assert np.abs(row - np.array(fc.positions)).max() < 1e-6
+
+
+def test_a_timed_straight_path_is_one_segment_and_a_turn_makes_a_vertex() -> None:
+    """A straight joint motion is checked as one segment, however it accelerates along it (each segment
+    starts with a distance query); a path through a waypoint has its turn there."""
+    from robwot_sim.sim.pathcheck import _vertices
+
+    with World() as w:
+        m = w.load_robot(KUKA)
+        straight = w.plan_motion(m.id, [1.0, 0.5, 0, -0.5, 0, 0, 0])
+        assert len(straight) > 20 and _vertices(straight) == [0, len(straight) - 1]
+        bent = w.plan_motion(m.id, [1.0, 0.5, 0, 0, 0, 0, 0], via=[[0.5, 0, 0, 0, 0, 0, 0]])
+        turn = int(np.flatnonzero(np.all(bent == [0.5, 0, 0, 0, 0, 0, 0], axis=1))[0])
+        assert _vertices(bent) == [0, turn, len(bent) - 1]
 
 
 def test_a_pose_beyond_reach_is_refused_naming_the_distance() -> None:

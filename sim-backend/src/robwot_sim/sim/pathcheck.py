@@ -94,12 +94,22 @@ def first_contact(robot: BoundRobot, checker: CollisionChecker, q0: FloatArray, 
 
 def _vertices(path: FloatArray) -> list[int]:
     """Indices of the rows where a path of straight segments starts, turns or ends: the rows between them
-    lie on the segment, so checking the segment (subdivided by travel) covers them, at any speed."""
+    lie on the segment, so checking the segment (subdivided by travel) covers them, at any speed (a
+    timed path's acceleration along a segment makes no vertex: each one cost a distance query)."""
     if len(path) <= 2:
         return list(range(len(path)))
-    bend = np.linalg.norm(path[2:] - 2 * path[1:-1] + path[:-2], axis=1)
+    # a row is a vertex when the direction of motion changes there; the speed along a straight segment
+    # may change (a timed path accelerates): rows standing still keep the direction they had
+    step = np.diff(path, axis=0)
+    length = np.linalg.norm(step, axis=1)
     scale = max(1.0, float(np.max(np.abs(path))))
-    return [0, *(np.nonzero(bend > 1e-9 * scale)[0] + 1).tolist(), len(path) - 1]
+    moving = length > 1e-12 * scale
+    direction = np.zeros_like(step)
+    direction[moving] = step[moving] / length[moving, None]
+    kept = np.maximum.accumulate(np.where(moving, np.arange(len(step)), -1))
+    direction = np.where(kept[:, None] >= 0, direction[np.maximum(kept, 0)], 0.0)
+    turn = np.linalg.norm(direction[1:] - direction[:-1], axis=1) > 1e-9
+    return [0, *(np.nonzero(turn)[0] + 1).tolist(), len(path) - 1]
 
 
 def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatArray, dt: float,
@@ -118,7 +128,11 @@ def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatAr
             hit = first_contact(robot, checker, path[a], path[b], guard, clearance)
             if hit is not None:
                 frac, q = hit
-                first = FirstCollision((a + frac * (b - a)) * dt, tuple(float(x) for x in np.asarray(q)),
+                # the rows between two vertices lie on the segment in order, at any speed: the time is
+                # where the hit's distance along it falls among theirs
+                along = np.linalg.norm(path[a:b + 1] - path[a], axis=1)
+                at = a + float(np.interp(frac * along[-1], along, np.arange(b - a + 1)))
+                first = FirstCollision(at * dt, tuple(float(x) for x in np.asarray(q)),
                                        tuple(checker.contacts(clearance)))
                 return PathReport(False, duration, len(path), first)
     finally:
