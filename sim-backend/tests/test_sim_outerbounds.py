@@ -74,8 +74,16 @@ def ur5_tool_table(w: World) -> str:
     return "r"
 
 
+def z1_4(w: World) -> str:
+    """The Z1 as published: links of several URDF cylinders (Bullet's hulls) and decomposed meshes."""
+    r = example_robot("z1")
+    w.load_robot(str(r.urdf), package_roots=r.package_roots, srdf=r.srdf, robot_id="r")
+    w.load_scene(SCENES / "obstacles-4.json")
+    return "r"
+
+
 CASES = [among_4_obstacles("kuka_iiwa/model.urdf", "kuka_4"), ur3_mesh_and_robot,
-         among_4_obstacles("xarm/xarm6_with_gripper.urdf", "xarm_gripper_4"), ur5_tool_table]
+         among_4_obstacles("xarm/xarm6_with_gripper.urdf", "xarm_gripper_4"), ur5_tool_table, z1_4]
 
 
 def _links(w: World, rid: str) -> list[int]:

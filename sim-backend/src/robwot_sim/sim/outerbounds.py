@@ -86,11 +86,11 @@ def link_points(cid: int, body: int, link: int) -> FloatArray | None:
         com_p, com_r = np.asarray(pos, dtype=np.float64), quat_matrix(orn)
     shapes = pb.getCollisionShapeData(body, link, physicsClientId=cid) or ()
     out = []
-    for shape in shapes:
-        if shape[2] == pb.GEOM_MESH and shape[4] == b"unknown_file" and len(shapes) == 1:
+    for k, shape in enumerate(shapes):
+        if shape[2] == pb.GEOM_MESH and shape[4] == b"unknown_file":
             # a URDF cylinder Bullet turned into a hull: its vertices as Bullet holds them, placed in the
             # inertial frame already
-            _, vertices = pb.getMeshData(body, link, physicsClientId=cid)
+            _, vertices = pb.getMeshData(body, link, collisionShapeIndex=k, physicsClientId=cid)
             if not vertices:
                 return None
             local = np.asarray(vertices, dtype=np.float64)
