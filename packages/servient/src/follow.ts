@@ -14,7 +14,8 @@
  *
  * The safety monitor: every reading of a moving robot is checked against the scene (the twin's world: its
  * obstacles and other robots, and the robot itself) with the twin's clearance, over the straight joint-space
- * path to where its current velocity (from the last two readings) takes it within `horizon` s. A contact on
+ * path to where its current velocity (from the last two readings) takes it within `horizon` s, plus the time
+ * the monitor itself takes from a reading to its verdict (smoothed, at most `horizon` again). A contact on
  * that path emits `collisionImminent` with the bodies, and with `monitor: "stop"` stops the physical robot
  * through its Thing's `stop`; once per approach (until a reading is clear again). A robot already within the
  * clearance may move where it does not touch (out of it, as a jog after a stop does).
@@ -128,6 +129,8 @@ export class Follower {
   private previous: { q: number[]; at: number } | null = null;
   private warned = false;
   private imminent = 0;
+  /** s from a reading to the monitor's verdict on it, smoothed: the robot moves on meanwhile */
+  private lag = 0;
 
   start(): void {
     this.schedule(0);
@@ -229,13 +232,18 @@ export class Follower {
     const dt = (at - previous.at) / 1000;
     const velocity = q.map((v, i) => (v - (previous.q[i] ?? v)) / dt);
     if (velocity.every((v) => Math.abs(v) < STILL)) return;
-    const horizon = this.options.horizon ?? MONITOR_HORIZON;
+    // the look-ahead starts where the robot is when the verdict comes, not where it was read: the horizon
+    // grows by the measured reading-to-verdict time, at most doubled (a stalled backend must not turn
+    // every motion into a predicted contact)
+    const base = this.options.horizon ?? MONITOR_HORIZON;
+    const horizon = base + Math.min(this.lag, base);
     const lower = this.twin.model?.joints ?? [];
     const ahead = q.map((v, i) => {
       const j = lower.find((x) => x.name === this.twin.joints[i]);
       return Math.min(j?.upper ?? Infinity, Math.max(j?.lower ?? -Infinity, v + (velocity[i] ?? 0) * horizon));
     });
     const report = await this.backend.sim.checkPath({ robot: this.twin.robotId, from: q, target: ahead });
+    this.lag = 0.8 * this.lag + 0.2 * ((Date.now() - at) / 1000);
     if (report.collisionFree || !report.firstCollision) {
       this.warned = false;
       return;
