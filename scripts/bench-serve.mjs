@@ -5,6 +5,8 @@
  * - moveToCartesianPosition round trip at realtime 0 (validation + IK + path check + motion + FK)
  * - validateCartesianPosition on uniform random targets in the TD's input bounds, 4 clients (the
  *   workload of tests/serve-offline.test.ts: most targets are unreachable or need other IK solutions)
+ * - validateCartesianPosition, one client, of targets within 5 cm of the end effector that the twin
+ *   reaches by a straight collision-free path (only those answers are timed: the verdict of a plain move)
  * Twin: `robwot generate kuka_iiwa --samples 3000` into a temp folder (or ROBWOT_BENCH_TWIN=<folder>),
  * served by `robwot serve --port 0 --realtime 0` in its own process (the load generator is this one).
  * Prints a table. Options: --reads N (default 4000), --moves N (default 30), --validations N (default 400).
@@ -47,7 +49,7 @@ const pct = (xs, p) => {
 };
 
 /** `total` calls of `request()` (resolving to its HTTP response) spread over `clients` concurrent loops. */
-async function timed(what, total, clients, request) {
+async function timed(what, total, clients, request, keep = () => true) {
   const lat = [];
   let left = total;
   const t0 = performance.now();
@@ -57,12 +59,12 @@ async function timed(what, total, clients, request) {
         const t = performance.now();
         const r = await request();
         if (r.status !== 200) throw new Error(`${what} answered ${r.status}: ${r.body}`);
-        lat.push(performance.now() - t);
+        if (keep(r)) lat.push(performance.now() - t);
       }
     }),
   );
   const secs = (performance.now() - t0) / 1000;
-  return { what, n: lat.length, p50: pct(lat, 50), p99: pct(lat, 99), rate: lat.length / secs };
+  return { what, n: lat.length, p50: pct(lat, 50), p95: pct(lat, 95), p99: pct(lat, 99), rate: lat.length / secs };
 }
 
 async function reads(clients) {
@@ -93,10 +95,27 @@ async function validations(clients) {
   );
 }
 
+async function straightValidations() {
+  const p = JSON.parse((await call("GET", `${base.pathname}/properties/getCartesianPosition`)).body);
+  let seed = 7;
+  const u = () => ((seed = (seed * 1103515245 + 12345) % 2147483648) / 2147483648);
+  const straight = (r) => {
+    const b = JSON.parse(r.body);
+    return b.valid === true && b.checks?.path?.planned === "straight";
+  };
+  return timed(
+    "validateCartesianPosition, straight free path, 1 client",
+    VALIDATIONS,
+    1,
+    () => call("POST", `${base.pathname}/actions/validateCartesianPosition`, { x: p.x + (u() - 0.5) * 0.1, y: p.y + (u() - 0.5) * 0.1, z: p.z + (u() - 0.5) * 0.1 }),
+    straight,
+  );
+}
+
 try {
-  const rows = [await reads(1), await reads(16), await moves(), await validations(4)];
-  const head = ["measurement", "n", "p50 ms", "p99 ms", "per s"];
-  const cells = rows.map((r) => [r.what, String(r.n), r.p50.toFixed(2), r.p99.toFixed(2), r.rate.toFixed(0)]);
+  const rows = [await reads(1), await reads(16), await moves(), await validations(4), await straightValidations()];
+  const head = ["measurement", "n", "p50 ms", "p95 ms", "p99 ms", "per s"];
+  const cells = rows.map((r) => [r.what, String(r.n), r.p50.toFixed(2), r.p95.toFixed(2), r.p99.toFixed(2), r.rate.toFixed(0)]);
   const w = head.map((h, i) => Math.max(h.length, ...cells.map((c) => c[i].length)));
   const line = (c) => `| ${c.map((x, i) => (i === 0 ? x.padEnd(w[i]) : x.padStart(w[i]))).join(" | ")} |`;
   console.log(line(head));
