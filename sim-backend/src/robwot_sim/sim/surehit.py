@@ -40,6 +40,8 @@ MAX_BALLS = 8  # largest balls kept per link
 MIN_RADIUS = 0.005  # m: smaller balls are dropped
 DEPTH = 0.001  # m: overlap a sure hit needs
 MAX_OBSTACLES = 32  # largest primitive obstacles tested
+SLACK = 1e-6  # m: added to the bounding balls of a link and an obstacle before testing them for overlap
+F32_TOLERANCE = 1e-5  # relative to the squared coordinates: above the error of that test's float32 product
 PROBE = 500  # rows of a batch tested first: below MIN_RATE sure hits among them, the rest is not tested
 MIN_RATE = 0.02  # (a hit saves ~250 us of Bullet; the test costs ~5-30 us per row)
 
@@ -131,22 +133,7 @@ def link_balls(cid: int, body: int, link: int) -> LinkBalls:
                      np.array([r for _, r in balls], dtype=np.float64))
 
 
-def _sdf(spec: dict[str, Any], points: FloatArray) -> FloatArray | None:
-    """Signed distance (m, negative inside) of ``points`` (..., 3) to a primitive obstacle (else None)."""
-    shape = spec["shape"]
-    local = (points - np.asarray(spec["position"], dtype=np.float64)) @ quat_matrix(spec["orientation"])
-    t = shape["type"]
-    if t == "sphere":
-        out: FloatArray = np.linalg.norm(local, axis=-1) - float(shape["radius"])
-        return out
-    if t == "box":
-        q = np.abs(local) - np.asarray(shape["size"], dtype=np.float64) / 2
-        return np.asarray(np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0))
-    if t == "cylinder":
-        d = np.stack([np.linalg.norm(local[..., :2], axis=-1) - float(shape["radius"]),
-                      np.abs(local[..., 2]) - float(shape["length"]) / 2], axis=-1)
-        return np.asarray(np.linalg.norm(np.maximum(d, 0.0), axis=-1) + np.minimum(d.max(axis=-1), 0.0))
-    return None
+_KINDS = {"box": 0, "sphere": 1, "cylinder": 2}
 
 
 def _volume(shape: dict[str, Any]) -> float:
@@ -160,11 +147,54 @@ def _volume(shape: dict[str, Any]) -> float:
     return 0.0
 
 
+class _Obstacles:
+    """The primitive obstacles as arrays, for signed distances of many (point, obstacle) pairs at once:
+    each obstacle's position, rotation (world -> its frame: ``(p - position) @ rotation``), kind, size
+    (box: half sizes; sphere: radius; cylinder: radius and half length) and bounding-ball radius about
+    its position."""
+
+    def __init__(self, specs: list[dict[str, Any]]) -> None:
+        self.count = len(specs)
+        self.centre = np.array([o["position"] for o in specs], dtype=np.float64).reshape(-1, 3)
+        self.centre_sq = np.einsum("mi,mi->m", self.centre, self.centre)
+        self.rotation = np.array([quat_matrix(o["orientation"]) for o in specs]).reshape(-1, 3, 3)
+        self.kind = np.array([_KINDS[o["shape"]["type"]] for o in specs], dtype=np.intp)
+        size = np.zeros((self.count, 3))
+        for i, o in enumerate(specs):
+            s = o["shape"]
+            if s["type"] == "box":
+                size[i] = np.asarray(s["size"], dtype=np.float64) / 2
+            elif s["type"] == "sphere":
+                size[i, 0] = float(s["radius"])
+            else:
+                size[i, :2] = float(s["radius"]), float(s["length"]) / 2
+        self.size = size
+        self.reach = np.linalg.norm(size, axis=1)  # box: half diagonal; cylinder: hypot(radius, half length)
+
+    def sdf(self, kind: int, points: FloatArray, which: npt.NDArray[np.intp]) -> FloatArray:
+        """Signed distance (m, negative inside) of ``points`` ``(p, 3)`` or ``(p, k, 3)`` to obstacle
+        ``which[i]`` (``(p,)``, all of ``kind``), per point."""
+        extra = (None,) * (points.ndim - 2)
+        offset = points - self.centre[which][(slice(None), *extra, slice(None))]
+        local = np.einsum("p...i,pij->p...j", offset, self.rotation[which])
+        size = self.size[which][(slice(None), *extra, slice(None))]
+        if kind == _KINDS["sphere"]:
+            out: FloatArray = np.linalg.norm(local, axis=-1) - size[..., 0]
+            return out
+        if kind == _KINDS["box"]:
+            q = np.abs(local) - size
+        else:
+            q = np.stack([np.linalg.norm(local[..., :2], axis=-1) - size[..., 0],
+                          np.abs(local[..., 2]) - size[..., 1]], axis=-1)
+        return np.asarray(np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0))
+
+
 class SureHits:
     """Sure-hit test of one robot (see the module docstring). ``fks[i]`` gives link ``links[i].link``'s
     frame from a joint vector (``ChainFK``); ``pairs`` are the self pairs (indices into ``links``);
-    ``obstacles`` the world's obstacle specs. Each link's balls are first tested as one bounding ball, so
-    the ball-by-ball test runs only for the rows where that one reaches."""
+    ``obstacles`` the world's obstacle specs (the ``MAX_OBSTACLES`` largest primitive ones are tested).
+    Each link's balls are first tested as one bounding ball, so the ball-by-ball test runs only for the
+    rows where that one reaches."""
 
     def __init__(self, links: list[LinkBalls], fks: list[Any], pairs: list[tuple[int, int]],
                  obstacles: list[dict[str, Any]]) -> None:
@@ -173,8 +203,8 @@ class SureHits:
         self.links = [links[i] for i in keep]
         self.fks = [fks[i] for i in keep]
         self.pairs = [(index[a], index[b]) for a, b in pairs if a in index and b in index]
-        prims = [o for o in obstacles if o["shape"]["type"] in ("box", "sphere", "cylinder")]
-        self.obstacles = sorted(prims, key=lambda o: -_volume(o["shape"]))[:MAX_OBSTACLES]
+        prims = [o for o in obstacles if o["shape"]["type"] in _KINDS]
+        self.obstacles = _Obstacles(sorted(prims, key=lambda o: -_volume(o["shape"]))[:MAX_OBSTACLES])
         self.bound_centre = [lb.centres.mean(axis=0) for lb in self.links]
         self.bound_radius = [float((np.linalg.norm(lb.centres - c, axis=1) + lb.radii).max())
                              for lb, c in zip(self.links, self.bound_centre, strict=True)]
@@ -202,15 +232,41 @@ class SureHits:
             p, r = frames[k]
             return np.asarray(p[rows, None, :] + np.einsum("nij,kj->nki", r[rows], self.links[k].centres))
 
+        obs = self.obstacles
         for k, lb in enumerate(self.links):
-            for o in self.obstacles:
-                sd = _sdf(o, centres[k])
-                assert sd is not None  # primitives only
-                rows = np.flatnonzero((sd < self.bound_radius[k] - DEPTH) & ~out)
-                if len(rows):
-                    sdb = _sdf(o, balls(k, rows))
-                    assert sdb is not None
-                    out[rows[(sdb < lb.radii - DEPTH).any(axis=1)]] = True
+            if not obs.count:
+                break
+            # The (row, obstacle) pairs whose bounding balls meet: a necessary condition of the link's
+            # bounding ball reaching DEPTH into the obstacle (the obstacle lies inside its own ball). Only the
+            # obstacles near the box of the batch's centres; then |c - o|^2 - reach^2 < 0 for every pair as
+            # one float32 product [c, |c|^2, 1] . [-2 o, 1, |o|^2 - reach^2], coordinates taken from the
+            # box's centre, with a tolerance above float32's rounding error: never a pair missed.
+            live = np.flatnonzero(~out)
+            c = centres[k][live]
+            reach = self.bound_radius[k] + obs.reach + SLACK
+            lo, hi = c.min(axis=0, initial=np.inf), c.max(axis=0, initial=-np.inf)
+            cand = np.flatnonzero(((obs.centre > lo - reach[:, None]) & (obs.centre < hi + reach[:, None]))
+                                  .all(axis=1))
+            if not len(cand) or not len(live):
+                continue
+            mid = (lo + hi) / 2
+            cl, ol = c - mid, obs.centre[cand] - mid
+            csq, osq = np.einsum("ni,ni->n", cl, cl), np.einsum("mi,mi->m", ol, ol)
+            tol = F32_TOLERANCE * (1.0 + float(csq.max()) + float(osq.max()))
+            left = np.concatenate([cl, csq[:, None], np.ones((len(cl), 1))], axis=1).astype(np.float32)
+            right = np.concatenate([-2.0 * ol.T, np.ones((1, len(cand))),
+                                    (osq - reach[cand] ** 2 - tol)[None, :]], axis=0).astype(np.float32)
+            rows, which = np.divmod(np.flatnonzero(left @ right < 0.0), len(cand))
+            rows, which = live[rows], cand[which]
+            for kind in np.unique(obs.kind[which]):
+                sel = obs.kind[which] == kind
+                r_, o_ = rows[sel], which[sel]
+                sd = obs.sdf(int(kind), centres[k][r_], o_)
+                near = sd < self.bound_radius[k] - DEPTH
+                r_, o_ = r_[near], o_[near]
+                if len(r_):
+                    sdb = obs.sdf(int(kind), balls(k, r_), o_)
+                    out[r_[(sdb < lb.radii - DEPTH).any(axis=1)]] = True
         for a, b in self.pairs:
             d = centres[a] - centres[b]
             reach = self.bound_radius[a] + self.bound_radius[b] - DEPTH
