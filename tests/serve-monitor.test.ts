@@ -51,7 +51,7 @@ it("stops every approach toward the box only the twin knows, before contact; nev
     const jog = await invoke(robot.tdUrl, "jog", { velocities: { [J1]: v }, duration: 3 / v });
     expect(jog.body.status, `approach ${k} at ${v.toFixed(2)} rad/s ran its whole jog`).toBe("stopped");
     // the event follows the stop's answer from the robot, which may come after the jog's
-    await stream.waitFor(() => imminent().length > before, 3_000);
+    await stream.waitFor(() => imminent().length > before, 10_000);
     const events = imminent().slice(before);
     expect(events.length, `approach ${k}`).toBe(1);
     expect(events[0].stopped).toBe(true);

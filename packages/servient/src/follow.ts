@@ -14,8 +14,11 @@
  *
  * The safety monitor: every reading of a moving robot is checked against the scene (the twin's world: its
  * obstacles and other robots, and the robot itself) with the twin's clearance, over the straight joint-space
- * path to where its current velocity (from the last two readings) takes it within `horizon` s, plus the time
- * the monitor itself takes from a reading to its verdict (smoothed, at most `horizon` again). A contact on
+ * path to where its current velocity (from the last two readings, at most the joints' velocity limits) takes
+ * it within `horizon` s, plus the time the monitor itself takes from a reading to its verdict (smoothed, at
+ * most `horizon` again). While a relayed command runs and the robot keeps within the divergence bound of
+ * its path, the prediction follows that path instead, as far as the current speed goes (`plannedAhead`):
+ * a robot braking at its target or turning at a detour's corner is not heading where its velocity points. A contact on
  * that path emits `collisionImminent` with the bodies, and with `monitor: "stop"` stops the physical robot
  * through its Thing's `stop`; once per approach (until a reading is clear again). A robot already within the
  * clearance may move where it does not touch (out of it, as a jog after a stop does).
@@ -54,6 +57,38 @@ function expectedAt(states: TrajectoryState[], t: number): TrajectoryState | nul
   const f = b.time > a.time ? (t - a.time) / (b.time - a.time) : 1;
   const mix = (x: number[], y: number[]): number[] => x.map((v, k) => v + f * ((y[k] ?? v) - v));
   return { time: t, q: mix(a.q, b.q), position: mix(a.position, b.position) as Vec3 };
+}
+
+/** rad: a relayed path ahead is checked as straight segments that leave none of its states further away */
+const CORNER = 1e-3;
+
+/** The largest joint difference (rad or m) between two joint vectors. */
+function jointGap(a: readonly number[], b: readonly number[]): number {
+  return Math.max(0, ...a.map((v, k) => Math.abs(v - (b[k] ?? v))));
+}
+
+/** The point of segment `a`-`b` nearest to `p` (Euclidean projection in joint space, clamped to the segment). */
+function nearestOnSegment(p: readonly number[], a: readonly number[], b: readonly number[]): number[] {
+  const ab = b.map((v, n) => v - (a[n] ?? v));
+  const len2 = ab.reduce((sum, v) => sum + v * v, 0);
+  const f = len2 > 0 ? Math.min(1, Math.max(0, p.reduce((sum, v, n) => sum + (v - (a[n] ?? v)) * (ab[n] ?? 0), 0) / len2)) : 0;
+  return a.map((v, n) => v + (ab[n] ?? 0) * f);
+}
+
+/** The points of a polyline Douglas-Peucker keeps: every dropped point within `tolerance` (largest joint
+ * difference) of the segment between the kept points around it; the first and the last kept. */
+function simplify(points: number[][], tolerance: number): number[][] {
+  if (points.length <= 2) return points;
+  const a = points[0]!;
+  const b = points[points.length - 1]!;
+  let worst = 0;
+  let at = 0;
+  for (let k = 1; k < points.length - 1; k++) {
+    const d = jointGap(points[k]!, nearestOnSegment(points[k]!, a, b));
+    if (d > worst) [worst, at] = [d, k];
+  }
+  if (worst <= tolerance) return [a, b];
+  return [...simplify(points.slice(0, at + 1), tolerance).slice(0, -1), ...simplify(points.slice(at), tolerance)];
 }
 
 /** The part of node-wot's WoT API the follower needs. */
@@ -131,6 +166,8 @@ export class Follower {
   private imminent = 0;
   /** s from a reading to the monitor's verdict on it, smoothed: the robot moves on meanwhile */
   private lag = 0;
+  /** the relayed motion (by when it was sent) and the segment of its path the robot was last nearest */
+  private onPath: { sentAt: number; index: number } | null = null;
 
   start(): void {
     this.schedule(0);
@@ -168,6 +205,7 @@ export class Follower {
     try {
       if (!this.thing) this.thing = await this.wot.consume(await this.wot.requestThingDescription(this.url));
       const map = this.options.map ?? null;
+      const asked = Date.now();
       const out = await (await this.thing.readProperty(map ? map.jointState : "getJointPosition")).value();
       const at = Date.now();
       const twin = this.twin;
@@ -187,7 +225,9 @@ export class Follower {
       const apart = q.some((v, i) => Math.abs(v - (twin.q[i] ?? v)) > FOLLOW_TOLERANCE);
       // checked and sent in one turn of the event loop: a move accepted after this reading is sent after
       // it on the same ordered connection, so it plans from the physical state
-      if (apart && !twin.busy && twin.q.length === q.length) {
+      // a reading asked for before the twin's last move ended may show the robot on its way there (the
+      // relayed command answered meanwhile): only a later one says it moved on its own
+      if (apart && !twin.busy && twin.idleSince <= asked && twin.q.length === q.length) {
         const set = this.backend.sim.setJointPositions(twin.robotId, q);
         this.followed++;
         this.lastFollowed = at;
@@ -223,6 +263,40 @@ export class Follower {
     }
   }
 
+  /**
+   * The joint-space polyline the relayed motion takes the robot along next, from where it is (`q`) as far as
+   * `travel` (rad or m, largest joint), while a relayed command runs and the robot keeps within the
+   * divergence bound of that motion's path; null otherwise. That path was checked with the clearance when
+   * it was planned, and it is not where the current velocity points when the robot brakes at its target or
+   * turns at a detour's corner: extrapolating would stop validated moves. The path, not the time, says where
+   * the robot goes: one that runs late (latency, its own timing) is still on it.
+   */
+  private plannedAhead(q: number[], travel: number): number[][] | null {
+    const relayed = this.twin.relayed;
+    const states = relayed?.states.map((s) => s.q) ?? [];
+    if (!relayed || states.length === 0) return null;
+    // the robot only goes on along the path: the nearest segment from the one matched last
+    if (this.onPath?.sentAt !== relayed.sentAt) this.onPath = { sentAt: relayed.sentAt, index: 0 };
+    let best = { index: this.onPath.index, point: states[this.onPath.index]!, gap: jointGap(q, states[this.onPath.index]!) };
+    for (let k = this.onPath.index; k + 1 < states.length; k++) {
+      const point = nearestOnSegment(q, states[k]!, states[k + 1]!);
+      const gap = jointGap(q, point);
+      if (gap < best.gap) best = { index: k, point, gap };
+    }
+    if (best.gap > this.bound) return null;
+    this.onPath.index = best.index;
+    const ahead: number[][] = [best.point];
+    let left = travel;
+    for (let k = best.index + 1; k < states.length && left > 0; k++) {
+      const a = ahead[ahead.length - 1]!;
+      const b = states[k]!;
+      const d = jointGap(a, b);
+      ahead.push(d <= left ? b : a.map((v, n) => v + ((b[n] ?? v) - v) * (left / d)));
+      left -= d;
+    }
+    return simplify([q, ...ahead], CORNER).slice(1);
+  }
+
   /** The safety monitor on a reading `q` taken at `at` (see the module comment). */
   private async monitor(q: number[], at: number): Promise<void> {
     const mode = this.options.monitor ?? "stop";
@@ -230,30 +304,51 @@ export class Follower {
     this.previous = { q, at };
     if (mode === "off" || !previous || at <= previous.at) return;
     const dt = (at - previous.at) / 1000;
-    const velocity = q.map((v, i) => (v - (previous.q[i] ?? v)) / dt);
+    const joints = this.twin.model?.joints ?? [];
+    const limit = (i: number): number => joints.find((x) => x.name === this.twin.joints[i])?.velocity ?? Infinity;
+    // no robot outruns its joints' velocity limits: two readings close in time (or a stand-in that jumps)
+    // must not extrapolate beyond them
+    const velocity = q.map((v, i) => {
+      const raw = (v - (previous.q[i] ?? v)) / dt;
+      const max = limit(i) > 0 ? limit(i) : Infinity;
+      return Math.max(-max, Math.min(max, raw));
+    });
     if (velocity.every((v) => Math.abs(v) < STILL)) return;
     // the look-ahead starts where the robot is when the verdict comes, not where it was read: the horizon
     // grows by the measured reading-to-verdict time, at most doubled (a stalled backend must not turn
     // every motion into a predicted contact)
     const base = this.options.horizon ?? MONITOR_HORIZON;
     const horizon = base + Math.min(this.lag, base);
-    const lower = this.twin.model?.joints ?? [];
-    const ahead = q.map((v, i) => {
-      const j = lower.find((x) => x.name === this.twin.joints[i]);
-      return Math.min(j?.upper ?? Infinity, Math.max(j?.lower ?? -Infinity, v + (velocity[i] ?? 0) * horizon));
-    });
-    const report = await this.backend.sim.checkPath({ robot: this.twin.robotId, from: q, target: ahead });
+    const travel = Math.max(...velocity.map(Math.abs)) * horizon;
+    const path = this.plannedAhead(q, travel) ?? [
+      q.map((v, i) => {
+        const j = joints.find((x) => x.name === this.twin.joints[i]);
+        return Math.min(j?.upper ?? Infinity, Math.max(j?.lower ?? -Infinity, v + (velocity[i] ?? 0) * horizon));
+      }),
+    ];
+    // the segments one after the other, up to the first contact
+    let from = q;
+    let done = 0;
+    let end = q;
+    let hit: NonNullable<Awaited<ReturnType<BackendSupervisor["sim"]["checkPath"]>>["firstCollision"]> | null = null;
+    for (const target of path) {
+      const report = await this.backend.sim.checkPath({ robot: this.twin.robotId, from, target });
+      if (!report.collisionFree && report.firstCollision) {
+        [hit, end] = [report.firstCollision, target];
+        break;
+      }
+      done += jointGap(from, target);
+      from = target;
+    }
     this.lag = 0.8 * this.lag + 0.2 * ((Date.now() - at) / 1000);
-    if (report.collisionFree || !report.firstCollision) {
+    if (!hit) {
       this.warned = false;
       return;
     }
-    const hit = report.firstCollision;
-    const span = Math.max(...ahead.map((v, i) => Math.abs(v - (q[i] ?? v))));
-    const travelled = Math.max(...hit.positions.map((v, i) => Math.abs(v - (q[i] ?? v))));
+    const travelled = done + jointGap(from, hit.positions);
     // already within the clearance (a robot the monitor stopped there): moving out of it is allowed, only
     // a motion into contact is stopped
-    if (travelled === 0 && (await this.backend.sim.checkCollision(this.twin.robotId, ahead)).collisionFree) {
+    if (travelled === 0 && (await this.backend.sim.checkCollision(this.twin.robotId, end)).collisionFree) {
       this.warned = false;
       return;
     }
@@ -262,7 +357,8 @@ export class Follower {
     this.imminent++;
     const event: CollisionImminentEvent = {
       contacts: hit.contacts.map((c) => ({ a: c.a, b: c.b })),
-      in: span > 0 ? (travelled / span) * horizon : 0,
+      // s at the current speed
+      in: travel > 0 ? (travelled / travel) * horizon : 0,
       joints: this.twin.jointsRecord(q),
       stopped: false,
     };

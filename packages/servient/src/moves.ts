@@ -444,6 +444,7 @@ export class Mover {
     } finally {
       this.pending = null;
       this.twin.busy = false;
+      this.twin.idleSince = Date.now();
     }
   }
 

@@ -78,6 +78,9 @@ export class Twin extends EventEmitter<TwinEvents> {
   frames: FrameMap;
   /** true from the moment a move is accepted for validation until it ends */
   busy = false;
+  /** when the last move ended (ms, Date.now()): a reading of the physical robot asked for before that may
+   *  show it on the way there */
+  idleSince = 0;
   /** set when a collision event was emitted for the current motion */
   collisionSeen = false;
   /** the motion streamed by the backend since the last move was sent (`robot.state`: simulated time and
