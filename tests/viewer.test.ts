@@ -486,6 +486,8 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
 
     it("draws the real robot with its joints and the simulated one as a ghost", async () => {
       const { page, problems } = browser;
+      // the page of an earlier test may still retry its stopped servient's /live: leave it first
+      await page.goto("about:blank");
       problems.length = 0;
       const mine = following.things[0]!.slug;
       await page.goto(`${following.url}/viewer/?thing=${encodeURIComponent(mine)}`);
