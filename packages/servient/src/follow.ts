@@ -222,7 +222,7 @@ export class Follower {
       this.lastError = undefined;
       this.compare(q, [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0], at);
       await this.monitor(q, at);
-      const apart = q.some((v, i) => Math.abs(v - (twin.q[i] ?? v)) > FOLLOW_TOLERANCE);
+      const apart = jointGap(q, twin.q) > FOLLOW_TOLERANCE;
       // checked and sent in one turn of the event loop: a move accepted after this reading is sent after
       // it on the same ordered connection, so it plans from the physical state
       // a reading asked for before the twin's last move ended may show the robot on its way there (the
@@ -250,7 +250,7 @@ export class Follower {
     const t = (at - relayed.sentAt) / 1000;
     const expected = expectedAt(relayed.states, t);
     if (!expected) return;
-    const joint = Math.max(...q.map((v, i) => Math.abs(v - (expected.q[i] ?? v))));
+    const joint = jointGap(q, expected.q);
     const tcp = Math.hypot(...position.map((v, i) => v - (expected.position[i] ?? v)));
     this.divergence = { joint, tcp };
     if (this.maxDivergence?.sentAt !== relayed.sentAt) this.maxDivergence = { joint: 0, tcp: 0, sentAt: relayed.sentAt, reported: false };
@@ -304,13 +304,13 @@ export class Follower {
     this.previous = { q, at };
     if (mode === "off" || !previous || at <= previous.at) return;
     const dt = (at - previous.at) / 1000;
-    const joints = this.twin.model?.joints ?? [];
-    const limit = (i: number): number => joints.find((x) => x.name === this.twin.joints[i])?.velocity ?? Infinity;
+    // the limits of each joint of the vector, looked up once per reading
+    const specs = this.twin.joints.map((name) => this.twin.model?.joints.find((x) => x.name === name));
     // no robot outruns its joints' velocity limits: two readings close in time (or a stand-in that jumps)
     // must not extrapolate beyond them
     const velocity = q.map((v, i) => {
       const raw = (v - (previous.q[i] ?? v)) / dt;
-      const max = limit(i) > 0 ? limit(i) : Infinity;
+      const max = (specs[i]?.velocity ?? 0) > 0 ? specs[i]!.velocity : Infinity;
       return Math.max(-max, Math.min(max, raw));
     });
     if (velocity.every((v) => Math.abs(v) < STILL)) return;
@@ -321,10 +321,7 @@ export class Follower {
     const horizon = base + Math.min(this.lag, base);
     const travel = Math.max(...velocity.map(Math.abs)) * horizon;
     const path = this.plannedAhead(q, travel) ?? [
-      q.map((v, i) => {
-        const j = joints.find((x) => x.name === this.twin.joints[i]);
-        return Math.min(j?.upper ?? Infinity, Math.max(j?.lower ?? -Infinity, v + (velocity[i] ?? 0) * horizon));
-      }),
+      q.map((v, i) => Math.min(specs[i]?.upper ?? Infinity, Math.max(specs[i]?.lower ?? -Infinity, v + (velocity[i] ?? 0) * horizon))),
     ];
     // the segments one after the other, up to the first contact
     let from = q;
