@@ -67,6 +67,16 @@ def _obj_vertices(path: Path) -> FloatArray | None:
     return np.array(rows, dtype=np.float64) if rows else None
 
 
+def _bullet_vertices(cid: int, body: int, link: int, shape: int) -> FloatArray:
+    """Vertices of a link's convex shape number ``shape`` as Bullet holds them (``getMeshData``: the shape's
+    frame applied, in the link's inertial frame); empty when Bullet gives none."""
+    try:
+        data = pb.getMeshData(body, link, collisionShapeIndex=shape, physicsClientId=cid)
+    except pb.error:
+        return np.zeros((0, 3))
+    return np.asarray(data[1], dtype=np.float64).reshape(-1, 3)
+
+
 def _hull_balls(vertices: FloatArray) -> list[tuple[FloatArray, float]]:
     """Up to ``PER_PART`` balls inside the convex hull of ``vertices``: centres at the vertex centroid and
     at +-1/3 of the extent along the principal axis, radius the distance to the nearest hull face."""
@@ -117,10 +127,17 @@ def link_balls(cid: int, body: int, link: int) -> LinkBalls:
     state = pb.getLinkState(body, link, physicsClientId=cid)
     com_p, com_r = np.asarray(state[2], dtype=np.float64), quat_matrix(state[3])  # inertial frame in link
     balls: list[tuple[FloatArray, float]] = []
-    for shape in pb.getCollisionShapeData(body, link, physicsClientId=cid) or ():
+    for i, shape in enumerate(pb.getCollisionShapeData(body, link, physicsClientId=cid) or ()):
         kind, dims, name, pos, orn = shape[2], shape[3], shape[4], shape[5], shape[6]
         if kind == pb.GEOM_MESH:
-            v = _obj_vertices(Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name)))
+            file = Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name))
+            v = _obj_vertices(file)
+            if v is None and (file.name == "unknown_file" or file.suffix.lower() == ".stl"):
+                # one hull Bullet built itself (a URDF cylinder or capsule without implicit shapes, an STL
+                # mesh): its vertices as Bullet holds them, already in the inertial frame
+                held = _bullet_vertices(cid, body, link, i)
+                balls += [(com_p + com_r @ c, r) for c, r in _hull_balls(held)]
+                continue
             local = [] if v is None else _hull_balls(v * np.asarray(dims, dtype=np.float64))
         else:
             local = _primitive_balls(kind, dims)
