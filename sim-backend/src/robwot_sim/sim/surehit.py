@@ -5,20 +5,22 @@ Why: a colliding configuration costs Bullet 5-30 times a free one (the penetrati
 penetrating pair of convex parts, EPA), so colliding samples took ~45 % of the labelling time of kuka with
 4 obstacles and ~85 % for UR5's decomposed meshes.
 
-How: each convex part of a moving link (a decomposed mesh part, a primitive) gets up to ``PER_PART``
-balls that lie inside it (centres on the part's long axis, radius the distance to its nearest face), in
-the URDF link frame, and every link's frame comes from the vectorised FK (``workspace/fk.py``). A
-configuration is a sure hit when, by more than ``DEPTH`` (m),
+How: each convex part of a moving link (a decomposed mesh part, a primitive, a hull Bullet built) gets
+up to ``PER_PART`` balls that lie inside it (centres on the part's long axis, radius the distance to its
+nearest face), in the URDF link frame, and every link's frame comes from the vectorised FK
+(``workspace/fk.py``). A configuration is a sure hit when, by more than ``DEPTH`` (m),
 
-- a ball reaches into a primitive obstacle (box, sphere, cylinder; signed distance < radius), or
+- a ball reaches into a primitive obstacle (box, sphere, cylinder; signed distance < radius): every
+  ball of the batch is looked up in a grid of the nearest obstacle per voxel (``_Grid``), so the test
+  costs the same with 4 obstacles or 239, or
 - two balls of a link pair that Bullet checks overlap (both links with mass, neither the other's
   parent, not a filtered pair).
 
 Then the part and the obstacle (or the two parts) share a ball of radius > ``DEPTH``: Bullet reports a
 contact of negative distance there, so the label is the one Bullet gives. Everything else (grazing
-contacts, meshes, other robots) is left to Bullet. Labels do not depend on the order of the checks
-(Bullet's persistent contacts were tested for that: the same labels in reverse order), so skipping rows
-changes no other row's label.
+contacts, meshes, other robots) is left to Bullet. Skipping rows changes another row's label only where
+Bullet's own label depends on the row it checked before (a grazing contact's manifold kept from it, on
+some robots; ``python -m robwot_bench.surehits`` counts both).
 """
 
 from __future__ import annotations
@@ -35,13 +37,14 @@ from robwot_sim.model.fk import ChainFK, chain_frames
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.sim.types import FloatArray
 
-PER_PART = 3  # balls per convex part
-MAX_BALLS = 8  # largest balls kept per link
+PER_PART = 5  # balls per convex part, evenly along its long axis
+MAX_BALLS = 16  # largest balls kept per link
+SELF_BALLS = 8  # of them, the largest tested for self pairs (every pair of two links' balls is compared)
 MIN_RADIUS = 0.005  # m: smaller balls are dropped
 DEPTH = 0.001  # m: overlap a sure hit needs
-MAX_OBSTACLES = 32  # largest primitive obstacles tested
-SLACK = 1e-6  # m: added to the bounding balls of a link and an obstacle before testing them for overlap
-F32_TOLERANCE = 1e-5  # relative to the squared coordinates: above the error of that test's float32 product
+GRID_VOXELS = 1 << 20  # most voxels of the obstacle grid (4 + 4 bytes each)
+GRID_SIDE = 0.01  # m: the grid's finest voxel side
+GRID_TOLERANCE = 1e-6  # m: above the float32 rounding of the grid's distances
 PROBE = 500  # rows of a batch tested first: below MIN_RATE sure hits among them, the rest is not tested
 MIN_RATE = 0.02  # (a hit saves ~250 us of Bullet; the test costs ~5-30 us per row)
 
@@ -78,8 +81,9 @@ def _bullet_vertices(cid: int, body: int, link: int, shape: int) -> FloatArray:
 
 
 def _hull_balls(vertices: FloatArray) -> list[tuple[FloatArray, float]]:
-    """Up to ``PER_PART`` balls inside the convex hull of ``vertices``: centres at the vertex centroid and
-    at +-1/3 of the extent along the principal axis, radius the distance to the nearest hull face."""
+    """Up to ``PER_PART`` balls inside the convex hull of ``vertices``: centres evenly spaced inside the
+    extent along the principal axis through the vertex centroid, radius the distance to the nearest hull
+    face."""
     from scipy.spatial import ConvexHull, QhullError
 
     try:
@@ -92,7 +96,7 @@ def _hull_balls(vertices: FloatArray) -> list[tuple[FloatArray, float]]:
     axis = vt[0]
     along = (vertices - centre) @ axis
     out = []
-    for t in (0.0, along.min() / 3, along.max() / 3)[:PER_PART]:
+    for t in np.linspace(along.min(), along.max(), PER_PART + 2)[1:-1]:
         c = centre + t * axis
         r = float(-(eq[:, :3] @ c + eq[:, 3]).max())
         if r >= MIN_RADIUS:
@@ -153,17 +157,6 @@ def link_balls(cid: int, body: int, link: int) -> LinkBalls:
 _KINDS = {"box": 0, "sphere": 1, "cylinder": 2}
 
 
-def _volume(shape: dict[str, Any]) -> float:
-    t = shape["type"]
-    if t == "box":
-        return float(np.prod(shape["size"]))
-    if t == "sphere":
-        return 4.19 * float(shape["radius"]) ** 3
-    if t == "cylinder":
-        return 3.14 * float(shape["radius"]) ** 2 * float(shape["length"])
-    return 0.0
-
-
 class _Obstacles:
     """The primitive obstacles as arrays, for signed distances of many (point, obstacle) pairs at once:
     each obstacle's position, rotation (world -> its frame: ``(p - position) @ rotation``), kind, size
@@ -173,7 +166,6 @@ class _Obstacles:
     def __init__(self, specs: list[dict[str, Any]]) -> None:
         self.count = len(specs)
         self.centre = np.array([o["position"] for o in specs], dtype=np.float64).reshape(-1, 3)
-        self.centre_sq = np.einsum("mi,mi->m", self.centre, self.centre)
         self.rotation = np.array([quat_matrix(o["orientation"]) for o in specs]).reshape(-1, 3, 3)
         self.kind = np.array([_KINDS[o["shape"]["type"]] for o in specs], dtype=np.intp)
         size = np.zeros((self.count, 3))
@@ -187,6 +179,13 @@ class _Obstacles:
                 size[i, :2] = float(s["radius"]), float(s["length"]) / 2
         self.size = size
         self.reach = np.linalg.norm(size, axis=1)  # box: half diagonal; cylinder: hypot(radius, half length)
+        # half sides of each obstacle's axis-aligned bounding box (world axes)
+        turn = np.abs(self.rotation)
+        box = np.einsum("mij,mj->mi", turn, size)
+        axis = turn[:, :, 2]  # a cylinder's axis in the world
+        cyl = axis * size[:, 1:2] + size[:, 0:1] * np.sqrt(np.maximum(0.0, 1.0 - axis * axis))
+        self.half = np.where((self.kind == _KINDS["box"])[:, None], box,
+                             np.where((self.kind == _KINDS["sphere"])[:, None], size[:, :1], cyl))
 
     def sdf(self, kind: int, points: FloatArray, which: npt.NDArray[np.intp]) -> FloatArray:
         """Signed distance (m, negative inside) of ``points`` ``(p, 3)`` or ``(p, k, 3)`` to obstacle
@@ -206,12 +205,77 @@ class _Obstacles:
         return np.asarray(np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0))
 
 
+class _Grid:
+    """The primitive obstacles' nearest one per voxel: over the box where a ball of radius ``reach`` can
+    touch one, each voxel holds the obstacle of least signed distance at its centre and that distance
+    (float32; +inf where none is within ``reach`` plus a voxel). The voxel side is ``GRID_SIDE`` or
+    larger, so that the grid has at most ``GRID_VOXELS`` voxels.
+
+    A ball (centre c, radius r) in voxel v is a hit when its nearest obstacle o (that of v) has
+    ``sd_o(c) < r - DEPTH``. As ``sd_o`` changes no faster than the distance,
+    ``sd_o(c) >= dist(v) - |c - v|``: only the balls with ``dist(v) - |c - v| < r - DEPTH`` get the exact
+    signed distance. A ball inside an obstacle other than its voxel's nearest one is not found (it then
+    lies within a voxel of both):
+    every hit is certain, not every certain hit is found."""
+
+    def __init__(self, obs: _Obstacles, reach: float) -> None:
+        self.obs = obs
+        lo_o, hi_o = obs.centre - obs.half - reach, obs.centre + obs.half + reach
+        self.lo = lo_o.min(axis=0)
+        extent = hi_o.max(axis=0) - self.lo
+        self.side = max(GRID_SIDE, float(np.prod(extent) / GRID_VOXELS) ** (1 / 3))
+        self.shape = np.maximum(1, np.ceil(extent / self.side)).astype(np.intp)
+        self.dist = np.full(tuple(self.shape), np.inf, dtype=np.float32)
+        self.near = np.full(tuple(self.shape), -1, dtype=np.int32)
+        for i in range(obs.count):
+            a = np.clip(np.floor((lo_o[i] - self.side - self.lo) / self.side), 0, self.shape).astype(np.intp)
+            b = np.clip(np.ceil((hi_o[i] + self.side - self.lo) / self.side), 0, self.shape).astype(np.intp)
+            axes = [self.lo[d] + (np.arange(a[d], b[d]) + 0.5) * self.side for d in range(3)]
+            pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+            sd = obs.sdf(int(obs.kind[i]), pts, np.full(len(pts), i, dtype=np.intp))
+            box = (slice(a[0], b[0]), slice(a[1], b[1]), slice(a[2], b[2]))
+            held, sd = self.dist[box], sd.reshape(tuple(b - a))
+            better = sd < held
+            held[better] = sd[better]
+            self.near[box][better] = i
+        self.dist[self.dist > reach + self.side] = np.inf
+        self.dist_flat, self.near_flat = self.dist.ravel(), self.near.ravel()
+        self.strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1], dtype=np.float64)
+
+    def hits(self, centres: FloatArray, radii: FloatArray) -> npt.NDArray[np.bool_]:
+        """True per ball (``centres`` ``(n, 3, k)``: coordinates along axis 1; ``radii`` ``(k,)``) found
+        reaching more than ``DEPTH`` into a primitive obstacle, ``(n, k)``. A centre outside the grid is
+        taken to the nearest voxel: the bound holds there too, with the larger distance to that voxel's
+        centre."""
+        n, _, k = centres.shape
+        at = centres * (1 / self.side) - (self.lo / self.side + 0.5)[:, None]  # voxel coordinates
+        cell = np.clip(at, 0, (self.shape - 1)[:, None])
+        np.rint(cell, out=cell)
+        flat = np.einsum("nik,i->nk", cell, self.strides).astype(np.intp)
+        # where the test can succeed at all (|c - v| <= side within a voxel)
+        row, ball = np.nonzero(np.take(self.dist_flat, flat) < radii - DEPTH + self.side)
+        gap = at[row, :, ball] - cell[row, :, ball]
+        cells = flat[row, ball]
+        r = radii[ball]
+        bound = self.dist_flat[cells] - self.side * np.sqrt(np.einsum("mi,mi->m", gap, gap))
+        keep = bound - GRID_TOLERANCE < r - DEPTH
+        row, ball, cells, r = row[keep], ball[keep], cells[keep], r[keep]
+        out = np.zeros((n, k), dtype=bool)
+        which = self.near_flat[cells].astype(np.intp)
+        kinds = self.obs.kind[which]
+        for kind in np.unique(kinds):
+            sel = kinds == kind
+            inside = self.obs.sdf(int(kind), centres[row[sel], :, ball[sel]], which[sel]) < r[sel] - DEPTH
+            out[row[sel][inside], ball[sel][inside]] = True
+        return out
+
+
 class SureHits:
     """Sure-hit test of one robot (see the module docstring). ``fks[i]`` gives link ``links[i].link``'s
     frame from a joint vector (``ChainFK``); ``pairs`` are the self pairs (indices into ``links``);
-    ``obstacles`` the world's obstacle specs (the ``MAX_OBSTACLES`` largest primitive ones are tested).
-    Each link's balls are first tested as one bounding ball, so the ball-by-ball test runs only for the
-    rows where that one reaches."""
+    ``obstacles`` the world's obstacle specs (its primitive ones are tested, through ``_Grid``). For a self
+    pair, each link's balls are first tested as one bounding ball, so the ball-by-ball test runs only for
+    the rows where that one reaches."""
 
     def __init__(self, links: list[LinkBalls], fks: list[Any], pairs: list[tuple[int, int]],
                  obstacles: list[dict[str, Any]]) -> None:
@@ -220,10 +284,16 @@ class SureHits:
         self.links = [links[i] for i in keep]
         self.fks = [fks[i] for i in keep]
         self.pairs = [(index[a], index[b]) for a, b in pairs if a in index and b in index]
-        prims = [o for o in obstacles if o["shape"]["type"] in _KINDS]
-        self.obstacles = _Obstacles(sorted(prims, key=lambda o: -_volume(o["shape"]))[:MAX_OBSTACLES])
-        self.bound_centre = [lb.centres.mean(axis=0) for lb in self.links]
-        self.bound_radius = [float((np.linalg.norm(lb.centres - c, axis=1) + lb.radii).max())
+        prims = _Obstacles([o for o in obstacles if o["shape"]["type"] in _KINDS])
+        self.radii = np.concatenate([lb.radii for lb in self.links]) if self.links else np.zeros(0)
+        first = np.cumsum([0] + [len(lb.radii) for lb in self.links])
+        # each link's balls tested for self pairs: its SELF_BALLS largest, in the columns of all balls
+        self.own = [slice(int(a), int(a) + min(SELF_BALLS, len(lb.radii)))
+                    for a, lb in zip(first, self.links, strict=False)]
+        self.grid = _Grid(prims, float(self.radii.max())) if prims.count and self.links else None
+        self.bound_centre = [lb.centres[:SELF_BALLS].mean(axis=0) for lb in self.links]
+        self.bound_radius = [float((np.linalg.norm(lb.centres[:SELF_BALLS] - c, axis=1)
+                                    + lb.radii[:SELF_BALLS]).max())
                              for lb, c in zip(self.links, self.bound_centre, strict=True)]
 
     def hits(self, qs: FloatArray) -> npt.NDArray[np.bool_]:
@@ -243,61 +313,30 @@ class SureHits:
         if not self.links or n == 0:
             return out
         frames = chain_frames(self.fks, qs)
+        # every ball's centre, coordinates along axis 1: (n, 3, balls), link after link
+        every = np.concatenate([p[:, :, None] + np.matmul(r, lb.centres.T)
+                                for (p, r), lb in zip(frames, self.links, strict=True)], axis=2)
+        if self.grid is not None:
+            out |= self.grid.hits(every, self.radii).any(axis=1)
         centres = [p + r @ c for (p, r), c in zip(frames, self.bound_centre, strict=True)]  # (n, 3)
-
-        def balls(k: int, rows: npt.NDArray[np.intp]) -> FloatArray:
-            p, r = frames[k]
-            return np.asarray(p[rows, None, :] + np.einsum("nij,kj->nki", r[rows], self.links[k].centres))
-
-        obs = self.obstacles
-        for k, lb in enumerate(self.links):
-            if not obs.count:
-                break
-            # The (row, obstacle) pairs whose bounding balls meet: a necessary condition of the link's
-            # bounding ball reaching DEPTH into the obstacle (the obstacle lies inside its own ball). Only the
-            # obstacles near the box of the batch's centres; then |c - o|^2 - reach^2 < 0 for every pair as
-            # one float32 product [c, |c|^2, 1] . [-2 o, 1, |o|^2 - reach^2], coordinates taken from the
-            # box's centre, with a tolerance above float32's rounding error: never a pair missed.
-            live = np.flatnonzero(~out)
-            c = centres[k][live]
-            reach = self.bound_radius[k] + obs.reach + SLACK
-            lo, hi = c.min(axis=0, initial=np.inf), c.max(axis=0, initial=-np.inf)
-            cand = np.flatnonzero(((obs.centre > lo - reach[:, None]) & (obs.centre < hi + reach[:, None]))
-                                  .all(axis=1))
-            if not len(cand) or not len(live):
-                continue
-            mid = (lo + hi) / 2
-            cl, ol = c - mid, obs.centre[cand] - mid
-            csq, osq = np.einsum("ni,ni->n", cl, cl), np.einsum("mi,mi->m", ol, ol)
-            tol = F32_TOLERANCE * (1.0 + float(csq.max()) + float(osq.max()))
-            left = np.concatenate([cl, csq[:, None], np.ones((len(cl), 1))], axis=1).astype(np.float32)
-            right = np.concatenate([-2.0 * ol.T, np.ones((1, len(cand))),
-                                    (osq - reach[cand] ** 2 - tol)[None, :]], axis=0).astype(np.float32)
-            rows, which = np.divmod(np.flatnonzero(left @ right < 0.0), len(cand))
-            rows, which = live[rows], cand[which]
-            for kind in np.unique(obs.kind[which]):
-                sel = obs.kind[which] == kind
-                r_, o_ = rows[sel], which[sel]
-                sd = obs.sdf(int(kind), centres[k][r_], o_)
-                near = sd < self.bound_radius[k] - DEPTH
-                r_, o_ = r_[near], o_[near]
-                if len(r_):
-                    sdb = obs.sdf(int(kind), balls(k, r_), o_)
-                    out[r_[(sdb < lb.radii - DEPTH).any(axis=1)]] = True
         for a, b in self.pairs:
             d = centres[a] - centres[b]
             reach = self.bound_radius[a] + self.bound_radius[b] - DEPTH
             rows = np.flatnonzero((np.einsum("ni,ni->n", d, d) < reach * reach) & ~out)
-            if len(rows):  # then a's balls against b's bounding ball
-                ba = balls(a, rows)
-                e = ba - centres[b][rows, None, :]
-                lim_b = self.links[a].radii + self.bound_radius[b] - DEPTH
-                near = (np.einsum("nki,nki->nk", e, e) < lim_b * lim_b).any(axis=1)
-                rows, ba = rows[near], ba[near]
+            if not len(rows):
+                continue
+            # a's balls against b's bounding ball
+            ba = every[rows, :, self.own[a]]
+            e = ba - centres[b][rows, :, None]
+            lim_b = self.links[a].radii[:SELF_BALLS] + self.bound_radius[b] - DEPTH
+            near = (np.einsum("nik,nik->nk", e, e) < lim_b * lim_b).any(axis=1)
+            rows, ba = rows[near], ba[near]
             if len(rows):
-                diff = ba[:, :, None, :] - balls(b, rows)[:, None, :, :]
-                lim = self.links[a].radii[:, None] + self.links[b].radii[None, :] - DEPTH
-                hit = (np.einsum("nabi,nabi->nab", diff, diff) < np.where(lim > 0, lim * lim, -1.0))
+                bb = every[rows, :, self.own[b]]
+                diff = ba[:, :, :, None] - bb[:, :, None, :]
+                lim = (self.links[a].radii[:SELF_BALLS, None] + self.links[b].radii[None, :SELF_BALLS]
+                       - DEPTH)
+                hit = (np.einsum("niab,niab->nab", diff, diff) < np.where(lim > 0, lim * lim, -1.0))
                 out[rows[hit.any(axis=(1, 2))]] = True
         return out
 
