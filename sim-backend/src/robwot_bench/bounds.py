@@ -14,7 +14,9 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pybullet as pb
@@ -91,25 +93,37 @@ def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, 
             "order": int((old != reverse).sum()), "unsound": unsound}
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+Measure = Callable[[str, "str | None", int, int], dict[str, Any]]
+
+
+def sweep(doc: str, tag: str, measure: Measure, columns: list[tuple[str, str, str]], scenes: str) -> None:
+    """The command line of a per-robot, per-scene bench: ``--robots``, ``--scenes`` (``-``: none),
+    ``--samples``, ``--seed``; one row per robot and scene of the ``columns`` (result key, header, format
+    spec of the value) of ``measure(robot, scene, samples, seed)``, with the load average before and
+    after."""
+    p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--robots", default=",".join([*BUNDLED, *REFERENCE]))
-    p.add_argument("--scenes", default="-,obstacles-4.json,obstacles-239.json")
+    p.add_argument("--scenes", default=scenes)
     p.add_argument("--samples", type=int, default=100_000)
     p.add_argument("--seed", type=int, default=26)
     args = p.parse_args()
-    print(f"bench-bounds: {args.samples} samples per robot and scene; load average "
+    print(f"{tag}: {args.samples} samples per robot and scene; load average "
           + " ".join(f"{x:.2f}" for x in os.getloadavg()), flush=True)
-    print(f"{'robot':14s} {'scene':20s} {'us old':>8s} {'us new':>8s} {'new/old':>8s} {'apart':>6s} "
-          f"{'free':>6s} {'differ':>7s} {'order':>6s} {'unsound':>7s}", flush=True)
+    width = {key: max(len(header), 6) for key, header, _ in columns}
+    print(f"{'robot':14s} {'scene':20s} " + " ".join(f"{h:>{width[k]}s}" for k, h, _ in columns), flush=True)
     for name in args.robots.split(","):
         for scene in args.scenes.split(","):
             r = measure(name, None if scene == "-" else scene, args.samples, args.seed)
-            print(f"{r['robot']:14s} {r['scene']:20s} {r['us_old']:8.1f} {r['us_new']:8.1f} "
-                  f"{r['ratio']:8.2f} {r['apart']:6.3f} {r['free']:6.3f} {r['differ']:7d} {r['order']:6d} "
-                  f"{r['unsound']:7d}",
-                  flush=True)
+            print(f"{r['robot']:14s} {r['scene']:20s} "
+                  + " ".join(f"{r[k]:>{width[k]}{spec}}" for k, _, spec in columns), flush=True)
     print("load average " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+
+
+def main() -> None:
+    sweep(__doc__ or "", "bench-bounds", measure,
+          [("us_old", "us old", ".1f"), ("us_new", "us new", ".1f"), ("ratio", "new/old", ".2f"),
+           ("apart", "apart", ".3f"), ("free", "free", ".3f"), ("differ", "differ", "d"),
+           ("order", "order", "d"), ("unsound", "unsound", "d")], "-,obstacles-4.json,obstacles-239.json")
 
 
 if __name__ == "__main__":

@@ -14,16 +14,15 @@ load average.
 
 from __future__ import annotations
 
-import argparse
-import os
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
 import numpy as np
 import pybullet as pb
 
-from robwot_bench.bounds import BUNDLED, REFERENCE, SCENES, _load
+from robwot_bench.bounds import SCENES, _load, sweep
 from robwot_sim.sim import surehit
 from robwot_sim.sim.world import World
 
@@ -65,7 +64,7 @@ def _touches(world: World, rid: str, q: np.ndarray) -> bool:
                                                 physicsClientId=cid)))
 
 
-def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, float | int | str]:
+def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, Any]:
     with World() as world:
         rid = _load(world, name)
         if scene:
@@ -106,25 +105,11 @@ def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, 
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--robots", default=",".join([*BUNDLED, *REFERENCE]))
-    p.add_argument("--scenes", default="obstacles-4.json,obstacles-239.json")
-    p.add_argument("--samples", type=int, default=100_000)
-    p.add_argument("--seed", type=int, default=26)
-    args = p.parse_args()
-    print(f"bench-surehits: {args.samples} samples per robot and scene; load average "
-          + " ".join(f"{x:.2f}" for x in os.getloadavg()), flush=True)
-    print(f"{'robot':14s} {'scene':20s} {'us Bullet':>9s} {'us sure':>8s} {'ratio':>6s} {'colliding':>9s} "
-          f"{'hits':>6s} {'us test':>7s} {'differ':>6s} {'sure':>5s} {'unsound':>7s} {'after':>6s} "
-          f"{'order':>6s}", flush=True)
-    for name in args.robots.split(","):
-        for scene in args.scenes.split(","):
-            r = measure(name, None if scene == "-" else scene, args.samples, args.seed)
-            print(f"{r['robot']:14s} {r['scene']:20s} {r['us_bullet']:9.1f} {r['us_sure']:8.1f} "
-                  f"{r['ratio']:6.2f} {r['colliding']:9.3f} {r['hits']:6.3f} {r['us_test']:7.1f} "
-                  f"{r['differ']:6d} {r['sure']:5d} {r['unsound']:7d} {r['after']:6d} {r['order']:6d}",
-                  flush=True)
-    print("load average " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+    sweep(__doc__ or "", "bench-surehits", measure,
+          [("us_bullet", "us Bullet", ".1f"), ("us_sure", "us sure", ".1f"), ("ratio", "ratio", ".2f"),
+           ("colliding", "colliding", ".3f"), ("hits", "hits", ".3f"), ("us_test", "us test", ".1f"),
+           ("differ", "differ", "d"), ("sure", "sure", "d"), ("unsound", "unsound", "d"),
+           ("after", "after", "d"), ("order", "order", "d")], "obstacles-4.json,obstacles-239.json")
 
 
 if __name__ == "__main__":
