@@ -45,6 +45,7 @@ DEPTH = 0.001  # m: overlap a sure hit needs
 GRID_VOXELS = 1 << 20  # most voxels of the obstacle grid (4 + 4 bytes each)
 GRID_SIDE = 0.01  # m: the grid's finest voxel side
 GRID_TOLERANCE = 1e-6  # m: above the float32 rounding of the grid's distances
+ZONE_SIDE = 0.05  # m: voxel side of the coarse field that tells which links are near an obstacle at all
 PROBE = 500  # rows of a batch tested first: below MIN_RATE sure hits among them, the rest is not tested
 MIN_RATE = 0.02  # (a hit saves ~250 us of Bullet; the test costs ~5-30 us per row)
 
@@ -270,6 +271,42 @@ class _Grid:
         return out
 
 
+class _Zone:
+    """Which links can reach an obstacle at all: a coarse field (``ZONE_SIDE``) of the distance from each
+    voxel centre to the nearest primitive obstacle's axis-aligned bounding box (never more than the
+    distance to the obstacle), over those boxes grown by ``far`` and a voxel (+inf beyond ``far`` plus a
+    voxel). A link whose bounding ball (centre c, radius R <= ``far``) lies in a voxel v with
+    ``field(v) > R + |c - v|``, or outside the field, is farther than R from every obstacle: none of its
+    balls can reach one."""
+
+    def __init__(self, obs: _Obstacles, far: float) -> None:
+        grow = far + ZONE_SIDE
+        self.lo = (obs.centre - obs.half).min(axis=0) - grow
+        extent = (obs.centre + obs.half).max(axis=0) + grow - self.lo
+        self.shape = np.maximum(1, np.ceil(extent / ZONE_SIDE)).astype(np.intp)
+        self.field = np.full(tuple(self.shape), np.inf, dtype=np.float32)
+        for c, h in zip(obs.centre, obs.half, strict=True):
+            a = np.clip(np.floor((c - h - grow - self.lo) / ZONE_SIDE), 0, self.shape).astype(np.intp)
+            b = np.clip(np.ceil((c + h + grow - self.lo) / ZONE_SIDE), 0, self.shape).astype(np.intp)
+            mid = [self.lo[i] + (np.arange(a[i], b[i]) + 0.5) * ZONE_SIDE for i in range(3)]
+            x, y, z = (np.maximum(np.abs(mid[i] - c[i]) - h[i], 0.0) for i in range(3))
+            d = np.sqrt(x[:, None, None] ** 2 + y[None, :, None] ** 2 + z[None, None, :] ** 2)
+            box = (slice(a[0], b[0]), slice(a[1], b[1]), slice(a[2], b[2]))
+            np.minimum(self.field[box], d, out=self.field[box], casting="unsafe")
+        self.field[self.field > grow] = np.inf
+        self.field_flat = self.field.ravel()
+        self.strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1], dtype=np.intp)
+
+    def near(self, centres: FloatArray, radius: float) -> npt.NDArray[np.intp]:
+        """The rows of ``centres`` ``(n, 3)`` whose ball of ``radius`` may reach an obstacle."""
+        at = (centres - self.lo) / ZONE_SIDE - 0.5
+        cell = np.rint(at).astype(np.intp)
+        rows = np.flatnonzero(((cell >= 0) & (cell < self.shape)).all(axis=1))
+        gap = at[rows] - cell[rows]
+        reach = radius + ZONE_SIDE * np.sqrt(np.einsum("mi,mi->m", gap, gap)) + GRID_TOLERANCE
+        return np.asarray(rows[self.field_flat[cell[rows] @ self.strides] <= reach])
+
+
 class SureHits:
     """Sure-hit test of one robot (see the module docstring). ``fks[i]`` gives link ``links[i].link``'s
     frame from a joint vector (``ChainFK``); ``pairs`` are the self pairs (indices into ``links``);
@@ -286,15 +323,12 @@ class SureHits:
         self.pairs = [(index[a], index[b]) for a, b in pairs if a in index and b in index]
         prims = _Obstacles([o for o in obstacles if o["shape"]["type"] in _KINDS])
         self.radii = np.concatenate([lb.radii for lb in self.links]) if self.links else np.zeros(0)
-        first = np.cumsum([0] + [len(lb.radii) for lb in self.links])
-        # each link's balls tested for self pairs: its SELF_BALLS largest, in the columns of all balls
-        self.own = [slice(int(a), int(a) + min(SELF_BALLS, len(lb.radii)))
-                    for a, lb in zip(first, self.links, strict=False)]
-        self.grid = _Grid(prims, float(self.radii.max())) if prims.count and self.links else None
-        self.bound_centre = [lb.centres[:SELF_BALLS].mean(axis=0) for lb in self.links]
-        self.bound_radius = [float((np.linalg.norm(lb.centres[:SELF_BALLS] - c, axis=1)
-                                    + lb.radii[:SELF_BALLS]).max())
+        self.bound_centre = [lb.centres.mean(axis=0) for lb in self.links]
+        self.bound_radius = [float((np.linalg.norm(lb.centres - c, axis=1) + lb.radii).max())
                              for lb, c in zip(self.links, self.bound_centre, strict=True)]
+        near = prims.count and self.links
+        self.grid = _Grid(prims, float(self.radii.max())) if near else None
+        self.zone = _Zone(prims, max(self.bound_radius)) if near else None
 
     def hits(self, qs: FloatArray) -> npt.NDArray[np.bool_]:
         """True where the configuration (row of ``qs``) surely collides. When fewer than ``MIN_RATE`` of
@@ -313,12 +347,19 @@ class SureHits:
         if not self.links or n == 0:
             return out
         frames = chain_frames(self.fks, qs)
-        # every ball's centre, coordinates along axis 1: (n, 3, balls), link after link
-        every = np.concatenate([p[:, :, None] + np.matmul(r, lb.centres.T)
-                                for (p, r), lb in zip(frames, self.links, strict=True)], axis=2)
-        if self.grid is not None:
-            out |= self.grid.hits(every, self.radii).any(axis=1)
+
+        def balls(k: int, rows: npt.NDArray[np.intp], count: int | None = None) -> FloatArray:
+            """Link k's balls at ``rows``, coordinates along axis 1: ``(rows, 3, balls)``."""
+            p, r = frames[k]
+            return np.asarray(p[rows, :, None] + np.matmul(r[rows], self.links[k].centres[:count].T))
+
         centres = [p + r @ c for (p, r), c in zip(frames, self.bound_centre, strict=True)]  # (n, 3)
+        if self.grid is not None and self.zone is not None:
+            for k, lb in enumerate(self.links):
+                rows = self.zone.near(centres[k], self.bound_radius[k])
+                rows = rows[~out[rows]]
+                if len(rows):
+                    out[rows[self.grid.hits(balls(k, rows), lb.radii).any(axis=1)]] = True
         for a, b in self.pairs:
             d = centres[a] - centres[b]
             reach = self.bound_radius[a] + self.bound_radius[b] - DEPTH
@@ -326,14 +367,13 @@ class SureHits:
             if not len(rows):
                 continue
             # a's balls against b's bounding ball
-            ba = every[rows, :, self.own[a]]
+            ba = balls(a, rows, SELF_BALLS)
             e = ba - centres[b][rows, :, None]
             lim_b = self.links[a].radii[:SELF_BALLS] + self.bound_radius[b] - DEPTH
             near = (np.einsum("nik,nik->nk", e, e) < lim_b * lim_b).any(axis=1)
             rows, ba = rows[near], ba[near]
             if len(rows):
-                bb = every[rows, :, self.own[b]]
-                diff = ba[:, :, :, None] - bb[:, :, None, :]
+                diff = ba[:, :, :, None] - balls(b, rows, SELF_BALLS)[:, :, None, :]
                 lim = (self.links[a].radii[:SELF_BALLS, None] + self.links[b].radii[None, :SELF_BALLS]
                        - DEPTH)
                 hit = (np.einsum("niab,niab->nab", diff, diff) < np.where(lim > 0, lim * lim, -1.0))
