@@ -20,10 +20,12 @@ let stream: LiveClient;
 
 beforeAll(async () => {
   robot = await startEmulator({ folder: await generateTwin("kuka_iiwa", 3000), port: 0 });
+  // to START before the twin watches: the long first move is not what this file tests, and on a loaded
+  // machine the monitor's extrapolation of it (the robot's deceleration unknown to it) may stop it
+  expect((await invoke(robot.tdUrl, "moveToJointPosition", { joints: START })).body.status).toBe("reached");
   twin = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, follow: robot.tdUrl, followRate: 50 });
   base = twin.things[0]!.tdUrl;
   stream = await live(`${twin.liveUrl}?thing=${twin.things[0]!.slug}`);
-  expect((await invoke(robot.tdUrl, "moveToJointPosition", { joints: START })).body.status).toBe("reached");
   // the twin follows the robot to START; the box is where the tool will be after 0.6 rad of joint 1
   await atStart();
   await boxOnJoint1Arc(base, 0.6, 0.12);
