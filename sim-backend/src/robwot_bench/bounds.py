@@ -63,13 +63,19 @@ def _unsound(world: World, rid: str, qs: np.ndarray, apart: np.ndarray, free: np
     return bad
 
 
+def setup(world: World, name: str, scene: str | None, samples: int, seed: int) -> tuple[str, np.ndarray]:
+    """Robot ``name`` and example scene ``scene`` (if any) loaded into ``world``; its id and ``samples``
+    seeded uniform configurations within its limits."""
+    rid = _load(world, name)
+    if scene:
+        world.load_scene(SCENES / scene)
+    lo, hi = world.robot_model(rid).limits()
+    return rid, np.random.default_rng(seed).uniform(lo, hi, size=(samples, len(lo)))
+
+
 def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, float | int | str]:
     with World() as world:
-        rid = _load(world, name)
-        if scene:
-            world.load_scene(SCENES / scene)
-        lo, hi = world.robot_model(rid).limits()
-        qs = np.random.default_rng(seed).uniform(lo, hi, size=(samples, len(lo)))
+        rid, qs = setup(world, name, scene, samples, seed)
         world.collision_free_batch(rid, qs[:100], bounds=True)  # builds every mirror world first
         times = {False: 0.0, True: 0.0}
         labels: dict[bool, list[np.ndarray]] = {False: [], True: []}

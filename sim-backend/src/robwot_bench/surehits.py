@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pybullet as pb
 
-from robwot_bench.bounds import SCENES, _load, sweep
+from robwot_bench.bounds import setup, sweep
 from robwot_sim.sim import surehit
 from robwot_sim.sim.world import World
 
@@ -66,11 +66,7 @@ def _touches(world: World, rid: str, q: np.ndarray) -> bool:
 
 def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, Any]:
     with World() as world:
-        rid = _load(world, name)
-        if scene:
-            world.load_scene(SCENES / scene)
-        lo, hi = world.robot_model(rid).limits()
-        qs = np.random.default_rng(seed).uniform(lo, hi, size=(samples, len(lo)))
+        rid, qs = setup(world, name, scene, samples, seed)
         world.collision_free_batch(rid, qs[:100])  # builds the mirror world and the test first
         times = {True: 0.0, False: 0.0}
         labels: dict[bool, list[np.ndarray]] = {True: [], False: []}

@@ -47,7 +47,7 @@ GRID_SIDE = 0.01  # m: the grid's finest voxel side
 GRID_TOLERANCE = 1e-6  # m: above the float32 rounding of the grid's distances
 ZONE_SIDE = 0.05  # m: voxel side of the coarse field that tells which links are near an obstacle at all
 PROBE = 500  # rows of a batch tested first: below MIN_RATE sure hits among them, the rest is not tested
-MIN_RATE = 0.02  # (a hit saves ~250 us of Bullet; the test costs ~5-30 us per row)
+MIN_RATE = 0.02  # (a hit saves Bullet a colliding row, many times the test's cost per row)
 
 
 @dataclass(frozen=True)
@@ -206,6 +206,21 @@ class _Obstacles:
         return np.asarray(np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0))
 
 
+def _cells(lo: FloatArray, side: float, shape: npt.NDArray[np.intp], low: FloatArray,
+           high: FloatArray) -> tuple[tuple[slice, ...], list[FloatArray]]:
+    """The voxels of a grid (corner ``lo``, voxel ``side``, ``shape``) that meet the box ``low``..``high``:
+    their index ranges as slices and their centres' coordinates along each axis."""
+    a = np.clip(np.floor((low - lo) / side), 0, shape).astype(np.intp)
+    b = np.clip(np.ceil((high - lo) / side), 0, shape).astype(np.intp)
+    return (tuple(slice(int(a[d]), int(b[d])) for d in range(3)),
+            [lo[d] + (np.arange(a[d], b[d]) + 0.5) * side for d in range(3)])
+
+
+def _strides(shape: npt.NDArray[np.intp]) -> npt.NDArray[np.intp]:
+    """Flat index of a C-ordered 3-D grid's cell = its three indices . these."""
+    return np.array([shape[1] * shape[2], shape[2], 1], dtype=np.intp)
+
+
 class _Grid:
     """The primitive obstacles' nearest one per voxel: over the box where a ball of radius ``reach`` can
     touch one, each voxel holds the obstacle of least signed distance at its centre and that distance
@@ -216,8 +231,7 @@ class _Grid:
     ``sd_o(c) < r - DEPTH``. As ``sd_o`` changes no faster than the distance,
     ``sd_o(c) >= dist(v) - |c - v|``: only the balls with ``dist(v) - |c - v| < r - DEPTH`` get the exact
     signed distance. A ball inside an obstacle other than its voxel's nearest one is not found (it then
-    lies within a voxel of both):
-    every hit is certain, not every certain hit is found."""
+    lies within a voxel of both): every hit is certain, not every certain hit is found."""
 
     def __init__(self, obs: _Obstacles, reach: float) -> None:
         self.obs = obs
@@ -229,19 +243,16 @@ class _Grid:
         self.dist = np.full(tuple(self.shape), np.inf, dtype=np.float32)
         self.near = np.full(tuple(self.shape), -1, dtype=np.int32)
         for i in range(obs.count):
-            a = np.clip(np.floor((lo_o[i] - self.side - self.lo) / self.side), 0, self.shape).astype(np.intp)
-            b = np.clip(np.ceil((hi_o[i] + self.side - self.lo) / self.side), 0, self.shape).astype(np.intp)
-            axes = [self.lo[d] + (np.arange(a[d], b[d]) + 0.5) * self.side for d in range(3)]
+            box, axes = _cells(self.lo, self.side, self.shape, lo_o[i] - self.side, hi_o[i] + self.side)
             pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
             sd = obs.sdf(int(obs.kind[i]), pts, np.full(len(pts), i, dtype=np.intp))
-            box = (slice(a[0], b[0]), slice(a[1], b[1]), slice(a[2], b[2]))
-            held, sd = self.dist[box], sd.reshape(tuple(b - a))
+            held, sd = self.dist[box], sd.reshape(tuple(len(x) for x in axes))
             better = sd < held
             held[better] = sd[better]
             self.near[box][better] = i
         self.dist[self.dist > reach + self.side] = np.inf
         self.dist_flat, self.near_flat = self.dist.ravel(), self.near.ravel()
-        self.strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1], dtype=np.float64)
+        self.strides = _strides(self.shape).astype(np.float64)
 
     def hits(self, centres: FloatArray, radii: FloatArray) -> npt.NDArray[np.bool_]:
         """True per ball (``centres`` ``(n, 3, k)``: coordinates along axis 1; ``radii`` ``(k,)``) found
@@ -286,16 +297,13 @@ class _Zone:
         self.shape = np.maximum(1, np.ceil(extent / ZONE_SIDE)).astype(np.intp)
         self.field = np.full(tuple(self.shape), np.inf, dtype=np.float32)
         for c, h in zip(obs.centre, obs.half, strict=True):
-            a = np.clip(np.floor((c - h - grow - self.lo) / ZONE_SIDE), 0, self.shape).astype(np.intp)
-            b = np.clip(np.ceil((c + h + grow - self.lo) / ZONE_SIDE), 0, self.shape).astype(np.intp)
-            mid = [self.lo[i] + (np.arange(a[i], b[i]) + 0.5) * ZONE_SIDE for i in range(3)]
+            box, mid = _cells(self.lo, ZONE_SIDE, self.shape, c - h - grow, c + h + grow)
             x, y, z = (np.maximum(np.abs(mid[i] - c[i]) - h[i], 0.0) for i in range(3))
             d = np.sqrt(x[:, None, None] ** 2 + y[None, :, None] ** 2 + z[None, None, :] ** 2)
-            box = (slice(a[0], b[0]), slice(a[1], b[1]), slice(a[2], b[2]))
             np.minimum(self.field[box], d, out=self.field[box], casting="unsafe")
         self.field[self.field > grow] = np.inf
         self.field_flat = self.field.ravel()
-        self.strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1], dtype=np.intp)
+        self.strides = _strides(self.shape)
 
     def near(self, centres: FloatArray, radius: float) -> npt.NDArray[np.intp]:
         """The rows of ``centres`` ``(n, 3)`` whose ball of ``radius`` may reach an obstacle."""
