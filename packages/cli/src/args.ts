@@ -56,7 +56,12 @@ export function parsePackageRoots(values: string[] | undefined): Record<string, 
   return roots;
 }
 
-export function parseUrl(option: string, value: string | undefined, protocols: string[]): URL | undefined {
+/**
+ * A URL option of one of `protocols`. A URL the user's credentials may travel in (`userinfo: "send"`: a
+ * peer the servient requests, which moves them into an Authorization header) may carry them; one written
+ * into a document or a property (`"refuse"`, the default) may not: it would publish them.
+ */
+export function parseUrl(option: string, value: string | undefined, protocols: string[], userinfo: "send" | "refuse" = "refuse"): URL | undefined {
   if (value === undefined) return undefined;
   let url: URL;
   try {
@@ -66,6 +71,9 @@ export function parseUrl(option: string, value: string | undefined, protocols: s
   }
   if (!protocols.includes(url.protocol.replace(/:$/, ""))) {
     throw new CliError(`--${option} must use ${protocols.join(" or ")}, got "${value}"`);
+  }
+  if (userinfo === "refuse" && (url.username || url.password)) {
+    throw new CliError(`--${option} must not carry credentials (user:password@): it is written where others read it`);
   }
   return url;
 }

@@ -15,6 +15,7 @@ import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
 import { type DirectoryEnv, directoryRoute, isDirectoryPath } from "./directory.js";
 import { sendProblem, ServientError } from "./errors.js";
 import { parseBody, validateInput } from "./input-validation.js";
+import { HOP_HEADER } from "./outbound.js";
 import { requestContext, type RequestContext } from "./request-context.js";
 import { isJsonMediaType, RequestGuard } from "./request-guard.js";
 import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
@@ -50,6 +51,8 @@ export interface MiddlewareEnv {
   index(): unknown;
   /** `/.well-known/wot` and the read-only Thing Description Directory (`directory.ts`) */
   directory: DirectoryEnv;
+  /** this servient's own `RobWoT-Hop` token (`outbound.ts`): a request carrying it is a loop (508) */
+  hop?: string;
 }
 
 const READ = ["GET", "HEAD"] as const;
@@ -164,6 +167,9 @@ export function createMiddleware(env: MiddlewareEnv) {
         throw new ServientError(400, "E_BAD_PATH", `malformed URL path ${url.pathname}`, { path: url.pathname });
       }
       const method = req.method ?? "GET";
+      if (env.hop !== undefined && req.headers[HOP_HEADER] === env.hop) {
+        throw new ServientError(508, "E_LOOP", `${method} ${path} came from this servient itself (a relay, follow or register target, or a form of its TD, points back at it)`, { path });
+      }
       env.guard.checkHost(req);
       if (method === "OPTIONS") return env.guard.preflight(req, res); // preflights carry no credentials
       env.guard.applyHeaders(res, env.guard.checkOrigin(req, RequestGuard.stateChanging(method)));

@@ -108,6 +108,10 @@ export function cartesianTarget(input: CartesianInput): { real: Vec3; orientatio
 /** A move from its acceptance to its end; `cancelled` is set by `stop`, `sent` once `robot.move` is. */
 interface PendingMove {
   cancelled: boolean;
+  /** settles once `stop` has cancelled the move and `done` (its stop of the physical robot) has settled:
+   *  a relayed command's answer is not awaited past it */
+  whenCancelled: Promise<void>;
+  cancel(done?: Promise<unknown>): void;
   sent: boolean;
   /** set while the command is relayed to the physical robot and not yet answered */
   relaying: boolean;
@@ -228,6 +232,7 @@ export class Mover {
       if (res.status === "reached" && this.relay && !move.cancelled) {
         const durations = (res.program?.steps ?? []).map((s) => s.duration);
         out.relay = await this.relayProgram(move, this.relay, relay, durations);
+        this.stopWins(move, out);
       }
       return out;
     });
@@ -291,6 +296,7 @@ export class Mover {
       // a stop that came after the simulated motion ended still keeps the command from the physical robot
       if (result.status === "reached" && this.relay && !move.cancelled) {
         result.relay = await this.relayMove(move, this.relay, [...this.detourLegs(detour, speed), this.jointLeg(q, speed)], result.duration);
+        this.stopWins(move, result);
       }
       return result;
     });
@@ -314,6 +320,7 @@ export class Mover {
         // could pick another solution for the pose, on a path nobody checked
         const last = detour.length > 0 ? this.jointLeg(this.twin.q, speed) : { action: "moveToCartesianPosition", input: cmd };
         result.relay = await this.relayMove(move, this.relay, [...this.detourLegs(detour, speed), last], result.duration);
+        this.stopWins(move, result);
       }
       return result;
     });
@@ -327,9 +334,9 @@ export class Mover {
    */
   async stop(): Promise<StopReport> {
     const move = this.pending;
-    if (move) move.cancelled = true;
     // the physical robot first: its stop is on its way before anything waits on the simulation
     const physical = this.relay ? this.relay.stop() : null;
+    move?.cancel(physical ?? undefined);
     const [sim, phys] = await Promise.all([this.stopSimulation(), physical]);
     const out: StopReport = {
       stopped: move !== null || sim.stopped || (phys?.ok === true && phys.stopped),
@@ -347,8 +354,9 @@ export class Mover {
   async shutdown(): Promise<void> {
     const move = this.pending;
     if (!move) return;
-    move.cancelled = true;
-    if (move.relaying) await this.stopPhysical(move, "servient shutting down").report;
+    const physical = move.relaying ? this.stopPhysical(move, "servient shutting down").report : undefined;
+    move.cancel(physical);
+    await physical;
   }
 
   /** The simulation's part of a stop: bounded by `STOP_DEADLINE_MS` (a hung backend is the heartbeat's to end). */
@@ -405,7 +413,9 @@ export class Mover {
     try {
       for (const [k, leg] of legs.entries()) {
         if (move.cancelled) break;
-        r = await relay.forward(leg.action, leg.input, Math.max(1, deadline - Date.now()));
+        // a stop ends the relayed command's wait at once (its own stop to the physical robot is on its way)
+        const stopped = move.whenCancelled.then((): RelayReport => ({ ok: false, target: relay.url, action: leg.action, error: "stopped" }));
+        r = await Promise.race([relay.forward(leg.action, leg.input, Math.max(1, deadline - Date.now())), stopped]);
         if (legs.length > 1) r = { ...r, leg: k, legs: legs.length };
         if (!answered(r) && !move.cancelled) {
           // no answer in time, or the connection failed mid-command: the command may be running there
@@ -436,7 +446,17 @@ export class Mover {
       });
     }
     this.twin.busy = true;
-    const move: PendingMove = { cancelled: false, sent: false, relaying: false };
+    let cancelled = (): void => undefined;
+    const move: PendingMove = {
+      cancelled: false,
+      whenCancelled: new Promise<void>((resolve) => (cancelled = resolve)),
+      cancel: (done = Promise.resolve()) => {
+        move.cancelled = true;
+        void done.finally(cancelled);
+      },
+      sent: false,
+      relaying: false,
+    };
     this.pending = move;
     watch?.(this.handle(move));
     try {
@@ -471,6 +491,13 @@ export class Mover {
     const result: RelayedMoveResult = { status: "stopped", joints: twin.jointsRecord(), position: pose.position, orientation: pose.orientation, duration: 0 };
     twin.setStatus({ state: "stopped", lastError: { code: "E_STOPPED", message: "stopped before the motion started" }, lastResult: result });
     return result;
+  }
+
+  /** A move or program stopped while the physical robot ran it answers `stopped`, never `reached`. */
+  private stopWins(move: PendingMove, out: { status: string }): void {
+    if (!move.cancelled) return;
+    out.status = "stopped";
+    this.twin.setStatus({ state: "stopped", lastError: { code: "E_STOPPED", message: "stopped while the physical robot ran the command" } });
   }
 
   private reportRelay(r: RelayReport): void {

@@ -6,10 +6,11 @@
  *
  * A directory that is down or refuses does not stop the twin: each failure is a process warning
  * (`ROBWOT_REGISTER`) naming the directory's answer, and the registration is retried every `RETRY_MS`
- * until it succeeds. Every request is bounded by `REQUEST_MS`.
+ * until it succeeds. Every request is bounded as every outbound one is (`outbound.ts`: deadlines, size cap).
  */
+import type { Outbound, OutboundAnswer } from "./outbound.js";
+
 export const RETRY_MS = 10_000;
-export const REQUEST_MS = 5_000;
 
 /** One served Thing as the directory gets it: its id and its current TD. */
 export interface Registered {
@@ -17,9 +18,9 @@ export interface Registered {
   td(): unknown;
 }
 
-/** The directory's answer in words, for a warning. */
-async function answer(res: Response): Promise<string> {
-  const body = (await res.text().catch(() => "")).replace(/\s+/g, " ").slice(0, 300);
+/** The directory's answer in words, for a warning (its body already cut at the outbound size cap). */
+function answer(res: OutboundAnswer): string {
+  const body = res.body.subarray(0, 300).toString("utf8").replace(/\s+/g, " ");
   return `${res.status} ${res.statusText}${body ? `: ${body}` : ""}`;
 }
 
@@ -30,8 +31,9 @@ export class Registrar {
   private readonly inflight = new Set<Promise<void>>();
   private stopped = false;
 
-  /** `tdd`: the directory's base URL (its `/things` is under it) */
+  /** `tdd`: the directory's base URL (its `/things` is under it), without credentials (`Outbound.authorize`) */
   constructor(
+    private readonly outbound: Outbound,
     private readonly tdd: string,
     private readonly things: () => Registered[],
   ) {}
@@ -64,14 +66,8 @@ export class Registrar {
     this.retries.delete(thing.id);
     const url = this.thingUrl(thing.id);
     try {
-      const res = await fetch(url, {
-        method: "PUT",
-        headers: { "Content-Type": "application/td+json" },
-        body: JSON.stringify(thing.td()),
-        signal: AbortSignal.timeout(REQUEST_MS),
-      });
-      if (res.status !== 201 && res.status !== 204 && res.status !== 200) throw new Error(await answer(res));
-      await res.body?.cancel();
+      const res = await this.outbound.request(url, { method: "PUT", headers: { "Content-Type": "application/td+json" }, body: JSON.stringify(thing.td()) });
+      if (res.status !== 201 && res.status !== 204 && res.status !== 200) throw new Error(answer(res));
       this.accepted.add(thing.id);
     } catch (err) {
       if (this.stopped) return;
@@ -83,7 +79,7 @@ export class Registrar {
     }
   }
 
-  /** Stops retrying and deregisters what the directory accepted (each DELETE bounded by `REQUEST_MS`). */
+  /** Stops retrying and deregisters what the directory accepted (each DELETE bounded as every outbound request). */
   async stop(): Promise<void> {
     this.stopped = true;
     for (const t of this.retries.values()) clearTimeout(t);
@@ -93,9 +89,8 @@ export class Registrar {
       [...this.accepted].map(async (id) => {
         const url = this.thingUrl(id);
         try {
-          const res = await fetch(url, { method: "DELETE", signal: AbortSignal.timeout(REQUEST_MS) });
-          if (res.status !== 204 && res.status !== 200 && res.status !== 404) throw new Error(await answer(res));
-          await res.body?.cancel();
+          const res = await this.outbound.request(url, { method: "DELETE" });
+          if (res.status !== 204 && res.status !== 200 && res.status !== 404) throw new Error(answer(res));
         } catch (err) {
           process.emitWarning(`robwot serve: deregistering ${id} at ${url} failed (${err instanceof Error ? err.message : String(err)})`, { code: "ROBWOT_REGISTER" });
         }

@@ -66,10 +66,11 @@ export class Relay {
     private readonly map: RelayMap | null = null,
   ) {}
 
-  /** Fetches and consumes the physical robot's TD (also retried lazily by `forward`). */
-  async connect(): Promise<void> {
+  /** Fetches and consumes the physical robot's TD (also retried lazily by `forward`); returns the TD. */
+  async connect(): Promise<unknown> {
     const td = await this.wot.requestThingDescription(this.url);
     this.thing = await this.wot.consume(td);
+    return td;
   }
 
   /**
@@ -98,8 +99,10 @@ export class Relay {
       if (!this.thing) await this.connect();
       const sent = this.map ? toPhysical(this.map, action, input) : { action, input };
       const out = await (this.thing as ConsumedLike).invokeAction(sent.action, sent.input);
-      // a vendor's Thing (mapped) may describe no output: that it answered is the answer
-      const result = this.map ? ((out ? await out.value().catch(() => null) : null) ?? {}) : out ? await out.value() : undefined;
+      // an action declaring no output (any Thing's; a vendor's, mapped, may also answer what it does not
+      // declare): that it answered is the answer
+      const value = out ? await (this.map ? out.value().catch(() => null) : out.value()) : null;
+      const result = value ?? {};
       const status = (result as { status?: unknown } | undefined)?.status;
       if (typeof status === "string" && status !== "reached" && action !== "stop") {
         return { ...base, ok: false, result, error: `physical robot ended its motion with status "${status}"` };
@@ -116,6 +119,14 @@ export class Relay {
    * command may not have reached the robot yet, and the stop must catch it.
    */
   stop(deadlineMs = STOP_DEADLINE_MS): Promise<PhysicalStopReport> {
+    // stops asked for while one is being sent join it: each reaches the physical robot once
+    this.stopping ??= this.sendStop(deadlineMs).finally(() => (this.stopping = null));
+    return this.stopping;
+  }
+
+  private stopping: Promise<PhysicalStopReport> | null = null;
+
+  private sendStop(deadlineMs: number): Promise<PhysicalStopReport> {
     return new Promise<PhysicalStopReport>((resolve) => {
       let attempts = 0;
       let lastError = "";

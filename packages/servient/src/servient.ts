@@ -18,6 +18,7 @@ import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
 import { registerProperties } from "./properties.js";
+import { boundedHttpClientFactory, LoopError, Outbound } from "./outbound.js";
 import { Relay } from "./relay.js";
 import { DIRECTORY_SEGMENTS } from "./directory.js";
 import { Registrar } from "./register.js";
@@ -35,7 +36,7 @@ import { World } from "./world.js";
 const require = createRequire(import.meta.url);
 // node-wot 0.9.2 is CommonJS
 const { Servient } = require("@node-wot/core") as typeof import("@node-wot/core");
-const { HttpServer, HttpClientFactory } = require("@node-wot/binding-http") as typeof import("@node-wot/binding-http");
+const { HttpServer } = require("@node-wot/binding-http") as typeof import("@node-wot/binding-http");
 const slugify = require("slugify") as (s: string, o: { lower: boolean }) => string;
 
 export interface ServientOptions {
@@ -112,6 +113,10 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   }
 
   const folders = opts.twins.map((t) => loadTwinFolder(t, opts.meshRoots ?? []));
+  const outbound = new Outbound();
+  // URL userinfo becomes an Authorization header of that origin; only the URL without it is shown
+  const relayUrl = opts.relay ? outbound.authorize(opts.relay) : null;
+  const registerUrl = opts.register ? outbound.authorize(opts.register) : null;
   const twins = new Map<string, Twin>();
   // a twin's slug is the first segment of its paths: never one of the servient's own routes
   const slugs = new Set<string>(["viewer", "live", "robwot.json", ...DIRECTORY_SEGMENTS]);
@@ -175,17 +180,19 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     viewerDir: existsSync(viewerDir) ? viewerDir : null,
     index: () => ({ url, live: liveUrl, viewer: `${url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: infos() }),
     directory: { url: () => url, tds: () => [...served.values()].map((t) => t.td()), auth: opts.auth },
+    hop: outbound.token,
   });
   const http = new HttpServer({ port: opts.port ?? 8080, address: host, middleware });
   Object.assign(process.env, Object.fromEntries(Object.entries(saved).filter(([, v]) => v !== undefined)));
   const servient = new Servient();
   servient.addServer(http);
-  servient.addClientFactory(new HttpClientFactory());
+  // every request to another Thing is bounded (deadlines, size cap, no loops, no credentials shown)
+  servient.addClientFactory(boundedHttpClientFactory(outbound));
   let live: LiveServer | null = null;
   const movers: Mover[] = [];
   const followers: Follower[] = [];
-  const registrar = opts.register
-    ? new Registrar(opts.register, () => [...served.values()].flatMap((t) => (typeof t.td().id === "string" ? [{ id: t.td().id as string, td: () => t.td() }] : [])))
+  const registrar = registerUrl
+    ? new Registrar(outbound, registerUrl, () => [...served.values()].flatMap((t) => (typeof t.td().id === "string" ? [{ id: t.td().id as string, td: () => t.td() }] : [])))
     : null;
   try {
     const wot = await servient.start();
@@ -198,10 +205,20 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     const first = [...twins.values()][0];
     const jointNames = Object.keys((first?.folder.td.properties?.["getJointPosition"]?.properties ?? {}) as object);
     const relayMap: RelayMap | null = opts.relayMap ? loadRelayMap(opts.relayMap, jointNames) : null;
-    const relay = opts.relay ? new Relay(wot as never, opts.relay, relayMap) : null;
+    const relay = relayUrl ? new Relay(wot as never, relayUrl, relayMap) : null;
     if (opts.follow && twins.size !== 1) throw new Error(`--follow mirrors one physical robot into one twin; ${twins.size} twin folders given`);
-    const followUrl = opts.follow === false ? null : (opts.follow ?? (twins.size === 1 ? (opts.relay ?? null) : null));
-    if (relay) await relay.connect().catch(() => undefined /* retried at the first command; failures are reported */);
+    const followUrl = opts.follow === false ? null : opts.follow ? outbound.authorize(opts.follow) : twins.size === 1 ? relayUrl : null;
+    // a target that is this servient itself would send each request (a stop: each stop) back to it
+    outbound.listening(host, port);
+    for (const [what, target] of [["--relay", relayUrl], ["--follow", followUrl], ["--register", registerUrl]] as const) {
+      if (target) await outbound.refuseSelf(target, what);
+    }
+    if (relay) {
+      // a physical TD unreachable now is retried at the first command (failures are reported); one whose
+      // forms point back at this servient is refused
+      const td = await relay.connect().catch((err: unknown) => (err instanceof LoopError ? Promise.reject(err) : null));
+      if (td) await outbound.refuseSelfForms(td, relayUrl!, "--relay");
+    }
 
     for (const [slug, twin] of twins) {
       const bounds: Bounds | null = twin.folder.workspace ? targetBounds(twin.folder.workspace) : null;
@@ -265,6 +282,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     for (const f of followers) f.stop();
     // start-up failed: the original error is rethrown below, a failing shutdown adds nothing to it
     await servient.shutdown().catch(() => undefined);
+    outbound.close();
     await backend.stop();
     throw err;
   }
@@ -299,6 +317,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         // long-poll observers (node-wot) hold requests open: close() alone would wait for them forever
         (http.getServer() as import("node:http").Server).closeAllConnections();
         await shut;
+        outbound.close();
         await backend.stop();
       })()),
   };

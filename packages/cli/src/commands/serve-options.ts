@@ -134,8 +134,8 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   }
   const host = values.host ?? "127.0.0.1";
   if (host.trim() === "") throw new CliError("--host must not be empty");
-  const relay = parseUrl("relay", values.relay, ["http", "https"])?.href;
-  const explicit = parseUrl("follow", values.follow, ["http", "https"])?.href;
+  const relay = parseUrl("relay", values.relay, ["http", "https"], "send")?.href;
+  const explicit = parseUrl("follow", values.follow, ["http", "https"], "send")?.href;
   if (values["no-follow"] && explicit !== undefined) throw new CliError("--follow URL and --no-follow contradict each other");
   if (explicit !== undefined && folders.length !== 1) throw new CliError(`--follow mirrors one physical robot into one twin: give one twin folder, not ${folders.length}`);
   // a twin that relays to one robot also mirrors it, unless told not to (a Thing without a readable joint state)
@@ -147,7 +147,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
     }
   }
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
-  const register = parseUrl("register", values.register, ["http", "https"])?.href;
+  const register = parseUrl("register", values.register, ["http", "https"], "send")?.href;
   const auth = parseAuth(values.auth);
   return {
     folders,
