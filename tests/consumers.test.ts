@@ -6,14 +6,13 @@
  */
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { spawn } from "node:child_process";
-import { createServer, type AddressInfo } from "node:net";
 import { writeFileSync } from "node:fs";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { REPO } from "./cli-run.js";
 import type { Vec3 } from "../packages/core/src/index.js";
-import { generateTwin, http, placeTwin } from "./serve-helpers.js";
+import { freePort, generateTwin, http, placeTwin } from "./serve-helpers.js";
 
 const DIST = join(REPO, "packages", "consumers", "dist");
 
@@ -48,15 +47,6 @@ function runScenario(name: string, args: string[], extraEnv: Record<string, stri
 const AUTH_ENV = { ROBWOT_AUTH: "basic:alice:s3cret" };
 const SCENE = ["--scene", join(REPO, "examples", "scenes", "table.json")];
 
-/** A port nothing listens on (bound, then released). */
-function freePort(): Promise<number> {
-  return new Promise((resolve) => {
-    const srv = createServer().listen(0, "127.0.0.1", () => {
-      const { port } = srv.address() as AddressInfo;
-      srv.close(() => resolve(port));
-    });
-  });
-}
 
 /** Physical stand-in placement: x_real = R_z(25°) x_virtual + (0.3, -0.2, 0.05). */
 const YAW = (25 * Math.PI) / 180;

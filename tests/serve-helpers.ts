@@ -3,6 +3,7 @@
  * consumer, plain fetch and /live WebSocket clients.
  */
 import { cpSync, existsSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
+import { createServer, type AddressInfo } from "node:net";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import WebSocket from "ws";
@@ -219,4 +220,14 @@ export async function slowPhysicalTwin(): Promise<string> {
   const urdf = join(dir, "robot.urdf");
   writeFileSync(urdf, readFileSync(urdf, "utf8").replaceAll('velocity="10"', 'velocity="0.5"'));
   return dir;
+}
+
+/** A port nothing listens on (bound, then released). */
+export function freePort(): Promise<number> {
+  return new Promise((resolve) => {
+    const srv = createServer().listen(0, "127.0.0.1", () => {
+      const { port } = srv.address() as AddressInfo;
+      srv.close(() => resolve(port));
+    });
+  });
 }

@@ -279,6 +279,12 @@ class BoundedHttpClient extends HttpClient {
     super(null);
   }
 
+  /** Credentials are `Outbound`'s, per origin (a URL's userinfo): node-wot's own would need them per
+   *  Thing id beforehand, and its basic scheme throws without them. */
+  override setSecurity(): boolean {
+    return true;
+  }
+
   protected override async _fetch(request: FetchRequest): Promise<never> {
     const headers = Object.fromEntries(Object.entries(request.headers.raw()).map(([k, v]) => [k, v.join(", ")]));
     const body = request.body === null || request.body === undefined ? undefined : await request.buffer();
