@@ -15,15 +15,13 @@ const AUTH = { scheme: "basic" as const, user: "robot", password: "s3cret-pw" };
 
 let kuka: string;
 let physical: RunningServient;
-/** the physical Thing's TD URL behind basic auth */
-let pTd: string;
 const started: RunningServient[] = [];
 const proxies: PeerProxy[] = [];
 
 beforeAll(async () => {
   kuka = await generateTwin("kuka_iiwa", 3000);
+  // the physical Thing behind basic auth
   physical = await startServient({ twins: [kuka], port: 0, realtime: 0, auth: AUTH });
-  pTd = `${physical.url}/${physical.things[0]!.slug}`;
 });
 afterAll(async () => {
   for (const s of started) await s.stop();
