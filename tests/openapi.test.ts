@@ -145,6 +145,11 @@ describe("robwot openapi", () => {
     const base = await runCli(["openapi", twin, "--base", "ftp://x"]);
     expect(base.code).toBe(2);
     expect(base.stderr).toMatch(/--base must use http or https/);
+    // a document is read by others: credentials in its base would be published
+    const secret = await runCli(["openapi", twin, "--base", "http://u:pw@127.0.0.1:9123/"]);
+    expect(secret.code).toBe(2);
+    expect(secret.stderr).toMatch(/--base must not carry credentials/);
+    expect(secret.stdout).not.toContain("pw");
     const help = await runCli(["openapi", "--help"]);
     expect(help.stdout).toMatch(/Usage: robwot openapi <twin-folder>/);
   });
