@@ -3,6 +3,8 @@
  * property read) and stops its backend on SIGINT; bad folders are refused before anything starts.
  */
 import { spawn } from "node:child_process";
+import { once } from "node:events";
+import { createServer, type AddressInfo } from "node:net";
 import { mkdirSync, mkdtempSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
@@ -68,5 +70,18 @@ describe("robwot serve", () => {
     expect(r.code).not.toBe(0);
     expect(r.stderr).toMatch(message);
     expect(r.stdout).toBe("");
+  });
+
+  it("refuses a port another server holds, naming it", async () => {
+    const holder = createServer().listen(0, "127.0.0.1");
+    await once(holder, "listening");
+    const port = (holder.address() as AddressInfo).port;
+    try {
+      const r = await runCli(["serve", twin, "--port", String(port)]);
+      expect(r.code).not.toBe(0);
+      expect(r.stderr).toMatch(new RegExp(`port ${port} on 127\\.0\\.0\\.1 is in use \\(choose another with --port`));
+    } finally {
+      holder.close();
+    }
   });
 });

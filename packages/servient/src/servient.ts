@@ -7,6 +7,7 @@ import { createRequire } from "node:module";
 import { dirname, join } from "node:path";
 import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
+import { createServer } from "node:net";
 import { MAX_SLUG_LENGTH, reachOverlaps, targetBounds, TWIN_FILES, type Bounds } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
@@ -161,6 +162,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   });
   // the twin folders are checked completely before a backend is started for them
   const checks = new Map(await Promise.all([...twins].map(async ([s, t]) => [s, await loadWorkspaceChecks(t.folder.dir)] as const)));
+  // a port taken by another server is said before the backend starts, not after it
+  await portFree(host, opts.port ?? 8080);
   await backend.start();
 
   // node-wot reads PORT / WOT_PORT from the environment before its config: keep them out
@@ -321,6 +324,18 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         await backend.stop();
       })()),
   };
+}
+
+/** Resolves when `port` (0: any) can be bound on `host`; else throws naming both. */
+function portFree(host: string, port: number): Promise<void> {
+  if (port === 0) return Promise.resolve();
+  return new Promise((resolve, reject) => {
+    const probe = createServer();
+    probe.once("error", (err: NodeJS.ErrnoException) =>
+      reject(new Error(err.code === "EADDRINUSE" ? `port ${port} on ${host} is in use (choose another with --port, or --port 0 for a free one)` : `cannot listen on ${host}:${port}: ${err.message}`)),
+    );
+    probe.listen(port, host, () => probe.close(() => resolve()));
+  });
 }
 
 /** What the SSE forms stream: the twin's observable properties (its own change events) and events. */
