@@ -21,7 +21,8 @@ import { isJsonMediaType, RequestGuard } from "./request-guard.js";
 import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
 import { SseChannel, streamSse, type SseSource } from "./sse.js";
 
-const MAX_BODY = 1 << 20;
+/** Bytes an HTTP request body may have (413 past it); the emulator's cap too. */
+export const MAX_BODY = 1 << 20;
 /** URL segment after `/<slug>/` → affordance kind named in a 404 */
 const AFFORDANCE_KINDS: Record<string, string> = { properties: "property", actions: "action", events: "event" };
 
@@ -88,6 +89,25 @@ async function readBody(req: IncomingMessage): Promise<string> {
   return Buffer.concat(chunks).toString("utf8");
 }
 
+/**
+ * An action's request body, before node-wot sees the request: JSON by media type (415), at most
+ * `MAX_BODY` bytes (413, read no further), parsed (400) and valid against the action's input `schema`
+ * (400; undefined: the action takes no input, an empty body). The stream is consumed: the handler takes
+ * the value from the request context.
+ */
+export async function readActionBody(req: IncomingMessage, schema: object | undefined, action: string): Promise<unknown> {
+  const type = req.headers["content-type"];
+  const hasBody = Number(req.headers["content-length"] ?? 0) > 0 || req.headers["transfer-encoding"] !== undefined;
+  if ((schema !== undefined || hasBody) && !isJsonMediaType(type)) {
+    throw new ServientError(415, "E_UNSUPPORTED_MEDIA_TYPE", `action bodies are JSON: send Content-Type: application/json (got ${type ?? "none"})`, { contentType: type ?? null });
+  }
+  // node-wot knows `application/json` only: any JSON media type accepted here is JSON to it
+  if (type !== undefined) req.headers["content-type"] = "application/json";
+  const body = parseBody(await readBody(req), schema !== undefined, action);
+  validateInput(schema, body, action);
+  return body;
+}
+
 /** The code of an error answer node-wot writes itself (a status without a recorded error). */
 const NODE_WOT_CODES: Record<number, string> = {
   400: "E_BAD_INPUT",
@@ -103,7 +123,7 @@ const NODE_WOT_CODES: Record<number, string> = {
  * for a failed handler gets the recorded error's status and body; any other error status of its own, its
  * text (or the reason phrase) as the detail.
  */
-function mapErrors(res: ServerResponse, ctx: RequestContext): void {
+export function mapErrors(res: ServerResponse, ctx: RequestContext): void {
   const writeHead = res.writeHead.bind(res) as (status: number, ...rest: unknown[]) => ServerResponse;
   const end = res.end.bind(res) as (...args: unknown[]) => ServerResponse;
   let failed: number | null = null;
@@ -239,16 +259,7 @@ export function createMiddleware(env: MiddlewareEnv) {
       if (kind === "action") {
         const schema = thing.actionInput(name);
         if (schema !== null) {
-          const type = req.headers["content-type"];
-          const hasBody = Number(req.headers["content-length"] ?? 0) > 0 || req.headers["transfer-encoding"] !== undefined;
-          if ((schema !== undefined || hasBody) && !isJsonMediaType(type)) {
-            throw new ServientError(415, "E_UNSUPPORTED_MEDIA_TYPE", `action bodies are JSON: send Content-Type: application/json (got ${type ?? "none"})`, { contentType: type ?? null });
-          }
-          // node-wot knows `application/json` only: any JSON media type accepted here is JSON to it
-          if (type !== undefined) req.headers["content-type"] = "application/json";
-          const body = parseBody(await readBody(req), schema !== undefined, name);
-          validateInput(schema, body, name);
-          ctx.body = body;
+          ctx.body = await readActionBody(req, schema, name);
           ctx.hasBody = true;
         }
         // RFC 7240: a preference the action cannot honour is ignored (synchronous answer, no Preference-Applied)

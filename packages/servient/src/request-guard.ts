@@ -30,13 +30,16 @@ export interface GuardConfig {
   corsOrigins: readonly string[];
   /** extra names accepted in `Host` (`--allowed-host`) */
   allowedHosts: readonly string[];
+  /** the command whose options the refusals name, and what it serves (default `serve`, `the twin`) */
+  command?: { name: string; serves: string };
 }
 
 const LOOPBACK_NAMES = ["localhost", "127.0.0.1", "::1"];
 const SAFE_METHODS = new Set(["GET", "HEAD"]);
 
 const bare = (h: string): string => h.replace(/^\[|\]$/g, "").toLowerCase();
-const isLoopback = (h: string): boolean => LOOPBACK_NAMES.includes(bare(h)) || /^127\./.test(bare(h));
+/** 127.0.0.0/8, ::1 and localhost (brackets and case ignored): reachable only from this machine. */
+export const isLoopback = (h: string): boolean => LOOPBACK_NAMES.includes(bare(h)) || /^127\./.test(bare(h));
 const isWildcard = (h: string): boolean => ["0.0.0.0", "::", ""].includes(bare(h));
 
 /** Lower-cased host names (no brackets, no port) that may appear in `Host`. */
@@ -69,10 +72,12 @@ function normaliseOrigin(origin: string): string | null {
 export class RequestGuard {
   private readonly names: Set<string>;
   private readonly cors: Set<string>;
+  private readonly command: { name: string; serves: string };
 
   constructor(private readonly cfg: GuardConfig) {
     this.names = allowedHostNames(cfg);
     this.cors = new Set(cfg.corsOrigins.map((o) => normaliseOrigin(o) ?? o));
+    this.command = cfg.command ?? { name: "serve", serves: "the twin" };
   }
 
   /** Throws 421 unless `Host` names this server (name and port). */
@@ -81,7 +86,7 @@ export class RequestGuard {
     const parsed = header === undefined ? null : parseHost(header);
     const port = this.cfg.port();
     if (!parsed || !this.names.has(parsed.name) || (parsed.port ?? 80) !== port) {
-      throw new ServientError(421, "E_MISDIRECTED", `Host ${JSON.stringify(header ?? null)} is not served here (use one of ${[...this.names].join(", ")} with port ${port}, or start serve with --allowed-host NAME)`, {
+      throw new ServientError(421, "E_MISDIRECTED", `Host ${JSON.stringify(header ?? null)} is not served here (use one of ${[...this.names].join(", ")} with port ${port}, or start ${this.command.name} with --allowed-host NAME)`, {
         host: header ?? null,
         allowed: [...this.names],
         port,
@@ -105,7 +110,7 @@ export class RequestGuard {
     const allowed = origin !== null && (this.isOwnOrigin(origin) || this.cors.has(origin));
     if (allowed) return origin;
     if (stateChanging) {
-      throw new ServientError(403, "E_FORBIDDEN_ORIGIN", `requests from origin ${raw} may not drive the twin (start serve with --cors-origin ${raw} to allow a known dashboard)`, {
+      throw new ServientError(403, "E_FORBIDDEN_ORIGIN", `requests from origin ${raw} may not drive ${this.command.serves} (start ${this.command.name} with --cors-origin ${raw} to allow a known dashboard)`, {
         origin: raw,
       });
     }

@@ -42,10 +42,10 @@ Options:
 `;
 
 /** Node prints process warnings as `(node:PID) Warning: ...`: print them as `robwot: warning: ...`. */
-function robwotWarnings(): void {
+export function robwotWarnings(): void {
   process.removeAllListeners("warning");
   process.on("warning", (w) => {
-    // the servient's own no-auth warning: already said by serve() in CLI terms
+    // the servient's (and the emulator's) own no-auth warning: already said by the command in CLI terms
     if ((w as Error & { code?: string }).code === "ROBWOT_NO_AUTH") return;
     process.stderr.write(`robwot: warning: ${w.message}\n`);
   });

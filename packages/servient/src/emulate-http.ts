@@ -1,0 +1,113 @@
+/**
+ * The HTTP front of `robwot emulate` (node-wot HttpServer `middleware`): the twin's protections, with the
+ * twin's own pieces, before node-wot sees a request.
+ *
+ * - `Host` names the address served (421), a foreign `Origin` may not command (403), CORS only for
+ *   `--cors-origin` and never `*` (`RequestGuard`); `--auth` on everything, the TD included (`auth.ts`).
+ * - Only the emulated Thing's routes reach node-wot: its TD, property reads and action invocations under
+ *   `/<slug>` (node-wot's second route per Thing, `/<url-encoded id>`, answers 404 like anything else;
+ *   a method a route does not serve 405).
+ * - An action body is JSON by media type (415), at most `MAX_BODY` bytes (413: read no further), parsed and
+ *   valid against the action's input schema (400), all before node-wot (`readActionBody`); a handler's
+ *   ServientError gets its own status (`mapErrors`). Every error answer is problem details (`errors.ts`).
+ */
+import type { IncomingMessage, ServerResponse } from "node:http";
+import { securityFor, type ThingDescription } from "@robwot/core";
+import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
+import { sendProblem, ServientError } from "./errors.js";
+import { mapErrors, readActionBody } from "./http-middleware.js";
+import { requestContext, type RequestContext } from "./request-context.js";
+import { RequestGuard } from "./request-guard.js";
+import { sendJson } from "./static-files.js";
+
+type Json = Record<string, unknown>;
+
+/** The exposed Thing as the middleware serves it. */
+export interface EmulatedThing {
+  /** node-wot's path segment of the Thing (its title, slugified) */
+  slug: string;
+  /** the TD as served: forms of the `/<slug>` route in JSON only, the security `--auth` requires */
+  td: Json;
+}
+
+export interface EmulatorHttpEnv {
+  guard: RequestGuard;
+  auth: AuthConfig | undefined;
+  /** null until node-wot has exposed the Thing (the port listens a little earlier) */
+  thing(): EmulatedThing | null;
+}
+
+const READ = ["GET", "HEAD"] as const;
+
+/**
+ * The TD node-wot made for the Thing, as the emulator serves it: only the forms it lets through (the
+ * `/<slug>` route, JSON: node-wot also offers CBOR and its `/<url-encoded id>` route), and the security
+ * `auth` requires (node-wot itself runs with nosec: the middleware checks the credentials).
+ */
+export function emulatorTd(td: Json, slug: string, auth: AuthConfig | undefined): Json {
+  const out = structuredClone(td);
+  const keep = (forms: unknown): Json[] =>
+    ((forms ?? []) as Json[]).filter((f) => {
+      const path = new URL(String(f.href), "http://x").pathname;
+      return (path === `/${slug}` || path.startsWith(`/${slug}/`)) && (f.contentType ?? "application/json") === "application/json";
+    });
+  out.forms = keep(out.forms);
+  for (const kind of ["properties", "actions", "events"] as const) {
+    for (const a of Object.values((out[kind] ?? {}) as Record<string, Json>)) a.forms = keep(a.forms);
+  }
+  return securityFor(out as unknown as ThingDescription, auth ? { scheme: auth.scheme } : null) as unknown as Json;
+}
+
+function methodNotAllowed(res: ServerResponse, method: string, path: string, allow: readonly string[]): ServientError {
+  res.setHeader("Allow", allow.join(", "));
+  return new ServientError(405, "E_METHOD_NOT_ALLOWED", `${method} is not allowed on ${path} (allowed: ${allow.join(", ")})`, { method, path, allow });
+}
+
+/** The methods of a route of the Thing, null when there is no such route (404). */
+function routeMethods(td: Json, segments: string[]): readonly string[] | null {
+  const [, dir, name, ...more] = segments;
+  if (more.length > 0) return null;
+  if (dir === undefined) return READ; // the TD
+  if (dir === "properties") return name === undefined || name in ((td.properties ?? {}) as Json) ? READ : null;
+  if (dir === "actions") return name !== undefined && name in ((td.actions ?? {}) as Json) ? ["POST"] : null;
+  return null;
+}
+
+export function emulatorMiddleware(env: EmulatorHttpEnv) {
+  return async (req: IncomingMessage, res: ServerResponse, next: () => void): Promise<void> => {
+    try {
+      const raw = new URL(req.url ?? "/", "http://localhost").pathname;
+      let path: string;
+      try {
+        path = decodeURIComponent(raw);
+      } catch {
+        throw new ServientError(400, "E_BAD_PATH", `malformed URL path ${raw}`, { path: raw });
+      }
+      const method = req.method ?? "GET";
+      env.guard.checkHost(req);
+      if (method === "OPTIONS") return env.guard.preflight(req, res); // preflights carry no credentials
+      env.guard.applyHeaders(res, env.guard.checkOrigin(req, RequestGuard.stateChanging(method)));
+      if (env.auth && !isAuthorized(req, env.auth)) return challenge(res, env.auth);
+
+      const thing = env.thing();
+      if (!thing) throw new ServientError(503, "E_STARTING", "the emulated robot is starting; retry shortly");
+      const segments = path.split("/").filter((s) => s.length > 0);
+      const allow = segments[0] === thing.slug ? routeMethods(thing.td, segments) : null;
+      if (!allow) throw new ServientError(404, "E_NOT_FOUND", `${path} not found (the emulated robot's TD is /${thing.slug})`, { path });
+      if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
+      if (segments.length === 1) return sendJson(res, 200, thing.td, "application/td+json");
+      const ctx: RequestContext = { hasBody: false };
+      if (segments[1] === "actions") {
+        const action = ((thing.td.actions ?? {}) as Record<string, Json>)[segments[2] ?? ""];
+        ctx.body = await readActionBody(req, action?.input as object | undefined, segments[2] ?? "");
+        ctx.hasBody = true;
+      }
+      mapErrors(res, ctx);
+      requestContext.run(ctx, next);
+    } catch (err) {
+      const se = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
+      if (!res.headersSent) sendProblem(res, se);
+      else res.end();
+    }
+  };
+}
