@@ -17,6 +17,7 @@
  */
 import { readFileSync } from "node:fs";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
+import { describe, ReadingError } from "./reading.js";
 
 export interface RelayMap {
   joints: string[];
@@ -77,13 +78,26 @@ export function loadRelayMap(file: string, twinJoints: readonly string[]): Relay
   };
 }
 
-/** The twin's joint record from the physical Thing's joint state (an array in the map's order). */
+/**
+ * The twin's joint record from the physical Thing's joint state: exactly an array of the map's joints, each
+ * a finite number also after the unit conversion; anything else is a `ReadingError` naming the field
+ * (`actual_q`, `actual_q[2]`), never a pose.
+ */
 export function jointsFromPhysical(map: RelayMap, value: unknown): Record<string, number> {
-  if (!Array.isArray(value) || value.length !== map.joints.length) {
-    throw new Error(`${map.jointState}: expected an array of ${map.joints.length} numbers, got ${JSON.stringify(value)?.slice(0, 100)}`);
-  }
+  const n = map.joints.length;
+  if (!Array.isArray(value)) throw new ReadingError(map.jointState, `expected an array of ${n} numbers, got ${describe(value)}`);
+  if (value.length !== n) throw new ReadingError(map.jointState, `expected an array of ${n} numbers (the map's joints), got ${describe(value)}`);
   const k = map.unit === "deg" ? DEG : 1;
-  return Object.fromEntries(map.joints.map((j, i) => [j, Number(value[i]) * k]));
+  const out: Record<string, number> = {};
+  map.joints.forEach((j, i) => {
+    const v: unknown = value[i];
+    const field = `${map.jointState}[${i}]`;
+    if (typeof v !== "number" || !Number.isFinite(v)) throw new ReadingError(field, `${j}: expected a finite number, got ${describe(v)}`);
+    const x = v * k;
+    if (!Number.isFinite(x)) throw new ReadingError(field, `${j}: ${v} ${map.unit} is not a finite number of rad`);
+    out[j] = x;
+  });
+  return out;
 }
 
 /** The physical Thing's action and input for one of the twin's relayed actions. */

@@ -74,7 +74,22 @@ export function propertyAffordances(joints: JointSpec[]): Record<string, NoForms
         age: { type: "number", unit: UNIT_S, minimum: 0, description: "time since then" },
         followed: { type: "integer", minimum: 0, description: "readings that set the twin to the physical state (it moved without a twin command)" },
         lastFollowed: { type: "string", format: "date-time" },
-        lastError: { type: "string", description: "why the last reading failed (the physical Thing unreachable, a joint it lacks)" },
+        lastError: { type: "string", maxLength: 1024, description: "why the last reading failed (the physical Thing unreachable or late, a field it got wrong); at most 1 KiB" },
+        clamped: { type: "object", additionalProperties: { type: "number" }, description: "joints read a little past their limit (what was read); joints shows them at the limit" },
+        monitorFault: {
+          type: "object",
+          description: "present while the safety monitor cannot see the robot (no usable reading for the horizon plus one poll period)",
+          properties: {
+            code: { type: "string", const: "E_MONITOR_BLIND" },
+            since: { type: "string", format: "date-time", description: "the last usable reading (or the start)" },
+            detected: { type: "string", format: "date-time" },
+            reason: { type: "string" },
+            stop: { type: "object", description: "monitor stop: the stop sent for this fault", properties: { state: { type: "string", enum: ["pending", "answered", "failed"] }, error: { type: "string" } } },
+          },
+        },
+        monitorFaults: { type: "integer", minimum: 0, description: "monitor faults so far" },
+        skippedPolls: { type: "integer", minimum: 0, description: "polls skipped because the previous request was still unanswered" },
+        readingErrors: { type: "integer", minimum: 0, description: "readings that failed" },
         divergence: {
           type: "object",
           description: "while a command is relayed: the physical robot's difference from the simulated motion at the same time since the command",
