@@ -65,7 +65,8 @@ export interface ServientOptions {
   register?: string;
   /** the safety monitor on the followed robot: stop it (default), only warn, or off */
   monitor?: MonitorMode;
-  /** s the monitor looks ahead at the current joint velocity (`MONITOR_HORIZON`) */
+  /** s the monitor looks ahead beyond the lag it measures: the robot's unmeasured reporting lag and its
+   *  time to act on a stop; unseen this long (plus a poll period) is a monitor fault (`MONITOR_HORIZON`) */
   horizon?: number;
   auth?: AuthConfig;
   /** ws:// URL of an already running backend (default: launch one) */

@@ -25,7 +25,9 @@ Options:
   --monitor stop|warn|off      the safety monitor on the followed robot: a contact predicted within --horizon
                                at its current joint velocity emits collisionImminent and (stop, the default)
                                stops it through its Thing
-  --horizon S                  how far ahead the monitor looks (default ${MONITOR_HORIZON} s)
+  --horizon S                  how far ahead the monitor looks beyond what it measures (default ${MONITOR_HORIZON} s): it
+                               must cover the robot's unmeasured reporting lag and its time to act on a stop;
+                               no usable reading for this long plus one poll period is a monitor fault
   --relay-map FILE             JSON naming the physical Thing's own joint state property, joint order and units,
                                and its joint move, Cartesian move and stop actions (README "--relay-map")
   --register URL               a Thing Description Directory (WoT Discovery) to register the TDs into
