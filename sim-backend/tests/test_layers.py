@@ -1,7 +1,7 @@
 """Imports run one way: every module of the backend imports only its own layer and the layers below.
 
-From the bottom: primitives (errors, limits, JSON depth, parameter checks) -> the robot model (`model/`:
-URDF/SRDF/meshes, decomposition, joint tree, rotations, FK) -> scene documents -> the simulation
+From the bottom: primitives (errors, limits, JSON depth, whole files, parameter checks) -> the robot model
+(`model/`: URDF/SRDF/meshes, decomposition, joint tree, rotations, FK) -> scene documents -> the simulation
 (`sim/`) -> workspace generation (`workspace/`) -> motions -> the JSON-RPC layer (`rpc/`) -> the server.
 The benchmarks (`robwot_bench`) stand outside and above: the backend never imports them.
 """
@@ -15,7 +15,8 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 
 #: module name prefixes, lowest layer first
 LAYERS: list[tuple[str, ...]] = [
-    ("robwot_sim", "robwot_sim.errors", "robwot_sim.limits", "robwot_sim.jsondepth", "robwot_sim.validate"),
+    ("robwot_sim", "robwot_sim.errors", "robwot_sim.limits", "robwot_sim.jsondepth", "robwot_sim.wholefile",
+     "robwot_sim.validate"),
     ("robwot_sim.xmlsafe", "robwot_sim.model"),
     ("robwot_sim.scene",),
     ("robwot_sim.sim",),

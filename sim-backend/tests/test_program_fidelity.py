@@ -82,7 +82,7 @@ def test_every_state_of_every_valid_program_is_free_for_the_exact_reference(ur5_
             ]
             program = plan_program(world, rid, steps, DT, 50.0)
             if program.path is not None:
-                runs.append(program.path)
+                runs.append(program.path.rows())
                 blended += sum(bool(s.get("blended")) for s in program.report["steps"])
         joints = model.controllable
         assert len(runs) >= PROGRAMS // 2, f"{len(runs)} of {PROGRAMS} programs valid: the test proves little"

@@ -23,7 +23,7 @@ def test_plan_respects_velocity_and_acceleration_limits_and_dt() -> None:
         for speed, dt, duration in [(1.0, 1 / 240, 1.0 + 0.25), (0.25, 0.01, 4.0 + 0.0625),
                                     (1.0, 0.01, 2 * math.sqrt(0.1 / 4))]:
             goal = [1.5, -2.0] if duration > 0.5 else [0.15, -0.2]  # the last: too short to reach vmax
-            path = w.plan_motion(m.id, goal, start=[0.0, 0.0], speed=speed, dt=dt)
+            path = w.plan_motion(m.id, goal, start=[0.0, 0.0], speed=speed, dt=dt).rows()
             assert np.allclose(path[0], [0, 0]) and np.allclose(path[-1], goal)
             vel = np.diff(path, axis=0) / dt
             assert np.all(np.abs(vel) <= np.array([1.5, 3.0]) * speed * (1 + 1e-9))
@@ -46,7 +46,7 @@ def test_a_curve_is_timed_along_its_samples_within_every_limit() -> None:
         arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]) * 0.5
         dt = 0.005
         path = w.plan_motion(m.id, points[-1], start=points[0], dt=dt, via=points[1:-1], arc=arc,
-                             tcp_speed=0.3)
+                             tcp_speed=0.3).rows()
         assert np.allclose(path[0], points[0]) and np.allclose(path[-1], points[-1])
         vel = np.diff(path, axis=0) / dt
         assert np.all(np.abs(vel) <= np.array([1.5, 3.0]) * 1.01)
@@ -99,17 +99,23 @@ def test_check_path_finds_first_collision_without_state_change() -> None:
 
 
 def test_a_timed_straight_path_is_one_segment_and_a_turn_makes_a_vertex() -> None:
-    """A straight joint motion is checked as one segment, however it accelerates along it (each segment
-    starts with a distance query); a path through a waypoint has its turn there."""
+    """A straight joint motion is one straight piece, checked as one segment however it accelerates along
+    it (each segment starts with a distance query); a path through a waypoint has its turn there; a polyline
+    of states has its vertices where the direction turns."""
     from robwot_sim.sim.pathcheck import _vertices
+    from robwot_sim.sim.timed import Straight
 
     with World() as w:
         m = w.load_robot(KUKA)
         straight = w.plan_motion(m.id, [1.0, 0.5, 0, -0.5, 0, 0, 0])
-        assert len(straight) > 20 and _vertices(straight) == [0, len(straight) - 1]
+        assert len(straight) > 20 and [type(p) for p in straight.pieces] == [Straight]
+        rows = straight.rows()
+        assert _vertices(rows) == [0, len(rows) - 1]
         bent = w.plan_motion(m.id, [1.0, 0.5, 0, 0, 0, 0, 0], via=[[0.5, 0, 0, 0, 0, 0, 0]])
-        turn = int(np.flatnonzero(np.all(bent == [0.5, 0, 0, 0, 0, 0, 0], axis=1))[0])
-        assert _vertices(bent) == [0, turn, len(bent) - 1]
+        rows = bent.rows()
+        turn = int(np.flatnonzero(np.all(rows == [0.5, 0, 0, 0, 0, 0, 0], axis=1))[0])
+        assert [offset for offset, _ in bent.offsets()] == [0, turn]
+        assert _vertices(rows) == [0, turn, len(rows) - 1]
 
 
 def test_a_pose_beyond_reach_is_refused_naming_the_distance() -> None:

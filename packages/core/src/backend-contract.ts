@@ -82,11 +82,11 @@ export type Color = [number, number, number] | [number, number, number, number];
 export type MoveStatus = "reached" | "stopped" | "collision";
 export type Workers = number;
 /**
- * fraction of the URDF velocity limits
+ * fraction of the URDF velocity limits; the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)
  */
 export type Speed = number;
 /**
- * fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2)
+ * fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2); the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)
  */
 export type Acceleration = number;
 /**
@@ -159,18 +159,8 @@ export type RobotMoveitConfigResult = MoveitConfig;
  * Result of `robot.jointLimits`.
  */
 export type RobotJointLimitsResult = {
-  /**
-   * joint -> max velocity (rad/s or m/s)
-   */
-  velocityLimits: {
-    [k: string]: number | undefined;
-  };
-  /**
-   * joint -> max acceleration (rad/s^2 or m/s^2)
-   */
-  accelerationLimits: {
-    [k: string]: number | undefined;
-  };
+  velocityLimits: JointVelocities;
+  accelerationLimits: JointAccelerations;
 };
 /**
  * Result of `robot.readSrdf`.
@@ -552,18 +542,20 @@ export interface MoveitConfig {
    */
   srdf: string;
   packageRoots: PackageRoots;
-  /**
-   * joint -> maximum velocity from joint_limits.yaml
-   */
-  velocityLimits: {
-    [k: string]: number | undefined;
-  };
-  /**
-   * joint -> max acceleration (rad/s^2 or m/s^2) from config/joint_limits.yaml
-   */
-  accelerationLimits: {
-    [k: string]: number | undefined;
-  };
+  velocityLimits: JointVelocities;
+  accelerationLimits: JointAccelerations;
+}
+/**
+ * joint name -> velocity limit (rad/s or m/s) of controllable joints, as a MoveIt joint_limits.yaml gives them (`max_velocity`)
+ */
+export interface JointVelocities {
+  [k: string]: number | undefined;
+}
+/**
+ * joint name -> acceleration limit (rad/s^2 or m/s^2) of controllable joints, as a MoveIt joint_limits.yaml gives them (`max_acceleration`)
+ */
+export interface JointAccelerations {
+  [k: string]: number | undefined;
 }
 /**
  * an SRDF's groups (links, joints, chains, subgroups), named group states, end effectors (in file order)
@@ -668,12 +660,6 @@ export interface WorkspaceSummary {
 }
 export interface WarmUpResult {
   workers: Workers;
-}
-/**
- * joint name -> acceleration limit (rad/s^2 or m/s^2) of controllable joints, as a MoveIt joint_limits.yaml gives them (`max_acceleration`)
- */
-export interface JointAccelerations {
-  [k: string]: number | undefined;
 }
 export interface RobotStateNotification {
   robot: string;
@@ -803,7 +789,7 @@ export interface ProgramPlan {
   }[];
   trajectory: {
     /**
-     * Hz
+     * Hz: the `rate` asked for, or lower when the program's samples at it would be more than `positions`' `maxItems`
      */
     rate: number;
     /**
@@ -812,7 +798,9 @@ export interface ProgramPlan {
     dt: number;
     names: string[];
     /**
-     * one joint vector per sample (rad or m), from the current state
+     * one joint vector per sample (rad or m), from the current state; at most `maxItems` (a longer program is sampled at a lower rate: `rate` and `dt` say which)
+     *
+     * @maxItems 10000
      */
     positions: number[][];
   };
@@ -931,12 +919,7 @@ export interface RobotExpandXacroParams {
     [k: string]: string | undefined;
   };
   packageRoots?: PackageRoots;
-  /**
-   * joint -> maximum velocity (rad/s or m/s)
-   */
-  velocityLimits?: {
-    [k: string]: number | undefined;
-  };
+  velocityLimits?: JointVelocities;
 }
 /**
  * Params of `robot.moveitConfig`.
@@ -1237,6 +1220,7 @@ export const ERRORS = {
   E_NAME_TAKEN: { rpcCode: -32010, httpStatus: 409 },
   E_MESH: { rpcCode: -32011, httpStatus: 422 },
   E_REJECTED: { rpcCode: -32012, httpStatus: 422 },
+  E_PLAN_BUDGET: { rpcCode: -32014, httpStatus: 422 },
   E_CLUSTER: { rpcCode: -32013, httpStatus: 502 },
   E_INTERNAL: { rpcCode: -32603, httpStatus: 500 },
 } as const;
@@ -1264,8 +1248,8 @@ export const VALUE_SCHEMAS = {
   Color: {"type":"array","items":{"type":"number","minimum":0,"maximum":1},"minItems":3,"maxItems":4,"description":"[r, g, b] or [r, g, b, a] in [0, 1]"},
   MoveStatus: {"type":"string","enum":["reached","stopped","collision"]},
   Workers: {"type":"integer","minimum":1,"maximum":256},
-  Speed: {"type":"number","minimum":0.001,"maximum":1,"default":1,"description":"fraction of the URDF velocity limits"},
-  Acceleration: {"type":"number","minimum":0.01,"maximum":1,"default":1,"description":"fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2)","x-accelerationTime":0.25,"x-tcpAcceleration":1.2},
+  Speed: {"type":"number","minimum":0.001,"maximum":1,"default":1,"description":"fraction of the URDF velocity limits; the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)"},
+  Acceleration: {"type":"number","minimum":0.01,"maximum":1,"default":1,"description":"fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2); the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)","x-accelerationTime":0.25,"x-tcpAcceleration":1.2},
   TcpSpeed: {"type":"number","minimum":0.001,"maximum":3,"default":0.25,"description":"speed (m/s) of the end effector (the TCP with a tool) along a LIN or CIRC; a configuration whose joints cannot keep it within their velocity limits x speed (near a singularity) is refused"},
   BlendRadius: {"type":"number","minimum":0,"maximum":1,"default":0,"description":"m: within this distance of the TCP from where the step ends, the motion may leave the programmed path to go on into the next step without stopping (0: it stops there; the last step always stops)"},
   Dt: {"type":"number","minimum":0.0001,"maximum":0.1,"default":0.004166666666666667,"description":"time step (s)"},

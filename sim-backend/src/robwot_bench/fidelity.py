@@ -116,7 +116,7 @@ def graze_trials(world: World, rid: str, rng: np.random.Generator, count: int, t
         world.set_joint_positions(rid, start)
         if not world.check_path(rid, goal).collision_free:
             continue  # the arm hits itself on this path: not a plate case
-        path = world.plan_motion(rid, goal, speed=speed)
+        path = world.plan_motion(rid, goal, speed=speed).rows()  # a move's states: a few hundred
         e.bound.apply(path[0] + rng.uniform(0.3, 0.7) * (path[-1] - path[0]))
         link = int(rng.choice(e.bound.moving_links[len(e.bound.moving_links) // 3:]))
         center = np.array(world.bullet.link_frame(e.bound.body, link)[0])

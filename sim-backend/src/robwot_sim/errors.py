@@ -248,6 +248,24 @@ class Rejected(SimError):
                          **extra)
 
 
+class PlanBudget(SimError):
+    """A plan (robot.plan, a move's or a program's planning) still running when its budget of the world's
+    thread ran out (``budget`` s): refused, nothing moved. ``step``: the program's step it was planning."""
+
+    rpc_code = -32014
+    code = "E_PLAN_BUDGET"
+
+    def __init__(self, budget: float, step: int | None = None, steps: int | None = None) -> None:
+        where = "" if step is None else f" while planning step {step} of {steps}"
+        super().__init__(f"planning took longer than its budget of {budget:g} s{where}; nothing moved: plan "
+                         "fewer steps at a time, or targets that need no detour", budget=budget, step=step,
+                         steps=steps)
+
+    def at_step(self, step: int, steps: int) -> PlanBudget:
+        """The same refusal naming a program's step."""
+        return PlanBudget(float(self.data["budget"]), step, steps)
+
+
 class MeshError(SimError):
     """A mesh file our parser refuses (PyBullet would crash or silently drop it): ``file``, ``reason``."""
 

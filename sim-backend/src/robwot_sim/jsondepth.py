@@ -1,8 +1,9 @@
-"""How deep a JSON document nests: the one limit every JSON input of the backend obeys.
+"""How deep a JSON document nests: the one limit every structured input of the backend obeys.
 
-A JSON-RPC frame and a scene file are both refused past `MAX_DEPTH` levels, so no handler, schema
-validator or `json.loads` ever recurses deep enough to exhaust Python's recursion limit (a
-RecursionError would surface as an internal error instead of naming the input).
+A JSON-RPC frame, a scene file and a YAML file (``model/yamlsafe.py``) are all refused past `MAX_DEPTH`
+levels, so no handler, schema validator, `json.loads` or YAML composer ever recurses deep enough to
+exhaust Python's recursion limit (a RecursionError would surface as an internal error instead of naming
+the input).
 """
 
 from __future__ import annotations

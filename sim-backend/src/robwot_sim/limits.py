@@ -73,3 +73,12 @@ MAX_COORDINATE = float(value_schema("Position")["items"]["maximum"])
 MIN_QUATERNION_NORM = float(value_schema("QuatXyzw")["x-minNorm"])
 #: longest robot id or obstacle name
 MAX_NAME_LENGTH = int(value_schema("Name")["maxLength"])
+#: seconds a plan (robot.plan, a move's or a program's planning) may use the world's thread before it is
+#: refused with E_PLAN_BUDGET
+PLAN_BUDGET = float(contract_document()["components"]["errors"]["E_PLAN_BUDGET"]["x-budget"])
+#: most samples of a program's trajectory (a longer program is sampled at a lower rate)
+MAX_TRAJECTORY_SAMPLES = int(
+    value_schema("ProgramPlan")["properties"]["trajectory"]["properties"]["positions"]["maxItems"])
+#: most joints a joint_limits file may name: its velocities and accelerations both cross the contract
+MAX_LIMITED_JOINTS = min(int(value_schema("JointVelocities")["maxProperties"]),
+                         int(value_schema("JointAccelerations")["maxProperties"]))

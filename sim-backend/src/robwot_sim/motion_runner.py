@@ -38,9 +38,10 @@ from typing import Any, Protocol, TypeVar
 import numpy as np
 
 from robwot_sim.errors import Busy, Rejected
-from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
+from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED, PLAN_BUDGET
 from robwot_sim.sim.planner import Plan, timed_path
 from robwot_sim.sim.program import plan_program
+from robwot_sim.sim.timed import TimedPath
 from robwot_sim.sim.types import CollisionReport, Pose
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Cancelled, Kind
@@ -49,6 +50,8 @@ Broadcast = Callable[[str, dict[str, Any]], None]
 T = TypeVar("T")
 
 STATE_PERIOD = 1.0 / 60.0
+#: states of a path computed at once while it runs
+RUN_CHUNK = 256
 #: samples per second (Hz) of the trajectory in a run program's report
 PROGRAM_RATE = 50.0
 
@@ -57,7 +60,8 @@ class OnWorld(Protocol):
     """`Services.on_world`: run a function on the world's thread."""
 
     def __call__(self, fn: Callable[[], T], kind: Kind = Kind.SHORT, *, robot: str | None = None,
-                 writes: bool = False, cancel: threading.Event | None = None) -> Awaitable[T]: ...
+                 writes: bool = False, cancel: threading.Event | None = None,
+                 budget: float | None = None) -> Awaitable[T]: ...
 
 
 @dataclass
@@ -91,7 +95,7 @@ class _Prepared:
 
     plan: Plan
     stamp: tuple[int, int]
-    path: np.ndarray[Any, Any] | None = None
+    path: TimedPath | None = None
     clearance: float = 0.0
     #: a program's: index in ``path`` where each step starts, and the program's report
     starts: tuple[int, ...] = ()
@@ -153,7 +157,8 @@ class MotionRunner:
         t0 = loop.time()
         try:
             try:
-                prepared = await self._on_world(job, Kind.LONG, robot=robot, cancel=motion.abort)
+                prepared = await self._on_world(job, Kind.LONG, robot=robot, cancel=motion.abort,
+                                                budget=PLAN_BUDGET)
             except Cancelled:  # stopped while planning: nothing moved
                 q = await self._on_world(lambda: self._world.get_joint_positions(robot), robot=robot)
                 return {"status": "stopped", "positions": _floats(q), "duration": 0.0,
@@ -178,8 +183,7 @@ class MotionRunner:
         plan, path = timed_path(self._world, robot, planner(), speed=speed, dt=dt)
         if path is None:
             return _Prepared(plan, stamp)
-        return _Prepared(plan, stamp, np.asarray(path, dtype=np.float64),
-                         self._world.motion_clearance(robot, path[-1]))
+        return _Prepared(plan, stamp, path, self._world.motion_clearance(robot, path.last))
 
     def _prepare_program(self, robot: str, steps: Sequence[Mapping[str, Any]], dt: float) -> _Prepared:
         """On the world's thread: the program's plan (``plan_program``); when every step passes, its states.
@@ -192,8 +196,8 @@ class MotionRunner:
             failing = report["steps"][k]
             plan = Plan(False, None, tuple(f"step {k}: {r}" for r in failing["reasons"]), failing["checks"])
             return _Prepared(plan, stamp, program=report)
-        plan = Plan(True, tuple(float(v) for v in program.path[-1]))
-        ends = [program.path[i] for i in program.starts] + [program.path[-1]]
+        plan = Plan(True, tuple(float(v) for v in program.path.last))
+        ends = [program.path[i] for i in program.starts] + [program.path.last]
         return _Prepared(plan, stamp, program.path, self._world.motion_clearance(robot, *ends),
                          tuple(program.starts), report)
 
@@ -223,12 +227,14 @@ class MotionRunner:
     def _final_pose(self, robot: str) -> Pose | None:
         return self._world.fk(robot) if robot in self._world.robot_ids() else None
 
-    async def _run(self, motion: _Motion, plan: np.ndarray[Any, Any], realtime: float, dt: float,
+    async def _run(self, motion: _Motion, plan: TimedPath, realtime: float, dt: float,
                    checked: tuple[int, int], clearance: float, starts: Sequence[int] = ()) -> dict[str, Any]:
         loop = asyncio.get_running_loop()
         robot = motion.robot
         t0 = loop.time()
-        reached = plan[0]
+        reached = plan.first
+        states = plan.chunks(1, RUN_CHUNK)  # computed as the run reaches them: a slow path has millions
+        chunk, base = np.empty((0, len(reached))), 1
         reached_time, reached_index = 0.0, 0
         status = "reached"
         contacts: list[dict[str, Any]] = []
@@ -241,7 +247,9 @@ class MotionRunner:
             if motion.stop_requested:
                 status = "stopped"
                 break
-            q = plan[i]
+            if i >= base + len(chunk):
+                base, chunk = i, next(states)
+            q = chunk[i - base]
             crosses = (math.floor(sim_time / STATE_PERIOD + 1e-9)
                        > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9))
             step = functools.partial(self._step, robot, reached, q, clearance, checked, crosses)

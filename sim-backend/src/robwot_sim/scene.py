@@ -20,6 +20,7 @@ from robwot_sim.jsondepth import TooDeep, loads_bounded
 from robwot_sim.model.rotations import quat_from_rpy
 from robwot_sim.model.urdf import pybullet_data_path
 from robwot_sim.validate import MIN_QUATERNION_NORM, unit_quaternion
+from robwot_sim.wholefile import TooLarge, read_whole
 
 MAX_SCENE_BYTES = 50 * 1024 * 1024
 
@@ -87,14 +88,18 @@ def read_scene(scene: dict[str, Any] | str | Path) -> tuple[dict[str, Any], Path
         if not p.is_file():
             raise FileNotFound(str(p), what="scene file")
         file = str(p.resolve())
-        if p.stat().st_size > MAX_SCENE_BYTES:
-            raise SceneError(f"file larger than {MAX_SCENE_BYTES} bytes", file=file, path="")
+        try:
+            text = read_whole(p, MAX_SCENE_BYTES)
+        except TooLarge as e:
+            refused = SceneError(str(e), file=file, path="")
+            refused.data.update(size=e.size, limit=e.limit)
+            raise refused from None
 
         def refuse(c: str) -> Any:
             raise ValueError(f"{c} is not valid JSON")
 
         try:
-            doc = loads_bounded(p.read_text(encoding="utf-8"), parse_constant=refuse)
+            doc = loads_bounded(text.decode("utf-8"), parse_constant=refuse)
         except TooDeep as e:
             raise SceneError(str(e), file=file, path="") from None
         except (ValueError, UnicodeDecodeError) as e:

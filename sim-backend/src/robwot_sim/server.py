@@ -194,8 +194,9 @@ class Backend:
         return self._motions
 
     async def on_world(self, fn: Callable[[], T], kind: Kind = Kind.SHORT, *, robot: str | None = None,
-                       writes: bool = False, cancel: threading.Event | None = None) -> T:
-        job = self._world_thread.submit(fn, kind, robot=robot, writes=writes, cancel=cancel)
+                       writes: bool = False, cancel: threading.Event | None = None,
+                       budget: float | None = None) -> T:
+        job = self._world_thread.submit(fn, kind, robot=robot, writes=writes, cancel=cancel, budget=budget)
         try:
             return await asyncio.wrap_future(job.future)
         except asyncio.CancelledError:

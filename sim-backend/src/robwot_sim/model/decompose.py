@@ -39,6 +39,7 @@ from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 from robwot_sim.errors import MeshError, PathEscape
 from robwot_sim.model.meshcheck import check_mesh, snippet
 from robwot_sim.twin_layout import COLLISION_DIR
+from robwot_sim.wholefile import TooLarge, read_whole
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
@@ -317,9 +318,10 @@ def _read_manifest(folder: Path) -> Decomposition | None:
         raise PathEscape(str(manifest), [str(folder)], reason=f"{MANIFEST} resolves outside its folder")
     where = f"{manifest} (delete {folder} or re-run robwot generate)"
     try:
-        if manifest.stat().st_size > MAX_MANIFEST_BYTES:
-            raise ValueError("too large")
-        doc = json.loads(manifest.read_bytes())
+        doc = json.loads(read_whole(manifest, MAX_MANIFEST_BYTES))
+    except TooLarge as e:
+        raise MeshError(f"{where}: {e}", file=str(manifest), reason="manifest too large", size=e.size,
+                        limit=e.limit) from None
     except (OSError, ValueError):
         raise MeshError(f"{where}: not a readable JSON manifest", file=str(manifest),
                         reason="invalid manifest") from None

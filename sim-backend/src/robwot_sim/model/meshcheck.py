@@ -35,6 +35,7 @@ import numpy.typing as npt
 
 from robwot_sim.errors import MeshError
 from robwot_sim.model import xmlsafe
+from robwot_sim.wholefile import TooLarge, read_whole
 
 MAX_MESH_BYTES = 256 * 1024 * 1024
 MAX_TRIANGLES = 5_000_000
@@ -68,10 +69,12 @@ def _refuse(path: Path, reason: str, line: int | None = None) -> MeshError:
 
 
 def _read(path: Path) -> bytes:
-    size = path.stat().st_size
-    if size > MAX_MESH_BYTES:
-        raise _refuse(path, f"file of {size} bytes is larger than {MAX_MESH_BYTES}")
-    return path.read_bytes()
+    try:
+        return read_whole(path, MAX_MESH_BYTES)
+    except TooLarge as e:
+        refused = _refuse(path, str(e))
+        refused.data.update(size=e.size, limit=e.limit)
+        raise refused from None
 
 
 def check_mesh(path: Path) -> Path:

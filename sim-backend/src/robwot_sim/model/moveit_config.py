@@ -18,10 +18,17 @@ Where the files are, in the order the MoveIt setup assistant records them:
 has_acceleration_limits: true, max_acceleration: A}}``; MoveIt plans with these instead of the URDF's, so the
 twin does too (xacro_expand writes the velocities into the expanded URDF; the accelerations, which a URDF
 cannot carry, go to twin.json and ``robot.load``).
+
+The package is a jail, as a twin folder is (``confine.py``): every file read from it (``.setup_assistant``,
+``config/*``, ``launch/*``) and the SRDF its ``relative_path`` names resolve inside the config folder after
+symlinks, the URDF's ``relative_path`` (or a launch file's ``$(find PKG)/path``) inside that package;
+anything else is refused with `PathEscape` naming the file and who named it. Files are read whole or
+refused naming their size limit (YAML: ``yamlsafe.py``), never cut.
 """
 
 from __future__ import annotations
 
+import os
 import re
 import shlex
 from collections.abc import Mapping
@@ -29,18 +36,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from robwot_sim.errors import FileNotFound, UrdfError
+from robwot_sim.limits import MAX_LIMITED_JOINTS
 from robwot_sim.model import xmlsafe
+from robwot_sim.model.confine import confine
 from robwot_sim.model.ros_packages import (
     enclosing_packages,
     find_on_ros_package_path,
     package_name,
     packages_below,
 )
+from robwot_sim.model.yamlsafe import load_yaml
+from robwot_sim.wholefile import TooLarge, read_whole
 
-MAX_YAML_BYTES = 1024 * 1024
+#: largest launch file read (MoveIt's planning_context.launch is a few KiB)
+MAX_LAUNCH_BYTES = 1024 * 1024
 
 
 @dataclass(frozen=True)
@@ -58,21 +68,16 @@ class MoveitConfig:
                 "accelerationLimits": self.limits.accelerations}
 
 
-def _yaml(path: Path) -> Any:
-    data = path.read_bytes()[:MAX_YAML_BYTES]
-    try:
-        return yaml.safe_load(data)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        raise UrdfError(f"not valid YAML: {getattr(e, 'problem', None) or e}", file=str(path),
-                        line=mark.line + 1 if mark is not None else None) from None
+def _in_package(path: Path, package: Path, named_by: str) -> Path:
+    """``path``'s real path when it stays inside ``package`` (after symlinks), else `PathEscape`."""
+    return confine(path, [package], reason=f"{named_by} must stay inside the package folder {package}")
 
 
-def _one(folder: Path, patterns: tuple[str, ...], what: str) -> Path:
+def _one(folder: Path, patterns: tuple[str, ...], what: str, config: Path) -> Path:
     for pattern in patterns:
         found = sorted(folder.glob(pattern))
         if len(found) == 1:
-            return found[0].resolve()
+            return _in_package(found[0], config, f"the MoveIt config's {what} file {found[0].name}")
         if len(found) > 1:
             raise UrdfError(f"MoveIt config: several {what} files ({', '.join(p.name for p in found)}); "
                             "give the robot file itself instead of --moveit-config", file=str(folder))
@@ -92,7 +97,7 @@ def _package(name: str, config: Path, roots: Mapping[str, str], named_by: Path) 
 
 def _config_robot_file(config: Path) -> tuple[Path, dict[str, str]] | None:
     try:
-        return _one(config / "config", ("*.urdf.xacro", "*.xacro", "*.urdf"), "URDF/xacro"), {}
+        return _one(config / "config", ("*.urdf.xacro", "*.xacro", "*.urdf"), "URDF/xacro", config), {}
     except FileNotFound:
         return None
 
@@ -105,8 +110,11 @@ def _launch_robot_description(config: Path, roots: dict[str, str]) -> tuple[Path
     launch files that names one with ``$(find PKG)/...``; the package is added to ``roots``."""
     files = sorted((config / "launch").glob("*.launch")) + sorted((config / "launch").glob("*.launch.xml"))
     for f in files:
+        f = _in_package(f, config, f"the launch file {f.name}")
         try:
-            root, _ = xmlsafe.parse(f.read_bytes()[:MAX_YAML_BYTES])
+            root, _ = xmlsafe.parse(read_whole(f, MAX_LAUNCH_BYTES))
+        except TooLarge as e:
+            raise UrdfError(f"launch file: {e}", file=str(f), size=e.size, limit=e.limit) from None
         except (OSError, xmlsafe.XmlRefused, xmlsafe.XmlMalformed):
             continue  # not a launch file we can read: the next one may say it
         for el in root.iter("param"):
@@ -122,7 +130,7 @@ def _launch_robot_description(config: Path, roots: dict[str, str]) -> tuple[Path
                 arg, sep, value = token.partition(":=")
                 if sep and arg and "$(" not in value:
                     args[arg] = value
-            return (pkg / m.group(2)).resolve(), args
+            return _in_package(pkg / m.group(2), pkg, f"{f}'s robot_description {m.group(0)!r}"), args
     return None
 
 
@@ -142,10 +150,16 @@ def joint_limits(file: Path, *, required: bool = False) -> JointLimits:
         if required:
             raise FileNotFound(str(file), what="joint limits file")
         return JointLimits({}, {})
-    doc = _yaml(file)
+    doc = load_yaml(file)
     table = doc.get("joint_limits") if isinstance(doc, dict) else None
     if not isinstance(table, dict):
         raise UrdfError("no joint_limits: mapping", file=str(file))
+    if len(table) > MAX_LIMITED_JOINTS:
+        # its velocities and accelerations are handed on whole (robot.expandXacro, robot.load): a robot
+        # has tens of joints, and the contract takes at most this many
+        raise UrdfError(f"joint_limits names {len(table)} joints, more than the {MAX_LIMITED_JOINTS} a robot "
+                        "may have limits for: refused whole", file=str(file), joints=len(table),
+                        limit=MAX_LIMITED_JOINTS)
     out = JointLimits({}, {})
     for joint, limits in table.items():
         if not isinstance(limits, dict):
@@ -176,22 +190,24 @@ def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | No
     urdf: Path | None = None
     srdf: Path | None = None
     xacro_args: dict[str, str] = {}
-    if assistant.is_file():
-        doc = _yaml(assistant)
+    if os.path.lexists(assistant):
+        doc = load_yaml(_in_package(assistant, config, "the MoveIt config's .setup_assistant"))
         setup = doc.get("moveit_setup_assistant_config") if isinstance(doc, dict) else None
         setup = setup if isinstance(setup, dict) else {}
         u, s = setup.get("URDF") or {}, setup.get("SRDF") or {}
         if isinstance(u, dict) and u.get("package") and u.get("relative_path"):
             pkg = _package(str(u["package"]), config, roots, assistant)
             roots[str(u["package"])] = str(pkg)
-            urdf = (pkg / str(u["relative_path"])).resolve()
+            urdf = _in_package(pkg / str(u["relative_path"]), pkg,
+                               f"{assistant}'s URDF relative_path {str(u['relative_path'])!r}")
             for arg in shlex.split(str(u.get("xacro_args") or "")):
                 name, sep, value = arg.partition(":=")
                 if not sep or not name:
                     raise UrdfError(f"xacro_args: {arg!r} is not NAME:=VALUE", file=str(assistant))
                 xacro_args[name] = value
         if isinstance(s, dict) and s.get("relative_path"):
-            srdf = (config / str(s["relative_path"])).resolve()
+            srdf = _in_package(config / str(s["relative_path"]), config,
+                               f"{assistant}'s SRDF relative_path {str(s['relative_path'])!r}")
     if urdf is None:
         found = _config_robot_file(config) or _launch_robot_description(config, roots)
         if found is None:
@@ -200,9 +216,12 @@ def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | No
                                "config/*.urdf.xacro|*.xacro|*.urdf, no robot_description in launch/*.launch)")
         urdf, launch_args = found
         xacro_args.update(launch_args)
-    srdf = srdf or _one(config / "config", ("*.srdf",), "SRDF")
+    srdf = srdf or _one(config / "config", ("*.srdf",), "SRDF", config)
     for f, what in ((urdf, "URDF/xacro"), (srdf, "SRDF")):
         if not f.is_file():
             raise FileNotFound(str(f), what=f"MoveIt config {what} file")
-    limits = joint_limits(config / "config" / "joint_limits.yaml")
+    limits_file = config / "config" / "joint_limits.yaml"
+    if os.path.lexists(limits_file):
+        limits_file = _in_package(limits_file, config, "the MoveIt config's config/joint_limits.yaml")
+    limits = joint_limits(limits_file)
     return MoveitConfig(urdf, xacro_args, srdf, roots, limits)

@@ -14,18 +14,27 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
+from robwot_sim.errors import UrdfError
 from robwot_sim.model import xmlsafe
+from robwot_sim.wholefile import TooLarge, read_whole
 
 #: how deep below a ROS_PACKAGE_PATH folder packages are looked for (a workspace's src/group/pkg fits)
 MAX_DEPTH = 6
 IGNORE_MARKERS = ("CATKIN_IGNORE", "COLCON_IGNORE", "AMENT_IGNORE")
+#: largest package.xml read (a real one is a few KiB)
+MAX_MANIFEST_BYTES = 64 * 1024
 
 
 def package_name(folder: Path) -> str | None:
-    """The ``<name>`` declared by ``folder/package.xml``, or None (no manifest, or not a readable one)."""
+    """The ``<name>`` declared by ``folder/package.xml``, or None (no manifest, or not a readable one). A
+    manifest above ``MAX_MANIFEST_BYTES`` is refused (`UrdfError` naming it and the limit), never read in
+    part."""
     manifest = folder / "package.xml"
     try:
-        data = manifest.read_bytes()[:65536] if manifest.is_file() else b""
+        data = read_whole(manifest, MAX_MANIFEST_BYTES) if manifest.is_file() else b""
+    except TooLarge as e:
+        raise UrdfError(f"ROS package manifest: {e}", file=str(manifest), size=e.size,
+                        limit=e.limit) from None
     except OSError:
         return None
     if not data:

@@ -21,9 +21,11 @@ import pybullet_data
 
 from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UnknownPackage, UrdfError
 from robwot_sim.model import xmlsafe
+from robwot_sim.model.confine import inside
 from robwot_sim.model.decompose import FloatArray, IndexArray, OnMesh, collision_cache, split_collisions
 from robwot_sim.model.meshcheck import check_mesh, read_mesh, snippet
 from robwot_sim.model.ros_packages import enclosing_package, find_on_ros_package_path
+from robwot_sim.wholefile import TooLarge, read_whole
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
 MESH_SUFFIXES = (".stl", ".obj", ".dae")
@@ -52,9 +54,10 @@ def parse_xml(path: str | Path, *, root_tag: str, error: type[UrdfError], what: 
     if not p.is_file():
         raise FileNotFound(str(p), what=what)
     p = p.resolve()
-    data = p.read_bytes()
-    if len(data) > MAX_URDF_BYTES:
-        raise error(f"file larger than {MAX_URDF_BYTES} bytes", file=str(p))
+    try:
+        data = read_whole(p, MAX_URDF_BYTES)
+    except TooLarge as e:
+        raise error(str(e), file=str(p), size=e.size, limit=e.limit) from None
     try:
         root, lines = xmlsafe.parse(data)
     except xmlsafe.XmlRefused as e:
@@ -119,10 +122,6 @@ def allowed_roots(urdf_dir: Path, package_roots: Mapping[str, str | Path] | None
     return roots
 
 
-def _inside(p: Path, roots: list[Path]) -> bool:
-    return any(p == r or r in p.parents for r in roots)
-
-
 def resolve_mesh(
     filename: str,
     urdf_dir: str | Path,
@@ -172,25 +171,25 @@ def resolve_mesh(
     roots = roots + extra_roots
     resolved = [Path(os.path.normpath(c)) for c in candidates]
     for c in resolved:
-        if not _inside(c, roots):
+        if not inside(c, roots):
             continue
         if c.is_file():
             real = c.resolve()  # follow symlinks: they must not lead out either
-            if not _inside(real, roots):
+            if not inside(real, roots):
                 raise PathEscape(str(real), [str(r) for r in roots], urdf=urdf)
             return real
     if filename.startswith("package://") and not known:
         raise UnknownPackage(filename, filename[len("package://"):].partition("/")[0], urdf=urdf, line=line,
-                             searched=[str(c) for c in resolved if _inside(c, roots)])
-    inside = [c for c in resolved if _inside(c, roots)]
-    if not inside:
+                             searched=[str(c) for c in resolved if inside(c, roots)])
+    within = [c for c in resolved if inside(c, roots)]
+    if not within:
         raise PathEscape(str(resolved[0]), [str(r) for r in roots], urdf=urdf)
     raise FileNotFound(
-        str(inside[0]),
+        str(within[0]),
         urdf=urdf,
         what=f"mesh file {filename!r}",
         reference=filename,
-        searched=[str(c) for c in inside],
+        searched=[str(c) for c in within],
     )
 
 

@@ -31,8 +31,10 @@ from typing import Any
 
 from robwot_sim.errors import FileNotFound, Forbidden, PathEscape, SimError, UnknownPackage, UrdfError
 from robwot_sim.model import xmlsafe
+from robwot_sim.model.confine import inside
 from robwot_sim.model.ros_packages import enclosing_packages, find_on_ros_package_path
-from robwot_sim.model.urdf import UrdfDoc, refuse_unexpanded, resolve_mesh
+from robwot_sim.model.urdf import MAX_URDF_BYTES, UrdfDoc, refuse_unexpanded, resolve_mesh
+from robwot_sim.wholefile import TooLarge, read_whole
 
 #: the package-root key under which the xacro's own folder is returned (a ROS package name cannot hold
 #: a dot or a dash, so it never shadows a real package)
@@ -47,21 +49,18 @@ class _XacroFailed(Exception):
         self.message, self.file, self.line, self.column = message, file, line, column
 
 
-def _inside(p: Path, roots: list[Path]) -> bool:
-    return any(p == r or r in p.parents for r in roots)
-
-
 def _first_line(file: Path, needle: str | None) -> int | None:
     """The first line of ``file`` holding ``needle`` (the expression xacro could not evaluate: xacro names
     it, not its line), or None."""
     if not needle:
         return None
     try:
-        for n, text in enumerate(file.read_text("utf-8", "replace").splitlines(), 1):
-            if needle in text:
-                return n
-    except OSError:
-        pass
+        text = read_whole(file, MAX_URDF_BYTES).decode("utf-8", "replace")
+    except (OSError, TooLarge):
+        return None
+    for n, line in enumerate(text.splitlines(), 1):
+        if needle in line:
+            return n
     return None
 
 
@@ -91,7 +90,7 @@ def _expand_in_child(xacro_file: Path, args: Mapping[str, str],
     def confined(filename: str) -> str:
         path = Path(os.path.normpath(orig_abs(filename)))
         real = path.resolve()
-        if not _inside(path, roots) or not _inside(real, roots):
+        if not inside(path, roots) or not inside(real, roots):
             raise PathEscape(str(path), [str(r) for r in roots], urdf=str(xacro_file),
                              reason="a xacro may only read files below its folder, its ROS package, "
                              "--package-root folders and packages it finds")
@@ -101,9 +100,11 @@ def _expand_in_child(xacro_file: Path, args: Mapping[str, str],
         if inp is None and filename is not None:
             path = Path(confined(filename))
             try:
-                data = path.read_bytes()
+                data = read_whole(path, MAX_URDF_BYTES)
             except OSError as e:
                 raise xacro.XacroException(f"{e.strerror}: {path}", exc=e) from None
+            except TooLarge as e:
+                raise UrdfError(str(e), file=str(path), size=e.size, limit=e.limit) from None
             m = xmlsafe.FORBIDDEN.search(data)
             if m is not None:
                 line = data.count(b"\n", 0, m.start()) + 1

@@ -60,6 +60,8 @@ def describe(value: Any) -> str:
         return f"string {text!r}"
     if isinstance(value, list):
         return f"array of length {len(value)}"
+    if isinstance(value, dict):
+        return f"object of {len(value)} entries"
     return "object"
 
 
@@ -246,7 +248,8 @@ class Contract:
         if kind == "object":
             tag = schema.get("properties", {}).get("type", {}).get("const")
             if tag is None:
-                return "an object"
+                most = schema.get("maxProperties")
+                return "an object" if most is None else f"an object of at most {most} entries"
             fields = ", ".join(k for k in schema.get("required", []) if k != "type")
             return f'{{"type": "{tag}", {fields}}}'
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from robwot_sim.limits import PLAN_BUDGET
 from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
@@ -78,7 +79,7 @@ def register(d: Dispatcher, s: Services) -> None:
         steps = _program_steps(p, model.dof)
         dt, rate = float(p["dt"]), float(p["rate"])
         return await s.on_world(lambda: plan_program(s.world, model.id, steps, dt, rate).report, Kind.LONG,
-                                robot=model.id)
+                                robot=model.id, budget=PLAN_BUDGET)
 
     @d.method("program.run")
     async def run(p: Params, call: Call) -> dict[str, Any]:
@@ -91,7 +92,7 @@ def register(d: Dispatcher, s: Services) -> None:
         # a long job of the world's thread: pings, stops and other robots' steps are served at its
         # checkpoints meanwhile
         model = robot_param(p, s)
-        return (await s.on_world(_planner(p, s), Kind.LONG, robot=model.id)).to_json()
+        return (await s.on_world(_planner(p, s), Kind.LONG, robot=model.id, budget=PLAN_BUDGET)).to_json()
 
     @d.method("robot.move")
     async def move(p: Params, call: Call) -> dict[str, Any]:

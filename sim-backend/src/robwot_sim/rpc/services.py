@@ -54,9 +54,11 @@ class Services(Protocol):
     def motions(self) -> Motions: ...
 
     def on_world(self, fn: Callable[[], T], kind: Kind = Kind.SHORT, *, robot: str | None = None,
-                 writes: bool = False, cancel: threading.Event | None = None) -> Awaitable[T]:
+                 writes: bool = False, cancel: threading.Event | None = None,
+                 budget: float | None = None) -> Awaitable[T]:
         """Run `fn` on the world's thread (`world_thread.Kind`); `robot` / `writes`: what a short job
-        touches. A long job stops at its next checkpoint once `cancel` is set or the await is cancelled."""
+        touches. A long job stops at its next checkpoint once `cancel` is set or the await is cancelled,
+        or (`PlanBudget`) once it has run `budget` seconds."""
         ...
 
     def change_world(self, fn: Callable[[], T], kind: Kind = Kind.PLAIN) -> Awaitable[T]:

@@ -1,4 +1,4 @@
-"""Joint-space motion timing (pure): joint states one per ``dt`` under velocity and acceleration limits.
+"""Joint-space motion timing (pure): when a path's states are, under velocity and acceleration limits.
 
 Two shapes of path, each time-optimal for its limits:
 
@@ -14,20 +14,23 @@ Two shapes of path, each time-optimal for its limits:
 
 The profile's duration is rounded up to whole time steps by slowing the whole profile uniformly, so the
 states are exactly ``dt`` apart, the first is the start, the last the target, and no limit is exceeded.
+The result is a piece of a `timed.TimedPath`: its states are computed when asked for, so timing a path
+costs the same whatever its duration (a slow motion at a small ``dt`` has millions of states).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.limits import ACCELERATION, DT, SPEED, TCP_ACCELERATION, Range
+from robwot_sim.sim.timed import Curve, Straight
 from robwot_sim.sim.types import FloatArray
-
-MAX_STEPS = 2_000_000
 
 __all__ = ["TCP_ACCELERATION", "check_fraction", "check_speed_dt", "plan_curve_path", "plan_joint_path"]
 
@@ -55,15 +58,8 @@ def check_fraction(name: str, value: object, bounds: Range = ACCELERATION) -> fl
 
 
 def _steps(duration: float, dt: float) -> int:
-    steps = math.ceil(duration / dt - 1e-9) if duration > 0 else 0
-    if steps > MAX_STEPS:
-        raise InvalidParams(
-            f"motion needs {steps} steps (> {MAX_STEPS}); use a larger dt or speed",
-            param="dt",
-            expected=f"<= {MAX_STEPS} steps",
-            got=steps,
-        )
-    return steps
+    """Whole time steps of at most ``dt`` covering ``duration`` (however many: states are computed lazily)."""
+    return math.ceil(duration / dt - 1e-9) if duration > 0 else 0
 
 
 def trapezoid(distance: float, vmax: float, amax: float) -> tuple[float, float]:
@@ -77,40 +73,22 @@ def trapezoid(distance: float, vmax: float, amax: float) -> tuple[float, float]:
     return distance / vmax + vmax / amax, vmax
 
 
-def _trapezoid_at(t: FloatArray, distance: float, peak: float, amax: float, duration: float) -> FloatArray:
-    """Position along the profile of ``trapezoid`` at times ``t`` (clamped to [0, duration])."""
-    t = np.clip(t, 0.0, duration)
-    ramp = peak / amax
-    rise = 0.5 * amax * np.minimum(t, ramp) ** 2
-    cruise = peak * np.clip(t - ramp, 0.0, max(0.0, duration - 2 * ramp))
-    tail = np.clip(t - (duration - ramp), 0.0, ramp)
-    fall = peak * tail - 0.5 * amax * tail**2
-    out: FloatArray = np.minimum(rise + cruise + fall, distance)
-    return out
-
-
 def plan_joint_path(
     start: FloatArray, target: FloatArray, velocity: FloatArray, acceleration: FloatArray, dt: float
-) -> FloatArray:
-    """States ``[steps + 1, dof]`` from ``start`` to ``target`` (both rows included), one per ``dt`` seconds,
-    on the straight line between them, at rest at both ends; no joint exceeds ``velocity`` (rad/s or m/s)
-    nor ``acceleration`` (rad/s^2 or m/s^2)."""
+) -> Straight:
+    """The timed straight line from ``start`` to ``target``: states one per ``dt`` (both ends included),
+    at rest at both ends; no joint exceeds ``velocity`` (rad/s or m/s) nor ``acceleration`` (rad/s^2 or
+    m/s^2)."""
     delta = target - start
     moving = np.abs(delta) > 0
     if not moving.any():
-        return np.array([start], dtype=np.float64)
+        return Straight(start, start, 0.0, 0.0, 1.0, 0)
     # the path parameter s in [0, 1]: joint i moves |delta_i| * s, so s may go at most velocity_i / |delta_i|
     vmax = float(np.min(velocity[moving] / np.abs(delta[moving])))
     amax = float(np.min(acceleration[moving] / np.abs(delta[moving])))
     duration, peak = trapezoid(1.0, vmax, amax)
-    steps = _steps(duration, dt)
-    if steps == 0:
-        return np.array([start, target], dtype=np.float64)
-    # the profile slowed uniformly to fill whole steps: sample it at k * duration / steps
-    s = _trapezoid_at(np.arange(steps + 1, dtype=np.float64) * (duration / steps), 1.0, peak, amax, duration)
-    path: FloatArray = start[None, :] + s[:, None] * delta[None, :]
-    path[-1] = target
-    return path
+    # the profile slowed uniformly to fill whole steps: state k is the profile at k * duration / steps
+    return Straight(start, target, duration, peak, amax, max(1, _steps(duration, dt)))
 
 
 def plan_curve_path(
@@ -121,11 +99,14 @@ def plan_curve_path(
     tcp_speed: float | None,
     tcp_acceleration: float,
     dt: float,
-) -> FloatArray:
-    """States ``[steps + 1, dof]`` one per ``dt`` along the cubic spline through ``points`` (the first is the
-    start, the last the target), at rest at both ends, time-optimal (TOPP-RA) under the joint limits and
-    the end effector's ``tcp_speed`` (m/s) and ``tcp_acceleration`` (m/s^2) along the curve (None: the joint
-    limits only), whose arc length at each point is ``arc`` (metres, from 0, increasing)."""
+    bounds: tuple[FloatArray, FloatArray],
+) -> Curve | Straight:
+    """The timed cubic spline through ``points`` (the first is the start, the last the target): states one
+    per ``dt``, at rest at both ends, time-optimal (TOPP-RA) under the joint limits and the end effector's
+    ``tcp_speed`` (m/s) and ``tcp_acceleration`` (m/s^2) along the curve (None: the joint limits only),
+    whose arc length at each point is ``arc`` (metres, from 0, increasing). States are clipped to
+    ``bounds`` (lower, upper): the spline through samples within the limits may overshoot one by a hair
+    between two of them."""
     import toppra
     import toppra.algorithm
     import toppra.constraint
@@ -137,30 +118,28 @@ def plan_curve_path(
     # stand still while the other moves: a turn in place, a joint-space wobble)
     gaps = np.linalg.norm(np.diff(q, axis=0), axis=1) + np.abs(np.diff(length))
     keep = np.concatenate([[True], gaps > 0])
-    q, length = q[keep], length[keep]
-    if len(q) < 2:
-        return np.array([q[0]], dtype=np.float64)
-    ss = np.concatenate([[0.0], np.cumsum(gaps[gaps > 0])])
-    ss /= ss[-1]
+    if keep.sum() < 2:
+        return Straight(q[0], q[0], 0.0, 0.0, 1.0, 0)
+    knots = np.concatenate([[0.0], np.cumsum(gaps)])
+    knots /= knots[-1]  # exactly 1 at the end, as the grid's
+    q, length, ss = q[keep], length[keep], knots[keep]
     if tcp_speed is None:
         waypoints, vlim, alim = q, velocity, acceleration
     else:
         waypoints = np.hstack([q, length[:, None]])
         vlim = np.hstack([velocity, [tcp_speed]])
         alim = np.hstack([acceleration, [tcp_acceleration]])
-    path = toppra.SplineInterpolator(ss, waypoints)
+    spline = CubicSpline(ss, waypoints, bc_type="not-a-knot")  # the spline toppra's interpolator makes
+    path = toppra.SplineInterpolator(ss, waypoints, bc_type="not-a-knot")
     constraints = [toppra.constraint.JointVelocityConstraint(np.stack([-vlim, vlim], axis=1)),
                    toppra.constraint.JointAccelerationConstraint(np.stack([-alim, alim], axis=1))]
     grid = np.unique(np.concatenate([ss, np.linspace(0.0, 1.0, 2 * len(ss))]))
     algorithm = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid,
                                         parametrizer="ParametrizeConstAccel")
-    trajectory = algorithm.compute_trajectory(0.0, 0.0)
-    if trajectory is None:
+    speeds = None if algorithm.compute_trajectory(0.0, 0.0) is None else algorithm.problem_data.sd_vec
+    if speeds is None or not np.all(speeds[:-1] + speeds[1:] > 0):
         raise InvalidParams("no time parametrisation of the curve meets the joint limits", param="path")
-    duration = float(trajectory.duration)
-    steps = max(1, _steps(duration, dt))
-    times = np.arange(steps + 1, dtype=np.float64) * (duration / steps)
-    states = np.asarray(trajectory(times))[:, : q.shape[1]]
-    states[0], states[-1] = q[0], q[-1]
-    out: FloatArray = states
-    return out
+    lower, upper = bounds
+    curve = Curve(spline, np.asarray(algorithm.problem_data.gridpoints, dtype=np.float64),
+                  np.asarray(speeds, dtype=np.float64), q.shape[1], lower, upper, q[0], q[-1], 1, knots)
+    return replace(curve, steps=max(1, _steps(curve.duration, dt)))

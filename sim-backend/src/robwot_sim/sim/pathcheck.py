@@ -1,16 +1,18 @@
 """Checking a planned joint path for collision, without changing the world.
 
 Between the planned states (one per ``dt``) the path is subdivided so that no point of the robot travels
-more than twice the robot's clearance between two checked states, and other bodies must stay that
-clearance away (a `Guard`; 2 mm unless the robot was loaded with another): then no contact can hide
-between checked states, at any speed (see ``sweep.py``). A path that starts or ends within the
-clearance (e.g. after a motion stopped on contact) is checked for contact only, so the robot can always
-move away from such a state and back to it: the verdict on a path never depends on its direction.
+more than twice the robot's clearance between two checked states (a straight piece from its ends, a
+curve at points spaced by that travel: the work follows the geometry, not the number of states), and
+other bodies must stay that clearance away (a `Guard`; 2 mm unless the robot was loaded with another):
+then no contact can hide between checked states, at any speed (see ``sweep.py``). A path that starts or
+ends within the clearance (e.g. after a motion stopped on contact) is checked for contact only, so the
+robot can always move away from such a state and back to it: the verdict on a path never depends on its
+direction.
 """
 
 from __future__ import annotations
 
-import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +21,7 @@ from robwot_sim.limits import CLEARANCE as CLEARANCE_RANGE
 from robwot_sim.sim.collision import TOUCH, CollisionChecker
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.sweep import CLEARANCE, substeps
+from robwot_sim.sim.timed import Curve, Straight, TimedPath
 from robwot_sim.sim.types import FirstCollision, FloatArray, PathReport
 from robwot_sim.sim.world_thread import checkpoint
 
@@ -28,6 +31,8 @@ MIN_CLEARANCE, MAX_CLEARANCE = CLEARANCE_RANGE.minimum, CLEARANCE_RANGE.maximum
 #: how far beyond the clearance (m) a path check measures the distance to other bodies: the travel that
 #: needs no further distance query (larger: fewer queries, each asking more bodies and points)
 GAP_CAP = 0.05
+#: halvings of a parameter interval that place a curve's checked state (its travel known to ~1e-15 of it)
+BISECTIONS = 50
 
 
 @dataclass(frozen=True)
@@ -63,32 +68,44 @@ def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArr
 def first_contact(robot: BoundRobot, checker: CollisionChecker, q0: FloatArray, q1: FloatArray,
                   guard: Guard, clearance: float) -> tuple[float, FloatArray] | None:
     """The first state between ``q0`` (excluded) and ``q1`` (included) closer than ``clearance`` to
-    anything, as (fraction of the segment, state), or None. Leaves the robot at the last state checked.
+    anything, as (fraction of the segment, state), or None (``first_contact_along`` of the segment)."""
+    hit = first_contact_along(robot, checker, np.stack([q0, q1]), guard, clearance)
+    return None if hit is None else (hit[1], hit[2])
 
-    Every state is checked for self-contact. The distance to other bodies (which stand still during a
-    check) is measured up to ``GAP_CAP`` beyond the clearance and then not again while the robot's travel
-    since that measurement (the sweep bound) keeps within the measured gap minus the clearance: no point
-    can have come closer than the clearance meanwhile (conservative advancement). The verdict and the
-    first contact are the same as measuring at every state; far from obstacles most queries are saved.
-    A checkpoint (`world_thread.checkpoint`) before each state may let other robots move: the distance
-    is then measured again."""
-    n = substeps(q0, q1, guard.reach, guard.max_sweep)
-    step = float(np.sum(np.abs(q1 - q0) * guard.reach)) / n
+
+def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: FloatArray, guard: Guard,
+                        clearance: float) -> tuple[int, float, FloatArray] | None:
+    """The first state along the polyline ``points`` (the first point excluded) closer than ``clearance``
+    to anything, as (segment index, fraction of that segment, state), or None. Leaves the robot at the
+    last state checked.
+
+    Every segment is subdivided so that no point of the robot travels more than the guard's sweep between
+    checked states. Every state is checked for self-contact. The distance to other bodies (which stand
+    still during a check) is measured up to ``GAP_CAP`` beyond the clearance and then not again while the
+    robot's travel since that measurement (the sweep bound, summed over the segments) keeps within the
+    measured gap minus the clearance: no point can have come closer than the clearance meanwhile
+    (conservative advancement). The verdict and the first contact are the same as measuring at every
+    state; far from obstacles most queries are saved. A checkpoint (`world_thread.checkpoint`) before
+    each state may let other robots move: the distance is then measured again."""
     slack = -1.0  # travel left before the other bodies must be measured again
-    for i in range(1, n + 1):
-        if checkpoint():  # other bodies may have moved meanwhile: measure them again
-            slack = -1.0
-        q = q0 + (q1 - q0) * (i / n)
-        robot.apply(q)
-        slack -= step
-        apart = clearance > TOUCH and slack >= 0.0
-        if not apart and clearance > TOUCH:
-            gap = checker.gap(clearance + GAP_CAP)
-            if gap <= clearance:
-                return i / n, q
-            apart, slack = True, gap - clearance
-        if not checker.is_free(clearance, others_apart=apart):
-            return i / n, q
+    for j in range(len(points) - 1):
+        q0, q1 = points[j], points[j + 1]
+        n = substeps(q0, q1, guard.reach, guard.max_sweep)
+        step = float(np.sum(np.abs(q1 - q0) * guard.reach)) / n
+        for i in range(1, n + 1):
+            if checkpoint():  # other bodies may have moved meanwhile: measure them again
+                slack = -1.0
+            q = q0 + (q1 - q0) * (i / n)
+            robot.apply(q)
+            slack -= step
+            apart = clearance > TOUCH and slack >= 0.0
+            if not apart and clearance > TOUCH:
+                gap = checker.gap(clearance + GAP_CAP)
+                if gap <= clearance:
+                    return j, i / n, q
+                apart, slack = True, gap - clearance
+            if not checker.is_free(clearance, others_apart=apart):
+                return j, i / n, q
     return None
 
 
@@ -112,29 +129,89 @@ def _vertices(path: FloatArray) -> list[int]:
     return [0, *(np.nonzero(turn)[0] + 1).tolist(), len(path) - 1]
 
 
-def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: FloatArray, dt: float,
+def curve_checkpoints(curve: Curve, reach: FloatArray, spacing: float) -> FloatArray:
+    """Path parameters along ``curve`` (from 0 to 1) between which no point of the robot travels more than
+    ``spacing`` (m) along the curve: the travel between two parameters is bounded by sum_j reach_j x the
+    variation of joint j, which between two of ``Curve.monotone_params`` (each joint moving one way) is
+    exactly sum_j reach_j |dq_j|; within one of those intervals the parameter reaching a travel is found
+    by bisection. How many there are depends on how far the robot travels, not on how slowly."""
+    grid = curve.monotone_params()
+    q = curve.states(grid)
+    travel = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(q, axis=0)) @ reach)])
+    n = max(1, math.ceil(travel[-1] / (spacing * (1.0 - 1e-6))))
+    levels = travel[-1] * np.arange(1, n) / n
+    cell = np.clip(np.searchsorted(travel, levels, side="right") - 1, 0, len(grid) - 2)
+    lo, hi = grid[cell].copy(), grid[cell + 1].copy()
+    base, need = q[cell], levels - travel[cell]
+    for _ in range(BISECTIONS):  # the travel from the cell's start grows with the parameter
+        mid = 0.5 * (lo + hi)
+        short = np.abs(curve.states(mid) - base) @ reach < need
+        lo, hi = np.where(short, mid, lo), np.where(short, hi, mid)
+    return np.concatenate([[0.0], lo, [1.0]])
+
+
+def _curve_contact(robot: BoundRobot, checker: CollisionChecker, curve: Curve, guard: Guard,
+                   clearance: float) -> tuple[float, FloatArray] | None:
+    """The first contact along ``curve`` (its first state excluded) as (fractional step index, state).
+
+    Its states lie on the spline. When no two consecutive states are farther apart than the clearance
+    (half the guard's sweep; ``Curve.row_travel_bound``), the states at ``curve_checkpoints`` spaced by the
+    sweep are checked: a point of the move between two consecutive states either lies between the same
+    two checked states (its travels to both, summed, are at most the travel along the curve between them:
+    the sweep), or that move passes a checked state (then it is within the move's own travel, at most
+    the clearance, of it); within the clearance of a checked state either way, so it cannot touch
+    (``sweep.py``). Otherwise (a fast curve: its states are few) the states themselves are checked, as a
+    polyline."""
+    if curve.row_travel_bound(guard.reach) <= guard.clearance:
+        params = curve_checkpoints(curve, guard.reach, guard.max_sweep)
+        points = curve.states(params)
+        points[0], points[-1] = curve.first, curve.last
+        hit = first_contact_along(robot, checker, points, guard, clearance)
+        if hit is None:
+            return None
+        j, frac, q = hit
+        return curve.index_of(float(params[j] + frac * (params[j + 1] - params[j]))), q
+    rows = curve.at(np.arange(curve.steps + 1, dtype=np.int64))
+    corners = _vertices(rows)
+    hit = first_contact_along(robot, checker, rows[corners], guard, clearance)
+    if hit is None:
+        return None
+    j, frac, q = hit
+    a, b = corners[j], corners[j + 1]
+    # the rows between two vertices lie on the segment in order: the time is where the hit's distance
+    # along it falls among theirs
+    along = np.linalg.norm(rows[a:b + 1] - rows[a], axis=1)
+    return a + float(np.interp(frac * along[-1], along, np.arange(b - a + 1))), q
+
+
+def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: TimedPath,
                      guard: Guard) -> PathReport:
-    """Check ``path`` (row k at time k * dt, straight segments) and the sweep along it; report the first
-    contact. The cost depends on how far the robot travels, not on how slowly (the number of rows)."""
+    """Check ``path`` (its states and the moves between them) and report the first contact. A straight
+    piece is checked as one segment, however it accelerates along it; a curve at points spaced by travel
+    (``_curve_contact``). The cost depends on how far the robot travels, not on how slowly (the number
+    of states)."""
     saved = robot.q.copy()
-    duration = (len(path) - 1) * dt
     try:
-        clearance = path_clearance(robot, checker, path[0], guard, path[-1])
-        robot.apply(path[0])
+        first = path.first
+        clearance = path_clearance(robot, checker, first, guard, path.last)
+        robot.apply(first)
         if not checker.is_free():
-            start = FirstCollision(0.0, tuple(float(x) for x in path[0]), tuple(checker.contacts()))
-            return PathReport(False, duration, len(path), start)
-        for a, b in itertools.pairwise(_vertices(path)):
-            hit = first_contact(robot, checker, path[a], path[b], guard, clearance)
-            if hit is not None:
-                frac, q = hit
-                # the rows between two vertices lie on the segment in order, at any speed: the time is
-                # where the hit's distance along it falls among theirs
-                along = np.linalg.norm(path[a:b + 1] - path[a], axis=1)
-                at = a + float(np.interp(frac * along[-1], along, np.arange(b - a + 1)))
-                first = FirstCollision(at * dt, tuple(float(x) for x in np.asarray(q)),
-                                       tuple(checker.contacts(clearance)))
-                return PathReport(False, duration, len(path), first)
+            start = FirstCollision(0.0, tuple(float(x) for x in first), tuple(checker.contacts()))
+            return PathReport(False, path.duration, len(path), start)
+        for offset, piece in path.offsets():
+            if piece.steps == 0:
+                continue
+            if isinstance(piece, Straight):
+                hit = first_contact(robot, checker, piece.start, piece.target, guard, clearance)
+                found = None if hit is None else (piece.index_of(hit[0]), hit[1])
+            else:
+                assert isinstance(piece, Curve)
+                found = _curve_contact(robot, checker, piece, guard, clearance)
+            if found is not None:
+                at, q = found
+                report = FirstCollision((offset + at) * path.dt, tuple(float(x) for x in np.asarray(q)),
+                                        tuple(checker.contacts(clearance)))
+                return PathReport(False, path.duration, len(path), report)
     finally:
         robot.apply(saved)
-    return PathReport(True, duration, len(path))
+    return PathReport(True, path.duration, len(path))

@@ -28,7 +28,8 @@ from robwot_sim.errors import Unreachable
 from robwot_sim.limits import DEFAULT_TCP_SPEED
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.lin import circ_path, lin_path
-from robwot_sim.sim.types import Contact, FloatArray, RobotModel
+from robwot_sim.sim.timed import TimedPath
+from robwot_sim.sim.types import Contact, RobotModel
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
 
@@ -257,18 +258,18 @@ def plan_lin(world: World, robot: str, position: Sequence[float],
 
 
 def timed_path(world: World, robot: str, plan: Plan, *, speed: float, dt: float, acceleration: float = 1.0,
-               start: Sequence[float] | None = None) -> tuple[Plan, FloatArray | None]:
-    """The joint states, one per ``dt``, that a move of the valid ``plan`` runs (``World.plan_motion``),
-    with the plan; None for a refused plan. The states of a LIN or CIRC lie on the spline through its
-    checked samples, not on the chords between them: they are checked again, and a contact refuses the
-    plan (naming the bodies), so every state a motion runs was checked in this world."""
+               start: Sequence[float] | None = None) -> tuple[Plan, TimedPath | None]:
+    """The timed path, states one per ``dt``, that a move of the valid ``plan`` runs
+    (``World.plan_motion``), with the plan; None for a refused plan. The states of a LIN or CIRC lie on the
+    spline through its checked samples, not on the chords between them: they are checked again, and a
+    contact refuses the plan (naming the bodies), so every state a motion runs was checked in this world."""
     if not plan.valid or plan.target is None:
         return plan, None
     path = world.plan_motion(robot, plan.target, start, speed, dt, acceleration=acceleration,
                              **plan.motion_kwargs())
     if not plan.arc:
         return plan, path
-    report = world.check_states(robot, path, dt)
+    report = world.check_states(robot, path)
     if report.collision_free or report.first_collision is None:
         return plan, path
     contacts = report.first_collision.contacts

@@ -6,21 +6,26 @@ Each step is timed as a move of the same step is (``planner.timed_path``: the jo
 ``speed``, acceleration limits x its ``acceleration``, a LIN's or CIRC's ``tcpSpeed``), at rest where it
 ends. The program's path is those states one after the other, one per ``dt``: its cycle time is the time a
 run of it takes at real time (``program.run`` runs exactly these states), and the trajectory a client gets
-is that path sampled at ``rate``.
+is that path sampled at ``rate`` (at most ``MAX_TRAJECTORY_SAMPLES`` samples: a longer program at a lower
+rate). The states are computed when asked for (``timed.py``): a slow program costs no more to plan than a
+fast one, and no more memory.
 """
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from robwot_sim.limits import DEFAULT_TCP_SPEED
+from robwot_sim.errors import PlanBudget
+from robwot_sim.limits import DEFAULT_TCP_SPEED, MAX_TRAJECTORY_SAMPLES
 from robwot_sim.sim.planner import Plan, contact_words, plan_joints, plan_lin, plan_pose, timed_path
+from robwot_sim.sim.timed import Curve, TimedPath
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
@@ -38,7 +43,7 @@ class ProgramPlan:
 
     report: dict[str, Any]
     #: the joint states of the whole program, one per ``dt`` (None when a step is refused)
-    path: FloatArray | None = None
+    path: TimedPath | None = None
     #: index in ``path`` of each step's first state (its start: the previous step's end)
     starts: list[int] = field(default_factory=list)
 
@@ -87,8 +92,19 @@ def _points(step: _Step) -> list[FloatArray]:
     return out
 
 
+def _first_state_of(states: TimedPath, owners: Sequence[int], k: int) -> int:
+    """The first state of a blended group's motion that belongs to step ``k``: each state belongs to the
+    step of its nearest point along the path (the points are in order, their owners non-decreasing)."""
+    piece = states.pieces[0]
+    if not isinstance(piece, Curve):  # the group's points all coincide: one state
+        return 0
+    p = next(i for i, owner in enumerate(owners) if owner >= k)
+    boundary = 0.5 * float(piece.knots[p - 1] + piece.knots[p])  # nearer to p from here on
+    return min(piece.steps, math.ceil(piece.index_of(boundary) - 1e-9))
+
+
 def _blend_group(world: World, robot: str, group: list[_Step],
-                 dt: float) -> tuple[FloatArray | None, list[int], str | None, int]:
+                 dt: float) -> tuple[TimedPath | None, list[int], str | None, int]:
     """One motion through the steps of ``group`` that rounds each junction within the blend radius of the
     step ending there: the points of the incoming step closer to the junction's TCP than its radius, and of
     the outgoing one, are replaced by the quadratic Bezier (joint space) from the last point outside on one
@@ -134,10 +150,8 @@ def _blend_group(world: World, robot: str, group: list[_Step],
     states = world.plan_motion(robot, points[-1], points[0], min(st.speed for st in group), dt, points[1:-1],
                                acceleration=min(st.acceleration for st in group), arc=arc.tolist(),
                                tcp_speed=min(lin_speeds) if lin_speeds else None)
-    # each state belongs to the step of its nearest point of the path
-    nearest = [int(np.argmin(np.linalg.norm(np.asarray(points) - q, axis=1))) for q in states]
-    starts = [0] + [next(i for i, n in enumerate(nearest) if owners[n] >= k) for k in range(1, len(group))]
-    report = world.check_states(robot, states, dt)
+    starts = [0] + [_first_state_of(states, owners, k) for k in range(1, len(group))]
+    report = world.check_states(robot, states)
     if report.collision_free or report.first_collision is None:
         return states, starts, None, 0
     hit = round(report.first_collision.time / dt)
@@ -145,31 +159,59 @@ def _blend_group(world: World, robot: str, group: list[_Step],
     return None, starts, contact_words(report.first_collision.contacts), k
 
 
-def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], dt: float,
-                 rate: float) -> ProgramPlan:
-    """Per-step verdicts (from the first step to the first refused one), the index of the first refused
-    step (None when all pass), the cycle time (s) and the joint trajectory sampled at ``rate`` (Hz)."""
-    names = list(world.robot_model(robot).controllable)
-    verdicts: list[dict[str, Any]] = []
-    first_failing: int | None = None
+def _plan_steps(world: World, robot: str, steps: Sequence[Mapping[str, Any]], dt: float,
+                verdicts: list[dict[str, Any]]) -> tuple[list[_Step], int | None]:
+    """Each step planned from where the previous one ends, up to the first refused one (its index, or
+    None); a verdict per step planned appended to ``verdicts``."""
     planned: list[_Step] = []
     with world.hypothetical(robot):
         q = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
         for k, step in enumerate(steps):
-            checkpoint()
-            world.place(robot, q)
-            plan = _plan_step(world, robot, step, dt)
+            with _naming(k, len(steps)):
+                checkpoint()
+                world.place(robot, q)
+                plan = _plan_step(world, robot, step, dt)
             verdicts.append({"step": k, "ok": plan.valid, "reasons": list(plan.reasons),
                              "checks": plan.checks, "duration": 0.0})
             if not plan.valid or plan.target is None:
-                first_failing = k
-                break
+                return planned, k
             motion = str(step.get("motion", "ptp"))
             planned.append(_Step(plan, q, float(step.get("speed", 1.0)), float(step.get("acceleration", 1.0)),
                                  float(step.get("tcpSpeed", DEFAULT_TCP_SPEED)) if motion != "ptp" else None,
                                  float(step.get("blend", 0.0))))
             q = np.asarray(plan.target, dtype=np.float64)
-    segments: list[FloatArray] = []
+    return planned, None
+
+
+@contextlib.contextmanager
+def _naming(step: int, steps: int) -> Iterator[None]:
+    """A plan's budget running out here names the program's step."""
+    try:
+        yield
+    except PlanBudget as exc:
+        raise exc.at_step(step, steps) from None
+
+
+def _sampled(trajectory: TimedPath, rate: float) -> tuple[FloatArray, int]:
+    """The states at about ``rate`` Hz (the last one always included), at most ``MAX_TRAJECTORY_SAMPLES``
+    of them (a lower rate for a longer path), and the stride between them (in states)."""
+    n = len(trajectory)
+    stride = max(1, round(1.0 / (rate * trajectory.dt)), math.ceil((n - 1) / (MAX_TRAJECTORY_SAMPLES - 2)))
+    picked = trajectory.rows(0, n, stride)
+    if (n - 1) % stride:
+        picked = np.vstack([picked, trajectory.last])
+    return picked, stride
+
+
+def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], dt: float,
+                 rate: float) -> ProgramPlan:
+    """Per-step verdicts (from the first step to the first refused one), the index of the first refused
+    step (None when all pass), the cycle time (s) and the joint trajectory sampled at ``rate`` (Hz).
+    `PlanBudget` names the step being planned when the job's budget runs out."""
+    names = list(world.robot_model(robot).controllable)
+    verdicts: list[dict[str, Any]] = []
+    planned, first_failing = _plan_steps(world, robot, steps, dt, verdicts)
+    segments: list[TimedPath] = []
     starts: list[int] = []
     done = 0
     k = 0
@@ -181,24 +223,25 @@ def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], d
                and not _detour(planned[end + 1])):
             end += 1
         group = planned[k:end + 1]
-        checkpoint()
-        if len(group) == 1:
-            st = group[0]
-            plan, states = timed_path(world, robot, st.plan, speed=st.speed, dt=dt,
-                                      acceleration=st.acceleration, start=st.start.tolist())
-            group_starts, failed = [0], None if states is not None else 0
-            if states is None:
-                verdicts[k] = {**verdicts[k], "ok": False, "reasons": list(plan.reasons),
-                               "checks": plan.checks}
-        else:
-            states, group_starts, contact, failed_at = _blend_group(world, robot, group, dt)
-            failed = None if contact is None else failed_at
-            if contact is not None:
-                at = k + failed_at
-                where = (f"through the end of step {at} (blend radius {planned[at].blend:g} m)"
-                         if planned[at].blend > 0 and at < end else f"in step {at}")
-                reason = f"the blended motion of steps {k} to {end} collides {where}{contact}"
-                verdicts[at] = {**verdicts[at], "ok": False, "checks": {}, "reasons": [reason]}
+        with _naming(k, len(steps)):
+            checkpoint()
+            if len(group) == 1:
+                st = group[0]
+                plan, states = timed_path(world, robot, st.plan, speed=st.speed, dt=dt,
+                                          acceleration=st.acceleration, start=st.start.tolist())
+                group_starts, failed = [0], None if states is not None else 0
+                if states is None:
+                    verdicts[k] = {**verdicts[k], "ok": False, "reasons": list(plan.reasons),
+                                   "checks": plan.checks}
+            else:
+                states, group_starts, contact, failed_at = _blend_group(world, robot, group, dt)
+                failed = None if contact is None else failed_at
+                if contact is not None:
+                    at = k + failed_at
+                    where = (f"through the end of step {at} (blend radius {planned[at].blend:g} m)"
+                             if planned[at].blend > 0 and at < end else f"in step {at}")
+                    reason = f"the blended motion of steps {k} to {end} collides {where}{contact}"
+                    verdicts[at] = {**verdicts[at], "ok": False, "checks": {}, "reasons": [reason]}
         if failed is not None:
             # the steps of the group before the failing one keep their verdicts, without a duration
             del verdicts[k + failed + 1:]
@@ -213,19 +256,17 @@ def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], d
             if group[i].blend > 0 and i < len(group) - 1:
                 verdicts[k + i]["blended"] = True
             starts.append(done + bounds[i])
-        segments.append(states if not segments else states[1:])
+        segments.append(states)
         done += len(states) - 1
         k = end + 1
-    trajectory = np.concatenate(segments) if segments else np.asarray([world.get_joint_positions(robot)])
-    stride = max(1, round(1.0 / (rate * dt)))
-    picked = trajectory[::stride]
-    if len(trajectory) and not np.array_equal(picked[-1], trajectory[-1]):
-        picked = np.vstack([picked, trajectory[-1]])
+    trajectory = TimedPath.join(segments) if segments else TimedPath.still(
+        np.asarray(world.get_joint_positions(robot), dtype=np.float64), dt)
+    picked, stride = _sampled(trajectory, rate)
     cycle = float(sum(v["duration"] for v in verdicts))
     report = {"valid": first_failing is None, "firstFailingStep": first_failing, "cycleTime": cycle,
               "steps": verdicts,
               "trajectory": {"rate": 1.0 / (stride * dt), "dt": stride * dt, "names": names,
-                             "positions": [[float(x) for x in row] for row in picked]}}
+                             "positions": picked.tolist()}}
     if first_failing is not None:
         return ProgramPlan(report)
     return ProgramPlan(report, trajectory, starts)

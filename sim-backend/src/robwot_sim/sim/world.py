@@ -39,6 +39,7 @@ from robwot_sim.sim.motion import (
 from robwot_sim.sim.outerbounds import OuterBounds, build_outer_bounds
 from robwot_sim.sim.pathcheck import check_joint_path, first_contact, path_clearance
 from robwot_sim.sim.surehit import SureHits, build_sure_hits
+from robwot_sim.sim.timed import TimedPath
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
 from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _owned
 from robwot_sim.sim.world_scene import WorldScene
@@ -252,13 +253,13 @@ class World(WorldScene):
         acceleration: float = 1.0,
         arc: Sequence[float] = (),
         tcp_speed: float | None = DEFAULT_TCP_SPEED,
-    ) -> npt.NDArray[np.float64]:
-        """Joint states [steps + 1, dof] from ``start`` (default current) through the waypoints ``via`` to
-        ``target``, one per ``dt``, within the joint velocity limits x ``speed`` and acceleration limits x
-        ``acceleration`` (``motion.py``). Without ``arc``: each segment straight in joint space, at rest at
-        every waypoint. With ``arc`` (the end effector's distance along its curve at start, every waypoint
-        and target, metres): one smooth motion through them, the end effector at most ``tcp_speed`` (None:
-        the joint limits only, a blended group of PTP steps)."""
+    ) -> TimedPath:
+        """The timed path from ``start`` (default current) through the waypoints ``via`` to ``target``: states
+        one per ``dt`` (computed when asked for), within the joint velocity limits x ``speed`` and
+        acceleration limits x ``acceleration`` (``motion.py``). Without ``arc``: each segment straight in
+        joint space, at rest at every waypoint. With ``arc`` (the end effector's distance along its curve
+        at start, every waypoint and target, metres): one smooth motion through them, the end effector at
+        most ``tcp_speed`` (None: the joint limits only, a blended group of PTP steps)."""
         e = self._entry(robot_id)
         tgt = e.bound.validate(target, "target")
         st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
@@ -272,13 +273,10 @@ class World(WorldScene):
                 raise InvalidParams("arc needs one distance per point", param="arc", expected=len(points),
                                     got=len(arc))
             tcp = None if tcp_speed is None else check_fraction("tcpSpeed", tcp_speed, TCP_SPEED)
-            curve = plan_curve_path(points, arc, velocity, accelerations, tcp, TCP_ACCELERATION * accel, step)
-            # the spline through samples within the limits may overshoot one by a hair between two of them
-            lower, upper = e.model.limits()
-            return np.clip(curve, lower, upper)
-        segments = [plan_joint_path(a, b, velocity, accelerations, step)
-                    for a, b in itertools.pairwise(points)]
-        return np.concatenate([segments[0], *(seg[1:] for seg in segments[1:])])
+            return TimedPath([plan_curve_path(points, arc, velocity, accelerations, tcp,
+                                              TCP_ACCELERATION * accel, step, e.model.limits())], step)
+        return TimedPath([plan_joint_path(a, b, velocity, accelerations, step)
+                          for a, b in itertools.pairwise(points)], step)
 
     @_owned
     def check_path(
@@ -291,16 +289,15 @@ class World(WorldScene):
         via: Sequence[JointVector] = (),
     ) -> PathReport:
         """Check every state of ``plan_motion`` for collision (world unchanged)."""
-        return self.check_states(robot_id, self.plan_motion(robot_id, target, start, speed, dt, via), dt)
+        return self.check_states(robot_id, self.plan_motion(robot_id, target, start, speed, dt, via))
 
     @_owned
-    def check_states(self, robot_id: str, path: npt.NDArray[np.float64],
-                     dt: float = DEFAULT_DT) -> PathReport:
-        """Check the joint states ``path`` (one per ``dt``, within the joint limits: ``plan_motion``'s) and
-        the moves between them for collision (world unchanged)."""
+    def check_states(self, robot_id: str, path: TimedPath) -> PathReport:
+        """Check the states of ``path`` (``plan_motion``'s) and the moves between them for collision (world
+        unchanged)."""
         e = self._entry(robot_id)
         with self._holding(robot_id):
-            return check_joint_path(e.bound, e.checker, path, float(dt), e.guard)
+            return check_joint_path(e.bound, e.checker, path, e.guard)
 
     @_owned
     def detour(self, robot_id: str, target: JointVector,

@@ -8,7 +8,8 @@ holds. Jobs come in three kinds:
   also run *inside* a long job, at one of its checkpoints, so it waits at most one checkpoint interval.
 - ``LONG``: a search (plan, IK restarts, detour, path check). Its loops call `checkpoint()` where the
   world is consistent, which runs the queued short jobs inline and raises `Cancelled` once the job's
-  caller gave up (``robot.stop``, shutdown). While they run, every robot the long job moves
+  caller gave up (``robot.stop``, shutdown), or `PlanBudget` once a job given a ``budget`` has run that
+  many seconds (a plan never holds the thread without end). While they run, every robot the long job moves
   (`holding`) is put back at its true state and returned to the search's state afterwards: short jobs
   see the world exactly as if the long job were not running.
 - ``PLAIN``: anything else (loading a body, editing the scene, removing a robot): runs alone, in order.
@@ -27,9 +28,12 @@ from __future__ import annotations
 import contextlib
 import enum
 import threading
+import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Generic, TypeVar
+
+from robwot_sim.errors import PlanBudget
 
 T = TypeVar("T")
 
@@ -51,15 +55,19 @@ class Job(Generic[T]):
     """One unit of world work, run once: from the queue, or inline at a long job's checkpoint."""
 
     def __init__(self, fn: Callable[[], T], kind: Kind, robot: str | None, writes: bool,
-                 cancel: threading.Event | None = None) -> None:
+                 cancel: threading.Event | None = None, budget: float | None = None) -> None:
         self.fn, self.kind, self.robot, self.writes = fn, kind, robot, writes
         self.future: Future[T] = Future()
         self.cancel = cancel or threading.Event()  # a long job: stop at the next checkpoint
         self.claimed = False  # guarded by WorldThread._lock
+        self.budget = budget  # a long job: seconds from its start to the checkpoint that refuses it
+        self.deadline: float | None = None
 
     def run(self) -> None:
         if not self.future.set_running_or_notify_cancel():
             return
+        if self.budget is not None:
+            self.deadline = time.monotonic() + self.budget
         try:
             if self.kind is Kind.LONG and self.cancel.is_set():
                 raise Cancelled()
@@ -92,11 +100,13 @@ class WorldThread:
         self.ident = threading.get_ident()
 
     def submit(self, fn: Callable[[], T], kind: Kind = Kind.PLAIN, *, robot: str | None = None,
-               writes: bool = False, cancel: threading.Event | None = None) -> Job[T]:
+               writes: bool = False, cancel: threading.Event | None = None,
+               budget: float | None = None) -> Job[T]:
         """Queue ``fn`` on the world thread; ``robot`` (with ``writes`` when it sets that robot's state)
         is what a short job touches; a long job raises `Cancelled` at its start or next checkpoint once
-        ``cancel`` (or ``job.cancel``) is set. Raises RuntimeError once the thread is shut down."""
-        job: Job[T] = Job(fn, kind, robot, writes, cancel)
+        ``cancel`` (or ``job.cancel``) is set, and `PlanBudget` at the first checkpoint ``budget`` seconds
+        after it started. Raises RuntimeError once the thread is shut down."""
+        job: Job[T] = Job(fn, kind, robot, writes, cancel, budget)
         if kind is Kind.SHORT:
             with self._lock:
                 self._short.append(job)
@@ -133,6 +143,9 @@ class WorldThread:
             return False
         if job.cancel.is_set():
             raise Cancelled()
+        if job.deadline is not None and time.monotonic() > job.deadline:
+            assert job.budget is not None
+            raise PlanBudget(job.budget)
         if not self._short or self._closing:  # unlocked peek: a job queued just now waits for the next one
             return False
         with self._lock:
@@ -190,7 +203,8 @@ def _owner() -> WorldThread | None:
 
 def checkpoint() -> bool:
     """Called by long world operations where the world is consistent but for the robots they hold (see
-    `holding`): runs the short jobs queued meanwhile, raises `Cancelled` when the job was given up.
+    `holding`): runs the short jobs queued meanwhile, raises `Cancelled` when the job was given up and
+    `PlanBudget` when it has run out of its budget.
     True when jobs ran (other robots may have moved). Off the world thread (tests, worker processes,
     a World without a WorldThread) it does nothing."""
     owner = _owner()
