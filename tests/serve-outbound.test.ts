@@ -90,7 +90,7 @@ it("an endless answer to a relayed move is cut at the size cap: the move's relay
   const r = await invoke(base, "moveToJointPosition", { joints: kukaPose([0.2, 0, 0, -0.5, 0, 0.3, 0]) });
   expect(r.status).toBe(200);
   expect(r.body.relay.ok).toBe(false);
-  expect(r.body.relay.error).toMatch(/answer larger than 4194304 bytes/);
+  expect(r.body.relay.error).toMatch(/answer larger than 1048576 bytes/);
   expect(process.memoryUsage().rss - before).toBeLessThan(50 * 1024 * 1024);
 });
 

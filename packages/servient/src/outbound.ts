@@ -48,7 +48,7 @@ export const OUTBOUND_LIMITS: OutboundLimits = {
   firstByteMs: 5_000,
   totalMs: 10_000,
   invokeMs: 600_000,
-  maxBytes: 4 * 1024 * 1024,
+  maxBytes: 1024 * 1024,
   perTarget: 8,
 };
 
