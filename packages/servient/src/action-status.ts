@@ -16,9 +16,8 @@
 import { randomUUID } from "node:crypto";
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { RESPOND_ASYNC, type ActionStatusValue } from "@robwot/core";
-import { ServientError } from "./errors.js";
+import { ServientError, toServientError } from "./errors.js";
 import type { MoveHandle, MoveWatch } from "./moves.js";
-import { toServientError } from "./request-context.js";
 import { sendJson } from "./static-files.js";
 
 export interface ActionStatus {

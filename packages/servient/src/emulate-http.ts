@@ -1,22 +1,22 @@
 /**
- * The HTTP front of `robwot emulate` (node-wot HttpServer `middleware`): the twin's protections, with the
- * twin's own pieces, before node-wot sees a request.
+ * The HTTP front of `robwot emulate` (node-wot HttpServer `middleware`): the twin's protections and the
+ * twin's own affordance routes, so no request reaches node-wot's router (node-wot produced the Thing).
  *
  * - `Host` names the address served (421), a foreign `Origin` may not command (403), CORS only for
  *   `--cors-origin` and never `*` (`RequestGuard`); `--auth` on everything, the TD included (`auth.ts`).
- * - Only the emulated Thing's routes reach node-wot: its TD, property reads and action invocations under
+ * - Only the emulated Thing's routes are served: its TD, property reads and action invocations under
  *   `/<slug>` (node-wot's second route per Thing, `/<url-encoded id>`, answers 404 like anything else;
  *   a method a route does not serve 405).
  * - An action body is JSON by media type (415), at most `MAX_BODY` bytes (413: read no further), parsed and
- *   valid against the action's input schema (400), all before node-wot (`readActionBody`); a handler's
- *   ServientError gets its own status (`mapErrors`). Every error answer is problem details (`errors.ts`).
+ *   valid against the action's input schema (400) (`readActionBody`); a handler's ServientError answers with
+ *   its own status. Every error answer is problem details (`errors.ts`).
  */
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { securityFor, type ThingDescription } from "@robwot/core";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
-import { sendProblem, ServientError } from "./errors.js";
-import { mapErrors, readActionBody } from "./http-middleware.js";
-import { requestContext, type RequestContext } from "./request-context.js";
+import { invokeAction, readProperty, type Affordances } from "./affordance-routes.js";
+import { sendProblem, ServientError, toServientError } from "./errors.js";
+import { readActionBody } from "./http-middleware.js";
 import { RequestGuard } from "./request-guard.js";
 import { sendJson } from "./static-files.js";
 
@@ -28,6 +28,8 @@ export interface EmulatedThing {
   slug: string;
   /** the TD as served: forms of the `/<slug>` route in JSON only, the security `--auth` requires */
   td: Json;
+  /** its property readers and action handlers */
+  affordances: Affordances;
 }
 
 export interface EmulatorHttpEnv {
@@ -74,7 +76,7 @@ function routeMethods(td: Json, segments: string[]): readonly string[] | null {
 }
 
 export function emulatorMiddleware(env: EmulatorHttpEnv) {
-  return async (req: IncomingMessage, res: ServerResponse, next: () => void): Promise<void> => {
+  return async (req: IncomingMessage, res: ServerResponse): Promise<void> => {
     try {
       const raw = new URL(req.url ?? "/", "http://localhost").pathname;
       let path: string;
@@ -96,17 +98,14 @@ export function emulatorMiddleware(env: EmulatorHttpEnv) {
       if (!allow) throw new ServientError(404, "E_NOT_FOUND", `${path} not found (the emulated robot's TD is /${thing.slug})`, { path });
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
       if (segments.length === 1) return sendJson(res, 200, thing.td, "application/td+json");
-      const ctx: RequestContext = { hasBody: false };
-      if (segments[1] === "actions") {
-        const action = ((thing.td.actions ?? {}) as Record<string, Json>)[segments[2] ?? ""];
-        ctx.body = await readActionBody(req, action?.input as object | undefined, segments[2] ?? "");
-        ctx.hasBody = true;
-      }
-      mapErrors(res, ctx);
-      requestContext.run(ctx, next);
+      const name = segments[2];
+      if (segments[1] === "properties") return readProperty(res, thing.affordances, name);
+      const handler = thing.affordances.actions.get(name ?? "");
+      if (!handler || name === undefined) throw new ServientError(404, "E_NOT_FOUND", `${path} not found`, { path });
+      const action = ((thing.td.actions ?? {}) as Record<string, Json>)[name];
+      return await invokeAction(res, handler, await readActionBody(req, action?.input as object | undefined, name));
     } catch (err) {
-      const se = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
-      if (!res.headersSent) sendProblem(res, se);
+      if (!res.headersSent) sendProblem(res, toServientError(err));
       else res.end();
     }
   };

@@ -23,8 +23,8 @@ import { launchBackend, type LaunchedBackend } from "@robwot/sim-client";
 import type { AuthConfig } from "./auth.js";
 import { EmulatedController, type MotionEnd } from "./emulate-controller.js";
 import { emulatorMiddleware, emulatorTd, type EmulatedThing } from "./emulate-http.js";
-import { badInput, fromBackendError, ServientError } from "./errors.js";
-import { recordErrors, requestContext } from "./request-context.js";
+import { objectInput, type ActionHandler } from "./affordance-routes.js";
+import { fromBackendError, ServientError } from "./errors.js";
 import { isLoopback, RequestGuard } from "./request-guard.js";
 import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
 
@@ -124,23 +124,16 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       await shut;
     });
     const thing = await wot.produce(thingInit(folder.td, names, { latencyMs, lag, noise }));
-    const answer = (end: MotionEnd): WoT.InteractionInput => ({ status: end, joints: record(robot.reported) }) as WoT.InteractionInput;
-    /** An action handler taking the input the HTTP middleware parsed and validated against the TD; its
-     *  ServientErrors answer with their status (`recordErrors`). */
-    const action = (name: string, fn: (v: Json) => Promise<WoT.InteractionInput>): void => {
-      thing.setActionHandler(
-        name,
-        recordErrors(async (i: WoT.InteractionOutput) => {
-          const ctx = requestContext.getStore();
-          const v = ctx?.hasBody ? ctx.body : await i.value();
-          if (v === null || typeof v !== "object" || Array.isArray(v)) throw badInput("expected a JSON object as input", { action: name });
-          return fn(v as Json);
-        }),
-      );
-    };
+    const answer = (end: MotionEnd): unknown => ({ status: end, joints: record(robot.reported) });
     const speedOf = (v: Json): number => (typeof v["speed"] === "number" ? v["speed"] : 1);
-    thing.setPropertyReadHandler("getJointPosition", async () => record(robot.reported.map((r) => r + (noise > 0 ? gaussian(rand) * noise : 0))));
-    thing.setPropertyReadHandler("motionStatus", async () => robot.status as unknown as WoT.InteractionInput);
+    const properties = new Map<string, () => unknown>([
+      ["getJointPosition", () => record(robot.reported.map((r) => r + (noise > 0 ? gaussian(rand) * noise : 0)))],
+      ["motionStatus", () => robot.status],
+    ]);
+    /** action handlers take the input the router parsed and validated against the TD; their ServientErrors
+     *  answer with their status */
+    const actions = new Map<string, ActionHandler>();
+    const action = (name: string, fn: (v: Json) => Promise<unknown>): void => void actions.set(name, (input) => fn(objectInput<Json>(input, name)));
     action("moveToJointPosition", async (v) => {
       // the schema names every joint within the TD's limits; the controller checks its own
       const target = names.map((n) => (v["joints"] as Record<string, number>)[n] ?? NaN);
@@ -167,12 +160,12 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       const velocities = v["velocities"] as Record<string, number>;
       return answer(await robot.jog(names.map((n) => velocities[n] ?? 0), v["duration"] as number));
     });
-    thing.setActionHandler("stop", async () => ({ stopped: robot.stop() }) as WoT.InteractionInput);
+    actions.set("stop", async () => ({ stopped: robot.stop() }));
     await thing.expose();
     // node-wot serves the Thing under a path of its own making (its title, slugified): where its forms point
     const href = String(thing.getThingDescription().properties?.["getJointPosition"]?.forms?.[0]?.href ?? "");
     const slug = new URL(href, url).pathname.split("/")[1] ?? "";
-    exposed = { slug, td: emulatorTd(thing.getThingDescription() as unknown as Json, slug, o.auth) };
+    exposed = { slug, td: emulatorTd(thing.getThingDescription() as unknown as Json, slug, o.auth), affordances: { properties, actions } };
     return {
       url,
       tdUrl: `${url}/${slug}`,

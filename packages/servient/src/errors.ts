@@ -67,3 +67,15 @@ export function fromBackendError(err: unknown): ServientError {
   const message = err instanceof Error ? err.message : String(err);
   return backendDown(`simulation backend unavailable: ${message}`);
 }
+
+/** Anything a handler threw, as a ServientError: @robwot/core's errors (bad input of a pure function, e.g. a
+ *  degenerate calibration) are 400, anything else 500. */
+export function toServientError(err: unknown): ServientError {
+  if (err instanceof ServientError) return err;
+  const e = err as { code?: unknown; message?: unknown; details?: unknown };
+  if (typeof e?.code === "string" && e.code.startsWith("E_") && typeof e.message === "string") {
+    const details = typeof e.details === "object" && e.details !== null ? (e.details as Details) : {};
+    return new ServientError(400, e.code, e.message, details);
+  }
+  return new ServientError(500, "E_INTERNAL", err instanceof Error ? err.message : String(err));
+}

@@ -1,22 +1,23 @@
 /**
- * RobWoT's HTTP middleware in front of node-wot's router (HttpServer `middleware` option):
- * auth for everything; `/robwot.json`; the viewer at `/viewer/`; the TDs at `/` and `/<slug>` (with
- * the real base, live URL and security); the twin folder files at `/<slug>/...`; action bodies parsed
- * and validated against the TD (400); handler errors mapped to their status; every error answer is RFC 7807
- * problem details (`application/problem+json`, `errors.ts`).
- * Only node-wot's affordance routes of a served slug reach node-wot, with their methods (404/405 JSON
- * otherwise).
+ * The servient's router, in front of node-wot (HttpServer `middleware` option). Every request passes the
+ * guards first (`RobWoT-Hop` loop 508, Host 421, Origin 403, CORS, auth 401); then the route table:
+ * `/robwot.json`; the directory (`directory.ts`); the viewer at `/viewer/`; the TDs at `/` and `/<slug>`
+ * (with the real base, live URL and security); the twin folder files at `/<slug>/...`; property reads and
+ * action invocations (`affordance-routes.ts`: an action body read once, at most `MAX_BODY`, parsed and
+ * validated against the TD, 415/413/400) and their asynchronous ActionStatus resources (`action-status.ts`);
+ * SSE streams (`sse.ts`). Only the long-poll observe and event routes of a served slug reach node-wot. Every
+ * error answer is RFC 7807 problem details with the error's own status (`errors.ts`), written here once;
+ * anything else answers 404/405 problem details.
  */
-import { STATUS_CODES, type IncomingMessage, type ServerResponse } from "node:http";
-import { PROBLEM_JSON, RESPOND_ASYNC } from "@robwot/core";
+import type { IncomingMessage, ServerResponse } from "node:http";
+import { ASYNC_ACTIONS, RESPOND_ASYNC } from "@robwot/core";
 import { actionStatusRoute, preferences, respondAsync, type ActionStatusStore } from "./action-status.js";
-import type { AsyncAction } from "./actions.js";
+import { invokeAction, readProperty, type Affordances } from "./affordance-routes.js";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
 import { type DirectoryEnv, directoryRoute, isDirectoryPath } from "./directory.js";
-import { sendProblem, ServientError } from "./errors.js";
+import { sendProblem, ServientError, toServientError } from "./errors.js";
 import { parseBody, validateInput } from "./input-validation.js";
 import { HOP_HEADER } from "./outbound.js";
-import { requestContext, type RequestContext } from "./request-context.js";
 import { isJsonMediaType, RequestGuard } from "./request-guard.js";
 import { confine, isTwinFile, notFound, sendFile, sendJson } from "./static-files.js";
 import { SseChannel, streamSse, type SseSource } from "./sse.js";
@@ -36,8 +37,8 @@ export interface ServedThing {
   actionInput(name: string): object | undefined | null;
   /** the SSE source of an observable property or an event, null when there is none */
   observe(kind: "properties" | "events", name: string): SseSource | null;
-  /** the actions that answer asynchronously under `Prefer: respond-async` (the moves), by name */
-  asyncActions: Map<string, AsyncAction>;
+  /** property readers and action handlers, by name (`affordance-routes.ts`) */
+  affordances: Affordances;
   /** their ActionStatus resources */
   statuses: ActionStatusStore;
 }
@@ -106,40 +107,6 @@ export async function readActionBody(req: IncomingMessage, schema: object | unde
   const body = parseBody(await readBody(req), schema !== undefined, action);
   validateInput(schema, body, action);
   return body;
-}
-
-/** The code of an error answer node-wot writes itself (a status without a recorded error). */
-const NODE_WOT_CODES: Record<number, string> = {
-  400: "E_BAD_INPUT",
-  401: "E_UNAUTHORIZED",
-  404: "E_NOT_FOUND",
-  405: "E_METHOD_NOT_ALLOWED",
-  415: "E_UNSUPPORTED_MEDIA_TYPE",
-  500: "E_INTERNAL",
-};
-
-/**
- * Every error answer node-wot writes becomes problem details (WoT Profile "Errors"): its `500 <message>`
- * for a failed handler gets the recorded error's status and body; any other error status of its own, its
- * text (or the reason phrase) as the detail.
- */
-export function mapErrors(res: ServerResponse, ctx: RequestContext): void {
-  const writeHead = res.writeHead.bind(res) as (status: number, ...rest: unknown[]) => ServerResponse;
-  const end = res.end.bind(res) as (...args: unknown[]) => ServerResponse;
-  let failed: number | null = null;
-  (res as { writeHead: unknown }).writeHead = (status: number, ...rest: unknown[]): ServerResponse => {
-    if (status < 400) return writeHead(status, ...rest);
-    failed = ctx.error?.status ?? status;
-    res.removeHeader("Content-Length");
-    res.setHeader("Content-Type", PROBLEM_JSON);
-    return writeHead(failed);
-  };
-  (res as { end: unknown }).end = (...args: unknown[]): ServerResponse => {
-    if (failed === null || typeof args[0] === "function") return end(...args);
-    const text = typeof args[0] === "string" || Buffer.isBuffer(args[0]) ? String(args[0]) : "";
-    const err = ctx.error ?? new ServientError(failed, NODE_WOT_CODES[failed] ?? "E_INTERNAL", text || (STATUS_CODES[failed] ?? "error"));
-    return end(JSON.stringify(err.problem()));
-  };
 }
 
 /**
@@ -238,8 +205,9 @@ export function createMiddleware(env: MiddlewareEnv) {
         }
       }
       const statusId = kind === "action" ? segments[3] : undefined;
-      if (statusId !== undefined && !thing.asyncActions.has(name)) {
-        throw new ServientError(404, "E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${[...thing.asyncActions.keys()].join(", ")})`, { path });
+      const asynchronous = ASYNC_ACTIONS.filter((a) => thing.affordances.actions.has(a));
+      if (statusId !== undefined && !asynchronous.includes(name)) {
+        throw new ServientError(404, "E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${asynchronous.join(", ")})`, { path });
       }
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
       if (statusId !== undefined) return await actionStatusRoute(req, res, thing.statuses, name, statusId);
@@ -255,24 +223,21 @@ export function createMiddleware(env: MiddlewareEnv) {
           if (!res.writableFinished) res.emit("finish");
         });
       }
-      const ctx: RequestContext = { hasBody: false };
       if (kind === "action") {
-        const schema = thing.actionInput(name);
-        if (schema !== null) {
-          ctx.body = await readActionBody(req, schema, name);
-          ctx.hasBody = true;
-        }
+        const handler = thing.affordances.actions.get(name);
+        if (!handler) throw new ServientError(404, "E_NOT_FOUND", `${thing.slug} does not serve the action '${name}'`, { path });
+        const input = await readActionBody(req, thing.actionInput(name) ?? undefined, name);
         // RFC 7240: a preference the action cannot honour is ignored (synchronous answer, no Preference-Applied)
-        const invoke = thing.asyncActions.get(name);
-        if (invoke && preferences(req).has(RESPOND_ASYNC)) {
-          return await respondAsync(res, thing.statuses, name, String(thing.td().base), (watch) => invoke(ctx.body, watch));
+        if (asynchronous.includes(name) && preferences(req).has(RESPOND_ASYNC)) {
+          return await respondAsync(res, thing.statuses, name, String(thing.td().base), (watch) => handler(input, watch));
         }
+        return await invokeAction(res, handler, input);
       }
-      mapErrors(res, ctx);
-      requestContext.run(ctx, next);
+      if (segments[1] === "properties" && segments[3] === undefined) return readProperty(res, thing.affordances, segments[2]);
+      // what is left is node-wot's: the long-poll observe and event routes, fed by the same readers
+      next();
     } catch (err) {
-      const se = err instanceof ServientError ? err : new ServientError(500, "E_INTERNAL", String(err));
-      if (!res.headersSent) sendProblem(res, se);
+      if (!res.headersSent) sendProblem(res, toServientError(err));
       else res.end();
     }
   };

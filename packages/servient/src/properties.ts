@@ -1,27 +1,51 @@
-/** Property read handlers: served from the twin's in-memory state (no backend round trip). */
+/** The twin's properties: readers by name (`Affordances.properties`), and their changes told to node-wot's
+ *  long-poll observers. Every value is served from the twin's in-memory state (no backend round trip). */
+import { registerReaders, type Affordances } from "./affordance-routes.js";
 import { calibrationProperty } from "./calibrate.js";
 import type { PhysicalState } from "./follow.js";
-import { recordErrors } from "./request-context.js";
+import type { SseSource } from "./sse.js";
 import type { Twin } from "./twin.js";
 
-/** `physical`: the follower's state (serve --follow), null when the twin follows no physical robot. */
-export function registerProperties(thing: WoT.ExposedThing, twin: Twin, physical: () => PhysicalState | null = () => null): void {
-  const read = (fn: () => unknown): WoT.PropertyReadHandler => recordErrors(async () => fn() as WoT.InteractionInput);
-  // a twin folder generated before physicalState existed does not describe it: not served
-  if (thing.getThingDescription().properties?.["physicalState"]) {
-    thing.setPropertyReadHandler("physicalState", read(() => physical() ?? { following: false, followed: 0 }));
-  }
-  thing.setPropertyReadHandler("getJointPosition", read(() => twin.jointsRecord()));
-  thing.setPropertyReadHandler(
-    "getCartesianPosition",
-    read(() => {
-      const p = twin.realPose();
-      return { ...p.position, orientation: p.orientation };
-    }),
-  );
-  thing.setPropertyReadHandler("motionStatus", read(() => twin.status));
-  thing.setPropertyReadHandler("calibration", read(() => calibrationProperty(twin.folder.calibration)));
+/** The twin's change event after which each observable property has a new value. */
+const CHANGED_BY = { getJointPosition: "joints", getCartesianPosition: "joints", motionStatus: "status", physicalState: "physical" } as const;
+/** The TD's events, each the twin's event of the same name. */
+const EVENTS = ["collision", "collisionImminent", "divergence"] as const;
 
+/** What an SSE form streams: an observable property's values (its reader's, after each change) or an event's. */
+export function sseSource(twin: Twin, readers: Affordances["properties"], kind: "properties" | "events", name: string): SseSource | null {
+  const on = (event: "joints" | "status" | "physical" | (typeof EVENTS)[number], value: (e: unknown) => unknown) => (send: (v: unknown) => void) => {
+    const listener = (e: unknown): void => send(value(e));
+    twin.on(event, listener as never);
+    return () => void twin.off(event, listener as never);
+  };
+  if (kind === "events") return (EVENTS as readonly string[]).includes(name) ? { subscribe: on(name as (typeof EVENTS)[number], (e) => e) } : null;
+  const read = readers.get(name);
+  const event = (CHANGED_BY as Record<string, "joints" | "status" | "physical">)[name];
+  return read && event ? { current: read, subscribe: on(event, () => read()) } : null;
+}
+
+/** `physical`: the follower's state (serve --follow), null when the twin follows no physical robot. The
+ *  readers of the properties the TD describes (a folder generated before physicalState existed lacks it). */
+export function propertyReaders(described: readonly string[], twin: Twin, physical: () => PhysicalState | null = () => null): Affordances["properties"] {
+  const all: [string, () => unknown][] = [
+    ["getJointPosition", () => twin.jointsRecord()],
+    [
+      "getCartesianPosition",
+      () => {
+        const p = twin.realPose();
+        return { ...p.position, orientation: p.orientation };
+      },
+    ],
+    ["motionStatus", () => twin.status],
+    ["calibration", () => calibrationProperty(twin.folder.calibration)],
+    ["physicalState", () => physical() ?? { following: false, followed: 0 }],
+  ];
+  return new Map(all.filter(([name]) => described.includes(name)));
+}
+
+/** Serves the readers to node-wot's observers and tells them of each change; emits the TD's events. */
+export function registerProperties(thing: WoT.ExposedThing, twin: Twin, readers: Affordances["properties"]): void {
+  registerReaders(thing, readers);
   // node-wot's emitPropertyChange returns a promise at run time (typed void): never leave it unhandled
   const change = (name: string): void => void Promise.resolve(thing.emitPropertyChange(name) as unknown).catch(() => undefined);
   // node-wot long-poll observers re-read the property on change; joints are throttled to 50 Hz

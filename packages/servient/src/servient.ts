@@ -12,13 +12,13 @@ import { MAX_SLUG_LENGTH, reachOverlaps, targetBounds, TWIN_FILES, type Bounds }
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
-import { registerActions } from "./actions.js";
+import { actionHandlers } from "./actions.js";
 import { BackendSupervisor, launchConnector, urlConnector } from "@robwot/sim-client";
 import { fromBackendError, ServientError } from "./errors.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
-import { registerProperties } from "./properties.js";
+import { propertyReaders, registerProperties, sseSource } from "./properties.js";
 import { boundedHttpClientFactory, LoopError, Outbound } from "./outbound.js";
 import { Relay } from "./relay.js";
 import { DIRECTORY_SEGMENTS } from "./directory.js";
@@ -29,7 +29,6 @@ import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
 import { produceInit, servedTd } from "./thing-td.js";
 import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
-import type { SseSource } from "./sse.js";
 import { Twin } from "./twin.js";
 import { loadWorkspaceChecks } from "./workspace-checks.js";
 import { World } from "./world.js";
@@ -273,8 +272,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
           const a = td().actions?.[name];
           return a ? ((a.input as object | undefined) ?? undefined) : null;
         },
-        observe: (kind, name) => sseSource(twin, kind, name),
-        asyncActions,
+        observe: (kind, name) => sseSource(twin, properties, kind, name),
+        affordances: { properties, actions },
         statuses: new ActionStatusStore(),
       };
       served.set(slug, entry);
@@ -337,29 +336,4 @@ function portFree(host: string, port: number): Promise<void> {
     );
     probe.listen(port, host, () => probe.close(() => resolve()));
   });
-}
-
-/** What the SSE forms stream: the twin's observable properties (its own change events) and events. */
-function sseSource(twin: Twin, kind: "properties" | "events", name: string): SseSource | null {
-  const on = <E extends "joints" | "status" | "physical" | "collision" | "divergence" | "collisionImminent">(event: E, value: (...args: never[]) => unknown) => (send: (v: unknown) => void) => {
-    const listener = (...args: never[]): void => send(value(...args));
-    twin.on(event, listener as never);
-    return () => void twin.off(event, listener as never);
-  };
-  if (kind === "events") {
-    if (name === "collision") return { subscribe: on("collision", (e: unknown) => e) };
-    if (name === "collisionImminent") return { subscribe: on("collisionImminent", (e: unknown) => e) };
-    return name === "divergence" ? { subscribe: on("divergence", (e: unknown) => e) } : null;
-  }
-  const pose = (): unknown => {
-    const p = twin.realPose();
-    return { ...p.position, orientation: p.orientation };
-  };
-  if (name === "getJointPosition") return { current: () => twin.jointsRecord(), subscribe: on("joints", () => twin.jointsRecord()) };
-  if (name === "getCartesianPosition") return { current: pose, subscribe: on("joints", pose) };
-  if (name === "motionStatus") return { current: () => twin.status, subscribe: on("status", () => twin.status) };
-  // the TD offers physicalState an SSE form too (its long-poll reads are properties.ts's)
-  const physical = (): unknown => twin.physical?.() ?? { following: false, followed: 0 };
-  if (name === "physicalState") return { current: physical, subscribe: on("physical", physical) };
-  return null;
 }

@@ -1,0 +1,50 @@
+/**
+ * The affordance routes the router answers itself, from one Thing's `Affordances` (property readers and
+ * action handlers by name): `readproperty` (`GET <thing>/properties/<name>`), `readallproperties`
+ * (`GET <thing>/properties`) and `invokeaction` (`POST <thing>/actions/<name>`, its body already read,
+ * parsed and checked against the TD by the router: handlers get the value, parsed once). A handler's
+ * failure is thrown to the router, which answers it as problem details with its own status.
+ *
+ * node-wot keeps what it does well: producing the Thing, and the long-poll `observeproperty` /
+ * `subscribeevent` routes, fed by the same readers (`registerReaders`).
+ */
+import type { ServerResponse } from "node:http";
+import { badInput } from "./errors.js";
+import { sendJson } from "./static-files.js";
+
+/** An action handler: the input (validated against the TD's schema), and for an asynchronous invocation
+ *  (`Prefer: respond-async`, `action-status.ts`) a watch told once the move is accepted. */
+export type ActionHandler = (input: unknown, watch?: (handle: never) => void) => Promise<unknown>;
+
+/** One Thing's readable properties and actions, by name. */
+export interface Affordances {
+  properties: Map<string, () => unknown>;
+  actions: Map<string, ActionHandler>;
+}
+
+/** The input of an action that takes an object (the schema says so; an absent body is refused here). */
+export function objectInput<T>(v: unknown, action: string): T {
+  if (v === null || typeof v !== "object" || Array.isArray(v)) throw badInput("expected a JSON object as input", { action, got: v ?? null });
+  return v as T;
+}
+
+/** `readproperty` of `name`, or `readallproperties` (every readable property) without one. */
+export function readProperty(res: ServerResponse, a: Affordances, name?: string): void {
+  if (name !== undefined) return sendJson(res, 200, a.properties.get(name)?.());
+  sendJson(res, 200, Object.fromEntries([...a.properties].map(([n, read]) => [n, read()])));
+}
+
+/** `invokeaction`: 200 with the handler's output as JSON, 204 when it has none. */
+export async function invokeAction(res: ServerResponse, handler: ActionHandler, input: unknown): Promise<void> {
+  const output = await handler(input);
+  if (output === undefined) {
+    res.writeHead(204);
+    return void res.end();
+  }
+  sendJson(res, 200, output);
+}
+
+/** node-wot's read handlers from the readers (its long-poll observers re-read a property on change). */
+export function registerReaders(thing: WoT.ExposedThing, properties: Map<string, () => unknown>): void {
+  for (const [name, read] of properties) thing.setPropertyReadHandler(name, async () => read() as WoT.InteractionInput);
+}
