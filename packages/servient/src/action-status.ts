@@ -16,7 +16,7 @@
 import { randomUUID } from "node:crypto";
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { RESPOND_ASYNC, type ActionStatusValue } from "@robwot/core";
-import { ServientError, toServientError } from "./errors.js";
+import { toServientError, servientError } from "./errors.js";
 import type { MoveHandle, MoveWatch } from "./moves.js";
 import { sendJson } from "./static-files.js";
 
@@ -145,7 +145,7 @@ export class ActionStatusStore {
     const why = at
       ? `was cancelled at ${at.toISOString()} (a cancelled invocation's ActionStatus is deleted)`
       : `is unknown, or forgotten (the last ${this.limit} are kept, ended ones for ${this.ttlMs / 1000} s)`;
-    throw new ServientError(404, "E_NOT_FOUND", `ActionStatus ${id} of ${action} ${why}`, { action, id, ...(at ? { cancelled: at.toISOString() } : {}) });
+    throw servientError("E_NOT_FOUND", `ActionStatus ${id} of ${action} ${why}`, { action, id, ...(at ? { cancelled: at.toISOString() } : {}) });
   }
 
   private view(e: Entry): ActionStatus {
@@ -198,7 +198,7 @@ export async function actionStatusRoute(req: IncomingMessage, res: ServerRespons
   if (req.method !== "DELETE") return sendJson(res, 200, store.get(name, id));
   if (!(await store.cancel(name, id))) {
     const { status } = store.get(name, id);
-    throw new ServientError(409, "E_NOT_CANCELLABLE", `${name} ${id} had already ended (${status}): nothing was cancelled; its ActionStatus stays`, { action: name, id, status });
+    throw servientError("E_NOT_CANCELLABLE", `${name} ${id} had already ended (${status}): nothing was cancelled; its ActionStatus stays`, { action: name, id, status });
   }
   res.writeHead(204);
   res.end();

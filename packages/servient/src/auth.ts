@@ -6,7 +6,7 @@
  */
 import { timingSafeEqual } from "node:crypto";
 import type { IncomingMessage, ServerResponse } from "node:http";
-import { sendProblem, ServientError } from "./errors.js";
+import { sendProblem, servientError } from "./errors.js";
 
 export type AuthConfig = { scheme: "basic"; user: string; password: string } | { scheme: "bearer"; token: string };
 
@@ -40,6 +40,6 @@ export function isAuthorized(req: IncomingMessage, auth: AuthConfig | undefined)
 
 export function challenge(res: ServerResponse, auth: AuthConfig): void {
   const scheme = auth.scheme === "basic" ? "Basic" : "Bearer";
-  const err = new ServientError(401, "E_UNAUTHORIZED", `${scheme} credentials required`, { scheme: auth.scheme });
+  const err = servientError("E_UNAUTHORIZED", `${scheme} credentials required`, { scheme: auth.scheme });
   sendProblem(res, err, { "WWW-Authenticate": `${scheme} realm="robwot"` });
 }

@@ -17,7 +17,7 @@ import { createHash } from "node:crypto";
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { PROBLEM_JSON, securityFor, TD_CONTEXT_V10, TD_CONTEXT_V11, type ThingDescription, WOT_PROFILES } from "@robwot/core";
 import type { AuthConfig } from "./auth.js";
-import { ServientError } from "./errors.js";
+import { servientError } from "./errors.js";
 import type { TdDocument } from "./twin-folder.js";
 
 export const WELL_KNOWN_WOT = "/.well-known/wot";
@@ -113,7 +113,7 @@ function integerArg(params: URLSearchParams, name: string, minimum: number): num
   if (raw === null) return undefined;
   const n = Number(raw);
   if (raw.trim() === "" || !Number.isSafeInteger(n) || n < minimum) {
-    throw new ServientError(400, "E_BAD_INPUT", `${THINGS_PATH}: ${name} must be an integer >= ${minimum} (got "${raw.slice(0, 40)}")`, { param: name });
+    throw servientError("E_BAD_INPUT", `${THINGS_PATH}: ${name} must be an integer >= ${minimum} (got "${raw.slice(0, 40)}")`, { param: name });
   }
   return n;
 }
@@ -141,14 +141,14 @@ export function directoryRoute(req: IncomingMessage, res: ServerResponse, path: 
   if (path.startsWith(`${THINGS_PATH}/`)) {
     const id = path.slice(THINGS_PATH.length + 1);
     const td = tds.find((t) => t["id"] === id);
-    if (!td) throw new ServientError(404, "E_NOT_FOUND", `no Thing Description with id "${id.slice(0, 200)}" here (GET ${THINGS_PATH} lists them)`, { id: id.slice(0, 200) });
+    if (!td) throw servientError("E_NOT_FOUND", `no Thing Description with id "${id.slice(0, 200)}" here (GET ${THINGS_PATH} lists them)`, { id: id.slice(0, 200) });
     return send(req, res, TD_JSON, td);
   }
   const offset = integerArg(query, "offset", 0) ?? 0;
   const limit = integerArg(query, "limit", 1);
   const format = query.get("format") ?? "array";
   if (format !== "array" && format !== "collection") {
-    throw new ServientError(400, "E_BAD_INPUT", `${THINGS_PATH}: format must be "array" or "collection" (got "${format.slice(0, 40)}")`, { param: "format" });
+    throw servientError("E_BAD_INPUT", `${THINGS_PATH}: format must be "array" or "collection" (got "${format.slice(0, 40)}")`, { param: "format" });
   }
   const page = tds.slice(offset, limit === undefined ? undefined : offset + limit);
   const nextOffset = offset + page.length;

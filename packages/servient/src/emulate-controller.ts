@@ -8,7 +8,7 @@
  * protective stop: the joints are held at the limit and the status says so. The report follows the true
  * joints as a first-order filter of time constant `lag` s (at a constant velocity v it is v x lag behind).
  */
-import { ServientError } from "./errors.js";
+import { servientError } from "./errors.js";
 
 /** ms between two steps of the emulated controller */
 const TICK_MS = 5;
@@ -115,7 +115,7 @@ export class EmulatedController {
 
   /** Starts a motion after the latency, replacing nothing: a second command while moving is refused. */
   private async run(make: () => Omit<Motion, "done">): Promise<MotionEnd> {
-    if (this.motion) throw new ServientError(409, "E_BUSY", "the robot is moving: stop it first", { state: this.current.state });
+    if (this.motion) throw servientError("E_BUSY", "the robot is moving: stop it first", { state: this.current.state });
     // until the latency has passed the robot holds still; a stop meanwhile ends the command
     const placeholder: Motion = { step: () => this.q, done: () => undefined };
     const result = new Promise<MotionEnd>((resolve) => (placeholder.done = resolve));

@@ -15,7 +15,7 @@ import type { IncomingMessage, ServerResponse } from "node:http";
 import { securityFor, type ThingDescription } from "@robwot/core";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
 import { invokeAction, readProperty, type Affordances } from "./affordance-routes.js";
-import { sendProblem, ServientError, toServientError } from "./errors.js";
+import { toServientError, sendProblem, ServientError, servientError } from "./errors.js";
 import { readActionBody } from "./http-middleware.js";
 import { RequestGuard } from "./request-guard.js";
 import { sendJson } from "./static-files.js";
@@ -62,7 +62,7 @@ export function emulatorTd(td: Json, slug: string, auth: AuthConfig | undefined)
 
 function methodNotAllowed(res: ServerResponse, method: string, path: string, allow: readonly string[]): ServientError {
   res.setHeader("Allow", allow.join(", "));
-  return new ServientError(405, "E_METHOD_NOT_ALLOWED", `${method} is not allowed on ${path} (allowed: ${allow.join(", ")})`, { method, path, allow });
+  return servientError("E_METHOD_NOT_ALLOWED", `${method} is not allowed on ${path} (allowed: ${allow.join(", ")})`, { method, path, allow });
 }
 
 /** The methods of a route of the Thing, null when there is no such route (404). */
@@ -83,7 +83,7 @@ export function emulatorMiddleware(env: EmulatorHttpEnv) {
       try {
         path = decodeURIComponent(raw);
       } catch {
-        throw new ServientError(400, "E_BAD_PATH", `malformed URL path ${raw}`, { path: raw });
+        throw servientError("E_BAD_PATH", `malformed URL path ${raw}`, { path: raw });
       }
       const method = req.method ?? "GET";
       env.guard.checkHost(req);
@@ -92,16 +92,16 @@ export function emulatorMiddleware(env: EmulatorHttpEnv) {
       if (env.auth && !isAuthorized(req, env.auth)) return challenge(res, env.auth);
 
       const thing = env.thing();
-      if (!thing) throw new ServientError(503, "E_STARTING", "the emulated robot is starting; retry shortly");
+      if (!thing) throw servientError("E_STARTING", "the emulated robot is starting; retry shortly");
       const segments = path.split("/").filter((s) => s.length > 0);
       const allow = segments[0] === thing.slug ? routeMethods(thing.td, segments) : null;
-      if (!allow) throw new ServientError(404, "E_NOT_FOUND", `${path} not found (the emulated robot's TD is /${thing.slug})`, { path });
+      if (!allow) throw servientError("E_NOT_FOUND", `${path} not found (the emulated robot's TD is /${thing.slug})`, { path });
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
       if (segments.length === 1) return sendJson(res, 200, thing.td, "application/td+json");
       const name = segments[2];
       if (segments[1] === "properties") return readProperty(res, thing.affordances, name);
       const handler = thing.affordances.actions.get(name ?? "");
-      if (!handler || name === undefined) throw new ServientError(404, "E_NOT_FOUND", `${path} not found`, { path });
+      if (!handler || name === undefined) throw servientError("E_NOT_FOUND", `${path} not found`, { path });
       const action = ((thing.td.actions ?? {}) as Record<string, Json>)[name];
       return await invokeAction(res, handler, await readActionBody(req, action?.input as object | undefined, name));
     } catch (err) {

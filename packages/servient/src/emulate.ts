@@ -24,7 +24,7 @@ import type { AuthConfig } from "./auth.js";
 import { EmulatedController, type MotionEnd } from "./emulate-controller.js";
 import { emulatorMiddleware, emulatorTd, type EmulatedThing } from "./emulate-http.js";
 import { objectInput, type ActionHandler } from "./affordance-routes.js";
-import { fromBackendError, ServientError } from "./errors.js";
+import { fromBackendError, servientError } from "./errors.js";
 import { isLoopback, RequestGuard } from "./request-guard.js";
 import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
 
@@ -140,7 +140,7 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       const k = target.findIndex((t, j) => !(t >= (limits.lower[j] ?? -Infinity) && t <= (limits.upper[j] ?? Infinity)));
       if (k >= 0) {
         const [joint, value, lower, upper] = [names[k], target[k], limits.lower[k], limits.upper[k]];
-        throw new ServientError(400, "E_OUT_OF_LIMITS", `joint ${joint} = ${value} is beyond its limits [${lower}, ${upper}]`, { joint, value, lower, upper });
+        throw servientError("E_OUT_OF_LIMITS", `joint ${joint} = ${value} is beyond its limits [${lower}, ${upper}]`, { joint, value, lower, upper });
       }
       return answer(await robot.moveTo(target, speedOf(v)));
     });
@@ -152,7 +152,7 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
         throw fromBackendError(err);
       });
       if (ik.positionError > 1e-3) {
-        throw new ServientError(422, "E_UNREACHABLE", `(${p.join(", ")}) m is out of reach (${ik.positionError.toFixed(4)} m away)`, { position: p, positionError: ik.positionError });
+        throw servientError("E_UNREACHABLE", `(${p.join(", ")}) m is out of reach (${ik.positionError.toFixed(4)} m away)`, { position: p, positionError: ik.positionError });
       }
       return answer(await robot.moveTo(ik.positions, speedOf(v)));
     });

@@ -2,7 +2,7 @@
 import { ERRORS, type ErrorCode } from "@robwot/core/backend-contract";
 import { BackendDownError, BackendStartError, ConnectionClosedError, RpcError, RpcTimeoutError } from "@robwot/sim-client";
 import { describe, expect, it } from "vitest";
-import { fromBackendError } from "./errors.js";
+import { fromBackendError, servientError, SERVIENT_STATUS, statusOf } from "./errors.js";
 
 /** Codes only a bug of ours can produce (the servient sent a malformed request or the backend failed). */
 const OUR_BUGS = new Set<ErrorCode>(["E_PARSE", "E_INVALID_REQUEST", "E_METHOD_NOT_FOUND", "E_INTERNAL"]);
@@ -35,5 +35,15 @@ describe("fromBackendError", () => {
     const err = fromBackendError(thrown);
     expect(err.status).toBe(status);
     expect(err.code).toBe(code);
+  });
+});
+
+describe("servientError", () => {
+  it("gives each code one status: the contract's for the backend's codes, the servient's own for the rest", () => {
+    const overlap = Object.keys(SERVIENT_STATUS).filter((c) => Object.hasOwn(ERRORS, c));
+    expect(overlap).toEqual([]);
+    expect(servientError("E_PATH_ESCAPE", "x").status).toBe(ERRORS.E_PATH_ESCAPE.httpStatus);
+    expect(servientError("E_LOOP", "x").status).toBe(508);
+    for (const [code, { httpStatus }] of Object.entries(ERRORS)) expect(statusOf(code as ErrorCode)).toBe(httpStatus);
   });
 });

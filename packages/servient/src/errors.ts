@@ -3,13 +3,9 @@
  * `details`; every HTTP error answer (`sendProblem`) is its RFC 7807 problem details
  * (`application/problem+json`: type, title, status, detail, and code, message, details; core `td/problem.ts`).
  *
- * Status codes (Contract 4, documented in the README; a backend error's status is the contract's):
- * - 400 schema violation / malformed JSON / degenerate calibration input (`E_BAD_INPUT`, `E_BAD_JSON`, ...)
- * - 401 missing or wrong credentials (`E_UNAUTHORIZED`)
- * - 404 unknown obstacle / file (`E_NOT_FOUND`); 405 a method the route does not serve (`E_METHOD_NOT_ALLOWED`)
- * - 409 a move while the twin is moving (`E_BUSY`), obstacle name taken (`E_NAME_TAKEN`)
- * - 422 the target was rejected by simulation-in-the-loop validation (`E_REJECTED`)
- * - 503 the simulation backend is down or restarting (`E_BACKEND_DOWN`)
+ * A code has one HTTP status wherever it is raised: the contract's (`ERRORS`, `x-http-status`) for the codes
+ * the backend shares, `SERVIENT_STATUS` for the servient's own; `servientError(code, ...)` looks it up, so no
+ * status is typed beside a code (the table of both: packages/servient/README.md).
  */
 import type { ServerResponse } from "node:http";
 import { PROBLEM_JSON, problemDetails, RobwotError, type ProblemDetails } from "@robwot/core";
@@ -41,13 +37,40 @@ export function sendProblem(res: ServerResponse, err: ServientError, headers: Re
   res.end(text);
 }
 
-export const badInput = (message: string, details: Details = {}): ServientError =>
-  new ServientError(400, "E_BAD_INPUT", message, details);
+/** HTTP statuses of the servient's own codes, those the contract does not define. */
+export const SERVIENT_STATUS = {
+  E_BAD_INPUT: 400,
+  E_BAD_JSON: 400,
+  E_MISSING_BODY: 400,
+  E_BAD_PATH: 400,
+  E_CALIBRATION: 400,
+  E_TWIN_FOLDER: 400,
+  E_UNAUTHORIZED: 401,
+  E_FORBIDDEN_ORIGIN: 403,
+  E_NOT_FOUND: 404,
+  E_METHOD_NOT_ALLOWED: 405,
+  E_NOT_CANCELLABLE: 409,
+  E_UNSUPPORTED_MEDIA_TYPE: 415,
+  E_MISDIRECTED: 421,
+  E_BACKEND_DOWN: 503,
+  E_STARTING: 503,
+  E_BACKEND_TIMEOUT: 504,
+  E_LOOP: 508,
+} as const;
 
-export const backendDown = (message: string, details: Details = {}): ServientError =>
-  new ServientError(503, "E_BACKEND_DOWN", message, details);
+export type ServientCode = ErrorCode | keyof typeof SERVIENT_STATUS;
 
 const isContractCode = (code: string): code is ErrorCode => Object.hasOwn(ERRORS, code);
+
+/** The HTTP status of `code`: the contract's, else the servient's own. */
+export const statusOf = (code: ServientCode): number => (isContractCode(code) ? ERRORS[code].httpStatus : SERVIENT_STATUS[code]);
+
+/** An error of `code` with the one status that code has. */
+export const servientError = (code: ServientCode, message: string, details: Details = {}): ServientError => new ServientError(statusOf(code), code, message, details);
+
+export const badInput = (message: string, details: Details = {}): ServientError => servientError("E_BAD_INPUT", message, details);
+
+export const backendDown = (message: string, details: Details = {}): ServientError => servientError("E_BACKEND_DOWN", message, details);
 
 /**
  * Converts anything thrown by a backend call into a ServientError. A backend error's HTTP status is the
@@ -61,7 +84,7 @@ export function fromBackendError(err: unknown): ServientError {
     const status = isContractCode(err.code) ? ERRORS[err.code].httpStatus : 500;
     return new ServientError(status, err.code, err.message, err.code === "E_INTERNAL" ? err.data : rest);
   }
-  if (err instanceof RpcTimeoutError) return new ServientError(504, "E_BACKEND_TIMEOUT", err.message);
+  if (err instanceof RpcTimeoutError) return servientError("E_BACKEND_TIMEOUT", err.message);
   if (err instanceof BackendDownError) return backendDown(err.message, err.details);
   // no JSON-RPC error object: the connection or the process failed
   const message = err instanceof Error ? err.message : String(err);
@@ -77,5 +100,5 @@ export function toServientError(err: unknown): ServientError {
     const details = typeof e.details === "object" && e.details !== null ? (e.details as Details) : {};
     return new ServientError(400, e.code, e.message, details);
   }
-  return new ServientError(500, "E_INTERNAL", err instanceof Error ? err.message : String(err));
+  return servientError("E_INTERNAL", err instanceof Error ? err.message : String(err));
 }

@@ -15,7 +15,7 @@ import { actionStatusRoute, preferences, respondAsync, type ActionStatusStore } 
 import { invokeAction, readProperty, type Affordances } from "./affordance-routes.js";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
 import { type DirectoryEnv, directoryRoute, isDirectoryPath } from "./directory.js";
-import { sendProblem, ServientError, toServientError } from "./errors.js";
+import { toServientError, sendProblem, ServientError, servientError } from "./errors.js";
 import { parseBody, validateInput } from "./input-validation.js";
 import { HOP_HEADER } from "./outbound.js";
 import { isJsonMediaType, RequestGuard } from "./request-guard.js";
@@ -75,7 +75,7 @@ function affordanceMethods(segments: string[]): readonly string[] | null {
 
 function methodNotAllowed(res: ServerResponse, method: string, path: string, allow: readonly string[]): ServientError {
   res.setHeader("Allow", allow.join(", "));
-  return new ServientError(405, "E_METHOD_NOT_ALLOWED", `${method} is not allowed on ${path} (allowed: ${allow.join(", ")})`, { method, path, allow });
+  return servientError("E_METHOD_NOT_ALLOWED", `${method} is not allowed on ${path} (allowed: ${allow.join(", ")})`, { method, path, allow });
 }
 
 async function readBody(req: IncomingMessage): Promise<string> {
@@ -84,7 +84,7 @@ async function readBody(req: IncomingMessage): Promise<string> {
   for await (const chunk of req) {
     const b = chunk as Buffer;
     size += b.length;
-    if (size > MAX_BODY) throw new ServientError(413, "E_TOO_LARGE", `request body larger than ${MAX_BODY} bytes`, { limit: MAX_BODY });
+    if (size > MAX_BODY) throw servientError("E_TOO_LARGE", `request body larger than ${MAX_BODY} bytes`, { limit: MAX_BODY });
     chunks.push(b);
   }
   return Buffer.concat(chunks).toString("utf8");
@@ -100,7 +100,7 @@ export async function readActionBody(req: IncomingMessage, schema: object | unde
   const type = req.headers["content-type"];
   const hasBody = Number(req.headers["content-length"] ?? 0) > 0 || req.headers["transfer-encoding"] !== undefined;
   if ((schema !== undefined || hasBody) && !isJsonMediaType(type)) {
-    throw new ServientError(415, "E_UNSUPPORTED_MEDIA_TYPE", `action bodies are JSON: send Content-Type: application/json (got ${type ?? "none"})`, { contentType: type ?? null });
+    throw servientError("E_UNSUPPORTED_MEDIA_TYPE", `action bodies are JSON: send Content-Type: application/json (got ${type ?? "none"})`, { contentType: type ?? null });
   }
   // node-wot knows `application/json` only: any JSON media type accepted here is JSON to it
   if (type !== undefined) req.headers["content-type"] = "application/json";
@@ -151,11 +151,11 @@ export function createMiddleware(env: MiddlewareEnv) {
       try {
         path = decodeURIComponent(url.pathname);
       } catch {
-        throw new ServientError(400, "E_BAD_PATH", `malformed URL path ${url.pathname}`, { path: url.pathname });
+        throw servientError("E_BAD_PATH", `malformed URL path ${url.pathname}`, { path: url.pathname });
       }
       const method = req.method ?? "GET";
       if (env.hop !== undefined && req.headers[HOP_HEADER] === env.hop) {
-        throw new ServientError(508, "E_LOOP", `${method} ${path} came from this servient itself (a relay, follow or register target, or a form of its TD, points back at it)`, { path });
+        throw servientError("E_LOOP", `${method} ${path} came from this servient itself (a relay, follow or register target, or a form of its TD, points back at it)`, { path });
       }
       env.guard.checkHost(req);
       if (method === "OPTIONS") return env.guard.preflight(req, res); // preflights carry no credentials
@@ -201,19 +201,19 @@ export function createMiddleware(env: MiddlewareEnv) {
       if (kind && segments.length >= 3) {
         const available = Object.keys((thing.td()[segments[1] as string] ?? {}) as object);
         if (!available.includes(name)) {
-          throw new ServientError(404, "E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
+          throw servientError("E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
         }
       }
       const statusId = kind === "action" ? segments[3] : undefined;
       const asynchronous = ASYNC_ACTIONS.filter((a) => thing.affordances.actions.has(a));
       if (statusId !== undefined && !asynchronous.includes(name)) {
-        throw new ServientError(404, "E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${asynchronous.join(", ")})`, { path });
+        throw servientError("E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${asynchronous.join(", ")})`, { path });
       }
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
       if (statusId !== undefined) return await actionStatusRoute(req, res, thing.statuses, name, statusId);
       if (segments[3] === "sse") {
         const stream = channels.of(thing, segments[1] as "properties" | "events", name);
-        if (!stream) throw new ServientError(404, "E_NOT_FOUND", `${path}: not observable`, { path });
+        if (!stream) throw servientError("E_NOT_FOUND", `${path}: not observable`, { path });
         return streamSse(req, res, stream);
       }
       if (segments[3] === "observable") {
@@ -225,7 +225,7 @@ export function createMiddleware(env: MiddlewareEnv) {
       }
       if (kind === "action") {
         const handler = thing.affordances.actions.get(name);
-        if (!handler) throw new ServientError(404, "E_NOT_FOUND", `${thing.slug} does not serve the action '${name}'`, { path });
+        if (!handler) throw servientError("E_NOT_FOUND", `${thing.slug} does not serve the action '${name}'`, { path });
         const input = await readActionBody(req, thing.actionInput(name) ?? undefined, name);
         // RFC 7240: a preference the action cannot honour is ignored (synchronous answer, no Preference-Applied)
         if (asynchronous.includes(name) && preferences(req).has(RESPOND_ASYNC)) {

@@ -7,7 +7,7 @@
 import AjvModule from "ajv";
 import type { ErrorObject, ValidateFunction } from "ajv";
 import { closeSchema } from "@robwot/core";
-import { badInput, ServientError } from "./errors.js";
+import { badInput, servientError } from "./errors.js";
 import { jsonDepth } from "./request-guard.js";
 
 /** Deepest array/object nesting accepted in an action body (the deepest TD input schema needs 3). */
@@ -54,17 +54,17 @@ function describe(e: ErrorObject): { path: string; message: string; params: Reco
 /** Parses a request body (JSON text) for an action; throws 400 ServientErrors. */
 export function parseBody(text: string, hasInput: boolean, action: string): unknown {
   if (text.trim().length === 0) {
-    if (hasInput) throw new ServientError(400, "E_MISSING_BODY", `action ${action} needs a JSON body`, { action });
+    if (hasInput) throw servientError("E_MISSING_BODY", `action ${action} needs a JSON body`, { action });
     return undefined;
   }
   const depth = jsonDepth(text);
   if (depth > MAX_JSON_DEPTH) {
-    throw new ServientError(400, "E_TOO_DEEP", `request body nests ${depth} levels deep (at most ${MAX_JSON_DEPTH})`, { action, limit: MAX_JSON_DEPTH });
+    throw servientError("E_TOO_DEEP", `request body nests ${depth} levels deep (at most ${MAX_JSON_DEPTH})`, { action, limit: MAX_JSON_DEPTH });
   }
   try {
     return JSON.parse(text);
   } catch (err) {
-    throw new ServientError(400, "E_BAD_JSON", `request body is not valid JSON: ${(err as Error).message}`, { action });
+    throw servientError("E_BAD_JSON", `request body is not valid JSON: ${(err as Error).message}`, { action });
   }
 }
 

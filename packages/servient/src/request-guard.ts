@@ -19,7 +19,7 @@
  */
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { networkInterfaces } from "node:os";
-import { ServientError } from "./errors.js";
+import { servientError } from "./errors.js";
 
 export interface GuardConfig {
   /** the bound address (`--host`) */
@@ -86,7 +86,7 @@ export class RequestGuard {
     const parsed = header === undefined ? null : parseHost(header);
     const port = this.cfg.port();
     if (!parsed || !this.names.has(parsed.name) || (parsed.port ?? 80) !== port) {
-      throw new ServientError(421, "E_MISDIRECTED", `Host ${JSON.stringify(header ?? null)} is not served here (use one of ${[...this.names].join(", ")} with port ${port}, or start ${this.command.name} with --allowed-host NAME)`, {
+      throw servientError("E_MISDIRECTED", `Host ${JSON.stringify(header ?? null)} is not served here (use one of ${[...this.names].join(", ")} with port ${port}, or start ${this.command.name} with --allowed-host NAME)`, {
         host: header ?? null,
         allowed: [...this.names],
         port,
@@ -110,7 +110,7 @@ export class RequestGuard {
     const allowed = origin !== null && (this.isOwnOrigin(origin) || this.cors.has(origin));
     if (allowed) return origin;
     if (stateChanging) {
-      throw new ServientError(403, "E_FORBIDDEN_ORIGIN", `requests from origin ${raw} may not drive ${this.command.serves} (start ${this.command.name} with --cors-origin ${raw} to allow a known dashboard)`, {
+      throw servientError("E_FORBIDDEN_ORIGIN", `requests from origin ${raw} may not drive ${this.command.serves} (start ${this.command.name} with --cors-origin ${raw} to allow a known dashboard)`, {
         origin: raw,
       });
     }
@@ -142,7 +142,7 @@ export class RequestGuard {
   preflight(req: IncomingMessage, res: ServerResponse): void {
     const origin = normaliseOrigin(req.headers.origin ?? "");
     if (origin === null || !this.cors.has(origin)) {
-      throw new ServientError(403, "E_FORBIDDEN_ORIGIN", `no CORS grant for origin ${req.headers.origin ?? "(none)"}`, {
+      throw servientError("E_FORBIDDEN_ORIGIN", `no CORS grant for origin ${req.headers.origin ?? "(none)"}`, {
         origin: req.headers.origin ?? null,
       });
     }

@@ -7,7 +7,7 @@ import { createReadStream, existsSync, realpathSync, statSync } from "node:fs";
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { extname, join, resolve, sep } from "node:path";
 import { THING_MODEL_TYPE, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
-import { sendProblem, ServientError } from "./errors.js";
+import { sendProblem, servientError } from "./errors.js";
 
 const TYPES: Record<string, string> = {
   ".urdf": "application/urdf+xml",
@@ -91,7 +91,7 @@ export function sendJson(res: ServerResponse, status: number, body: unknown, typ
 }
 
 export function notFound(res: ServerResponse, what: string): void {
-  sendProblem(res, new ServientError(404, "E_NOT_FOUND", `${what} not found`, { path: what }));
+  sendProblem(res, servientError("E_NOT_FOUND", `${what} not found`, { path: what }));
 }
 
 export const defaultViewerDir = (here: string): string => join(here, "..", "..", "viewer", "dist");

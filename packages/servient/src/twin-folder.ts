@@ -7,7 +7,7 @@ import type { ObstacleAddParams } from "@robwot/sim-client";
 import { existsSync, readFileSync, statSync } from "node:fs";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import { checkCalibration, jailFile, jsonErrorAt, realFolder, snippet, TWIN_FILES, type CalibrationFile, type JailVerdict, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
-import { ServientError } from "./errors.js";
+import { servientError } from "./errors.js";
 
 /** The TD document as generated (forms are replaced when served). */
 export type TdDocument = Record<string, unknown> & {
@@ -72,7 +72,7 @@ class Jail {
     if (v.why === "missing" && !opts.required) return null;
     const where = opts.roots !== undefined ? "the twin folder and the --mesh-root folders" : "the twin folder";
     const why = v.why === "outside" ? `resolves outside ${where}` : REASONS[v.why];
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, file)}: ${entry} ${JSON.stringify(snippet(value, 80))} ${why}`, {
+    throw servientError("E_TWIN_FOLDER", `${join(this.dir, file)}: ${entry} ${JSON.stringify(snippet(value, 80))} ${why}`, {
       folder: this.dir,
       file,
       entry,
@@ -86,9 +86,9 @@ class Jail {
     if (v.ok) return v.real;
     if (v.why === "missing") {
       if (!required) return null;
-      throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${this.dir} has no ${name} (run \`robwot generate\` first)`, { folder: this.dir, file: name });
+      throw servientError("E_TWIN_FOLDER", `twin folder ${this.dir} has no ${name} (run \`robwot generate\` first)`, { folder: this.dir, file: name });
     }
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, name)} ${REASONS[v.why]}${v.why === "outside" ? " (a symlink to another file?)" : ""}: refused unread`, {
+    throw servientError("E_TWIN_FOLDER", `${join(this.dir, name)} ${REASONS[v.why]}${v.why === "outside" ? " (a symlink to another file?)" : ""}: refused unread`, {
       folder: this.dir,
       file: name,
       reason: v.why,
@@ -99,7 +99,7 @@ class Jail {
   json<T>(name: string, real: string | null): T | null {
     if (real === null) return null;
     const fail = (why: string): never => {
-      throw new ServientError(400, "E_TWIN_FOLDER", `${join(this.dir, name)}: ${why}`, { folder: this.dir, file: name });
+      throw servientError("E_TWIN_FOLDER", `${join(this.dir, name)}: ${why}`, { folder: this.dir, file: name });
     };
     if (statSync(real).size > MAX_JSON_BYTES) fail(`larger than ${MAX_JSON_BYTES} bytes`);
     const text = readFileSync(real, "utf8");
@@ -121,7 +121,7 @@ class Jail {
 function jailScene(jail: Jail, file: string, scene: SceneDoc, meshRoots: readonly string[]): SceneDoc {
   for (const key of ["obstacles", "robots"] as const) {
     if (scene[key] !== undefined && !Array.isArray(scene[key])) {
-      throw new ServientError(400, "E_TWIN_FOLDER", `${join(jail.dir, file)}: ${key} must be an array`, { folder: jail.dir, file });
+      throw servientError("E_TWIN_FOLDER", `${join(jail.dir, file)}: ${key} must be an array`, { folder: jail.dir, file });
     }
   }
   const robots = scene.robots === undefined ? undefined : scene.robots.map((r, i) => jailSceneRobot(jail, file, r, i));
@@ -146,7 +146,7 @@ function jailSceneRobot(jail: Jail, file: string, robot: unknown, index: number)
   const r = (typeof robot === "object" && robot !== null ? robot : {}) as Record<string, unknown>;
   const what = `robot ${JSON.stringify(snippet(typeof r.id === "string" ? r.id : String(index), 40))}`;
   if (r.packageRoots !== undefined) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(jail.dir, file)}: ${what} names packageRoots: a twin folder's robots load from inside it (regenerate the twin with robwot generate)`, { folder: jail.dir, file, entry: `${what} packageRoots` });
+    throw servientError("E_TWIN_FOLDER", `${join(jail.dir, file)}: ${what} names packageRoots: a twin folder's robots load from inside it (regenerate the twin with robwot generate)`, { folder: jail.dir, file, entry: `${what} packageRoots` });
   }
   const urdf = jail.path(file, `${what} urdf`, r.urdf, { required: true })!;
   const srdf = r.srdf === undefined ? undefined : jail.path(file, `${what} srdf`, r.srdf, { required: true })!;
@@ -160,7 +160,7 @@ function checkBounds(dir: string, ws: WorkspaceSummary): void {
     const { min, max } = (ws?.[key] ?? {}) as Partial<WorkspaceSummary["bounds"]>;
     const ok = [min, max].every((v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === "number" && Number.isFinite(x)));
     if (!ok || min!.some((m, i) => m > max![i]!)) {
-      throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.summary)}: ${key} must be {min, max} of 3 finite numbers with min <= max, got ${JSON.stringify(ws?.[key] ?? null)} (regenerate it with robwot generate)`, {
+      throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.summary)}: ${key} must be {min, max} of 3 finite numbers with min <= max, got ${JSON.stringify(ws?.[key] ?? null)} (regenerate it with robwot generate)`, {
         folder: dir,
         file: TWIN_FILES.summary,
       });
@@ -175,17 +175,17 @@ function checkBounds(dir: string, ws: WorkspaceSummary): void {
 export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []): TwinFolder {
   const dir = resolve(folder);
   if (!existsSync(dir) || !statSync(dir).isDirectory()) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir} does not exist`, { folder: dir });
+    throw servientError("E_TWIN_FOLDER", `twin folder ${dir} does not exist`, { folder: dir });
   }
   const jail = new Jail(dir);
   const td = jail.json<TdDocument>(TWIN_FILES.td, jail.file(TWIN_FILES.td, true))!;
   const manifest = jail.json<TwinManifest>(TWIN_FILES.manifest, jail.file(TWIN_FILES.manifest, true))!;
   if (typeof td.title !== "string" || td.title.length === 0) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.td)}: no title`, { folder: dir, file: TWIN_FILES.td });
+    throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.td)}: no title`, { folder: dir, file: TWIN_FILES.td });
   }
   const robot = manifest.robot as Partial<TwinManifest["robot"]> | undefined;
   if (typeof robot !== "object" || robot === null || typeof robot.urdf !== "string") {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: no robot.urdf`, { folder: dir, file: TWIN_FILES.manifest });
+    throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: no robot.urdf`, { folder: dir, file: TWIN_FILES.manifest });
   }
   const urdfPath = jail.path(TWIN_FILES.manifest, "robot.urdf", robot.urdf, { required: true })!;
   if (robot.srdf !== undefined) jail.path(TWIN_FILES.manifest, "robot.srdf", robot.srdf, { required: true });
@@ -193,7 +193,7 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
   if (home !== undefined) {
     const joints = home?.joints;
     const ok = typeof joints === "object" && joints !== null && !Array.isArray(joints) && Object.values(joints).every((v) => typeof v === "number" && Number.isFinite(v)) && typeof home?.from === "string";
-    if (!ok) throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.home must be {joints: {name: finite number}, from: text}`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.home" });
+    if (!ok) throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.home must be {joints: {name: finite number}, from: text}`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.home" });
   }
   const sceneFile = manifest.scene === undefined || manifest.scene === "" ? TWIN_FILES.scene : manifest.scene;
   const sceneReal = jail.path(TWIN_FILES.manifest, "scene", sceneFile, { required: false });
@@ -208,7 +208,7 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
       checkCalibration(calibration);
     } catch (err) {
       const file = join(dir, TWIN_FILES.calibration);
-      throw new ServientError(400, "E_TWIN_FOLDER", `${file}: ${(err as Error).message} (fix or delete the file; calibrate writes it)`, { folder: dir, file: TWIN_FILES.calibration });
+      throw servientError("E_TWIN_FOLDER", `${file}: ${(err as Error).message} (fix or delete the file; calibrate writes it)`, { folder: dir, file: TWIN_FILES.calibration });
     }
   }
   return {

@@ -6,7 +6,7 @@
 import { existsSync } from "node:fs";
 import { join } from "node:path";
 import { loadWorkspace, type ReachabilityCheck, TWIN_FILES, type Vec3, type Workspace } from "@robwot/core";
-import { ServientError } from "./errors.js";
+import { servientError } from "./errors.js";
 
 export interface WorkspaceChecks {
   inside(p: Vec3): boolean;
@@ -36,7 +36,7 @@ export function workspaceChecks(ws: Workspace): WorkspaceChecks {
 export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks> {
   const missing = [TWIN_FILES.surface, TWIN_FILES.pointCloud].filter((f) => !existsSync(join(dir, f)));
   if (missing.length > 0) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir} has no ${missing.join(" and ")} (the Cartesian checks need them): regenerate it with robwot generate`, {
+    throw servientError("E_TWIN_FOLDER", `twin folder ${dir} has no ${missing.join(" and ")} (the Cartesian checks need them): regenerate it with robwot generate`, {
       folder: dir,
       missing,
     });
@@ -45,10 +45,10 @@ export async function loadWorkspaceChecks(dir: string): Promise<WorkspaceChecks>
   try {
     ws = await loadWorkspace(dir);
   } catch (err) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `twin folder ${dir}: its workspace files do not load: ${(err as Error).message} (regenerate it with robwot generate)`, { folder: dir });
+    throw servientError("E_TWIN_FOLDER", `twin folder ${dir}: its workspace files do not load: ${(err as Error).message} (regenerate it with robwot generate)`, { folder: dir });
   }
   if (!ws.cloud.collisionFree.includes(1)) {
-    throw new ServientError(400, "E_TWIN_FOLDER", `${join(dir, TWIN_FILES.pointCloud)} has no collision-free point: the workspace is empty (regenerate it with robwot generate)`, {
+    throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.pointCloud)} has no collision-free point: the workspace is empty (regenerate it with robwot generate)`, {
       folder: dir,
       file: TWIN_FILES.pointCloud,
     });
