@@ -1212,7 +1212,7 @@ export const ERRORS = {
   E_NO_MOVABLE_JOINT: { rpcCode: -32003, httpStatus: 422 },
   E_SRDF: { rpcCode: -32003, httpStatus: 422 },
   E_FILE_NOT_FOUND: { rpcCode: -32004, httpStatus: 404 },
-  E_FORBIDDEN: { rpcCode: -32005, httpStatus: 403 },
+  E_FORBIDDEN: { rpcCode: -32005, httpStatus: 400 },
   E_PATH_ESCAPE: { rpcCode: -32005, httpStatus: 403 },
   E_SCENE: { rpcCode: -32006, httpStatus: 400 },
   E_UNREACHABLE: { rpcCode: -32007, httpStatus: 422 },
