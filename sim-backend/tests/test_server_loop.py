@@ -1,5 +1,7 @@
 """The backend's loop answers while the world's thread runs a slow search: pings, stops and another
-robot's motion steps are served within 50 ms during a plan that takes the detour's whole budget."""
+robot's motion steps are served during a plan that takes the detour's whole budget, none of them waiting
+for the search. The tests check that design property whatever the machine's speed and print the
+latencies; how short they are is measured by the benchmarks (`bench:serve`)."""
 
 from __future__ import annotations
 
@@ -23,11 +25,13 @@ MODELS = Path(__file__).parent / "models"
 #: from the start (no detour exists), so the plan searches for the detour's whole budget
 WALL = {"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": [0.3, 0.0, 0.35]}
 CUT_OFF = [1.5, 0.0]
-#: s: 9 in 10 latencies stay within it; every one within SPIKE, which leaves room for the scheduling
-#: noise of a loaded machine (other processes on every core) and still fails when the loop waits for
-#: a search (seconds)
-BOUND = 0.050
-SPIKE = 0.250
+#: a loop that waited for the world's thread would keep one ping (one gap between the other robot's
+#: states) waiting for about the whole operation: none may wait for this share of it
+SHARE = 0.5
+#: pings answered before the operation's reply: the loop kept answering, not only once it was done
+MIN_ANSWERED = 5
+#: s: the detour's search budget, which the cut-off target uses up (`sim/detour.py` BUDGET)
+SEARCH = 2.0
 
 
 class StateWatch:
@@ -78,9 +82,9 @@ def _p90(values: list[float]) -> float:
     return sorted(values)[int(0.9 * (len(values) - 1))]
 
 
-def _served(values: list[float], what: str, period: float = 0.0) -> None:
-    """9 in 10 of ``values`` within BOUND (beyond ``period``), all within SPIKE."""
-    assert _p90(values) < period + BOUND and max(values) < period + SPIKE, f"{what}: {_ms(values)}"
+def _served(values: list[float], what: str, duration: float, period: float = 0.0) -> None:
+    """None of ``values`` (beyond ``period``) waited for SHARE of an operation of ``duration`` s."""
+    assert max(values) < period + SHARE * duration, f"{what} during {duration:.2f} s: {_ms(values)}"
 
 
 def _gaps(times: list[float], start: float, end: float) -> list[float]:
@@ -90,8 +94,8 @@ def _gaps(times: list[float], start: float, end: float) -> list[float]:
 
 def test_pings_and_another_robots_motion_are_served_during_a_slow_plan(two_arms: BackendProcess) -> None:
     """While `robot.plan` searches the detour's whole budget (2 s) for a target cut off by a wall, pings
-    answer within 50 ms and the other robot's `robot.state` notifications keep coming within 50 ms of
-    their period (9 in 10; every one within 250 ms).
+    keep being answered and the other robot's `robot.state` notifications keep coming: none waits for
+    the plan.
     Before the world had one thread, the plan held the world's lock and the other robot's steps (taken
     on the loop under that lock) stopped for the whole plan."""
     planner, prober, mover = two_arms.client(), two_arms.client(), two_arms.client()
@@ -117,8 +121,9 @@ def test_pings_and_another_robots_motion_are_served_during_a_slow_plan(two_arms:
         gaps = _gaps(watch.times, sent, last_ping)
         print(f"\nduring a {answered - sent:.2f} s plan: ping round trip {_ms(pings)}; "
               f"the other robot's robot.state gaps {_ms(gaps)} (period 16.7 ms)")
-        _served(pings, "ping round trips during the plan")
-        _served(gaps, "the other robot's state gaps during the plan", 1 / 60)
+        assert len(pings) >= MIN_ANSWERED
+        _served(pings, "ping round trips during the plan", answered - sent)
+        _served(gaps, "the other robot's state gaps during the plan", answered - sent, 1 / 60)
         assert prober.call("robot.stop", {"robot": "other"}) == {"stopped": True}
         assert mover.wait(move)["status"] == "stopped"
     finally:
@@ -128,10 +133,10 @@ def test_pings_and_another_robots_motion_are_served_during_a_slow_plan(two_arms:
 
 
 def test_a_stop_during_a_slow_plan_is_answered_at_once(two_arms: BackendProcess) -> None:
-    """`robot.stop` of a move still planning (the cut-off target: a 2 s detour search) answers within
-    100 ms (one checkpoint, then the robot's joints read) and the move answers `stopped` with nothing
-    moved; `robot.stop` used to wait on the world's lock for the whole plan. A new move may follow at
-    once."""
+    """`robot.stop` of a move still planning (the cut-off target: a 2 s detour search) answers without
+    waiting for the search (one checkpoint, then the robot's joints read) and the move answers `stopped`
+    with nothing moved; `robot.stop` used to wait on the world's lock for the whole plan. A new move may
+    follow at once."""
     mover, stopper = two_arms.client(), two_arms.client()
     try:
         start = mover.call("robot.getJointPositions", {"robot": "arm"})["positions"]
@@ -141,7 +146,7 @@ def test_a_stop_during_a_slow_plan_is_answered_at_once(two_arms: BackendProcess)
         t = time.monotonic()
         assert stopper.call("robot.stop", {"robot": "arm"}, timeout=10) == {"stopped": True}
         latencies.append(time.monotonic() - t)
-        assert latencies[0] < 2 * BOUND, f"robot.stop took {latencies[0] * 1e3:.0f} ms during the plan"
+        assert latencies[0] < SHARE * SEARCH, f"robot.stop took {latencies[0] * 1e3:.0f} ms during the plan"
         result = mover.wait(move, timeout=10)
         assert result["status"] == "stopped" and result["duration"] == 0.0
         assert result["positions"] == pytest.approx(start)
@@ -154,7 +159,7 @@ def test_a_stop_during_a_slow_plan_is_answered_at_once(two_arms: BackendProcess)
         latencies.append(time.monotonic() - t)
         assert mover.wait(again, timeout=10)["status"] == "stopped"
         print(f"\nrobot.stop during a plan: {[round(x * 1e3, 1) for x in latencies]} ms")
-        assert max(latencies) < 2 * BOUND
+        assert max(latencies) < SHARE * SEARCH
     finally:
         mover.close()
         stopper.close()
@@ -194,7 +199,8 @@ def test_a_long_job_serves_short_jobs_at_its_checkpoints_with_its_robot_restored
         t = time.monotonic()
         seen = owner.submit(lambda: world.get_joint_positions("arm").tolist(), Kind.SHORT,
                             robot="arm").future.result(5)
-        assert time.monotonic() - t < BOUND and not long.future.done()
+        waited = time.monotonic() - t
+        assert not long.future.done(), f"the short job waited {waited:.3f} s, until the long one ended"
         assert seen == [0.0, 0.0]  # its true state, not the search's
         long.cancel.set()
         with pytest.raises(Cancelled):
@@ -207,8 +213,9 @@ def test_a_long_job_serves_short_jobs_at_its_checkpoints_with_its_robot_restored
 
 def _served_during(proc: BackendProcess, method: str, params: dict[str, object],
                    what: str) -> dict[str, object]:
-    """Runs ``method`` while another robot moves and a second client pings: every ping and every gap
-    between the other robot's states is served within the bounds meanwhile. Returns the method's reply."""
+    """Runs ``method`` while another robot moves and a second client pings: pings are answered before
+    the method's reply, and no ping nor gap between the other robot's states waits for SHARE of the
+    method. Returns the method's reply."""
     client, prober = proc.client(), proc.client()
     watch = StateWatch(proc, "other")
     try:
@@ -229,9 +236,9 @@ def _served_during(proc: BackendProcess, method: str, params: dict[str, object],
         gaps = _gaps(watch.times, sent, done)
         print(f"\nduring a {done - sent:.2f} s {what}: ping round trip {_ms(pings)}; "
               f"the other robot's robot.state gaps {_ms(gaps)}")
-        assert len(pings) >= 5, f"the {what} was not slow enough to measure anything"
-        _served(pings, f"ping round trips during the {what}")
-        _served(gaps, f"the other robot's state gaps during the {what}", 1 / 60)
+        assert len(pings) >= MIN_ANSWERED, f"the {what} was not slow enough to measure anything"
+        _served(pings, f"ping round trips during the {what}", done - sent)
+        _served(gaps, f"the other robot's state gaps during the {what}", done - sent, 1 / 60)
         client.call("robot.stop", {"robot": "other"})
         client.wait(move)
         return reply
@@ -244,8 +251,7 @@ def _served_during(proc: BackendProcess, method: str, params: dict[str, object],
 def test_pings_are_served_during_a_first_load_decomposing_a_mesh(tmp_path: Path,
                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     """A robot's first load decomposes its concave mesh (a fresh cache) off the world's thread: pings
-    and the other robot's steps are served within 50 ms meanwhile, and the load's own PyBullet part is
-    short."""
+    and the other robot's steps are served meanwhile, none waiting for the load."""
     from test_server_load import URDF
     from test_sim_decompose import to_obj, u_shape
 
@@ -271,7 +277,7 @@ def test_a_shutdown_during_a_plan_stops_it_and_exits_cleanly(two_arms: BackendPr
     t = time.monotonic()
     two_arms.proc.send_signal(signal.SIGTERM)
     assert two_arms.proc.wait(10) == 0
-    assert time.monotonic() - t < 1.0
+    assert time.monotonic() - t < SHARE * SEARCH
     assert "Traceback" not in two_arms.stderr()
 
 
@@ -293,7 +299,7 @@ def _bumpy_plate_stl(path: Path, side: int = 317) -> int:
 def test_pings_are_served_while_a_large_mesh_obstacle_is_added(tmp_path: Path) -> None:
     """A mesh obstacle of 200,000 triangles is parsed and its hull computed off the world's thread (PyBullet
     building the hull from the file held the interpreter, pings waited for it): pings and the other
-    robot's steps are served within 50 ms meanwhile."""
+    robot's steps are served meanwhile, none waiting for the add."""
     triangles = _bumpy_plate_stl(tmp_path / "plate.stl")
     assert triangles > 190_000
     proc = BackendProcess()

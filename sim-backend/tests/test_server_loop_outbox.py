@@ -1,4 +1,4 @@
-"""A client's outbox (`server.Peer`): replies never dropped, a robot's states coalesced to the latest, a
+"""A client's outbox (`server.peer.Peer`): replies never dropped, a robot's states coalesced to the latest, a
 client that stays behind closed with a reason, its frames left unread while its backlog is high."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from typing import Any, cast
 
 from websockets.asyncio.server import ServerConnection
 
-from robwot_sim.server import CLOSE_TOO_SLOW, OUTBOX_FRAMES, READ_PAUSE_BYTES, Peer
+from robwot_sim.server.peer import CLOSE_TOO_SLOW, OUTBOX_FRAMES, READ_PAUSE_BYTES, Peer
 
 
 class StalledConnection:

@@ -102,7 +102,7 @@ def test_what_the_bounds_decide_holds_for_fresh_distance_queries(load: Callable[
         rid = load(w)
         lo, hi = w.robot_model(rid).limits()
         qs = np.random.default_rng(11).uniform(lo, hi, size=(ROWS, len(lo)))
-        bounds = w._outer_bounds(rid)
+        bounds = w.queries.outer_bounds(rid)
         links = _links(w, rid)
         assert not bounds.empty and len(bounds.boxes) == len(links)
         for margin in (0.0, 0.002):
@@ -140,19 +140,19 @@ def test_labels_with_the_bounds_equal_bullets_labels(load: Callable[[World], str
             m.setattr(outerbounds, "MIN_APART", 0.0)
             m.setattr(outerbounds, "MIN_RATE", 0.0)
             with_bounds = w.collision_free_batch(rid, qs, bounds=True)
-            bounds = w._outer_bounds(rid)
+            bounds = w.queries.outer_bounds(rid)
             alone = bounds.apart(qs) & ~bounds.self_free(qs)
-            sure = w._sure_hits(rid).hits(qs)
+            sure = w.queries.sure_hits(rid).hits(qs)
         bullet = w.collision_free_batch(rid, qs)
         assert 0 < bullet.sum() < ROWS
         differ = np.flatnonzero(with_bounds != bullet)
         assert len(differ) <= ROWS // 100, differ
         mimic = w._entry(rid).bound.mimic
         for i in differ:
-            world = w._fast_world(rid) if alone[i] else w._fast_world()
+            world = w.queries.mirror(rid) if alone[i] else w.queries.mirror()
             same = np.flatnonzero((alone == alone[i]) & ~sure)
             before = same[same < i][-1]  # the row checked just before it in that world
             again = world.batch(rid, np.stack([qs[before], qs[i]]), {}, mimic)[1]
             previous = np.flatnonzero(~sure[:i])[-1]  # without the bounds: every row not a sure hit
-            full = w._fast_world().batch(rid, np.stack([qs[previous], qs[i]]), {}, mimic)[1]
+            full = w.queries.mirror().batch(rid, np.stack([qs[previous], qs[i]]), {}, mimic)[1]
             assert (again, full) == (with_bounds[i], bullet[i]), f"row {i}"

@@ -72,7 +72,7 @@ def test_obstacle_grid_against_brute_force() -> None:
         w.load_scene(SCENES / "obstacles-239.json")
         lo, hi = w.robot_model("r").limits()
         qs = np.random.default_rng(7).uniform(lo, hi, size=(5000, len(lo)))
-        sure = w._sure_hits("r")
+        sure = w.queries.sure_hits("r")
     sure.pairs = []  # the obstacle part alone
     assert sure.grid is not None
     obs = sure.grid.obs

@@ -18,9 +18,10 @@ from simhelp import KUKA
 from robwot_sim.errors import PlanBudget
 from robwot_sim.sim.collision import CollisionChecker
 from robwot_sim.sim.pathcheck import curve_checkpoints
-from robwot_sim.sim.planner import plan_lin, timed_path
+from robwot_sim.sim.planner import plan_joints, plan_lin
 from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.timed import Curve, TimedPath
+from robwot_sim.sim.trajectory import timed_path
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Kind, WorldThread, checkpoint
 
@@ -192,3 +193,18 @@ def test_a_plan_past_its_budget_is_refused_naming_the_step_and_the_thread_serves
     finally:
         owner.shutdown()
         world.close()
+
+
+def test_a_move_runs_the_path_its_plan_checked() -> None:
+    """A valid joint plan carries the timed path its check ran over: the move at the same timing runs
+    that path, not one planned again; another timing (acceleration) plans its own."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        plan = plan_joints(w, m.id, START, 0.5, 1 / 240)
+        assert plan.valid and plan.path is not None
+        same, path = timed_path(w, m.id, plan, speed=0.5, dt=1 / 240)
+        assert same is plan and path is plan.path
+        _, slower = timed_path(w, m.id, plan, speed=0.5, dt=1 / 240, acceleration=0.25)
+        assert slower is not None and slower is not plan.path and len(slower) > len(path)
+        _, elsewhere = timed_path(w, m.id, plan, speed=0.5, dt=1 / 240, start=[0.1] * m.dof)
+        assert elsewhere is not None and elsewhere.first[0] == pytest.approx(0.1)

@@ -47,7 +47,7 @@ def _load(world: World, name: str) -> str:
 def _unsound(world: World, rid: str, qs: np.ndarray, apart: np.ndarray, free: np.ndarray) -> int:
     """Decided rows that fresh Bullet distance queries contradict (apart: no other body within 0; free:
     also no checked self pair touching)."""
-    bounds = world._outer_bounds(rid)
+    bounds = world.queries.outer_bounds(rid)
     body, cid = world._entry(rid).bound.body, world.bullet.cid
     links = [ln for ln in range(-1, pb.getNumJoints(body, physicsClientId=cid))
              if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]
@@ -87,7 +87,7 @@ def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, 
                 times[bounds] += time.perf_counter() - t0
         old, new = np.concatenate(labels[False]), np.concatenate(labels[True])
         reverse = world.collision_free_batch(rid, qs[::-1])[::-1]
-        outer = world._outer_bounds(rid)
+        outer = world.queries.outer_bounds(rid)
         apart = outer.apart(qs)
         free = np.zeros(samples, dtype=bool)
         free[apart] = outer.self_free(qs[apart])

@@ -55,7 +55,7 @@ def _touches(world: World, rid: str, q: np.ndarray) -> bool:
     """Fresh Bullet distance queries find the robot, at ``q``, at distance <= 0 from another body or
     between two links of a pair the sure-hit test checks."""
     body, cid = world._entry(rid).bound.body, world.bullet.cid
-    sure = world._sure_hits(rid)
+    sure = world.queries.sure_hits(rid)
     world.set_joint_positions(rid, q)
     return (any(c[8] <= 0.0 for other in world.table.names if other != body
                 for c in pb.getClosestPoints(body, other, 0.0, physicsClientId=cid))
@@ -80,7 +80,8 @@ def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, 
                         labels[sure].append(world.collision_free_batch(rid, qs[a:a + BLOCK]))
                 times[sure] += time.process_time() - t0
         t0 = time.process_time()
-        hits = np.concatenate([world._sure_hits(rid).hits(qs[a:a + BLOCK]) for a in range(0, samples, BLOCK)])
+        sure_hits = world.queries.sure_hits(rid)
+        hits = np.concatenate([sure_hits.hits(qs[a:a + BLOCK]) for a in range(0, samples, BLOCK)])
         test = time.process_time() - t0
         new, old = np.concatenate(labels[True]), np.concatenate(labels[False])
         differ = np.flatnonzero(new != old)

@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     sys.stdout = sys.stderr
     logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    from robwot_sim.server import run_server
+    from robwot_sim.server.app import run_server
 
     given = os.environ.pop("ROBWOT_BACKEND_TOKEN", "")
     token = given or secrets.token_urlsafe(32)

@@ -1,27 +1,46 @@
 """Structured errors of the simulation backend.
 
-Every error carries a stable JSON-RPC ``rpc_code`` (number), a stable string ``code`` (``E_...``) and a
-``data`` dict of structured fields (joint, value, limits, file, line, ...). The RPC layer maps them to
+Every error class declares a stable string ``code`` (``E_...``) and carries a ``data`` dict of structured
+fields (joint, value, limits, file, line, ...). Its JSON-RPC number (``rpc_code``) is the contract's for
+that code (``components.errors``): a class whose code the contract lacks fails at import. The RPC layer
+maps an error to
 ``{"code": rpc_code, "message": message, "data": {"code": code, **data}}`` (see ARCHITECTURE.md, Contract 1).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from functools import cache
 from typing import Any
+
+from robwot_sim.limits import contract_document
+
+
+@cache
+def rpc_code_of(code: str) -> int:
+    """The JSON-RPC number the contract gives error ``code`` (LookupError when it has no such error)."""
+    errors: dict[str, Any] = contract_document()["components"]["errors"]
+    if code not in errors:
+        raise LookupError(f"error code {code!r} is not in the contract's components.errors")
+    return int(errors[code]["code"])
 
 
 class SimError(Exception):
     """Base class of every backend error."""
 
-    rpc_code: int = -32603
     code: str = "E_INTERNAL"
+    rpc_code: int = rpc_code_of(code)
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.rpc_code = rpc_code_of(cls.code)
 
     def __init__(self, message: str, *, code: str | None = None, **data: Any) -> None:
         super().__init__(message)
         self.message = message
         if code is not None:
             self.code = code
+            self.rpc_code = rpc_code_of(code)
         self.data: dict[str, Any] = data
 
     def to_json(self) -> dict[str, Any]:
@@ -33,14 +52,12 @@ class SimError(Exception):
 
 
 class InternalError(SimError):
-    rpc_code = -32603
     code = "E_INTERNAL"
 
 
 class InvalidParams(SimError):
     """Wrong type/length, NaN/Infinity, missing parameter."""
 
-    rpc_code = -32602
     code = "E_INVALID_PARAMS"
 
     def __init__(
@@ -50,7 +67,6 @@ class InvalidParams(SimError):
 
 
 class _UnknownName(SimError):
-    rpc_code = -32001
     kind = "name"
 
     def __init__(self, name: str, available: Iterable[str]) -> None:
@@ -80,7 +96,6 @@ class UnknownLink(_UnknownName):
 class OutOfLimits(SimError):
     """A joint value outside its limits (radians or metres)."""
 
-    rpc_code = -32002
     code = "E_OUT_OF_LIMITS"
 
     def __init__(self, joint: str, value: float, lower: float, upper: float) -> None:
@@ -96,7 +111,6 @@ class OutOfLimits(SimError):
 class UrdfError(SimError):
     """Malformed URDF (XML error with line/column, or a structural problem)."""
 
-    rpc_code = -32003
     code = "E_URDF"
 
     def __init__(
@@ -133,7 +147,6 @@ class NoMovableJoint(UrdfError):
 class FileNotFound(SimError):
     """Missing URDF, mesh or scene file. ``urdf`` names the URDF that referenced a missing mesh."""
 
-    rpc_code = -32004
     code = "E_FILE_NOT_FOUND"
 
     def __init__(self, file: str, *, urdf: str | None = None, what: str = "file", **extra: Any) -> None:
@@ -164,7 +177,6 @@ class UnknownPackage(FileNotFound):
 class Forbidden(SimError):
     """XML DTD/entities, or other refused input."""
 
-    rpc_code = -32005
     code = "E_FORBIDDEN"
 
     def __init__(
@@ -193,7 +205,6 @@ class PathEscape(Forbidden):
 class SceneError(SimError):
     """Scene document violating the schema; ``path`` is a JSON pointer."""
 
-    rpc_code = -32006
     code = "E_SCENE"
 
     def __init__(self, message: str, *, file: str | None, path: str) -> None:
@@ -204,7 +215,6 @@ class SceneError(SimError):
 class Unreachable(SimError):
     """IK found no solution within tolerance; ``best`` is the best configuration found."""
 
-    rpc_code = -32007
     code = "E_UNREACHABLE"
 
     def __init__(self, position_error: float, orientation_error: float, best: Sequence[float],
@@ -224,7 +234,6 @@ class Unreachable(SimError):
 
 
 class Busy(SimError):
-    rpc_code = -32008
     code = "E_BUSY"
 
     def __init__(self, robot: str) -> None:
@@ -238,7 +247,6 @@ class Rejected(SimError):
     ``reasons`` in words, ``checks`` as `robot.plan` reports them; a program's (``program.run``) also its
     ``program`` report."""
 
-    rpc_code = -32012
     code = "E_REJECTED"
 
     def __init__(self, reasons: Sequence[str], checks: dict[str, Any],
@@ -252,7 +260,6 @@ class PlanBudget(SimError):
     """A plan (robot.plan, a move's or a program's planning) still running when its budget of the world's
     thread ran out (``budget`` s): refused, nothing moved. ``step``: the program's step it was planning."""
 
-    rpc_code = -32014
     code = "E_PLAN_BUDGET"
 
     def __init__(self, budget: float, step: int | None = None, steps: int | None = None) -> None:
@@ -269,19 +276,16 @@ class PlanBudget(SimError):
 class MeshError(SimError):
     """A mesh file our parser refuses (PyBullet would crash or silently drop it): ``file``, ``reason``."""
 
-    rpc_code = -32011
     code = "E_MESH"
 
 
 class ClusterError(SimError):
     """``workspace.generate`` with ``cluster``: the Ray cluster cannot be reached (``address``)."""
 
-    rpc_code = -32013
     code = "E_CLUSTER"
 
 
 class NameTaken(SimError):
-    rpc_code = -32010
     code = "E_NAME_TAKEN"
 
     def __init__(self, name: str) -> None:

@@ -39,9 +39,10 @@ import numpy as np
 
 from robwot_sim.errors import Busy, Rejected
 from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED, PLAN_BUDGET
-from robwot_sim.sim.planner import Plan, timed_path
+from robwot_sim.sim.planner import Plan
 from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.timed import TimedPath
+from robwot_sim.sim.trajectory import timed_path
 from robwot_sim.sim.types import CollisionReport, Pose
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Cancelled, Kind

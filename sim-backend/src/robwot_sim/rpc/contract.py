@@ -21,7 +21,7 @@ from jsonschema import Draft7Validator, validators
 from jsonschema.exceptions import ValidationError, best_match
 
 from robwot_sim.limits import contract_document
-from robwot_sim.rpc.protocol import INTERNAL_ERROR, INVALID_PARAMS, Fault
+from robwot_sim.rpc.protocol import Fault
 
 #: OpenRPC has no notification object: server-to-client notifications are listed under this extension.
 NOTIFICATIONS_KEY = "x-notifications"
@@ -66,12 +66,12 @@ def describe(value: Any) -> str:
 
 
 def invalid_param(param: str, expected: str, got: Any, *, missing: bool = False) -> Fault:
-    """-32602 `E_INVALID_PARAMS` naming the param, the expectation and what was received."""
+    """`E_INVALID_PARAMS` naming the param, the expectation and what was received."""
     got_text = "nothing (missing)" if missing else describe(got)
-    return Fault(
-        INVALID_PARAMS,
+    return Fault.of(
+        "E_INVALID_PARAMS",
         f"invalid param '{param}': expected {expected}, got {got_text}",
-        {"code": "E_INVALID_PARAMS", "param": param, "expected": expected, "got": got_text},
+        param=param, expected=expected, got=got_text,
     )
 
 
@@ -136,9 +136,8 @@ class Contract:
     def validate_params(self, method: str, raw: Mapping[str, Any] | list[Any] | None) -> dict[str, Any]:
         """The params object checked against the method's params schema, or a `Fault` naming the param."""
         if isinstance(raw, list):
-            raise Fault(INVALID_PARAMS, "params must be an object of named parameters, not an array",
-                        {"code": "E_INVALID_PARAMS", "param": "params", "expected": "object",
-                         "got": describe(raw)})
+            raise Fault.of("E_INVALID_PARAMS", "params must be an object of named parameters, not an array",
+                           param="params", expected="object", got=describe(raw))
         # JSON-RPC clients often send null for "not given": it counts as absent
         values = {k: v for k, v in (raw or {}).items() if v is not None}
         errors = list(self._params[method].iter_errors(values))
@@ -150,13 +149,12 @@ class Contract:
         return values
 
     def check_result(self, method: str, result: Any) -> None:
-        """Raise -32603 when a result contradicts the contract (a bug in the backend)."""
+        """Raise E_INTERNAL when a result contradicts the contract (a bug in the backend)."""
         error = best_match(self._results[method].iter_errors(result))
         if error is not None:
             where = _join(list(error.absolute_path)) or "result"
-            raise Fault(INTERNAL_ERROR,
-                        f"result of {method} contradicts the contract at {where}: {error.message}",
-                        {"code": "E_INTERNAL", "method": method})
+            raise Fault.of("E_INTERNAL", f"result of {method} contradicts the contract at {where}: "
+                           f"{error.message}", method=method)
 
     def check_notification(self, method: str, params: Any) -> str | None:
         """Why a notification contradicts the contract, or None."""

@@ -4,7 +4,7 @@ Handlers receive `Params` already checked against the method's params schema in 
 names, types, ranges; defaults filled in) and a `Call` giving the id and a way to notify the calling
 connection. With `check_results` every result is checked against the contract too (test suites).
 Exceptions become JSON-RPC errors: `Fault` as is, `SimError`-like objects (`rpc_code`, `code`, `data`)
-with their stable codes, anything else -32603 E_INTERNAL naming the method (and the traceback goes to
+with their stable codes, anything else E_INTERNAL naming the method (and the traceback goes to
 the log, not the client).
 """
 
@@ -19,8 +19,6 @@ from robwot_sim.rpc.contract import Contract, contract
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.protocol import (
     DEFAULT_MAX_MESSAGE_BYTES,
-    INTERNAL_ERROR,
-    METHOD_NOT_FOUND,
     Fault,
     Rejected,
     RequestId,
@@ -65,11 +63,7 @@ def fault_from_exception(exc: BaseException, method: str) -> Fault:
         message = getattr(exc, "message", None)
         return Fault(rpc_code, message if isinstance(message, str) else str(exc), payload)
     log.error("internal error in %s", method, exc_info=exc)
-    return Fault(
-        INTERNAL_ERROR,
-        f"internal error in {method}: {type(exc).__name__}: {exc}",
-        {"code": "E_INTERNAL", "method": method},
-    )
+    return Fault.of("E_INTERNAL", f"internal error in {method}: {type(exc).__name__}: {exc}", method=method)
 
 
 class Dispatcher:
@@ -118,10 +112,10 @@ class Dispatcher:
         method = self._methods.get(parsed.method)
         try:
             if method is None:
-                raise Fault(
-                    METHOD_NOT_FOUND,
+                raise Fault.of(
+                    "E_METHOD_NOT_FOUND",
                     f"unknown method {parsed.method!r}; available: {', '.join(self.names)}",
-                    {"code": "E_METHOD_NOT_FOUND", "method": parsed.method, "available": self.names},
+                    method=parsed.method, available=self.names,
                 )
             values = self.contract.validate_params(method.name, parsed.params)
             params = Params(values, self.contract.methods[method.name].defaults)

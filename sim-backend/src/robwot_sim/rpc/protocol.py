@@ -1,7 +1,7 @@
 """Sans-I/O JSON-RPC 2.0: parse one text frame, build responses and notifications.
 
 Nothing here imports asyncio, websockets or pybullet: the server feeds frames in and sends the
-strings this module returns. One JSON object per frame; batches are refused (-32600).
+strings this module returns. One JSON object per frame; batches are refused (E_INVALID_REQUEST).
 """
 
 from __future__ import annotations
@@ -11,15 +11,17 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from robwot_sim.errors import rpc_code_of
 from robwot_sim.jsondepth import MAX_DEPTH, TooDeep, loads_bounded
 
 __all__ = ["MAX_DEPTH"]
 
-PARSE_ERROR = -32700
-INVALID_REQUEST = -32600
-METHOD_NOT_FOUND = -32601
-INVALID_PARAMS = -32602
-INTERNAL_ERROR = -32603
+#: the JSON-RPC numbers of the protocol's own errors, as the contract gives them
+PARSE_ERROR = rpc_code_of("E_PARSE")
+INVALID_REQUEST = rpc_code_of("E_INVALID_REQUEST")
+METHOD_NOT_FOUND = rpc_code_of("E_METHOD_NOT_FOUND")
+INVALID_PARAMS = rpc_code_of("E_INVALID_PARAMS")
+INTERNAL_ERROR = rpc_code_of("E_INTERNAL")
 
 DEFAULT_MAX_MESSAGE_BYTES = 4 * 1024 * 1024
 
@@ -33,6 +35,12 @@ class Fault(Exception):
     code: int
     message: str
     data: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, code: str, message: str, **data: Any) -> Fault:
+        """The fault of the contract's error ``code``: its number from the contract, ``data.code`` the
+        code itself."""
+        return cls(rpc_code_of(code), message, {"code": code, **data})
 
     def __str__(self) -> str:
         return self.message
@@ -74,12 +82,12 @@ def _describe(value: Any) -> str:
 
 
 def invalid_request(message: str, req_id: RequestId = None, **data: Any) -> Rejected:
-    return Rejected(Fault(INVALID_REQUEST, message, {"code": "E_INVALID_REQUEST", **data}), req_id)
+    return Rejected(Fault.of("E_INVALID_REQUEST", message, **data), req_id)
 
 
 def _too_deep() -> Rejected:
-    fault = Fault(INVALID_REQUEST, f"message nests arrays/objects deeper than {MAX_DEPTH} levels",
-                  {"code": "E_TOO_DEEP", "limit": MAX_DEPTH})
+    fault = Fault.of("E_TOO_DEEP", f"message nests arrays/objects deeper than {MAX_DEPTH} levels",
+                     limit=MAX_DEPTH)
     return Rejected(fault, None)
 
 
@@ -89,11 +97,8 @@ def parse_frame(frame: str | bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) 
         return invalid_request("binary frames are not accepted: send JSON-RPC as a text frame")
     size = len(frame.encode("utf-8", "surrogatepass")) if len(frame) * 4 > max_bytes else len(frame)
     if size > max_bytes:
-        fault = Fault(
-            INVALID_REQUEST,
-            f"message of {size} bytes exceeds the limit of {max_bytes} bytes",
-            {"code": "E_TOO_LARGE", "limit": max_bytes, "got": size},
-        )
+        fault = Fault.of("E_TOO_LARGE", f"message of {size} bytes exceeds the limit of {max_bytes} bytes",
+                         limit=max_bytes, got=size)
         return Rejected(fault, None)
     try:
         # NaN/Infinity literals are accepted here so that param validation can name the param.
@@ -101,7 +106,7 @@ def parse_frame(frame: str | bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) 
     except TooDeep:
         return _too_deep()
     except ValueError as exc:
-        return Rejected(Fault(PARSE_ERROR, f"not valid JSON: {exc}", {"code": "E_PARSE"}), None)
+        return Rejected(Fault.of("E_PARSE", f"not valid JSON: {exc}"), None)
     if isinstance(doc, list):
         return invalid_request("batch requests are not supported: send one JSON object per frame")
     if not isinstance(doc, dict):

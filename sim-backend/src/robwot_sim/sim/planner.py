@@ -51,6 +51,10 @@ class Plan:
     #: target, and its speed along it (m/s); the motion runs through the waypoints without stopping
     arc: tuple[float, ...] = ()
     tcp_speed: float = DEFAULT_TCP_SPEED
+    #: the straight timed path the path check ran over, from the state the plan was made in, and the
+    #: (speed, dt) it was timed with: a move at the same timing runs it as checked (``timed_path``)
+    path: TimedPath | None = field(default=None, compare=False, repr=False)
+    timing: tuple[float, float] | None = None
 
     def motion_kwargs(self) -> dict[str, Any]:
         """What ``World.plan_motion`` needs besides the target to time this plan's path."""
@@ -91,13 +95,15 @@ def _limit_violations(model: RobotModel, q: Sequence[float]) -> list[dict[str, A
 
 
 def _path(world: World, robot: str, q: Sequence[float], speed: float,
-          dt: float) -> tuple[bool, list[Contact]]:
-    report = world.check_path(robot, q, None, speed, dt)
+          dt: float) -> tuple[bool, list[Contact], TimedPath]:
+    """``World.check_path`` from the current state, keeping the timed path it checked."""
+    path = world.plan_motion(robot, q, None, speed, dt)
+    report = world.check_states(robot, path)
     contacts = list(report.first_collision.contacts) if report.first_collision is not None else []
-    return report.collision_free, contacts
+    return report.collision_free, contacts, path
 
 
-def _path_check(clearance: float, ok: bool, contacts: Sequence[Contact], planned: str = "straight",
+def path_check(clearance: float, ok: bool, contacts: Sequence[Contact], planned: str = "straight",
                 detour: str | None = None) -> dict[str, Any]:
     out = {"ok": ok, "planned": planned, "clearance": clearance, "contacts": [c.to_json() for c in contacts]}
     return out if detour is None else {**out, "detour": detour}
@@ -112,7 +118,7 @@ def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str,
     waypoints = world.detour(robot, target)
     if waypoints is None:
         return None
-    path = _path_check(world.robot_model(robot).clearance, True, [], "detour", "found")
+    path = path_check(world.robot_model(robot).clearance, True, [], "detour", "found")
     return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": path}, tuple(waypoints[:-1]))
 
 
@@ -128,10 +134,10 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float,
         reasons = tuple(f"joint {v['joint']} = {_fmt(v['value'])} outside its limits "
                         f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}]" for v in violations)
         return Plan(False, None, reasons, checks)
-    ok, contacts = _path(world, robot, target, speed, dt)
+    ok, contacts, path = _path(world, robot, target, speed, dt)
     if ok:
-        checks["path"] = _path_check(model.clearance, True, [])
-        return Plan(True, tuple(float(v) for v in target), (), checks)
+        checks["path"] = path_check(model.clearance, True, [])
+        return Plan(True, tuple(float(v) for v in target), (), checks, path=path, timing=(speed, dt))
     at_target = world.check_collision(robot, target)
     if at_target.collision_free:
         detour = _detour(world, robot, target, checks)
@@ -143,7 +149,7 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float,
         searched = "not searched"
         contacts = list(at_target.contacts)
         reason = f"the target configuration itself collides{contact_words(contacts)}: no path reaches it"
-    checks["path"] = _path_check(model.clearance, False, contacts, detour=searched)
+    checks["path"] = path_check(model.clearance, False, contacts, detour=searched)
     return Plan(False, tuple(float(v) for v in target), (reason,), checks)
 
 
@@ -188,13 +194,13 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
         if not ik.collision_free:
             reached_colliding = reached_colliding if reached_colliding is not None else ik.positions
             continue
-        ok, contacts = _path(world, robot, ik.positions, speed, dt)
+        ok, contacts, checked = _path(world, robot, ik.positions, speed, dt)
         if first is None:
             first = (ik.positions, ik.position_error, contacts)
         if ok:
             checks = {"ik": {"ok": True, "positionError": ik.position_error, "solutions": tried},
-                      "limits": {"ok": True}, "path": _path_check(model.clearance, True, [])}
-            return Plan(True, ik.positions, (), checks)
+                      "limits": {"ok": True}, "path": path_check(model.clearance, True, [])}
+            return Plan(True, ik.positions, (), checks, path=checked, timing=(speed, dt))
     if first is None:
         error = best_error if best_error != float("inf") else -1.0
         ik_check = {"ok": False, "positionError": error, "solutions": tried}
@@ -204,7 +210,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
             touching = world.check_collision(robot, reached_colliding).contacts
             reason = (f"every IK solution reaching {where} ({tried} tried, within {_fmt(error)} m) collides "
                       f"at the target{contact_words(touching)}")
-            path = _path_check(model.clearance, False, touching, detour="not searched")
+            path = path_check(model.clearance, False, touching, detour="not searched")
             return Plan(False, None, (reason,), {"ik": ik_check, "path": path})
         elif error >= 0:
             reason = f"IK found no solution within 0.001 m of {where} (closest {_fmt(error)} m away)"
@@ -216,7 +222,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     detour = _detour(world, robot, positions, checks)
     if detour is not None:
         return detour
-    checks["path"] = _path_check(model.clearance, False, contacts, detour="not found")
+    checks["path"] = path_check(model.clearance, False, contacts, detour="not found")
     reason = (f"the straight path to every IK solution tried ({tried}) collides{contact_words(contacts)}"
               f"{_NO_DETOUR} to the first")
     return Plan(False, positions, (reason,), checks)
@@ -236,7 +242,7 @@ def plan_lin(world: World, robot: str, position: Sequence[float],
     if path.reason is not None:
         checks: dict[str, Any] = {"limits": {"ok": True}}
         if path.contacts:
-            checks["path"] = _path_check(model.clearance, False, path.contacts, kind)
+            checks["path"] = path_check(model.clearance, False, path.contacts, kind)
         return Plan(False, None, (f"{kind.upper()} refused: {path.reason}{contact_words(path.contacts)}",),
                     checks)
     for i, q in enumerate(path.waypoints):
@@ -251,33 +257,10 @@ def plan_lin(world: World, robot: str, position: Sequence[float],
     if too_fast is not None:
         return Plan(False, None, (f"{kind.upper()} refused: {too_fast}",), {"limits": {"ok": True}})
     checks = {"ik": {"ok": True, "positionError": 0.0, "solutions": len(path.waypoints) - 1},
-              "limits": {"ok": True}, "path": _path_check(model.clearance, True, [], kind)}
+              "limits": {"ok": True}, "path": path_check(model.clearance, True, [], kind)}
     target = tuple(float(v) for v in path.waypoints[-1])
     waypoints = tuple(tuple(float(v) for v in w) for w in path.waypoints[1:-1])
     return Plan(True, target, (), checks, waypoints, tuple(path.arc), tcp_speed)
-
-
-def timed_path(world: World, robot: str, plan: Plan, *, speed: float, dt: float, acceleration: float = 1.0,
-               start: Sequence[float] | None = None) -> tuple[Plan, TimedPath | None]:
-    """The timed path, states one per ``dt``, that a move of the valid ``plan`` runs
-    (``World.plan_motion``), with the plan; None for a refused plan. The states of a LIN or CIRC lie on the
-    spline through its checked samples, not on the chords between them: they are checked again, and a
-    contact refuses the plan (naming the bodies), so every state a motion runs was checked in this world."""
-    if not plan.valid or plan.target is None:
-        return plan, None
-    path = world.plan_motion(robot, plan.target, start, speed, dt, acceleration=acceleration,
-                             **plan.motion_kwargs())
-    if not plan.arc:
-        return plan, path
-    report = world.check_states(robot, path)
-    if report.collision_free or report.first_collision is None:
-        return plan, path
-    contacts = report.first_collision.contacts
-    kind = str(plan.checks.get("path", {}).get("planned", "lin"))
-    reason = (f"{kind.upper()} refused: the timed path between its checked samples collides"
-              f"{contact_words(contacts)}")
-    checks = {**plan.checks, "path": _path_check(world.robot_model(robot).clearance, False, contacts, kind)}
-    return Plan(False, None, (reason,), checks), None
 
 
 def _joint_rate_violation(world: World, robot: str, waypoints: Sequence[Any], arc: Sequence[float],

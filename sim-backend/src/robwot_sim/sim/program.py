@@ -2,7 +2,7 @@
 planners as single moves (``planner.py``: PTP with its detours, LIN, CIRC). The robot's true state is
 untouched: the steps are planned in ``World.hypothetical`` states.
 
-Each step is timed as a move of the same step is (``planner.timed_path``: the joint velocity limits x its
+Each step is timed as a move of the same step is (``trajectory.timed_path``: the joint velocity limits x its
 ``speed``, acceleration limits x its ``acceleration``, a LIN's or CIRC's ``tcpSpeed``), at rest where it
 ends. The program's path is those states one after the other, one per ``dt``: its cycle time is the time a
 run of it takes at real time (``program.run`` runs exactly these states), and the trajectory a client gets
@@ -24,8 +24,9 @@ import numpy as np
 
 from robwot_sim.errors import PlanBudget
 from robwot_sim.limits import DEFAULT_TCP_SPEED, MAX_TRAJECTORY_SAMPLES
-from robwot_sim.sim.planner import Plan, contact_words, plan_joints, plan_lin, plan_pose, timed_path
+from robwot_sim.sim.planner import Plan, contact_words, plan_joints, plan_lin, plan_pose
 from robwot_sim.sim.timed import Curve, TimedPath
+from robwot_sim.sim.trajectory import timed_path
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint

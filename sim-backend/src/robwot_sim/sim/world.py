@@ -5,7 +5,8 @@ PyBullet is not thread-safe: the server calls a World from one thread only (``wo
 ``bind`` is called, other threads are refused). The long searches (``ik``, ``check_path``, ``detour``)
 hold their robot (``_holding``) and reach checkpoints where queued short jobs run. The class is built in
 layers: ``WorldBase`` (client, robots), ``WorldScene`` (obstacles, scenes), ``World`` (joints, kinematics,
-collision, motion planning, export).
+collision, motion planning, export); the batch collision queries and their caches are a part of their own
+(``queries``, ``collision_queries.py``).
 """
 
 from __future__ import annotations
@@ -27,7 +28,6 @@ from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED, DEFAULT_TCP_SPEED, TCP_
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.detour import DetourMemory, find_detour, recall
 from robwot_sim.sim.export import export_urdf
-from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
 from robwot_sim.sim.kinematics import fk_pose, solve_ik
 from robwot_sim.sim.motion import (
     TCP_ACCELERATION,
@@ -36,9 +36,7 @@ from robwot_sim.sim.motion import (
     plan_curve_path,
     plan_joint_path,
 )
-from robwot_sim.sim.outerbounds import OuterBounds, build_outer_bounds
 from robwot_sim.sim.pathcheck import check_joint_path, first_contact, path_clearance
-from robwot_sim.sim.surehit import SureHits, build_sure_hits
 from robwot_sim.sim.timed import TimedPath
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport, Pose
 from robwot_sim.sim.world_base import JointVector, Quat, Vec3, _owned
@@ -146,98 +144,10 @@ class World(WorldScene):
     @_owned
     def collision_free_batch(self, robot_id: str, qs: npt.NDArray[np.float64],
                              bounds: bool = False) -> npt.NDArray[np.bool_]:
-        """Collision-free flag per configuration (rows of ``qs`` [n, dof]); restores the state. With
-        ``bounds``, rows the outer bounds (``outerbounds.py``) find apart from every other body are checked
-        for self-contact in a world holding the robot alone, and rows also free of self-contact for sure
-        are not checked by Bullet (off by default: on the robots and scenes measured, the numpy tests cost
-        as much as the Bullet work they save; ``python -m robwot_bench.bounds``)."""
-        e = self._entry(robot_id)
-        try:
-            arr = np.asarray(qs, dtype=np.float64)
-        except (TypeError, ValueError):
-            arr = np.zeros((0,))
-        if arr.ndim != 2 or arr.shape[1] != e.bound.dof:
-            raise InvalidParams(
-                f"expected an array [n, {e.bound.dof}]",
-                param="qs",
-                expected=f"[n, {e.bound.dof}]",
-                got=list(arr.shape),
-            )
-        bad = (
-            ~np.isfinite(arr).all(axis=1)
-            | (arr < e.bound.lower - 1e-9).any(axis=1)
-            | (arr > e.bound.upper + 1e-9).any(axis=1)
-        )
-        if bad.any():
-            e.bound.validate(arr[int(np.argmax(bad))], f"qs[{int(np.argmax(bad))}]")
-        if e.checker.static_contacts():
-            return np.zeros(len(arr), dtype=bool)
-        out = np.zeros(len(arr), dtype=bool)
-        todo = np.flatnonzero(~self._sure_hits(robot_id).hits(arr))
-        if e.checker.massless_moving:
-            out[todo] = e.checker.batch(arr[todo])
-            return out
-        if bounds:
-            outer = self._outer_bounds(robot_id)
-            apart = outer.apart(arr[todo])
-            alone, todo = todo[apart], todo[~apart]
-            sure_free = outer.self_free(arr[alone])
-            out[alone[sure_free]] = True
-            alone = alone[~sure_free]
-            out[alone] = self._fast_world(robot_id).batch(robot_id, arr[alone], {}, e.bound.mimic)
-        others = {rid: o.bound.full_values(o.bound.q) for rid, o in self._robots.items() if rid != robot_id}
-        out[todo] = self._fast_world().batch(robot_id, arr[todo], others, e.bound.mimic)
-        return out
-
-    def _outer_bounds(self, robot_id: str) -> OuterBounds:
-        """The robot's free-for-sure test (``outerbounds.py``), rebuilt when anything else changes."""
-        stamp = self.others_stamp(robot_id)
-        cached = self._outer.get(robot_id)
-        if cached is not None and cached[0] == stamp:
-            return cached[1]
-        e = self._entry(robot_id)
-        others = [o.bound for rid, o in self._robots.items() if rid != robot_id]
-        bounds = build_outer_bounds(e.bound, e.checker.filtered, e.model, list(self._obstacles.values()),
-                                    others)
-        self._outer[robot_id] = (stamp, bounds)
-        return bounds
-
-    def _sure_hits(self, robot_id: str) -> SureHits:
-        """The robot's sure-hit test (``surehit.py``), rebuilt when the world changes."""
-        cached = self._sure.get(robot_id)
-        if cached is not None and cached[0] == self.table.version:
-            return cached[1]
-        e = self._entry(robot_id)
-        sure = build_sure_hits(e.bound, e.checker.filtered, e.model,
-                               self._built_specs())
-        self._sure[robot_id] = (self.table.version, sure)
-        return sure
-
-    def _fast_world(self, alone: str | None = None) -> FastWorld:
-        """The collision-only mirror of the world (``fastworld.py``), or of robot ``alone`` by itself."""
-        cached = self._fast if alone is None else self._alone.get(alone)
-        if cached is not None and cached.version == self.table.version:
-            return cached
-        if cached is not None:
-            cached.close()
-        mirror = {
-            rid: MirrorRobot(
-                e.urdf_path,
-                e.package_roots,
-                e.model.base_position,
-                e.model.base_orientation,
-                e.bound.set_idx,
-                e.checker.filtered,
-            )
-            for rid, e in self._robots.items() if alone is None or rid == alone
-        }
-        obstacles = self._built_specs() if alone is None else []
-        fast = FastWorld(mirror, obstacles, self.table.version)
-        if alone is None:
-            self._fast = fast
-        else:
-            self._alone[alone] = fast
-        return fast
+        """Collision-free flag per configuration (rows of ``qs`` [n, dof]); restores the state
+        (``CollisionQueries.free_batch``; ``bounds``: with the outer bounds)."""
+        self._entry(robot_id)
+        return self.queries.free_batch(robot_id, qs, bounds)
 
     # motion (planning only)
     @_owned

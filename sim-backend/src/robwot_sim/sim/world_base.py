@@ -20,12 +20,10 @@ from robwot_sim.errors import InvalidParams, NameTaken, UnknownRobot
 from robwot_sim.model.decompose import OnMesh
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
+from robwot_sim.sim.collision_queries import CollisionQueries
 from robwot_sim.sim.detour import DetourMemory
-from robwot_sim.sim.fastworld import FastWorld
 from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body, read_robot_files
-from robwot_sim.sim.outerbounds import OuterBounds
 from robwot_sim.sim.pathcheck import MAX_CLEARANCE, MIN_CLEARANCE
-from robwot_sim.sim.surehit import SureHits
 from robwot_sim.sim.sweep import CLEARANCE
 from robwot_sim.sim.types import RobotModel
 from robwot_sim.sim.world_thread import holding
@@ -60,11 +58,8 @@ class WorldBase:
         self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
         self._built: dict[str, dict[str, Any]] = {}  # per obstacle: the shape its body was built from
         self._ik_salt = ik_seed  # salts the per-request IK restart seeds (see World.ik)
-        self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
-        self._alone: dict[str, FastWorld] = {}  # per robot: a mirror of it alone (its self-contact)
-        self._sure: dict[str, tuple[int, SureHits]] = {}  # sure-hit tests by robot, with table.version
-        # free-for-sure tests by robot, with others_stamp
-        self._outer: dict[str, tuple[tuple[int, int], OuterBounds]] = {}
+        #: the batch collision queries and their caches, kept until the scene changes
+        self.queries = CollisionQueries(self)
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
         self._detours: dict[str, DetourMemory] = {}  # per robot: its last detours (World.detour)
 
@@ -112,10 +107,7 @@ class WorldBase:
         self.close()
 
     def close(self) -> None:
-        for fast in [self._fast, *self._alone.values()]:
-            if fast is not None:
-                fast.close()
-        self._fast, self._alone = None, {}
+        self.queries.close()
         self.bullet.close()
 
     def _entry(self, robot_id: str) -> RobotEntry:
@@ -125,6 +117,25 @@ class WorldBase:
 
     def _changed(self) -> None:
         self.table.version += 1
+
+    # what the collision queries read (`collision_queries.SceneView`)
+    @property
+    def version(self) -> int:
+        """Bumped on every change of the bodies (added, moved, removed)."""
+        return self.table.version
+
+    def entries(self) -> Mapping[str, RobotEntry]:
+        return self._robots
+
+    def obstacle_bodies(self) -> list[tuple[int, dict[str, Any]]]:
+        return list(self._obstacles.values())
+
+    def built_specs(self) -> list[dict[str, Any]]:
+        """The obstacles' specs with the shapes the world built them from (a mesh: the file PyBullet may
+        load, an ASCII STL converted, and its hull), for the mirror worlds: PyBullet crashes on some files
+        the specs name."""
+        return [{**spec, "shape": self._built.get(name, spec["shape"])}
+                for name, (_, spec) in self._obstacles.items()]
 
     @_owned
     def others_stamp(self, robot_id: str) -> tuple[int, int]:

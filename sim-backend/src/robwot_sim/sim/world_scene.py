@@ -158,13 +158,6 @@ class WorldScene(WorldBase):
         self._changed()
         return spec
 
-    def _built_specs(self) -> list[dict[str, Any]]:
-        """The obstacles' specs with the shapes the world built them from (a mesh: the file PyBullet may
-        load, an ASCII STL converted, and its hull), for the mirror worlds: PyBullet crashes on some files
-        the specs name."""
-        return [{**spec, "shape": self._built.get(name, spec["shape"])}
-                for name, (_, spec) in self._obstacles.items()]
-
     @_owned
     def add_obstacle(self, spec: dict[str, Any] | ReadObstacle) -> dict[str, Any]:
         """Add a static obstacle ``{name, shape, position, orientation? | rpy?}`` (or one already read by

@@ -183,9 +183,8 @@ def rebuild_error(res: dict[str, Any]) -> SimError:
     err = res["error"]
     data = dict(err.get("data", {}))
     code = data.pop("code", "E_INTERNAL")
-    e = SimError(f"collision worker: {err.get('message', '')}", code=code, **data)
-    e.rpc_code = int(err.get("code", -32603))
-    return e
+    # the number follows the code (the contract's), as it did in the worker
+    return SimError(f"collision worker: {err.get('message', '')}", code=code, **data)
 
 
 def label_samples(job: ChunkJob, samples: int, workers: int,
