@@ -1,6 +1,6 @@
 /**
  * While a move is relayed to the physical robot, each reading is compared with the simulated motion at the
- * same time since the command was sent (`Twin.relayed`; the simulated states interpolated, the last one
+ * same time since the command was sent (`Twin.motion.relayed`; the simulated states interpolated, the last one
  * held): `divergence` (largest joint difference, end-effector distance) and its largest value during the
  * command; passing the bound emits the `divergence` event once per relayed command.
  */
@@ -28,7 +28,7 @@ export class Divergence {
 
   /** A reading `q` (end effector at `position`, virtual frame) that arrived at `at` (ms). */
   compare(q: number[], position: Vec3, at: number): void {
-    const relayed = this.twin.relayed;
+    const relayed = this.twin.motion.relayed;
     if (!relayed) {
       this.current = null;
       return;

@@ -342,12 +342,12 @@ export class Follower {
       // it on the same ordered connection, so it plans from the physical state
       // a reading asked for before the twin's last move ended may show the robot on its way there (the
       // relayed command answered meanwhile): only a later one says it moved on its own
-      if (apart && !twin.busy && twin.idleSince <= r.asked && twin.q.length === r.q.length) {
+      if (apart && !twin.motion.busy && twin.motion.idleSince <= r.asked && twin.q.length === r.q.length) {
         const set = this.backend.sim.setJointPositions(twin.robotId, r.q);
         this.followed++;
         this.lastFollowed = r.arrived;
         await set;
-        if (!twin.busy) twin.applyPose(r.q, fk);
+        if (!twin.motion.busy) twin.applyPose(r.q, fk);
       }
       good = true;
     } catch (err) {

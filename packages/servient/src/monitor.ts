@@ -182,7 +182,7 @@ export class SafetyMonitor {
    * the robot goes: one that runs late (latency, its own timing) is still on it.
    */
   private plannedAhead(q: number[], travel: number): number[][] | null {
-    const relayed = this.twin.relayed;
+    const relayed = this.twin.motion.relayed;
     const states = relayed?.states.map((s) => s.q) ?? [];
     if (!relayed || states.length === 0) return null;
     // the robot only goes on along the path: the nearest segment from the one matched last

@@ -14,7 +14,7 @@ import type { AuthConfig } from "./auth.js";
 import { ActionStatusStore } from "./action-status.js";
 import { actionHandlers } from "./actions.js";
 import { BackendSupervisor, launchConnector, urlConnector } from "@robwot/sim-client";
-import { fromBackendError, ServientError } from "./errors.js";
+import { fromBackendError, servientError } from "./errors.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";
 import { Mover } from "./moves.js";
@@ -130,7 +130,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     let slug = base;
     for (let n = 2; slugs.has(slug); n++) slug = `${base}_${n}`;
     if (slug.length > MAX_SLUG_LENGTH) {
-      throw new ServientError(400, "E_TWIN_FOLDER", `${join(folder.dir, TWIN_FILES.td)}: the title gives the URL path segment "${slug.slice(0, 40)}..." of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served (shorten the title)`, { folder: folder.dir, file: TWIN_FILES.td, field: "title" });
+      throw servientError("E_TWIN_FOLDER", `${join(folder.dir, TWIN_FILES.td)}: the title gives the URL path segment "${slug.slice(0, 40)}..." of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served (shorten the title)`, { folder: folder.dir, file: TWIN_FILES.td, field: "title" });
     }
     slugs.add(slug);
     // the same robot in the same scene has the same id: node-wot needs one id per Thing
@@ -249,10 +249,12 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
         : null;
       if (follower) {
         followers.push(follower);
-        twin.physical = () => follower.view();
+        twin.follow(() => follower.view());
       }
-      registerProperties(thing, twin, () => follower?.view() ?? null);
-      const asyncActions = registerActions(thing, {
+      const described = (kind: "properties" | "actions"): string[] => Object.keys(twin.folder.td[kind] ?? {});
+      const properties = propertyReaders(described("properties"), twin, () => follower?.view() ?? null);
+      registerProperties(thing, twin, properties);
+      const actions = actionHandlers(described("actions"), {
         backend,
         twin,
         mover,

@@ -8,7 +8,10 @@ import { type CollisionEvent, type Contact, FrameMap, type MotionStatus, quat, t
 import type { PoseResult, RobotStateNotification } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { badInput } from "./errors.js";
+import { MotionRecord } from "./motion-record.js";
 import type { TwinFolder } from "./twin-folder.js";
+
+export type { TrajectoryState } from "./motion-record.js";
 
 export interface LiveJoints {
   thing: string;
@@ -41,15 +44,6 @@ export interface CollisionImminentEvent {
   error?: string;
 }
 
-/** A state of the twin's last simulated motion: simulated time (s), joints, end-effector position (virtual frame). */
-export interface TrajectoryState {
-  time: number;
-  q: number[];
-  position: Vec3;
-  /** a program's step */
-  step?: number;
-}
-
 /** `divergence` event: how far the physical robot was from the relayed motion when it passed the bound. */
 export interface DivergenceEvent {
   /** rad or m: the largest joint difference */
@@ -76,22 +70,11 @@ export class Twin extends EventEmitter<TwinEvents> {
   time = 0;
   status: MotionStatus = { state: "idle" };
   frames: FrameMap;
-  /** true from the moment a move is accepted for validation until it ends */
-  busy = false;
-  /** when the last move ended (ms, Date.now()): a reading of the physical robot asked for before that may
-   *  show it on the way there */
-  idleSince = 0;
-  /** set when a collision event was emitted for the current motion */
-  collisionSeen = false;
-  /** the motion streamed by the backend since the last move was sent (`robot.state`: simulated time and
-   *  planned duration); null until its first state */
-  motion: { time: number; planned: number; step?: number } | null = null;
-  /** the states of the motion the backend streams, while a move records them (`Mover`: for the relay) */
-  trajectory: TrajectoryState[] | null = null;
-  /** while a move is relayed: its simulated states and when the command was sent (ms, Date.now()) */
-  relayed: { states: TrajectoryState[]; sentAt: number } | null = null;
+  /** the twin's own motion: busy, the streamed states, the relayed command (changed through its methods only: by the
+   *  motion and relay sessions, and by `onState`/`onCollision` here) */
+  readonly motion = new MotionRecord();
   /** `serve --follow`: the physical robot's state as `physicalState` reports it */
-  physical: (() => object) | null = null;
+  private physicalView: (() => object) | null = null;
 
   constructor(
     slug: string,
@@ -104,6 +87,21 @@ export class Twin extends EventEmitter<TwinEvents> {
     this.robotId = slug;
     this.folder = folder;
     this.frames = new FrameMap(folder.calibration);
+  }
+
+  /** true from the moment a move is accepted for validation until it ends */
+  get busy(): boolean {
+    return this.motion.busy;
+  }
+
+  /** `serve --follow`: the physical robot's state as `physicalState` reports it; null without a follower */
+  get physical(): (() => object) | null {
+    return this.physicalView;
+  }
+
+  /** The follower whose view `physicalState` shows (set once, when the twin is served). */
+  follow(view: () => object): void {
+    this.physicalView = view;
   }
 
   get joints(): string[] {
@@ -168,16 +166,14 @@ export class Twin extends EventEmitter<TwinEvents> {
   onState(params: RobotStateNotification): void {
     this.time = params.time;
     const position: Vec3 = [params.position[0] ?? 0, params.position[1] ?? 0, params.position[2] ?? 0];
-    this.trajectory?.push({ time: params.time, q: [...params.positions], position, ...(params.step !== undefined ? { step: params.step } : {}) });
-    this.motion = { time: params.time, planned: params.planned, ...(params.step !== undefined ? { step: params.step } : {}) };
+    this.motion.record({ time: params.time, q: [...params.positions], position, ...(params.step !== undefined ? { step: params.step } : {}) }, params.planned);
     this.applyPose(params.positions, params);
   }
 
   /** A motion stopped on contact: emits the `collision` event once per motion. */
   onCollision(contacts: Contact[], positions: number[]): void {
     const ev = this.collisionEvent(contacts, positions);
-    if (!ev || this.collisionSeen) return;
-    this.collisionSeen = true;
+    if (!ev || !this.motion.firstCollision()) return;
     this.emit("collision", ev);
   }
 

@@ -62,11 +62,11 @@ export function report(plan: Pick<Plan, "valid" | "reasons"> & { checks: PlanChe
   return { valid: plan.valid, reasons: plan.reasons, checks: { ...statics.checks, ...plan.checks, ...path }, ...(notes.length > 0 ? { notes } : {}) };
 }
 
-export async function validateJoints(backend: BackendSupervisor, twin: Twin, q: number[], speed: number): Promise<ValidationReport> {
+export async function validateJoints(backend: Pick<BackendSupervisor, "sim">, twin: Twin, q: number[], speed: number): Promise<ValidationReport> {
   return report(await backend.sim.plan({ robot: twin.robotId, target: q, speed }));
 }
 
-export async function validateCartesian(backend: BackendSupervisor, twin: Twin, ws: WorkspaceChecks | null, target: PoseTarget, speed: number): Promise<ValidationReport> {
+export async function validateCartesian(backend: Pick<BackendSupervisor, "sim">, twin: Twin, ws: WorkspaceChecks | null, target: PoseTarget, speed: number): Promise<ValidationReport> {
   const statics = staticChecks(ws, target.position);
   return report(await backend.sim.plan({ robot: twin.robotId, ...target, speed }), statics);
 }
