@@ -142,44 +142,105 @@ class SseChannels {
   }
 }
 
+/** The request's decoded path (400 when its escapes are malformed). */
+function decodedPath(url: URL): string {
+  try {
+    return decodeURIComponent(url.pathname);
+  } catch {
+    throw servientError("E_BAD_PATH", `malformed URL path ${url.pathname}`, { path: url.pathname });
+  }
+}
+
+/** The guards every request passes first; true when one of them answered it (a preflight, a challenge). */
+function guarded(env: MiddlewareEnv, req: IncomingMessage, res: ServerResponse, method: string, path: string): boolean {
+  if (env.hop !== undefined && req.headers[HOP_HEADER] === env.hop) {
+    throw servientError("E_LOOP", `${method} ${path} came from this servient itself (a relay, follow or register target, or a form of its TD, points back at it)`, { path });
+  }
+  env.guard.checkHost(req);
+  if (method === "OPTIONS") {
+    env.guard.preflight(req, res); // preflights carry no credentials
+    return true;
+  }
+  env.guard.applyHeaders(res, env.guard.checkOrigin(req, RequestGuard.stateChanging(method)));
+  if (env.auth && !isAuthorized(req, env.auth)) {
+    challenge(res, env.auth);
+    return true;
+  }
+  return false;
+}
+
+/** The servient's own routes (index, directory, viewer, the TD list); false when `path` is none of them. */
+async function siteRoute(env: MiddlewareEnv, req: IncomingMessage, res: ServerResponse, url: URL, path: string, method: string): Promise<boolean> {
+  const get = method === "GET" || method === "HEAD";
+  if (path === "/robwot.json" && get) sendJson(res, 200, env.index());
+  else if (isDirectoryPath(path)) {
+    if (!get) throw methodNotAllowed(res, method, path, READ);
+    directoryRoute(req, res, path, url.searchParams, env.directory);
+  } else if (path === "/viewer" && get) {
+    res.writeHead(301, { Location: `/viewer/${url.search}` });
+    res.end();
+  } else if (path.startsWith("/viewer/") && get) {
+    const file = env.viewerDir ? confine(env.viewerDir, path.slice("/viewer/".length) || "index.html") : null;
+    if (file) sendFile(req, res, file);
+    else notFound(res, path);
+  } else if (path === "/" && get) sendJson(res, 200, [...new Set(env.things.values())].map((t) => t.td()));
+  else return false;
+  return true;
+}
+
+/** An affordance route of `thing` (`segments`: slug, kind, name, sub-resource); node-wot's when `next` is called. */
+async function affordanceRoute(thing: ServedThing, channels: SseChannels, req: IncomingMessage, res: ServerResponse, segments: string[], path: string, next: () => void): Promise<void> {
+  const method = req.method ?? "GET";
+  const allow = affordanceMethods(segments);
+  if (!allow) return notFound(res, path);
+  const kind = AFFORDANCE_KINDS[segments[1] ?? ""];
+  const name = segments[2] ?? "";
+  if (kind && segments.length >= 3) {
+    const available = Object.keys((thing.td()[segments[1] as string] ?? {}) as object);
+    if (!available.includes(name)) throw servientError("E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
+  }
+  const statusId = kind === "action" ? segments[3] : undefined;
+  const asynchronous = ASYNC_ACTIONS.filter((a) => thing.affordances.actions.has(a));
+  if (statusId !== undefined && !asynchronous.includes(name)) {
+    throw servientError("E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${asynchronous.join(", ")})`, { path });
+  }
+  if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
+  if (statusId !== undefined) return actionStatusRoute(req, res, thing.statuses, name, statusId);
+  if (segments[3] === "sse") {
+    const stream = channels.of(thing, segments[1] as "properties" | "events", name);
+    if (!stream) throw servientError("E_NOT_FOUND", `${path}: not observable`, { path });
+    return streamSse(req, res, stream);
+  }
+  if (kind === "action") {
+    const handler = thing.affordances.actions.get(name);
+    if (!handler) throw servientError("E_NOT_FOUND", `${thing.slug} does not serve the action '${name}'`, { path });
+    const input = await readActionBody(req, thing.actionInput(name) ?? undefined, name);
+    // RFC 7240: a preference the action cannot honour is ignored (synchronous answer, no Preference-Applied)
+    if (asynchronous.includes(name) && preferences(req).has(RESPOND_ASYNC)) {
+      return respondAsync(res, thing.statuses, name, String(thing.td().base), (watch) => handler(input, watch));
+    }
+    return invokeAction(res, handler, input);
+  }
+  if (segments[1] === "properties" && segments[3] === undefined) return readProperty(res, thing.affordances, segments[2]);
+  if (segments[3] === "observable") {
+    // node-wot 0.9.2 unsubscribes a long-poll observer on 'finish' only: one that went away first
+    // would have every later value piped into its dead response (listener leak)
+    res.on("close", () => {
+      if (!res.writableFinished) res.emit("finish");
+    });
+  }
+  // what is left is node-wot's: the long-poll observe and event routes, fed by the same readers
+  next();
+}
+
 export function createMiddleware(env: MiddlewareEnv) {
   const channels = new SseChannels();
   return async (req: IncomingMessage, res: ServerResponse, next: () => void): Promise<void> => {
     try {
       const url = new URL(req.url ?? "/", "http://localhost");
-      let path: string;
-      try {
-        path = decodeURIComponent(url.pathname);
-      } catch {
-        throw servientError("E_BAD_PATH", `malformed URL path ${url.pathname}`, { path: url.pathname });
-      }
+      const path = decodedPath(url);
       const method = req.method ?? "GET";
-      if (env.hop !== undefined && req.headers[HOP_HEADER] === env.hop) {
-        throw servientError("E_LOOP", `${method} ${path} came from this servient itself (a relay, follow or register target, or a form of its TD, points back at it)`, { path });
-      }
-      env.guard.checkHost(req);
-      if (method === "OPTIONS") return env.guard.preflight(req, res); // preflights carry no credentials
-      env.guard.applyHeaders(res, env.guard.checkOrigin(req, RequestGuard.stateChanging(method)));
-      if (env.auth && !isAuthorized(req, env.auth)) return challenge(res, env.auth);
-      const get = method === "GET" || method === "HEAD";
-
-      if (path === "/robwot.json" && get) return sendJson(res, 200, env.index());
-      if (isDirectoryPath(path)) {
-        if (!get) throw methodNotAllowed(res, method, path, READ);
-        return directoryRoute(req, res, path, url.searchParams, env.directory);
-      }
-      if (path === "/viewer" && get) {
-        res.writeHead(301, { Location: `/viewer/${url.search}` });
-        return void res.end();
-      }
-      if (path.startsWith("/viewer/") && get) {
-        const file = env.viewerDir ? confine(env.viewerDir, path.slice("/viewer/".length) || "index.html") : null;
-        return file ? sendFile(req, res, file) : notFound(res, path);
-      }
-      if (path === "/" && get) {
-        const tds = [...new Set(env.things.values())].map((t) => t.td());
-        return sendJson(res, 200, tds);
-      }
+      if (guarded(env, req, res, method, path) || (await siteRoute(env, req, res, url, path, method))) return;
       const segments = path.split("/").filter((s) => s.length > 0);
       const thing = env.things.get(segments[0] ?? "");
       // nothing but our routes reaches node-wot: its second route per Thing (`/<url-encoded id>`) would
@@ -189,55 +250,16 @@ export function createMiddleware(env: MiddlewareEnv) {
       channels.touch(thing);
       const rest = segments.slice(1).join("/");
       if (segments.length === 1 || isTwinFile(rest, thing.urdfName)) {
-        if (!get) throw methodNotAllowed(res, method, path, READ);
+        if (method !== "GET" && method !== "HEAD") throw methodNotAllowed(res, method, path, READ);
         if (segments.length === 1) return sendJson(res, 200, thing.td(), "application/td+json");
         const file = confine(thing.dir, rest);
         return file ? sendFile(req, res, file) : notFound(res, path);
       }
-      const allow = affordanceMethods(segments);
-      if (!allow) return notFound(res, path);
-      const kind = AFFORDANCE_KINDS[segments[1] ?? ""];
-      const name = segments[2] ?? "";
-      if (kind && segments.length >= 3) {
-        const available = Object.keys((thing.td()[segments[1] as string] ?? {}) as object);
-        if (!available.includes(name)) {
-          throw servientError("E_NOT_FOUND", `${thing.slug} has no ${kind} '${name}' (available: ${available.join(", ")})`, { path, available });
-        }
-      }
-      const statusId = kind === "action" ? segments[3] : undefined;
-      const asynchronous = ASYNC_ACTIONS.filter((a) => thing.affordances.actions.has(a));
-      if (statusId !== undefined && !asynchronous.includes(name)) {
-        throw servientError("E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${asynchronous.join(", ")})`, { path });
-      }
-      if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
-      if (statusId !== undefined) return await actionStatusRoute(req, res, thing.statuses, name, statusId);
-      if (segments[3] === "sse") {
-        const stream = channels.of(thing, segments[1] as "properties" | "events", name);
-        if (!stream) throw servientError("E_NOT_FOUND", `${path}: not observable`, { path });
-        return streamSse(req, res, stream);
-      }
-      if (segments[3] === "observable") {
-        // node-wot 0.9.2 unsubscribes a long-poll observer on 'finish' only: one that went away first
-        // would have every later value piped into its dead response (listener leak)
-        res.on("close", () => {
-          if (!res.writableFinished) res.emit("finish");
-        });
-      }
-      if (kind === "action") {
-        const handler = thing.affordances.actions.get(name);
-        if (!handler) throw servientError("E_NOT_FOUND", `${thing.slug} does not serve the action '${name}'`, { path });
-        const input = await readActionBody(req, thing.actionInput(name) ?? undefined, name);
-        // RFC 7240: a preference the action cannot honour is ignored (synchronous answer, no Preference-Applied)
-        if (asynchronous.includes(name) && preferences(req).has(RESPOND_ASYNC)) {
-          return await respondAsync(res, thing.statuses, name, String(thing.td().base), (watch) => handler(input, watch));
-        }
-        return await invokeAction(res, handler, input);
-      }
-      if (segments[1] === "properties" && segments[3] === undefined) return readProperty(res, thing.affordances, segments[2]);
-      // what is left is node-wot's: the long-poll observe and event routes, fed by the same readers
-      next();
+      await affordanceRoute(thing, channels, req, res, segments, path, next);
     } catch (err) {
-      if (!res.headersSent) sendProblem(res, toServientError(err));
+      // a request body left unread would be parsed as the next request on this connection: close it
+      const unread = (Number(req.headers["content-length"] ?? 0) > 0 || req.headers["transfer-encoding"] !== undefined) && !req.readableEnded;
+      if (!res.headersSent) sendProblem(res, toServientError(err), unread ? { Connection: "close" } : {});
       else res.end();
     }
   };
