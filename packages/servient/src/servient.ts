@@ -8,27 +8,23 @@ import { dirname, join } from "node:path";
 import { fileURLToPath } from "node:url";
 import { existsSync } from "node:fs";
 import { createServer } from "node:net";
-import { MAX_SLUG_LENGTH, reachOverlaps, targetBounds, TWIN_FILES, type Bounds } from "@robwot/core";
+import { MAX_SLUG_LENGTH, reachOverlaps, targetBounds, TWIN_FILES } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import type { AuthConfig } from "./auth.js";
-import { ActionStatusStore } from "./action-status.js";
-import { actionHandlers } from "./actions.js";
 import { BackendSupervisor, launchConnector, urlConnector } from "@robwot/sim-client";
 import { fromBackendError, servientError } from "./errors.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";
-import { Mover } from "./moves.js";
-import { propertyReaders, registerProperties, sseSource } from "./properties.js";
+import { exposeTwin, type ExposeEnv, type ExposedTwin } from "./expose-twin.js";
 import { boundedHttpClientFactory, LoopError, Outbound } from "./outbound.js";
 import { Relay } from "./relay.js";
 import { DIRECTORY_SEGMENTS } from "./directory.js";
 import { Registrar } from "./register.js";
-import { Follower, FOLLOW_RATE, type MonitorMode } from "./follow.js";
+import type { MonitorMode } from "./follow.js";
 import { loadRelayMap, type RelayMap } from "./relay-map.js";
 import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
-import { produceInit, servedTd } from "./thing-td.js";
-import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
+import { loadTwinFolder } from "./twin-folder.js";
 import { Twin } from "./twin.js";
 import { loadWorkspaceChecks } from "./workspace-checks.js";
 import { World } from "./world.js";
@@ -102,30 +98,27 @@ export interface RunningServient {
 
 const isLoopback = (h: string): boolean => h === "127.0.0.1" || h === "localhost" || h === "::1" || h.startsWith("127.");
 
-export async function startServient(opts: ServientOptions): Promise<RunningServient> {
+/** The options checked before anything starts; the realtime factor the backend will take. */
+function checkOptions(opts: ServientOptions, host: string): number {
   if (opts.twins.length === 0) throw new Error("startServient: no twin folder given");
-  const host = opts.host ?? "127.0.0.1";
   const realtime = opts.realtime ?? 1;
   // a factor the backend refuses would make every move answer 400 for the server's own option
   const factor = VALUE_SCHEMAS.RealtimeFactor;
   if (!(realtime === 0 || (realtime >= factor.minimum && realtime <= factor.maximum))) throw new Error(`realtime must be 0 (as fast as possible) or in [${factor.minimum}, ${factor.maximum}], got ${realtime}`);
+  if (opts.follow && opts.twins.length !== 1) throw new Error(`--follow mirrors one physical robot into one twin; ${opts.twins.length} twin folders given`);
   if (!isLoopback(host) && !opts.auth) {
     process.emitWarning(`robwot serve: binding ${host} without --auth exposes the robot to the network`, { code: "ROBWOT_NO_AUTH" });
   }
+  return realtime;
+}
 
-  const folders = opts.twins.map((t) => loadTwinFolder(t, opts.meshRoots ?? []));
-  const outbound = new Outbound();
-  // URL userinfo becomes an Authorization header of that origin; only the URL without it is shown
-  const relayUrl = opts.relay ? outbound.authorize(opts.relay) : null;
-  const registerUrl = opts.register ? outbound.authorize(opts.register) : null;
+/** Each twin by its URL path segment (its title, slugified; never one of the servient's own routes), with
+ *  one id per Thing (node-wot needs them distinct: the same robot in the same scene has the same id). */
+function nameTwins(opts: ServientOptions, backend: BackendSupervisor): Map<string, Twin> {
   const twins = new Map<string, Twin>();
-  // a twin's slug is the first segment of its paths: never one of the servient's own routes
   const slugs = new Set<string>(["viewer", "live", "robwot.json", ...DIRECTORY_SEGMENTS]);
   const ids = new Set<string>();
-  const connector = opts.backendUrl ? urlConnector(opts.backendUrl) : launchConnector({ python: opts.python });
-  // the world is built from the twins below; restore runs only at start()
-  const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call), { mapError: fromBackendError });
-  for (const folder of folders) {
+  for (const folder of opts.twins.map((t) => loadTwinFolder(t, opts.meshRoots ?? []))) {
     const base = slugify(folder.td.title, { lower: true });
     let slug = base;
     for (let n = 2; slugs.has(slug); n++) slug = `${base}_${n}`;
@@ -133,18 +126,21 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       throw servientError("E_TWIN_FOLDER", `${join(folder.dir, TWIN_FILES.td)}: the title gives the URL path segment "${slug.slice(0, 40)}..." of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served (shorten the title)`, { folder: folder.dir, file: TWIN_FILES.td, field: "title" });
     }
     slugs.add(slug);
-    // the same robot in the same scene has the same id: node-wot needs one id per Thing
     if (folder.td.id && ids.has(folder.td.id)) folder.td.id = `${folder.td.id}:${slug}`;
     if (folder.td.id) ids.add(folder.td.id);
     twins.set(slug, new Twin(slug, folder, backend));
   }
-  const world = new World([...twins.values()], opts.meshRoots ?? []);
   // twins of one world that can touch each other: said once, at start (each is an obstacle to the other)
   const placed = [...twins.entries()].map(([slug, t]) => {
     const p = t.folder.manifest.robot.basePosition ?? [0, 0, 0];
     return { name: `twin ${slug}`, base: [p[0] ?? 0, p[1] ?? 0, p[2] ?? 0] as [number, number, number], reach: targetBounds(t.folder.workspace) };
   });
   for (const w of reachOverlaps(placed)) process.emitWarning(`robwot serve: ${w}`, { code: "ROBWOT_TWINS_OVERLAP" });
+  return twins;
+}
+
+/** The backend's notifications and its lifecycle, told to every twin. */
+function watchBackend(backend: BackendSupervisor, twins: Map<string, Twin>): void {
   backend.sim.on("robot.state", (p) => twins.get(p.robot)?.onState(p));
   backend.sim.on("robot.collision", (p) => twins.get(p.robot)?.onCollision(p.contacts, p.positions));
   backend.on("down", (reason) => {
@@ -160,40 +156,72 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       t.setStatus({ state: t.busy ? t.status.state : "idle", lastError: { code: "E_BACKEND_RESTARTED", message: `simulation backend restarted (${n}); state restored` } });
     }
   });
+}
+
+/** The physical robot's relay and the followed Thing, once the servient listens: targets that are the
+ *  servient itself (or a relayed TD whose forms point back at it) refused. */
+async function connectPeers(
+  opts: ServientOptions,
+  wot: typeof WoT,
+  outbound: Outbound,
+  at: { host: string; port: number; registerUrl: string | null },
+  twins: number,
+  jointNames: string[],
+): Promise<{ relay: Relay | null; relayMap: RelayMap | null; followUrl: string | null }> {
+  // URL userinfo becomes an Authorization header of that origin; only the URL without it is shown
+  const relayUrl = opts.relay ? outbound.authorize(opts.relay) : null;
+  const followUrl = opts.follow === false ? null : opts.follow ? outbound.authorize(opts.follow) : twins === 1 ? relayUrl : null;
+  const relayMap: RelayMap | null = opts.relayMap ? loadRelayMap(opts.relayMap, jointNames) : null;
+  const relay = relayUrl ? new Relay(wot as never, relayUrl, relayMap) : null;
+  // a target that is this servient itself would send each request (a stop: each stop) back to it
+  outbound.listening(at.host, at.port);
+  for (const [what, target] of [["--relay", relayUrl], ["--follow", followUrl], ["--register", at.registerUrl]] as const) {
+    if (target) await outbound.refuseSelf(target, what);
+  }
+  if (relay && relayUrl) {
+    // a physical TD unreachable now is retried at the first command (failures are reported); one whose
+    // forms point back at this servient is refused
+    const td = await relay.connect().catch((err: unknown) => (err instanceof LoopError ? Promise.reject(err) : null));
+    if (td) await outbound.refuseSelfForms(td, relayUrl, "--relay");
+  }
+  return { relay, relayMap, followUrl };
+}
+
+export async function startServient(opts: ServientOptions): Promise<RunningServient> {
+  const host = opts.host ?? "127.0.0.1";
+  const realtime = checkOptions(opts, host);
+  const outbound = new Outbound();
+  const connector = opts.backendUrl ? urlConnector(opts.backendUrl) : launchConnector({ python: opts.python });
+  // the world is built from the twins below; restore runs only at start()
+  const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call), { mapError: fromBackendError });
+  const twins = nameTwins(opts, backend);
+  const world = new World([...twins.values()], opts.meshRoots ?? []);
+  watchBackend(backend, twins);
   // the twin folders are checked completely before a backend is started for them
   const checks = new Map(await Promise.all([...twins].map(async ([s, t]) => [s, await loadWorkspaceChecks(t.folder.dir)] as const)));
   // a port taken by another server is said before the backend starts, not after it
   await portFree(host, opts.port ?? 8080);
   await backend.start();
 
-  // node-wot reads PORT / WOT_PORT from the environment before its config: keep them out
-  const saved = { PORT: process.env.PORT, WOT_PORT: process.env.WOT_PORT };
-  delete process.env.PORT;
-  delete process.env.WOT_PORT;
   const served = new Map<string, ServedThing>();
-  let url = "";
-  let liveUrl = "";
-  const viewerDir = opts.viewerDir ?? defaultViewerDir(dirname(fileURLToPath(import.meta.url)));
+  const urls = { url: "", live: "" };
   let port = 0;
   const guard = new RequestGuard({ host, port: () => port, corsOrigins: opts.corsOrigins ?? [], allowedHosts: opts.allowedHosts ?? [] });
+  const viewerDir = opts.viewerDir ?? defaultViewerDir(dirname(fileURLToPath(import.meta.url)));
   const middleware = createMiddleware({
     auth: opts.auth,
     guard,
     things: served,
     viewerDir: existsSync(viewerDir) ? viewerDir : null,
-    index: () => ({ url, live: liveUrl, viewer: `${url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: infos() }),
-    directory: { url: () => url, tds: () => [...served.values()].map((t) => t.td()), auth: opts.auth },
+    index: () => ({ url: urls.url, live: urls.live, viewer: `${urls.url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: thingInfos(twins, urls.url) }),
+    directory: { url: () => urls.url, tds: () => [...served.values()].map((t) => t.td()), auth: opts.auth },
     hop: outbound.token,
   });
-  const http = new HttpServer({ port: opts.port ?? 8080, address: host, middleware });
-  Object.assign(process.env, Object.fromEntries(Object.entries(saved).filter(([, v]) => v !== undefined)));
-  const servient = new Servient();
-  servient.addServer(http);
-  // every request to another Thing is bounded (deadlines, size cap, no loops, no credentials shown)
-  servient.addClientFactory(boundedHttpClientFactory(outbound));
+  const { servient, http } = nodeWot(host, opts.port ?? 8080, middleware, outbound);
   let live: LiveServer | null = null;
-  const movers: Mover[] = [];
-  const followers: Follower[] = [];
+  const exposed: ExposedTwin[] = [];
+  // URL userinfo becomes an Authorization header of that origin; only the URL without it is shown
+  const registerUrl = opts.register ? outbound.authorize(opts.register) : null;
   const registrar = registerUrl
     ? new Registrar(outbound, registerUrl, () => [...served.values()].flatMap((t) => (typeof t.td().id === "string" ? [{ id: t.td().id as string, td: () => t.td() }] : [])))
     : null;
@@ -201,90 +229,29 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     const wot = await servient.start();
     port = http.getPort();
     const urlHost = host === "0.0.0.0" || host === "::" ? "127.0.0.1" : host.includes(":") ? `[${host}]` : host;
-    url = `http://${urlHost}:${http.getPort()}`;
-    liveUrl = `ws://${urlHost}:${http.getPort()}/live`;
+    urls.url = `http://${urlHost}:${port}`;
+    urls.live = `ws://${urlHost}:${port}/live`;
     // the port is known only now (port 0): node-wot's forms must use the address actually served
-    (http as unknown as { baseUri: string }).baseUri = url;
-    const first = [...twins.values()][0];
-    const jointNames = Object.keys((first?.folder.td.properties?.["getJointPosition"]?.properties ?? {}) as object);
-    const relayMap: RelayMap | null = opts.relayMap ? loadRelayMap(opts.relayMap, jointNames) : null;
-    const relay = relayUrl ? new Relay(wot as never, relayUrl, relayMap) : null;
-    if (opts.follow && twins.size !== 1) throw new Error(`--follow mirrors one physical robot into one twin; ${twins.size} twin folders given`);
-    const followUrl = opts.follow === false ? null : opts.follow ? outbound.authorize(opts.follow) : twins.size === 1 ? relayUrl : null;
-    // a target that is this servient itself would send each request (a stop: each stop) back to it
-    outbound.listening(host, port);
-    for (const [what, target] of [["--relay", relayUrl], ["--follow", followUrl], ["--register", registerUrl]] as const) {
-      if (target) await outbound.refuseSelf(target, what);
-    }
-    if (relay) {
-      // a physical TD unreachable now is retried at the first command (failures are reported); one whose
-      // forms point back at this servient is refused
-      const td = await relay.connect().catch((err: unknown) => (err instanceof LoopError ? Promise.reject(err) : null));
-      if (td) await outbound.refuseSelfForms(td, relayUrl!, "--relay");
-    }
-
+    (http as unknown as { baseUri: string }).baseUri = urls.url;
+    const jointNames = Object.keys(([...twins.values()][0]?.folder.td.properties?.["getJointPosition"]?.properties ?? {}) as object);
+    const peers = await connectPeers(opts, wot, outbound, { host, port, registerUrl }, twins.size, jointNames);
+    const follow = {
+      ...(opts.followRate !== undefined ? { rate: opts.followRate } : {}),
+      ...(opts.divergenceBound !== undefined ? { divergenceBound: opts.divergenceBound } : {}),
+      ...(opts.monitor !== undefined ? { monitor: opts.monitor } : {}),
+      ...(opts.horizon !== undefined ? { horizon: opts.horizon } : {}),
+    };
+    const env: ExposeEnv = { wot, backend, world, realtime, auth: opts.auth, url: urls.url, liveUrl: urls.live, ...peers, follow, changed: (id) => registrar?.changed(id) };
     for (const [slug, twin] of twins) {
-      const bounds: Bounds | null = twin.folder.workspace ? targetBounds(twin.folder.workspace) : null;
-      let cached: TdDocument | null = null;
-      const td = (): TdDocument =>
-        (cached ??= servedTd(twin.folder.td, { url, slug, liveUrl, auth: opts.auth, frames: twin.frames, bounds }));
-      const thing = await wot.produce(produceInit(twin.folder.td));
-      const mover = new Mover(backend, twin, checks.get(slug) ?? null, realtime, relay);
-      movers.push(mover);
-      const follower = followUrl
-        ? new Follower(
-            wot as never,
-            followUrl,
-            twin,
-            backend,
-            {
-              rate: opts.followRate ?? FOLLOW_RATE.default,
-              map: relayMap,
-              ...(opts.divergenceBound !== undefined ? { divergenceBound: opts.divergenceBound } : {}),
-              ...(opts.monitor !== undefined ? { monitor: opts.monitor } : {}),
-              ...(opts.horizon !== undefined ? { horizon: opts.horizon } : {}),
-            },
-            () => twin.emit("physical"),
-          )
-        : null;
-      if (follower) {
-        followers.push(follower);
-        twin.follow(() => follower.view());
-      }
-      const described = (kind: "properties" | "actions"): string[] => Object.keys(twin.folder.td[kind] ?? {});
-      const properties = propertyReaders(described("properties"), twin, () => follower?.view() ?? null);
-      registerProperties(thing, twin, properties);
-      const actions = actionHandlers(described("actions"), {
-        backend,
-        twin,
-        mover,
-        world,
-        onCalibrated: () => {
-          cached = null;
-          registrar?.changed(String(td().id ?? ""));
-        },
-      });
-      await thing.expose();
-      const entry: ServedThing = {
-        slug,
-        dir: twin.folder.dir,
-        urdfName: twin.folder.manifest.robot.urdf,
-        td,
-        actionInput: (name) => {
-          const a = td().actions?.[name];
-          return a ? ((a.input as object | undefined) ?? undefined) : null;
-        },
-        observe: (kind, name) => sseSource(twin, properties, kind, name),
-        affordances: { properties, actions },
-        statuses: new ActionStatusStore(),
-      };
-      served.set(slug, entry);
+      const t = await exposeTwin(env, slug, twin, checks.get(slug) ?? null);
+      exposed.push(t);
+      served.set(slug, t.served);
     }
     live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth, guard);
-    for (const f of followers) f.start();
+    for (const t of exposed) t.follower?.start();
     if (registrar) await registrar.start();
   } catch (err) {
-    for (const f of followers) f.stop();
+    for (const t of exposed) t.follower?.stop();
     // start-up failed: the original error is rethrown below, a failing shutdown adds nothing to it
     await servient.shutdown().catch(() => undefined);
     outbound.close();
@@ -292,40 +259,66 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     throw err;
   }
 
-  function infos(): ThingInfo[] {
-    return [...twins].map(([slug, t]) => ({
-      slug,
-      id: t.folder.td.id ?? slug,
-      title: t.folder.td.title,
-      tdUrl: `${url}/${slug}`,
-      viewerUrl: `${url}/viewer/?thing=${encodeURIComponent(slug)}`,
-    }));
-  }
-
   let stopping: Promise<void> | null = null;
   return {
-    url,
-    liveUrl,
-    things: infos(),
+    url: urls.url,
+    liveUrl: urls.live,
+    things: thingInfos(twins, urls.url),
     backend,
     twins,
-    stop: () =>
-      (stopping ??= (async () => {
-        // first, while node-wot's HTTP client still works: a relayed command running on the physical
-        // robot is stopped there (the servient that watched it is going away)
-        await Promise.all(movers.map((m) => m.shutdown()));
-        for (const f of followers) f.stop();
-        await registrar?.stop();
-        await live?.close();
-        // stopping: node-wot failing to unregister a Thing changes nothing, the server closes anyway
-        const shut = servient.shutdown().catch(() => undefined);
-        // long-poll observers (node-wot) hold requests open: close() alone would wait for them forever
-        (http.getServer() as import("node:http").Server).closeAllConnections();
-        await shut;
-        outbound.close();
-        await backend.stop();
-      })()),
+    stop: () => (stopping ??= shutdown({ exposed, registrar, live, servient, http, outbound, backend })),
   };
+}
+
+/** What `robwot.json` and the start-up banner say of each served twin. */
+function thingInfos(twins: Map<string, Twin>, url: string): ThingInfo[] {
+  return [...twins].map(([slug, t]) => ({
+    slug,
+    id: t.folder.td.id ?? slug,
+    title: t.folder.td.title,
+    tdUrl: `${url}/${slug}`,
+    viewerUrl: `${url}/viewer/?thing=${encodeURIComponent(slug)}`,
+  }));
+}
+
+/** Stops a started servient: first, while node-wot's HTTP client still works, a relayed command running on
+ *  the physical robot is stopped there (the servient that watched it is going away); then the followers,
+ *  the directory registration, /live, node-wot and the backend. */
+async function shutdown(s: {
+  exposed: ExposedTwin[];
+  registrar: Registrar | null;
+  live: LiveServer | null;
+  servient: InstanceType<typeof Servient>;
+  http: InstanceType<typeof HttpServer>;
+  outbound: Outbound;
+  backend: BackendSupervisor;
+}): Promise<void> {
+  await Promise.all(s.exposed.map((t) => t.mover.shutdown()));
+  for (const t of s.exposed) t.follower?.stop();
+  await s.registrar?.stop();
+  await s.live?.close();
+  // stopping: node-wot failing to unregister a Thing changes nothing, the server closes anyway
+  const shut = s.servient.shutdown().catch(() => undefined);
+  // long-poll observers (node-wot) hold requests open: close() alone would wait for them forever
+  (s.http.getServer() as import("node:http").Server).closeAllConnections();
+  await shut;
+  s.outbound.close();
+  await s.backend.stop();
+}
+
+/** node-wot's servient with its HTTP server (RobWoT's router as its middleware) and the bounded client. */
+function nodeWot(host: string, port: number, middleware: ReturnType<typeof createMiddleware>, outbound: Outbound) {
+  // node-wot reads PORT / WOT_PORT from the environment before its config: keep them out
+  const saved = { PORT: process.env.PORT, WOT_PORT: process.env.WOT_PORT };
+  delete process.env.PORT;
+  delete process.env.WOT_PORT;
+  const http = new HttpServer({ port, address: host, middleware });
+  Object.assign(process.env, Object.fromEntries(Object.entries(saved).filter(([, v]) => v !== undefined)));
+  const servient = new Servient();
+  servient.addServer(http);
+  // every request to another Thing is bounded (deadlines, size cap, no loops, no credentials shown)
+  servient.addClientFactory(boundedHttpClientFactory(outbound));
+  return { servient, http };
 }
 
 /** Resolves when `port` (0: any) can be bound on `host`; else throws naming both. */
