@@ -56,173 +56,201 @@ export interface LiveServer {
   clients(): number;
 }
 
-export function attachLive(server: Server, twins: Map<string, Twin>, world: World, auth: AuthConfig | undefined, guard: RequestGuard): LiveServer {
-  const wss = new WebSocketServer({ noServer: true, maxPayload: 64 * 1024 });
-  const clients = new Map<WebSocket, { things: Set<string>; queue: PushQueue<Buffer> }>();
+type Kind = "joints" | "status" | "scene" | "collision" | "divergence" | "collisionImminent" | "physical";
+/** the twin's events a /live client is told of (kept for resuming clients), besides its states */
+const EVENTS = new Set<Kind>(["collision", "divergence", "collisionImminent"]);
 
-  // one sequence for every message of the stream; the events of each twin kept for resuming clients
-  const seq = new Sequence();
-  const kept = new Map([...twins.keys()].map((slug) => [slug, new EventHistory<Buffer>(seq)]));
-  const stamp = (msg: object, n: number): Buffer => Buffer.from(JSON.stringify({ ...msg, seq: n }));
+/** Refuses an upgrade that is not to `/live` or that the guards or auth refuse; true when refused. */
+function refuseUpgrade(req: IncomingMessage, socket: Duplex, url: URL, auth: AuthConfig | undefined, guard: RequestGuard): boolean {
+  if (url.pathname !== "/live") {
+    socket.end("HTTP/1.1 404 Not Found\r\nConnection: close\r\n\r\n");
+    return true;
+  }
+  try {
+    // a page of another origin must not even watch (it could time its commands on what it sees)
+    guard.checkHost(req);
+    guard.checkOrigin(req, true);
+  } catch (err) {
+    const e = err as ServientError;
+    const body = JSON.stringify(e.problem());
+    socket.end(`HTTP/1.1 ${e.status} ${e.code}\r\nContent-Type: ${PROBLEM_JSON}\r\nContent-Length: ${Buffer.byteLength(body)}\r\nConnection: close\r\n\r\n${body}`);
+    return true;
+  }
+  if (auth && !isAuthorized(req, auth)) {
+    const scheme = auth.scheme === "basic" ? "Basic" : "Bearer";
+    socket.end(`HTTP/1.1 401 Unauthorized\r\nWWW-Authenticate: ${scheme} realm="robwot"\r\nConnection: close\r\n\r\n`);
+    return true;
+  }
+  return false;
+}
+
+/** The /live clients of one servient, what they subscribed to, and the stream they are sent. */
+class LiveHub {
+  private readonly wss = new WebSocketServer({ noServer: true, maxPayload: 64 * 1024 });
+  readonly clients = new Map<WebSocket, { things: Set<string>; queue: PushQueue<Buffer> }>();
+  /** one sequence for every message of the stream; the events of each twin kept for resuming clients */
+  private readonly seq = new Sequence();
+  private readonly kept: Map<string, EventHistory<Buffer>>;
+  private readonly detach: (() => void)[] = [];
+  private sceneTimer: NodeJS.Timeout | null = null;
+  private sceneSentAt = 0;
+
+  constructor(
+    private readonly twins: Map<string, Twin>,
+    private readonly world: World,
+  ) {
+    this.kept = new Map([...twins.keys()].map((slug) => [slug, new EventHistory<Buffer>(this.seq)]));
+    const onScene = (): void => this.onScene();
+    world.on("scene", onScene);
+    this.detach.push(() => {
+      world.off("scene", onScene);
+      if (this.sceneTimer) clearTimeout(this.sceneTimer);
+    });
+    for (const [slug, twin] of twins) this.watch(slug, twin);
+  }
+
+  private stamp(msg: object, n: number): Buffer {
+    return Buffer.from(JSON.stringify({ ...msg, seq: n }));
+  }
 
   /** key: what the message coalesces with (`<kind>:<slug>`), null for an event or a reply (kept) */
-  const send = (ws: WebSocket, key: string | null, msg: object, numbered = true): void => {
-    clients.get(ws)?.queue.push(key, numbered ? stamp(msg, seq.take()) : Buffer.from(JSON.stringify(msg)));
-  };
-  const broadcast = (slug: string, kind: "joints" | "status" | "scene" | "collision" | "divergence" | "collisionImminent" | "physical", msg: object): void => {
+  send(ws: WebSocket, key: string | null, msg: object, numbered = true): void {
+    this.clients.get(ws)?.queue.push(key, numbered ? this.stamp(msg, this.seq.take()) : Buffer.from(JSON.stringify(msg)));
+  }
+
+  private broadcast(slug: string, kind: Kind, msg: object): void {
     let data: Buffer | null = null;
     // events are kept (up to a bound, also here for resuming clients); of a state, the latest replaces a queued one
-    const event = kind === "collision" || kind === "divergence" || kind === "collisionImminent";
-    if (event) data = kept.get(slug)!.record((n) => stamp(msg, n));
+    const event = EVENTS.has(kind);
+    if (event) data = this.kept.get(slug)!.record((n) => this.stamp(msg, n));
     const key = event ? null : `${kind}:${slug}`;
-    for (const { things, queue } of clients.values()) {
+    for (const { things, queue } of this.clients.values()) {
       if (!things.has(slug)) continue;
-      data ??= stamp(msg, seq.take());
+      data ??= this.stamp(msg, this.seq.take());
       queue.push(key, data);
     }
-  };
-  const sceneOf = (slug: string): object => ({ thing: slug, type: "scene", obstacles: world.sceneObstacles() });
-  // at most one scene frame per SCENE_INTERVAL_MS, the latest scene: a burst of edits costs one
-  // serialisation of the whole world per interval, not one per edit; a lone edit goes out at once
-  let sceneTimer: NodeJS.Timeout | null = null;
-  let sceneSentAt = 0;
-  const sendScene = (): void => {
-    sceneTimer = null;
-    sceneSentAt = Date.now();
-    for (const slug of twins.keys()) broadcast(slug, "scene", sceneOf(slug));
-  };
-  const onScene = (): void => {
-    if (sceneTimer) return;
-    const wait = SCENE_INTERVAL_MS - (Date.now() - sceneSentAt);
-    if (wait <= 0) sendScene();
-    else sceneTimer = setTimeout(sendScene, wait);
-  };
-  world.on("scene", onScene);
-  const detach: (() => void)[] = [
-    () => {
-      world.off("scene", onScene);
-      if (sceneTimer) clearTimeout(sceneTimer);
-    },
-  ];
-  for (const [slug, twin] of twins) {
-    const onJoints = (m: object): void => broadcast(slug, "joints", m);
-    const onStatus = (s: object): void => broadcast(slug, "status", { thing: slug, type: "status", ...s });
-    const onCollision = (e: object): void => broadcast(slug, "collision", { thing: slug, type: "collision", ...e });
-    const onDivergence = (e: object): void => broadcast(slug, "divergence", { thing: slug, type: "divergence", ...e });
-    const onImminent = (e: object): void => broadcast(slug, "collisionImminent", { thing: slug, type: "collisionImminent", ...e });
-    const onPhysical = (): void => {
-      const state = twin.physical?.();
-      if (state) broadcast(slug, "physical", { thing: slug, type: "physical", ...state });
+  }
+
+  private sceneOf(slug: string): object {
+    return { thing: slug, type: "scene", obstacles: this.world.sceneObstacles() };
+  }
+
+  /** at most one scene frame per SCENE_INTERVAL_MS, the latest scene: a burst of edits costs one
+   *  serialisation of the whole world per interval, not one per edit; a lone edit goes out at once */
+  private onScene(): void {
+    if (this.sceneTimer) return;
+    const sendScene = (): void => {
+      this.sceneTimer = null;
+      this.sceneSentAt = Date.now();
+      for (const slug of this.twins.keys()) this.broadcast(slug, "scene", this.sceneOf(slug));
     };
-    twin.on("joints", onJoints);
-    twin.on("status", onStatus);
-    twin.on("collision", onCollision);
-    twin.on("divergence", onDivergence);
-    twin.on("collisionImminent", onImminent);
-    twin.on("physical", onPhysical);
-    detach.push(() => {
-      twin.off("joints", onJoints);
-      twin.off("status", onStatus);
-      twin.off("collision", onCollision);
-      twin.off("divergence", onDivergence);
-      twin.off("collisionImminent", onImminent);
-      twin.off("physical", onPhysical);
-    });
+    const wait = SCENE_INTERVAL_MS - (Date.now() - this.sceneSentAt);
+    if (wait <= 0) sendScene();
+    else this.sceneTimer = setTimeout(sendScene, wait);
+  }
+
+  /** The twin's states and events, to the clients subscribed to it. */
+  private watch(slug: string, twin: Twin): void {
+    const listeners: [Parameters<Twin["on"]>[0], (e: object) => void][] = [
+      ["joints", (m) => this.broadcast(slug, "joints", m)],
+      ["status", (s) => this.broadcast(slug, "status", { thing: slug, type: "status", ...s })],
+      ...[...EVENTS].map((kind): [Parameters<Twin["on"]>[0], (e: object) => void] => [kind as Parameters<Twin["on"]>[0], (e) => this.broadcast(slug, kind, { thing: slug, type: kind, ...e })]),
+      [
+        "physical",
+        () => {
+          const state = twin.physical?.();
+          if (state) this.broadcast(slug, "physical", { thing: slug, type: "physical", ...state });
+        },
+      ],
+    ];
+    for (const [event, fn] of listeners) twin.on(event, fn as never);
+    this.detach.push(() => listeners.forEach(([event, fn]) => twin.off(event, fn as never)));
   }
 
   /** `resume`: the last `seq` the client saw (its missed events are replayed first), null for none */
-  const subscribe = (ws: WebSocket, slug: string, resume: number | null): void => {
-    const client = clients.get(ws);
+  private subscribe(ws: WebSocket, slug: string, resume: number | null): void {
+    const client = this.clients.get(ws);
     if (!client) return;
-    const targets = slug === "*" ? [...twins.keys()] : [slug];
-    for (const s of targets) {
-      const twin = twins.get(s);
+    for (const s of slug === "*" ? [...this.twins.keys()] : [slug]) {
+      const twin = this.twins.get(s);
       if (!twin) {
-        send(ws, null, { type: "error", code: "E_UNKNOWN_THING", message: `no twin '${s}'`, details: { thing: s, available: [...twins.keys()] } }, false);
+        this.send(ws, null, { type: "error", code: "E_UNKNOWN_THING", message: `no twin '${s}'`, details: { thing: s, available: [...this.twins.keys()] } }, false);
         continue;
       }
       if (resume !== null) {
-        const { replay, gap } = kept.get(s)!.since(resume);
-        if (gap) send(ws, null, { thing: s, type: "gap", resume, firstKept: gap.firstKept, reason: gap.reason }, false);
+        const { replay, gap } = this.kept.get(s)!.since(resume);
+        if (gap) this.send(ws, null, { thing: s, type: "gap", resume, firstKept: gap.firstKept, reason: gap.reason }, false);
         for (const data of replay) client.queue.push(null, data);
       }
       client.things.add(s);
-      send(ws, `joints:${s}`, twin.liveJoints());
-      send(ws, `status:${s}`, { thing: s, type: "status", ...twin.status });
-      send(ws, `scene:${s}`, sceneOf(s));
+      this.send(ws, `joints:${s}`, twin.liveJoints());
+      this.send(ws, `status:${s}`, { thing: s, type: "status", ...twin.status });
+      this.send(ws, `scene:${s}`, this.sceneOf(s));
     }
-  };
+  }
 
   /** A resume point the client gave but that is not a `seq` is refused: subscribing without it would lose events silently. */
-  const subscribeResuming = (ws: WebSocket, slug: string, resume: unknown): void => {
-    if (resume === undefined || resume === null) return subscribe(ws, slug, null);
+  subscribeResuming(ws: WebSocket, slug: string, resume: unknown): void {
+    if (resume === undefined || resume === null) return this.subscribe(ws, slug, null);
     const point = typeof resume === "number" || typeof resume === "string" ? resumePoint(String(resume)) : null;
-    if (point !== null) return subscribe(ws, slug, point);
+    if (point !== null) return this.subscribe(ws, slug, point);
     const message = `resume must be the seq of a message (a non-negative integer), got ${JSON.stringify(resume).slice(0, 40)}`;
-    send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message, details: { thing: slug } }, false);
-  };
+    this.send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message, details: { thing: slug } }, false);
+  }
 
-  const onUpgrade = (req: IncomingMessage, socket: Duplex, head: Buffer): void => {
-    const url = new URL(req.url ?? "/", "http://localhost");
-    if (url.pathname !== "/live") {
-      socket.end("HTTP/1.1 404 Not Found\r\nConnection: close\r\n\r\n");
-      return;
-    }
+  /** A client's message: subscribe (resuming) or unsubscribe; anything else an error reply. */
+  private onMessage(ws: WebSocket, data: Buffer): void {
+    let msg: unknown;
     try {
-      // a page of another origin must not even watch (it could time its commands on what it sees)
-      guard.checkHost(req);
-      guard.checkOrigin(req, true);
-    } catch (err) {
-      const e = err as ServientError;
-      const body = JSON.stringify(e.problem());
-      socket.end(`HTTP/1.1 ${e.status} ${e.code}\r\nContent-Type: ${PROBLEM_JSON}\r\nContent-Length: ${Buffer.byteLength(body)}\r\nConnection: close\r\n\r\n${body}`);
-      return;
+      msg = JSON.parse(data.toString());
+    } catch {
+      return this.send(ws, null, { type: "error", code: "E_BAD_JSON", message: "message is not JSON", details: {} }, false);
     }
-    if (auth && !isAuthorized(req, auth)) {
-      const scheme = auth.scheme === "basic" ? "Basic" : "Bearer";
-      socket.end(`HTTP/1.1 401 Unauthorized\r\nWWW-Authenticate: ${scheme} realm="robwot"\r\nConnection: close\r\n\r\n`);
-      return;
-    }
-    wss.handleUpgrade(req, socket, head, (ws) => {
+    const m = (msg ?? {}) as { subscribe?: unknown; unsubscribe?: unknown; resume?: unknown };
+    if (typeof m.subscribe === "string") this.subscribeResuming(ws, m.subscribe, m.resume);
+    else if (typeof m.unsubscribe === "string") this.clients.get(ws)?.things.delete(m.unsubscribe);
+    else this.send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message: 'expected {"subscribe": "<slug>", "resume"?: <seq>} or {"unsubscribe": "<slug>"}', details: {} }, false);
+  }
+
+  /** Takes an upgrade the guards let through: the client, its queue, its messages, its first subscription. */
+  accept(req: IncomingMessage, socket: Duplex, head: Buffer, url: URL): void {
+    this.wss.handleUpgrade(req, socket, head, (ws) => {
       const peer = `/live ${req.socket.remoteAddress ?? "?"}:${req.socket.remotePort ?? "?"}`;
-      clients.set(ws, { things: new Set(), queue: new PushQueue(wsTransport(ws), peer) });
+      this.clients.set(ws, { things: new Set(), queue: new PushQueue(wsTransport(ws), peer) });
       const gone = (): void => {
-        clients.get(ws)?.queue.dispose();
-        clients.delete(ws);
+        this.clients.get(ws)?.queue.dispose();
+        this.clients.delete(ws);
       };
       ws.on("close", gone);
       ws.on("error", gone);
-      ws.on("message", (data) => {
-        let msg: unknown;
-        try {
-          msg = JSON.parse(data.toString());
-        } catch {
-          send(ws, null, { type: "error", code: "E_BAD_JSON", message: "message is not JSON", details: {} }, false);
-          return;
-        }
-        const m = (msg ?? {}) as { subscribe?: unknown; unsubscribe?: unknown; resume?: unknown };
-        if (typeof m.subscribe === "string") subscribeResuming(ws, m.subscribe, m.resume);
-        else if (typeof m.unsubscribe === "string") clients.get(ws)?.things.delete(m.unsubscribe);
-        else {
-          send(ws, null, { type: "error", code: "E_BAD_MESSAGE", message: 'expected {"subscribe": "<slug>", "resume"?: <seq>} or {"unsubscribe": "<slug>"}', details: {} }, false);
-        }
-      });
+      ws.on("message", (data) => this.onMessage(ws, data as Buffer));
       const initial = url.searchParams.get("thing");
-      if (initial) subscribeResuming(ws, initial, url.searchParams.get("resume") ?? undefined);
+      if (initial) this.subscribeResuming(ws, initial, url.searchParams.get("resume") ?? undefined);
     });
+  }
+
+  async close(): Promise<void> {
+    this.detach.forEach((d) => d());
+    for (const [ws, { queue }] of this.clients) {
+      queue.dispose();
+      ws.terminate();
+    }
+    await new Promise<void>((r) => this.wss.close(() => r()));
+  }
+}
+
+export function attachLive(server: Server, twins: Map<string, Twin>, world: World, auth: AuthConfig | undefined, guard: RequestGuard): LiveServer {
+  const hub = new LiveHub(twins, world);
+  const onUpgrade = (req: IncomingMessage, socket: Duplex, head: Buffer): void => {
+    const url = new URL(req.url ?? "/", "http://localhost");
+    if (!refuseUpgrade(req, socket, url, auth, guard)) hub.accept(req, socket, head, url);
   };
   server.on("upgrade", onUpgrade);
-
   return {
-    clients: () => clients.size,
+    clients: () => hub.clients.size,
     close: async () => {
       server.off("upgrade", onUpgrade);
-      detach.forEach((d) => d());
-      for (const [ws, { queue }] of clients) {
-        queue.dispose();
-        ws.terminate();
-      }
-      await new Promise<void>((r) => wss.close(() => r()));
+      await hub.close();
     },
   };
 }
