@@ -23,7 +23,7 @@ import { launchBackend, type LaunchedBackend } from "@robwot/sim-client";
 import type { AuthConfig } from "./auth.js";
 import { EmulatedController, type MotionEnd } from "./emulate-controller.js";
 import { emulatorMiddleware, emulatorTd, type EmulatedThing } from "./emulate-http.js";
-import { objectInput, type ActionHandler } from "./affordance-routes.js";
+import { objectInput, type ActionHandler, type Affordances } from "./affordance-routes.js";
 import { fromBackendError, servientError } from "./errors.js";
 import { isLoopback, RequestGuard } from "./request-guard.js";
 import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
@@ -77,7 +77,6 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
   const lag = o.lag ?? 0;
   const noise = o.noise ?? 0;
   const scale = o.velocityScale ?? 1;
-  const rand = mulberry32(o.seed ?? 1);
   const backend: LaunchedBackend = await launchBackend();
   const sim = backend.client;
   // what is running when start-up fails after it
@@ -104,7 +103,6 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       amax: vmax.map((v) => v / scale / ACCELERATION_TIME),
     };
     const robot = (controller = new EmulatedController(limits, names.map((n) => m.home?.joints[n] ?? 0), latencyMs, lag));
-    const record = (v: number[]): Record<string, number> => Object.fromEntries(names.map((n, i) => [n, v[i] ?? 0]));
 
     let exposed: EmulatedThing | null = null;
     let port = 0;
@@ -124,43 +122,7 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       await shut;
     });
     const thing = await wot.produce(thingInit(folder.td, names, { latencyMs, lag, noise }));
-    const answer = (end: MotionEnd): unknown => ({ status: end, joints: record(robot.reported) });
-    const speedOf = (v: Json): number => (typeof v["speed"] === "number" ? v["speed"] : 1);
-    const properties = new Map<string, () => unknown>([
-      ["getJointPosition", () => record(robot.reported.map((r) => r + (noise > 0 ? gaussian(rand) * noise : 0)))],
-      ["motionStatus", () => robot.status],
-    ]);
-    /** action handlers take the input the router parsed and validated against the TD; their ServientErrors
-     *  answer with their status */
-    const actions = new Map<string, ActionHandler>();
-    const action = (name: string, fn: (v: Json) => Promise<unknown>): void => void actions.set(name, (input) => fn(objectInput<Json>(input, name)));
-    action("moveToJointPosition", async (v) => {
-      // the schema names every joint within the TD's limits; the controller checks its own
-      const target = names.map((n) => (v["joints"] as Record<string, number>)[n] ?? NaN);
-      const k = target.findIndex((t, j) => !(t >= (limits.lower[j] ?? -Infinity) && t <= (limits.upper[j] ?? Infinity)));
-      if (k >= 0) {
-        const [joint, value, lower, upper] = [names[k], target[k], limits.lower[k], limits.upper[k]];
-        throw servientError("E_OUT_OF_LIMITS", `joint ${joint} = ${value} is beyond its limits [${lower}, ${upper}]`, { joint, value, lower, upper });
-      }
-      return answer(await robot.moveTo(target, speedOf(v)));
-    });
-    action("moveToCartesianPosition", async (v) => {
-      const p = [v["x"], v["y"], v["z"]] as [number, number, number];
-      const o = v["orientation"] as { x: number; y: number; z: number; w: number } | undefined;
-      // the controller's inverse kinematics, seeded with where it is; it does not know the scene
-      const ik = await sim.ik({ robot: "emulated", position: p, ...(o ? { orientation: [o.x, o.y, o.z, o.w] } : {}), seed: robot.joints, collisionFree: false }).catch((err: unknown) => {
-        throw fromBackendError(err);
-      });
-      if (ik.positionError > 1e-3) {
-        throw servientError("E_UNREACHABLE", `(${p.join(", ")}) m is out of reach (${ik.positionError.toFixed(4)} m away)`, { position: p, positionError: ik.positionError });
-      }
-      return answer(await robot.moveTo(ik.positions, speedOf(v)));
-    });
-    action("jog", async (v) => {
-      const velocities = v["velocities"] as Record<string, number>;
-      return answer(await robot.jog(names.map((n) => velocities[n] ?? 0), v["duration"] as number));
-    });
-    actions.set("stop", async () => ({ stopped: robot.stop() }));
+    const { properties, actions } = emulatorAffordances(robot, limits, sim, noise, mulberry32(o.seed ?? 1));
     await thing.expose();
     // node-wot serves the Thing under a path of its own making (its title, slugified): where its forms point
     const href = String(thing.getThingDescription().properties?.["getJointPosition"]?.forms?.[0]?.href ?? "");
@@ -181,6 +143,51 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
     await backend.stop();
     throw new Error(`robwot emulate ${o.folder}: ${message(err)}`);
   }
+}
+
+/** The emulated robot's property readers and action handlers: it moves where it is told within its own
+ *  limits (its controller's inverse kinematics for a Cartesian target, not knowing the scene). */
+function emulatorAffordances(robot: EmulatedController, limits: { names: string[]; lower: number[]; upper: number[] }, sim: LaunchedBackend["client"], noise: number, rand: () => number): Affordances {
+  const names = limits.names;
+  const record = (v: number[]): Record<string, number> => Object.fromEntries(names.map((n, i) => [n, v[i] ?? 0]));
+  const answer = (end: MotionEnd): unknown => ({ status: end, joints: record(robot.reported) });
+  const speedOf = (v: Json): number => (typeof v["speed"] === "number" ? v["speed"] : 1);
+  const properties = new Map<string, () => unknown>([
+    ["getJointPosition", () => record(robot.reported.map((r) => r + (noise > 0 ? gaussian(rand) * noise : 0)))],
+    ["motionStatus", () => robot.status],
+  ]);
+  /** action handlers take the input the router parsed and validated against the TD; their ServientErrors
+   *  answer with their status */
+  const actions = new Map<string, ActionHandler>();
+  const action = (name: string, fn: (v: Json) => Promise<unknown>): void => void actions.set(name, (input) => fn(objectInput<Json>(input, name)));
+  action("moveToJointPosition", async (v) => {
+    // the schema names every joint within the TD's limits; the controller checks its own
+    const target = names.map((n) => (v["joints"] as Record<string, number>)[n] ?? NaN);
+    const k = target.findIndex((t, j) => !(t >= (limits.lower[j] ?? -Infinity) && t <= (limits.upper[j] ?? Infinity)));
+    if (k >= 0) {
+      const [joint, value, lower, upper] = [names[k], target[k], limits.lower[k], limits.upper[k]];
+      throw servientError("E_OUT_OF_LIMITS", `joint ${joint} = ${value} is beyond its limits [${lower}, ${upper}]`, { joint, value, lower, upper });
+    }
+    return answer(await robot.moveTo(target, speedOf(v)));
+  });
+  action("moveToCartesianPosition", async (v) => {
+    const p = [v["x"], v["y"], v["z"]] as [number, number, number];
+    const o = v["orientation"] as { x: number; y: number; z: number; w: number } | undefined;
+    // the controller's inverse kinematics, seeded with where it is; it does not know the scene
+    const ik = await sim.ik({ robot: "emulated", position: p, ...(o ? { orientation: [o.x, o.y, o.z, o.w] } : {}), seed: robot.joints, collisionFree: false }).catch((err: unknown) => {
+      throw fromBackendError(err);
+    });
+    if (ik.positionError > 1e-3) {
+      throw servientError("E_UNREACHABLE", `(${p.join(", ")}) m is out of reach (${ik.positionError.toFixed(4)} m away)`, { position: p, positionError: ik.positionError });
+    }
+    return answer(await robot.moveTo(ik.positions, speedOf(v)));
+  });
+  action("jog", async (v) => {
+    const velocities = v["velocities"] as Record<string, number>;
+    return answer(await robot.jog(names.map((n) => velocities[n] ?? 0), v["duration"] as number));
+  });
+  actions.set("stop", async () => ({ stopped: robot.stop() }));
+  return { properties, actions };
 }
 
 /** The Thing as node-wot produces it: the twin's affordance names and data schemas, and `jog`. */
