@@ -197,3 +197,13 @@ describe("a generate whose backend stops answering", () => {
     expect(() => process.kill(backendPid, 0)).toThrow(); // the hung backend was killed, not left stopped
   });
 });
+
+describe("the CLI's own help and its README agree", () => {
+  it("every command robwot --help lists is in the CLI README's synopsis, and nothing else", async () => {
+    const help = await runCli(["--help"]);
+    const commands = (text: string): string[] => [...text.matchAll(/^ {0,2}robwot ([a-z]+) /gm)].map((m) => m[1]!).sort();
+    const synopsis = /```\n([\s\S]*?)```/.exec(readFileSync(join(REPO, "packages/cli/README.md"), "utf8"))?.[1] ?? "";
+    expect(commands(synopsis)).toEqual(commands(help.stdout));
+    expect(commands(help.stdout)).toContain("emulate");
+  });
+});
