@@ -113,7 +113,9 @@ it("a physical move action declaring no output is answered, not stopped; credent
       ? { td: (td) => ({ ...td, actions: { ...td.actions, moveToJointPosition: { ...td.actions.moveToJointPosition, output: undefined } } }) }
       : "forward",
   );
-  const { base } = await twin({ relay: withUser(p) });
+  const { s, base } = await twin({ relay: withUser(p) });
+  // what the serve banner prints: the peers without their credentials
+  expect(s.peers).toEqual({ relay: `${p.url}/${physical.things[0]!.slug}`, follow: `${p.url}/${physical.things[0]!.slug}` });
   const r = await invoke(base, "moveToJointPosition", { joints: kukaPose([0.3, 0.1, 0, -0.6, 0, 0.3, 0]) });
   expect(r.body.status).toBe("reached");
   expect(r.body.relay.ok).toBe(true);

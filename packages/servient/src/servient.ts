@@ -93,6 +93,8 @@ export interface RunningServient {
   /** the backend supervisor (pid, restarts, isUp) */
   backend: BackendSupervisor;
   twins: Map<string, Twin>;
+  /** the Things it relays to, follows and registers at (URLs without credentials) */
+  peers: { relay?: string; follow?: string; register?: string };
   stop(): Promise<void>;
 }
 
@@ -220,6 +222,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   const { servient, http } = nodeWot(host, opts.port ?? 8080, middleware, outbound);
   let live: LiveServer | null = null;
   const exposed: ExposedTwin[] = [];
+  const shown: RunningServient["peers"] = {};
   // URL userinfo becomes an Authorization header of that origin; only the URL without it is shown
   const registerUrl = opts.register ? outbound.authorize(opts.register) : null;
   const registrar = registerUrl
@@ -235,6 +238,9 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     (http as unknown as { baseUri: string }).baseUri = urls.url;
     const jointNames = Object.keys(([...twins.values()][0]?.folder.td.properties?.["getJointPosition"]?.properties ?? {}) as object);
     const peers = await connectPeers(opts, wot, outbound, { host, port, registerUrl }, twins.size, jointNames);
+    if (peers.relay) shown.relay = peers.relay.url;
+    if (peers.followUrl) shown.follow = peers.followUrl;
+    if (registerUrl) shown.register = registerUrl;
     const follow = {
       ...(opts.followRate !== undefined ? { rate: opts.followRate } : {}),
       ...(opts.divergenceBound !== undefined ? { divergenceBound: opts.divergenceBound } : {}),
@@ -266,6 +272,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     things: thingInfos(twins, urls.url),
     backend,
     twins,
+    peers: shown,
     stop: () => (stopping ??= shutdown({ exposed, registrar, live, servient, http, outbound, backend })),
   };
 }

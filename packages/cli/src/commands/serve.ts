@@ -55,7 +55,7 @@ export function robwotWarnings(): void {
 
 export function printServing(s: RunningServient, json: boolean): void {
   if (json) {
-    process.stdout.write(`${JSON.stringify({ url: s.url, liveUrl: s.liveUrl, viewer: `${s.url}/viewer/`, things: s.things })}\n`);
+    process.stdout.write(`${JSON.stringify({ url: s.url, liveUrl: s.liveUrl, viewer: `${s.url}/viewer/`, things: s.things, peers: s.peers })}\n`);
     return;
   }
   const lines = [`robwot: serving ${s.things.length} twin(s) at ${s.url} (Ctrl-C to stop)`];
@@ -63,6 +63,10 @@ export function printServing(s: RunningServient, json: boolean): void {
     lines.push(`  ${t.title}`, `    TD      ${t.tdUrl}`, `    viewer  ${t.viewerUrl}`);
   }
   lines.push(`  live WebSocket ${s.liveUrl}`);
+  // where commands go and what is watched: the physical robot's Thing, the directory (credentials never shown)
+  if (s.peers.relay) lines.push(`  relays to      ${s.peers.relay}`);
+  if (s.peers.follow) lines.push(`  follows        ${s.peers.follow}`);
+  if (s.peers.register) lines.push(`  registered at  ${s.peers.register}`);
   process.stdout.write(`${lines.join("\n")}\n`);
 }
 
