@@ -11,13 +11,13 @@ import { backendDown } from "./errors.js";
 import type { CartesianInput, JointInput, Mover, MoveWatch, ProgramInput } from "./moves.js";
 import type { SceneObstacle } from "./twin-folder.js";
 import type { Twin } from "./twin.js";
-import type { World } from "./world.js";
+import type { SceneRecord } from "./scene-record.js";
 
 export interface ActionDeps {
   backend: BackendSupervisor;
   twin: Twin;
   mover: Mover;
-  world: World;
+  world: SceneRecord;
   onCalibrated(): void;
 }
 

@@ -17,13 +17,13 @@ import { produceInit, servedTd } from "./thing-td.js";
 import type { TdDocument } from "./twin-folder.js";
 import type { Twin } from "./twin.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
-import type { World } from "./world.js";
+import type { SceneRecord } from "./scene-record.js";
 
 /** What every twin of the servient shares. */
 export interface ExposeEnv {
   wot: typeof WoT;
   backend: BackendSupervisor;
-  world: World;
+  world: SceneRecord;
   realtime: number;
   auth: AuthConfig | undefined;
   /** the servient's base and live URLs (known once it listens) */

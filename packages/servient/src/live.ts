@@ -32,7 +32,7 @@ import { ServientError } from "./errors.js";
 import { PushQueue, type PushTransport } from "./push-queue.js";
 import type { RequestGuard } from "./request-guard.js";
 import type { Twin } from "./twin.js";
-import type { World } from "./world.js";
+import type { SceneRecord } from "./scene-record.js";
 
 /** WebSocket close code for a client closed for being too slow: policy violation (RFC 6455 7.4.1) */
 const CLOSE_TOO_SLOW = 1008;
@@ -97,7 +97,7 @@ class LiveHub {
 
   constructor(
     private readonly twins: Map<string, Twin>,
-    private readonly world: World,
+    private readonly world: SceneRecord,
   ) {
     this.kept = new Map([...twins.keys()].map((slug) => [slug, new EventHistory<Buffer>(this.seq)]));
     const onScene = (): void => this.onScene();
@@ -239,7 +239,7 @@ class LiveHub {
   }
 }
 
-export function attachLive(server: Server, twins: Map<string, Twin>, world: World, auth: AuthConfig | undefined, guard: RequestGuard): LiveServer {
+export function attachLive(server: Server, twins: Map<string, Twin>, world: SceneRecord, auth: AuthConfig | undefined, guard: RequestGuard): LiveServer {
   const hub = new LiveHub(twins, world);
   const onUpgrade = (req: IncomingMessage, socket: Duplex, head: Buffer): void => {
     const url = new URL(req.url ?? "/", "http://localhost");

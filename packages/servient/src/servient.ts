@@ -27,7 +27,7 @@ import { RequestGuard } from "./request-guard.js";
 import { loadTwinFolder } from "./twin-folder.js";
 import { Twin } from "./twin.js";
 import { loadWorkspaceChecks } from "./workspace-checks.js";
-import { World } from "./world.js";
+import { SceneRecord } from "./scene-record.js";
 
 const require = createRequire(import.meta.url);
 // node-wot 0.9.2 is CommonJS
@@ -197,7 +197,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   // the world is built from the twins below; restore runs only at start()
   const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call), { mapError: fromBackendError });
   const twins = nameTwins(opts, backend);
-  const world = new World([...twins.values()], opts.meshRoots ?? []);
+  const world = new SceneRecord([...twins.values()], opts.meshRoots ?? []);
   watchBackend(backend, twins);
   // the twin folders are checked completely before a backend is started for them
   const checks = new Map(await Promise.all([...twins].map(async ([s, t]) => [s, await loadWorkspaceChecks(t.folder.dir)] as const)));

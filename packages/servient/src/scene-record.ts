@@ -1,5 +1,6 @@
 /**
- * The one simulation world every twin of a `serve` shares: the union of the twins' scenes (obstacles
+ * The servient's record of the one simulation world every twin of a `serve` shares (the backend holds the
+ * world itself): the union of the twins' scenes (obstacles
  * and other robots), each twin's robot (robots see each other as obstacles), and run-time scene
  * edits. `restore` rebuilds it on a fresh backend (start and after a crash), putting every robot back
  * at its last known joint state. Emits `scene` after every run-time edit (the /live `scene` message).
@@ -27,7 +28,7 @@ function servedMeshUrl(ob: SceneObstacle, slug: string): string | null {
   return `/${encodeURIComponent(slug)}/${rel.map(encodeURIComponent).join("/")}`;
 }
 
-export class World extends EventEmitter<{ scene: [] }> {
+export class SceneRecord extends EventEmitter<{ scene: [] }> {
   /** current obstacles by name (scene files + run-time edits), world frame */
   readonly obstacles = new Map<string, SceneObstacle>();
   /** mesh files of scene-file obstacles as URLs of the twin folder that holds them */
