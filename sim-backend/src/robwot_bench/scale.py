@@ -7,7 +7,7 @@ For kuka with the 4-obstacle example scene, prints:
    with 1 and 2 CPUs): ``--samples`` samples, full ``generate_workspace`` (files included); the rate is
    samples / wall time of the labelling stage (sampling + FK + collision checks + CSV on a cluster);
 2. the wall time of ``--big`` samples (default 10^6), locally and through Ray with 2 workers;
-3. with ``--huge`` (default 10^7, 0 skips it), a cluster run of that many samples in a fresh process: its
+3. with ``--huge`` (default the contract's largest sample count, 0 skips it), a cluster run of that many samples in a fresh process: its
    wall time, the driver's peak RSS (``ru_maxrss``: the backend process of a ``--cluster`` run) and the
    peak RSS of the Ray worker processes (sampled every 0.2 s).
 
@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from robwot_bench.backend import SCENES
+from robwot_sim.limits import value_schema
 from robwot_sim.sim.world import World
 from robwot_sim.workspace import generate_workspace
 from robwot_sim.workspace.cluster import LocalCluster
@@ -130,7 +131,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=100_000, help="samples of the rate runs")
     ap.add_argument("--big", type=int, default=1_000_000, help="samples of the wall-time runs (0: skip)")
-    ap.add_argument("--huge", type=int, default=10_000_000, help="samples of the peak-memory run (0: skip)")
+    ap.add_argument("--huge", type=int, default=int(value_schema("Samples")["maximum"]),
+                    help="samples of the peak-memory run (0: skip; default the contract's most)")
     ap.add_argument("--one", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--cluster", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
