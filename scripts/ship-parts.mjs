@@ -23,7 +23,7 @@ try {
     const t0 = performance.now();
     const model = await backend.client.loadRobot({ urdf: exampleUrdfPath(robot, pybulletData), id: robot.name });
     const out = join(work, "export", robot.name);
-    await backend.client.exportRobot(model.id, out);
+    await backend.client.exportRobot({ robot: model.id, outDir: out });
     const parts = join(out, "collision");
     const folders = readdirSync(out).includes("collision") ? readdirSync(parts) : [];
     for (const f of folders) cpSync(join(parts, f), join(next, f), { recursive: true });

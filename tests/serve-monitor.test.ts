@@ -59,7 +59,7 @@ it("stops every approach toward the box only the twin knows, before contact; nev
     expect(events[0].stopped).toBe(true);
     expect(events[0].contacts.some((c: any) => c.a.body === "fixture" || c.b.body === "fixture")).toBe(true);
     const q = (await http(`${robot.tdUrl}/properties/getJointPosition`)).body as Record<string, number>;
-    const check = await sim.checkCollision(robotId, Object.values(q));
+    const check = await sim.checkCollision({ robot: robotId, positions: Object.values(q) });
     expect(check.collisionFree, `approach ${k} at ${v.toFixed(2)} rad/s touched: ${JSON.stringify(check.contacts)}`).toBe(true);
   }
   for (const [k, v] of SPEEDS.entries()) {

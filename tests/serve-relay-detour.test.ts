@@ -70,7 +70,7 @@ it("relays a detour as its legs: the physical robot goes around the box, mirrore
   // every reading of the physical robot on its way, by the twin's backend: no contact with the box
   expect(seen.length).toBeGreaterThan(20);
   for (const [k, s] of seen.entries()) {
-    const check = await sim.checkCollision(robotId, s);
+    const check = await sim.checkCollision({ robot: robotId, positions: s });
     expect(check.collisionFree, `reading ${k} of ${seen.length}: ${JSON.stringify(check.contacts)}`).toBe(true);
   }
   const state = (await http(`${base}/properties/physicalState`)).body;

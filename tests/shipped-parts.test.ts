@@ -30,7 +30,7 @@ it("every bundled robot loads from an empty cache with the shipped parts, and no
   for (const robot of EXAMPLE_ROBOTS) {
     const model = await backend.client.loadRobot({ urdf: exampleUrdfPath(robot, pybulletData), id: robot.name, decompose: false });
     const out = join(work, "export", robot.name);
-    await backend.client.exportRobot(model.id, out);
+    await backend.client.exportRobot({ robot: model.id, outDir: out });
     if (readdirSync(out).includes("collision")) for (const f of readdirSync(join(out, "collision"))) used.add(f);
   }
   expect([...used].sort()).toEqual(readdirSync(SHIPPED).sort());

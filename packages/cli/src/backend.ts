@@ -85,10 +85,10 @@ class SimBackend implements Backend {
   }
 
   loadRobot(params: RobotLoadParams, onMesh?: (mesh: RobotLoadProgressNotification) => void): Promise<RobotModel> {
-    return this.guard(this.client.loadRobot(params, onMesh));
+    return this.guard(this.client.loadRobot(params, onMesh ? { onProgress: onMesh } : {}));
   }
   async removeRobot(id: string): Promise<void> {
-    await this.guard(this.client.removeRobot(id));
+    await this.guard(this.client.removeRobot({ robot: id }));
   }
   async loadScene(params: { path: string; packageRoots?: Record<string, string> }): Promise<void> {
     await this.guard(this.client.loadScene(params));
@@ -97,7 +97,7 @@ class SimBackend implements Backend {
     return this.guard(this.client.listWorld());
   }
   checkCollision(robot: string, positions: number[]): Promise<CollisionReport> {
-    return this.guard(this.client.checkCollision(robot, positions));
+    return this.guard(this.client.checkCollision({ robot, positions }));
   }
   expandXacro(params: RobotExpandXacroParams): Promise<XacroExpanded> {
     return this.guard(this.client.expandXacro(params));
@@ -118,12 +118,12 @@ class SimBackend implements Backend {
     return this.guard(this.client.attachTool(params));
   }
   async exportRobot(params: { robot: string; outDir: string }): Promise<void> {
-    await this.guard(this.client.exportRobot(params.robot, params.outDir));
+    await this.guard(this.client.exportRobot(params));
   }
   async warmUp(workers?: number): Promise<void> {
     // only a head start for the worker pool: if it fails, workspace.generate starts the pool itself and
     // reports any real failure (an older backend without workspace.warmUp also lands here)
-    await this.client.warmUp(workers).catch(() => undefined);
+    await this.client.warmUp(workers === undefined ? {} : { workers }).catch(() => undefined);
   }
   generateWorkspace(
     params: WorkspaceGenerateParams,

@@ -66,9 +66,9 @@ function harness(options: Partial<FollowOptions> = {}, td: () => Promise<unknown
   const backend = {
     isUp: true,
     sim: {
-      fk: async (_r: string, q: number[]) => (fk.push([...q]), { position: [q[0] ?? 0, q[1] ?? 0, 0], orientation: [0, 0, 0, 1], link: "ee" }),
-      setJointPositions: async (_r: string, q: number[]) => (sets.push([...q]), { names: JOINTS, positions: q }),
-      checkCollision: async (_r: string, q: number[]) => ({ collisionFree: (q[0] ?? 0) < WALL, contacts: [] }),
+      fk: async ({ positions: q = [] }: { positions?: number[] }) => (fk.push([...q]), { position: [q[0] ?? 0, q[1] ?? 0, 0], orientation: [0, 0, 0, 1], link: "ee" }),
+      setJointPositions: async ({ positions: q }: { positions: number[] }) => (sets.push([...q]), { names: JOINTS, positions: q }),
+      checkCollision: async ({ positions: q = [] }: { positions?: number[] }) => ({ collisionFree: (q[0] ?? 0) < WALL, contacts: [] }),
       checkPath: async ({ from, target }: { from: number[]; target: number[] }) => {
         paths.push({ from: [...from], target: [...target] });
         const [a, b] = [from[0] ?? 0, target[0] ?? 0];

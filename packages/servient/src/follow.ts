@@ -330,7 +330,7 @@ export class Follower {
     let good = false;
     try {
       if (!this.backend.isUp) throw new Error("simulation backend down: the physical pose is not computed");
-      const fk = await this.backend.sim.fk(twin.robotId, r.q);
+      const fk = await this.backend.sim.fk({ robot: twin.robotId, positions: r.q });
       const position: Vec3 = [fk.position[0] ?? 0, fk.position[1] ?? 0, fk.position[2] ?? 0];
       const pose = twin.realPose(position, { x: fk.orientation[0] ?? 0, y: fk.orientation[1] ?? 0, z: fk.orientation[2] ?? 0, w: fk.orientation[3] ?? 1 });
       this.state = { joints: twin.jointsRecord(r.q), clamped: r.clamped, position: pose.position, orientation: pose.orientation, at: r.arrived };
@@ -343,7 +343,7 @@ export class Follower {
       // a reading asked for before the twin's last move ended may show the robot on its way there (the
       // relayed command answered meanwhile): only a later one says it moved on its own
       if (apart && !twin.motion.busy && twin.motion.idleSince <= r.asked && twin.q.length === r.q.length) {
-        const set = this.backend.sim.setJointPositions(twin.robotId, r.q);
+        const set = this.backend.sim.setJointPositions({ robot: twin.robotId, positions: r.q });
         this.followed++;
         this.lastFollowed = r.arrived;
         await set;

@@ -147,7 +147,7 @@ export class SafetyMonitor {
     const travelled = done + jointGap(from, hit.positions);
     // already within the clearance (a robot the monitor stopped there): moving out of it is allowed, only
     // a motion into contact is stopped
-    if (travelled === 0 && (await this.backend.sim.checkCollision(this.twin.robotId, end)).collisionFree) {
+    if (travelled === 0 && (await this.backend.sim.checkCollision({ robot: this.twin.robotId, positions: end })).collisionFree) {
       this.warned = false;
       return;
     }

@@ -200,7 +200,7 @@ export class MotionSession {
       timer = setTimeout(() => reject(new Error(`the simulation backend did not confirm the stop within ${STOP_DEADLINE_MS} ms`)), STOP_DEADLINE_MS);
     });
     try {
-      const r = await Promise.race([this.backend.sim.stop(this.twin.robotId), late]);
+      const r = await Promise.race([this.backend.sim.stop({ robot: this.twin.robotId }), late]);
       return { ok: true, stopped: r.stopped };
     } catch (err) {
       return { ok: false, stopped: false, error: errorMessage(err) };

@@ -93,18 +93,18 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
       if (twin.q.length === 0 && m.home !== undefined) {
         // the first start: the SRDF's home pose (its joints checked against the URDF's limits by the backend)
         const home = m.home.joints;
-        await sim.setJointPositions(twin.robotId, model.controllable.map((j) => home[j] ?? 0)).catch((err: unknown) => {
+        await sim.setJointPositions({ robot: twin.robotId, positions: model.controllable.map((j) => home[j] ?? 0) }).catch((err: unknown) => {
           throw new ServientError(400, "E_TWIN_FOLDER", `${join(twin.folder.dir, TWIN_FILES.manifest)}: robot.home (${m.home!.from}) cannot be taken: ${err instanceof Error ? err.message : String(err)}`, { folder: twin.folder.dir, file: TWIN_FILES.manifest, field: "robot.home" });
         });
       } else if (twin.q.length === model.controllable.length) {
         // best effort: if the last state cannot be restored, the loop below reads back the state the
         // backend really has, so the twin never reports joints the simulation does not hold
-        await sim.setJointPositions(twin.robotId, twin.q).catch(() => undefined);
+        await sim.setJointPositions({ robot: twin.robotId, positions: twin.q }).catch(() => undefined);
       }
     }
     for (const twin of this.twins) {
-      const { positions } = await sim.getJointPositions(twin.robotId);
-      twin.applyPose(positions, await sim.fk(twin.robotId, positions));
+      const { positions } = await sim.getJointPositions({ robot: twin.robotId });
+      twin.applyPose(positions, await sim.fk({ robot: twin.robotId, positions }));
     }
   };
 
@@ -158,7 +158,7 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
 
   async removeObstacle(backend: BackendSupervisor, name: string): Promise<Record<string, never>> {
     if (!this.obstacles.has(name)) throw this.unknown(name);
-    await backend.sim.removeObstacle(name);
+    await backend.sim.removeObstacle({ name });
     this.obstacles.delete(name);
     this.meshUrls.delete(name);
     this.emit("scene");

@@ -19,7 +19,7 @@ describe("startHeartbeat", () => {
     const backend = await launchBackend();
     started.push(backend);
     const deaths: { reason: string; at: number }[] = [];
-    const stop = startHeartbeat((o) => backend.client.ping(o), { periodMs: 100, deadAfterMs: 800 }, (reason) =>
+    const stop = startHeartbeat((o) => backend.client.ping({}, o), { periodMs: 100, deadAfterMs: 800 }, (reason) =>
       deaths.push({ reason, at: Date.now() }),
     );
     await new Promise((r) => setTimeout(r, 1_500));

@@ -1,7 +1,7 @@
 export { RpcConnection } from "./rpc-connection.js";
 export type { CallOptions, NotificationListener, RpcConnectionOptions } from "./rpc-connection.js";
 export { LONG_METHODS, SimClient } from "./sim-client.js";
-export type { GenerateOptions, RpcCaller } from "./sim-client.js";
+export type { RpcCaller } from "./sim-client.js";
 export { connect, deadlineFromEnv, defaultPython, launchBackend, LaunchedBackend, resolvePython } from "./launcher.js";
 export type { BackendEvents, ExitInfo, LaunchOptions } from "./launcher.js";
 export { BackendDownError, BackendStartError, ConnectionClosedError, isRpcError, RpcError, RpcTimeoutError } from "./errors.js";

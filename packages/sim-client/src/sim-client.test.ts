@@ -41,7 +41,7 @@ async function rpcError(p: Promise<unknown>): Promise<RpcError> {
 
 describe("SimClient against the real backend", () => {
   it("returns the typed robot model", async () => {
-    const model = await sim.robotModel("kuka");
+    const model = await sim.robotModel({ robot: "kuka" });
     expect(model.controllable).toHaveLength(7);
     expect(model.eeLink).toBe("lbr_iiwa_link_7");
     const j2 = model.joints.find((j) => j.name === "lbr_iiwa_joint_2");
@@ -51,25 +51,25 @@ describe("SimClient against the real backend", () => {
 
   it("sets joints, computes FK and solves IK back to the same pose", async () => {
     const q = [0.3, 0.5, -0.2, -1.0, 0.4, 0.6, 0.1];
-    const set = await sim.setJointPositions("kuka", q);
+    const set = await sim.setJointPositions({ robot: "kuka", positions: q });
     expect(set.positions).toEqual(q.map((v) => expect.closeTo(v, 9)));
-    const pose = await sim.fk("kuka");
+    const pose = await sim.fk({ robot: "kuka" });
     expect(pose.link).toBe("lbr_iiwa_link_7");
     const ik = await sim.ik({ robot: "kuka", position: pose.position, orientation: pose.orientation });
     expect(ik.positionError).toBeLessThan(1e-3);
-    const back = await sim.fk("kuka", ik.positions);
+    const back = await sim.fk({ robot: "kuka", positions: ik.positions });
     back.position.forEach((v, i) => expect(v).toBeCloseTo(pose.position[i] as number, 3));
   });
 
   it("adds, moves and removes obstacles and reports contacts", async () => {
     const added = await sim.addObstacle({ name: "ball", shape: { type: "sphere", radius: 0.1 }, position: [0, 0, 0.5] });
     expect(added.name).toBe("ball");
-    const hit = await sim.checkCollision("kuka");
+    const hit = await sim.checkCollision({ robot: "kuka" });
     expect(hit.collisionFree).toBe(false);
     expect(hit.contacts.some((c) => c.a.body === "kuka" && c.b.body === "ball")).toBe(true);
     await sim.moveObstacle({ name: "ball", position: [2, 2, 2] });
-    expect((await sim.checkCollision("kuka")).collisionFree).toBe(true);
-    await sim.removeObstacle("ball");
+    expect((await sim.checkCollision({ robot: "kuka" })).collisionFree).toBe(true);
+    await sim.removeObstacle({ name: "ball" });
     expect((await sim.listWorld()).obstacles).toEqual([]);
   });
 
@@ -95,27 +95,27 @@ describe("SimClient against the real backend", () => {
         resolve();
       });
     });
-    expect(await sim.stop("kuka")).toEqual({ stopped: true });
+    expect(await sim.stop({ robot: "kuka" })).toEqual({ stopped: true });
     expect((await move).status).toBe("stopped");
   });
 
   it("surfaces JSON-RPC errors as RpcError with code and data.code", async () => {
-    const unknown = await rpcError(sim.fk("nope"));
+    const unknown = await rpcError(sim.fk({ robot: "nope" }));
     expect(unknown.rpcCode).toBe(-32001);
     expect(unknown.code).toBe("E_UNKNOWN_ROBOT");
     expect(unknown.data.code).toBe("E_UNKNOWN_ROBOT");
     expect(unknown.dataCode).toBe("E_UNKNOWN_ROBOT");
     expect(unknown.data.available).toEqual(["kuka"]);
     expect(unknown.method).toBe("robot.fk");
-    const limits = await rpcError(sim.setJointPositions("kuka", [0, 3, 0, 0, 0, 0, 0]));
+    const limits = await rpcError(sim.setJointPositions({ robot: "kuka", positions: [0, 3, 0, 0, 0, 0, 0] }));
     expect(limits.rpcCode).toBe(-32002);
     expect(limits.data).toMatchObject({ code: "E_OUT_OF_LIMITS", joint: "lbr_iiwa_joint_2", value: 3 });
-    const params = await rpcError(sim.setJointPositions("kuka", [0, 0]));
+    const params = await rpcError(sim.setJointPositions({ robot: "kuka", positions: [0, 0] }));
     expect(params.data).toMatchObject({ code: "E_INVALID_PARAMS", param: "positions" });
     const busyMove = sim.move({ robot: "kuka", target: [1, ...ZERO.slice(1)], speed: 0.1 });
     const busy = await rpcError(sim.move({ robot: "kuka", target: ZERO }));
     expect(busy.data).toEqual({ code: "E_BUSY", robot: "kuka" });
-    await sim.stop("kuka");
+    await sim.stop({ robot: "kuka" });
     await busyMove;
     expect((await sim.ping()).version).toBeTypeOf("string");
   });
@@ -125,14 +125,14 @@ describe("SimClient against the real backend", () => {
     const err = await move.catch((e: unknown) => e);
     expect(err).toBeInstanceOf(RpcTimeoutError);
     expect((err as RpcTimeoutError).code).toBe("E_TIMEOUT");
-    expect(await sim.stop("kuka")).toEqual({ stopped: true });
+    expect(await sim.stop({ robot: "kuka" })).toEqual({ stopped: true });
     expect((await sim.ping()).pybullet).toBe("3.2.7");
   });
 
   it("warms up the workers, then generates a workspace with progress callbacks", async () => {
     const out = mkdtempSync(join(tmpdir(), "robwot-ws-"));
     const stages: string[] = [];
-    expect(await sim.warmUp(1)).toEqual({ workers: 1 });
+    expect(await sim.warmUp({ workers: 1 })).toEqual({ workers: 1 });
     const summary = await sim.generateWorkspace(
       { robot: "kuka", outDir: out, samples: 2000, seed: 3, workers: 1 },
       { onProgress: (p) => stages.push(p.stage) },
@@ -145,7 +145,7 @@ describe("SimClient against the real backend", () => {
 
   it("exports a self-contained URDF", async () => {
     const out = mkdtempSync(join(tmpdir(), "robwot-export-"));
-    const result = await sim.exportRobot("kuka", out);
+    const result = await sim.exportRobot({ robot: "kuka", outDir: out });
     expect(result.urdf).toBe("robot.urdf");
     expect(result.meshes.length).toBeGreaterThan(0);
     const urdf = readFileSync(join(out, "robot.urdf"), "utf8");

@@ -165,7 +165,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private startHeartbeat(s: SimSession): void {
     this.clearHeartbeat();
     const ping = new SimClient(s);
-    this.stopHeartbeat = startHeartbeat((o) => ping.ping(o), { periodMs: this.deadlines.heartbeatMs, deadAfterMs: this.deadlines.deadAfterMs }, (reason) =>
+    this.stopHeartbeat = startHeartbeat((o) => ping.ping({}, o), { periodMs: this.deadlines.heartbeatMs, deadAfterMs: this.deadlines.deadAfterMs }, (reason) =>
       this.declareDead(s, reason),
     );
   }
