@@ -82,7 +82,7 @@ def test_cluster_gives_the_local_files(cluster: tuple[str, Any], tmp_path: Path)
 def test_cluster_alpha_cap_is_the_first_points(cluster: tuple[str, Any], tmp_path: Path) -> None:
     """Above the cap the alpha shape is built from the first collision-free points in sample order, on a
     cluster as locally (the CSV and the reachability map still hold every sample)."""
-    import robwot_sim.workspace as ws
+    import robwot_sim.workspace.generate as ws  # the cap's one home
 
     address, _ = cluster
     cap = ws.ALPHA_MAX_POINTS

@@ -68,89 +68,28 @@ function liveMessage(type: string, summary: string, payload: Json | null, extra:
   return { name: type, summary, contentType: "application/json", payload: payload ? { allOf: [envelope, payload] } : envelope };
 }
 
+/** The servers, channels and operations of the document, filled in document order. */
+interface Parts {
+  servers: Json;
+  channels: Json;
+  operations: Json;
+  /** the `security` member of each server: the TD's schemes, or nothing when the TD has none */
+  secured: Json;
+}
+
 /** The AsyncAPI 3.0 document of the twin whose TD (forms absolute, at the served address) is `td`. */
 export async function thingAsyncApi(td: Json): Promise<Json> {
   const properties = isObject(td["properties"]) ? td["properties"] : {};
   const events = isObject(td["events"]) ? td["events"] : {};
   const title = String(td["title"] ?? "twin");
-  const servers: Json = {};
-  const channels: Json = {};
-  const operations: Json = {};
   const security = securitySchemes(td);
   const secured = Object.keys(security).length > 0 ? { security: Object.keys(security).map((n) => ({ $ref: `#/components/securitySchemes/${n}` })) } : {};
+  const parts: Parts = { servers: {}, channels: {}, operations: {}, secured };
 
   const live = (Array.isArray(td["links"]) ? (td["links"] as unknown[]) : []).find((l) => isObject(l) && l["rel"] === "robwot:live") as Json | undefined;
-  if (live && typeof live["href"] === "string") {
-    const url = new URL(live["href"]);
-    servers["live"] = { host: url.host, protocol: url.protocol.replace(":", ""), pathname: url.pathname, description: "the servient's /live WebSocket", ...secured };
-    const schema = (name: string): Json | null => (isObject(properties[name]) ? toAsyncSchema(properties[name]) : null);
-    const eventData = (name: string): Json | null => (isObject(events[name]) && isObject((events[name] as Json)["data"]) ? toAsyncSchema((events[name] as Json)["data"]) : null);
-    const vector = { type: "object", properties: { x: { type: "number" }, y: { type: "number" }, z: { type: "number" } }, required: ["x", "y", "z"], "x-unit": "m" };
-    const received: Record<string, Json> = {
-      joints: liveMessage("joints", "the joints and end-effector pose, at least 30 per second of simulated time while moving", null, {
-        time: { type: "number", minimum: 0, "x-unit": "s" },
-        joints: schema("getJointPosition") ?? { type: "object" },
-        position: vector,
-        orientation: { type: "object", properties: { x: { type: "number" }, y: { type: "number" }, z: { type: "number" }, w: { type: "number" } } },
-      }),
-      status: liveMessage("status", "the motion status (motionStatus) after every change", schema("motionStatus")),
-      scene: liveMessage("scene", "the shared world's obstacles (scene.json's shape) after every scene edit", null, { obstacles: { type: "array", items: { type: "object" } } }),
-      gap: liveMessage("gap", "events after `resume` are no longer known (sent first, without seq)", null, {
-        resume: { type: "integer", minimum: 0 },
-        firstKept: { type: "integer", minimum: 0 },
-        reason: { type: "string", enum: ["overflow", "restart"] },
-      }),
-      error: {
-        name: "error",
-        summary: "a client message the servient could not take",
-        contentType: "application/json",
-        payload: { type: "object", required: ["type", "code", "message"], properties: { type: { const: "error" }, code: { type: "string" }, message: { type: "string" }, details: { type: "object" } } },
-      },
-    };
-    for (const name of Object.keys(events)) received[name] = liveMessage(name, `the ${name} event`, eventData(name));
-    if (isObject(properties["physicalState"])) received["physical"] = liveMessage("physical", "each reading of the followed physical robot (physicalState)", schema("physicalState"));
-    const sent: Record<string, Json> = {
-      subscribe: {
-        name: "subscribe",
-        summary: "follow a twin (or every twin: \"*\"); resume replays the kept events after that seq, then a snapshot follows",
-        contentType: "application/json",
-        payload: { type: "object", required: ["subscribe"], properties: { subscribe: { type: "string" }, resume: { type: "integer", minimum: 0 } }, additionalProperties: false },
-      },
-      unsubscribe: {
-        name: "unsubscribe",
-        summary: "stop following a twin",
-        contentType: "application/json",
-        payload: { type: "object", required: ["unsubscribe"], properties: { unsubscribe: { type: "string" } }, additionalProperties: false },
-      },
-    };
-    const all = { ...received, ...sent };
-    channels["live"] = {
-      address: null,
-      servers: [{ $ref: "#/servers/live" }],
-      description: "The servient's own live protocol (ws://host:port/live?thing=<slug>&resume=<seq> subscribes at once)",
-      messages: Object.fromEntries(Object.entries(all).map(([n, m]) => [n, m])),
-    };
-    operations["receiveLive"] = { action: "receive", channel: { $ref: "#/channels/live" }, messages: Object.keys(received).map((n) => ({ $ref: `#/channels/live/messages/${n}` })) };
-    operations["sendLive"] = { action: "send", channel: { $ref: "#/channels/live" }, messages: Object.keys(sent).map((n) => ({ $ref: `#/channels/live/messages/${n}` })) };
-  }
-
-  const sse = (kind: "properties" | "events", name: string, affordance: unknown, payload: Json): void => {
-    for (const form of forms(affordance)) {
-      if (form["subprotocol"] !== "sse" || typeof form["href"] !== "string") continue;
-      const url = new URL(form["href"]);
-      servers["http"] ??= { host: url.host, protocol: url.protocol.replace(":", ""), description: "the servient's HTTP server (Server-Sent Events, text/event-stream)", ...secured };
-      const id = `${kind}.${name}`;
-      channels[id] = {
-        address: url.pathname,
-        servers: [{ $ref: "#/servers/http" }],
-        description: `Server-Sent Events of the ${kind === "properties" ? "property" : "event"} ${name}: each data: field one JSON value, id: increasing per stream; Last-Event-ID resumes`,
-        messages: { [name]: { name, contentType: form["contentType"] ?? "application/json", payload } },
-      };
-      operations[`receive.${id}`] = { action: "receive", channel: { $ref: `#/channels/${id}` }, messages: [{ $ref: `#/channels/${id}/messages/${name}` }] };
-    }
-  };
-  for (const [name, p] of Object.entries(properties)) sse("properties", name, p, toAsyncSchema(p));
-  for (const [name, e] of Object.entries(events)) sse("events", name, e, isObject(e) ? toAsyncSchema(e["data"]) : {});
+  if (live && typeof live["href"] === "string") addLive(parts, new URL(live["href"]), properties, events);
+  for (const [name, p] of Object.entries(properties)) addSse(parts, "properties", name, p, toAsyncSchema(p));
+  for (const [name, e] of Object.entries(events)) addSse(parts, "events", name, e, isObject(e) ? toAsyncSchema(e["data"]) : {});
 
   const doc: Json = {
     asyncapi: "3.0.0",
@@ -160,14 +99,94 @@ export async function thingAsyncApi(td: Json): Promise<Json> {
       description: `The live WebSocket and the Server-Sent Events streams of the RobWoT twin ${title} (its TD: ${String(td["id"] ?? "")}). Units: metres, radians, seconds.`,
     },
     defaultContentType: "application/json",
-    servers,
-    channels,
-    operations,
+    servers: parts.servers,
+    channels: parts.channels,
+    operations: parts.operations,
     ...(Object.keys(security).length > 0 ? { components: { securitySchemes: security } } : {}),
   };
   const errors = await validateAsyncApi(doc);
   if (errors.length > 0) throw new Error(`the AsyncAPI document does not validate: ${errors.slice(0, 5).join("; ")}`);
   return doc;
+}
+
+/** The `/live` WebSocket at `url`: its server, its channel and one operation per direction. */
+function addLive(parts: Parts, url: URL, properties: Json, events: Json): void {
+  parts.servers["live"] = { host: url.host, protocol: url.protocol.replace(":", ""), pathname: url.pathname, description: "the servient's /live WebSocket", ...parts.secured };
+  const received = liveReceived(properties, events);
+  const sent = liveSent();
+  const all = { ...received, ...sent };
+  parts.channels["live"] = {
+    address: null,
+    servers: [{ $ref: "#/servers/live" }],
+    description: "The servient's own live protocol (ws://host:port/live?thing=<slug>&resume=<seq> subscribes at once)",
+    messages: Object.fromEntries(Object.entries(all).map(([n, m]) => [n, m])),
+  };
+  parts.operations["receiveLive"] = { action: "receive", channel: { $ref: "#/channels/live" }, messages: Object.keys(received).map((n) => ({ $ref: `#/channels/live/messages/${n}` })) };
+  parts.operations["sendLive"] = { action: "send", channel: { $ref: "#/channels/live" }, messages: Object.keys(sent).map((n) => ({ $ref: `#/channels/live/messages/${n}` })) };
+}
+
+/** The messages the servient sends on `/live`, their payloads the TD's own data schemas. */
+function liveReceived(properties: Json, events: Json): Record<string, Json> {
+  const schema = (name: string): Json | null => (isObject(properties[name]) ? toAsyncSchema(properties[name]) : null);
+  const eventData = (name: string): Json | null => (isObject(events[name]) && isObject((events[name] as Json)["data"]) ? toAsyncSchema((events[name] as Json)["data"]) : null);
+  const vector = { type: "object", properties: { x: { type: "number" }, y: { type: "number" }, z: { type: "number" } }, required: ["x", "y", "z"], "x-unit": "m" };
+  const received: Record<string, Json> = {
+    joints: liveMessage("joints", "the joints and end-effector pose, at least 30 per second of simulated time while moving", null, {
+      time: { type: "number", minimum: 0, "x-unit": "s" },
+      joints: schema("getJointPosition") ?? { type: "object" },
+      position: vector,
+      orientation: { type: "object", properties: { x: { type: "number" }, y: { type: "number" }, z: { type: "number" }, w: { type: "number" } } },
+    }),
+    status: liveMessage("status", "the motion status (motionStatus) after every change", schema("motionStatus")),
+    scene: liveMessage("scene", "the shared world's obstacles (scene.json's shape) after every scene edit", null, { obstacles: { type: "array", items: { type: "object" } } }),
+    gap: liveMessage("gap", "events after `resume` are no longer known (sent first, without seq)", null, {
+      resume: { type: "integer", minimum: 0 },
+      firstKept: { type: "integer", minimum: 0 },
+      reason: { type: "string", enum: ["overflow", "restart"] },
+    }),
+    error: {
+      name: "error",
+      summary: "a client message the servient could not take",
+      contentType: "application/json",
+      payload: { type: "object", required: ["type", "code", "message"], properties: { type: { const: "error" }, code: { type: "string" }, message: { type: "string" }, details: { type: "object" } } },
+    },
+  };
+  for (const name of Object.keys(events)) received[name] = liveMessage(name, `the ${name} event`, eventData(name));
+  if (isObject(properties["physicalState"])) received["physical"] = liveMessage("physical", "each reading of the followed physical robot (physicalState)", schema("physicalState"));
+  return received;
+}
+
+/** The messages a client sends on `/live` (fresh objects: each document owns its own). */
+const liveSent = (): Record<string, Json> => ({
+  subscribe: {
+    name: "subscribe",
+    summary: "follow a twin (or every twin: \"*\"); resume replays the kept events after that seq, then a snapshot follows",
+    contentType: "application/json",
+    payload: { type: "object", required: ["subscribe"], properties: { subscribe: { type: "string" }, resume: { type: "integer", minimum: 0 } }, additionalProperties: false },
+  },
+  unsubscribe: {
+    name: "unsubscribe",
+    summary: "stop following a twin",
+    contentType: "application/json",
+    payload: { type: "object", required: ["unsubscribe"], properties: { unsubscribe: { type: "string" } }, additionalProperties: false },
+  },
+});
+
+/** One channel and one receive operation per Server-Sent Events form of an affordance. */
+function addSse(parts: Parts, kind: "properties" | "events", name: string, affordance: unknown, payload: Json): void {
+  for (const form of forms(affordance)) {
+    if (form["subprotocol"] !== "sse" || typeof form["href"] !== "string") continue;
+    const url = new URL(form["href"]);
+    parts.servers["http"] ??= { host: url.host, protocol: url.protocol.replace(":", ""), description: "the servient's HTTP server (Server-Sent Events, text/event-stream)", ...parts.secured };
+    const id = `${kind}.${name}`;
+    parts.channels[id] = {
+      address: url.pathname,
+      servers: [{ $ref: "#/servers/http" }],
+      description: `Server-Sent Events of the ${kind === "properties" ? "property" : "event"} ${name}: each data: field one JSON value, id: increasing per stream; Last-Event-ID resumes`,
+      messages: { [name]: { name, contentType: form["contentType"] ?? "application/json", payload } },
+    };
+    parts.operations[`receive.${id}`] = { action: "receive", channel: { $ref: `#/channels/${id}` }, messages: [{ $ref: `#/channels/${id}/messages/${name}` }] };
+  }
 }
 
 /** The TD's basic or bearer security as AsyncAPI HTTP security schemes. */

@@ -259,6 +259,50 @@ async function generateFrom(
   const obstacles = world.obstacles;
 
   // Generation starts first: the backend serves the export (and the CLI writes its files) meanwhile.
+  const generating = startGenerating(opts, backend, model, staged.tmp, progress);
+  await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
+  if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, TWIN_FILES.srdf));
+  const scene = sceneDocument(world, model.id, staged.tmp, opts.scene, await exportSceneRobots(backend, world, model.id, staged.tmp));
+  writeJson(join(staged.tmp, TWIN_FILES.scene), scene);
+  writeManifest(staged.tmp, model, opts, input);
+
+  // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
+  // make a valid TD fails fast (the validator was loaded and warmed while the backend started).
+  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool).validate())().catch(
+    (err: unknown) => [err instanceof Error ? err.message : String(err)],
+  );
+  if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
+  const summary = await generating;
+  const others = world.robots.filter((r) => r.id !== model.id);
+  const warnings = overlapWarnings(model, others, summary);
+  await refuseDegenerate(summary, staged.tmp, backend, model, warnings);
+  writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
+  writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
+  noteSurface(summary, progress);
+
+  progress.stage("td");
+  const td = buildTd(model, summary, scene, opts.baseUrl, input.tool);
+  const errors = await td.validate();
+  if (errors.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(errors)}`, "E_TD_INVALID", 1);
+  writeJson(join(staged.tmp, TWIN_FILES.td), td.td);
+
+  staged.commit();
+  progress.end();
+  return {
+    out: staged.out,
+    robot: { name: model.name, id: model.id, urdf: source, eeLink: model.eeLink, controllable: model.controllable },
+    scene: opts.scene ?? null,
+    obstacles: obstacles.length,
+    summary,
+    td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
+    seconds: (performance.now() - t0) / 1000,
+    otherRobots: others.map((r) => ({ id: r.id, basePosition: r.basePosition })),
+    warnings,
+  };
+}
+
+/** The workspace generation, started: the caller exports the robot and checks the TD while it runs. */
+function startGenerating(opts: GenerateOptions, backend: Backend, model: RobotModel, dir: string, progress: ProgressSink): Promise<WorkspaceSummary> {
   const generating = backend.generateWorkspace(
     {
       robot: model.id,
@@ -267,19 +311,20 @@ async function generateFrom(
       ...(opts.workers !== undefined ? { workers: opts.workers } : {}),
       ...(opts.cluster !== undefined ? { cluster: opts.cluster } : {}),
       alpha: opts.alpha,
-      outDir: staged.tmp,
+      outDir: dir,
       csvJoints: opts.csvJoints,
       reachVoxel: opts.reachVoxel,
     },
     (p) => progress.update(p.stage, p.done, p.total),
   );
-  // Abandoned (and rejected when the backend stops) if the export or the early TD check below fails.
+  // Abandoned (and rejected when the backend stops) if the export or the early TD check fails.
   generating.catch(() => undefined);
-  await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
-  if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, TWIN_FILES.srdf));
-  const scene = sceneDocument(world, model.id, staged.tmp, opts.scene, await exportSceneRobots(backend, world, model.id, staged.tmp));
-  writeJson(join(staged.tmp, TWIN_FILES.scene), scene);
-  writeJson(join(staged.tmp, TWIN_FILES.manifest), {
+  return generating;
+}
+
+/** twin.json: the robot as `serve` loads it again, and what it was made from. */
+function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, input: RosInput): void {
+  writeJson(join(dir, TWIN_FILES.manifest), {
     version: 1,
     robot: {
       urdf: TWIN_FILES.urdf,
@@ -306,46 +351,22 @@ async function generateFrom(
     generatedAt: new Date().toISOString(),
     tool: `robwot ${VERSION}`,
   });
+}
 
-  // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
-  // make a valid TD fails fast (the validator was loaded and warmed while the backend started).
-  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool).validate())().catch(
-    (err: unknown) => [err instanceof Error ? err.message : String(err)],
-  );
-  if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
-  const summary = await generating;
-  const others = world.robots.filter((r) => r.id !== model.id);
+/** Robots of the scene whose reach overlaps this one's: the user should know they can touch. */
+function overlapWarnings(model: RobotModel, others: WorldList["robots"], summary: WorkspaceSummary): string[] {
   const base = (p: readonly number[]): [number, number, number] => [p[0] ?? 0, p[1] ?? 0, p[2] ?? 0];
-  const warnings = reachOverlaps([
+  return reachOverlaps([
     { name: `this robot (${model.id})`, base: base(model.basePosition ?? [0, 0, 0]), ...(summary.reachBounds ? { reach: summary.reachBounds } : {}) },
     ...others.map((r) => ({ name: `the scene's robot ${r.id}`, base: base(r.basePosition) })),
   ]);
-  await refuseDegenerate(summary, staged.tmp, backend, model, warnings);
-  writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
-  writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
+}
+
+/** What the user should know about a workspace surface that is not the alpha shape of the samples. */
+function noteSurface(summary: WorkspaceSummary, progress: ProgressSink): void {
   if (summary.method === "convex-hull") {
     progress.info("the alpha shape degenerated (too few points): workspace.stl is the convex hull");
   } else if (summary.halfThickness !== undefined) {
     progress.info(`flat workspace (${summary.method}): workspace.stl is the reachable region thickened by ${summary.halfThickness * 1000} mm on each side`);
   }
-
-  progress.stage("td");
-  const td = buildTd(model, summary, scene, opts.baseUrl, input.tool);
-  const errors = await td.validate();
-  if (errors.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(errors)}`, "E_TD_INVALID", 1);
-  writeJson(join(staged.tmp, TWIN_FILES.td), td.td);
-
-  staged.commit();
-  progress.end();
-  return {
-    out: staged.out,
-    robot: { name: model.name, id: model.id, urdf: source, eeLink: model.eeLink, controllable: model.controllable },
-    scene: opts.scene ?? null,
-    obstacles: obstacles.length,
-    summary,
-    td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
-    seconds: (performance.now() - t0) / 1000,
-    otherRobots: others.map((r) => ({ id: r.id, basePosition: r.basePosition })),
-    warnings,
-  };
 }

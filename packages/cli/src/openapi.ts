@@ -258,6 +258,17 @@ export interface OpenApiOptions {
   base?: string;
 }
 
+/** What the corrections of one document share. */
+interface Correcting {
+  doc: Json;
+  /** the TD's `schemaDefinitions` */
+  definitions: Json;
+  /** "<method> <path>" already given its success answer by a form */
+  filled: Set<string>;
+}
+
+const CONTENT_TYPE = "application/json";
+
 /** The official converter's document for `td`, corrected (see the module comment) and validated. */
 export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Promise<Json> {
   // the Thing lives at <servient>/<slug>/ (node-wot's layout); `--base http://host/<slug>/` names it
@@ -270,91 +281,39 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
     throw new Error(`the official converter rejected its own output: ${err instanceof Error ? err.message.trim() : String(err)}`);
   }
   const doc = structuredClone(converted);
-  const contentType = "application/json";
 
   // (3) the TD's schema definitions, referenced by the error answers
   const definitions = isObject(td["schemaDefinitions"]) ? td["schemaDefinitions"] : {};
   const components = (doc["components"] ?? {}) as Json;
   components["schemas"] = Object.fromEntries(Object.entries(definitions).map(([n, s]) => [n, toOasSchema(s)]));
   doc["components"] = components;
-  const schemaRef = (name: unknown): Json => (typeof name === "string" && name in definitions ? { $ref: `#/components/schemas/${name}` } : {});
 
-  const filled = new Set<string>(); // "<method> <path>" already given its success answer by a form
-  const fill = (form: Json, response: Json | null, request: Json | null, variables: string[] = []): void => {
-    const where = formOperations(form);
-    if (!where) return;
-    if (where.methods.length === 0 && form["subprotocol"] === "sse") {
-      addEventStream(doc, where.path, form, response);
-      return;
-    }
-    const ops = typeof form["op"] === "string" ? [form["op"]] : Array.isArray(form["op"]) ? (form["op"] as string[]) : [];
-    const onStatus = ops.includes("queryaction") || ops.includes("cancelaction");
-    for (const method of where.methods) {
-      const op = operation(doc, where.path, method);
-      if (!op) continue;
-      const key = `${method} ${where.path}`;
-      const responses = (op["responses"] ?? {}) as Json;
-      const type = typeof form["contentType"] === "string" ? form["contentType"] : contentType;
-      const declared = declaredResponses(form, schemaRef);
-      if (!filled.has(key)) delete responses["200"]; // the converter's guess; a form names the real one
-      if (!declared.success) {
-        // (2), (5): the complete schema, no faked example; a form's `response` may name another status
-        const expected = isObject(form["response"]) ? form["response"] : {};
-        const status = typeof expected["htv:statusCodeValue"] === "number" ? String(expected["htv:statusCodeValue"]) : "200";
-        const responseType = typeof expected["contentType"] === "string" ? expected["contentType"] : type;
-        responses[status] = { description: "success", ...(response ? { content: jsonContent(responseType, response) } : {}) };
-      }
-      if (ops.includes("cancelaction")) {
-        // the WoT Profile's answer: no body (the converter's guess carried the action's output)
-        responses["204"] = { description: "cancelled: the move has stopped and its ActionStatus is deleted (a query then answers 404)" };
-        op["operationId"] = `cancelaction_${actionName(where.path)}`;
-      }
-      if (ops.includes("queryaction")) op["operationId"] = `queryaction_${actionName(where.path)}`;
-      if (declared.listed) delete responses["default"];
-      else if (isObject(responses["default"]) && "error" in definitions) {
-        // the converter's catch-all, with the body every error answer of this TD has
-        responses["default"] = { description: "an error answer", content: jsonContent(PROBLEM_JSON, schemaRef("error")) };
-      }
-      for (const [status, answer] of Object.entries(declared.responses)) {
-        if (!(status in responses) || !filled.has(key) || declared.success) responses[status] = answer;
-      }
-      op["responses"] = responses;
-      filled.add(key);
-      if (method === "get" || method === "delete" || onStatus || !request) delete op["requestBody"];
-      else op["requestBody"] = { required: true, content: jsonContent(type, request) };
-      const headers = Array.isArray(form["htv:headers"]) ? (form["htv:headers"] as Json[]) : [];
-      for (const h of headers) {
-        const name = h["htv:fieldName"];
-        if (typeof name !== "string") continue;
-        const params = Array.isArray(op["parameters"]) ? (op["parameters"] as Json[]) : [];
-        if (params.some((p) => p["in"] === "header" && p["name"] === name)) continue;
-        const value = typeof h["htv:fieldValue"] === "string" ? h["htv:fieldValue"] : undefined;
-        const answers = String((isObject(form["response"]) && form["response"]["htv:statusCodeValue"]) ?? "");
-        const description = `${value ?? "the value"}: the form answering ${answers}` + (name.toLowerCase() === "prefer" ? PREFER_NOTE : "");
-        // RFC 7240: a preference the server does not know is ignored, so any value is a valid header
-        op["parameters"] = [...params, { name, in: "header", required: false, description, schema: { type: "string" }, ...(value ? { example: value } : {}) }];
-      }
-      fixUriVariables(op, where.path, variables);
-    }
-  };
+  fillAffordances({ doc, definitions, filled: new Set<string>() }, td);
+  oneServer(doc, td);
+  const problems = await validateOpenApi(doc);
+  if (problems.length > 0) throw new Error(`the corrected OpenAPI document is not valid: ${problems.slice(0, 3).join("; ")}`);
+  return doc;
+}
 
+/** Every form of the TD corrected in place: properties, actions, events, then the Thing's own forms. */
+function fillAffordances(c: Correcting, td: Json): void {
   const properties = isObject(td["properties"]) ? td["properties"] : {};
   for (const p of Object.values(properties)) {
     if (!isObject(p)) continue;
-    for (const form of (p["forms"] ?? []) as Json[]) fill(form, toOasSchema(dataPart(p)), null);
+    for (const form of (p["forms"] ?? []) as Json[]) fillForm(c, form, toOasSchema(dataPart(p)), null);
   }
   const actions = isObject(td["actions"]) ? td["actions"] : {};
   for (const a of Object.values(actions)) {
     if (!isObject(a)) continue;
     const variables = isObject(a["uriVariables"]) ? Object.keys(a["uriVariables"]) : [];
-    for (const form of (a["forms"] ?? []) as Json[]) fill(form, isObject(a["output"]) ? toOasSchema(a["output"]) : null, isObject(a["input"]) ? toOasSchema(a["input"]) : null, variables);
+    for (const form of (a["forms"] ?? []) as Json[]) fillForm(c, form, isObject(a["output"]) ? toOasSchema(a["output"]) : null, isObject(a["input"]) ? toOasSchema(a["input"]) : null, variables);
   }
   const events = isObject(td["events"]) ? td["events"] : {};
   for (const e of Object.values(events)) {
     if (!isObject(e)) continue;
-    for (const form of (e["forms"] ?? []) as Json[]) fill(form, isObject(e["data"]) ? toOasSchema(e["data"]) : null, null);
+    for (const form of (e["forms"] ?? []) as Json[]) fillForm(c, form, isObject(e["data"]) ? toOasSchema(e["data"]) : null, null);
   }
-  for (const [name, a] of Object.entries(actions)) if (isObject(a)) linkStatus(doc, name, (a["forms"] ?? []) as Json[]);
+  for (const [name, a] of Object.entries(actions)) if (isObject(a)) linkStatus(c.doc, name, (a["forms"] ?? []) as Json[]);
   // readallproperties: every readable property by name (node-wot's answer)
   const readable = Object.entries(properties).filter(([, p]) => isObject(p) && p["writeOnly"] !== true);
   const all: Json = {
@@ -362,24 +321,96 @@ export async function thingOpenApi(tdIn: Json, options: OpenApiOptions = {}): Pr
     properties: Object.fromEntries(readable.map(([n, p]) => [n, toOasSchema(dataPart(p as Json))])),
     required: readable.map(([n]) => n),
   };
-  for (const form of (Array.isArray(td["forms"]) ? td["forms"] : []) as Json[]) fill(form, all, null);
+  for (const form of (Array.isArray(td["forms"]) ? td["forms"] : []) as Json[]) fillForm(c, form, all, null);
+}
 
-  // (4) one server, the origin the paths start from; per-operation copies of it are redundant
+/** The operations of one form: their answers, request body, header parameters and URI variables. */
+function fillForm(c: Correcting, form: Json, response: Json | null, request: Json | null, variables: string[] = []): void {
+  const where = formOperations(form);
+  if (!where) return;
+  if (where.methods.length === 0 && form["subprotocol"] === "sse") {
+    addEventStream(c.doc, where.path, form, response);
+    return;
+  }
+  const ops = typeof form["op"] === "string" ? [form["op"]] : Array.isArray(form["op"]) ? (form["op"] as string[]) : [];
+  const onStatus = ops.includes("queryaction") || ops.includes("cancelaction");
+  for (const method of where.methods) {
+    const op = operation(c.doc, where.path, method);
+    if (!op) continue;
+    const type = typeof form["contentType"] === "string" ? form["contentType"] : CONTENT_TYPE;
+    fillResponses(c, op, method, where.path, form, ops, response, type);
+    if (method === "get" || method === "delete" || onStatus || !request) delete op["requestBody"];
+    else op["requestBody"] = { required: true, content: jsonContent(type, request) };
+    addHeaderParameters(op, form);
+    fixUriVariables(op, where.path, variables);
+  }
+}
+
+/**
+ * (2), (5) An operation's answers from its form: the success answer with the complete schema and no faked
+ * example, the form's declared answers, the error body every error answer of this TD has. A second form of
+ * the same operation adds its answers without replacing the first one's.
+ */
+function fillResponses(c: Correcting, op: Json, method: string, path: string, form: Json, ops: string[], response: Json | null, type: string): void {
+  const key = `${method} ${path}`;
+  const schemaRef = (name: unknown): Json => (typeof name === "string" && name in c.definitions ? { $ref: `#/components/schemas/${name}` } : {});
+  const responses = (op["responses"] ?? {}) as Json;
+  const declared = declaredResponses(form, schemaRef);
+  if (!c.filled.has(key)) delete responses["200"]; // the converter's guess; a form names the real one
+  if (!declared.success) {
+    // a form's `response` may name another status
+    const expected = isObject(form["response"]) ? form["response"] : {};
+    const status = typeof expected["htv:statusCodeValue"] === "number" ? String(expected["htv:statusCodeValue"]) : "200";
+    const responseType = typeof expected["contentType"] === "string" ? expected["contentType"] : type;
+    responses[status] = { description: "success", ...(response ? { content: jsonContent(responseType, response) } : {}) };
+  }
+  if (ops.includes("cancelaction")) {
+    // the WoT Profile's answer: no body (the converter's guess carried the action's output)
+    responses["204"] = { description: "cancelled: the move has stopped and its ActionStatus is deleted (a query then answers 404)" };
+    op["operationId"] = `cancelaction_${actionName(path)}`;
+  }
+  if (ops.includes("queryaction")) op["operationId"] = `queryaction_${actionName(path)}`;
+  if (declared.listed) delete responses["default"];
+  else if (isObject(responses["default"]) && "error" in c.definitions) {
+    // the converter's catch-all, with the body every error answer of this TD has
+    responses["default"] = { description: "an error answer", content: jsonContent(PROBLEM_JSON, schemaRef("error")) };
+  }
+  for (const [status, answer] of Object.entries(declared.responses)) {
+    if (!(status in responses) || !c.filled.has(key) || declared.success) responses[status] = answer;
+  }
+  op["responses"] = responses;
+  c.filled.add(key);
+}
+
+/** The form's `htv:headers` as optional header parameters of the operation (once each). */
+function addHeaderParameters(op: Json, form: Json): void {
+  const headers = Array.isArray(form["htv:headers"]) ? (form["htv:headers"] as Json[]) : [];
+  for (const h of headers) {
+    const name = h["htv:fieldName"];
+    if (typeof name !== "string") continue;
+    const params = Array.isArray(op["parameters"]) ? (op["parameters"] as Json[]) : [];
+    if (params.some((p) => p["in"] === "header" && p["name"] === name)) continue;
+    const value = typeof h["htv:fieldValue"] === "string" ? h["htv:fieldValue"] : undefined;
+    const answers = String((isObject(form["response"]) && form["response"]["htv:statusCodeValue"]) ?? "");
+    const description = `${value ?? "the value"}: the form answering ${answers}` + (name.toLowerCase() === "prefer" ? PREFER_NOTE : "");
+    // RFC 7240: a preference the server does not know is ignored, so any value is a valid header
+    op["parameters"] = [...params, { name, in: "header", required: false, description, schema: { type: "string" }, ...(value ? { example: value } : {}) }];
+  }
+}
+
+/** (4) One server, the origin the paths start from; per-operation copies of it are redundant. */
+function oneServer(doc: Json, td: Json): void {
   const base = typeof td["base"] === "string" ? td["base"] : undefined;
-  if (base !== undefined && /^https?:\/\//.test(base)) {
-    const origin = new URL(base).origin;
-    doc["servers"] = [{ url: origin, description: `the servient of ${String(td["title"] ?? "the Thing")} (Thing at ${base})` }];
-    for (const item of Object.values(doc["paths"] as Record<string, Json>)) {
-      for (const op of Object.values(item)) {
-        if (!isObject(op)) continue;
-        const servers = op["servers"];
-        if (Array.isArray(servers) && servers.length === 1 && isObject(servers[0]) && servers[0]["url"] === origin) delete op["servers"];
-      }
+  if (base === undefined || !/^https?:\/\//.test(base)) return;
+  const origin = new URL(base).origin;
+  doc["servers"] = [{ url: origin, description: `the servient of ${String(td["title"] ?? "the Thing")} (Thing at ${base})` }];
+  for (const item of Object.values(doc["paths"] as Record<string, Json>)) {
+    for (const op of Object.values(item)) {
+      if (!isObject(op)) continue;
+      const servers = op["servers"];
+      if (Array.isArray(servers) && servers.length === 1 && isObject(servers[0]) && servers[0]["url"] === origin) delete op["servers"];
     }
   }
-  const problems = await validateOpenApi(doc);
-  if (problems.length > 0) throw new Error(`the corrected OpenAPI document is not valid: ${problems.slice(0, 3).join("; ")}`);
-  return doc;
 }
 
 /** Errors of `doc` against the OpenAPI JSON Schema (empty when valid). */

@@ -13,13 +13,14 @@
  *        [--no-move] [--quiet] [--json]
  */
 import { numberOption, speedOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
-import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
+import { defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
 import { fmt, fmtJoints, printJsonSummary, table } from "./lib/format.js";
 import { subscribeLive, type LiveSubscription } from "./lib/live.js";
 import { runScenario } from "./lib/run.js";
 import { acceptedTargets, spreadTargets, type Joints } from "./lib/targets.js";
 import { jointLimits } from "@robwot/core";
 import type { MoveResult } from "./lib/types.js";
+import type * as WoTTypes from "wot-typescript-definitions";
 
 const USAGE = "observe-joints [TD URL] [--seconds N] [--speed 0..1] [--via ws|poll|both] [--no-move] [--quiet] [--json]";
 
@@ -37,8 +38,19 @@ export function rateWithin(updates: Update[], windows: [number, number][]): { co
   return { count, seconds, hz: seconds > 0 ? count / seconds : 0 };
 }
 
-async function main(): Promise<void> {
-  const args = parseArgs(process.argv.slice(2), {
+interface ObserveOptions {
+  url: string;
+  seconds: number;
+  speed: number;
+  via: string;
+  quiet: boolean;
+  /** move the robot back and forth (false: `--no-move`, just watch) */
+  move: boolean;
+  json: boolean;
+}
+
+function parseObserveArgs(argv: string[]): ObserveOptions {
+  const args = parseArgs(argv, {
     seconds: "value",
     speed: "value",
     via: "value",
@@ -51,114 +63,151 @@ async function main(): Promise<void> {
   const speed = speedOption(args, 1);
   const via = stringOption(args, "via") ?? "both";
   if (!["ws", "poll", "both"].includes(via)) throw new UsageError(`--via must be ws, poll or both, got ${via}`);
-  const quiet = args.options.has("quiet");
+  return { url, seconds, speed, via, quiet: args.options.has("quiet"), move: !args.options.has("no-move"), json: args.options.has("json") };
+}
 
+/** The observers' updates and the motion windows, timed from the start of the observation. */
+class Observation {
+  readonly updates: Update[] = [];
+  readonly moves: [number, number][] = [];
+  live: LiveSubscription | undefined;
+  useWs = false;
+  usePoll = false;
+  /** set once the observers are being stopped: their errors then are expected */
+  stopping = false;
+  private t0 = performance.now();
+
+  constructor(private readonly quiet: boolean) {}
+
+  /** Observation starts now. */
+  start(): void {
+    this.t0 = performance.now();
+  }
+
+  now(): number {
+    return (performance.now() - this.t0) / 1000;
+  }
+
+  record(source: Update["source"], joints: Joints): void {
+    const u: Update = { source, t: this.now(), joints };
+    this.updates.push(u);
+    if (!this.quiet) console.log(`[+${fmt(u.t)} s] ${source.padEnd(4)} ${fmtJoints(joints)}`);
+  }
+
+  fail(source: string): (err: Error) => void {
+    return (err) => {
+      if (!this.stopping) console.error(`${source} observer error: ${err.message}`);
+    };
+  }
+}
+
+async function main(): Promise<void> {
+  const opts = parseObserveArgs(process.argv.slice(2));
   const session = await openSession();
-  const updates: Update[] = [];
-  const moves: [number, number][] = [];
-  let live: LiveSubscription | undefined;
-  let t0 = performance.now();
-  const now = (): number => (performance.now() - t0) / 1000;
-  const record = (source: Update["source"], joints: Joints): void => {
-    const u: Update = { source, t: now(), joints };
-    updates.push(u);
-    if (!quiet) console.log(`[+${fmt(u.t)} s] ${source.padEnd(4)} ${fmtJoints(joints)}`);
-  };
-  let stopping = false;
-  const fail = (source: string) => (err: Error) => {
-    if (!stopping) console.error(`${source} observer error: ${err.message}`);
-  };
-
+  const obs = new Observation(opts.quiet);
   try {
-    const twin = await session.connect(url);
-    console.log(`Observing "${twin.td.title ?? "?"}" (${url}) for ${seconds} s via ${via}`);
+    const twin = await session.connect(opts.url);
+    console.log(`Observing "${twin.td.title ?? "?"}" (${opts.url}) for ${opts.seconds} s via ${opts.via}`);
     const start = await read<Joints>(twin, "getJointPosition");
-    const move = !args.options.has("no-move");
-    const [away] = move ? await acceptedTargets(twin, spreadTargets(jointLimits(twin.td), 0.4, 8), 1, start) : [start];
+    const [away] = opts.move ? await acceptedTargets(twin, spreadTargets(jointLimits(twin.td), 0.4, 8), 1, start) : [start];
     if (away === undefined) throw new Error("no joint target accepted by validateJointPosition to move to");
 
-    t0 = performance.now(); // observation starts now
-    let usePoll = via !== "ws";
-    let useWs = false;
-    if (via !== "poll") {
-      try {
-        live = await subscribeLive(
-          twin,
-          (msg) => {
-            if (msg.type === "joints" && msg.joints !== undefined) record("ws", msg.joints);
-            else if (msg.type === "status" && !quiet) console.log(`[+${fmt(now())} s] ws   status ${String(msg["state"])}`);
-          },
-          fail("ws"),
-        );
-        useWs = true;
-        console.log(`WebSocket: ${live.url}`);
-      } catch (err) {
-        if (via === "ws") throw err;
-        console.log(`no live WebSocket (${(err as Error).message}); observing by long-poll only`);
-        usePoll = true;
-      }
-    }
-    const subscription =
-      usePoll
-        ? await twin.thing.observeProperty(
-            "getJointPosition",
-            (out) => {
-              out.value().then((v) => record("poll", v as Joints), fail("poll"));
-            },
-            fail("poll"),
-          )
-        : undefined;
-
-    // The mover: back and forth between the start pose and `away` until time is up (with --no-move,
-    // just watch: someone else, e.g. the viewer, moves the robot; rates are over the whole window).
-    const deadline = seconds;
-    let toward: Joints = away;
-    let simulated = 0; // s of motion, by the twin's clock
-    if (!move) {
-      await new Promise((r) => setTimeout(r, seconds * 1000));
-      moves.push([0, now()]);
-    }
-    while (move && now() < deadline) {
-      const a = now();
-      const result = await invoke<MoveResult>(twin, "moveToJointPosition", { joints: toward, speed });
-      moves.push([a, now()]);
-      simulated += result.duration;
-      if (!quiet) console.log(`[+${fmt(now())} s] move ${result.status} after ${fmt(result.duration)} s`);
-      toward = toward === away ? start : away;
-    }
+    obs.start();
+    const subscription = await startObservers(twin, obs, opts);
+    const simulated = await moveBackAndForth(twin, obs, opts, start, away);
     await new Promise((r) => setTimeout(r, 200)); // let the final state of the last move arrive
-    stopping = true;
+    obs.stopping = true;
     await subscription?.stop();
-    await live?.close();
-    live = undefined;
-
-    const rows = (["ws", "poll"] as const)
-      .filter((s) => (s === "ws" ? useWs : usePoll))
-      .map((s) => {
-        const mine = updates.filter((u) => u.source === s);
-        const r = rateWithin(mine, moves);
-        return { source: s, total: mine.length, ...r };
-      });
-    const moveCount = move ? moves.length : 0;
-    const open = moves.reduce((s, [a, b]) => s + b - a, 0);
-    console.log(
-      move
-        ? `\n${moveCount} moves (${fmt(simulated)} s of motion), move requests open ${fmt(open)} s of ${fmt(now())} s`
-        : `\nwatched ${fmt(open)} s without moving the robot`,
-    );
-    console.log(
-      table(
-        ["observer", "updates", move ? "during motion" : "in window", "rate (Hz)"],
-        rows.map((r) => [r.source, String(r.total), String(r.count), fmt(r.hz, 1)]),
-      ),
-    );
-    if (args.options.has("json")) {
-      const last = (src: Update["source"]): Update | null => updates.filter((u) => u.source === src).pop() ?? null;
-      printJsonSummary({ moves: moveCount, motionSeconds: simulated, observers: rows, lastWs: last("ws"), lastPoll: last("poll") });
-    }
+    await obs.live?.close();
+    obs.live = undefined;
+    report(obs, opts, simulated);
   } finally {
-    await live?.close();
+    await obs.live?.close();
     await session.close();
+  }
+}
+
+/** The `/live` WebSocket (unless `--via poll`) and node-wot's long-poll (unless `--via ws`, or as the fallback). */
+async function startObservers(twin: Twin, obs: Observation, opts: ObserveOptions): Promise<WoTTypes.Subscription | undefined> {
+  obs.usePoll = opts.via !== "ws";
+  if (opts.via !== "poll") {
+    try {
+      obs.live = await subscribeLive(
+        twin,
+        (msg) => {
+          if (msg.type === "joints" && msg.joints !== undefined) obs.record("ws", msg.joints);
+          else if (msg.type === "status" && !opts.quiet) console.log(`[+${fmt(obs.now())} s] ws   status ${String(msg["state"])}`);
+        },
+        obs.fail("ws"),
+      );
+      obs.useWs = true;
+      console.log(`WebSocket: ${obs.live.url}`);
+    } catch (err) {
+      if (opts.via === "ws") throw err;
+      console.log(`no live WebSocket (${(err as Error).message}); observing by long-poll only`);
+      obs.usePoll = true;
+    }
+  }
+  if (!obs.usePoll) return undefined;
+  return await twin.thing.observeProperty(
+    "getJointPosition",
+    (out) => {
+      out.value().then((v) => obs.record("poll", v as Joints), obs.fail("poll"));
+    },
+    obs.fail("poll"),
+  );
+}
+
+/**
+ * The mover: back and forth between the start pose and `away` until time is up (with --no-move, just
+ * watch: someone else, e.g. the viewer, moves the robot; rates are over the whole window). Returns the
+ * seconds of motion by the twin's clock.
+ */
+async function moveBackAndForth(twin: Twin, obs: Observation, opts: ObserveOptions, start: Joints, away: Joints): Promise<number> {
+  const deadline = opts.seconds;
+  let toward: Joints = away;
+  let simulated = 0;
+  if (!opts.move) {
+    await new Promise((r) => setTimeout(r, opts.seconds * 1000));
+    obs.moves.push([0, obs.now()]);
+  }
+  while (opts.move && obs.now() < deadline) {
+    const a = obs.now();
+    const result = await invoke<MoveResult>(twin, "moveToJointPosition", { joints: toward, speed: opts.speed });
+    obs.moves.push([a, obs.now()]);
+    simulated += result.duration;
+    if (!opts.quiet) console.log(`[+${fmt(obs.now())} s] move ${result.status} after ${fmt(result.duration)} s`);
+    toward = toward === away ? start : away;
+  }
+  return simulated;
+}
+
+/** Each observer's update count and rate while the robot moved; the JSON summary with `--json`. */
+function report(obs: Observation, opts: ObserveOptions, simulated: number): void {
+  const { updates, moves } = obs;
+  const rows = (["ws", "poll"] as const)
+    .filter((s) => (s === "ws" ? obs.useWs : obs.usePoll))
+    .map((s) => {
+      const mine = updates.filter((u) => u.source === s);
+      const r = rateWithin(mine, moves);
+      return { source: s, total: mine.length, ...r };
+    });
+  const moveCount = opts.move ? moves.length : 0;
+  const open = moves.reduce((s, [a, b]) => s + b - a, 0);
+  console.log(
+    opts.move
+      ? `\n${moveCount} moves (${fmt(simulated)} s of motion), move requests open ${fmt(open)} s of ${fmt(obs.now())} s`
+      : `\nwatched ${fmt(open)} s without moving the robot`,
+  );
+  console.log(
+    table(
+      ["observer", "updates", opts.move ? "during motion" : "in window", "rate (Hz)"],
+      rows.map((r) => [r.source, String(r.total), String(r.count), fmt(r.hz, 1)]),
+    ),
+  );
+  if (opts.json) {
+    const last = (src: Update["source"]): Update | null => updates.filter((u) => u.source === src).pop() ?? null;
+    printJsonSummary({ moves: moveCount, motionSeconds: simulated, observers: rows, lastWs: last("ws"), lastPoll: last("poll") });
   }
 }
 

@@ -25,6 +25,27 @@ import { loadBasePose, loadCloud, loadReachability, loadScene, loadSurface } fro
 
 const HIGHLIGHT_MS = 3000;
 
+/** What the page's parts share; each field is set by the one part named in its comment. */
+interface PageState {
+  /** the loaded model (the robot load), null until then */
+  robot: URDFRobot | null;
+  /** joints to draw on the next frame (the live stream, the first state read), null once drawn */
+  latest: Record<string, number> | null;
+  /** the TCP position the twin last reported (the TD's frame): the program panel's example starts there */
+  tcpNow: { x: number; y: number; z: number } | null;
+  /** x_real = s·R·x_virtual + t (the calibration property): Cartesian inputs are in the real frame, the 3D view in the virtual one */
+  calibration: SimilarityTransform | null;
+}
+
+interface Controls {
+  motion: MotionPanel;
+  joints: JointPanel;
+  cartesian: CartesianPanel;
+  showCalibration: (c: unknown) => void;
+}
+
+type Point = { x: number; y: number; z: number };
+
 export async function showTwin(slug: string, view: HTMLElement, content: HTMLElement): Promise<void> {
   debugState.thing = slug;
   publishDebug();
@@ -35,137 +56,41 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
 
   const stage = new Stage(view);
   stage.start();
-
-  const motion = new MotionPanel(content, td.speed, () => void commander.stop());
-  const commander = new Commander(td, {
-    speed: () => motion.speed(),
-    busy: (active) => (joints.targetActive = active),
-    result: () => undefined, // the live status stream reports outcomes
-    error: (action, err) => showError(action, err),
-  });
-  const joints = new JointPanel(content, td.joints, (target) => commander.moveJoints(target));
-  // x_real = s·R·x_virtual + t: Cartesian inputs are in the real frame, the 3D view in the virtual one
-  let calibration: SimilarityTransform | null = null;
-  const marker = new TargetMarker(stage);
-  const cartesian = new CartesianPanel(content, commander, (t, valid, contacts = []) => {
-    const position = calibration ? invertCalibration(calibration, t) : ([t.x, t.y, t.z] as [number, number, number]);
-    marker.show(position, valid);
-    debugState.target = { position, valid };
-    publishDebug();
-    // a rejected path: its touching bodies drawn red, as a collision event's are
-    const sides = contacts.flatMap((c) => (isRecord(c) ? [c["a"], c["b"]] : []));
-    if (sides.length > 0) highlightBodies(stage, robot, sides);
-  });
-  const showCalibration = (c: unknown): void => {
-    try {
-      calibration = activeCalibration(c);
-    } catch (err) {
-      calibration = null;
-      showError("calibration", err);
-    }
-    motion.showCalibration(c);
-    cartesian.setCalibrated(calibration !== null);
-  };
-
-  let robot: URDFRobot | null = null;
-  let latest: Record<string, number> | null = null;
-  // the TCP position the twin last reported (the TD's frame): the program panel's example starts there
-  let tcpNow: { x: number; y: number; z: number } | null = null;
-  new ProgramPanel(
-    content,
-    td,
-    stage,
-    {
-      tcpOf: (names, configurations) => {
-        const ee = robot && td.eeLink ? robot.links[td.eeLink] : undefined;
-        if (!robot || !ee) return [];
-        const saved = Object.fromEntries(Object.entries(robot.joints).map(([n, j]) => [n, Number(j.angle)]));
-        const out = configurations.map((q) => {
-          applyJoints(robot!, Object.fromEntries(names.map((n, i) => [n, q[i] ?? 0])));
-          const p = stage.positionInWorld(ee);
-          return [p?.x ?? 0, p?.y ?? 0, p?.z ?? 0] as [number, number, number];
-        });
-        applyJoints(robot, saved);
-        return out;
-      },
-      current: () => (tcpNow ? { joints: { ...debugState.joints }, tcp: tcpNow } : null),
-      toView: (t) => (calibration ? invertCalibration(calibration, t) : [t.x, t.y, t.z]),
-    },
-    (drawn) => {
-      debugState.program = drawn;
-      publishDebug();
-    },
-  );
-  const reportedUnknown = new Set<string>();
-  stage.onFrame(() => {
-    if (!robot || !latest) return false;
-    const unknown = applyJoints(robot, latest).filter((n) => !reportedUnknown.has(n));
-    for (const n of unknown) {
-      reportedUnknown.add(n);
-      showError("live", `joint "${n}" is not in the model (known: ${Object.keys(robot.joints).join(", ")})`);
-    }
-    joints.showActual(latest);
-    debugState.joints = { ...debugState.joints, ...latest };
-    debugState.ee = td.eeLink ? stage.positionInWorld(robot.links[td.eeLink] ?? null) : null;
-    debugState.framesApplied++;
-    publishDebug();
-    latest = null;
-    return true;
-  });
+  const state: PageState = { robot: null, latest: null, tcpNow: null, calibration: null };
+  const controls = addControls(td, stage, content, state);
+  addProgramPanel(td, stage, content, state);
+  drawLatestJoints(td, stage, state, controls.joints);
 
   // Everything loads in parallel; each failure is shown, the rest of the page keeps working.
-  const poseTask = loadBasePose(td).catch((err: unknown) => {
-    showError(`${TWIN_FILES.manifest} (robot base pose; the robot is shown at the origin)`, err);
-    return null;
-  });
-  const robotTask = loadRobot(td.links.model).then(async ({ robot: r, meshErrors }) => {
-    for (const e of meshErrors) showError("model", e);
-    const pose = await poseTask;
-    if (pose) {
-      r.position.set(...pose.position);
-      r.quaternion.copy(xyzwToQuaternion(pose.orientation));
-    }
-    robot = r;
-    stage.add(r);
-    motion.addLayer("robot", true, (v) => stage.setVisible(r, v));
-    return r;
-  });
-  const physical = new PhysicalRobotLayer(stage, motion, td.links.model, poseTask, () => robot);
-  const obstacles = new ObstacleLayer(stage, motion, td.base);
-  const sceneTask = loadScene(td, obstacles);
-  const cloudTask = loadCloud(td, stage, motion);
-  const surfaceTask = loadSurface(td, stage, motion);
-  const reachTask = loadReachability(td, stage, motion);
-  const stateTask = loadState(td, motion, cartesian, showCalibration).then((q) => (latest ??= q));
-
+  const loading = startLoading(td, stage, state, controls);
   const liveUrl = td.live ?? `${location.protocol === "https:" ? "wss:" : "ws:"}//${location.host}/live`;
-  const othersTask = showOtherRobots(slug, stage, motion, liveUrl);
+  const othersTask = showOtherRobots(slug, stage, controls.motion, liveUrl);
   startLive(liveUrl, slug, {
     joints: (q, msg) => {
-      latest = q;
+      state.latest = q;
       const p = msg["position"];
       if (isRecord(p) && typeof p["x"] === "number") {
-        tcpNow = p as { x: number; y: number; z: number };
-        cartesian.showCurrent(tcpNow);
+        state.tcpNow = p as Point;
+        controls.cartesian.showCurrent(state.tcpNow);
       }
     },
     status: (msg) => {
-      motion.showStatus(msg);
+      controls.motion.showStatus(msg);
       debugState.lastStatus = msg;
       publishDebug();
-      if (msg["state"] !== "moving") readProperty(td, "calibration").then(showCalibration, (e: unknown) => showError("calibration", e));
+      if (msg["state"] !== "moving") readProperty(td, "calibration").then(controls.showCalibration, (e: unknown) => showError("calibration", e));
     },
     scene: (msg) => {
-      obstacles.show(msg, true).catch((e: unknown) => showError("scene (live)", e));
+      loading.obstacles.show(msg, true).catch((e: unknown) => showError("scene (live)", e));
     },
-    physical: (msg) => physical.show(msg),
+    physical: (msg) => loading.physical.show(msg),
     collision: (msg) => {
       debugState.collisions++;
       publishDebug();
-      highlightCollision(stage, robot, msg);
+      highlightCollision(stage, state.robot, msg);
     },
   });
-
+  const { robotTask, sceneTask, cloudTask, surfaceTask, stateTask, reachTask } = loading;
   const results = await Promise.allSettled([robotTask, sceneTask, cloudTask, surfaceTask, stateTask, othersTask, reachTask]);
   const labels = ["model", "scene", TWIN_FILES.pointCloud, TWIN_FILES.surface, "state", "other robots of this world", TWIN_FILES.reachability];
   results.forEach((r, i) => {
@@ -179,6 +104,119 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   stage.frame(framed);
   debugState.phase = results[0].status === "fulfilled" ? "ready" : "error";
   publishDebug();
+}
+
+/** The motion, joint and Cartesian panels, wired to the TD's actions through one commander. */
+function addControls(td: TwinTd, stage: Stage, content: HTMLElement, state: PageState): Controls {
+  const motion = new MotionPanel(content, td.speed, () => void commander.stop());
+  const commander = new Commander(td, {
+    speed: () => motion.speed(),
+    busy: (active) => (joints.targetActive = active),
+    result: () => undefined, // the live status stream reports outcomes
+    error: (action, err) => showError(action, err),
+  });
+  const joints = new JointPanel(content, td.joints, (target) => commander.moveJoints(target));
+  const marker = new TargetMarker(stage);
+  const cartesian = new CartesianPanel(content, commander, (t, valid, contacts = []) => {
+    const position = state.calibration ? invertCalibration(state.calibration, t) : ([t.x, t.y, t.z] as [number, number, number]);
+    marker.show(position, valid);
+    debugState.target = { position, valid };
+    publishDebug();
+    // a rejected path: its touching bodies drawn red, as a collision event's are
+    const sides = contacts.flatMap((c) => (isRecord(c) ? [c["a"], c["b"]] : []));
+    if (sides.length > 0) highlightBodies(stage, state.robot, sides);
+  });
+  const showCalibration = (c: unknown): void => {
+    try {
+      state.calibration = activeCalibration(c);
+    } catch (err) {
+      state.calibration = null;
+      showError("calibration", err);
+    }
+    motion.showCalibration(c);
+    cartesian.setCalibrated(state.calibration !== null);
+  };
+  return { motion, joints, cartesian, showCalibration };
+}
+
+/** The program panel: its TCP path drawn by this page's model, its example starting at the reported TCP. */
+function addProgramPanel(td: TwinTd, stage: Stage, content: HTMLElement, state: PageState): void {
+  new ProgramPanel(
+    content,
+    td,
+    stage,
+    {
+      tcpOf: (names, configurations) => {
+        const robot = state.robot;
+        const ee = robot && td.eeLink ? robot.links[td.eeLink] : undefined;
+        if (!robot || !ee) return [];
+        const saved = Object.fromEntries(Object.entries(robot.joints).map(([n, j]) => [n, Number(j.angle)]));
+        const out = configurations.map((q) => {
+          applyJoints(robot, Object.fromEntries(names.map((n, i) => [n, q[i] ?? 0])));
+          const p = stage.positionInWorld(ee);
+          return [p?.x ?? 0, p?.y ?? 0, p?.z ?? 0] as [number, number, number];
+        });
+        applyJoints(robot, saved);
+        return out;
+      },
+      current: () => (state.tcpNow ? { joints: { ...debugState.joints }, tcp: state.tcpNow } : null),
+      toView: (t) => (state.calibration ? invertCalibration(state.calibration, t) : [t.x, t.y, t.z]),
+    },
+    (drawn) => {
+      debugState.program = drawn;
+      publishDebug();
+    },
+  );
+}
+
+/** On each frame, the latest joints (if any arrived since) drawn on the model and the joint panel. */
+function drawLatestJoints(td: TwinTd, stage: Stage, state: PageState, joints: JointPanel): void {
+  const reportedUnknown = new Set<string>();
+  stage.onFrame(() => {
+    const { robot, latest } = state;
+    if (!robot || !latest) return false;
+    const unknown = applyJoints(robot, latest).filter((n) => !reportedUnknown.has(n));
+    for (const n of unknown) {
+      reportedUnknown.add(n);
+      showError("live", `joint "${n}" is not in the model (known: ${Object.keys(robot.joints).join(", ")})`);
+    }
+    joints.showActual(latest);
+    debugState.joints = { ...debugState.joints, ...latest };
+    debugState.ee = td.eeLink ? stage.positionInWorld(robot.links[td.eeLink] ?? null) : null;
+    debugState.framesApplied++;
+    publishDebug();
+    state.latest = null;
+    return true;
+  });
+}
+
+/** Starts loading the model (at its base pose), the scene, point cloud, surface, reachability and state. */
+function startLoading(td: TwinTd, stage: Stage, state: PageState, controls: Controls) {
+  const { motion, cartesian, showCalibration } = controls;
+  const poseTask = loadBasePose(td).catch((err: unknown) => {
+    showError(`${TWIN_FILES.manifest} (robot base pose; the robot is shown at the origin)`, err);
+    return null;
+  });
+  const robotTask = loadRobot(td.links.model).then(async ({ robot: r, meshErrors }) => {
+    for (const e of meshErrors) showError("model", e);
+    const pose = await poseTask;
+    if (pose) {
+      r.position.set(...pose.position);
+      r.quaternion.copy(xyzwToQuaternion(pose.orientation));
+    }
+    state.robot = r;
+    stage.add(r);
+    motion.addLayer("robot", true, (v) => stage.setVisible(r, v));
+    return r;
+  });
+  const physical = new PhysicalRobotLayer(stage, motion, td.links.model, poseTask, () => state.robot);
+  const obstacles = new ObstacleLayer(stage, motion, td.base);
+  const sceneTask = loadScene(td, obstacles);
+  const cloudTask = loadCloud(td, stage, motion);
+  const surfaceTask = loadSurface(td, stage, motion);
+  const reachTask = loadReachability(td, stage, motion);
+  const stateTask = loadState(td, motion, cartesian, showCalibration).then((q) => (state.latest ??= q));
+  return { robotTask, sceneTask, cloudTask, surfaceTask, reachTask, stateTask, physical, obstacles };
 }
 
 async function loadState(

@@ -7,8 +7,9 @@ For kuka with the 4-obstacle example scene, prints:
    with 1 and 2 CPUs): ``--samples`` samples, full ``generate_workspace`` (files included); the rate is
    samples / wall time of the labelling stage (sampling + FK + collision checks + CSV on a cluster);
 2. the wall time of ``--big`` samples (default 10^6), locally and through Ray with 2 workers;
-3. with ``--huge`` (default the contract's largest sample count, 0 skips it), a cluster run of that many samples in a fresh process: its
-   wall time, the driver's peak RSS (``ru_maxrss``: the backend process of a ``--cluster`` run) and the
+3. with ``--huge`` (default the contract's largest sample count, 0 skips it), a cluster run of that
+   many samples in a fresh process: its wall time, the driver's peak RSS (``ru_maxrss``: the backend
+   process of a ``--cluster`` run) and the
    peak RSS of the Ray worker processes (sampled every 0.2 s).
 
 Every run is a fresh ``generate_workspace`` into a temporary folder; clusters are started and stopped by

@@ -214,46 +214,31 @@ function parseSceneFile(path: string): string {
   return abs;
 }
 
+const parseGenerateValues = (argv: string[]) => parseArgs({ args: argv, options: GENERATE_OPTIONS, allowPositionals: true, strict: true });
+type GenerateValues = ReturnType<typeof parseGenerateValues>["values"];
+
+/** Where the robot comes from: a URDF (or xacro) file, an example, or a MoveIt config package. */
+interface RobotSource {
+  robotArg: string;
+  urdfFile?: string;
+  example?: ExampleRobot;
+  moveitConfig?: string;
+}
+
+/**
+ * `robwot generate` options, every one checked here in the order the user reads them, before anything
+ * starts: the first refusal is the one reported.
+ */
 export function parseGenerateArgs(argv: string[]): GenerateOptions {
   let parsed;
   try {
-    parsed = parseArgs({ args: argv, options: GENERATE_OPTIONS, allowPositionals: true, strict: true });
+    parsed = parseGenerateValues(argv);
   } catch (err) {
     throw usageError(err, "generate", Object.keys(GENERATE_OPTIONS));
   }
   const { values, positionals } = parsed;
-  const moveitConfig = values["moveit-config"] === undefined ? undefined : existingDir("moveit-config", values["moveit-config"]);
-  if (moveitConfig !== undefined && positionals.length > 0) {
-    throw new CliError(`--moveit-config names the robot already: give it or a robot (${positionals.join(" ")}), not both`);
-  }
-  if (moveitConfig === undefined && positionals.length !== 1) {
-    throw new CliError(
-      positionals.length === 0
-        ? `missing robot: give a URDF file or an example name (${EXAMPLE_NAMES.join(", ")})`
-        : `expected one robot, got ${positionals.length}: ${positionals.join(" ")}`,
-    );
-  }
-  const robotArg = positionals[0] ?? "";
-  let urdfFile: string | undefined;
-  let example: ExampleRobot | undefined;
-  const known = findExample(robotArg);
-  if (moveitConfig !== undefined) {
-    // the robot file is found in the package by the backend
-  } else if (known && !isFile(robotArg)) {
-    example = known;
-  } else if (isFile(robotArg) || !looksLikeExampleName(robotArg)) {
-    urdfFile = existingFile("URDF file", robotArg);
-  } else {
-    throw new CliError(`unknown example robot "${robotArg}" and no such file (examples: ${EXAMPLE_NAMES.join(", ")})`);
-  }
-  const samples = parseInteger("samples", values.samples, Samples.default, Samples.minimum, Samples.maximum);
-  const seed = parseInteger("seed", values.seed, Seed.default, Seed.minimum, Seed.maximum);
-  const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, Workers.minimum, Workers.minimum, Workers.maximum);
-  const alpha = parseAlpha(values.alpha);
-  const cluster = values.cluster?.trim();
-  if (cluster === "") throw new CliError('--cluster needs a Ray address ("auto" or ray://host:10001)');
-  if (cluster !== undefined && workers !== undefined) throw new CliError("--workers is for the local pool: give it or --cluster, not both");
-  const reachVoxel = values["reach-voxel"] === undefined || values["reach-voxel"] === "auto" ? "auto" : parseNumber("reach-voxel", values["reach-voxel"], 0, ReachVoxel.minimum, ReachVoxel.maximum);
+  const { robotArg, urdfFile, example, moveitConfig } = parseRobotSource(values, positionals);
+  const { samples, seed, workers, alpha, cluster, reachVoxel } = parseSampling(values);
   const clearance = parseNumber("clearance", values.clearance, DEFAULT_CLEARANCE, Clearance.minimum, Clearance.maximum);
   const packageRoots = parsePackageRoots(values["package-root"]);
   const base = parseBase(values.base);
@@ -270,16 +255,8 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const baseUrl = baseUrlObj.href.endsWith("/") ? baseUrlObj.href : `${baseUrlObj.href}/`;
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const scene = values.scene === undefined ? undefined : parseSceneFile(values.scene);
-  if (values.ee !== undefined && values.ee.trim() === "") throw new CliError("--ee must name a link");
-  if (values.group !== undefined && values.group.trim() === "") throw new CliError("--group must name a planning group of the SRDF");
-  if (values.group !== undefined && values.srdf === undefined && moveitConfig === undefined) {
-    throw new CliError("--group names a planning group of an SRDF: give --srdf FILE or --moveit-config DIR");
-  }
-  const declared = urdfFile ? urdfRobotName(urdfFile) : undefined;
-  // a xacro's name may itself be an expression: then the file name it has
-  const fileName = moveitConfig !== undefined ? basename(moveitConfig).replace(/_moveit_config$/, "") : basename(urdfFile ?? "robot").replace(/(\.urdf)?(\.xacro)?$/, "");
-  const robotName = example?.name ?? (declared?.includes("$") ? undefined : declared) ?? fileName;
-  const out = resolve(values.out ?? join("twins", slugify(robotName)));
+  checkEndEffector(values, moveitConfig);
+  const out = resolve(values.out ?? join("twins", slugify(robotName({ robotArg, urdfFile, example, moveitConfig }))));
   return {
     ...(urdfFile ? { urdfFile } : {}),
     ...(isXacro ? { xacroArgs } : {}),
@@ -309,4 +286,56 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     json: values.json ?? false,
     force: values.force ?? false,
   };
+}
+
+/** The robot: one positional (a file or an example name) or `--moveit-config`, never both. */
+function parseRobotSource(values: GenerateValues, positionals: string[]): RobotSource {
+  const moveitConfig = values["moveit-config"] === undefined ? undefined : existingDir("moveit-config", values["moveit-config"]);
+  if (moveitConfig !== undefined && positionals.length > 0) {
+    throw new CliError(`--moveit-config names the robot already: give it or a robot (${positionals.join(" ")}), not both`);
+  }
+  if (moveitConfig === undefined && positionals.length !== 1) {
+    throw new CliError(
+      positionals.length === 0
+        ? `missing robot: give a URDF file or an example name (${EXAMPLE_NAMES.join(", ")})`
+        : `expected one robot, got ${positionals.length}: ${positionals.join(" ")}`,
+    );
+  }
+  const robotArg = positionals[0] ?? "";
+  const known = findExample(robotArg);
+  // with a MoveIt config, the robot file is found in the package by the backend
+  if (moveitConfig !== undefined) return { robotArg, moveitConfig };
+  if (known && !isFile(robotArg)) return { robotArg, example: known };
+  if (isFile(robotArg) || !looksLikeExampleName(robotArg)) return { robotArg, urdfFile: existingFile("URDF file", robotArg) };
+  throw new CliError(`unknown example robot "${robotArg}" and no such file (examples: ${EXAMPLE_NAMES.join(", ")})`);
+}
+
+/** How the workspace is sampled: count, seed, local workers or a Ray cluster, alpha, reachability voxel. */
+function parseSampling(values: GenerateValues): Pick<GenerateOptions, "samples" | "seed" | "workers" | "alpha" | "cluster" | "reachVoxel"> {
+  const samples = parseInteger("samples", values.samples, Samples.default, Samples.minimum, Samples.maximum);
+  const seed = parseInteger("seed", values.seed, Seed.default, Seed.minimum, Seed.maximum);
+  const workers = values.workers === undefined ? undefined : parseInteger("workers", values.workers, Workers.minimum, Workers.minimum, Workers.maximum);
+  const alpha = parseAlpha(values.alpha);
+  const cluster = values.cluster?.trim();
+  if (cluster === "") throw new CliError('--cluster needs a Ray address ("auto" or ray://host:10001)');
+  if (cluster !== undefined && workers !== undefined) throw new CliError("--workers is for the local pool: give it or --cluster, not both");
+  const reachVoxel = values["reach-voxel"] === undefined || values["reach-voxel"] === "auto" ? "auto" : parseNumber("reach-voxel", values["reach-voxel"], 0, ReachVoxel.minimum, ReachVoxel.maximum);
+  return { samples, seed, workers, alpha, cluster, reachVoxel };
+}
+
+/** `--ee` names a link; `--group` names a planning group of an SRDF that is given. */
+function checkEndEffector(values: GenerateValues, moveitConfig: string | undefined): void {
+  if (values.ee !== undefined && values.ee.trim() === "") throw new CliError("--ee must name a link");
+  if (values.group !== undefined && values.group.trim() === "") throw new CliError("--group must name a planning group of the SRDF");
+  if (values.group !== undefined && values.srdf === undefined && moveitConfig === undefined) {
+    throw new CliError("--group names a planning group of an SRDF: give --srdf FILE or --moveit-config DIR");
+  }
+}
+
+/** The robot's name, which names the default output folder: the example's, the URDF's, or the file's. */
+function robotName({ urdfFile, example, moveitConfig }: RobotSource): string {
+  const declared = urdfFile ? urdfRobotName(urdfFile) : undefined;
+  // a xacro's name may itself be an expression: then the file name it has
+  const fileName = moveitConfig !== undefined ? basename(moveitConfig).replace(/_moveit_config$/, "") : basename(urdfFile ?? "robot").replace(/(\.urdf)?(\.xacro)?$/, "");
+  return example?.name ?? (declared?.includes("$") ? undefined : declared) ?? fileName;
 }

@@ -40,82 +40,97 @@ export function propertyAffordances(joints: JointSpec[]): Record<string, NoForms
       observable: true,
     },
     getCartesianPosition: { ...cartesian, title: "End-effector pose", readOnly: true, observable: true },
-    motionStatus: {
-      title: "Motion status",
-      type: "object",
-      readOnly: true,
-      observable: true,
-      properties: {
-        state: { type: "string", enum: ["idle", "moving", "stopped", "collision"] },
-        lastError: {
-          type: "object",
-          description: "why the last operation failed; absent when it succeeded",
-          properties: { code: { type: "string" }, message: { type: "string" } },
-          required: ["code", "message"],
-        },
-        lastResult: { ...moveResultSchema(joints), description: "result of the last move; absent before the first" },
+    motionStatus: motionStatusProperty(joints),
+    physicalState: physicalStateProperty(joints),
+    calibration: calibrationProperty(),
+  };
+}
+
+/** The motion status: idle, moving, stopped or collision, with the last error and the last result. */
+function motionStatusProperty(joints: JointSpec[]): NoForms<PropertyAffordance> {
+  return {
+    title: "Motion status",
+    type: "object",
+    readOnly: true,
+    observable: true,
+    properties: {
+      state: { type: "string", enum: ["idle", "moving", "stopped", "collision"] },
+      lastError: {
+        type: "object",
+        description: "why the last operation failed; absent when it succeeded",
+        properties: { code: { type: "string" }, message: { type: "string" } },
+        required: ["code", "message"],
       },
-      required: ["state"],
+      lastResult: { ...moveResultSchema(joints), description: "result of the last move; absent before the first" },
     },
-    physicalState: {
-      title: "Physical robot state",
-      description:
-        "What the twin last read from the physical robot it follows (serve --follow): its joints, the end-effector pose by the twin's forward kinematics (in the TD's frame), when they were read and how old they are; following: false when the twin follows none. When the physical robot moves without a twin command, the twin is set to its state (followed counts those readings).",
-      type: "object",
-      readOnly: true,
-      observable: true,
-      properties: {
-        following: { type: "boolean" },
-        source: { type: "string", format: "uri", description: "the physical robot's TD URL" },
-        joints: jointsSchema(joints, "the physical robot's joints as last read"),
-        position: xyzSchema("end-effector position at those joints (m)"),
-        orientation: quaternionSchema("end-effector orientation at those joints"),
-        timestamp: { type: "string", format: "date-time", description: "when the joints were read" },
-        age: { type: "number", unit: UNIT_S, minimum: 0, description: "time since then" },
-        followed: { type: "integer", minimum: 0, description: "readings that set the twin to the physical state (it moved without a twin command)" },
-        lastFollowed: { type: "string", format: "date-time" },
-        lastError: { type: "string", maxLength: 1024, description: "why the last reading failed (the physical Thing unreachable or late, a field it got wrong); at most 1 KiB" },
-        clamped: { type: "object", additionalProperties: { type: "number" }, description: "joints read a little past their limit (what was read); joints shows them at the limit" },
-        monitorFault: {
-          type: "object",
-          description: "present while the safety monitor cannot see the robot (no usable reading for the horizon plus one poll period)",
-          properties: {
-            code: { type: "string", const: "E_MONITOR_BLIND" },
-            since: { type: "string", format: "date-time", description: "the last usable reading (or the start)" },
-            detected: { type: "string", format: "date-time" },
-            reason: { type: "string" },
-            stop: { type: "object", description: "monitor stop: the stop sent for this fault", properties: { state: { type: "string", enum: ["pending", "answered", "failed"] }, error: { type: "string" } } },
-          },
-        },
-        monitorFaults: { type: "integer", minimum: 0, description: "monitor faults so far" },
-        skippedPolls: { type: "integer", minimum: 0, description: "polls skipped because the previous request was still unanswered" },
-        readingErrors: { type: "integer", minimum: 0, description: "readings that failed" },
-        divergence: {
-          type: "object",
-          description: "while a command is relayed: the physical robot's difference from the simulated motion at the same time since the command",
-          properties: { joint: { type: "number", minimum: 0, description: "rad or m: the largest joint difference" }, tcp: { type: "number", unit: UNIT_M, minimum: 0 } },
-        },
-        maxDivergence: {
-          type: "object",
-          description: "the largest divergence during the last relayed command, and the bound of the divergence event",
-          properties: { joint: { type: "number", minimum: 0 }, tcp: { type: "number", unit: UNIT_M, minimum: 0 }, bound: { type: "number", minimum: 0 } },
+    required: ["state"],
+  };
+}
+
+/** What the twin last read from the physical robot it follows, and the safety monitor's state. */
+function physicalStateProperty(joints: JointSpec[]): NoForms<PropertyAffordance> {
+  return {
+    title: "Physical robot state",
+    description:
+      "What the twin last read from the physical robot it follows (serve --follow): its joints, the end-effector pose by the twin's forward kinematics (in the TD's frame), when they were read and how old they are; following: false when the twin follows none. When the physical robot moves without a twin command, the twin is set to its state (followed counts those readings).",
+    type: "object",
+    readOnly: true,
+    observable: true,
+    properties: {
+      following: { type: "boolean" },
+      source: { type: "string", format: "uri", description: "the physical robot's TD URL" },
+      joints: jointsSchema(joints, "the physical robot's joints as last read"),
+      position: xyzSchema("end-effector position at those joints (m)"),
+      orientation: quaternionSchema("end-effector orientation at those joints"),
+      timestamp: { type: "string", format: "date-time", description: "when the joints were read" },
+      age: { type: "number", unit: UNIT_S, minimum: 0, description: "time since then" },
+      followed: { type: "integer", minimum: 0, description: "readings that set the twin to the physical state (it moved without a twin command)" },
+      lastFollowed: { type: "string", format: "date-time" },
+      lastError: { type: "string", maxLength: 1024, description: "why the last reading failed (the physical Thing unreachable or late, a field it got wrong); at most 1 KiB" },
+      clamped: { type: "object", additionalProperties: { type: "number" }, description: "joints read a little past their limit (what was read); joints shows them at the limit" },
+      monitorFault: {
+        type: "object",
+        description: "present while the safety monitor cannot see the robot (no usable reading for the horizon plus one poll period)",
+        properties: {
+          code: { type: "string", const: "E_MONITOR_BLIND" },
+          since: { type: "string", format: "date-time", description: "the last usable reading (or the start)" },
+          detected: { type: "string", format: "date-time" },
+          reason: { type: "string" },
+          stop: { type: "object", description: "monitor stop: the stop sent for this fault", properties: { state: { type: "string", enum: ["pending", "answered", "failed"] }, error: { type: "string" } } },
         },
       },
-      required: ["following"],
-    },
-    calibration: {
-      title: "Calibration",
-      description: "Active virtual-to-real calibration (x_real = s·R·x_virtual + t) or {active: false}",
-      type: "object",
-      readOnly: true,
-      properties: {
-        active: { type: "boolean" },
-        ...calibrationResultSchema().properties,
-        withScale: { type: "boolean" },
-        createdAt: { type: "string", format: "date-time" },
+      monitorFaults: { type: "integer", minimum: 0, description: "monitor faults so far" },
+      skippedPolls: { type: "integer", minimum: 0, description: "polls skipped because the previous request was still unanswered" },
+      readingErrors: { type: "integer", minimum: 0, description: "readings that failed" },
+      divergence: {
+        type: "object",
+        description: "while a command is relayed: the physical robot's difference from the simulated motion at the same time since the command",
+        properties: { joint: { type: "number", minimum: 0, description: "rad or m: the largest joint difference" }, tcp: { type: "number", unit: UNIT_M, minimum: 0 } },
       },
-      required: ["active"],
+      maxDivergence: {
+        type: "object",
+        description: "the largest divergence during the last relayed command, and the bound of the divergence event",
+        properties: { joint: { type: "number", minimum: 0 }, tcp: { type: "number", unit: UNIT_M, minimum: 0 }, bound: { type: "number", minimum: 0 } },
+      },
     },
+    required: ["following"],
+  };
+}
+
+/** The active virtual-to-real calibration. */
+function calibrationProperty(): NoForms<PropertyAffordance> {
+  return {
+    title: "Calibration",
+    description: "Active virtual-to-real calibration (x_real = s·R·x_virtual + t) or {active: false}",
+    type: "object",
+    readOnly: true,
+    properties: {
+      active: { type: "boolean" },
+      ...calibrationResultSchema().properties,
+      withScale: { type: "boolean" },
+      createdAt: { type: "string", format: "date-time" },
+    },
+    required: ["active"],
   };
 }
 
@@ -157,6 +172,24 @@ export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): R
       safe: true,
       idempotent: true,
     },
+    ...programActions(joints, bounds),
+    stop: {
+      title: "Stop",
+      description: "Stops the running motion, if any, in the simulation and (with a relay) on the physical robot at once; never refused.",
+      output: stopResultSchema(),
+      safe: false,
+      idempotent: true,
+    },
+    calibrate: calibrateAction(),
+    addObstacle: { title: "Add an obstacle", input: obstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: false },
+    moveObstacle: { title: "Move an obstacle", input: moveObstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: true },
+    removeObstacle: { title: "Remove an obstacle", input: removeObstacleSchema(), output: { type: "object", properties: {} }, safe: false, idempotent: true },
+  };
+}
+
+/** Validate and run a program of PTP, LIN and CIRC steps. */
+function programActions(joints: JointSpec[], bounds: Bounds | null): Record<"validateProgram" | "runProgram", NoForms<ActionAffordance>> {
+  return {
     validateProgram: {
       title: "Validate a program",
       description:
@@ -175,39 +208,33 @@ export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): R
       safe: false,
       idempotent: false,
     },
-    stop: {
-      title: "Stop",
-      description: "Stops the running motion, if any, in the simulation and (with a relay) on the physical robot at once; never refused.",
-      output: stopResultSchema(),
-      safe: false,
-      idempotent: true,
-    },
-    calibrate: {
-      title: "Calibrate",
-      description: "Solves x_real = s·R·x_virtual + t (Kabsch-Umeyama) from >= 3 non-collinear point pairs and applies it to every Cartesian input and output.",
-      input: {
-        type: "object",
-        properties: {
-          pairs: {
-            type: "array",
-            minItems: 3,
-            items: {
-              type: "object",
-              properties: { real: xyzSchema("point in the real robot's frame", CALIBRATION_BOX), virtual: xyzSchema("same point in the twin's frame", CALIBRATION_BOX) },
-              required: ["real", "virtual"],
-            },
+  };
+}
+
+/** Solve and apply a virtual-to-real calibration from point pairs. */
+function calibrateAction(): NoForms<ActionAffordance> {
+  return {
+    title: "Calibrate",
+    description: "Solves x_real = s·R·x_virtual + t (Kabsch-Umeyama) from >= 3 non-collinear point pairs and applies it to every Cartesian input and output.",
+    input: {
+      type: "object",
+      properties: {
+        pairs: {
+          type: "array",
+          minItems: 3,
+          items: {
+            type: "object",
+            properties: { real: xyzSchema("point in the real robot's frame", CALIBRATION_BOX), virtual: xyzSchema("same point in the twin's frame", CALIBRATION_BOX) },
+            required: ["real", "virtual"],
           },
-          withScale: { type: "boolean", default: true },
         },
-        required: ["pairs"],
+        withScale: { type: "boolean", default: true },
       },
-      output: calibrationResultSchema(),
-      safe: false,
-      idempotent: true,
+      required: ["pairs"],
     },
-    addObstacle: { title: "Add an obstacle", input: obstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: false },
-    moveObstacle: { title: "Move an obstacle", input: moveObstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: true },
-    removeObstacle: { title: "Remove an obstacle", input: removeObstacleSchema(), output: { type: "object", properties: {} }, safe: false, idempotent: true },
+    output: calibrationResultSchema(),
+    safe: false,
+    idempotent: true,
   };
 }
 

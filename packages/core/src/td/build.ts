@@ -171,14 +171,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   const { model, summary } = options;
   const joints = controllableJoints(model);
   const title = options.title ?? model.name;
-  if (title.trim().length === 0) throw new ThingDescriptionError("title is empty", { field: "title" });
-  const slug = options.slug ?? thingSlug(title);
-  if (slug.length > MAX_SLUG_LENGTH) {
-    throw new ThingDescriptionError(`title "${title.slice(0, 40)}..." gives a URL path segment of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served`, { field: "title", value: title });
-  }
-  if (!/^[A-Za-z0-9._~-]+$/.test(slug)) {
-    throw new ThingDescriptionError(`slug '${slug}' is not a plain URL path segment`, { field: "slug", value: slug });
-  }
+  const slug = checkedSlug(title, options.slug);
   const base = normaliseBaseUrl(options.baseUrl ?? DEFAULT_BASE_URL);
   let live: string | null = null;
   if (options.liveUrl !== null) {
@@ -187,10 +180,65 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
   let bounds = summary ? checkBounds(targetBounds(summary)) : null;
   if (bounds && options.calibration) bounds = transformBounds(bounds, options.calibration);
 
+  const td: ThingDescription = {
+    "@context": [TD_CONTEXT_V10, TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],
+    "@type": ["Thing", "robwot:RobotArmTwin"],
+    id: options.id ?? thingId(model, slug, options.sceneId),
+    profile: [...WOT_PROFILES],
+    title,
+    description: options.description ?? defaultDescription(model, joints, summary, options.tool),
+    base: `${base.href}${slug}/`,
+    securityDefinitions: { nosec_sc: { scheme: "nosec" } },
+    // the ActionStatus of the asynchronous moves (`async-actions.ts`); their output is the move result
+    schemaDefinitions: { error: ERROR_SCHEMA, [ACTION_STATUS_SCHEMA]: actionStatusSchema(moveResultSchema(joints), ERROR_SCHEMA) },
+    security: "nosec_sc",
+    properties: propertiesWithForms(joints),
+    actions: actionsWithForms(joints, bounds),
+    events: eventsWithForms(joints),
+    links: twinLinks(options.srdf === true, live),
+    forms: [{ href: "properties", contentType: JSON_TYPE, op: ["readallproperties", "readmultipleproperties"] }],
+    "robwot:robot": model.name,
+    "robwot:eeLink": model.eeLink,
+    "robwot:controllableJoints": joints.map((j) => j.name),
+    ...(model.clearance !== undefined ? { "robwot:clearance": model.clearance } : {}),
+    ...(options.tool ? { "robwot:tool": toolTerm(options.tool) } : {}),
+  };
+  if (summary) {
+    td["robwot:workspace"] = {
+      samples: summary.samples,
+      collisionFree: summary.collisionFree,
+      method: summary.method,
+      alpha: summary.alpha,
+      volume: summary.volume,
+      seed: summary.seed,
+      bounds: summary.bounds,
+    };
+  }
+  return withAbsoluteForms(td);
+}
+
+/** The Thing's URL path segment: `slug`, or the one `title` gives; a plain segment the servient can serve. */
+function checkedSlug(title: string, slugIn: string | undefined): string {
+  if (title.trim().length === 0) throw new ThingDescriptionError("title is empty", { field: "title" });
+  const slug = slugIn ?? thingSlug(title);
+  if (slug.length > MAX_SLUG_LENGTH) {
+    throw new ThingDescriptionError(`title "${title.slice(0, 40)}..." gives a URL path segment of ${slug.length} characters; at most ${MAX_SLUG_LENGTH} can be served`, { field: "title", value: title });
+  }
+  if (!/^[A-Za-z0-9._~-]+$/.test(slug)) {
+    throw new ThingDescriptionError(`slug '${slug}' is not a plain URL path segment`, { field: "slug", value: slug });
+  }
+  return slug;
+}
+
+function propertiesWithForms(joints: JointSpec[]): Record<string, PropertyAffordance> {
   const properties: Record<string, PropertyAffordance> = {};
   for (const [name, p] of Object.entries(propertyAffordances(joints))) {
     properties[name] = { ...p, forms: propertyForms(name, p.observable === true) };
   }
+  return properties;
+}
+
+function actionsWithForms(joints: JointSpec[], bounds: Bounds | null): Record<string, ActionAffordance> {
   const actions: Record<string, ActionAffordance> = {};
   for (const [name, a] of Object.entries(actionAffordances(joints, bounds))) {
     const sync: Form = { href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST", additionalResponses: ERROR_RESPONSES };
@@ -206,6 +254,10 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
       forms: isAsync ? [sync, ...asyncActionForms(name, sync, ERROR_RESPONSES)] : [sync],
     };
   }
+  return actions;
+}
+
+function eventsWithForms(joints: JointSpec[]): Record<string, EventAffordance> {
   const events: Record<string, EventAffordance> = {};
   for (const [name, e] of Object.entries(eventAffordances(joints))) {
     const forms: Form[] = [
@@ -214,64 +266,34 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     ];
     events[name] = { ...e, forms };
   }
-  const links: Link[] = [
+  return events;
+}
+
+/** The twin folder's files, the Thing Model and the servient's `/live` stream (when there is one). */
+function twinLinks(srdf: boolean, live: string | null): Link[] {
+  return [
     { rel: "model", href: TWIN_FILES.urdf, type: "application/urdf+xml" },
     { rel: "workspace-pointcloud", href: TWIN_FILES.pointCloud, type: "text/csv" },
     { rel: "workspace", href: TWIN_FILES.surface, type: "model/stl" },
     { rel: "workspace-summary", href: TWIN_FILES.summary, type: JSON_TYPE },
     { rel: REACHABILITY_REL, href: TWIN_FILES.reachability, type: "text/csv" },
     { rel: "scene", href: TWIN_FILES.scene, type: JSON_TYPE },
-    ...(options.srdf ? [{ rel: "srdf", href: TWIN_FILES.srdf, type: "application/xml" }] : []),
+    ...(srdf ? [{ rel: "srdf", href: TWIN_FILES.srdf, type: "application/xml" }] : []),
     { rel: "type", href: TWIN_FILES.thingModel, type: THING_MODEL_TYPE },
     // the servient's own WebSocket stream (all twins' joints, status, collisions, scene edits; protocol in
     // the README, Contract 4): a link, not a form, since no standard operation speaks it
     ...(live ? [{ rel: LIVE_REL, href: live, type: JSON_TYPE }] : []),
   ];
-  const td: ThingDescription = {
-    "@context": [TD_CONTEXT_V10, TD_CONTEXT_V11, { "@language": "en", robwot: ROBWOT_NS }],
-    "@type": ["Thing", "robwot:RobotArmTwin"],
-    id: options.id ?? thingId(model, slug, options.sceneId),
-    profile: [...WOT_PROFILES],
-    title,
-    description: options.description ?? defaultDescription(model, joints, summary, options.tool),
-    base: `${base.href}${slug}/`,
-    securityDefinitions: { nosec_sc: { scheme: "nosec" } },
-    // the ActionStatus of the asynchronous moves (`async-actions.ts`); their output is the move result
-    schemaDefinitions: { error: ERROR_SCHEMA, [ACTION_STATUS_SCHEMA]: actionStatusSchema(moveResultSchema(joints), ERROR_SCHEMA) },
-    security: "nosec_sc",
-    properties,
-    actions,
-    events,
-    links,
-    forms: [{ href: "properties", contentType: JSON_TYPE, op: ["readallproperties", "readmultipleproperties"] }],
-    "robwot:robot": model.name,
-    "robwot:eeLink": model.eeLink,
-    "robwot:controllableJoints": joints.map((j) => j.name),
-    ...(model.clearance !== undefined ? { "robwot:clearance": model.clearance } : {}),
-    // the TCP (m, rad: fixed-axis roll, pitch, yaw as a URDF <origin>) from the flange the tool is mounted on
-    ...(options.tool
-      ? {
-          "robwot:tool": {
-            flange: options.tool.flange,
-            tcp: { xyz: options.tool.tcp.slice(0, 3), rpy: options.tool.tcp.slice(3, 6), unit: ["m", "rad"] },
-            ...(options.tool.mesh !== undefined ? { mesh: options.tool.mesh } : {}),
-            ...(options.tool.shape !== undefined ? { shape: options.tool.shape } : {}),
-          },
-        }
-      : {}),
+}
+
+/** The TCP (m, rad: fixed-axis roll, pitch, yaw as a URDF <origin>) from the flange the tool is mounted on. */
+function toolTerm(tool: NonNullable<BuildThingDescriptionOptions["tool"]>): Record<string, unknown> {
+  return {
+    flange: tool.flange,
+    tcp: { xyz: tool.tcp.slice(0, 3), rpy: tool.tcp.slice(3, 6), unit: ["m", "rad"] },
+    ...(tool.mesh !== undefined ? { mesh: tool.mesh } : {}),
+    ...(tool.shape !== undefined ? { shape: tool.shape } : {}),
   };
-  if (summary) {
-    td["robwot:workspace"] = {
-      samples: summary.samples,
-      collisionFree: summary.collisionFree,
-      method: summary.method,
-      alpha: summary.alpha,
-      volume: summary.volume,
-      seed: summary.seed,
-      bounds: summary.bounds,
-    };
-  }
-  return withAbsoluteForms(td);
 }
 
 /**

@@ -145,7 +145,10 @@ class UrdfModel:
 
 
 def parse_model(doc: UrdfDoc) -> UrdfModel:
-    """Read links, joints, limits and mimic tags; check the tree. Raises UrdfError / NoMovableJoint."""
+    """Read links, joints, limits and mimic tags; check the tree. Raises UrdfError / NoMovableJoint.
+
+    Each joint is checked in document order and each of its checks in the order of the steps below, so the
+    first refusal is the first fault a reader of the file meets."""
     f = str(doc.file)
     root = doc.root
     links = [el.get("name", "") for el in root.findall("link")]
@@ -155,96 +158,135 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
     joints: list[JointInfo] = []
     parent_of: dict[str, str] = {}
     for el in root.findall("joint"):
-        name, jtype = el.get("name"), el.get("type")
-        line = doc.line_of(el)
-        if not name or not jtype:
-            raise UrdfError("<joint> needs name and type", file=f, line=line)
-        if jtype not in (*MOVABLE, "fixed"):
-            raise UrdfError(
-                f"joint {name!r}: unsupported type {jtype!r} (revolute, continuous, prismatic, fixed)",
-                file=f,
-                line=line,
-                joint=name,
-            )
-        pel, cel = el.find("parent"), el.find("child")
-        parent = pel.get("link", "") if pel is not None else ""
-        child = cel.get("link", "") if cel is not None else ""
-        for what, ln in (("parent", parent), ("child", child)):
-            if ln not in links:
-                raise UrdfError(
-                    f"joint {name!r}: {what} link {ln!r} is not defined", file=f, line=line, joint=name
-                )
+        name, jtype, line = _joint_kind(el, doc)
+        parent, child = _joint_ends(el, doc, name, links)
         if child in parent_of:
             raise UrdfError(f"link {child!r} is the child of two joints", file=f, line=line, joint=name)
         parent_of[child] = parent
-        lim = el.find("limit")
-        if jtype in ("revolute", "prismatic"):
-            if lim is None or lim.get("lower") is None or lim.get("upper") is None:
-                raise UrdfError(
-                    f"{jtype} joint {name!r} needs <limit lower=... upper=...>", file=f, line=line, joint=name
-                )
-            lower, upper = _float(lim, "lower", 0.0, doc), _float(lim, "upper", 0.0, doc)
-            if max(abs(lower), abs(upper)) > MAX_LIMIT:
-                unit = "rad" if jtype == "revolute" else "m"
-                raise UrdfError(
-                    f"joint {name!r}: limits [{lower:g}, {upper:g}] {unit} beyond +-{MAX_LIMIT:g} {unit}",
-                    file=f,
-                    line=doc.line_of(lim),
-                    joint=name,
-                )
-            if lower > upper:
-                raise UrdfError(
-                    f"joint {name!r}: lower limit {lower} > upper limit {upper}",
-                    file=f,
-                    line=doc.line_of(lim),
-                    joint=name,
-                )
-        elif jtype == "continuous":
-            lower, upper = -math.pi, math.pi
-        else:
-            lower = upper = 0.0
-        velocity = _float(lim, "velocity", 0.0, doc)
-        if not (velocity <= 0 or MIN_VELOCITY <= velocity <= MAX_VELOCITY):
+        joints.append(_joint_info(el, doc, name, jtype, parent, child))
+    _check_unique_and_mimics(joints, links, f)
+    roots = [ln for ln in links if ln not in parent_of]
+    if len(roots) != 1:
+        raise UrdfError(f"URDF must have exactly one root link, found {roots}", file=f)
+    children: dict[str, list[JointInfo]] = {}
+    for j in joints:
+        children.setdefault(j.parent, []).append(j)
+    model = UrdfModel(root.get("name", "robot"), roots[0], tuple(links), tuple(joints), children)
+    if not model.controllable:
+        raise NoMovableJoint(f)
+    return model
+
+
+def _joint_kind(el: ET.Element, doc: UrdfDoc) -> tuple[str, str, int | None]:
+    """A ``<joint>``'s name, its type (one this model supports) and its line."""
+    name, jtype = el.get("name"), el.get("type")
+    line = doc.line_of(el)
+    if not name or not jtype:
+        raise UrdfError("<joint> needs name and type", file=str(doc.file), line=line)
+    if jtype not in (*MOVABLE, "fixed"):
+        raise UrdfError(
+            f"joint {name!r}: unsupported type {jtype!r} (revolute, continuous, prismatic, fixed)",
+            file=str(doc.file),
+            line=line,
+            joint=name,
+        )
+    return name, jtype, line
+
+
+def _joint_ends(el: ET.Element, doc: UrdfDoc, name: str, links: list[str]) -> tuple[str, str]:
+    """A joint's parent and child links, both defined links of the document."""
+    pel, cel = el.find("parent"), el.find("child")
+    parent = pel.get("link", "") if pel is not None else ""
+    child = cel.get("link", "") if cel is not None else ""
+    for what, ln in (("parent", parent), ("child", child)):
+        if ln not in links:
             raise UrdfError(
-                f"joint {name!r}: velocity limit {velocity:g} outside [{MIN_VELOCITY:g}, {MAX_VELOCITY:g}] "
-                "(0 or absent: 1 rad/s or m/s)",
-                file=f,
-                line=doc.line_of(lim) if lim is not None else line,
+                f"joint {name!r}: {what} link {ln!r} is not defined",
+                file=str(doc.file),
+                line=doc.line_of(el),
                 joint=name,
             )
-        origin, axis_el = el.find("origin"), el.find("axis")
-        xyz = _vec3(origin, "xyz", (0.0, 0.0, 0.0), doc, joint=name)
-        rpy = _vec3(origin, "rpy", (0.0, 0.0, 0.0), doc, joint=name)
-        axis = (1.0, 0.0, 0.0)
-        if jtype in MOVABLE:
-            ax = _vec3(axis_el, "xyz", (1.0, 0.0, 0.0), doc, joint=name)
-            norm = math.sqrt(sum(a * a for a in ax))
-            if norm == 0.0:
-                where = doc.line_of(axis_el) if axis_el is not None else line
-                raise UrdfError(f"joint {name!r}: zero axis", file=f, line=where, joint=name)
-            axis = (ax[0] / norm, ax[1] / norm, ax[2] / norm)
-        mel = el.find("mimic")
-        mimic = None
-        if mel is not None and jtype in MOVABLE:
-            mimic = Mimic(
-                mel.get("joint", ""), _float(mel, "multiplier", 1.0, doc), _float(mel, "offset", 0.0, doc)
-            )
-        joints.append(
-            JointInfo(
-                name,
-                jtype,
-                parent,
-                child,
-                lower,
-                upper,
-                velocity,
-                _float(lim, "effort", 0.0, doc),
-                mimic,
-                xyz,
-                rpy,
-                axis,
-            )
+    return parent, child
+
+
+def _joint_info(el: ET.Element, doc: UrdfDoc, name: str, jtype: str, parent: str, child: str) -> JointInfo:
+    """The checked joint: its limits, its origin, its unit axis and its mimic tag."""
+    lim = el.find("limit")
+    lower, upper = _joint_range(lim, doc, name, jtype, doc.line_of(el))
+    velocity = _joint_velocity(lim, doc, name, doc.line_of(el))
+    origin = el.find("origin")
+    xyz = _vec3(origin, "xyz", (0.0, 0.0, 0.0), doc, joint=name)
+    rpy = _vec3(origin, "rpy", (0.0, 0.0, 0.0), doc, joint=name)
+    axis = _joint_axis(el, doc, name, jtype) if jtype in MOVABLE else (1.0, 0.0, 0.0)
+    mel = el.find("mimic")
+    mimic = None
+    if mel is not None and jtype in MOVABLE:
+        mimic = Mimic(
+            mel.get("joint", ""), _float(mel, "multiplier", 1.0, doc), _float(mel, "offset", 0.0, doc)
         )
+    effort = _float(lim, "effort", 0.0, doc)
+    return JointInfo(name, jtype, parent, child, lower, upper, velocity, effort, mimic, xyz, rpy, axis)
+
+
+def _joint_range(
+    lim: ET.Element | None, doc: UrdfDoc, name: str, jtype: str, line: int | None
+) -> tuple[float, float]:
+    """A joint's ``[lower, upper]``: read for revolute and prismatic, a turn for continuous, 0 for fixed."""
+    f = str(doc.file)
+    if jtype == "continuous":
+        return -math.pi, math.pi
+    if jtype not in ("revolute", "prismatic"):
+        return 0.0, 0.0
+    if lim is None or lim.get("lower") is None or lim.get("upper") is None:
+        raise UrdfError(
+            f"{jtype} joint {name!r} needs <limit lower=... upper=...>", file=f, line=line, joint=name
+        )
+    lower, upper = _float(lim, "lower", 0.0, doc), _float(lim, "upper", 0.0, doc)
+    if max(abs(lower), abs(upper)) > MAX_LIMIT:
+        unit = "rad" if jtype == "revolute" else "m"
+        raise UrdfError(
+            f"joint {name!r}: limits [{lower:g}, {upper:g}] {unit} beyond +-{MAX_LIMIT:g} {unit}",
+            file=f,
+            line=doc.line_of(lim),
+            joint=name,
+        )
+    if lower > upper:
+        raise UrdfError(
+            f"joint {name!r}: lower limit {lower} > upper limit {upper}",
+            file=f,
+            line=doc.line_of(lim),
+            joint=name,
+        )
+    return lower, upper
+
+
+def _joint_velocity(lim: ET.Element | None, doc: UrdfDoc, name: str, line: int | None) -> float:
+    """A joint's velocity limit: 0 (absent) or within the accepted range."""
+    velocity = _float(lim, "velocity", 0.0, doc)
+    if not (velocity <= 0 or MIN_VELOCITY <= velocity <= MAX_VELOCITY):
+        raise UrdfError(
+            f"joint {name!r}: velocity limit {velocity:g} outside [{MIN_VELOCITY:g}, {MAX_VELOCITY:g}] "
+            "(0 or absent: 1 rad/s or m/s)",
+            file=str(doc.file),
+            line=doc.line_of(lim) if lim is not None else line,
+            joint=name,
+        )
+    return velocity
+
+
+def _joint_axis(el: ET.Element, doc: UrdfDoc, name: str, jtype: str) -> Vec3:
+    """A movable joint's ``<axis>``, normalised; a zero axis is refused."""
+    axis_el = el.find("axis")
+    ax = _vec3(axis_el, "xyz", (1.0, 0.0, 0.0), doc, joint=name)
+    norm = math.sqrt(sum(a * a for a in ax))
+    if norm == 0.0:
+        where = doc.line_of(axis_el) if axis_el is not None else doc.line_of(el)
+        raise UrdfError(f"joint {name!r}: zero axis", file=str(doc.file), line=where, joint=name)
+    return (ax[0] / norm, ax[1] / norm, ax[2] / norm)
+
+
+def _check_unique_and_mimics(joints: list[JointInfo], links: list[str], f: str) -> None:
+    """Joint and link names are unique; every mimic follows a movable joint that mimics nothing."""
     names = [j.name for j in joints]
     if len(set(names)) != len(names):
         raise UrdfError("duplicate joint names", file=f)
@@ -260,13 +302,3 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
                     file=f,
                     joint=j.name,
                 )
-    roots = [ln for ln in links if ln not in parent_of]
-    if len(roots) != 1:
-        raise UrdfError(f"URDF must have exactly one root link, found {roots}", file=f)
-    children: dict[str, list[JointInfo]] = {}
-    for j in joints:
-        children.setdefault(j.parent, []).append(j)
-    model = UrdfModel(root.get("name", "robot"), roots[0], tuple(links), tuple(joints), children)
-    if not model.controllable:
-        raise NoMovableJoint(f)
-    return model

@@ -127,24 +127,33 @@ def _expand_in_child(xacro_file: Path, args: Mapping[str, str],
         raise _XacroFailed(f"not well-formed XML: {xml.parsers.expat.ErrorString(e.code)}", str(where),
                            e.lineno, e.offset + 1) from None
     except Exception as e:  # xacro's own errors (XacroException, NameError, ArgException, ...)
-        inner = getattr(e, "exc", None)
-        if isinstance(inner, SimError):
-            raise inner from None  # ours, raised inside an expression ($(find) of an unknown package)
-        where = str((xacro.filestack or [None])[-1] or xacro_file)
-        message = " ".join((str(e) or type(e).__name__).split())
-        arg = re.search(r"Undefined substitution argument (\S+)", message)
-        needle: str | None
-        if isinstance(e, substitution_args.ArgException) or arg:
-            name = arg.group(1) if arg else message
-            message = f"undefined argument {name!r}: give it with --xacro-arg {name}:=VALUE"
-            needle = f"$(arg {name})"
-        else:
-            expr = re.search(r"when evaluating expression '(.*)'$", message)
-            needle = f"${{{expr.group(1)}}}" if expr else None
-        stack = [m.body.getAttribute("name") for m in (xacro.macrostack or [])]
-        raise _XacroFailed(message + (f" (in macro {' <- '.join(reversed(stack))})" if stack else ""),
-                           where, _first_line(Path(where), needle)) from None
+        raise _xacro_failure(e, xacro_file) from None
     return {"xml": doc.toxml(), "packages": {k: str(v) for k, v in found.items()}}
+
+
+def _xacro_failure(e: Exception, xacro_file: Path) -> Exception:
+    """The error to raise for an exception out of xacro: ours when xacro wrapped one of ours, else a
+    ``_XacroFailed`` naming the file, the line and, for an undefined argument, the option that gives it."""
+    import xacro
+    from xacro import substitution_args
+
+    inner = getattr(e, "exc", None)
+    if isinstance(inner, SimError):
+        return inner  # ours, raised inside an expression ($(find) of an unknown package)
+    where = str((xacro.filestack or [None])[-1] or xacro_file)
+    message = " ".join((str(e) or type(e).__name__).split())
+    arg = re.search(r"Undefined substitution argument (\S+)", message)
+    needle: str | None
+    if isinstance(e, substitution_args.ArgException) or arg:
+        name = arg.group(1) if arg else message
+        message = f"undefined argument {name!r}: give it with --xacro-arg {name}:=VALUE"
+        needle = f"$(arg {name})"
+    else:
+        expr = re.search(r"when evaluating expression '(.*)'$", message)
+        needle = f"${{{expr.group(1)}}}" if expr else None
+    stack = [m.body.getAttribute("name") for m in (xacro.macrostack or [])]
+    return _XacroFailed(message + (f" (in macro {' <- '.join(reversed(stack))})" if stack else ""),
+                       where, _first_line(Path(where), needle))
 
 
 def _child_main() -> int:

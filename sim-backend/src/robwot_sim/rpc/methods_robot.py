@@ -25,6 +25,13 @@ def robot_param(p: Params, s: Services) -> RobotModel:
 
 
 def register(d: Dispatcher, s: Services) -> None:
+    _register_lifecycle(d, s)
+    _register_state(d, s)
+
+
+def _register_lifecycle(d: Dispatcher, s: Services) -> None:
+    """A robot's life in the world: load, remove, its model, its export."""
+
     @d.method("robot.load")
     async def load(p: Params, call: Call) -> dict[str, Any]:
         # both have defaults in the contract
@@ -73,6 +80,10 @@ def register(d: Dispatcher, s: Services) -> None:
         model = robot_param(p, s)
         write = await s.on_world(lambda: s.world.export_job(model.id, p["outDir"]), robot=model.id)
         return await s.off_world(write)  # copying files needs no world
+
+
+def _register_state(d: Dispatcher, s: Services) -> None:
+    """A robot's joints and what follows from them: read, set, FK, IK, collision check."""
 
     @d.method("robot.getJointPositions")
     async def get_joints(p: Params, call: Call) -> dict[str, Any]:
