@@ -12,11 +12,11 @@
  *
  * Environment: ROBWOT_BENCH_SECONDS (4, per rate), ROBWOT_BENCH_RATES ("30,50,100").
  */
-import { spawn, spawnSync } from "node:child_process";
+import { spawnSync } from "node:child_process";
 import { mkdtempSync, rmSync } from "node:fs";
 import { loadavg, tmpdir } from "node:os";
 import { join } from "node:path";
-import { cli } from "./bench-twin.mjs";
+import { cli, startCli, stopCli } from "./bench-twin.mjs";
 
 const SECONDS = Number(process.env.ROBWOT_BENCH_SECONDS ?? 4);
 const RATES = (process.env.ROBWOT_BENCH_RATES ?? "30,50,100").split(",").map(Number);
@@ -25,27 +25,6 @@ const J1 = "lbr_iiwa_joint_1";
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
-/** A CLI command that prints one JSON line once it serves; resolves with it and the process. */
-function start(args) {
-  const child = spawn(process.execPath, [cli, ...args, "--json"], { stdio: ["ignore", "pipe", "pipe"] });
-  let err = "";
-  child.stderr.on("data", (d) => (err += d.toString()));
-  return new Promise((resolve, reject) => {
-    let out = "";
-    child.stdout.on("data", (d) => {
-      out += d.toString();
-      const nl = out.indexOf("\n");
-      if (nl >= 0) resolve({ child, info: JSON.parse(out.slice(0, nl)) });
-    });
-    child.once("exit", (code) => reject(new Error(`robwot ${args[0]} exited with ${code}: ${err}`)));
-  });
-}
-
-const stop = async (child) => {
-  if (child.exitCode !== null) return;
-  child.kill("SIGINT");
-  await new Promise((r) => child.once("exit", r));
-};
 
 async function post(url, body) {
   const r = await fetch(url, { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(body) });
@@ -58,11 +37,11 @@ const tmp = mkdtempSync(join(tmpdir(), "robwot-bench-follow-"));
 const twin = join(tmp, "kuka");
 const gen = spawnSync(process.execPath, [cli, "generate", "kuka_iiwa", "--samples", "3000", "--out", twin], { stdio: ["ignore", "ignore", "inherit"] });
 if (gen.status !== 0) process.exit(gen.status ?? 1);
-const { child: robot, info: r } = await start(["emulate", twin, "--port", "0"]);
+const { child: robot, info: r } = await startCli(["emulate", twin, "--port", "0"]);
 const rows = [];
 try {
   for (const rate of RATES) {
-    const { child: server, info: s } = await start(["serve", twin, "--port", "0", "--realtime", "0", "--follow", r.tdUrl, "--follow-rate", String(rate)]);
+    const { child: server, info: s } = await startCli(["serve", twin, "--port", "0", "--realtime", "0", "--follow", r.tdUrl, "--follow-rate", String(rate)]);
     try {
       const td = s.things[0].tdUrl;
       const joints = await (await fetch(`${r.tdUrl}/properties/getJointPosition`)).json();
@@ -83,11 +62,11 @@ try {
       await jog;
       rows.push({ rate, n: lags.length, p50: pct(lags, 50), p95: pct(lags, 95), max: Math.max(...lags) });
     } finally {
-      await stop(server);
+      await stopCli(server);
     }
   }
 } finally {
-  await stop(robot);
+  await stopCli(robot);
   rmSync(tmp, { recursive: true, force: true });
 }
 console.log(`robwot follow bench  node ${process.version}  load average ${loadavg()[0].toFixed(1)}`);

@@ -13,12 +13,12 @@
  *
  * Environment: ROBWOT_BENCH_EPISODES (20), ROBWOT_BENCH_SECONDS (10, per memory case).
  */
-import { spawn, spawnSync } from "node:child_process";
+import { spawnSync } from "node:child_process";
 import { mkdtempSync, readFileSync, rmSync } from "node:fs";
 import { createServer, request } from "node:http";
 import { loadavg, tmpdir } from "node:os";
 import { join } from "node:path";
-import { cli } from "./bench-twin.mjs";
+import { cli, startCli, stopCli } from "./bench-twin.mjs";
 
 const EPISODES = Number(process.env.ROBWOT_BENCH_EPISODES ?? 20);
 const SECONDS = Number(process.env.ROBWOT_BENCH_SECONDS ?? 10);
@@ -26,27 +26,6 @@ const MB = 1024 * 1024;
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const median = (xs) => [...xs].sort((a, b) => a - b)[Math.floor(xs.length / 2)];
 
-/** A CLI command that prints one JSON line once it serves; resolves with it and the process. */
-function start(args) {
-  const child = spawn(process.execPath, [cli, ...args, "--json"], { stdio: ["ignore", "pipe", "pipe"] });
-  let err = "";
-  child.stderr.on("data", (d) => (err += d.toString()));
-  return new Promise((resolve, reject) => {
-    let out = "";
-    child.stdout.on("data", (d) => {
-      out += d.toString();
-      const nl = out.indexOf("\n");
-      if (nl >= 0) resolve({ child, info: JSON.parse(out.slice(0, nl)) });
-    });
-    child.once("exit", (code) => reject(new Error(`robwot ${args[0]} exited with ${code}: ${err}`)));
-  });
-}
-
-const stop = async (child) => {
-  if (child.exitCode !== null) return;
-  child.kill("SIGINT");
-  await new Promise((r) => child.once("exit", r));
-};
 
 const rss = (pid) => Number(/VmRSS:\s+(\d+) kB/.exec(readFileSync(`/proc/${pid}/status`, "utf8"))?.[1] ?? 0) * 1024;
 
@@ -125,12 +104,12 @@ const tmp = mkdtempSync(join(tmpdir(), "robwot-bench-hostile-"));
 const folder = join(tmp, "kuka");
 const gen = spawnSync(process.execPath, [cli, "generate", "kuka_iiwa", "--samples", "3000", "--out", folder], { stdio: ["ignore", "ignore", "inherit"] });
 if (gen.status !== 0) process.exit(gen.status ?? 1);
-const { child: robot, info: r } = await start(["emulate", folder, "--port", "0"]);
+const { child: robot, info: r } = await startCli(["emulate", folder, "--port", "0"]);
 const proxy = await hostileProxy(r.tdUrl);
 const rows = [];
 const children = [robot];
 try {
-  const { child: twin, info: s } = await start(["serve", folder, "--port", "0", "--realtime", "0", "--relay", proxy.url]);
+  const { child: twin, info: s } = await startCli(["serve", folder, "--port", "0", "--realtime", "0", "--relay", proxy.url]);
   children.push(twin);
   const td = s.things[0].tdUrl;
   const state = async () => (await fetch(`${td}/properties/physicalState`)).json();
@@ -181,17 +160,17 @@ try {
   }
   rows.push(["hung reading: fault shown after", detect.length ? `${median(detect).toFixed(0)} ms median` : "never", `${detect.length}/${EPISODES} episodes`]);
   rows.push(["hung reading: robot stopped", `${stopped}/${EPISODES}`, "mode stop (default)"]);
-  await stop(twin);
+  await stopCli(twin);
 
   // a twin starting against an endless TD: its relay's TD fetch is cut at the cap, the twin serves anyway
   proxy.mode.td = "endless";
-  const late = await start(["serve", folder, "--port", "0", "--realtime", "0", "--relay", proxy.url, "--no-follow"]);
+  const late = await startCli(["serve", folder, "--port", "0", "--realtime", "0", "--relay", proxy.url, "--no-follow"]);
   children.push(late.child);
   const lateRss = rss(late.child.pid) / MB;
   rows.push(["endless TD at start (--relay)", `${lateRss.toFixed(0)} MB RSS after start`, `a twin started against a good TD: ${startRss.toFixed(0)} MB`]);
   proxy.mode.td = "forward";
 } finally {
-  for (const c of children) await stop(c);
+  for (const c of children) await stopCli(c);
   proxy.close();
   rmSync(tmp, { recursive: true, force: true });
 }

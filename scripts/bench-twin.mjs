@@ -45,3 +45,26 @@ export async function serveBenchTwin(name, samples) {
     },
   };
 }
+
+/** A CLI command (`serve`, `emulate`) that prints one JSON line once it serves; resolves with it and the process. */
+export function startCli(args) {
+  const child = spawn(process.execPath, [cli, ...args, "--json"], { stdio: ["ignore", "pipe", "pipe"] });
+  let err = "";
+  child.stderr.on("data", (d) => (err += d.toString()));
+  return new Promise((resolve, reject) => {
+    let out = "";
+    child.stdout.on("data", (d) => {
+      out += d.toString();
+      const nl = out.indexOf("\n");
+      if (nl >= 0) resolve({ child, info: JSON.parse(out.slice(0, nl)) });
+    });
+    child.once("exit", (code) => reject(new Error(`robwot ${args[0]} exited with ${code}: ${err}`)));
+  });
+}
+
+/** Stops a process `startCli` started (SIGINT, as Ctrl-C) and waits for it. */
+export async function stopCli(child) {
+  if (child.exitCode !== null) return;
+  child.kill("SIGINT");
+  await new Promise((r) => child.once("exit", r));
+}
