@@ -116,14 +116,17 @@ it("a stop never answered is reported in the fault, never awaited", async () => 
 it("junk and huge readings never move the twin; their errors are short and not pushed at the poll rate", async () => {
   await seeing();
   const before = (await http(`${base}/properties/getJointPosition`)).body;
-  const many = `{${KUKA_JOINTS.map((j) => `"${j}":0`).join(",")},${Array.from({ length: 200_000 }, (_, i) => `"k${i}":${i}`).join(",")}}`;
+  // within the outbound answer cap (1 MiB): the reading is parsed and refused by the follower
+  const many = `{${KUKA_JOINTS.map((j) => `"${j}":0`).join(",")},${Array.from({ length: 50_000 }, (_, i) => `"k${i}":${i}`).join(",")}}`;
   const cases: [string, string, RegExp][] = [
     ["null", "null", /^getJointPosition: expected an object of joint name -> number, got null$/],
     ["a joint null", JSON.stringify({ ...START, lbr_iiwa_joint_2: null }), /^getJointPosition\.lbr_iiwa_joint_2: expected a finite number, got null$/],
     ["a joint a hex string", JSON.stringify({ ...START, lbr_iiwa_joint_2: "0x10" }), /got the string "0x10"$/],
     ["a joint missing", JSON.stringify({ ...START, lbr_iiwa_joint_7: undefined }), /missing joint\(s\) "lbr_iiwa_joint_7"$/],
-    ["200,000 unknown keys", many, /^getJointPosition: 200000 unknown joint\(s\) "k0", "k1", "k2" and 199997 more/],
-    ["a 10^6-element array", `[${Array(1_000_000).fill(0).join(",")}]`, /got an array of 1000000 items$/],
+    ["50,000 unknown keys", many, /^getJointPosition: 50000 unknown joint\(s\) "k0", "k1", "k2" and 49997 more/],
+    ["a 400,000-element array", `[${Array(400_000).fill(0).join(",")}]`, /got an array of 400000 items$/],
+    // past it, the transport cuts the answer (never buffered whole)
+    ["a 10^6-element array", `[${Array(1_000_000).fill(0).join(",")}]`, /answer (of \d+ bytes is )?larger than 1048576/],
   ];
   for (const [what, body, error] of cases) {
     const from = stream.messages.length;
