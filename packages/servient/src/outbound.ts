@@ -163,7 +163,8 @@ export class Outbound {
     if (!self || port !== self.port) return false;
     const a = bare(address).replace(/^::ffff:/, "");
     if (a === self.host) return true;
-    if (!WILDCARD.has(self.host)) return LOOPBACK.test(self.host) && LOOPBACK.test(a) && self.host === a;
+    // bound to one address: only that address is this servient; bound to every interface: each of them
+    if (!WILDCARD.has(self.host)) return false;
     if (LOOPBACK.test(a)) return true;
     return Object.values(networkInterfaces()).some((list) => (list ?? []).some((i) => bare(i.address) === a));
   }

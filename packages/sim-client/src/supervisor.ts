@@ -121,7 +121,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     this.deadlines = options.deadlines ?? DEFAULT_DEADLINES;
     this.restart = options.restart ?? true;
     this.mapError = options.mapError ?? ((err) => (err instanceof Error ? err : new Error(String(err))));
-    // one `down` listener per twin (its Mover) besides the servient's own
+    // one `down` listener per relaying twin (its RelaySession) besides the servient's own
     this.setMaxListeners(0);
   }
 
