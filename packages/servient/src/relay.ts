@@ -7,8 +7,8 @@
  * A stop to the physical robot (`stop`) is retried until the physical Thing answers or
  * `STOP_DEADLINE_MS` passes: an attempt that fails is repeated after a short pause, one that has not
  * answered after `STOP_ATTEMPT_MS` is followed by another while it may still answer (the first answer
- * wins). node-wot's HTTP client has no request timeout, so an attempt to a hung Thing is left pending
- * (closed with the client at shutdown); attempts are bounded by the deadline.
+ * wins). An attempt to a hung Thing ends at the transport's own deadlines (`outbound.ts`); stops asked for
+ * while one is being sent join it, so each stop reaches the physical robot once.
  */
 import type { RelayReport } from "@robwot/core";
 import { toPhysical, type RelayMap } from "./relay-map.js";
