@@ -2,7 +2,8 @@
 /**
  * Generates, from the backend's one contract (`sim-backend/src/robwot_sim/schemas/protocol.openrpc.json`):
  *   - `packages/core/src/backend-contract.ts`: TS types of every schema, method params/result and notification
- *     (json-schema-to-typescript), plus the `Methods` and `Notifications` maps the typed client is built on;
+ *     (json-schema-to-typescript), plus the `Methods` and `Notifications` maps the typed client is built on,
+ *     and `TRANSPORT`, the clients' one timeout and heartbeat policy (`x-transport`);
  *   - `sim-backend/PROTOCOL.md`: the prose in `sim-backend/protocol/*.md` around the generated reference;
  *   - the contract-owned `$defs` of `sim-backend/src/robwot_sim/schemas/scene.schema.json` (positions, names,
  *     obstacle shapes: the scene file and the RPC params obey the same ranges);
@@ -45,6 +46,18 @@ function toDefinitions(schema) {
     out[k] = k === "$ref" ? `#/definitions/${refName(v)}` : toDefinitions(v);
   }
   return out;
+}
+
+/** A description as one JSDoc line. */
+const jsdoc = (text) => text.replace(/\*\//g, "* /").replace(/\s+/g, " ");
+
+/** `x-transport`: every client's timeouts and heartbeat, `[name, {value, description}]`, each a positive number. */
+function transportPolicy(doc) {
+  const entries = Object.entries(doc["x-transport"]).filter(([k]) => k !== "description");
+  for (const [name, t] of entries) {
+    if (!(Number.isFinite(t.value) && t.value > 0) || typeof t.description !== "string") throw new Error(`contract x-transport ${name} needs a positive value and a description`);
+  }
+  return entries;
 }
 
 async function renderTypes(doc) {
@@ -90,6 +103,7 @@ async function renderTypes(doc) {
     return Object.fromEntries(Object.entries(schema).map(([k, v]) => [k, deref(v)]));
   };
   const obstacleShape = JSON.stringify(deref(doc.components.schemas.ObstacleShape));
+  const transport = transportPolicy(doc).flatMap(([name, t]) => [`  /** ${jsdoc(t.description)} */`, `  ${name}: ${t.value},`]);
   const methods = doc.methods.map((m) => `  ${JSON.stringify(m.name)}: { params: ${pascal(m.name)}Params; result: ${pascal(m.name)}Result };`);
   const notes = doc["x-notifications"].map((n) => `  ${JSON.stringify(n.name)}: ${refName(n.params.$ref)};`);
   return [
@@ -129,6 +143,11 @@ async function renderTypes(doc) {
     "",
     "/** The contract's obstacle shape (`ObstacleShape`, references resolved) as data: one `oneOf` member per shape. */",
     `export const OBSTACLE_SHAPE = ${obstacleShape} as const;`,
+    "",
+    `/** ${jsdoc(doc["x-transport"].description)} */`,
+    "export const TRANSPORT = {",
+    ...transport,
+    "} as const;",
     "",
     "/** The contract's value schemas (ranges, lengths, defaults) as data: what a check outside the backend uses. */",
     "export const VALUE_SCHEMAS = {",
@@ -224,6 +243,8 @@ function renderMarkdown(doc, intro, example) {
     const fields = Object.keys(e.data.properties).filter((k) => k !== "code").map((k) => `\`${k}\``).join(", ");
     out.push(`| ${e.code} | ${name} | ${e["x-http-status"]} | ${e.message} | ${fields} |`);
   }
+  out.push("", "## Timeouts and heartbeat (`x-transport`)", "", doc["x-transport"].description, "", "| name | ms | why |", "|---|---|---|");
+  for (const [name, t] of transportPolicy(doc)) out.push(`| \`${name}\` | ${t.value} | ${t.description} |`);
   out.push("", example.trim(), "");
   return out.join("\n");
 }

@@ -11,7 +11,8 @@ import type { AddressInfo } from "node:net";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { CHROMIUM, openBrowser, type BrowserSession } from "./helpers/browser.js";
-import { generateTwin, http, kukaPose, sleep } from "./serve-helpers.js";
+import type { Request } from "playwright-core";
+import { generateTwin, http, kukaPose, waitFor } from "./serve-helpers.js";
 
 const FAR = kukaPose([0.6, 0.3, 0, -0.7, 0, 0.4, 0]);
 let s: RunningServient;
@@ -45,6 +46,14 @@ describe.skipIf(!existsSync(CHROMIUM))("a page of another origin in Chromium", (
     const target = `${s.things[0]!.tdUrl}/actions/moveToJointPosition`;
     const stop = `${s.things[0]!.tdUrl}/actions/stop`;
     const live = s.liveUrl;
+    // every request the page makes to the servient, and which of them it has answered (or refused)
+    const sent: Request[] = [];
+    const settled = new Set<Request>();
+    const onRequest = (r: Request): void => void (r.url().startsWith(s.url) && sent.push(r));
+    const onSettled = (r: Request): void => void settled.add(r);
+    page.on("request", onRequest);
+    page.on("requestfinished", onSettled);
+    page.on("requestfailed", onSettled);
     const outcome = await page.evaluate(
       async ({ target, stop, live, body }) => {
         const tries: Record<string, string> = {};
@@ -68,13 +77,22 @@ describe.skipIf(!existsSync(CHROMIUM))("a page of another origin in Chromium", (
           ws.onopen = () => ws.send(JSON.stringify({ subscribe: "*" }));
           ws.onmessage = (m) => messages.push(String(m.data));
           ws.onerror = () => resolve(`error after ${messages.length} messages`);
-          setTimeout(() => resolve(`open with ${messages.length} messages`), 2000);
+          // bounds a failure only: the refusal closes the socket at once
+          setTimeout(() => resolve(`open with ${messages.length} messages`), 30_000);
         });
         return tries;
       },
       { target, stop, live, body: JSON.stringify({ joints: FAR }) },
     );
-    await sleep(500); // beacons are sent after the call returns
+    // beacons go out after sendBeacon returns: the absence below is judged once the servient has answered
+    // every request the page made, both queued beacons included
+    const beacons = Object.entries(outcome).filter(([name, r]) => name.startsWith("sendBeacon") && r === "sent: true").length;
+    await waitFor(() => sent.filter((r) => r.resourceType() === "ping").length >= beacons && sent.every((r) => settled.has(r)), {
+      what: "answers to every request the page sent",
+    });
+    page.off("request", onRequest);
+    page.off("requestfinished", onSettled);
+    page.off("requestfailed", onSettled);
     expect(outcome["fetch cors json"]).toMatch(/^failed/);
     expect(outcome["read joints"]).toMatch(/^failed/);
     expect(outcome["websocket"]).toBe("error after 0 messages");

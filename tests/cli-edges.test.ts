@@ -10,7 +10,7 @@ import { homedir, tmpdir } from "node:os";
 import { basename, join } from "node:path";
 import { beforeAll, describe, expect, it } from "vitest";
 import { CLI, REPO, runCli, TINY_URDF } from "./cli-run.js";
-import { invoke } from "./serve-helpers.js";
+import { invoke, waitFor } from "./serve-helpers.js";
 
 describe("absurd outputs are refused before any work", () => {
   const urdfIn = (): { dir: string; urdf: string } => {
@@ -90,10 +90,11 @@ describe("an interrupted generate leaves nothing behind", () => {
     let stderr = "";
     child.stderr.on("data", (d: Buffer) => (stderr += d.toString()));
     const exited = new Promise<number | null>((r) => child.on("close", (c) => r(c)));
-    // wait until the run is under way (the staged folder exists), then signal
-    const t0 = Date.now();
-    while (!readdirSync(parent).some((f) => f.includes(".tmp-")) && Date.now() - t0 < 30_000) await new Promise((r) => setTimeout(r, 20));
-    await new Promise((r) => setTimeout(r, 1500));
+    // signal once the run is under way: the staged folder exists and the backend, up, loads the robot
+    await waitFor(() => readdirSync(parent).some((f) => f.includes(".tmp-")) && /robwot: (load|sample|collide)/.test(stderr), {
+      timeoutMs: 60_000,
+      what: "a staged folder and a work stage",
+    });
     child.kill(signal);
     expect(await exited).toBe(code);
     expect(readdirSync(parent)).toEqual([]);
@@ -145,8 +146,7 @@ describe("twins that could not be served are not written, and folders missing wo
     let stdout = "";
     child.stdout.on("data", (d: Buffer) => (stdout += d.toString()));
     const exited = new Promise<number | null>((r) => child.on("close", (c) => r(c)));
-    const t0 = Date.now();
-    while (!stdout.includes("serving 1 twin") && child.exitCode === null && Date.now() - t0 < 60_000) await new Promise((r) => setTimeout(r, 50));
+    await waitFor(() => stdout.includes("serving 1 twin") || child.exitCode !== null, { timeoutMs: 60_000, what: "serve's banner" });
     expect(stdout).toContain("serving 1 twin");
     expect(JSON.parse(readFileSync(join(planar, "workspace.json"), "utf8"))).toMatchObject({ method: "planar-alpha-shape", halfThickness: 0.001 });
     const base = /TD\s+(http:\S+)/.exec(stdout)?.[1] ?? "";
@@ -172,7 +172,7 @@ describe("twins that could not be served are not written, and folders missing wo
 });
 
 describe("a generate whose backend stops answering", () => {
-  it("fails with a clear error within the deadline and leaves nothing behind (SIGSTOPped backend)", async () => {
+  it("fails with a clear error at the deadline and leaves nothing behind (SIGSTOPped backend)", async () => {
     const parent = mkdtempSync(join(tmpdir(), "robwot-hung-"));
     const child = spawn(process.execPath, [CLI, "generate", "kuka_iiwa", "--samples", "2000000", "--out", join(parent, "twin")], {
       cwd: REPO,
@@ -182,16 +182,14 @@ describe("a generate whose backend stops answering", () => {
     let stderr = "";
     child.stderr.on("data", (d: Buffer) => (stderr += d.toString()));
     const exited = new Promise<number | null>((r) => child.on("close", (c) => r(c)));
-    const t0 = Date.now();
-    while (!/collide|sample/.test(stderr) && Date.now() - t0 < 60_000) await new Promise((r) => setTimeout(r, 50));
+    await waitFor(() => /collide|sample/.test(stderr), { timeoutMs: 60_000, what: "a work stage" });
     const backendPid = Number(execFileSync("ps", ["--ppid", String(child.pid), "-o", "pid=", "-o", "comm="], { encoding: "utf8" })
       .split("\n").find((l) => /python/.test(l))?.trim().split(/\s+/)[0]);
     expect(backendPid).toBeGreaterThan(0);
     process.kill(backendPid, "SIGSTOP");
-    const stoppedAt = Date.now();
+    // the deadline (3 s here) ends the run: the outcome and its reason say so, not a stopwatch
     const code = await exited;
     expect(code).toBe(1);
-    expect(Date.now() - stoppedAt).toBeLessThan(30_000);
     expect(stderr).toMatch(/stopped answering/);
     expect(readdirSync(parent)).toEqual([]);
     expect(() => process.kill(backendPid, 0)).toThrow(); // the hung backend was killed, not left stopped

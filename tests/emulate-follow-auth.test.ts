@@ -5,7 +5,7 @@
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startEmulator, startServient, type RunningEmulator, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, waitFor } from "./serve-helpers.js";
 
 const J1 = "lbr_iiwa_joint_1";
 const AUTH = { authorization: `Basic ${Buffer.from("ada:s3cret").toString("base64")}` };
@@ -28,17 +28,15 @@ it("mirrors the secured robot's jog and relays a move to it", async () => {
   const base = twin.things[0]!.tdUrl;
   const from = ((await http(`${robot.tdUrl}/properties/getJointPosition`, { headers: AUTH })).body as Record<string, number>)[J1]!;
   expect((await invoke(robot.tdUrl, "jog", { velocities: { [J1]: 0.6 }, duration: 0.5 }, AUTH)).status).toBe(200);
-  const end = Date.now() + 10_000;
-  for (;;) {
-    const s = (await http(`${base}/properties/physicalState`)).body;
-    const q = (await http(`${base}/properties/getJointPosition`)).body as Record<string, number>;
-    if (Math.abs(q[J1]! - (from + 0.3)) < 0.02 && s.followed > 0) {
-      expect(JSON.stringify(s)).not.toContain("s3cret");
-      break;
-    }
-    if (Date.now() > end) throw new Error(`the twin did not follow: ${JSON.stringify(s)}`);
-    await sleep(50);
-  }
+  const physical = await waitFor(
+    async () => {
+      const state = (await http(`${base}/properties/physicalState`)).body;
+      const q = (await http(`${base}/properties/getJointPosition`)).body as Record<string, number>;
+      return Math.abs(q[J1]! - (from + 0.3)) < 0.02 && state.followed > 0 && state;
+    },
+    { what: "the twin following the jog" },
+  );
+  expect(JSON.stringify(physical)).not.toContain("s3cret");
   const r = await invoke(base, "moveToJointPosition", { joints: kukaPose([0.2, 0.1, 0, -0.4, 0, 0.2, 0]), speed: 0.5 });
   expect(r.body.relay?.ok, JSON.stringify(r.body)).toBe(true);
   const q = (await http(`${robot.tdUrl}/properties/getJointPosition`, { headers: AUTH })).body as Record<string, number>;

@@ -5,12 +5,12 @@
  * or buffered; only the emulated Thing's routes reach node-wot; binding a non-loopback address without
  * --auth is warned about. Real emulator (its own backend), raw HTTP (to set Host) and fetch.
  */
-import { request } from "node:http";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { MAX_BODY } from "../packages/servient/src/http-middleware.js";
 import { startEmulator, type RunningEmulator } from "../packages/servient/src/index.js";
 import { runCli } from "./cli-run.js";
-import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+import { rawRequest, type RawAnswer } from "./helpers/raw-http.js";
+import { generateTwin, http, invoke, kukaPose, waitState } from "./serve-helpers.js";
 
 const J1 = "lbr_iiwa_joint_1";
 const DASHBOARD = "https://dash.example:3000";
@@ -30,43 +30,19 @@ beforeAll(async () => {
 });
 afterAll(async () => robot?.stop());
 
-interface Raw {
-  status: number;
-  headers: Record<string, string | string[] | undefined>;
-  body: any;
-}
-
-/** One HTTP request with exactly the given headers (fetch forbids setting Host). */
-function raw(method: string, to: string, headers: Record<string, string>, body?: string): Promise<Raw> {
-  return new Promise((resolve, reject) => {
-    const req = request({ host: "127.0.0.1", port, method, path: to, headers: { host: `127.0.0.1:${port}`, ...headers } }, (res) => {
-      const chunks: Buffer[] = [];
-      res.on("data", (c: Buffer) => chunks.push(c));
-      res.on("end", () => {
-        const text = Buffer.concat(chunks).toString("utf8");
-        let parsed: unknown = text;
-        try {
-          parsed = JSON.parse(text);
-        } catch {
-          /* not JSON */
-        }
-        resolve({ status: res.statusCode ?? 0, headers: res.headers, body: parsed });
-      });
-    });
-    req.on("error", reject);
-    if (body !== undefined) req.write(body);
-    req.end();
-  });
-}
+/** One HTTP request to the emulator with exactly the given headers. */
+const raw = (method: string, to: string, headers: Record<string, string>, body?: string): Promise<RawAnswer> => rawRequest(port, method, to, headers, body);
 
 const joints = async (): Promise<Record<string, number>> => (await http(`${robot.tdUrl}/properties/getJointPosition`)).body;
 const JOG = JSON.stringify({ velocities: { [J1]: 0.5 }, duration: 0.2 });
 
-/** Sends `send` and checks that the robot did not move: its joints after the jog's time are those before. */
-async function stillAfter(send: () => Promise<Raw>): Promise<Raw> {
+/** Sends `send` and checks that the robot did not move. A command runs from its acceptance until the
+ * answer that ends it, so once the refusal is answered nothing runs: stop finds no motion to end and the
+ * joints are those before. */
+async function stillAfter(send: () => Promise<RawAnswer>): Promise<RawAnswer> {
   const before = await joints();
   const r = await send();
-  await sleep(400);
+  expect((await invoke(robot.tdUrl, "stop", "")).body).toEqual({ stopped: false });
   expect(await joints()).toEqual(before);
   expect((await http(`${robot.tdUrl}/properties/motionStatus`)).body.state).not.toBe("moving");
   return r;
@@ -150,7 +126,7 @@ describe("bad input", () => {
 
   it("a command while it moves answers 409 E_BUSY, an unreachable target 422, both as problem details", async () => {
     const long = invoke(robot.tdUrl, "jog", { velocities: { [J1]: -0.2 }, duration: 20 });
-    await sleep(200);
+    await waitState(robot.tdUrl, "moving");
     const busy = await invoke(robot.tdUrl, "moveToJointPosition", { joints: kukaPose([0, 0, 0, 0, 0, 0, 0]) });
     expect(busy.status).toBe(409);
     expect(busy.type).toBe(PROBLEM);
@@ -226,7 +202,8 @@ describe("binding a non-loopback address", () => {
     process.on("warning", listener);
     try {
       await expect(startEmulator({ folder: dir, port: 0, host, ...(auth ? { auth } : {}) })).rejects.toThrow(/robwot emulate/);
-      await sleep(50); // warnings are emitted on the next tick
+      // a warning is delivered on process.nextTick: a tick queued now runs after every one emitted before
+      await new Promise<void>((r) => process.nextTick(r));
     } finally {
       process.off("warning", listener);
     }

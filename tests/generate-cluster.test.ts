@@ -6,25 +6,15 @@
  */
 import { type ChildProcess, spawn } from "node:child_process";
 import { mkdtempSync, readFileSync, rmSync } from "node:fs";
-import { createConnection, createServer } from "node:net";
+import { createConnection } from "node:net";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { REPO, runCli } from "./cli-run.js";
+import { freePort, waitFor } from "./serve-helpers.js";
 
 const ENABLED = process.env.ROBWOT_RAY_TESTS === "1";
 const FILES = ["workspace.csv", "workspace.stl", "reachability.csv"];
-
-function freePort(): Promise<number> {
-  return new Promise((resolve, reject) => {
-    const s = createServer();
-    s.on("error", reject);
-    s.listen(0, "127.0.0.1", () => {
-      const port = (s.address() as { port: number }).port;
-      s.close(() => resolve(port));
-    });
-  });
-}
 
 function listening(port: number): Promise<boolean> {
   return new Promise((resolve) => {
@@ -49,11 +39,8 @@ describe.skipIf(!ENABLED)("robwot generate --cluster (local Ray cluster)", () =>
       ["start", "--head", "--block", `--port=${port}`, "--num-cpus=2", "--include-dashboard=false",
         "--disable-usage-stats", `--temp-dir=${join(work, "ray")}`],
       { stdio: "ignore", env: { ...process.env, RAY_USAGE_STATS_ENABLED: "0" } });
-    const deadline = Date.now() + 120_000;
-    while (!(await listening(port))) {
-      if (head.exitCode !== null || Date.now() > deadline) throw new Error("ray start --head failed");
-      await new Promise((r) => setTimeout(r, 500));
-    }
+    await waitFor(async () => head?.exitCode !== null || (await listening(port)), { timeoutMs: 120_000, intervalMs: 500, what: "ray's head listening" });
+    if (head.exitCode !== null) throw new Error("ray start --head failed");
   }, 150_000);
 
   afterAll(async () => {

@@ -273,12 +273,36 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     expect(existsSync(join(work, "never-limits"))).toBe(false);
   }, 120_000);
 
-  it("refuses an SRDF written for another robot with file:line", async () => {
+  it("refuses an SRDF written for another robot (most of its names unknown) with file:line", async () => {
     const srdf = join(work, "other.srdf");
-    writeFileSync(srdf, '<?xml version="1.0"?>\n<robot name="other">\n  <group name="arm">\n    <chain base_link="base" tip_link="panda_link8"/>\n  </group>\n</robot>\n');
+    writeFileSync(srdf, '<?xml version="1.0"?>\n<robot name="other">\n  <group name="arm">\n    <chain base_link="panda_link0" tip_link="panda_link8"/>\n  </group>\n</robot>\n');
     const r = await runCli(["generate", join(work, "tiny.urdf"), "--srdf", srdf, "--samples", SAMPLES, "--out", join(work, "never-srdf")]);
     expect(r.code).toBe(1);
-    expect(r.stderr).toContain(`robwot: error: ${srdf}:4: link 'panda_link8' is not a link of the robot (links: base, fore, tip, turret, upper): is this the SRDF of another robot?`);
+    expect(r.stderr).toContain(
+      `robwot: error: ${srdf}:4: link 'panda_link0' is not a link of the robot (links: base, fore, tip, turret, upper): 2 of the 2 links and joints the SRDF names are not the robot's: is this the SRDF of another robot?`,
+    );
+    expect(existsSync(join(work, "never-srdf"))).toBe(false);
+  }, 60_000);
+
+  it("an SRDF entry naming a link the robot lacks is skipped with one warning (file:line, name); the rest is used", async () => {
+    // as example-robot-data's Unitree Z1: its chain starts at a link "base" the URDF calls otherwise
+    const srdf = join(work, "slip.srdf");
+    writeFileSync(
+      srdf,
+      '<?xml version="1.0"?>\n<robot name="tiny_arm">\n  <group name="arm">\n    <chain base_link="base_link" tip_link="tip"/>\n' +
+        '    <joint name="yaw"/><joint name="shoulder"/><joint name="elbow"/>\n  </group>\n' +
+        '  <group_state name="home" group="arm"><joint name="yaw" value="0.5"/></group_state>\n' +
+        '  <end_effector name="hand" parent_link="fore" group="arm"/>\n</robot>\n',
+    );
+    const out = join(work, "slip");
+    const r = await runCli(["generate", join(work, "tiny.urdf"), "--srdf", srdf, "--samples", SAMPLES, "--out", out, "--json"]);
+    expect(r.code, r.stderr).toBe(0);
+    const printed = JSON.parse(r.stdout) as { warnings: string[]; robot: { eeLink: string } };
+    // robot.readSrdf and robot.load both report it: said once
+    expect(printed.warnings).toEqual([`${srdf}:4: link 'base_link' is not a link of the robot: the chain base_link -> tip of group 'arm' skipped, as MoveIt does`]);
+    const manifest = JSON.parse(readFileSync(join(out, "twin.json"), "utf8")) as { robot: { eeLink: string; home: { joints: Record<string, number> } } };
+    expect(manifest.robot.eeLink).toBe("fore");
+    expect(manifest.robot.home.joints).toEqual({ yaw: 0.5 });
   }, 60_000);
 
   it.each([

@@ -2,8 +2,8 @@
  * `robwot generate --srdf`: a robot as published for ROS/MoveIt (example-robot-data's Panda: mesh
  * collision geometry, package:// URIs, an SRDF) becomes a twin folder holding its SRDF (linked from the
  * TD, served) and its convex decompositions (collision/), and `serve` loads it with the SRDF's pairs
- * disabled. A bad SRDF is refused naming the file and line. `--clearance` reaches twin.json, the TD and
- * every validation report. Real CLI, backend and servient.
+ * disabled. An SRDF of another robot's names is refused naming the file and line. `--clearance` reaches
+ * twin.json, the TD and every validation report. Real CLI, backend and servient.
  */
 import { execFileSync } from "node:child_process";
 import { existsSync, mkdtempSync, readdirSync, readFileSync, writeFileSync } from "node:fs";
@@ -65,10 +65,10 @@ describe("a MoveIt robot with its SRDF", () => {
     expect(pairs.size).toBeGreaterThan(10);
   });
 
-  it("a bad SRDF (unknown link) is refused naming the file and line, nothing written", async () => {
+  it("a bad SRDF (only unknown links: another robot's) is refused naming the file and line, nothing written", async () => {
     const dir = mkdtempSync(join(tmpdir(), "robwot-badsrdf-"));
     const bad = join(dir, "bad.srdf");
-    writeFileSync(bad, '<robot name="panda">\n  <disable_collisions link1="panda_link1" link2="no_such_link" reason="Never"/>\n</robot>\n');
+    writeFileSync(bad, '<robot name="panda">\n  <disable_collisions link1="no_such_link" link2="nor_this_one" reason="Never"/>\n</robot>\n');
     const r = await runCli(["generate", URDF, "--srdf", bad, "--package-root", `example-robot-data=${ERD}`, "--samples", "500", "--out", join(dir, "twin")], { timeoutMs: 120_000 });
     expect(r.code).toBe(1);
     expect(r.stderr).toContain(`${bad}:2`);

@@ -254,18 +254,9 @@ describe("determinism, obstacles, replacement, placement", () => {
     // outside the URDF's folder, so only --package-root can find it
     const pkg = join(mkdtempSync(join(tmpdir(), "robwot-pkg-")), "tinypkg");
     mkdirSync(join(pkg, "meshes"), { recursive: true });
-    // a binary STL tetrahedron (1 dm) as the forearm's collision mesh
-    const v = [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]];
-    const faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
-    const stl = Buffer.alloc(84 + 50 * faces.length);
-    stl.writeUInt32LE(faces.length, 80);
-    faces.forEach((f, i) => f.forEach((vi, k) => v[vi]!.forEach((c, j) => stl.writeFloatLE(c, 84 + 50 * i + 12 + 12 * k + 4 * j))));
+    const stl = tetrahedronStl();
     writeFileSync(join(pkg, "meshes", "tip.stl"), stl);
-    const urdf = TINY_URDF.replace(
-      '<link name="tip">',
-      '<link name="tip"><collision><geometry><mesh filename="package://tinypkg/meshes/tip.stl"/></geometry></collision>',
-    );
-    writeFileSync(join(work, "tiny-mesh.urdf"), urdf);
+    writeFileSync(join(work, "tiny-mesh.urdf"), withTipMesh("package://tinypkg/meshes/tip.stl"));
     const out = join(work, "with-mesh");
     const missing = await runCli(["generate", join(work, "tiny-mesh.urdf"), "--out", out, "--samples", "1000"]);
     expect(missing.code).not.toBe(0);
@@ -278,4 +269,41 @@ describe("determinism, obstacles, replacement, placement", () => {
     expect(readFileSync(join(out, mesh!)).equals(stl)).toBe(true);
     rmSync(join(pkg, ".."), { recursive: true, force: true });
   });
+
+  it("a package without package.xml is the folder of its name holding the URDF, said in a warning", async () => {
+    // as robots copied out of a ROS workspace come (the paper's dobot_description/{urdf,meshes}/)
+    const pkg = join(work, "copied", "tinyarm_description");
+    mkdirSync(join(pkg, "urdf"), { recursive: true });
+    mkdirSync(join(pkg, "meshes"));
+    const stl = tetrahedronStl();
+    writeFileSync(join(pkg, "meshes", "tip.stl"), stl);
+    writeFileSync(join(pkg, "urdf", "arm.urdf"), withTipMesh("package://tinyarm_description/meshes/tip.stl"));
+    const out = join(work, "by-folder-name");
+    const printed = await generate(join(pkg, "urdf", "arm.urdf"), out, ["--samples", "1000"]);
+    const warnings = printed["warnings"] as string[];
+    expect(warnings).toHaveLength(1);
+    expect(warnings[0]).toContain(`${join(pkg, "urdf", "arm.urdf")}:`);
+    expect(warnings[0]).toContain(`no package.xml names ROS package 'tinyarm_description'; taken as the folder ${pkg} by its name (give --package-root tinyarm_description=DIR to choose another)`);
+    const mesh = /<mesh\b[^>]*\bfilename="([^"]+)"/.exec(readFileSync(join(out, "robot.urdf"), "utf8"))?.[1];
+    expect(readFileSync(join(out, mesh!)).equals(stl)).toBe(true);
+    // --package-root names the folder: nothing is guessed, nothing said
+    const chosen = await runCli(["generate", join(pkg, "urdf", "arm.urdf"), "--samples", "1000", "--out", out, "--package-root", `tinyarm_description=${pkg}`]);
+    expect(chosen.code, chosen.stderr).toBe(0);
+    expect(chosen.stderr).not.toContain("no package.xml names");
+  });
 });
+
+/** A binary STL tetrahedron (1 dm). */
+function tetrahedronStl(): Buffer {
+  const v = [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]];
+  const faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+  const stl = Buffer.alloc(84 + 50 * faces.length);
+  stl.writeUInt32LE(faces.length, 80);
+  faces.forEach((f, i) => f.forEach((vi, k) => v[vi]!.forEach((c, j) => stl.writeFloatLE(c, 84 + 50 * i + 12 + 12 * k + 4 * j))));
+  return stl;
+}
+
+/** The tiny URDF with `filename` as the tip's collision mesh. */
+function withTipMesh(filename: string): string {
+  return TINY_URDF.replace('<link name="tip">', `<link name="tip"><collision><geometry><mesh filename="${filename}"/></geometry></collision>`);
+}

@@ -7,7 +7,7 @@ import { readFileSync, readdirSync } from "node:fs";
 import { dirname, join, relative } from "node:path";
 import { fileURLToPath } from "node:url";
 import { buildThingDescription, speedRange, type ThingDescriptionLike } from "@robwot/core";
-import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
+import { TRANSPORT, VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { describe, expect, it } from "vitest";
 import { parseRealtime } from "../packages/cli/src/args.js";
 import { kukaLikeModel, summaryFixture } from "../packages/core/src/test-support/models.js";
@@ -38,6 +38,7 @@ const RULES: { concept: string; words: RegExp; numbers: RegExp }[] = [
   { concept: "name length", words: /\bname\b.*(length|chars|characters|len\()|maxLength/i, numbers: literal([Name.maxLength]) },
   { concept: "quaternion norm", words: /\bnorm\b|hypot/i, numbers: literal([QuatXyzw["x-minNorm"]]) },
   { concept: "samples", words: /samples/i, numbers: literal([Samples.maximum]) },
+  { concept: "transport", words: /heartbeat|dead.?after|(request|start|stop|connect).?timeout|restoreMs/i, numbers: literal(Object.values(TRANSPORT)) },
 ];
 
 function sources(dir: string, ext: string): string[] {

@@ -8,7 +8,8 @@
 import AjvModule from "ajv";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { consumer, generateTwin, http, invoke, kukaPose, sleep, type HttpAnswer } from "./serve-helpers.js";
+import { ServerRequests } from "./helpers/server-requests.js";
+import { consumer, generateTwin, http, invoke, kukaPose, waitFor, type HttpAnswer } from "./serve-helpers.js";
 
 const HOME = kukaPose([0, 0, 0, 0, 0, 0, 0]);
 const FAR = kukaPose([1.5, 0.4, 0, -1.0, 0, 0.5, 0]);
@@ -49,15 +50,14 @@ const cancel = async (href: string, headers: Record<string, string> = {}) => ans
 /** Polls the ActionStatus until it has ended; returns every status seen. */
 async function poll(href: string, headers: Record<string, string> = {}): Promise<any[]> {
   const seen: any[] = [];
-  const end = Date.now() + 30_000;
-  for (;;) {
+  const ended = async (): Promise<boolean> => {
     const r = await query(href, headers);
     expect(r.status).toBe(200);
     seen.push(r.body);
-    if (!["pending", "running"].includes(r.body.status)) return seen;
-    if (Date.now() > end) throw new Error(`still ${r.body.status} after 30 s`);
-    await sleep(40);
-  }
+    return !["pending", "running"].includes(r.body.status);
+  };
+  await waitFor(ended, { intervalMs: 40, what: `the end of ${href}` });
+  return seen;
 }
 
 describe("asynchronous moves", () => {
@@ -140,13 +140,14 @@ describe("asynchronous moves", () => {
     const r = await invokeAsync(base, "moveToJointPosition", { joints: FAR, speed: 0.2 });
     expect(r.status).toBe(201);
     const href = r.headers.get("location")!;
-    const end = Date.now() + 10_000;
-    let st = r.body;
-    while (!(st.status === "running" && st.progress > 0.1)) {
-      if (Date.now() > end || !["pending", "running"].includes(st.status)) throw new Error(`not running: ${JSON.stringify(st)}`);
-      await sleep(20);
-      st = (await query(href)).body;
-    }
+    await waitFor(
+      async () => {
+        const st = (await query(href)).body;
+        if (!["pending", "running"].includes(st.status)) throw new Error(`not running: ${JSON.stringify(st)}`);
+        return st.status === "running" && st.progress > 0.1;
+      },
+      { what: "the move running past 10 %" },
+    );
     const del = await cancel(href);
     expect(del.status).toBe(204);
     expect(del.body).toBeNull();
@@ -159,7 +160,9 @@ describe("asynchronous moves", () => {
     const a = await joints();
     expect(a.lbr_iiwa_joint_1).toBeGreaterThan(0.01);
     expect(a.lbr_iiwa_joint_1).toBeLessThan(1.49);
-    await sleep(300);
+    // the DELETE answers once the move has ended (the backend answered its motion, after every state of
+    // it): a later backend call (a validation) finds the twin where it stopped
+    expect((await invoke(base, "validateJointPosition", { joints: HOME })).status).toBe(200);
     expect(await joints()).toEqual(a);
     expect((await http(`${base}/properties/motionStatus`)).body.state).toBe("stopped");
     // a second DELETE: nothing left to cancel
@@ -187,6 +190,7 @@ describe("asynchronous moves", () => {
     process.kill(pid, "SIGSTOP");
     let del: Promise<HttpAnswer & { headers: Headers }>;
     let href: string;
+    const requests = new ServerRequests();
     try {
       const r = await invokeAsync(base, "moveToJointPosition", { joints: FAR, speed: 0.2 });
       expect(r.status).toBe(201);
@@ -194,13 +198,15 @@ describe("asynchronous moves", () => {
       href = r.headers.get("location")!;
       expect((await query(href)).body).toMatchObject({ status: "pending", progress: 0 });
       del = cancel(href);
-      await sleep(200);
+      // the servient has taken the DELETE (the move is cancelled; its answer waits for the move's end)
+      await requests.next((req) => req.method === "DELETE", "the DELETE");
     } finally {
+      requests.close();
       process.kill(pid, "SIGCONT");
     }
+    // the DELETE answers once the move has ended: it never started
     expect((await del).status).toBe(204);
     expect((await query(href)).status).toBe(404);
-    await sleep(300);
     expect(await joints()).toEqual(before);
   });
 
@@ -302,11 +308,7 @@ describe("asynchronous moves and a backend that dies", () => {
     const r = await invokeAsync(base, "moveToJointPosition", { joints: FAR, speed: 0.1 });
     expect(r.status).toBe(201);
     const href = r.headers.get("location")!;
-    const end = Date.now() + 10_000;
-    while ((await query(href)).body.status !== "running") {
-      if (Date.now() > end) throw new Error("not running within 10 s");
-      await sleep(20);
-    }
+    await waitFor(async () => (await query(href)).body.status === "running", { what: "the move running" });
     const pid = s.backend.pid!;
     process.kill(pid, "SIGKILL");
     const done = (await poll(href)).at(-1);

@@ -13,7 +13,7 @@ import { dirname, join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { validateThingDescription } from "@robwot/core";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { consumer, generateTwin, http, invoke } from "./serve-helpers.js";
+import { consumer, generateTwin, http, invoke, waitFor } from "./serve-helpers.js";
 
 let servient: RunningServient;
 
@@ -141,8 +141,7 @@ describe("--register into a directory", () => {
       expect((await invoke(twin.things[0]!.tdUrl, "calibrate", { pairs, withScale: false })).status).toBe(200);
       const after = await tdOf(twin.things[0]!.tdUrl);
       expect(after).not.toEqual(served);
-      const end = Date.now() + 5_000;
-      while (JSON.stringify(tdd.store.get(id)) !== JSON.stringify(after) && Date.now() < end) await new Promise((r) => setTimeout(r, 50));
+      await waitFor(() => JSON.stringify(tdd.store.get(id)) === JSON.stringify(after), { what: "the directory holding the calibrated TD" }).catch(() => undefined);
       expect(tdd.store.get(id)).toEqual(after);
     } finally {
       await twin.stop();
@@ -165,8 +164,9 @@ describe("--register into a directory", () => {
       const twin = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, register: `http://127.0.0.1:${(refusing.address() as { port: number }).port}` });
       try {
         expect((await http(twin.things[0]!.tdUrl)).status).toBe(200);
-        await new Promise((r) => setTimeout(r, 50));
-        expect(warnings.some((w) => /registering .* failed \(503 Service Unavailable: directory in maintenance\); retrying/.test(w))).toBe(true);
+        const refused = /registering .* failed \(503 Service Unavailable: directory in maintenance\); retrying/;
+        await waitFor(() => warnings.some((w) => refused.test(w)), { what: "the refusal warned about" }).catch(() => undefined);
+        expect(warnings).toContainEqual(expect.stringMatching(refused));
       } finally {
         await twin.stop();
       }

@@ -12,7 +12,8 @@ import { join } from "node:path";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { startHostileThing, type HostileThing } from "./helpers/hostile-thing.js";
-import { generateTwin, http, KUKA_JOINTS, kukaPose, live, sleep, type LiveClient } from "./serve-helpers.js";
+import { ERROR_PUSH_MS } from "../packages/servient/src/follow.js";
+import { generateTwin, http, KUKA_JOINTS, kukaPose, live, waitFor, type LiveClient } from "./serve-helpers.js";
 
 const START = kukaPose([0.2, 0.5, 0, -1.0, 0, 0.5, 0]);
 const EPISODES = 20;
@@ -30,7 +31,7 @@ beforeAll(async () => {
   twin = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, follow: robot.tdUrl, followRate: 50 });
   base = twin.things[0]!.tdUrl;
   stream = await live(`${twin.liveUrl}?thing=${twin.things[0]!.slug}`);
-  await until("the first reading", async () => (await state()).joints);
+  await waitFor(async () => (await state()).joints, { what: "the first reading", intervalMs: 10 });
 }, 120_000);
 
 afterAll(async () => {
@@ -43,23 +44,13 @@ afterAll(async () => {
 const state = async (b = base): Promise<any> => (await http(`${b}/properties/physicalState`)).body;
 const status = async (b = base): Promise<any> => (await http(`${b}/properties/motionStatus`)).body;
 
-async function until<T>(what: string, probe: () => Promise<T | null | undefined | false>, ms = 20_000): Promise<T> {
-  const end = Date.now() + ms;
-  for (;;) {
-    const v = await probe();
-    if (v) return v;
-    if (Date.now() > end) throw new Error(`timed out waiting for ${what}`);
-    await sleep(10);
-  }
-}
-
 /** Until readings flow again: no fault, and a reading newer than now. */
 async function seeing(b = base): Promise<void> {
   const now = Date.now();
-  await until("readings again", async () => {
+  await waitFor(async () => {
     const s = await state(b);
     return !s.monitorFault && Date.parse(s.timestamp) > now;
-  });
+  }, { what: "readings again", intervalMs: 10 });
 }
 
 it(`a hung reading: the monitor is blind on every surface and stops the robot, ${EPISODES} of ${EPISODES} episodes`, async () => {
@@ -72,7 +63,7 @@ it(`a hung reading: the monitor is blind on every surface and stops the robot, $
     const from = robot.log.length;
     // the next reading is held until the test releases it (at most 10 s)
     robot.reading = { kind: "hang", until: "release", ms: 10_000, once: true };
-    await until(`episode ${k}: a stop`, async () => robot.stops > stops);
+    await waitFor(async () => robot.stops > stops, { what: `episode ${k}: a stop`, intervalMs: 10 });
     const s = await state();
     const log = robot.log.slice(from);
     const hung = log.find((e) => e.what === "read")!;
@@ -102,10 +93,10 @@ it("a stop never answered is reported in the fault, never awaited", async () => 
   await seeing();
   robot.stop = { kind: "hang" };
   robot.reading = { kind: "hang", until: "release" };
-  const s = await until("the stop's deadline", async () => {
+  const s = await waitFor(async () => {
     const v = await state();
     return v.monitorFault?.stop?.state === "failed" ? v : null;
-  });
+  }, { what: "the stop's deadline", intervalMs: 10 });
   expect(s.monitorFault.stop.error).toMatch(/^the stop \(stop\) to the physical robot: no answer within 1000 ms$/);
   robot.stop = { kind: "ok" };
   robot.reading = { kind: "joints" };
@@ -130,16 +121,19 @@ it("junk and huge readings never move the twin; their errors are short and not p
   ];
   for (const [what, body, error] of cases) {
     const from = stream.messages.length;
+    const t0 = Date.now();
+    const errors = (await state()).readingErrors as number;
     robot.reading = { kind: "junk", body };
-    const s = await until(what, async () => {
+    const s = await waitFor(async () => {
       const v = await state();
       return error.test(v.lastError ?? "") ? v : null;
-    });
+    }, { what: what, intervalMs: 10 });
     expect(Buffer.byteLength(s.lastError), what).toBeLessThanOrEqual(1024);
-    // junk for a second: the first failure and the fault are pushed, then at most one push a second
-    await sleep(1_000);
+    // junk for 50 readings (a second at 50 Hz): the first failure and the fault are pushed, then at most one
+    // push per ERROR_PUSH_MS however long that took; a push per reading would be 50
+    await waitFor(async () => (await state()).readingErrors >= errors + 50, { what: `${what}: 50 readings refused` });
     const pushed = stream.messages.slice(from).filter((m) => m.type === "physical");
-    expect(pushed.length, `${what}: ${pushed.length} pushes`).toBeLessThanOrEqual(6);
+    expect(pushed.length, `${what}: ${pushed.length} pushes`).toBeLessThanOrEqual(4 + Math.ceil((Date.now() - t0) / ERROR_PUSH_MS));
     for (const m of pushed) expect(JSON.stringify(m).length, what).toBeLessThan(4096);
     expect((await http(`${base}/properties/getJointPosition`)).body, what).toEqual(before);
     expect((await state()).joints, what).toEqual(before);
@@ -154,10 +148,10 @@ it("a TD fetch that hangs is an error at its deadline and a monitor fault", asyn
   const other = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, follow: silent.tdUrl, followRate: 50 });
   try {
     const b = other.things[0]!.tdUrl;
-    const s = await until("the fault", async () => {
+    const s = await waitFor(async () => {
       const v = await state(b);
       return v.monitorFault?.stop ? v : null;
-    });
+    }, { what: "the fault", intervalMs: 10 });
     expect(s.lastError).toBe(`the TD at ${silent.tdUrl}: no answer within 2000 ms`);
     expect(s.monitorFault.reason).toMatch(/the TD at .* sent \d+ ms ago is unanswered/);
     expect(s.monitorFault.stop).toEqual({ state: "failed", error: expect.stringMatching(/was never read: no stop could be sent/) });
@@ -178,7 +172,7 @@ it("with --relay-map, junk in the joint array never moves the twin; each error n
   try {
     const b = mapped.things[0]!.tdUrl;
     const q = (): Promise<Record<string, number>> => http(`${b}/properties/getJointPosition`).then((r) => r.body);
-    await until("the twin at the robot's pose", async () => Math.abs(((await q())["lbr_iiwa_joint_1"] ?? 0) - 0.2) < 1e-9);
+    await waitFor(async () => Math.abs(((await q())["lbr_iiwa_joint_1"] ?? 0) - 0.2) < 1e-9, { what: "the twin at the robot's pose", intervalMs: 10 });
     const before = await q();
     const good = deg(START);
     const junk: [unknown, RegExp][] = [
@@ -196,17 +190,18 @@ it("with --relay-map, junk in the joint array never moves the twin; each error n
     ];
     for (const [value, error] of junk) {
       ur.reading = { kind: "joints", value };
-      const s = await until(JSON.stringify(value), async () => {
+      const s = await waitFor(async () => {
         const v = await state(b);
         return error.test(v.lastError ?? "") ? v : null;
-      });
-      await sleep(100);
+      }, { what: JSON.stringify(value), intervalMs: 10 });
+      // two later readings refused as well: still where it was
+      await waitFor(async () => (await state(b)).readingErrors >= s.readingErrors + 2, { what: `${JSON.stringify(value)}: later readings refused` });
       expect(await q(), JSON.stringify(value)).toEqual(before);
       expect(s.joints).toEqual(before);
     }
     // a good reading moves it
     ur.reading = { kind: "joints", value: deg({ ...START, lbr_iiwa_joint_1: 0.4 }) };
-    await until("the twin following a good reading", async () => Math.abs(((await q())["lbr_iiwa_joint_1"] ?? 0) - 0.4) < 1e-9);
+    await waitFor(async () => Math.abs(((await q())["lbr_iiwa_joint_1"] ?? 0) - 0.4) < 1e-9, { what: "the twin following a good reading", intervalMs: 10 });
   } finally {
     await mapped.stop();
     await ur.close();

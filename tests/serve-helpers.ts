@@ -11,6 +11,9 @@ import { Servient } from "@node-wot/core";
 import { HttpClientFactory } from "@node-wot/binding-http";
 import { parseStl, parseWorkspaceCsv, REACHABILITY_REL, transformBounds, writeStl, writeWorkspaceCsv, type Vec3 } from "../packages/core/src/index.js";
 import { runCli } from "./cli-run.js";
+import { sleep, waitFor, within } from "./helpers/wait.js";
+
+export { sleep, waitFor, within };
 
 const cache = new Map<string, string>();
 
@@ -93,7 +96,7 @@ export async function live(url: string, headers: Record<string, string> = {}): P
   return {
     messages,
     ws,
-    waitFor: (pred, timeoutMs = 20_000) => {
+    waitFor: (pred, timeoutMs = 30_000) => {
       const seen = messages.find(pred);
       if (seen) return Promise.resolve(seen);
       return new Promise((resolve, reject) => {
@@ -110,8 +113,6 @@ export const KUKA_JOINTS = Array.from({ length: 7 }, (_, i) => `lbr_iiwa_joint_$
 export function kukaPose(values: number[]): Record<string, number> {
   return Object.fromEntries(KUKA_JOINTS.map((n, i) => [n, values[i] ?? 0]));
 }
-
-export const sleep = (ms: number): Promise<void> => new Promise((r) => setTimeout(r, ms));
 
 /** Seeded uniform numbers (mulberry32) and Box-Muller normals, from core. */
 export { mulberry32 as rng, gaussian as gauss } from "@robwot/core";
@@ -168,37 +169,48 @@ export function placeTwin(src: string, yaw: number, offset: Vec3): void {
 
 /** Polls motionStatus until `state` (e.g. "moving" once validation is done and the motion runs). */
 export async function waitState(thingBase: string, state: string, timeoutMs = 30_000, headers: Record<string, string> = {}): Promise<void> {
-  const end = Date.now() + timeoutMs;
-  while (Date.now() < end) {
-    const r = await http(`${thingBase}/properties/motionStatus`, { headers });
-    if (r.body?.state === state) return;
-    await sleep(25);
-  }
-  throw new Error(`motionStatus did not become "${state}" within ${timeoutMs} ms`);
+  await waitFor(async () => (await http(`${thingBase}/properties/motionStatus`, { headers })).body?.state === state, {
+    timeoutMs,
+    what: `motionStatus "${state}"`,
+  });
 }
 
 /** Polls getJointPosition until `joint` is more than `by` rad away from `from` (the motion has really
  * begun: "moving" is reported from acceptance, before the backend has planned). */
 export async function waitMoved(thingBase: string, joint: string, from: number, by = 0.02, timeoutMs = 30_000): Promise<void> {
-  const end = Date.now() + timeoutMs;
-  while (Date.now() < end) {
-    const r = await http(`${thingBase}/properties/getJointPosition`);
-    if (Math.abs((r.body?.[joint] ?? from) - from) > by) return;
-    await sleep(25);
-  }
-  throw new Error(`${joint} did not move ${by} rad within ${timeoutMs} ms`);
+  await waitFor(async () => Math.abs(((await http(`${thingBase}/properties/getJointPosition`)).body?.[joint] ?? from) - from) > by, {
+    timeoutMs,
+    what: `${joint} moving ${by} rad`,
+  });
 }
 
 /** Polls getJointPosition until every joint of `joints` is within `tolerance` (a following twin reaches
  * what it mirrors: it follows a difference above FOLLOW_TOLERANCE, 1e-4 rad). */
-export async function waitJoints(thingBase: string, joints: Record<string, number>, tolerance = 2e-4, timeoutMs = 10_000): Promise<void> {
-  const end = Date.now() + timeoutMs;
-  for (;;) {
-    const q = (await http(`${thingBase}/properties/getJointPosition`)).body as Record<string, number>;
-    if (Object.entries(joints).every(([j, v]) => Math.abs((q[j] ?? NaN) - v) <= tolerance)) return;
-    if (Date.now() > end) throw new Error(`the twin did not reach ${JSON.stringify(joints)}: ${JSON.stringify(q)}`);
-    await sleep(20);
-  }
+export async function waitJoints(thingBase: string, joints: Record<string, number>, tolerance = 2e-4, timeoutMs = 30_000): Promise<void> {
+  let q: Record<string, number> = {};
+  const near = async (): Promise<boolean> => {
+    q = (await http(`${thingBase}/properties/getJointPosition`)).body as Record<string, number>;
+    return Object.entries(joints).every(([j, v]) => Math.abs((q[j] ?? NaN) - v) <= tolerance);
+  };
+  await waitFor(near, { timeoutMs, what: `the twin at ${JSON.stringify(joints)}` }).catch((e: Error) => {
+    throw new Error(`${e.message}: it is at ${JSON.stringify(q)}`);
+  });
+}
+
+/** Polls getJointPosition until two reads in a row agree within `tolerance` on every joint (a lagging
+ * report has caught up with the joints it follows; between two reads the reporter has stepped at least
+ * once); returns the last read. */
+export async function waitSettled(thingBase: string, tolerance = 1e-7, timeoutMs = 30_000): Promise<Record<string, number>> {
+  let last: Record<string, number> | null = null;
+  return waitFor(
+    async () => {
+      const q = (await http(`${thingBase}/properties/getJointPosition`)).body as Record<string, number>;
+      const still = last !== null && Object.entries(q).every(([j, v]) => Math.abs(v - (last?.[j] ?? NaN)) <= tolerance);
+      last = q;
+      return still ? q : null;
+    },
+    { timeoutMs, what: `the joints of ${thingBase} settling` },
+  );
 }
 
 /** Adds a box of edge `size` to the twin where its tool will be once joint 1 has turned `angle` rad from now

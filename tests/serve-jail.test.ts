@@ -195,13 +195,11 @@ describe("convex parts pass our mesh parser before PyBullet", () => {
     const cache = join(dir, "collision");
     const before = readdirSync(cache).sort();
     const mtime = statSync(cache).mtimeMs;
-    const t0 = Date.now();
     const r = await refusal(dir);
     expect(r.code).toBe("E_MESH");
     expect(r.message).toContain(join(folder, "part999.obj"));
     expect(r.message).toMatch(/missing.*robwot generate/);
-    // a decomposition takes minutes and writes a new folder into the cache: neither happened
-    expect(Date.now() - t0).toBeLessThan(60_000);
+    // a decomposition writes a new folder into the cache: none was written
     expect(readdirSync(cache).sort()).toEqual(before);
     expect(statSync(cache).mtimeMs).toBe(mtime);
   }, 120_000);

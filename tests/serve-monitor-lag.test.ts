@@ -10,57 +10,46 @@ import { mkdtempSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, expect, it } from "vitest";
-import { startEmulator, startServient, type RunningEmulator, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, live, sleep, waitJoints, type LiveClient } from "./serve-helpers.js";
+import { startEmulatedCell, type EmulatedCell } from "./helpers/emulated-cell.js";
+import { generateTwin, invoke, waitJoints, waitSettled } from "./serve-helpers.js";
 
 const LAG = 0.2;
 const START = { shoulder_pan_joint: 0, shoulder_lift_joint: -1.0, elbow_joint: 0, wrist_1_joint: -1.5, wrist_2_joint: -1.57, wrist_3_joint: 0 };
 /** rad/s of shoulder_lift_joint toward the table, from START */
 const SPEEDS = [0.5, 0.5, 0.5, 1.0];
 
-let robot: RunningEmulator;
-let twin: RunningServient;
-let base: string;
-let stream: LiveClient;
+let cell: EmulatedCell;
 
 beforeAll(async () => {
   const dir = mkdtempSync(join(tmpdir(), "robwot-lag-"));
   const scene = join(dir, "table.json");
   writeFileSync(scene, JSON.stringify({ version: 1, name: "table", obstacles: [{ name: "table", shape: { type: "box", size: [1.6, 1.2, 0.04] }, position: [0, 0, -0.03] }] }));
-  const folder = await generateTwin("ur3", 3000, ["--scene", scene]);
-  robot = await startEmulator({ folder, port: 0, lag: LAG });
-  expect((await invoke(robot.tdUrl, "moveToJointPosition", { joints: START })).body.status).toBe("reached");
-  twin = await startServient({ twins: [await generateTwin("ur3", 3000, ["--scene", scene])], port: 0, realtime: 0, relay: robot.tdUrl, followRate: 50 });
-  base = twin.things[0]!.tdUrl;
-  stream = await live(`${twin.liveUrl}?thing=${twin.things[0]!.slug}`);
+  cell = await startEmulatedCell({
+    start: START,
+    folder: () => generateTwin("ur3", 3000, ["--scene", scene]),
+    emulator: { lag: LAG },
+    twin: (td) => ({ relay: td, followRate: 50 }),
+  });
 }, 180_000);
 
-afterAll(async () => {
-  stream?.close();
-  await twin?.stop();
-  await robot?.stop();
-});
+afterAll(async () => cell?.stop());
 
-const imminent = (): any[] => stream.messages.filter((m) => m.type === "collisionImminent");
-
-/** The emulator's report once it has caught up with the true joints (a first-order lag settles in ~10 x lag). */
-async function settled(): Promise<Record<string, number>> {
-  await sleep(10 * LAG * 1000);
-  return (await http(`${robot.tdUrl}/properties/getJointPosition`)).body;
-}
+const imminent = (): any[] => cell.stream.messages.filter((m) => m.type === "collisionImminent");
 
 it("a robot reporting 0.2 s late is stopped before the table, every jog", async () => {
+  const { robot, base, stream } = cell;
   for (const [k, v] of SPEEDS.entries()) {
     expect((await invoke(robot.tdUrl, "moveToJointPosition", { joints: START, speed: 0.3 })).body.status).toBe("reached");
-    await waitJoints(base, START, 2e-4, 20_000);
+    await waitJoints(base, START);
     const before = imminent().length;
     const jog = await invoke(robot.tdUrl, "jog", { velocities: { shoulder_lift_joint: v }, duration: 3 / v });
     expect(jog.body.status, `jog ${k} at ${v} rad/s ran its whole course`).toBe("stopped");
-    await stream.waitFor(() => imminent().length > before, 10_000);
+    await stream.waitFor(() => imminent().length > before);
     const event = imminent()[before];
     expect(event.stopped).toBe(true);
     expect(event.contacts.some((c: any) => c.a.body === "table" || c.b.body === "table"), JSON.stringify(event.contacts)).toBe(true);
-    const q = await settled();
+    // the emulator's report once it has caught up with the true joints
+    const q = await waitSettled(robot.tdUrl);
     const check = await invoke(base, "validateJointPosition", { joints: q });
     console.log(`jog ${k} at ${v} rad/s: collisionImminent "in" ${event.in.toFixed(3)} s, stopped at shoulder_lift_joint ${q.shoulder_lift_joint!.toFixed(4)} rad, valid: ${check.body.valid}`);
     expect(check.body.valid, `jog ${k} at ${v} rad/s ended at ${q.shoulder_lift_joint}: ${JSON.stringify(check.body.reasons)}`).toBe(true);

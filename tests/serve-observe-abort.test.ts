@@ -3,9 +3,11 @@
  * consumer) is unsubscribed. node-wot 0.9.2 only unsubscribes on 'finish', so every later value was
  * piped into the dead response (listener leak: MaxListenersExceededWarning after 11 values).
  */
+import type { IncomingMessage } from "node:http";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, invoke, KUKA_JOINTS, kukaPose, sleep } from "./serve-helpers.js";
+import { ServerRequests } from "./helpers/server-requests.js";
+import { generateTwin, invoke, KUKA_JOINTS, kukaPose } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -22,19 +24,32 @@ afterAll(async () => {
 });
 
 it("an aborted long-poll observation leaves no listener behind", async () => {
-  for (let i = 0; i < 3; i++) {
-    const abort = new AbortController();
-    const pending = fetch(`${base}/properties/getJointPosition/observable`, { signal: abort.signal }).catch(() => null);
-    await sleep(100);
-    abort.abort();
-    await pending;
-  }
-  await sleep(100);
-  for (let i = 0; i < 14; i++) {
+  const requests = new ServerRequests();
+  const observe = `${base}/properties/getJointPosition/observable`;
+  const isObserve = (r: IncomingMessage): boolean => r.url?.endsWith("/properties/getJointPosition/observable") ?? false;
+  const move = async (i: number): Promise<void> => {
     const q = KUKA_JOINTS.map((_, k) => (k === 0 ? (i % 2 ? 0.3 : -0.3) : 0));
-    const r = await invoke(base, "moveToJointPosition", { joints: kukaPose(q), speed: 1 });
-    expect(r.status).toBe(200);
+    expect((await invoke(base, "moveToJointPosition", { joints: kukaPose(q), speed: 1 })).status).toBe(200);
+  };
+  try {
+    for (let i = 0; i < 3; i++) {
+      const abort = new AbortController();
+      const pending = fetch(observe, { signal: abort.signal }).catch(() => null);
+      // aborted once the servient holds it (its observer subscribed)
+      await requests.next(isObserve, "long-poll observation");
+      abort.abort();
+      await pending;
+    }
+    // past the 11 values that made node-wot warn when the aborted observers stayed subscribed
+    for (let i = 0; i < 14; i++) await move(i);
+    // the marker: an observer subscribed now is answered with the next value, which every observer still
+    // subscribed (the aborted ones, had they stayed) was handed in the same notification
+    const watching = fetch(observe);
+    await requests.next(isObserve, "the last observation");
+    await move(14);
+    expect((await watching).status).toBe(200);
+    expect(warnings.filter((w) => w.includes("MaxListeners"))).toEqual([]);
+  } finally {
+    requests.close();
   }
-  await sleep(200);
-  expect(warnings.filter((w) => w.includes("MaxListeners"))).toEqual([]);
 }, 300_000);

@@ -9,7 +9,7 @@
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { endless, hang, peerProxy, type PeerProxy } from "./helpers/peer-proxy.js";
-import { freePort, generateTwin, http, invoke, kukaPose } from "./serve-helpers.js";
+import { freePort, generateTwin, http, invoke, kukaPose, waitFor } from "./serve-helpers.js";
 
 const AUTH = { scheme: "basic" as const, user: "robot", password: "s3cret-pw" };
 
@@ -98,7 +98,7 @@ it("a stop during a relayed move the physical robot never answers: the move answ
   const p = await proxy((req) => (req.method === "POST" && /moveTo/.test(req.url!) ? hang : "forward"));
   const { base } = await twin({ relay: withUser(p), follow: false });
   const move = invoke(base, "moveToJointPosition", { joints: kukaPose([-0.2, 0, 0, -0.5, 0, 0.3, 0]) });
-  for (let i = 0; i < 400 && p.count(/POST .*moveTo/) === 0; i++) await new Promise((r) => setTimeout(r, 25));
+  await waitFor(() => p.count(/POST .*moveTo/) > 0, { what: "the relayed move at the proxy" });
   const stop = await invoke(base, "stop", "");
   expect(stop.body).toMatchObject({ stopped: true, physical: { ok: true } });
   const r = await move;
@@ -121,12 +121,10 @@ it("a physical move action declaring no output is answered, not stopped; credent
   expect(r.body.relay.ok).toBe(true);
   expect(p.count(/actions\/stop/)).toBe(0);
   // followed through the same URL: the readings pass the physical Thing's basic auth
-  let state: any = {};
-  for (let i = 0; i < 200 && !state.joints; i++) {
-    state = (await http(`${base}/properties/physicalState`)).body;
-    await new Promise((res) => setTimeout(res, 25));
-  }
-  expect(state.joints).toBeDefined();
+  const state = await waitFor(async () => {
+    const v = (await http(`${base}/properties/physicalState`)).body;
+    return v.joints ? v : null;
+  }, { what: "a reading through the proxy" });
   const shown = JSON.stringify([state, r.body, (await http(`${base}/properties/motionStatus`)).body]);
   expect(shown).not.toContain(AUTH.password);
   expect(state.source).toBe(`${p.url}/${physical.things[0]!.slug}`);

@@ -7,7 +7,7 @@
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, waitFor } from "./serve-helpers.js";
 
 const HOME = kukaPose([0, 0.6, 0, -1.2, 0, 0.6, 0]);
 
@@ -84,12 +84,11 @@ it("asynchronously: the ActionStatus names the running step; a cancel stops the 
   expect(started.status).toBe(201);
   const href = started.headers.get("location")!;
   const seen: { status: string; step?: number; progress: number }[] = [];
-  for (let i = 0; i < 400; i++) {
+  await waitFor(async () => {
     const s = await (await fetch(href)).json();
     seen.push(s);
-    if (s.status === "running" && (s.step ?? 0) >= 2) break;
-    await sleep(25);
-  }
+    return (s.status === "running" && (s.step ?? 0) >= 2) || !["pending", "running"].includes(s.status);
+  }, { what: "the run in step 2" });
   const running = seen.filter((s) => s.status === "running");
   expect(running.length).toBeGreaterThan(0);
   expect(running.at(-1)!.step).toBeGreaterThanOrEqual(2);

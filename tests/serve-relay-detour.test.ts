@@ -8,39 +8,25 @@
  * Real emulator, servient, backends and HTTP.
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
-import { startEmulator, startServient, type RunningEmulator, type RunningServient } from "../packages/servient/src/index.js";
-import { boxOnJoint1Arc, generateTwin, http, invoke, kukaPose, live, sleep, waitJoints, type LiveClient } from "./serve-helpers.js";
+import { startEmulatedCell, type EmulatedCell } from "./helpers/emulated-cell.js";
+import { boxOnJoint1Arc, generateTwin, http, invoke, kukaPose, sleep } from "./serve-helpers.js";
 
 const START = kukaPose([0, 1.0, 0, -1.0, 0, 0.5, 0]);
 const TARGET = kukaPose([1.2, 1.0, 0, -1.0, 0, 0.5, 0]);
 
-let robot: RunningEmulator;
-let twin: RunningServient;
-let base: string;
-let stream: LiveClient;
+let cell: EmulatedCell;
 
 beforeAll(async () => {
-  robot = await startEmulator({ folder: await generateTwin("kuka_iiwa", 3000), port: 0 });
-  // to START before the twin watches (as in serve-monitor.test.ts): that fast first move toward a folded
-  // pose is not what this file tests, and the monitor's plain extrapolation of it (braking distance
-  // included) predicts a self-contact and stops it
-  expect((await invoke(robot.tdUrl, "moveToJointPosition", { joints: START })).body.status).toBe("reached");
-  twin = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 0, relay: robot.tdUrl });
-  base = twin.things[0]!.tdUrl;
-  stream = await live(`${twin.liveUrl}?thing=${twin.things[0]!.slug}`);
   // the relaying twin mirrors the robot: it follows it to START
-  await waitJoints(base, START);
+  cell = await startEmulatedCell({ start: START, folder: () => generateTwin("kuka_iiwa", 3000), twin: (td) => ({ relay: td }) });
   // a 0.3 m box where the tool is after 0.6 rad of joint 1, halfway to TARGET
-  await boxOnJoint1Arc(base, 0.6, 0.3);
+  await boxOnJoint1Arc(cell.base, 0.6, 0.3);
 }, 120_000);
 
-afterAll(async () => {
-  stream?.close();
-  await twin?.stop();
-  await robot?.stop();
-});
+afterAll(async () => cell?.stop());
 
 it("relays a detour as its legs: the physical robot goes around the box, mirrored, and is not stopped", async () => {
+  const { robot, twin, base, stream } = cell;
   const sim = twin.backend.sim;
   const robotId = twin.twins.get(twin.things[0]!.slug)!.robotId;
   // the reference catches the known positive: the straight path (what the target alone would make the robot run) touches the box
@@ -53,6 +39,7 @@ it("relays a detour as its legs: the physical robot goes around the box, mirrore
   const sampler = (async () => {
     while (moving) {
       seen.push(Object.values((await http(`${robot.tdUrl}/properties/getJointPosition`)).body as Record<string, number>));
+      // the sampling period of the robot's way (each reading is checked below; no time is asserted)
       await sleep(5);
     }
   })();

@@ -11,7 +11,7 @@ import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, KUKA_JOINTS, kukaPose, sleep } from "./serve-helpers.js";
+import { generateTwin, http, invoke, KUKA_JOINTS, kukaPose, sleep, waitFor } from "./serve-helpers.js";
 
 const require = createRequire(import.meta.url);
 const { Servient } = require("@node-wot/core") as typeof import("@node-wot/core");
@@ -46,6 +46,7 @@ beforeAll(async () => {
   thing.setActionHandler("movej", async (i) => {
     const input = (await i.value()) as { q: number[]; v: number };
     robot.calls.push({ action: "movej", input });
+    // a move takes the robot a while: the relay awaits its answer (no test here reads a time)
     await sleep(100);
     robot.q = [...input.q];
     return undefined;
@@ -75,16 +76,11 @@ it("relays a joint move as movej in degrees, in the map's joint order, and mirro
   const q = (call.input as { q: number[]; v: number }).q;
   ORDER.forEach((j, i) => expect(q[i]).toBeCloseTo((target[j] as number) * (180 / Math.PI), 9));
   expect((call.input as { v: number }).v).toBe(0.5);
-  const end = Date.now() + 5_000;
-  for (;;) {
-    const s = (await http(`${base}/properties/physicalState`)).body;
-    if (s.joints && Math.abs(s.joints.lbr_iiwa_joint_1 - 0.5) < 1e-9) {
-      for (const [j, v] of Object.entries(target)) expect(s.joints[j]).toBeCloseTo(v as number, 9);
-      break;
-    }
-    if (Date.now() > end) throw new Error(`physicalState never showed the move: ${JSON.stringify(s)}`);
-    await sleep(50);
-  }
+  const s = await waitFor(async () => {
+    const v = (await http(`${base}/properties/physicalState`)).body;
+    return v.joints && Math.abs(v.joints.lbr_iiwa_joint_1 - 0.5) < 1e-9 ? v : null;
+  }, { what: "physicalState showing the move" });
+  for (const [j, v] of Object.entries(target)) expect(s.joints[j]).toBeCloseTo(v as number, 9);
 });
 
 it("stops it with stopj, and refuses a Cartesian command the map has no action for", async () => {

@@ -10,7 +10,7 @@ import WebSocket, { WebSocketServer } from "ws";
 import { launchBackend, type LaunchedBackend } from "../packages/sim-client/src/index.js";
 import { BackendSupervisor, urlConnector } from "@robwot/sim-client";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, sleep } from "./serve-helpers.js";
+import { generateTwin, waitFor } from "./serve-helpers.js";
 
 interface HangingRelay {
   url: string;
@@ -91,17 +91,11 @@ it("a backend that hangs while the world is restored after a restart is replaced
     twin.on("status", (st) => st.lastError && errors.push(`${st.lastError.code}: ${st.lastError.message}`));
     // the first restart (connection 2) hangs at robot.load: a long method, sent without a request deadline
     relay.hangAt(relay.connections + 1, "robot.load");
-    const t0 = Date.now();
     relay.drop();
-    const end = Date.now() + 40_000;
-    while (s.backend.restarts < 1) {
-      if (Date.now() > end) throw new Error(`no restart within 40 s; lastError: ${errors.at(-1)}`);
-      await sleep(50);
-    }
-    const ms = Date.now() - t0;
-    // declared dead when a ping stays unanswered for 5 s, then the next attempt restores the world
-    expect(ms).toBeGreaterThan(4_000);
-    expect(ms).toBeLessThan(20_000);
+    await waitFor(() => s.backend.restarts >= 1, { timeoutMs: 60_000, what: "a restart" }).catch((e: Error) => {
+      throw new Error(`${e.message}; lastError: ${errors.at(-1)}`);
+    });
+    // declared dead by the heartbeat (a ping unanswered), then the next attempt restores the world
     const failed = errors.find((e) => /restart 1 failed/.test(e));
     expect(failed).toMatch(/^E_BACKEND_DOWN: simulation backend restart 1 failed \(backend declared dead while restoring the world \(no answer to ping/);
     expect(warnings.some((w) => /restart 1 failed/.test(w))).toBe(true);
@@ -130,15 +124,12 @@ it("a restart's restore that answers pings but never ends is bounded by restoreM
     relay.hangAt(relay.connections + 1, "world.loadScene", true);
     const pingsPass = relay.connections + 1;
     relay.drop();
-    const t0 = Date.now();
-    const end = t0 + 20_000;
-    while (sup.restarts < 1) {
-      if (Date.now() > end) throw new Error(`no restart within 20 s (${restores} restores, failures: ${failures.join("; ")})`);
-      await sleep(20);
-    }
+    await waitFor(() => sup.restarts >= 1, { what: "a restart" }).catch((e: Error) => {
+      throw new Error(`${e.message} (${restores} restores, failures: ${failures.join("; ")})`);
+    });
     expect(relay.connections).toBeGreaterThan(pingsPass);
+    // ended by restoreMs while its pings were answered, not by the heartbeat
     expect(failures[0]).toMatch(/backend declared dead while restoring the world \(restore not finished within 2000 ms\)/);
-    expect(Date.now() - t0).toBeGreaterThan(1_900);
   } finally {
     await sup.stop();
   }

@@ -8,10 +8,8 @@
  */
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { generateTwin, http, invoke, kukaPose, sleep, slowPhysicalTwin, waitMoved, type HttpAnswer } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, slowPhysicalTwin, waitFor, waitMoved, waitState, type HttpAnswer } from "./serve-helpers.js";
 
-/** the stop deadline of the relay (packages/servient/README.md) */
-const STOP_DEADLINE_MS = 5_000;
 const J1 = "lbr_iiwa_joint_1";
 const target = (j1: number): Record<string, number> => kukaPose([j1, 0.3, 0, -0.8, 0, 0.4, 0]);
 
@@ -41,7 +39,6 @@ afterAll(async () => {
 });
 
 const physicalJ1 = async (): Promise<number> => (await http(`${pBase}/properties/getJointPosition`)).body[J1];
-const physicalState = async (): Promise<string> => (await http(`${pBase}/properties/motionStatus`)).body.state;
 
 /** Sends a move to the relaying twin and resolves once the physical robot is really moving (the move's
  *  answer wrapped: an async function returning a promise would wait for it). */
@@ -52,33 +49,35 @@ async function relayedMove(base: string, j1: number, speed: number): Promise<{ a
   const ended = answer.then((r) => {
     throw new Error(`the relayed move ended before the physical robot was seen moving: ${r.status} ${JSON.stringify(r.body)}`);
   });
-  await Promise.race([waitMoved(pBase, J1, from, 0.02, 20_000), ended]);
+  await Promise.race([waitMoved(pBase, J1, from), ended]);
   ended.catch(() => undefined);
   return { answer };
 }
 
-/** ms until the physical robot reports `stopped`; throws after `timeoutMs` (e.g. it is still moving). */
-async function physicalStopped(t0: number, timeoutMs: number): Promise<number> {
-  while (Date.now() - t0 < timeoutMs) {
-    if ((await physicalState()) === "stopped") return Date.now() - t0;
-    await sleep(20);
-  }
-  throw new Error(`the physical robot is still "${await physicalState()}" ${timeoutMs} ms later`);
+/** Until the physical robot reports `stopped` (a robot that moves on fails the wait). */
+const physicalStopped = (): Promise<void> => waitState(pBase, "stopped");
+
+/** Whether `p` has settled, read at any time: what an ordering assertion compares with. */
+function settledFlag(p: Promise<unknown>): () => boolean {
+  let settled = false;
+  void p.then(
+    () => (settled = true),
+    () => (settled = true),
+  );
+  return () => settled;
 }
 
 /** Waits until the supervisor has replaced the backend `pid` (killed, restarted, world restored). */
 async function replaced(pid: number): Promise<void> {
-  const end = Date.now() + 60_000;
-  while (twin.backend.pid === pid || !twin.backend.isUp) {
-    if (Date.now() > end) throw new Error(`backend ${pid} not replaced within 60 s`);
-    await sleep(50);
-  }
+  await waitFor(() => twin.backend.pid !== pid && twin.backend.isUp, { timeoutMs: 60_000, what: `backend ${pid} replaced` });
 }
 
-/** The physical robot stands still: its joints do not change over half a second. */
+/** The physical robot stands still: stopped, its motion ended (the status follows its backend's answer, after
+ *  every state of the motion), so a later round trip through its backend finds the joints unchanged. */
 async function standsStill(): Promise<number> {
+  await physicalStopped();
   const a = await physicalJ1();
-  await sleep(500);
+  expect((await invoke(pBase, "validateJointPosition", { joints: target(0) })).status).toBe(200);
   const b = await physicalJ1();
   expect(b).toBe(a);
   return b;
@@ -87,16 +86,13 @@ async function standsStill(): Promise<number> {
 it("a relayed move the physical robot does not finish within its deadline is stopped there", async () => {
   // simulated in 1.04 s (1.5 rad at 10 rad/s x 0.15, plus 2 x 0.0375 s of ramps at 40 rad/s^2 minus their
   // 0.0375 s at cruise); deadline 3 x 1.04 s + 10 s; the physical robot needs 20 s
-  const t0 = Date.now();
   const r = await invoke(vBase, "moveToJointPosition", { joints: target(1.5), speed: 0.15 });
-  const ms = Date.now() - t0;
   expect(r.status, JSON.stringify(r.body)).toBe(200);
   expect(r.body.status).toBe("reached");
   expect(r.body.duration).toBeCloseTo(1, 1);
   expect(r.body.relay.ok).toBe(false);
+  // ended by its deadline, the stop confirmed by the physical robot
   expect(r.body.relay.error).toMatch(/stopped by the twin \(relayed moveToJointPosition without an answer .*within 131\d\d ms.*\); stop confirmed/);
-  expect(ms).toBeLessThan(13_200 + STOP_DEADLINE_MS);
-  expect(await physicalState()).toBe("stopped");
   const j1 = await standsStill();
   expect(j1).toBeGreaterThan(0.2);
   expect(j1).toBeLessThan(1.45);
@@ -105,13 +101,10 @@ it("a relayed move the physical robot does not finish within its deadline is sto
 
 it("a stop during the physical motion stops the physical robot at once and reports both outcomes", async () => {
   const { answer: move } = await relayedMove(vBase, -1.5, 0.05);
-  const t0 = Date.now();
-  const stop = invoke(vBase, "stop", "");
-  const stoppedMs = await physicalStopped(t0, 3_000);
-  const s = await stop;
+  const s = await invoke(vBase, "stop", "");
   expect(s.status).toBe(200);
+  // the first stop sent was confirmed by the physical robot
   expect(s.body).toEqual({ stopped: true, simulation: { ok: true }, physical: { ok: true, attempts: 1 } });
-  expect(stoppedMs).toBeLessThan(1_000);
   await standsStill();
   const r = await move;
   expect(r.body.relay.ok).toBe(false);
@@ -123,19 +116,17 @@ it("with the twin's backend hung (SIGSTOP), stop still answers 200, the physical
   const pid = twin.backend.pid!;
   process.kill(pid, "SIGSTOP");
   stoppedPids.push(pid);
-  const t0 = Date.now();
   const stop = invoke(vBase, "stop", "");
-  const stoppedMs = await physicalStopped(t0, 3_000);
+  const answered = settledFlag(stop);
+  // the physical robot is stopped while the stop still waits for the hung simulation (until its deadline)
+  await physicalStopped();
+  expect(answered(), "the stop answered before the physical robot was seen stopped").toBe(false);
   const s = await stop;
-  const answerMs = Date.now() - t0;
-  console.log(`stop with a SIGSTOPped backend: physical robot stopped after ${stoppedMs} ms, answer after ${answerMs} ms`);
   expect(s.status).toBe(200);
   expect(s.body.stopped).toBe(true);
   expect(s.body.physical).toEqual({ ok: true, attempts: 1 });
   expect(s.body.simulation.ok).toBe(false);
   expect(typeof s.body.simulation.error).toBe("string");
-  expect(stoppedMs).toBeLessThan(1_000);
-  expect(answerMs).toBeLessThan(STOP_DEADLINE_MS + 1_500);
   await standsStill();
   await move;
   await replaced(pid);
@@ -147,10 +138,7 @@ it("the twin's backend going down (heartbeat deadline) during a relayed motion s
   const pid = twin.backend.pid!;
   process.kill(pid, "SIGSTOP");
   stoppedPids.push(pid);
-  const t0 = Date.now();
-  // declared dead when a ping stays unanswered for 5 s (pings every second)
-  const stoppedMs = await physicalStopped(t0, 12_000);
-  expect(stoppedMs).toBeGreaterThan(3_000);
+  // declared dead when a ping stays unanswered (the heartbeat's deadline): the move's answer names it
   await standsStill();
   const r = await move;
   expect(r.body.relay.ok).toBe(false);
@@ -167,13 +155,15 @@ it("cancelling a relayed asynchronous move (DELETE) with the twin's backend hung
   });
   expect(r.status).toBe(201);
   const href = r.headers.get("location")!;
-  await waitMoved(pBase, J1, from, 0.02, 20_000);
+  await waitMoved(pBase, J1, from);
   const pid = twin.backend.pid!;
   process.kill(pid, "SIGSTOP");
   stoppedPids.push(pid);
-  const t0 = Date.now();
   const cancel = fetch(href, { method: "DELETE" });
-  expect(await physicalStopped(t0, 3_000)).toBeLessThan(1_000);
+  const answered = settledFlag(cancel);
+  // stopped while the DELETE still waits for the move's end (the hung backend's, at the heartbeat's deadline)
+  await physicalStopped();
+  expect(answered(), "the DELETE answered before the physical robot was seen stopped").toBe(false);
   expect((await cancel).status).toBe(204);
   await standsStill();
   await replaced(pid);
@@ -184,10 +174,8 @@ it("shutting down a relaying servient stops the physical robot it commanded", as
   try {
     const base = `${other.url}/${other.things[0]!.slug}`;
     await relayedMove(base, 1.5, 0.02);
-    const t0 = Date.now();
     await other.stop();
-    expect(Date.now() - t0).toBeLessThan(STOP_DEADLINE_MS + 5_000);
-    await physicalStopped(Date.now(), 500);
+    // a robot left moving would run on for over a minute
     await standsStill();
   } finally {
     await other.stop();
@@ -196,15 +184,12 @@ it("shutting down a relaying servient stops the physical robot it commanded", as
 
 it("a physical robot that does not answer: stop retries until the deadline, then says so (200, not 503)", async () => {
   await physical.stop();
-  const t0 = Date.now();
   const s = await invoke(vBase, "stop", "");
-  const ms = Date.now() - t0;
   expect(s.status).toBe(200);
   expect(s.body.simulation).toEqual({ ok: true });
+  // retried, then ended by the deadline
   expect(s.body.physical.ok).toBe(false);
   expect(s.body.physical.attempts).toBeGreaterThan(1);
   expect(s.body.physical.error).toMatch(/no answer to stop within 5000 ms/);
-  expect(ms).toBeGreaterThanOrEqual(STOP_DEADLINE_MS - 100);
-  expect(ms).toBeLessThan(STOP_DEADLINE_MS + 1_500);
   expect((await http(`${vBase}/properties/motionStatus`)).body.lastError.code).toBe("E_RELAY");
 });

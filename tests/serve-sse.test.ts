@@ -6,11 +6,13 @@
  * same way. Clients: raw fetch (every field), the `ws` WebSocket, and Chromium's EventSource across a
  * restart of the servient.
  */
+import type { IncomingMessage } from "node:http";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { openBrowser } from "./helpers/browser.js";
+import { ServerRequests } from "./helpers/server-requests.js";
 import { openSse } from "./helpers/sse.js";
-import { consumer, generateTwin, http, invoke, kukaPose, live, sleep } from "./serve-helpers.js";
+import { consumer, generateTwin, http, invoke, kukaPose, live, waitFor, waitMoved } from "./serve-helpers.js";
 
 let s: RunningServient;
 let base: string;
@@ -21,53 +23,25 @@ beforeAll(async () => {
 }, 300_000);
 afterAll(async () => s?.stop());
 
-/** Reads SSE messages from `url` until `until` holds or `ms` pass; returns the parsed `data` fields. */
-async function sse(url: string, until: (seen: unknown[]) => boolean, ms: number, during?: () => Promise<void>): Promise<{ type: string | null; data: unknown[] }> {
-  const ctl = new AbortController();
-  const r = await fetch(url, { signal: ctl.signal });
-  const type = r.headers.get("content-type");
-  const reader = r.body!.getReader();
-  const data: unknown[] = [];
-  let text = "";
-  const stop = setTimeout(() => ctl.abort(), ms);
-  const side = during?.();
-  try {
-    while (!until(data)) {
-      const { value, done } = await reader.read();
-      if (done) break;
-      text += new TextDecoder().decode(value);
-      let end: number;
-      while ((end = text.indexOf("\n\n")) >= 0) {
-        const block = text.slice(0, end);
-        text = text.slice(end + 2);
-        const line = block.split("\n").find((l) => l.startsWith("data: "));
-        if (line) data.push(JSON.parse(line.slice(6)));
-      }
-    }
-  } catch {
-    /* aborted at the deadline: the assertions below say what was missing */
-  } finally {
-    clearTimeout(stop);
-    ctl.abort();
-  }
-  await side;
-  return { type, data };
-}
-
 it("declares SSE forms and streams a property: its current value, then every change", async () => {
   const td = (await http(base)).body;
   const form = td.properties.getJointPosition.forms.find((f: { subprotocol?: string }) => f.subprotocol === "sse");
   expect(form).toMatchObject({ op: ["observeproperty", "unobserveproperty"] });
   expect(td.events.collision.forms.some((f: { subprotocol?: string }) => f.subprotocol === "sse")).toBe(true);
   const target = kukaPose([0.5, 0, 0, 0, 0, 0, 0]);
-  const r = await sse(form.href, (d) => d.length >= 5, 20_000, async () => {
-    await sleep(300);
+  const stream = await openSse(form.href);
+  const values = (): Record<string, number>[] => stream.events().map((e) => e.data);
+  try {
+    // the current value first, then the move
+    await stream.wait(() => values().length >= 1);
     expect((await invoke(base, "moveToJointPosition", { joints: target, speed: 0.5 })).body.status).toBe("reached");
-  });
-  expect(r.type).toContain("text/event-stream");
-  expect(r.data.length).toBeGreaterThanOrEqual(5);
-  expect((r.data[0] as Record<string, number>).lbr_iiwa_joint_1).toBeCloseTo(0, 6);
-  const j1 = r.data.map((d) => (d as Record<string, number>).lbr_iiwa_joint_1!);
+    await stream.wait(() => values().length >= 5);
+  } finally {
+    stream.close();
+  }
+  expect(stream.headers.get("content-type")).toContain("text/event-stream");
+  expect(values()[0]!.lbr_iiwa_joint_1).toBeCloseTo(0, 6);
+  const j1 = values().map((d) => d.lbr_iiwa_joint_1!);
   expect(Math.max(...j1)).toBeGreaterThan(0);
   for (let i = 1; i < j1.length; i++) expect(j1[i]!).toBeGreaterThanOrEqual(j1[i - 1]! - 1e-9);
 });
@@ -75,30 +49,34 @@ it("declares SSE forms and streams a property: its current value, then every cha
 it("streams the collision event", async () => {
   await invoke(base, "moveToJointPosition", { joints: kukaPose([0, 0, 0, 0, 0, 0, 0]) });
   const href = (await http(base)).body.events.collision.forms.find((f: { subprotocol?: string }) => f.subprotocol === "sse").href;
-  const r = await sse(href, (d) => d.length >= 1, 30_000, async () => {
-    await sleep(300);
+  // subscribed once its headers are in (the server answers them as it attaches the stream)
+  const stream = await openSse(href);
+  try {
     const move = invoke(base, "moveToJointPosition", { joints: kukaPose([0, 1.2, 0, -0.4, 0, 0.4, 0]), speed: 0.05 });
-    await sleep(800);
+    // the obstacle comes into the path of the running motion
+    await waitMoved(base, "lbr_iiwa_joint_2", 0);
     await invoke(base, "addObstacle", { name: "intruder", shape: { type: "box", size: [0.2, 0.6, 0.2] }, position: [0.55, 0, 0.75] });
     expect((await move).body.status).toBe("collision");
-  });
-  const ev = r.data[0] as { pair: { a: { body: string }; b: { body: string } } };
+    await stream.wait((m) => m.some((x) => x.data !== null));
+  } finally {
+    stream.close();
+  }
+  const ev = stream.events()[0]!.data as { pair: { a: { body: string }; b: { body: string } } };
   expect([ev.pair.a.body, ev.pair.b.body]).toContain("intruder");
 });
 
 it("answers an event stream's headers at once, with a retry line, before any event has happened", async () => {
   const href = (await http(base)).body.events.collision.forms.find((f: { subprotocol?: string }) => f.subprotocol === "sse").href;
   const ctl = new AbortController();
-  // a stream whose headers wait for the first keep-alive comment (15 s) fails here
-  const deadline = setTimeout(() => ctl.abort(), 3000);
   try {
     const r = await fetch(href, { signal: ctl.signal });
     expect(r.status).toBe(200);
     expect(r.headers.get("content-type")).toContain("text/event-stream");
+    // the retry line alone: a stream whose headers waited for the first keep-alive comment (15 s) would
+    // start with that comment
     const first = await r.body!.getReader().read();
     expect(new TextDecoder().decode(first.value)).toMatch(/^retry: \d+\n\n$/);
   } finally {
-    clearTimeout(deadline);
     ctl.abort();
   }
 });
@@ -118,10 +96,10 @@ describe("resuming", () => {
   it("a property stream's ids increase across connections", async () => {
     const href = `${base}/properties/motionStatus/sse`;
     const a = await openSse(href);
-    await a.wait((m) => m.some((x) => x.data !== null), 5000);
+    await a.wait((m) => m.some((x) => x.data !== null));
     a.close();
     const b = await openSse(href, { "last-event-id": a.events()[0]!.id! });
-    await b.wait((m) => m.some((x) => x.data !== null), 5000);
+    await b.wait((m) => m.some((x) => x.data !== null));
     b.close();
     expect(ids(b)[0]).toBeGreaterThan(ids(a)[0]!);
     // a property is a state: a resumed stream starts with the current value, nothing replayed, no gap
@@ -131,17 +109,17 @@ describe("resuming", () => {
   it("Last-Event-ID replays the events missed while disconnected, in order, then the live ones", async () => {
     const a = await openSse(eventHref);
     collide(1);
-    await a.wait((m) => m.some((x) => x.data !== null), 5000);
+    await a.wait((m) => m.some((x) => x.data !== null));
+    // what `a` has not seen is missed, whether or not the server has noticed the close yet
     a.close();
-    await sleep(100);
     collide(2);
     collide(3);
     const last = a.events().at(-1)!.id!;
     const b = await openSse(eventHref, { "last-event-id": last });
     expect(b.status).toBe(200);
-    await b.wait((m) => m.filter((x) => x.data !== null).length >= 2, 5000);
+    await b.wait((m) => m.filter((x) => x.data !== null).length >= 2);
     collide(4);
-    await b.wait((m) => m.filter((x) => x.data !== null).length >= 3, 5000);
+    await b.wait((m) => m.filter((x) => x.data !== null).length >= 3);
     b.close();
     expect(b.events().map((e) => e.data.n)).toEqual([2, 3, 4]);
     expect(b.messages.some((m) => m.event === "robwot:gap")).toBe(false);
@@ -150,7 +128,7 @@ describe("resuming", () => {
     // a new client without Last-Event-ID gets only what happens from now on
     const c = await openSse(eventHref);
     collide(5);
-    await c.wait((m) => m.some((x) => x.data !== null), 5000);
+    await c.wait((m) => m.some((x) => x.data !== null));
     c.close();
     expect(c.events().map((e) => e.data.n)).toEqual([5]);
   });
@@ -158,12 +136,11 @@ describe("resuming", () => {
   it("a gap older than the history is announced (robwot:gap, overflow), then the kept events follow", async () => {
     const a = await openSse(eventHref);
     collide(100);
-    await a.wait((m) => m.some((x) => x.data !== null), 5000);
+    await a.wait((m) => m.some((x) => x.data !== null));
     a.close();
-    await sleep(100);
     for (let i = 101; i <= 200; i++) collide(i);
     const b = await openSse(eventHref, { "last-event-id": a.events()[0]!.id! });
-    await b.wait((m) => m.filter((x) => x.data !== null).length >= 64, 5000);
+    await b.wait((m) => m.filter((x) => x.data !== null).length >= 64);
     b.close();
     const [gap, ...rest] = b.events();
     expect(gap!.event).toBe("robwot:gap");
@@ -176,7 +153,7 @@ describe("resuming", () => {
 
   it("a Last-Event-ID of an earlier run of the servient: robwot:gap with reason restart", async () => {
     const b = await openSse(eventHref, { "last-event-id": "1" });
-    await b.wait((m) => m.some((x) => x.data !== null), 5000);
+    await b.wait((m) => m.some((x) => x.data !== null));
     b.close();
     expect(b.events()[0]).toMatchObject({ event: "robwot:gap", data: { lastEventId: 1, reason: "restart" } });
   });
@@ -184,11 +161,15 @@ describe("resuming", () => {
   it("node-wot 0.9.2 receives events over the first (long-poll) form and nothing over the sse form (README: why)", async () => {
     const c = await consumer();
     const subscriptions: { stop(): Promise<void> }[] = [];
+    const requests = new ServerRequests();
+    const path = (r: IncomingMessage): string => (r.url ?? "").split("?")[0]!;
+    const isPoll = (r: IncomingMessage): boolean => path(r).endsWith("/events/collision");
     try {
       const td = (await http(base)).body;
       const sseForm = td.events.collision.forms.findIndex((f: { subprotocol?: string }) => f.subprotocol === "sse");
       expect(sseForm).toBeGreaterThan(0);
       const got: Record<"longpoll" | "sse", unknown[]> = { longpoll: [], sse: [] };
+      const subscribed = Promise.all([requests.next(isPoll, "node-wot's long poll"), requests.next((r) => path(r).endsWith("/events/collision/sse"), "node-wot's SSE stream")]);
       // one ConsumedThing per subscription (node-wot keeps one per event name); the body read as bytes:
       // value() would check the synthetic instance against the event's schema
       for (const [via, options] of [["longpoll", undefined], ["sse", { formIndex: sseForm }]] as const) {
@@ -196,15 +177,20 @@ describe("resuming", () => {
         const listener = async (out: WoT.InteractionOutput): Promise<void> => void got[via].push(JSON.parse(Buffer.from(await out.arrayBuffer()).toString()));
         subscriptions.push(await thing.subscribeEvent("collision", listener, undefined, options));
       }
-      await sleep(500);
+      await subscribed;
+      const repolled = requests.next(isPoll, "node-wot's next long poll");
       collide(400);
-      const until = Date.now() + 5000;
-      while (got.longpoll.length === 0 && Date.now() < until) await sleep(50);
-      await sleep(1000);
-      expect(got.longpoll).toEqual([expect.objectContaining({ n: 400 })]);
+      await waitFor(() => got.longpoll.length >= 1, { what: "the event over long poll" });
+      // the marker: a second event, over the long poll node-wot sent after the first; the first reached its
+      // SSE stream a whole round trip before
+      await repolled;
+      collide(401);
+      await waitFor(() => got.longpoll.length >= 2, { what: "the second event over long poll" });
+      expect(got.longpoll).toEqual([expect.objectContaining({ n: 400 }), expect.objectContaining({ n: 401 })]);
       // its SSE client listens to unnamed messages only; the Profile's messages are named (event: collision)
       expect(got.sse).toEqual([]);
     } finally {
+      requests.close();
       for (const sub of subscriptions) await sub.stop().catch(() => undefined);
       await c.stop();
     }
@@ -219,7 +205,6 @@ describe("resuming", () => {
     for (const m of a.messages) expect(m.seq, JSON.stringify(m)).toBeTypeOf("number");
     const seqs = a.messages.map((m) => m.seq as number);
     for (let i = 1; i < seqs.length; i++) expect(seqs[i]).toBeGreaterThan(seqs[i - 1]!);
-    await sleep(100);
     collide(301);
     collide(302);
     const b = await live(`${s.liveUrl}?thing=${slug}&resume=${seen.seq}`);
@@ -268,7 +253,8 @@ it("Chromium's EventSource resumes across a restart of the servient: told of the
     }, href);
     const got = (): Promise<any[]> => browser.page.evaluate(() => (window as unknown as { got: unknown[] }).got);
     const twinA = a.twins.values().next().value!;
-    await sleep(500);
+    // open: the server has attached the stream
+    await browser.page.waitForFunction(() => (window as unknown as { es: EventSource }).es.readyState === EventSource.OPEN);
     // synthetic instances (as in "resuming"): what is tested is their way to the browser
     twinA.emit("collision", { n: 1 } as never);
     await browser.page.waitForFunction(() => (window as unknown as { got: unknown[] }).got.length >= 1);
@@ -276,7 +262,7 @@ it("Chromium's EventSource resumes across a restart of the servient: told of the
     a = null;
     b = await startServient({ twins: [dir], port, realtime: 1 });
     // the EventSource reconnects on its own (retry: 3000) with the last id it saw
-    await browser.page.waitForFunction(() => (window as unknown as { got: unknown[] }).got.length >= 2, undefined, { timeout: 20_000 });
+    await browser.page.waitForFunction(() => (window as unknown as { got: unknown[] }).got.length >= 2);
     b.twins.values().next().value!.emit("collision", { n: 2 } as never);
     await browser.page.waitForFunction(() => (window as unknown as { got: unknown[] }).got.length >= 3);
     const [first, gap, second] = await got();

@@ -5,13 +5,13 @@
  * `--cors-origin` still works. Real servient, real backend, raw HTTP (to set Host) and real `ws`.
  */
 import { existsSync, mkdtempSync, rmSync } from "node:fs";
-import { request } from "node:http";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import WebSocket from "ws";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { runCli } from "./cli-run.js";
+import { rawRequest, type RawAnswer } from "./helpers/raw-http.js";
 import { generateTwin, http, kukaPose } from "./serve-helpers.js";
 
 let s: RunningServient;
@@ -29,40 +29,11 @@ beforeAll(async () => {
 });
 afterAll(async () => s?.stop());
 
-interface Raw {
-  status: number;
-  headers: Record<string, string | string[] | undefined>;
-  body: any;
-}
-
-/** One HTTP request with exactly the given headers (fetch forbids setting Host). */
-function raw(method: string, path: string, headers: Record<string, string>, body?: string): Promise<Raw> {
-  return new Promise((resolve, reject) => {
-    // a body is framed by its length: Node's client sends a DELETE's body unframed, which the server would
-    // parse as a second request
-    const length: Record<string, string> = body !== undefined ? { "content-length": String(Buffer.byteLength(body)) } : {};
-    const req = request({ host: "127.0.0.1", port, method, path, headers: { host: `127.0.0.1:${port}`, ...length, ...headers } }, (res) => {
-      const chunks: Buffer[] = [];
-      res.on("data", (c: Buffer) => chunks.push(c));
-      res.on("end", () => {
-        const text = Buffer.concat(chunks).toString("utf8");
-        let parsed: unknown = text;
-        try {
-          parsed = JSON.parse(text);
-        } catch {
-          /* not JSON */
-        }
-        resolve({ status: res.statusCode ?? 0, headers: res.headers, body: parsed });
-      });
-    });
-    req.on("error", reject);
-    if (body !== undefined) req.write(body);
-    req.end();
-  });
-}
+/** One HTTP request to the servient with exactly the given headers. */
+const raw = (method: string, path: string, headers: Record<string, string>, body?: string): Promise<RawAnswer> => rawRequest(port, method, path, headers, body);
 
 const joints = async (): Promise<Record<string, number>> => (await http(`${s.url}/${slug}/properties/getJointPosition`)).body;
-const move = (headers: Record<string, string>, body = JSON.stringify({ joints: FAR })): Promise<Raw> =>
+const move = (headers: Record<string, string>, body = JSON.stringify({ joints: FAR })): Promise<RawAnswer> =>
   raw("POST", `/${slug}/actions/moveToJointPosition`, headers, body);
 
 describe("browsers of other origins", () => {

@@ -9,7 +9,8 @@ import { join } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { validateThingDescription, withAbsoluteForms } from "../packages/core/src/index.js";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
-import { consumer, generateTwin, http, invoke, kukaPose, live, sleep, waitMoved, waitState, type LiveClient } from "./serve-helpers.js";
+import { ServerRequests } from "./helpers/server-requests.js";
+import { consumer, generateTwin, http, invoke, kukaPose, live, waitFor, waitMoved, waitState, type LiveClient } from "./serve-helpers.js";
 
 let s: RunningServient;
 let twinDir: string;
@@ -148,14 +149,22 @@ describe("affordances through a node-wot consumer", () => {
     try {
       const thing = await c.wot.consume(await c.wot.requestThingDescription(base));
       const seen: Record<string, number>[] = [];
-      const sub = await thing.observeProperty("getJointPosition", async (d) => void seen.push((await d.value()) as Record<string, number>));
-      await sleep(200);
-      const r = await invoke(base, "moveToJointPosition", { joints: kukaPose([-0.8, 0.3, 0, -1.0, 0, 0.5, 0]), speed: 0.1 });
-      expect(r.status).toBe(200);
-      await sleep(300);
-      await sub.stop();
-      expect(seen.length).toBeGreaterThanOrEqual(2);
-      expect(seen.some((j) => j.lbr_iiwa_joint_1! < -0.05 && j.lbr_iiwa_joint_1! > -0.79)).toBe(true);
+      const requests = new ServerRequests();
+      try {
+        // the move starts once the servient holds the observer's long poll
+        const polled = requests.next((q) => (q.url ?? "").includes("/properties/getJointPosition/observable"), "the long poll");
+        const sub = await thing.observeProperty("getJointPosition", async (d) => void seen.push((await d.value()) as Record<string, number>));
+        await polled;
+        const r = await invoke(base, "moveToJointPosition", { joints: kukaPose([-0.8, 0.3, 0, -1.0, 0, 0.5, 0]), speed: 0.1 });
+        expect(r.status).toBe(200);
+        const during = (j: Record<string, number>): boolean => j.lbr_iiwa_joint_1! < -0.05 && j.lbr_iiwa_joint_1! > -0.79;
+        await waitFor(() => seen.length >= 2 && seen.some(during), { what: "two values, one on the way" }).catch(() => undefined);
+        await sub.stop();
+        expect(seen.length).toBeGreaterThanOrEqual(2);
+        expect(seen.some(during)).toBe(true);
+      } finally {
+        requests.close();
+      }
     } finally {
       await c.stop();
     }
@@ -289,8 +298,8 @@ describe("motion control", () => {
       await thing.subscribeEvent("collision", async (d) => void events.push(await d.value()));
       const target = kukaPose([0, 1.2, 0, -0.4, 0, 0.4, 0]);
       const move = invoke(base, "moveToJointPosition", { joints: target, speed: 0.05 });
-      await waitState(base, "moving");
-      await sleep(300);
+      // the obstacle comes into the path of the running motion
+      await waitMoved(base, "lbr_iiwa_joint_2", 0);
       const add = await invoke(base, "addObstacle", { name: "intruder", shape: { type: "box", size: [0.2, 0.6, 0.2] }, position: [0.55, 0, 0.75] });
       expect(add.status).toBe(200);
       const r = await move;
@@ -303,7 +312,7 @@ describe("motion control", () => {
       const st = await readStatus();
       expect(st.state).toBe("collision");
       expect(st.lastError.code).toBe("E_COLLISION");
-      for (let i = 0; i < 50 && events.length === 0; i++) await sleep(100);
+      await waitFor(() => events.length > 0, { what: "the collision event over long poll" }).catch(() => undefined);
       expect(events[0]?.pair).toBeDefined();
     } finally {
       ws.close();

@@ -14,6 +14,7 @@ import { invoke, openSession, read, type Session, type Twin } from "@robwot/cons
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { startEmulator, startServient } from "@robwot/servient";
 import { CHROMIUM, openBrowser, pixelStats, type BrowserSession } from "./helpers/browser.js";
+import { waitFor } from "./helpers/wait.js";
 
 const ROOT = resolve(import.meta.dirname, "..");
 const CLI = join(ROOT, "packages/cli/dist/main.js");
@@ -60,20 +61,8 @@ function run(cmd: string, args: string[]): Promise<string> {
   });
 }
 
-async function until<T>(what: string, probe: () => Promise<T | undefined | null | false>, timeoutMs = 30_000): Promise<T> {
-  const end = Date.now() + timeoutMs;
-  let last: unknown;
-  for (;;) {
-    try {
-      const v = await probe();
-      if (v !== undefined && v !== null && v !== false) return v;
-    } catch (err) {
-      last = err;
-    }
-    if (Date.now() > end) throw new Error(`timed out waiting for ${what}${last ? `: ${String(last)}` : ""}`);
-    await new Promise((r) => setTimeout(r, 100));
-  }
-}
+/** waits on the page: a probe that throws (the page between two loads) counts as "not yet" */
+const PAGE = { intervalMs: 100, ignoreErrors: true } as const;
 
 const dist = (a: Xyz, b: Xyz): number => Math.hypot(a.x - b.x, a.y - b.y, a.z - b.z);
 const maxDiff = (a: Joints, b: Joints): number => Math.max(...Object.keys(a).map((k) => Math.abs((a[k] ?? NaN) - (b[k] ?? NaN))));
@@ -174,20 +163,20 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     const crate = { name: "crate", shape: { type: "box", size: [0.1, 0.1, 0.1] }, position: [-0.9, -1.1, 0.05] };
     await invoke(twin, "addObstacle", crate);
     try {
-      await until("the page to draw the added obstacle", async () => {
+      await waitFor(async () => {
         const names = (await debug()).obstacles;
         return names.length === 2 && names.includes("block") && names.includes("crate");
-      });
+      }, { ...PAGE, what: "the page to draw the added obstacle" });
       await invoke(twin, "moveObstacle", { name: "crate", position: [-0.9, -1.2, 0.05] });
       await invoke(twin, "addObstacle", { name: "ball", shape: { type: "sphere", radius: 0.05 }, position: [-1.0, -1.0, 0.05] });
-      await until("the page to draw the second one", async () => (await debug()).obstacles.includes("ball"));
+      await waitFor(async () => (await debug()).obstacles.includes("ball"), { ...PAGE, what: "the page to draw the second one" });
       expect((await debug()).obstacles).toEqual(["block", "crate", "ball"]);
     } finally {
       // clean-up: the obstacles may already be gone when the test failed early
       await invoke(twin, "removeObstacle", { name: "crate" }).catch(() => undefined);
       await invoke(twin, "removeObstacle", { name: "ball" }).catch(() => undefined);
     }
-    await until("the page to drop the removed obstacles", async () => JSON.stringify((await debug()).obstacles) === '["block"]');
+    await waitFor(async () => JSON.stringify((await debug()).obstacles) === '["block"]', { ...PAGE, what: "the page to drop the removed obstacles" });
     const d = await debug();
     expect(d.errors).toEqual([]);
     expect(problems).toEqual([]);
@@ -197,13 +186,13 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     const before = await read<Joints>(twin, "getJointPosition");
     const target = (before[J1] ?? 0) > 0.3 ? -0.4 : 0.6;
     await browser.page.locator(`input[data-joint="${J1}"]`).fill(String(target));
-    const after = await until("joint 1 to reach the slider value", async () => {
+    const after = await waitFor(async () => {
       const q = await read<Joints>(twin, "getJointPosition");
       return Math.abs((q[J1] ?? NaN) - target) < 1e-3 ? q : null;
-    });
+    }, { ...PAGE, what: "joint 1 to reach the slider value" });
     for (const [k, v] of Object.entries(before)) if (k !== J1) expect(after[k]).toBeCloseTo(v, 3);
     // The page shows the state the servient streamed.
-    await until("the page model to follow", async () => Math.abs(((await debug()).joints[J1] ?? NaN) - target) < 1e-3);
+    await waitFor(async () => Math.abs(((await debug()).joints[J1] ?? NaN) - target) < 1e-3, { ...PAGE, what: "the page model to follow" });
     expect(browser.problems).toEqual([]);
   });
 
@@ -217,13 +206,13 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     await page.locator("#motion input[name=speed]").fill("0.05");
     const slider = page.locator(`input[data-joint="${J1}"]`);
     await slider.fill("1.2");
-    await until("the first slider motion to start", async () => (await read<{ state: string }>(twin, "motionStatus")).state === "moving");
+    await waitFor(async () => (await read<{ state: string }>(twin, "motionStatus")).state === "moving", { ...PAGE, what: "the first slider motion to start" });
     await slider.fill("-0.3");
-    const q = await until("joint 1 to settle on the newest target", async () => {
+    const q = await waitFor(async () => {
       const status = await read<{ state: string }>(twin, "motionStatus");
       const j = await read<Joints>(twin, "getJointPosition");
       return status.state !== "moving" && Math.abs((j[J1] ?? NaN) + 0.3) < 1e-3 ? j : null;
-    });
+    }, { ...PAGE, what: "joint 1 to settle on the newest target" });
     expect(q[J1]).toBeCloseTo(-0.3, 3);
     expect((await debug()).errors).toEqual([]);
     await page.locator("#motion input[name=speed]").fill("0.5");
@@ -241,14 +230,15 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     const shown: number[] = [];
     while (!done) {
       shown.push((await debug()).joints[J4] ?? NaN);
+      // the sampling period of what the page shows (no time is asserted)
       await new Promise((r) => setTimeout(r, 50));
     }
     const result = await motion;
     expect(result.status).toBe("reached");
-    const seen = await until("the page model to reach the consumer's target", async () => {
+    const seen = await waitFor(async () => {
       const d = await debug();
       return maxDiff(target, d.joints) < 1e-3 ? d : null;
-    });
+    }, { ...PAGE, what: "the page model to reach the consumer's target" });
     // The live stream moved the model through intermediate states, not just to the end pose.
     const from = q[J4] ?? NaN;
     expect(shown.some((v) => Math.min(v - -1.0, from - v) > 0.05)).toBe(true);
@@ -282,40 +272,40 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     expect(marked?.position[2]).toBeCloseTo(Number(target.z.toFixed(3)), 6);
     expect(report.valid).toBe(true); // 5 cm below a collision-free pose of the kuka, in the free workspace
     await move.click();
-    await until("the end effector to reach the Cartesian target", async () => {
+    await waitFor(async () => {
       const p = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
       return Math.hypot(p.x - target.x, p.y - target.y, p.z - target.z) < 0.005;
-    });
+    }, { ...PAGE, what: "the end effector to reach the Cartesian target" });
   });
 
   it("LIN from the panel: the straight line is validated and moved along (planned=lin)", async () => {
     const { page } = browser;
-    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
+    await waitFor(async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving", { ...PAGE, what: "the twin to be idle" });
     const pose = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
     const target = { x: pose.x, y: pose.y + 0.05, z: pose.z };
     for (const axis of ["x", "y", "z"] as const) await page.locator(`#cartesian input[name=${axis}]`).fill(target[axis].toFixed(3));
     await page.locator("#cartesian select[name=motion]").selectOption("lin");
     await page.locator("#cartesian button", { hasText: "Validate" }).click();
     const verdict = page.locator("#cartesian .verdict");
-    await until("the LIN verdict", async () => ((await verdict.textContent()) ?? "").includes("planned=lin"));
+    await waitFor(async () => ((await verdict.textContent()) ?? "").includes("planned=lin"), { ...PAGE, what: "the LIN verdict" });
     expect((await verdict.textContent())?.startsWith("✔ valid")).toBe(true);
     await page.locator("#cartesian button", { hasText: "Move" }).click();
-    await until("the end effector to reach the LIN target", async () => {
+    await waitFor(async () => {
       const p = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
       return Math.hypot(p.x - target.x, p.y - target.y, p.z - target.z) < 0.005;
-    });
+    }, { ...PAGE, what: "the end effector to reach the LIN target" });
     await page.locator("#cartesian select[name=motion]").selectOption("ptp");
   });
 
   it("a program: validated, its TCP path drawn per step, a refused step drawn red, played, then run on the twin", async () => {
     const { page } = browser;
-    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
+    await waitFor(async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving", { ...PAGE, what: "the twin to be idle" });
     await page.locator("#program button", { hasText: "Example" }).click();
     const steps = JSON.parse(await page.locator("#program textarea").inputValue());
     expect(steps).toHaveLength(5);
     await page.locator("#program button", { hasText: "Validate" }).click();
     const verdict = page.locator("#program .verdict");
-    await until("the program's verdict", async () => ((await verdict.textContent()) ?? "").includes("cycle time"));
+    await waitFor(async () => ((await verdict.textContent()) ?? "").includes("cycle time"), { ...PAGE, what: "the program's verdict" });
     expect((await verdict.textContent())?.startsWith("✔ valid")).toBe(true);
     const drawn = await page.evaluate(() => window.__robwot.program);
     expect(drawn?.valid).toBe(true);
@@ -324,13 +314,13 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     // the square's four LINs drawn with several TCP samples each
     for (const n of drawn!.points.slice(0, 4)) expect(n).toBeGreaterThan(5);
     await page.locator("#program button", { hasText: "Play" }).click();
-    await until("the path played", async () => ((await page.evaluate(() => window.__robwot.program?.played)) ?? 0) >= 1, 30_000);
+    await waitFor(async () => ((await page.evaluate(() => window.__robwot.program?.played)) ?? 0) >= 1, { ...PAGE, what: "the path played", timeoutMs: 30_000 });
     // step 1 a LIN at 3 m/s with the joints at 0.1 % of their velocity limits: refused (no joint can keep
     // that speed), drawn red from the end of step 0 to its target
     const far = [steps[0], { ...steps[1], speed: 0.001, tcpSpeed: 3 }];
     await page.locator("#program textarea").fill(JSON.stringify(far));
     await page.locator("#program button", { hasText: "Validate" }).click();
-    await until("the refusal", async () => ((await verdict.textContent()) ?? "").includes("refused at step 1"));
+    await waitFor(async () => ((await verdict.textContent()) ?? "").includes("refused at step 1"), { ...PAGE, what: "the refusal" });
     const refused = await page.evaluate(() => window.__robwot.program);
     expect(refused).toMatchObject({ valid: false, failing: 1 });
     expect(refused?.points).toHaveLength(1);
@@ -338,14 +328,14 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     const before = await read<Record<string, number>>(twin, "getJointPosition");
     await page.locator("#program textarea").fill(JSON.stringify(steps));
     await page.locator("#program button", { hasText: "Run" }).click();
-    await until("the run's answer", async () => ((await verdict.textContent()) ?? "").startsWith("run: reached"), 60_000);
+    await waitFor(async () => ((await verdict.textContent()) ?? "").startsWith("run: reached"), { ...PAGE, what: "the run's answer", timeoutMs: 60_000 });
     const after = await read<Record<string, number>>(twin, "getJointPosition");
     for (const [j, v] of Object.entries(before)) expect(after[j]).toBeCloseTo(v, 4);
   });
 
   it("the Stop button stops a running motion", async () => {
     // the previous test's move may still be answering (its pose was reached first): a move now would be 409
-    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
+    await waitFor(async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving", { ...PAGE, what: "the twin to be idle" });
     const q = await read<Joints>(twin, "getJointPosition");
     // Turning the last (wrist) joint is collision-free whatever the rest of the arm does.
     const J7 = "lbr_iiwa_joint_7";
@@ -353,17 +343,17 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     const motion = invoke<{ status: string }>(twin, "moveToJointPosition", { joints: target, speed: 0.05 });
     motion.catch(() => undefined); // awaited below; keep an early rejection from being "unhandled"
     // Click once the page shows the wrist actually turning (the motion is running in the simulation).
-    await until("the page to show the motion", async () => Math.abs(((await debug()).joints[J7] ?? NaN) - (q[J7] ?? NaN)) > 0.05);
+    await waitFor(async () => Math.abs(((await debug()).joints[J7] ?? NaN) - (q[J7] ?? NaN)) > 0.05, { ...PAGE, what: "the page to show the motion" });
     await browser.page.locator("#motion button.stop").click();
     await expect(motion).resolves.toMatchObject({ status: "stopped" });
     const stoppedAt = await read<Joints>(twin, "getJointPosition");
     expect(Math.abs((stoppedAt[J7] ?? NaN) - (target[J7] ?? NaN))).toBeGreaterThan(0.05);
-    await until("the page status to say stopped", async () => (await debug()).lastStatus?.state === "stopped");
+    await waitFor(async () => (await debug()).lastStatus?.state === "stopped", { ...PAGE, what: "the page status to say stopped" });
   });
 
   it("a rejected target lists what its path touches and draws those bodies red", async () => {
     const { page } = browser;
-    await until("the twin to be idle", async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving");
+    await waitFor(async () => (await read<{ state: string }>(twin, "motionStatus")).state !== "moving", { ...PAGE, what: "the twin to be idle" });
     const pose = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
     // a block around a target 10 cm below the end effector: every IK solution reaching it collides there
     const target = { x: pose.x, y: pose.y, z: pose.z - 0.1 };
@@ -377,10 +367,10 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
       });
       const contacts = report.checks.path?.contacts ?? [];
       await page.locator("#cartesian button", { hasText: "Validate" }).click();
-      const seen = await until("the page to show the touching bodies", async () => {
+      const seen = await waitFor(async () => {
         const d = await debug();
         return d.target?.valid === false && d.highlighted.length > 0 ? d : null;
-      });
+      }, { ...PAGE, what: "the page to show the touching bodies" });
       expect(report.valid).toBe(false);
       expect(contacts.length).toBeGreaterThan(0);
       expect(seen.highlighted).toContain("wall");
@@ -403,14 +393,14 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     // validated before the obstacle existed, so the motion runs into it and stops on contact.
     const motion = invoke<{ status: string }>(twin, "moveToJointPosition", { joints: a, speed: 0.05 });
     motion.catch(() => undefined); // awaited below
-    await until("the motion to start", async () => (await read<{ state: string }>(twin, "motionStatus")).state === "moving");
+    await waitFor(async () => (await read<{ state: string }>(twin, "motionStatus")).state === "moving", { ...PAGE, what: "the motion to start" });
     await invoke(twin, "addObstacle", { name: "probe", shape: { type: "sphere", radius: 0.06 }, position: [p.x, p.y, p.z] });
     try {
       await expect(motion).resolves.toMatchObject({ status: "collision" });
-      const seen = await until("the page to highlight the collision", async () => {
+      const seen = await waitFor(async () => {
         const d = await debug();
         return d.collisions > before && d.highlighted.length > 0 ? d : null;
-      });
+      }, { ...PAGE, what: "the page to highlight the collision" });
       expect(seen.highlighted).toContain("probe");
       expect(seen.highlighted.some((n) => n.startsWith("lbr_iiwa_link"))).toBe(true);
       await browser.page.screenshot({ path: join(ARTIFACTS, "viewer-collision.png") });
@@ -444,10 +434,10 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
       const [mine, other] = slugs as [string, string];
       problems.length = 0;
       await page.goto(`${sharedBase}viewer/?thing=${encodeURIComponent(mine)}`);
-      const drawn = await until("the other robot to be drawn", async () => {
+      const drawn = await waitFor(async () => {
         const d = await debug();
         return d.phase === "ready" && d.otherRobots[other] && Object.keys(d.otherRobots[other].joints).length === 7 ? d : null;
-      });
+      }, { ...PAGE, what: "the other robot to be drawn" });
       expect(Object.keys(drawn.otherRobots)).toEqual([other]);
       expect(drawn.otherRobots[other]?.base).toEqual([0.4, 1.7, 0.05]);
       const otherSession = await openSession();
@@ -457,7 +447,7 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
         const target: Joints = { ...q, [J1]: (q[J1] ?? 0) > 0.3 ? -0.5 : 0.7, lbr_iiwa_joint_4: -0.8 };
         const result = await invoke<{ status: string }>(otherTwin, "moveToJointPosition", { joints: target, speed: 1 });
         expect(result.status).toBe("reached");
-        await until("the page to show the other robot's new joints", async () => maxDiff(target, (await debug()).otherRobots[other]?.joints ?? {}) < 1e-3);
+        await waitFor(async () => maxDiff(target, (await debug()).otherRobots[other]?.joints ?? {}) < 1e-3, { ...PAGE, what: "the page to show the other robot's new joints" });
       } finally {
         await otherSession.close();
       }
@@ -491,10 +481,10 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
       problems.length = 0;
       const mine = following.things[0]!.slug;
       await page.goto(`${following.url}/viewer/?thing=${encodeURIComponent(mine)}`);
-      await until("the physical robot to be drawn", async () => {
+      await waitFor(async () => {
         const d = await debug();
         return d.phase === "ready" && d.physical?.drawn && d.physical.ghost;
-      });
+      }, { ...PAGE, what: "the physical robot to be drawn" });
       // a pendant jog of the real robot: the page's real robot follows it
       const jog = await fetch(`${robot.tdUrl}/actions/jog`, {
         method: "POST",
@@ -503,7 +493,7 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
       });
       expect(jog.status).toBe(200);
       const real = (await (await fetch(`${robot.tdUrl}/properties/getJointPosition`)).json()) as Joints;
-      await until("the page to show the real robot's joints", async () => maxDiff(real, (await debug()).physical?.joints ?? {}) < 1e-6);
+      await waitFor(async () => maxDiff(real, (await debug()).physical?.joints ?? {}) < 1e-6, { ...PAGE, what: "the page to show the real robot's joints" });
       expect((await debug()).errors).toEqual([]);
       expect(problems).toEqual([]);
       await page.screenshot({ path: join(ARTIFACTS, "viewer-physical-robot.png") });
@@ -511,8 +501,14 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
 
     it("a twin that follows nothing draws no second robot", async () => {
       await browser.page.goto(`${base}viewer/?thing=${encodeURIComponent(slug)}`);
-      await until("the page", async () => (await debug()).phase === "ready");
-      await new Promise((r) => setTimeout(r, 300));
+      await waitFor(async () => (await debug()).phase === "ready", { ...PAGE, what: "the page" });
+      // the marker: a scene edit made now reaches the page after everything the twin sent it before
+      await invoke(twin, "addObstacle", { name: "marker", shape: { type: "sphere", radius: 0.01 }, position: [-1.5, -1.5, 0.05] });
+      try {
+        await waitFor(async () => (await debug()).obstacles.includes("marker"), { ...PAGE, what: "the page to draw the marker" });
+      } finally {
+        await invoke(twin, "removeObstacle", { name: "marker" });
+      }
       expect((await debug()).physical).toBeNull();
     });
   });

@@ -10,7 +10,7 @@ import addFormats from "ajv-formats";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { openSse } from "./helpers/sse.js";
-import { generateTwin, kukaPose, sleep } from "./serve-helpers.js";
+import { generateTwin, kukaPose, waitFor, waitState } from "./serve-helpers.js";
 
 const BASIC = "https://www.w3.org/2022/wot/profile/http-basic/v1";
 const SSE = "https://www.w3.org/2022/wot/profile/http-sse/v1";
@@ -87,15 +87,18 @@ async function invokeAsync(name: string, input: unknown): Promise<Answer> {
 }
 
 async function pollEnd(href: string): Promise<any> {
-  const end = Date.now() + 30_000;
-  for (;;) {
-    const a = await request(href, { headers: { accept: "application/json" } });
-    expect(a.status).toBe(200);
-    if (!["pending", "running"].includes(a.body.status)) return a.body;
-    if (Date.now() > end) throw new Error(`still ${a.body.status}`);
-    await sleep(40);
-  }
+  return waitFor(
+    async () => {
+      const a = await request(href, { headers: { accept: "application/json" } });
+      expect(a.status).toBe(200);
+      return !["pending", "running"].includes(a.body.status) && a.body;
+    },
+    { intervalMs: 40, what: `the end of ${href}` },
+  );
 }
+
+/** The twin's joints as the Profile Consumer reads them. */
+const joints = async (): Promise<Record<string, number>> => (await request(new URL("properties/getJointPosition", td.base).href)).body;
 
 beforeAll(async () => {
   s = await startServient({ twins: [await generateTwin("kuka_iiwa", 3000)], port: 0, realtime: 1, auth: { scheme: "basic", user: "ada", password: "s3cret" } });
@@ -218,7 +221,7 @@ describe("HTTP Basic Profile: Actions", () => {
 
   it("Synchronous Action Response: an error before responding is an Error Response (409 busy: problem details)", async () => {
     const moving = invoke("moveToJointPosition", { joints: FAR, speed: 0.2 });
-    await sleep(300);
+    await waitState(s.things[0]!.tdUrl, "moving", 30_000, AUTH);
     isProblem(await invoke("moveToJointPosition", { joints: HOME }), 409);
     expect((await moving).status).toBe(200);
     expect((await invoke("moveToJointPosition", { joints: HOME, speed: 0.5 })).status).toBe(200);
@@ -240,18 +243,17 @@ describe("HTTP Basic Profile: Actions", () => {
   it("queryaction: GET on the ActionStatus resource answers 200, application/json, an ActionStatus (one of four statuses, RFC 3339 times, output per the action's output schema)", async () => {
     const a = await invokeAsync("moveToJointPosition", { joints: FAR, speed: 0.5 });
     const seen = new Set<string>();
-    let st: any;
-    const end = Date.now() + 30_000;
-    do {
-      const q = await request(a.body.href, { headers: { accept: "application/json" } });
-      expect(q.status).toBe(200);
-      expect(q.type).toMatch(/^application\/json/);
-      st = q.body;
-      expect(STATUSES).toContain(st.status);
-      seen.add(st.status);
-      if (Date.now() > end) throw new Error("did not end");
-      await sleep(30);
-    } while (st.status === "pending" || st.status === "running");
+    const st = await waitFor(
+      async () => {
+        const q = await request(a.body.href, { headers: { accept: "application/json" } });
+        expect(q.status).toBe(200);
+        expect(q.type).toMatch(/^application\/json/);
+        expect(STATUSES).toContain(q.body.status);
+        seen.add(q.body.status);
+        return q.body.status !== "pending" && q.body.status !== "running" && q.body;
+      },
+      { intervalMs: 30, what: "the action's end" },
+    );
     expect(st.status).toBe("completed");
     expect(seen.has("running")).toBe(true);
     expect(st.timeRequested).toMatch(RFC3339);
@@ -285,7 +287,8 @@ describe("HTTP Basic Profile: Actions", () => {
     const cancel = formFor(td.actions.moveToJointPosition.forms, "cancelaction");
     const href = cancel.href.replace("{actionID}", a.body.href.split("/").pop());
     expect(href).toBe(a.body.href);
-    await sleep(300);
+    // cancelled mid-motion
+    await waitFor(async () => (await request(href, { headers: { accept: "application/json" } })).body.status === "running", { what: "the move running" });
     const d = await request(href, { method: "DELETE" });
     expect(d.status).toBe(204);
     expect(d.text).toBe("");
@@ -309,7 +312,7 @@ describe("HTTP SSE Profile", () => {
       try {
         expect(stream.status, name).toBe(200);
         expect(stream.headers.get("content-type"), name).toContain("text/event-stream");
-        await stream.wait((m) => m.some((x) => x.data !== null), 5000);
+        await stream.wait((m) => m.some((x) => x.data !== null));
       } finally {
         stream.close();
       }
@@ -329,11 +332,12 @@ describe("HTTP SSE Profile", () => {
       expect(stream.status).toBe(200);
       expect(stream.headers.get("content-type")).toContain("text/event-stream");
       // a real collision: a slow move into a box added on its way
+      const from = (await joints()).lbr_iiwa_joint_2!;
       const move = invoke("moveToJointPosition", { joints: kukaPose([0, 1.2, 0, -0.4, 0, 0.4, 0]), speed: 0.05 });
-      await sleep(800);
+      await waitFor(async () => Math.abs((await joints()).lbr_iiwa_joint_2! - from) > 0.02, { what: "the move running" });
       expect((await invoke("addObstacle", { name: "intruder", shape: { type: "box", size: [0.2, 0.6, 0.2] }, position: [0.55, 0, 0.75] })).status).toBe(200);
       expect((await move).body.status).toBe("collision");
-      await stream.wait((m) => m.some((x) => x.data !== null), 10_000);
+      await stream.wait((m) => m.some((x) => x.data !== null));
     } finally {
       stream.close();
       await invoke("removeObstacle", { name: "intruder" });

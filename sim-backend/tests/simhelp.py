@@ -5,9 +5,14 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pybullet_data
+
+from robwot_sim.rpc.contract import contract
+from robwot_sim.rpc.methods_motion import program_steps
+from robwot_sim.sim.program import ProgramStep
 
 MODELS = Path(__file__).resolve().parent / "models"
 SCENES = Path(__file__).resolve().parents[2] / "examples" / "scenes"
@@ -15,6 +20,13 @@ DATA = Path(pybullet_data.getDataPath())
 KUKA = "kuka_iiwa/model.urdf"
 PANDA = "franka_panda/panda.urdf"
 XARM = "xarm/xarm6_robot.urdf"
+
+
+def steps_of(steps: list[dict[str, Any]], dof: int) -> list[ProgramStep]:
+    """Program steps as a `program.plan` request's are parsed: checked by the contract, its defaults
+    filled in, each goal's rules checked."""
+    values = contract().validate_params("program.plan", {"robot": "r", "steps": steps})
+    return program_steps(values["steps"], dof)
 
 
 def _rpy(r: float, p: float, y: float) -> np.ndarray:

@@ -57,7 +57,7 @@ def test_srdf_pairs_are_not_checked() -> None:
 
 
 @pytest.mark.parametrize(("text", "error", "line"), [
-    ('<robot name="r">\n<disable_collisions link1="a" link2="nope" reason="x"/>\n</robot>', SrdfError, 2),
+    ('<robot name="r">\n<disable_collisions link1="gone" link2="nope" reason="x"/>\n</robot>', SrdfError, 2),
     ('<robot name="r">\n<disable_collisions link1="a"/>\n</robot>', SrdfError, 2),
     ('<robot name="r">\n<group name="g">\n</robot>', SrdfError, 3),
     ('<!DOCTYPE r [<!ENTITY x "y">]>\n<robot name="r"/>', Forbidden, 1),
@@ -65,7 +65,8 @@ def test_srdf_pairs_are_not_checked() -> None:
 ])
 def test_bad_srdf_is_refused_with_file_and_line(tmp_path: Path, text: str, error: type[Exception],
                                                 line: int) -> None:
-    """Unknown links, missing attributes, malformed XML, DOCTYPE and a wrong root name the file and line."""
+    """Only unknown links, missing attributes, malformed XML, DOCTYPE and a wrong root name the file and
+    line."""
     f = tmp_path / "r.srdf"
     f.write_text(text)
     with pytest.raises(error) as ei:

@@ -17,7 +17,7 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 LAYERS: list[tuple[str, ...]] = [
     ("robwot_sim", "robwot_sim.errors", "robwot_sim.limits", "robwot_sim.jsondepth", "robwot_sim.wholefile",
      "robwot_sim.validate"),
-    ("robwot_sim.xmlsafe", "robwot_sim.model"),
+    ("robwot_sim.model",),
     ("robwot_sim.scene",),
     ("robwot_sim.sim",),
     ("robwot_sim.workspace",),

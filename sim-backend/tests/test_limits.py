@@ -10,7 +10,6 @@ from simhelp import KUKA
 
 from robwot_sim import limits, validate
 from robwot_sim.errors import InvalidParams
-from robwot_sim.sim.motion import check_speed_dt
 from robwot_sim.sim.world import World
 
 CONTRACT = Path(__file__).parents[1] / "src" / "robwot_sim" / "schemas" / "protocol.openrpc.json"
@@ -26,18 +25,6 @@ def test_limits_are_the_contracts_numbers() -> None:
     assert SCHEMAS["Position"]["items"]["maximum"] == limits.MAX_COORDINATE
     assert SCHEMAS["Name"]["maxLength"] == limits.MAX_NAME_LENGTH
     assert SCHEMAS["QuatXyzw"]["x-minNorm"] == limits.MIN_QUATERNION_NORM
-
-
-def test_speed_and_dt_checks_follow_the_contract() -> None:
-    """A motion's speed and time step are accepted at the contract's ends and refused beyond them."""
-    s, d = limits.SPEED, limits.DT
-    assert check_speed_dt(s.minimum, d.maximum) == (s.minimum, d.maximum)
-    assert check_speed_dt(s.maximum, d.minimum) == (s.maximum, d.minimum)
-    for speed, dt, param in ((s.minimum / 2, d.minimum, "speed"), (s.maximum * 1.01, d.minimum, "speed"),
-                             (s.maximum, d.maximum * 2, "dt"), (s.maximum, d.minimum / 2, "dt")):
-        with pytest.raises(InvalidParams) as ei:
-            check_speed_dt(speed, dt)
-        assert ei.value.data["param"] == param
 
 
 def test_positions_names_and_clearance_follow_the_contract() -> None:

@@ -1,5 +1,5 @@
 """A MoveIt config package read as the robot it describes, and an SRDF's every name checked against the
-URDF (an SRDF for another robot refused at its first foreign name, with file and line)."""
+URDF (an SRDF for another robot refused with file and line; one slip skipped: test_friendly_ros_inputs.py)."""
 
 from __future__ import annotations
 
@@ -105,11 +105,12 @@ def test_srdf_read_with_groups_states_and_end_effectors() -> None:
      "<end_effector> names group 'hand', which the SRDF does not define"),
     ('<virtual_joint name="w" type="fixed" parent_frame="world" child_link="world_base"/>', 3,
      "link 'world_base' is not a link of the robot"),
-    ('<disable_collisions link1="base" link2="panda_link0" reason="Adjacent"/>', 3,
-     "link 'panda_link0' is not a link of the robot"),
+    ('<disable_collisions link1="panda_link1" link2="panda_link0" reason="Adjacent"/>', 3,
+     "link 'panda_link1' is not a link of the robot"),
 ])
 def test_srdf_names_checked_with_line(tmp_path: Path, element: str, line: int, says: str) -> None:
-    """Every link, joint and group an SRDF names must exist: refused with the file and line."""
+    """An SRDF whose names are mostly not the robot's (here all), a group it does not define, a value that
+    is no number: refused with the file and line."""
     p = tmp_path / "r.srdf"
     p.write_text(f'<?xml version="1.0"?>\n<robot name="r">\n{element}\n</robot>\n')
     with pytest.raises(SrdfError) as ei:

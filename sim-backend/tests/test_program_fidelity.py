@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from simhelp import steps_of
 
 from robwot_bench.reference import ExactReference, example_robot
 from robwot_sim.model.tool import attach_tool
@@ -80,7 +81,7 @@ def test_every_state_of_every_valid_program_is_free_for_the_exact_reference(ur5_
                 {"target": np.clip(home + rng.uniform(-0.8, 0.8, len(home)), lo, hi).tolist(), "speed": 0.8},
                 {"target": home.tolist(), "acceleration": 0.5},
             ]
-            program = plan_program(world, rid, steps, DT, 50.0)
+            program = plan_program(world, rid, steps_of(steps, model.dof), DT, 50.0)
             if program.path is not None:
                 runs.append(program.path.rows())
                 blended += sum(bool(s.get("blended")) for s in program.report["steps"])

@@ -75,21 +75,21 @@ def test_mimic_joint_followed_in_collision_and_state() -> None:
         assert m.controllable == ("finger",)
         assert m.joint("finger_mimic").mimic is not None
         w.set_joint_positions(m.id, [0.4])
-        e = w._robots[m.id]
-        follower = next(ji.idx for ji in w.bullet.joints(e.bound.body) if ji.name == "finger_mimic")
-        value = pb.getJointState(e.bound.body, follower, physicsClientId=w.bullet.cid)[0]
+        e = w.scene.entry(m.id)
+        follower = next(ji.idx for ji in w.scene.bullet.joints(e.bound.body) if ji.name == "finger_mimic")
+        value = pb.getJointState(e.bound.body, follower, physicsClientId=w.scene.bullet.cid)[0]
         assert value == pytest.approx(0.4 * -0.5 + 0.1)
 
 
 def _brute_force_free(w: World, robot_id: str, q: np.ndarray) -> bool:
     """Every link of the robot against every other body and every non-adjacent, unfiltered self pair,
     with getClosestPoints(distance=0): slow but exhaustive."""
-    e = w._robots[robot_id]
-    b, cid, body = e.bound, w.bullet.cid, e.bound.body
+    e = w.scene.entry(robot_id)
+    b, cid, body = e.bound, w.scene.bullet.cid, e.bound.body
     b.apply(q)
     links = [-1, *range(pb.getNumJoints(body, physicsClientId=cid))]
-    parent = {ji.idx: ji.parent_index for ji in w.bullet.joints(body)}
-    for other in w.table.names:
+    parent = {ji.idx: ji.parent_index for ji in w.scene.bullet.joints(body)}
+    for other in w.scene.table.names:
         if other != body and pb.getClosestPoints(body, other, 0.0, physicsClientId=cid):
             return False
     for i, a in enumerate(links):
@@ -109,7 +109,7 @@ def test_fast_batch_agrees_with_check_collision_and_brute_force(urdf: str, scene
     with World() as w:
         m = w.load_robot(urdf)
         w.load_scene(SCENES / f"obstacles-{scene}.json")
-        e = w._robots[m.id]
+        e = w.scene.entry(m.id)
         qs = e.bound.random_q(np.random.default_rng(5), 150)
         before = w.get_joint_positions(m.id)
         fast = w.collision_free_batch(m.id, qs)
@@ -161,7 +161,7 @@ def test_fast_batch_with_second_robot_and_mesh_obstacle() -> None:
                 "position": [-0.5, 0.2, 0.6],
             }
         )
-        qs = w._robots[a.id].bound.random_q(np.random.default_rng(9), 150)
+        qs = w.scene.entry(a.id).bound.random_q(np.random.default_rng(9), 150)
         fast = w.collision_free_batch(a.id, qs)
         slow = np.array([w.check_collision(a.id, q).collision_free for q in qs])
         assert np.array_equal(fast, slow)

@@ -126,7 +126,7 @@ def test_reach_sphere_holds_every_end_effector_position(urdf, ee) -> None:
     with World() as w:
         m = w.load_robot(urdf, ee_link=ee, base_position=(0.3, -0.2, 0.1),
                          base_orientation=(0.0, 0.0, math.sin(0.4), math.cos(0.4)))
-        centre, radius = w._entry(m.id).sphere
+        centre, radius = w.scene.entry(m.id).sphere
         lo, hi = (np.array(x) for x in zip(*[(m.joint(n).lower, m.joint(n).upper) for n in m.controllable],
                                            strict=True))
         far = max(float(np.linalg.norm(np.array(w.fk(m.id, q).position) - centre))
@@ -141,7 +141,7 @@ def test_ik_beyond_the_reach_sphere_is_refused_without_restarts() -> None:
     inside a real straight-up pose, IK still solves it."""
     with World() as w:
         m = w.load_robot(KUKA)
-        centre, radius = w._entry(m.id).sphere
+        centre, radius = w.scene.entry(m.id).sphere
         up = np.array(w.fk(m.id, [0.0] * 7).position)
         direction = (up - centre) / np.linalg.norm(up - centre)
         with pytest.raises(Unreachable) as ei:

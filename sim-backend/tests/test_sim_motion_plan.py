@@ -57,13 +57,11 @@ def test_a_curve_is_timed_along_its_samples_within_every_limit() -> None:
         assert nearest.max() < 0.01
 
 
-def test_plan_rejects_bad_parameters() -> None:
-    """Speed outside (0, 1], bad dt and out-of-limit targets are refused."""
+def test_plan_rejects_out_of_limit_targets() -> None:
+    """A target beyond the joint limits is refused (speed and dt ranges are the contract's: checked where a
+    request enters)."""
     with World() as w:
         m = w.load_robot(MODELS / "planar2.urdf")
-        for kw in [{"speed": 0}, {"speed": 1.5}, {"dt": 0}, {"dt": float("nan")}, {"speed": True}]:
-            with pytest.raises(InvalidParams):
-                w.plan_motion(m.id, [0.1, 0.1], **kw)
         with pytest.raises(OutOfLimits):
             w.plan_motion(m.id, [0.1, 3.0])
 

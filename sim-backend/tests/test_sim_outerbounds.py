@@ -29,14 +29,14 @@ FRESH = 150
 
 def fresh_apart(w: World, rid: str, margin: float) -> bool:
     """No other body within ``margin`` of the robot at its current state (Bullet distance queries)."""
-    body, cid = w._entry(rid).bound.body, w.bullet.cid
-    return not any(c[8] <= margin for other in w.table.names if other != body
+    body, cid = w.scene.entry(rid).bound.body, w.scene.bullet.cid
+    return not any(c[8] <= margin for other in w.scene.table.names if other != body
                    for c in pb.getClosestPoints(body, other, margin, physicsClientId=cid))
 
 
 def fresh_self_free(w: World, rid: str, bounds: OuterBounds, links: list[int]) -> bool:
     """No link pair the bounds test touches at the robot's current state (Bullet distance queries)."""
-    body, cid = w._entry(rid).bound.body, w.bullet.cid
+    body, cid = w.scene.entry(rid).bound.body, w.scene.bullet.cid
     return not any(c[8] <= 0.0 for a, b in bounds.pairs
                    for c in pb.getClosestPoints(body, body, 0.0, links[a], links[b], physicsClientId=cid))
 
@@ -88,9 +88,9 @@ CASES = [among_4_obstacles("kuka_iiwa/model.urdf", "kuka_4"), ur3_mesh_and_robot
 
 def _links(w: World, rid: str) -> list[int]:
     """The Bullet link index of each box of the robot's bounds (links with collision shapes, in order)."""
-    b = w._entry(rid).bound
-    return [ln for ln in range(-1, pb.getNumJoints(b.body, physicsClientId=w.bullet.cid))
-            if pb.getCollisionShapeData(b.body, ln, physicsClientId=w.bullet.cid)]
+    b = w.scene.entry(rid).bound
+    return [ln for ln in range(-1, pb.getNumJoints(b.body, physicsClientId=w.scene.bullet.cid))
+            if pb.getCollisionShapeData(b.body, ln, physicsClientId=w.scene.bullet.cid)]
 
 
 @pytest.mark.parametrize("load", CASES, ids=[c.__name__ for c in CASES])
@@ -147,7 +147,7 @@ def test_labels_with_the_bounds_equal_bullets_labels(load: Callable[[World], str
         assert 0 < bullet.sum() < ROWS
         differ = np.flatnonzero(with_bounds != bullet)
         assert len(differ) <= ROWS // 100, differ
-        mimic = w._entry(rid).bound.mimic
+        mimic = w.scene.entry(rid).bound.mimic
         for i in differ:
             world = w.queries.mirror(rid) if alone[i] else w.queries.mirror()
             same = np.flatnonzero((alone == alone[i]) & ~sure)

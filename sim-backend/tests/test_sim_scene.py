@@ -111,7 +111,7 @@ def test_example_scenes_are_generated_and_leave_free_space(n: int) -> None:
         m = w.load_robot(KUKA)
         out = w.load_scene(path)
         assert len(out["obstacles"]) == n
-        e = w._robots[m.id]
+        e = w.scene.entry(m.id)
         assert e.checker.static_contacts() == []
         free = w.collision_free_batch(m.id, e.bound.random_q(np.random.default_rng(1), 200))
         assert free.mean() > 0.25

@@ -23,8 +23,8 @@ def _gap(w: World, rid: str, other: str) -> float:
     """Exact closest distance (m) between the robot and an obstacle, from PyBullet's distance query."""
     import pybullet as pb
 
-    ids = {n: b for b, n in w.table.names.items()}
-    pts = pb.getClosestPoints(ids[rid], ids[other], 1.0, physicsClientId=w.bullet.cid)
+    ids = {n: b for b, n in w.scene.table.names.items()}
+    pts = pb.getClosestPoints(ids[rid], ids[other], 1.0, physicsClientId=w.scene.bullet.cid)
     return min(p[8] for p in pts)
 
 
@@ -76,7 +76,7 @@ def test_skipping_distance_queries_far_from_obstacles_finds_the_same_first_conta
         for k, (x, y, z) in enumerate(boxes):
             w.add_obstacle({"name": f"box{k}", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]},
                             "position": [x, y, z]})
-        e = w._robots["kuka"]
+        e = w.scene.entry("kuka")
         lo, hi = m.limits()
         queries = {"gap": 0}
         gap = e.checker.gap

@@ -89,29 +89,29 @@ def test_symlink_out_of_root_refused(tmp_path) -> None:
 
 
 def test_package_uris_never_name_the_filesystem_root_or_a_mere_folder(tmp_path: Path) -> None:
-    """An empty package name, a folder that only has the package's name (no package.xml naming it) and
-    `..` out of a package root are refused: no file outside the allowed roots is reachable."""
+    """An empty package name, a folder named like the package whose package.xml names another, and `..`
+    out of a package root are refused: no file outside the allowed roots is reachable. (A folder with the
+    name and no package.xml is taken, near the URDF only: test_friendly_ros_inputs.py.)"""
     (tmp_path / "tmp" / "robot").mkdir(parents=True)
     (tmp_path / "tmp" / "secret.stl").write_bytes(b"x")
     udir = tmp_path / "tmp" / "robot"
     for bad in ("package:///etc/hostname", f"package:///{tmp_path}/tmp/secret.stl", "package://../tmp/secret.stl"):
         with pytest.raises(PathEscape):
             resolve_mesh(bad, udir)
-    # a folder named like the package is searched only inside the allowed roots, never as a root itself
-    for manifest in (None, "<package><name>other</name></package>"):
-        if manifest:
-            (tmp_path / "tmp" / "package.xml").write_text(manifest)
-        with pytest.raises(FileNotFound) as ei:
-            resolve_mesh("package://tmp/secret.stl", udir)
-        assert str(tmp_path / "tmp" / "secret.stl") not in ei.value.data["searched"]
+    # a folder named like the package but declaring another is searched only inside the allowed roots,
+    # never as a root itself
+    (tmp_path / "tmp" / "package.xml").write_text("<package><name>other</name></package>")
+    with pytest.raises(FileNotFound) as ei:
+        resolve_mesh("package://tmp/secret.stl", udir)
+    assert str(tmp_path / "tmp" / "secret.stl") not in ei.value.data["searched"]
     (tmp_path / "shared").mkdir()
     with pytest.raises((PathEscape, FileNotFound)):  # `..` may only lead to places inside the roots
         resolve_mesh("package://shared/../tmp/secret.stl", udir, {"shared": str(tmp_path / "shared")})
 
 
 def test_package_uris_resolved() -> None:
-    """package:// resolves via user roots, the ROS package holding the URDF (package.xml) and pybullet_data
-    layouts."""
+    """package:// resolves via user roots, the ROS package holding the URDF (package.xml), a folder of the
+    package's name beside the URDF's package and pybullet_data layouts."""
     udir = MODELS / "pkgtest" / "urdf"
     assert (
         resolve_mesh("package://pkgtest/meshes/cube.stl", udir) == MODELS / "pkgtest" / "meshes" / "cube.stl"
@@ -124,18 +124,22 @@ def test_package_uris_resolved() -> None:
     assert resolve_mesh(
         "package://xarm_description/meshes/xarm6/visual/base.stl", (DATA / XARM).parent
     ).is_file()
+    # no package.xml names "shared": the folder of that name beside pkgtest/ is taken, and a note says so
+    notes: dict[str, str] = {}
+    assert resolve_mesh("package://shared/cube.obj", udir, notes=notes) == MODELS / "shared" / "cube.obj"
+    assert list(notes) == ["shared"]
     with pytest.raises(FileNotFound) as ei:
-        resolve_mesh("package://shared/cube.obj", udir)
-    assert ei.value.data["reference"] == "package://shared/cube.obj"
+        resolve_mesh("package://nowhere/cube.obj", udir)
+    assert ei.value.data["reference"] == "package://nowhere/cube.obj"
 
 
 def test_stl_obj_dae_meshes_load_as_collision_shapes() -> None:
     """ASCII STL (converted), OBJ and DAE collision meshes all become collision shapes in PyBullet."""
     with World() as w:
         m = w.load_robot(MODELS / "mesh_formats.urdf")
-        e = w._robots[m.id]
+        e = w.scene.entry(m.id)
         for link in ("base", "a", "b"):
-            assert w.bullet.has_collision_shape(e.bound.body, e.bound.link_index[link])
+            assert w.scene.bullet.has_collision_shape(e.bound.body, e.bound.link_index[link])
         w.set_joint_positions(m.id, [0.0, 0.0])
         w.add_obstacle(
             {"name": "probe", "shape": {"type": "sphere", "radius": 0.03}, "position": [0.6, 0.0, 0.4]}

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from simhelp import KUKA
+from simhelp import KUKA, steps_of
 
 from robwot_sim.errors import PlanBudget
 from robwot_sim.sim.collision import CollisionChecker
@@ -21,7 +21,6 @@ from robwot_sim.sim.pathcheck import curve_checkpoints
 from robwot_sim.sim.planner import plan_joints, plan_lin
 from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.timed import Curve, TimedPath
-from robwot_sim.sim.trajectory import timed_path
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Kind, WorldThread, checkpoint
 
@@ -33,14 +32,14 @@ def _lin(world: World, rid: str, dy: float, *, speed: float,
     """A LIN of the KUKA's end effector ``dy`` m along y from START, planned and timed (and checked)."""
     world.set_joint_positions(rid, START)
     x, y, z = world.fk(rid).position
-    plan = plan_lin(world, rid, [x, y + dy, z], None, speed=speed, tcp_speed=tcp_speed)
+    plan = plan_lin(world, rid, [x, y + dy, z], None, speed=speed, dt=1 / 240, tcp_speed=tcp_speed)
     assert plan.valid, plan.reasons
-    return timed_path(world, rid, plan, speed=speed, dt=1 / 240)
+    return plan, plan.path
 
 
 def _touching(world: World, rid: str, states: np.ndarray) -> bool:
     """Whether the robot touches anything (Bullet's distance queries, no clearance) at any of ``states``."""
-    e = world._robots[rid]
+    e = world.scene.entry(rid)
     saved = e.bound.q.copy()
     try:
         for q in states:
@@ -81,7 +80,7 @@ def test_a_curves_checkpoints_keep_the_travel_between_them_within_the_sweep() ->
         assert path is not None
         curve = path.pieces[0]
         assert isinstance(curve, Curve)
-        reach = w._robots[m.id].guard.reach
+        reach = w.scene.entry(m.id).guard.reach
         for spacing in (0.004, 0.001):
             params = curve_checkpoints(curve, reach, spacing)
             assert params[0] == 0.0 and params[-1] == 1.0 and np.all(np.diff(params) >= 0)
@@ -129,12 +128,13 @@ def test_a_slow_curve_checked_at_its_checkpoints_lets_no_contact_through() -> No
     passed = refused = 0
     with World() as w:
         m = w.load_robot(KUKA)
-        guard = w._robots[m.id].guard
+        guard = w.scene.entry(m.id).guard
         w.set_joint_positions(m.id, START)
         x, y, z = w.fk(m.id).position
-        arc = plan_lin(w, m.id, [x, y + 0.2, z], None, [x, y + 0.1, z + 0.1], speed=0.2, tcp_speed=0.03)
+        arc = plan_lin(w, m.id, [x, y + 0.2, z], None, [x, y + 0.1, z + 0.1], speed=0.2, dt=1 / 240,
+                       tcp_speed=0.03)
         assert arc.valid, arc.reasons
-        _, path = timed_path(w, m.id, arc, speed=0.2, dt=1 / 240)
+        path = arc.path
         assert path is not None
         curve = path.pieces[0]
         assert isinstance(curve, Curve) and curve.row_travel_bound(guard.reach) <= guard.clearance
@@ -167,7 +167,8 @@ def test_a_plan_past_its_budget_is_refused_naming_the_step_and_the_thread_serves
         owner.call(lambda: world.set_joint_positions(rid, START))
         x, y, z = owner.call(lambda: world.fk(rid).position)
         # LINs back and forth: each one's samples are IK solutions (tens of milliseconds of work)
-        steps = [{"motion": "lin", "position": [x, y - (0.0 if k % 2 else 0.2), z]} for k in range(60)]
+        lins = [{"motion": "lin", "position": [x, y - (0.0 if k % 2 else 0.2), z]} for k in range(60)]
+        steps = steps_of(lins, 7)
         job = owner.submit(lambda: plan_program(world, rid, steps, 1 / 240, 50.0), Kind.LONG, robot=rid,
                            budget=0.3)
         time.sleep(0.1)
@@ -195,16 +196,28 @@ def test_a_plan_past_its_budget_is_refused_naming_the_step_and_the_thread_serves
         world.close()
 
 
-def test_a_move_runs_the_path_its_plan_checked() -> None:
-    """A valid joint plan carries the timed path its check ran over: the move at the same timing runs
-    that path, not one planned again; another timing (acceleration) plans its own."""
+def test_every_valid_plan_carries_the_path_it_checked() -> None:
+    """A straight joint plan, a detour and a LIN each carry their timed path, timed as asked (speed, dt,
+    acceleration), from the state they were planned in to their target; a refused plan carries none."""
     with World() as w:
         m = w.load_robot(KUKA)
-        plan = plan_joints(w, m.id, START, 0.5, 1 / 240)
-        assert plan.valid and plan.path is not None
-        same, path = timed_path(w, m.id, plan, speed=0.5, dt=1 / 240)
-        assert same is plan and path is plan.path
-        _, slower = timed_path(w, m.id, plan, speed=0.5, dt=1 / 240, acceleration=0.25)
-        assert slower is not None and slower is not plan.path and len(slower) > len(path)
-        _, elsewhere = timed_path(w, m.id, plan, speed=0.5, dt=1 / 240, start=[0.1] * m.dof)
-        assert elsewhere is not None and elsewhere.first[0] == pytest.approx(0.1)
+        straight = plan_joints(w, m.id, START, 0.5, 1 / 240)
+        slower = plan_joints(w, m.id, START, 0.5, 1 / 240, acceleration=0.25)
+        for plan in (straight, slower):
+            assert plan.valid and plan.path is not None and plan.path.dt == 1 / 240
+            assert plan.path.first == pytest.approx(w.get_joint_positions(m.id))
+            assert plan.path.last == pytest.approx(START)
+        assert slower.path is not None and straight.path is not None and len(slower.path) > len(straight.path)
+        # a box where the end effector passes on the straight way to the target: a detour
+        wall = list(w.fk(m.id, [0, 0.6, 0, 0, 0, 0, 0]).position)
+        w.add_obstacle({"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": wall})
+        detour = plan_joints(w, m.id, [0, 1.2, 0, 0, 0, 0, 0], 1.0, 1 / 240)
+        assert detour.valid and detour.checks["path"]["planned"] == "detour" and detour.via
+        assert detour.path is not None and len(detour.path.pieces) == len(detour.via) + 1
+        assert w.check_states(m.id, detour.path).collision_free
+        assert detour.path.last == pytest.approx([0, 1.2, 0, 0, 0, 0, 0])
+        w.remove_obstacle("wall")
+        _, lin = _lin(w, m.id, 0.1, speed=1.0, tcp_speed=0.25)
+        assert lin is not None and isinstance(lin.pieces[0], Curve)
+        refused = plan_joints(w, m.id, [0.0, 3.0, 0, 0, 0, 0, 0], 1.0, 1 / 240)
+        assert not refused.valid and refused.path is None

@@ -25,7 +25,7 @@ BASE_QUAT = (0.1, 0.2, 0.3, 0.9)  # normalised by the loader and by the FK alike
 def _chain(urdf: Path, ee: str, controllable: list[str]) -> ChainFK:
     """The chain of a URDF file from the one joint-tree parser."""
     model = parse_model(parse_urdf(urdf))
-    return ChainFK.from_joints(model.joints, model.links, ee, controllable)
+    return ChainFK.from_joints(model.joints, model.links, ee, controllable, model.couplings)
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +78,7 @@ def test_fk_mimic_follows_master() -> None:
     """A mimic joint on the chain moves with its master (multiplier and offset) without a vector entry."""
     fk = _chain(MODELS / "chain_mimic.urdf", "tool", ["base_yaw", "spin", "slide"])
     follower = next(j for j in fk.joints if j.name == "follower")
-    assert (follower.source, follower.multiplier, follower.offset) == (0, 0.5, 0.2)
+    assert (follower.terms, follower.offset) == (((0, 0.5),), 0.2)
     assert fk.dof == 3
 
 

@@ -18,8 +18,8 @@ export interface SseStream {
   messages: SseMessage[];
   /** the messages with data (events), parsed */
   events(): { event: string | null; id: string | null; data: any }[];
-  /** resolves once `until(messages)` holds; rejects after `ms` */
-  wait(until: (m: SseMessage[]) => boolean, ms: number): Promise<void>;
+  /** resolves once `until(messages)` holds; rejects after `ms` (a bound on a failure only) */
+  wait(until: (m: SseMessage[]) => boolean, ms?: number): Promise<void>;
   close(): void;
 }
 
@@ -74,7 +74,7 @@ export async function openSse(url: string, headers: Record<string, string> = {})
     headers: r.headers,
     messages,
     events: () => messages.filter((m) => m.data !== null).map((m) => ({ event: m.event, id: m.id, data: JSON.parse(m.data!) })),
-    wait: (until, ms) =>
+    wait: (until, ms = 30_000) =>
       new Promise<void>((resolve, reject) => {
         const check = (): void => {
           if (until(messages)) done(resolve);

@@ -6,7 +6,8 @@
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import { buildThingModel, mulberry32, reachOverlaps, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
-import type { Backend, RobotLoadProgressNotification, RobotModel, WorkspaceSummary, WorldList } from "./backend.js";
+import type { RobotLoadProgressNotification, RobotModel, SimClient, WorkspaceSummary, WorldList } from "@robwot/sim-client";
+import type { BackendGuard } from "./backend-guard.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError, describeError } from "./errors.js";
@@ -19,7 +20,8 @@ import { VERSION } from "./version.js";
 
 export interface GenerateResult {
   out: string;
-  robot: { name: string; id: string; urdf: string; eeLink: string; controllable: string[] };
+  /** `couplings`: each joint that follows others, as `FOLLOWER=EXPR` (mimic tags included) */
+  robot: { name: string; id: string; urdf: string; eeLink: string; controllable: string[]; couplings: string[] };
   scene: string | null;
   obstacles: number;
   summary: WorkspaceSummary;
@@ -27,7 +29,8 @@ export interface GenerateResult {
   seconds: number;
   /** the scene's other robots (id, base position in m) */
   otherRobots: { id: string; basePosition: number[] }[];
-  /** what the user should know: robots of the scene this one can touch */
+  /** what the user should know: what reading the robot skipped or guessed (SRDF entries of unknown names,
+   * packages taken by their folder's name), robots of the scene this one can touch */
   warnings: string[];
 }
 
@@ -75,11 +78,11 @@ function samePath(a: string, b: string): boolean {
  * The scene's other robots exported into the twin folder (`robots/<id>/`: URDF, meshes, convex parts), so
  * the folder is self-contained and `serve` loads them from inside it; returns each id's URDF path there.
  */
-async function exportSceneRobots(backend: Backend, world: WorldList, ownRobot: string, dir: string): Promise<Map<string, string>> {
+async function exportSceneRobots(sim: SimClient, world: WorldList, ownRobot: string, dir: string): Promise<Map<string, string>> {
   const out = new Map<string, string>();
   for (const r of world.robots.filter((x) => x.id !== ownRobot)) {
     const folder = `${TWIN_FOLDERS.sceneRobots}/${r.id}`;
-    await backend.exportRobot({ robot: r.id, outDir: join(dir, folder) });
+    await sim.exportRobot({ robot: r.id, outDir: join(dir, folder) });
     out.set(r.id, `${folder}/${TWIN_FILES.urdf}`);
   }
   return out;
@@ -93,13 +96,13 @@ const WHY_SAMPLES = 40;
  * one by one, their contacts counted per pair of bodies (robot links, obstacles, other robots), the most
  * frequent first with the share of configurations it appears in.
  */
-async function touchingPairs(backend: Backend, model: RobotModel, seed: number): Promise<string> {
+async function touchingPairs(sim: SimClient, model: RobotModel, seed: number): Promise<string> {
   const random = mulberry32(seed);
   const joints = model.controllable.map((n) => model.joints.find((j) => j.name === n)!);
   const counts = new Map<string, number>();
   for (let i = 0; i < WHY_SAMPLES; i++) {
     const q = joints.map((j) => j.lower + random() * (j.upper - j.lower));
-    const report = await backend.checkCollision(model.id, q);
+    const report = await sim.checkCollision({ robot: model.id, positions: q });
     const pairs = new Set(report.contacts.map((c) => [c.a, c.b].map((s) => (s.link === null ? s.body : `${s.body}/${s.link}`)).sort().join(" touches ")));
     for (const p of pairs) counts.set(p, (counts.get(p) ?? 0) + 1);
   }
@@ -113,9 +116,9 @@ async function touchingPairs(backend: Backend, model: RobotModel, seed: number):
  * line of end-effector positions) could never validate a Cartesian target, and serve would refuse it:
  * it is not written. Exit 1 with what to check.
  */
-async function refuseDegenerate(summary: WorkspaceSummary, dir: string, backend: Backend, model: RobotModel, crowded: readonly string[]): Promise<void> {
+async function refuseDegenerate(summary: WorkspaceSummary, dir: string, sim: SimClient, model: RobotModel, crowded: readonly string[]): Promise<void> {
   if (summary.collisionFree === 0) {
-    const touching = await touchingPairs(backend, model, summary.seed);
+    const touching = await touchingPairs(sim, model, summary.seed);
     const why = crowded.length > 0 ? `; ${crowded.join("; ")}` : "";
     throw new CliError(
       `no collision-free configuration in ${summary.samples} samples: the robot touches itself or the scene everywhere; ${touching}${why} (check the scene, the base pose and the URDF's collision geometry)`,
@@ -140,7 +143,7 @@ async function refuseDegenerate(summary: WorkspaceSummary, dir: string, backend:
  */
 async function loadRobotInScene(
   opts: GenerateOptions,
-  backend: Backend,
+  sim: SimClient,
   urdf: string,
   packageRoots: Record<string, string>,
   onMesh: (mesh: RobotLoadProgressNotification) => void,
@@ -154,12 +157,16 @@ async function loadRobotInScene(
     ...(accelerations !== undefined ? { accelerationLimits: accelerations } : {}),
   };
   const base = opts.base ? { basePosition: opts.base.position, baseOrientation: opts.base.orientation } : {};
-  const own = { urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf, ...base };
-  if (!opts.scene) return backend.loadRobot(own, onMesh);
-  await backend.loadScene({ path: opts.scene, packageRoots });
+  const coupled = {
+    ...(opts.couplings.length > 0 ? { couplings: opts.couplings } : {}),
+    ...(opts.keepLevel.length > 0 ? { keepLevel: opts.keepLevel } : {}),
+  };
+  const own = { urdf, ...(opts.ee !== undefined ? { eeLink: opts.ee } : {}), packageRoots, ...srdf, ...base, ...coupled };
+  if (!opts.scene) return sim.loadRobot(own, { onProgress: onMesh });
+  await sim.loadScene({ path: opts.scene, packageRoots });
   // the scene names the user's file; the robot loaded may be a copy of it (with a tool, or expanded)
-  const placed = (await backend.listWorld()).robots.find((r) => samePath(r.urdf, urdf) || samePath(r.urdf, source));
-  if (!placed) return backend.loadRobot(own, onMesh);
+  const placed = (await sim.listWorld()).robots.find((r) => samePath(r.urdf, urdf) || samePath(r.urdf, source));
+  if (!placed) return sim.loadRobot(own, { onProgress: onMesh });
   if (opts.base) {
     // two placements of one robot: neither silently wins
     throw new CliError(
@@ -168,8 +175,8 @@ async function loadRobotInScene(
       2,
     );
   }
-  await backend.removeRobot(placed.id);
-  return backend.loadRobot({
+  await sim.removeRobot({ robot: placed.id });
+  return sim.loadRobot({
     urdf,
     id: placed.id,
     basePosition: placed.basePosition,
@@ -177,7 +184,8 @@ async function loadRobotInScene(
     eeLink: opts.ee ?? placed.eeLink,
     packageRoots,
     ...srdf,
-  }, onMesh);
+    ...coupled,
+  }, { onProgress: onMesh });
 }
 
 /** A load that takes longer than this without a mesh reported is (nearly always) the first decomposition
@@ -212,22 +220,24 @@ function meshProgress(progress: ProgressSink): { onMesh: (m: RobotLoadProgressNo
  */
 export async function generateTwin(
   opts: GenerateOptions,
-  backend: Backend,
+  backend: BackendGuard,
   staged: StagedDir,
   progress: ProgressSink,
 ): Promise<GenerateResult> {
   const t0 = performance.now();
   progress.stage("load");
+  const { sim } = backend;
   const source = urdfPath(opts, backend.pybulletData);
   // The backend starts its collision workers (and loads the alpha-shape code) while it loads the scene.
-  if (opts.cluster === undefined) await backend.warmUp(opts.workers);
-  const input = await prepareRosInput(opts, backend, source);
+  // Only a head start: should it fail, workspace.generate starts the pool itself and reports any real failure.
+  if (opts.cluster === undefined) await sim.warmUp(opts.workers === undefined ? {} : { workers: opts.workers }).catch(() => undefined);
+  const input = await prepareRosInput(opts, sim, source);
   // from here on the robot is the prepared one: the SRDF and end effector the input chose
   const { srdf: _srdf, ee: _ee, ...rest } = opts;
   const effective: GenerateOptions = { ...rest, ...(input.srdf !== undefined ? { srdf: input.srdf } : {}), ...(input.ee !== undefined ? { ee: input.ee } : {}) };
   let keep = false;
   try {
-    return await generateFrom(effective, backend, staged, progress, t0, input);
+    return await generateFrom(effective, sim, staged, progress, t0, input);
   } catch (err) {
     const { message, code } = describeError(err);
     if (input.expandedDir !== undefined && message.includes(input.urdf)) {
@@ -243,7 +253,7 @@ export async function generateTwin(
 
 async function generateFrom(
   opts: GenerateOptions,
-  backend: Backend,
+  sim: SimClient,
   staged: StagedDir,
   progress: ProgressSink,
   t0: number,
@@ -251,18 +261,21 @@ async function generateFrom(
 ): Promise<GenerateResult> {
   const { source, urdf, packageRoots } = input;
   const meshes = meshProgress(progress);
-  const model = await whileSlow(loadRobotInScene(opts, backend, urdf, packageRoots, meshes.onMesh, source, input.accelerations), SLOW_LOAD_MS, () => {
+  const model = await whileSlow(loadRobotInScene(opts, sim, urdf, packageRoots, meshes.onMesh, source, input.accelerations), SLOW_LOAD_MS, () => {
     if (!meshes.seen()) progress.info(SLOW_LOAD);
   });
   staged.refuseOtherRobot(model.name, opts.force);
-  const world = await backend.listWorld();
+  for (const c of model.couplings.filter((k) => k.source === "keep-level")) {
+    progress.info(`--keep-level: derived --couple "${c.expression}" (recorded in twin.json)`);
+  }
+  const world = await sim.listWorld();
   const obstacles = world.obstacles;
 
   // Generation starts first: the backend serves the export (and the CLI writes its files) meanwhile.
-  const generating = startGenerating(opts, backend, model, staged.tmp, progress);
-  await backend.exportRobot({ robot: model.id, outDir: staged.tmp });
+  const generating = startGenerating(opts, sim, model, staged.tmp, progress);
+  await sim.exportRobot({ robot: model.id, outDir: staged.tmp });
   if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, TWIN_FILES.srdf));
-  const scene = sceneDocument(world, model.id, staged.tmp, opts.scene, await exportSceneRobots(backend, world, model.id, staged.tmp));
+  const scene = sceneDocument(world, model.id, staged.tmp, opts.scene, await exportSceneRobots(sim, world, model.id, staged.tmp));
   writeJson(join(staged.tmp, TWIN_FILES.scene), scene);
   writeManifest(staged.tmp, model, opts, input);
 
@@ -275,7 +288,7 @@ async function generateFrom(
   const summary = await generating;
   const others = world.robots.filter((r) => r.id !== model.id);
   const warnings = overlapWarnings(model, others, summary);
-  await refuseDegenerate(summary, staged.tmp, backend, model, warnings);
+  await refuseDegenerate(summary, staged.tmp, sim, model, warnings);
   writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
   writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
   noteSurface(summary, progress);
@@ -290,20 +303,20 @@ async function generateFrom(
   progress.end();
   return {
     out: staged.out,
-    robot: { name: model.name, id: model.id, urdf: source, eeLink: model.eeLink, controllable: model.controllable },
+    robot: { name: model.name, id: model.id, urdf: source, eeLink: model.eeLink, controllable: model.controllable, couplings: model.couplings.map((c) => c.expression) },
     scene: opts.scene ?? null,
     obstacles: obstacles.length,
     summary,
     td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
     seconds: (performance.now() - t0) / 1000,
     otherRobots: others.map((r) => ({ id: r.id, basePosition: r.basePosition })),
-    warnings,
+    warnings: [...inputWarnings(input, model), ...warnings],
   };
 }
 
 /** The workspace generation, started: the caller exports the robot and checks the TD while it runs. */
-function startGenerating(opts: GenerateOptions, backend: Backend, model: RobotModel, dir: string, progress: ProgressSink): Promise<WorkspaceSummary> {
-  const generating = backend.generateWorkspace(
+function startGenerating(opts: GenerateOptions, sim: SimClient, model: RobotModel, dir: string, progress: ProgressSink): Promise<WorkspaceSummary> {
+  const generating = sim.generateWorkspace(
     {
       robot: model.id,
       samples: opts.samples,
@@ -315,7 +328,7 @@ function startGenerating(opts: GenerateOptions, backend: Backend, model: RobotMo
       csvJoints: opts.csvJoints,
       reachVoxel: opts.reachVoxel,
     },
-    (p) => progress.update(p.stage, p.done, p.total),
+    { onProgress: (p) => progress.update(p.stage, p.done, p.total) },
   );
   // Abandoned (and rejected when the backend stops) if the export or the early TD check fails.
   generating.catch(() => undefined);
@@ -324,6 +337,7 @@ function startGenerating(opts: GenerateOptions, backend: Backend, model: RobotMo
 
 /** twin.json: the robot as `serve` loads it again, and what it was made from. */
 function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, input: RosInput): void {
+  const rules = model.couplings.filter((c) => c.source !== "mimic").map((c) => c.expression);
   writeJson(join(dir, TWIN_FILES.manifest), {
     version: 1,
     robot: {
@@ -346,11 +360,19 @@ function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, in
       ...(input.accelerations !== undefined ? { accelerations: input.accelerations } : {}),
       // --tcp / --tool-mesh: robot.urdf carries the tool (links robwot_tool, robwot_tcp); eeLink is the TCP
       ...(input.tool !== undefined ? { tool: input.tool } : {}),
+      // --couple rules and those --keep-level derived (robot.urdf's own <mimic> tags aside): serve loads them
+      ...(rules.length > 0 ? { couplings: rules } : {}),
     },
     scene: TWIN_FILES.scene,
     generatedAt: new Date().toISOString(),
     tool: `robwot ${VERSION}`,
   });
+}
+
+/** What reading the robot skipped or guessed, each once (`robot.readSrdf` and `robot.load` both report the
+ * SRDF's skipped entries; `robot.load` the packages it took by their folder's name). */
+function inputWarnings(input: RosInput, model: RobotModel): string[] {
+  return [...new Set([...(input.srdfWarnings ?? []), ...(model.warnings ?? [])])];
 }
 
 /** Robots of the scene whose reach overlaps this one's: the user should know they can touch. */

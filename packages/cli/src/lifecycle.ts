@@ -3,6 +3,7 @@
  * reverse order) on normal completion, on errors, and on SIGINT/SIGTERM/SIGHUP, each at most once;
  * the process then exits with 128 + the signal number.
  */
+import { TRANSPORT } from "@robwot/core/backend-contract";
 
 type Cleanup = () => void | Promise<void>;
 
@@ -46,8 +47,9 @@ function installSignalHandlers(): void {
       if (interrupted) process.exit(code);
       interrupted = true;
       process.stderr.write(`\nrobwot: ${sig === "SIGINT" ? "interrupted" : sig === "SIGHUP" ? "hung up" : "terminated"}, cleaning up\n`);
-      // an own backend gets 5 s to stop before SIGKILL: leave time for the clean-ups after it
-      const force = setTimeout(() => process.exit(code), 15_000);
+      // an own backend gets the contract's stop timeout before SIGKILL: leave as long again for the clean-ups
+      // after it, and as long for anything stuck
+      const force = setTimeout(() => process.exit(code), 3 * TRANSPORT.stopTimeoutMs);
       force.unref();
       void runCleanups().finally(() => process.exit(code));
     });

@@ -1,9 +1,9 @@
 #!/usr/bin/env node
 /**
  * `robwot` entry point: dispatches to one module per command and turns every failure into
- * `robwot: error: <message>` on stderr with a non-zero exit code.
+ * `robwot: error: <message>` on stderr with a non-zero exit code. Its own imports are light (`--version`,
+ * `--help`); a command's modules, and the packages behind them, load only when that command runs.
  */
-import { describeError } from "./errors.js";
 import { runCleanups, wasInterrupted } from "./lifecycle.js";
 import { silenceAjvFormatNoise } from "./quiet-console.js";
 import { exampleHelp } from "./examples.js";
@@ -71,6 +71,7 @@ try {
     await runCleanups();
     process.exit(130);
   }
+  const { describeError } = await import("./errors.js");
   const { message, exitCode } = describeError(err);
   process.stderr.write(`robwot: error: ${message}\n`);
   if (process.env["ROBWOT_DEBUG"] && err instanceof Error && err.stack) process.stderr.write(`${err.stack}\n`);

@@ -6,8 +6,7 @@
  */
 import { rmSync } from "node:fs";
 import { basename, dirname } from "node:path";
-import type { SrdfInfo } from "@robwot/sim-client";
-import type { Backend } from "./backend.js";
+import type { SimClient, SrdfInfo } from "@robwot/sim-client";
 import type { GenerateOptions, ToolShape } from "./commands/generate-options.js";
 import { CliError } from "./errors.js";
 
@@ -35,6 +34,8 @@ export interface RosInput {
   tool?: { flange: string; tcp: number[]; mesh?: string; shape?: ToolShape };
   /** the temporary folder of the URDF with the tool (the caller removes it) */
   toolDir?: string;
+  /** `robot.readSrdf`'s warnings: SRDF entries naming a link or joint the robot lacks, skipped as MoveIt does */
+  srdfWarnings?: string[];
 }
 
 const definedStrings = (roots: Record<string, string | undefined>): Record<string, string> =>
@@ -73,7 +74,7 @@ export function srdfHome(info: SrdfInfo, group: string | undefined): RosInput["h
 }
 
 /** Resolves the robot's files; on failure removes what it created. */
-export async function prepareRosInput(opts: GenerateOptions, backend: Backend, source: string): Promise<RosInput> {
+export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, source: string): Promise<RosInput> {
   let packageRoots = opts.packageRoots;
   let srdf = opts.srdf;
   let xacroArgs = opts.xacroArgs;
@@ -81,7 +82,7 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
   let accelerations: Record<string, number> = {};
   let limitsRecord: RosInput["limits"];
   if (opts.moveitConfig !== undefined) {
-    const config = await backend.moveitConfig({ dir: opts.moveitConfig, packageRoots });
+    const config = await sim.moveitConfig({ dir: opts.moveitConfig, packageRoots });
     source = config.urdf;
     packageRoots = definedStrings(config.packageRoots);
     srdf ??= config.srdf;
@@ -93,7 +94,8 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
   }
   if (opts.limits !== undefined) {
     // a joint_limits.yaml for any robot: its velocities go into the URDF through the same expansion
-    const limits = await backend.jointLimits(opts.limits);
+    const read = await sim.jointLimits({ file: opts.limits });
+    const limits = { velocities: definedNumbers(read.velocityLimits), accelerations: definedNumbers(read.accelerationLimits) };
     velocityLimits = { ...velocityLimits, ...limits.velocities };
     accelerations = { ...accelerations, ...limits.accelerations };
     xacroArgs ??= {};
@@ -103,7 +105,7 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
   // a URDF has no acceleration limits: they go to twin.json and robot.load
   if (Object.keys(accelerations).length > 0) input.accelerations = accelerations;
   if (xacroArgs !== undefined) {
-    const expanded = await backend.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits });
+    const expanded = await sim.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits });
     input.urdf = expanded.urdf;
     input.expandedDir = dirname(expanded.urdf);
     input.packageRoots = definedStrings(expanded.packageRoots);
@@ -111,7 +113,8 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
     if (source.endsWith(".xacro") || opts.moveitConfig !== undefined) input.xacro = { file: basename(source), args: xacroArgs };
   }
   try {
-    const info = srdf !== undefined ? await backend.readSrdf({ srdf, urdf: input.urdf }) : undefined;
+    const info = srdf !== undefined ? await sim.readSrdf({ srdf, urdf: input.urdf }) : undefined;
+    if (info !== undefined && info.warnings.length > 0) input.srdfWarnings = info.warnings;
     const ee = opts.ee ?? (info ? srdfEndEffector(info, opts.group) : undefined);
     if (ee !== undefined) input.ee = ee;
     if (opts.group !== undefined) input.group = opts.group;
@@ -122,7 +125,7 @@ export async function prepareRosInput(opts: GenerateOptions, backend: Backend, s
       // TCP link it adds is then the end effector
       const [x = 0, y = 0, z = 0, roll = 0, pitch = 0, yaw = 0] = opts.tcp ?? [];
       const tcp: [number, number, number, number, number, number] = [x, y, z, roll, pitch, yaw];
-      const attached = await backend.attachTool({
+      const attached = await sim.attachTool({
         urdf: input.urdf,
         packageRoots: input.packageRoots,
         tcp,

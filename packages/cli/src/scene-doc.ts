@@ -6,7 +6,7 @@
 import { copyFileSync, existsSync, mkdirSync, readFileSync } from "node:fs";
 import { basename, join } from "node:path";
 import { TWIN_FOLDERS } from "@robwot/core";
-import type { WorldList } from "./backend.js";
+import type { WorldList } from "@robwot/sim-client";
 
 export interface SceneDoc {
   version: 1;

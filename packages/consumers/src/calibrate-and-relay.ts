@@ -23,7 +23,7 @@ import { activeCalibration, axisAngle, centroid, invertCalibration, norm, spread
 import { runScenario } from "./lib/run.js";
 import { maxAbsDiff, spreadTargets, type Joints } from "./lib/targets.js";
 import { jointLimits } from "@robwot/core";
-import type { CalibrationResult, CalibrationState, CartesianPose, MotionStatus, RelayedMoveResult, ValidationReport } from "./lib/types.js";
+import type { CalibrationResult, CalibrationState, CartesianPose, MotionStatus, RelayedMoveOutput, ValidationReport } from "./lib/types.js";
 
 const USAGE = "calibrate-and-relay [VIRTUAL TD URL] [PHYSICAL TD URL] [--speed 0..1] [--fraction 0..0.9] [--no-scale] [--timeout S] [--json]";
 
@@ -82,7 +82,7 @@ async function main(): Promise<void> {
         continue;
       }
       const before = await lastResultOf(physical);
-      const moved = await invoke<RelayedMoveResult>(virtual, "moveToJointPosition", { joints: target, speed });
+      const moved = await invoke<RelayedMoveOutput>(virtual, "moveToJointPosition", { joints: target, speed });
       if (moved.status !== "reached") throw new Error(`virtual twin move ended "${moved.status}"`);
       if (moved.relay === undefined) throw new Error(`the virtual twin did not relay the move: serve it with --relay ${physicalUrl}`);
       if (!moved.relay.ok) throw new Error(`relay to the physical twin failed: ${moved.relay.error ?? "?"}`);
@@ -125,7 +125,7 @@ async function main(): Promise<void> {
     if (target === undefined) throw new Error("no real-frame Cartesian target was accepted by validateCartesianPosition");
     const before = await lastResultOf(physical);
     console.log(`\nmoveToCartesianPosition (real frame) ${fmtXyz(xyz(target))}`);
-    const result = await invoke<RelayedMoveResult>(virtual, "moveToCartesianPosition", { ...xyz(target), speed });
+    const result = await invoke<RelayedMoveOutput>(virtual, "moveToCartesianPosition", { ...xyz(target), speed });
     console.log(`virtual twin: ${result.status}, reports ${fmtXyz(result.position, 4)} (real frame)`);
     if (result.relay && !result.relay.ok) console.log(`relay to the physical twin FAILED: ${result.relay.error ?? "?"}`);
     const landed = await settle(physical, before, undefined, timeout);

@@ -19,7 +19,7 @@ import { subscribeLive, type LiveSubscription } from "./lib/live.js";
 import { runScenario } from "./lib/run.js";
 import { acceptedTargets, spreadTargets, type Joints } from "./lib/targets.js";
 import { jointLimits } from "@robwot/core";
-import type { MoveResult } from "./lib/types.js";
+import type { MoveOutput } from "./lib/types.js";
 import type * as WoTTypes from "wot-typescript-definitions";
 
 const USAGE = "observe-joints [TD URL] [--seconds N] [--speed 0..1] [--via ws|poll|both] [--no-move] [--quiet] [--json]";
@@ -173,7 +173,7 @@ async function moveBackAndForth(twin: Twin, obs: Observation, opts: ObserveOptio
   }
   while (opts.move && obs.now() < deadline) {
     const a = obs.now();
-    const result = await invoke<MoveResult>(twin, "moveToJointPosition", { joints: toward, speed: opts.speed });
+    const result = await invoke<MoveOutput>(twin, "moveToJointPosition", { joints: toward, speed: opts.speed });
     obs.moves.push([a, obs.now()]);
     simulated += result.duration;
     if (!opts.quiet) console.log(`[+${fmt(obs.now())} s] move ${result.status} after ${fmt(result.duration)} s`);

@@ -21,7 +21,7 @@ import { loadOfflineWorkspace, type OfflineVerdict } from "./lib/offline.js";
 import { runScenario } from "./lib/run.js";
 import { tableStations } from "./lib/targets.js";
 import { cartesianBounds, TWIN_FILES, type Bounds3 } from "@robwot/core";
-import type { CalibrationState, MoveResult, ValidationReport } from "./lib/types.js";
+import type { CalibrationState, MoveOutput, ValidationReport } from "./lib/types.js";
 
 const USAGE = "pick-and-place [TD URL] [--targets \"x,y,z;x,y,z\"] [--speed 0..1] [--json]";
 
@@ -117,12 +117,12 @@ async function main(): Promise<void> {
     const active = activeCalibration(cal);
     const toVirtual = (p: Vec3): Vec3 => (active ? invertCalibration(active, p) : p);
 
-    const rows: { label: string; target: Vec3; offline: OfflineVerdict; twin: ValidationReport; moved: MoveResult | null }[] = [];
+    const rows: { label: string; target: Vec3; offline: OfflineVerdict; twin: ValidationReport; moved: MoveOutput | null }[] = [];
     for (const t of targets) {
       const offline = ws.check(toVirtual(t.p));
       const verdict = await invoke<ValidationReport>(twin, "validateCartesianPosition", xyz(t.p));
-      let moved: MoveResult | null = null;
-      if (verdict.valid) moved = await invoke<MoveResult>(twin, "moveToCartesianPosition", { ...xyz(t.p), speed });
+      let moved: MoveOutput | null = null;
+      if (verdict.valid) moved = await invoke<MoveOutput>(twin, "moveToCartesianPosition", { ...xyz(t.p), speed });
       rows.push({ label: t.label, target: t.p, offline, twin: verdict, moved });
       const action = moved ? `moved: ${moved.status}, ${fmt(norm(sub(vec(moved.position), t.p)) * 1000, 2)} mm off` : `skipped: ${verdict.reasons.join("; ")}`;
       console.log(`${t.label.padEnd(16)} ${fmtXyz(xyz(t.p))}  ${action}`);

@@ -14,7 +14,7 @@ import { fmt, fmtJoints, fmtXyz, printJsonSummary, table } from "./lib/format.js
 import { runScenario } from "./lib/run.js";
 import { acceptedTargets, maxAbsDiff, spreadTargets } from "./lib/targets.js";
 import { jointLimits } from "@robwot/core";
-import type { CartesianPose, MotionStatus, MoveResult } from "./lib/types.js";
+import type { CartesianPose, MotionStatus, MoveOutput } from "./lib/types.js";
 
 const USAGE = "read-and-move-joints [TD URL] [--speed 0..1] [--fraction 0..0.9] [--json]";
 
@@ -50,7 +50,7 @@ async function main(): Promise<void> {
 
     console.log(`\nmoveToJointPosition speed=${speed}: ${fmtJoints(target)}`);
     const t0 = performance.now();
-    const result = await invoke<MoveResult>(twin, "moveToJointPosition", { joints: target, speed });
+    const result = await invoke<MoveOutput>(twin, "moveToJointPosition", { joints: target, speed });
     const wall = (performance.now() - t0) / 1000;
     console.log(`result: status=${result.status} duration=${fmt(result.duration)} s (wall ${fmt(wall)} s)`);
     console.log(`reached end effector: ${fmtXyz(result.position)} m`);

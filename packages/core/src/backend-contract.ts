@@ -62,6 +62,14 @@ export type ReachVoxel = number;
  * a file or folder path (the longest path Linux accepts: 4096 bytes)
  */
 export type FilePath = string;
+/**
+ * `FOLLOWER=EXPR`: terms joined by `+`/`-`, each `NUMBER`, `NAME`, `NUMBER*NAME` or `NAME*NUMBER` (at most `x-maxTerms`); joint names start with a letter or `_` and hold letters, digits and `_ . / :`
+ */
+export type CouplingRule = string;
+/**
+ * @maxItems 64
+ */
+export type CouplingRules = CouplingRule[];
 export type JointType = "revolute" | "continuous" | "prismatic" | "fixed";
 /**
  * clearance (m) a robot's checked paths and motions keep to other bodies, in [0.0005, 0.02] (Bullet reports other bodies up to 2 cm away); no point of the robot travels more than twice this between checked states
@@ -241,6 +249,28 @@ export type WorkspaceWarmUpResult = WarmUpResult;
 export interface PackageRoots {
   [k: string]: FilePath | undefined;
 }
+/**
+ * a joint following others: value = sum(factor * joint value) + offset, in the controllable joints' coordinates (followers of followers substituted)
+ */
+export interface Coupling {
+  follower: string;
+  terms: {
+    joint: string;
+    factor: number;
+  }[];
+  /**
+   * rad or m
+   */
+  offset: number;
+  /**
+   * a URDF `<mimic>`, a `couplings` rule, or derived for `keepLevel`
+   */
+  source: "mimic" | "couple" | "keep-level";
+  /**
+   * the rule as `couplings` reads it
+   */
+  expression: string;
+}
 export interface Mimic {
   joint: string;
   multiplier: number;
@@ -283,7 +313,7 @@ export interface RobotModel {
   links: string[];
   joints: JointModel[];
   /**
-   * joints forming joint vectors (no fixed, no mimic joints), in vector order
+   * joints forming joint vectors (no fixed joints, no followers: see `couplings`), in vector order
    */
   controllable: string[];
   /**
@@ -297,6 +327,14 @@ export interface RobotModel {
    */
   srdf?: string;
   clearance: Clearance;
+  /**
+   * every joint that follows others (URDF `<mimic>` tags, `couplings`, `keepLevel`), in URDF joint order
+   */
+  couplings: Coupling[];
+  /**
+   * `robot.load` only: what the user should know of the load, one line each: a `package://NAME` taken as a folder named NAME holding the URDF or beside a folder holding it (no package.xml names NAME), an SRDF entry naming a link or joint the robot lacks (skipped, as `robot.readSrdf` reports it)
+   */
+  warnings?: string[];
 }
 export interface BoxShape {
   type: "box";
@@ -585,6 +623,10 @@ export interface SrdfInfo {
     group: string;
     parentGroup?: string;
   }[];
+  /**
+   * one `FILE:LINE: ...` line per skipped entry that names a link or joint the robot lacks, in file order
+   */
+  warnings: string[];
 }
 export interface Bounds {
   min: Vec3;
@@ -884,6 +926,13 @@ export interface RobotLoadParams {
    */
   decompose?: boolean;
   accelerationLimits?: JointAccelerations;
+  couplings?: CouplingRules;
+  /**
+   * links to keep at the orientation they have at the zero configuration: for each, the coupling making the last tilting joint above it (not yet a follower) follow the others is derived (the joints between the base and the link that tilt it must all turn about one axis, after every joint turning about the vertical) and reported in the result's `couplings` with source `keep-level`
+   *
+   * @maxItems 64
+   */
+  keepLevel?: string[];
 }
 /**
  * Params of `robot.remove`.
@@ -1230,6 +1279,24 @@ export type ErrorCode = keyof typeof ERRORS;
 /** The contract's obstacle shape (`ObstacleShape`, references resolved) as data: one `oneOf` member per shape. */
 export const OBSTACLE_SHAPE = {"oneOf":[{"type":"object","properties":{"type":{"const":"box"},"size":{"type":"array","items":{"type":"number","exclusiveMinimum":0,"maximum":10000},"minItems":3,"maxItems":3,"description":"full extents (m)"}},"required":["type","size"],"additionalProperties":false,"title":"BoxShape"},{"type":"object","properties":{"type":{"const":"sphere"},"radius":{"type":"number","exclusiveMinimum":0,"maximum":10000}},"required":["type","radius"],"additionalProperties":false,"title":"SphereShape"},{"type":"object","properties":{"type":{"const":"cylinder"},"radius":{"type":"number","exclusiveMinimum":0,"maximum":10000},"length":{"type":"number","exclusiveMinimum":0,"maximum":10000}},"required":["type","radius","length"],"additionalProperties":false,"description":"along the local Z axis","title":"CylinderShape"},{"type":"object","properties":{"type":{"const":"mesh"},"file":{"type":"string","minLength":1,"maxLength":4096,"description":"a file or folder path (the longest path Linux accepts: 4096 bytes)"},"scale":{"oneOf":[{"type":"number","exclusiveMinimum":0,"maximum":10000},{"type":"array","items":{"type":"number","exclusiveMinimum":0,"maximum":10000},"minItems":3,"maxItems":3}]}},"required":["type","file"],"additionalProperties":false,"description":"STL, OBJ or DAE; parsed by the backend before PyBullet reads it","title":"MeshShape"}],"description":"box (full extents), sphere, cylinder (along local Z) or mesh"} as const;
 
+/** The one timeout and heartbeat policy of every client of the backend (sim-client's connection, launcher and supervisor, used by the CLI and the servient alike), in milliseconds. A method with `x-long` (a motion, a generation, a first load) carries no request deadline: it may rightly last minutes, and the heartbeat bounds it instead, since the backend answers `ping` from its event loop while such a method runs. */
+export const TRANSPORT = {
+  /** a short method (no `x-long`) left unanswered this long declares the backend dead (killed; the servient restarts it from its record, so a late answer can never apply behind its back). Short methods answer at once, the slowest (a plan) ends within its plan budget (`E_PLAN_BUDGET`'s `x-budget`): this deadline outlasts that budget, so it only ends a backend that answers pings but lost a request */
+  requestTimeoutMs: 60000,
+  /** a `ping` is sent this often (never two at once) */
+  heartbeatMs: 1000,
+  /** a `ping` unanswered this long means the backend hung or was stopped (SIGSTOP): it is declared dead, its calls fail and it is killed. Several heartbeats, so one slow answer on a loaded machine is not a death; short enough that a consumer waits seconds, not minutes. `ROBWOT_BACKEND_DEADLINE_MS` overrides it */
+  deadAfterMs: 5000,
+  /** the WebSocket opening handshake with a backend that is listening */
+  connectTimeoutMs: 10000,
+  /** a launched backend prints its ready line within this (Python, PyBullet and numpy imported on a loaded machine), else the launch fails with its stderr */
+  startTimeoutMs: 60000,
+  /** grace between SIGTERM and SIGKILL when a launched backend is stopped: time to end its motions, drain its world's thread and close the world */
+  stopTimeoutMs: 5000,
+  /** after a restart, rebuilding the world (scene, robots, last joints) ends within this as a whole. The meshes' convex parts are cached at the first start, so a restore is short; this ends a backend that answers pings but never finishes one */
+  restoreMs: 300000,
+} as const;
+
 /** The contract's value schemas (ranges, lengths, defaults) as data: what a check outside the backend uses. */
 export const VALUE_SCHEMAS = {
   Vec3: {"type":"array","items":{"type":"number"},"minItems":3,"maxItems":3,"description":"[x, y, z] (m), or [roll, pitch, yaw] (rad)"},
@@ -1243,6 +1310,8 @@ export const VALUE_SCHEMAS = {
   Seed: {"type":"integer","minimum":0,"maximum":4294967295,"default":1,"description":"random seed (32 bits)"},
   ReachVoxel: {"type":"number","minimum":0.005,"maximum":0.5,"description":"voxel side (m) of the reachability map"},
   FilePath: {"type":"string","minLength":1,"maxLength":4096,"description":"a file or folder path (the longest path Linux accepts: 4096 bytes)"},
+  CouplingRule: {"type":"string","minLength":3,"maxLength":1024,"pattern":"^[^=]+=[^=]+$","x-maxTerms":64,"description":"`FOLLOWER=EXPR`: terms joined by `+`/`-`, each `NUMBER`, `NAME`, `NUMBER*NAME` or `NAME*NUMBER` (at most `x-maxTerms`); joint names start with a letter or `_` and hold letters, digits and `_ . / :`"},
+  CouplingRules: {"type":"array","items":{"$ref":"#/components/schemas/CouplingRule"},"maxItems":64},
   JointType: {"type":"string","enum":["revolute","continuous","prismatic","fixed"]},
   Positive: {"type":"number","exclusiveMinimum":0,"maximum":10000},
   Color: {"type":"array","items":{"type":"number","minimum":0,"maximum":1},"minItems":3,"maxItems":4,"description":"[r, g, b] or [r, g, b, a] in [0, 1]"},

@@ -51,3 +51,5 @@ export {
 } from "./calibration.js";
 export type { Calibration, CalibrationPair, PointLike, SimilarityTransform } from "./calibration.js";
 export { gaussian, mulberry32 } from "./random.js";
+export { tdCouplings, withFollowers } from "./couplings.js";
+export type { TdCoupling } from "./couplings.js";

@@ -37,8 +37,10 @@ export interface RobotModelLike {
   name: string;
   eeLink: string;
   joints: JointSpec[];
-  /** Names of the joints forming joint vectors (no fixed, no mimic joints), in vector order. */
+  /** Names of the joints forming joint vectors (no fixed joints, no followers), in vector order. */
   controllable: string[];
+  /** the joints that follow others (`<mimic>`, `--couple`, `--keep-level`), in the controllable joints' coordinates */
+  couplings?: Backend.Coupling[];
   links?: string[];
   basePosition?: Vec3;
   baseOrientation?: QuatXyzw;
@@ -64,6 +66,8 @@ export interface TwinManifest {
     limits?: { file: string; velocities: Record<string, number>; accelerations?: Record<string, number> };
     /** joint -> acceleration limit (rad/s^2 or m/s^2) from a joint_limits.yaml; other joints reach their velocity limit in the contract's `Acceleration.x-accelerationTime` */
     accelerations?: Record<string, number>;
+    /** `--couple` rules and those `--keep-level` derived (`FOLLOWER=EXPR`), passed to `robot.load` as `couplings` */
+    couplings?: string[];
     /** `--tcp` / `--tool-mesh`: the tool robot.urdf carries, mounted on `flange`; `eeLink` is its TCP link */
     tool?: { flange: string; tcp: number[]; mesh?: string; shape?: { type: "box"; size: number[] } | { type: "cylinder"; radius: number; length: number } };
   };
@@ -72,8 +76,8 @@ export interface TwinManifest {
   tool: string;
 }
 
-/** Output of the move actions (Contract 3). */
-export interface MoveResult {
+/** Output of the move actions (Contract 3; the backend's `robot.move` answers `MoveResult`). */
+export interface MoveOutput {
   status: MoveStatus;
   joints: Record<string, number>;
   position: Xyz;
@@ -100,14 +104,14 @@ export interface RelayReport {
 }
 
 /** A move's output with, under `--relay`, the physical robot's part. */
-export type RelayedMoveResult = MoveResult & { relay?: RelayReport };
+export type RelayedMoveOutput = MoveOutput & { relay?: RelayReport };
 
 export interface MotionStatus {
   state: "idle" | "moving" | "stopped" | "collision";
   /** absent when the last operation succeeded */
   lastError?: { code: string; message: string };
   /** absent before the first move */
-  lastResult?: MoveResult;
+  lastResult?: MoveOutput;
 }
 
 /** Output of validateJointPosition / validateCartesianPosition (Contract 3). */

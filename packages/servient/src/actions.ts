@@ -1,7 +1,7 @@
 /**
  * Action handlers, by name (`Affordances.actions`). Inputs come parsed and checked against the TD's schema
- * by the router (`http-middleware.ts`); handlers check what a schema cannot (unknown joints, quaternion
- * norm, calibration geometry) and throw ServientErrors that the router answers with their status.
+ * by the router (`http-middleware.ts`); handlers check what a schema cannot (quaternion norm, calibration
+ * geometry) and throw ServientErrors that the router answers with their status.
  */
 import type { ObstacleMoveParams } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";

@@ -89,6 +89,7 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       ...(m.basePosition ? { basePosition: m.basePosition } : {}),
       ...(m.baseOrientation ? { baseOrientation: m.baseOrientation } : {}),
       ...(m.eeLink ? { eeLink: m.eeLink } : {}),
+      ...(m.couplings !== undefined ? { couplings: m.couplings } : {}),
       decompose: false,
     });
     const names = model.controllable;

@@ -11,9 +11,9 @@
  * part reports the failure within `STOP_DEADLINE_MS`, and the physical robot's stop is sent first,
  * waiting on nothing.
  */
-import type { MoveResult as BackendMoveResult } from "@robwot/sim-client";
+import type { MoveResult } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
-import type { MotionStatus, RelayedMoveResult } from "@robwot/core";
+import type { MotionStatus, RelayedMoveOutput } from "@robwot/core";
 import { ServientError } from "./errors.js";
 import { STOP_DEADLINE_MS, type PhysicalStopReport } from "./relay.js";
 import type { Twin } from "./twin.js";
@@ -55,7 +55,7 @@ export interface StopReport {
 }
 
 /** What a backend motion call answers that the session reads. */
-type MotionAnswer = { status: string; contacts: BackendMoveResult["contacts"]; positions: number[] };
+type MotionAnswer = { status: string; contacts: MoveResult["contacts"]; positions: number[] };
 
 const errorMessage = (err: unknown): string => (err instanceof Error ? err.message : String(err));
 
@@ -151,15 +151,15 @@ export class MotionSession {
   }
 
   /** The status after a motion ended with `status` (a program's in `step`), its result the last one. */
-  ended(status: RelayedMoveResult["status"], lastResult: RelayedMoveResult, step?: number): void {
+  ended(status: RelayedMoveOutput["status"], lastResult: RelayedMoveOutput, step?: number): void {
     this.twin.setStatus({ state: status === "reached" ? "idle" : status, lastError: outcomeError(status, step), lastResult });
   }
 
   /** The answer of a move stopped before its motion started: the twin has not moved. */
-  stoppedBeforeStart(): RelayedMoveResult {
+  stoppedBeforeStart(): RelayedMoveOutput {
     const twin = this.twin;
     const pose = twin.realPose();
-    const result: RelayedMoveResult = { status: "stopped", joints: twin.jointsRecord(), position: pose.position, orientation: pose.orientation, duration: 0 };
+    const result: RelayedMoveOutput = { status: "stopped", joints: twin.jointsRecord(), position: pose.position, orientation: pose.orientation, duration: 0 };
     twin.setStatus({ state: "stopped", lastError: { code: "E_STOPPED", message: "stopped before the motion started" }, lastResult: result });
     return result;
   }

@@ -1,9 +1,9 @@
 /**
  * A move's or a program step's input, parsed once into what the backend is asked (a joint vector, or a
  * pose target in the simulation's frame) and what the physical robot is sent (its relay leg, in the
- * frame of the TD). The schema has bounded the numbers already; what it cannot say is checked here (the
- * joint names, a speed in range, a quaternion of usable norm, which fields go together in a step), and
- * nothing after this re-checks it. The relay command of a move action is built here and nowhere else.
+ * frame of the TD). The schema has checked the joint names and bounded the numbers already; what it cannot
+ * say is checked here (a speed in range, a quaternion of usable norm, which fields go together in a step),
+ * and nothing after this re-checks it. The relay command of a move action is built here and nowhere else.
  */
 import type { ProgramSteps } from "@robwot/sim-client";
 import { MIN_QUATERNION_NORM, MIN_SPEED, type Quaternion, vec, type Vec3 } from "@robwot/core";
@@ -12,7 +12,8 @@ import type { Twin } from "./twin.js";
 import { poseTarget, type PoseTarget } from "./validation.js";
 
 export interface JointInput {
-  joints: Record<string, unknown>;
+  /** every controllable joint, no other (the TD's schema) */
+  joints: Record<string, number>;
   speed?: number;
 }
 
@@ -29,7 +30,7 @@ export interface CartesianInput {
 }
 
 export interface ProgramInput {
-  steps: (Partial<CartesianInput> & { joints?: Record<string, unknown>; acceleration?: number; tcpSpeed?: number; blend?: number })[];
+  steps: (Partial<CartesianInput> & { joints?: Record<string, number>; acceleration?: number; tcpSpeed?: number; blend?: number })[];
 }
 
 /** One command to the physical robot: a move action of the twin's TD and its input. */

@@ -9,7 +9,7 @@
  * stage: before the backend call, during the motion, while the physical robot runs the command.
  */
 import type { PlanChecks } from "@robwot/sim-client";
-import type { RelayedMoveResult, ValidationReport } from "@robwot/core";
+import type { RelayedMoveOutput, ValidationReport } from "@robwot/core";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { ServientError } from "./errors.js";
 import { detourLegs, jointLeg, parseCartesianMove, parseJointMove, parseProgram, type CartesianInput, type JointInput, type ProgramInput, type RelayLeg } from "./move-input.js";
@@ -20,18 +20,18 @@ import type { Twin } from "./twin.js";
 import { report, staticChecks, validateCartesian, validateJoints, type PoseTarget } from "./validation.js";
 import type { WorkspaceChecks } from "./workspace-checks.js";
 
-export type { RelayedMoveResult };
+export type { RelayedMoveOutput };
 export type { CartesianInput, JointInput, ProgramInput } from "./move-input.js";
 export type { MoveHandle, MoveWatch, StopReport } from "./motion-session.js";
 export { RELAY_MOVE_DEADLINE } from "./relay-session.js";
 
 /** runProgram's answer (`programRunResultSchema`). */
 export interface ProgramRunResult {
-  status: RelayedMoveResult["status"];
+  status: RelayedMoveOutput["status"];
   step: number;
   joints: Record<string, number>;
-  position: RelayedMoveResult["position"];
-  orientation: RelayedMoveResult["orientation"];
+  position: RelayedMoveOutput["position"];
+  orientation: RelayedMoveOutput["orientation"];
   duration: number;
   cycleTime: number;
   relay?: ProgramRelayReport;
@@ -82,7 +82,7 @@ export class Mover {
     return programReport(plan);
   }
 
-  async moveJoints(input: JointInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
+  async moveJoints(input: JointInput, watch?: MoveWatch): Promise<RelayedMoveOutput> {
     const m = parseJointMove(this.twin, input);
     return this.session.guarded(watch, async (move) => {
       const { result, detour } = await this.execute(move, { target: m.q }, m.speed, null);
@@ -91,7 +91,7 @@ export class Mover {
     });
   }
 
-  async moveCartesian(input: CartesianInput, watch?: MoveWatch): Promise<RelayedMoveResult> {
+  async moveCartesian(input: CartesianInput, watch?: MoveWatch): Promise<RelayedMoveOutput> {
     const m = parseCartesianMove(this.twin, input);
     return this.session.guarded(watch, async (move) => {
       const { result, detour } = await this.execute(move, m.target, m.speed, staticChecks(this.ws, m.target.position));
@@ -129,7 +129,7 @@ export class Mover {
         },
       );
       const pose = twin.realPose();
-      const motion: RelayedMoveResult = { status: res.status, joints: twin.jointsRecord(res.positions), position: pose.position, orientation: pose.orientation, duration: res.duration };
+      const motion: RelayedMoveOutput = { status: res.status, joints: twin.jointsRecord(res.positions), position: pose.position, orientation: pose.orientation, duration: res.duration };
       const out: ProgramRunResult = { status: res.status, step: res.step, joints: motion.joints, position: pose.position, orientation: pose.orientation, duration: res.duration, cycleTime: res.program?.cycleTime ?? 0 };
       this.session.ended(res.status, motion, res.step);
       // a stop that came after the simulated motion ended still keeps the steps from the physical robot
@@ -159,7 +159,7 @@ export class Mover {
   }
 
   /** A move the simulation completed, relayed as `legs` unless a stop came first (even after its motion ended). */
-  private async relayed(move: PendingMove, result: RelayedMoveResult, legs: () => RelayLeg[]): Promise<void> {
+  private async relayed(move: PendingMove, result: RelayedMoveOutput, legs: () => RelayLeg[]): Promise<void> {
     if (result.status !== "reached" || !this.relays || move.cancelled) return;
     result.relay = await this.relays.move(move, legs(), result.duration);
     this.session.stopWins(move, result);
@@ -175,7 +175,7 @@ export class Mover {
     target: { target: number[] } | PoseTarget,
     speed: number,
     statics: ReturnType<typeof staticChecks> | null,
-  ): Promise<{ result: RelayedMoveResult; detour: number[][] }> {
+  ): Promise<{ result: RelayedMoveOutput; detour: number[][] }> {
     if (move.cancelled) return { result: this.session.stoppedBeforeStart(), detour: [] };
     const twin = this.twin;
     // the twin's joints and pose are already those of the motion's end: the backend sends its final
@@ -189,7 +189,7 @@ export class Mover {
       },
     );
     const pose = twin.realPose();
-    const result: RelayedMoveResult = {
+    const result: RelayedMoveOutput = {
       status: res.status,
       joints: twin.jointsRecord(res.positions),
       position: pose.position,

@@ -195,6 +195,10 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
     const ok = typeof joints === "object" && joints !== null && !Array.isArray(joints) && Object.values(joints).every((v) => typeof v === "number" && Number.isFinite(v)) && typeof home?.from === "string";
     if (!ok) throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.home must be {joints: {name: finite number}, from: text}`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.home" });
   }
+  const couplings = robot.couplings as unknown;
+  if (couplings !== undefined && !(Array.isArray(couplings) && couplings.every((c) => typeof c === "string"))) {
+    throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.couplings must be a list of "FOLLOWER=EXPR" texts`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.couplings" });
+  }
   const sceneFile = manifest.scene === undefined || manifest.scene === "" ? TWIN_FILES.scene : manifest.scene;
   const sceneReal = jail.path(TWIN_FILES.manifest, "scene", sceneFile, { required: false });
   const sceneName = typeof sceneFile === "string" ? sceneFile : TWIN_FILES.scene;

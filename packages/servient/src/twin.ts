@@ -7,7 +7,6 @@ import { EventEmitter } from "node:events";
 import { type CollisionEvent, type Contact, FrameMap, type MotionStatus, quat, type Quaternion, type RobotModelLike, tdContact, type Vec3, xyz, type Xyz } from "@robwot/core";
 import type { PoseResult, RobotStateNotification } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
-import { badInput } from "./errors.js";
 import { MotionRecord } from "./motion-record.js";
 import type { TwinFolder } from "./twin-folder.js";
 
@@ -114,22 +113,10 @@ export class Twin extends EventEmitter<TwinEvents> {
     return out;
   }
 
-  /** Joint record (all controllable joints required, no unknown ones) -> vector. */
-  jointsVector(rec: Record<string, unknown>): number[] {
-    const unknown = Object.keys(rec).filter((k) => !this.joints.includes(k));
-    if (unknown.length > 0) {
-      throw badInput(`unknown joint(s) ${unknown.join(", ")}; joints are ${this.joints.join(", ")}`, {
-        unknown,
-        available: this.joints,
-      });
-    }
-    return this.joints.map((name) => {
-      const v = rec[name];
-      if (typeof v !== "number" || !Number.isFinite(v)) {
-        throw badInput(`joint ${name}: expected a finite number, got ${JSON.stringify(v)}`, { joint: name, value: v ?? null });
-      }
-      return v;
-    });
+  /** A joint record -> the vector in `controllable` order. The record passed the TD's joints schema at the
+   *  router: one finite number per controllable joint, no other key. */
+  jointsVector(rec: Readonly<Record<string, number>>): number[] {
+    return this.joints.map((name) => rec[name] as number);
   }
 
   /** Cartesian pose in the real frame (identity when not calibrated). */

@@ -21,12 +21,11 @@ function session(
   };
 }
 
-/** Per-request timeout of the connections made here (ms): long methods carry none (the heartbeat bounds them). */
-const REQUEST_TIMEOUT_MS = 60_000;
-
-export function launchConnector(options: { python?: string | undefined; requestTimeoutMs?: number } = {}): SimConnector {
+/** Connections made here keep the contract's timeouts (`TRANSPORT`): a short method's request deadline; long
+ *  methods carry none (the heartbeat bounds them). */
+export function launchConnector(options: { python?: string | undefined } = {}): SimConnector {
   return async () => {
-    const b = await launchBackend({ requestTimeoutMs: options.requestTimeoutMs ?? REQUEST_TIMEOUT_MS, ...(options.python ? { python: options.python } : {}) });
+    const b = await launchBackend(options.python ? { python: options.python } : {});
     const conn = b.client.connection;
     return session(conn, {
       pid: b.pid,
@@ -40,6 +39,6 @@ export function launchConnector(options: { python?: string | undefined; requestT
   };
 }
 
-export function urlConnector(url: string, options: { requestTimeoutMs?: number } = {}): SimConnector {
-  return async () => session(await RpcConnection.open(url, { requestTimeoutMs: options.requestTimeoutMs ?? REQUEST_TIMEOUT_MS }), {});
+export function urlConnector(url: string): SimConnector {
+  return async () => session(await RpcConnection.open(url), {});
 }

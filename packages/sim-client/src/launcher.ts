@@ -16,6 +16,7 @@ import { randomBytes } from "node:crypto";
 import { EventEmitter } from "node:events";
 import { existsSync } from "node:fs";
 import { fileURLToPath } from "node:url";
+import { TRANSPORT } from "@robwot/core/backend-contract";
 import { BackendStartError } from "./errors.js";
 import type { RpcConnectionOptions } from "./rpc-connection.js";
 import { SimClient } from "./sim-client.js";
@@ -27,9 +28,9 @@ export interface LaunchOptions extends RpcConnectionOptions {
   host?: string;
   /** TCP port (default 0 = any free port) */
   port?: number;
-  /** how long to wait for the ready line in ms (default 60 000) */
+  /** how long to wait for the ready line in ms (default: the contract's `TRANSPORT.startTimeoutMs`) */
   startTimeoutMs?: number;
-  /** grace period between SIGTERM and SIGKILL in `stop()` (default 5 000 ms) */
+  /** grace period between SIGTERM and SIGKILL in `stop()` in ms (default: `TRANSPORT.stopTimeoutMs`) */
   stopTimeoutMs?: number;
   /** extra environment of the child */
   env?: NodeJS.ProcessEnv;
@@ -49,9 +50,9 @@ export interface BackendEvents {
 
 const STDERR_TAIL_BYTES = 8_192;
 
-/** How long (ms) a backend may leave a request unanswered before its owner declares it dead:
- *  `ROBWOT_BACKEND_DEADLINE_MS` when set (>= 100), else `fallback`. */
-export function deadlineFromEnv(fallback: number): number {
+/** How long (ms) a backend may leave a ping unanswered before its owner declares it dead:
+ *  `ROBWOT_BACKEND_DEADLINE_MS` when set (>= 100; tests shorten it), else the contract's `TRANSPORT.deadAfterMs`. */
+export function deadlineFromEnv(fallback: number = TRANSPORT.deadAfterMs): number {
   const v = Number(process.env.ROBWOT_BACKEND_DEADLINE_MS);
   return Number.isFinite(v) && v >= 100 ? v : fallback;
 }
@@ -169,7 +170,7 @@ export async function launchBackend(options: LaunchOptions = {}): Promise<Launch
 
   let port: number;
   try {
-    port = await waitReady(child, options.startTimeoutMs ?? 60_000, stderrTail);
+    port = await waitReady(child, options.startTimeoutMs ?? TRANSPORT.startTimeoutMs, stderrTail);
   } catch (err) {
     child.kill("SIGKILL");
     throw err;
@@ -182,7 +183,7 @@ export async function launchBackend(options: LaunchOptions = {}): Promise<Launch
     child.kill("SIGKILL");
     throw new BackendStartError(`backend reported ready on ${url} but the connection failed: ${String(err)}`, stderrTail());
   }
-  return new LaunchedBackend(url, port, token, client, child, stderrTail, options.stopTimeoutMs ?? 5_000);
+  return new LaunchedBackend(url, port, token, client, child, stderrTail, options.stopTimeoutMs ?? TRANSPORT.stopTimeoutMs);
 }
 
 function waitReady(child: ChildProcess, timeoutMs: number, stderrTail: () => string): Promise<number> {

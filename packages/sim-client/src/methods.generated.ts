@@ -34,7 +34,7 @@ export abstract class ContractMethods {
   loadScene(params: Params<"world.loadScene"> = {}, options: CallOptions = {}): Result<"world.loadScene"> {
     return this.request("world.loadScene", params, options);
   }
-  /** `robot.load`: load a robot from a URDF file (and its SRDF's disabled collision pairs): `eeLink` defaults to the tip of the longest serial chain. With `srdf`, MoveIt's `<disable_collisions>` pairs are added to `filteredPairs` and never checked. */
+  /** `robot.load`: load a robot from a URDF file (and its SRDF's disabled collision pairs): `eeLink` defaults to the tip of the longest serial chain. With `srdf`, MoveIt's `<disable_collisions>` pairs are added to `filteredPairs` and never checked (its names checked as `robot.readSrdf` checks them). `package://NAME` resolves from `packageRoots`, the ROS package holding the URDF (its package.xml), `ROS_PACKAGE_PATH` and `AMENT_PREFIX_PATH`; when no package.xml names NAME, from a folder named NAME holding the URDF or beside a folder holding it (within three levels of the URDF's folder; never the filesystem root, its direct children or the home folder), with a note in the result's `warnings`; then `pybullet_data`. */
   loadRobot(params: Params<"robot.load">, options: CallOptions & { onProgress?: (p: Notifications["robot.loadProgress"]) => void } = {}): Result<"robot.load"> {
     const { onProgress, ...call } = options;
     return this.listening("robot.loadProgress", onProgress, () => this.request("robot.load", params, call));
@@ -63,7 +63,7 @@ export abstract class ContractMethods {
   jointLimits(params: Params<"robot.jointLimits">, options: CallOptions = {}): Result<"robot.jointLimits"> {
     return this.request("robot.jointLimits", params, options);
   }
-  /** `robot.readSrdf`: an SRDF's planning groups, named states and end effectors, every name checked against the URDF: Refuses (`E_SRDF`, with file and line) a link or joint the URDF lacks in any element (groups, chains, group states, end effectors, virtual and passive joints, disabled pairs), a group that is not defined, a state value that is not a number: an SRDF written for another robot fails at its first foreign name. */
+  /** `robot.readSrdf`: an SRDF's planning groups, named states and end effectors, every name checked against the URDF: Every link and joint it names is checked against the URDF as MoveIt checks it: an entry naming one the URDF lacks (a group's link, joint or chain, a group state's joint value, an end effector, a virtual or passive joint, a disabled pair) is skipped and reported in `warnings` (file, line, the name); the rest is honoured. Refuses (`E_SRDF`, with file and line) an SRDF most of whose distinct names are unknown (written for another robot; `data.unknown` of `data.names`, the line of its first unknown name), a group that is not defined, a missing attribute, a state value that is not a number. */
   readSrdf(params: Params<"robot.readSrdf">, options: CallOptions = {}): Result<"robot.readSrdf"> {
     return this.request("robot.readSrdf", params, options);
   }

@@ -3,13 +3,15 @@
  * server notifications. Knows nothing about the backend's methods (see sim-client.ts for those).
  */
 import { EventEmitter } from "node:events";
+import { TRANSPORT } from "@robwot/core/backend-contract";
 import WebSocket from "ws";
 import { ConnectionClosedError, RpcError, RpcTimeoutError, type RpcErrorData } from "./errors.js";
 
 export interface RpcConnectionOptions {
-  /** default timeout of each request in ms (default 30 000); 0 or Infinity disables it */
+  /** default timeout of each request in ms (default: the contract's `TRANSPORT.requestTimeoutMs`); 0 or
+   *  Infinity disables it */
   requestTimeoutMs?: number;
-  /** timeout of the WebSocket opening handshake in ms (default 10 000) */
+  /** timeout of the WebSocket opening handshake in ms (default: `TRANSPORT.connectTimeoutMs`) */
   connectTimeoutMs?: number;
   /** the backend's secret, sent as `Authorization: Bearer <token>` on the upgrade (default: env
    *  ROBWOT_BACKEND_TOKEN); a backend refuses connections without it */
@@ -48,7 +50,7 @@ export class RpcConnection extends EventEmitter<RpcConnectionEvents> {
     options: RpcConnectionOptions,
   ) {
     super();
-    this.requestTimeoutMs = options.requestTimeoutMs ?? 30_000;
+    this.requestTimeoutMs = options.requestTimeoutMs ?? TRANSPORT.requestTimeoutMs;
     ws.on("message", (data, isBinary) => this.onMessage(data, isBinary));
     this.closed = new Promise((resolve) => {
       ws.on("close", (code, reason) => {
@@ -67,7 +69,7 @@ export class RpcConnection extends EventEmitter<RpcConnectionEvents> {
     return new Promise((resolve, reject) => {
       const token = options.token ?? process.env.ROBWOT_BACKEND_TOKEN;
       const ws = new WebSocket(url, {
-        handshakeTimeout: options.connectTimeoutMs ?? 10_000,
+        handshakeTimeout: options.connectTimeoutMs ?? TRANSPORT.connectTimeoutMs,
         ...(token ? { headers: { Authorization: `Bearer ${token}` } } : {}),
       });
       const onError = (err: Error): void => {

@@ -18,6 +18,7 @@
  * emitted (`restartFailed`), and retried after a growing pause.
  */
 import { EventEmitter } from "node:events";
+import { TRANSPORT } from "@robwot/core/backend-contract";
 import { BackendDownError, RpcTimeoutError } from "./errors.js";
 import { startHeartbeat } from "./heartbeat.js";
 import { deadlineFromEnv } from "./launcher.js";
@@ -34,21 +35,21 @@ export interface SimSession extends RpcCaller {
   kill(): void;
 }
 
+/** The supervisor's deadlines in ms; the defaults are the contract's (`TRANSPORT`, the why of each there). */
 export interface Deadlines {
-  /** heartbeat period in ms (default 1 000) */
+  /** heartbeat period */
   heartbeatMs: number;
-  /** a backend that leaves a ping unanswered this long (ms) is dead (default 5 000) */
+  /** a backend that leaves a ping unanswered this long is dead */
   deadAfterMs: number;
   /**
-   * at a restart, the whole restore (scene, robots, joints) must finish within this (ms, default 300 000).
-   * Restarts find the collision meshes already decomposed (cached at the first start), so a restore is
-   * short; the first start is bounded by the heartbeat alone, since decomposing meshes may take minutes.
+   * at a restart, the whole restore (scene, robots, joints) must finish within this. The first start is
+   * bounded by the heartbeat alone, since decomposing meshes may take minutes.
    */
   restoreMs: number;
 }
 
-/** `ROBWOT_BACKEND_DEADLINE_MS` overrides the 5 s a backend may leave a ping unanswered. */
-export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: 1_000, deadAfterMs: deadlineFromEnv(5_000), restoreMs: 300_000 };
+/** The contract's policy; `ROBWOT_BACKEND_DEADLINE_MS` overrides how long a ping may go unanswered. */
+export const DEFAULT_DEADLINES: Deadlines = { heartbeatMs: TRANSPORT.heartbeatMs, deadAfterMs: deadlineFromEnv(TRANSPORT.deadAfterMs), restoreMs: TRANSPORT.restoreMs };
 
 
 export type SimConnector = () => Promise<SimSession>;
@@ -77,7 +78,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private stopping = false;
   private recovering: Promise<void> | null = null;
   private stopHeartbeat: (() => void) | null = null;
-  private deadReason: string | null = null;
+  private dead: string | null = null;
   /** the end of the last session that died: its process reaped once it has exited */
   private ended: Promise<void> = Promise.resolve();
   /** number of successful restarts since start */
@@ -129,6 +130,11 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     return this.up;
   }
 
+  /** Why the backend was declared dead (a ping or a call unanswered in time); null while it answers. */
+  get deadReason(): string | null {
+    return this.dead;
+  }
+
   get pid(): number | undefined {
     return this.session?.pid;
   }
@@ -140,7 +146,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private async call(method: string, params?: object, options?: CallOptions): Promise<unknown> {
     const s = this.session;
     if (!s || !this.up) {
-      throw new BackendDownError(this.restart ? "simulation backend is restarting; retry shortly" : `simulation backend is down (${this.deadReason ?? "connection closed"})`, { method });
+      throw new BackendDownError(this.restart ? "simulation backend is restarting; retry shortly" : `simulation backend is down (${this.dead ?? "connection closed"})`, { method });
     }
     try {
       return await s.call(method, params, options);
@@ -156,8 +162,8 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
 
   /** Kills a backend that stopped answering; the close handler then restarts it. */
   private declareDead(s: SimSession, reason: string): void {
-    if (this.session !== s || this.deadReason !== null) return;
-    this.deadReason = reason;
+    if (this.session !== s || this.dead !== null) return;
+    this.dead = reason;
     this.up = false;
     s.kill();
   }
@@ -206,7 +212,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     const s = await this.connect();
     s.onNotification("*", (method, params) => this.emit("notification", method, params));
     this.session = s;
-    this.deadReason = null;
+    this.dead = null;
     const direct = new SimClient({
       call: async <T>(method: string, params?: object, options?: CallOptions): Promise<T> => {
         try {
@@ -228,7 +234,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
       await this.restore(direct);
     } catch (err) {
       this.clearHeartbeat();
-      const reason = this.deadReason;
+      const reason = this.dead;
       // the restore error is what matters (rethrown); closing the half-set-up session is best effort
       await s.close().catch(() => undefined);
       this.session = null;
@@ -253,7 +259,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     this.up = false;
     this.session = null;
     this.ended = s.close().catch(() => undefined); // a dead session is already gone: closing only waits for it
-    this.emit("down", this.deadReason ?? "backend connection closed");
+    this.emit("down", this.dead ?? "backend connection closed");
     if (!this.restart) return;
     this.recovering ??= this.recover().finally(() => {
       this.recovering = null;

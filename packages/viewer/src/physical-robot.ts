@@ -7,6 +7,7 @@
  */
 import { Material, Mesh, type Object3D } from "three";
 import type { URDFRobot } from "urdf-loader";
+import type { TdCoupling } from "@robwot/core/browser";
 import { debugState, publishDebug } from "./debug.js";
 import { showError } from "./errors.js";
 import { isRecord } from "./http.js";
@@ -46,10 +47,12 @@ export class PhysicalRobotLayer {
     private readonly basePose: Promise<Awaited<ReturnType<typeof loadBasePose>> | null>,
     /** the simulated robot, once loaded */
     private readonly simulated: () => URDFRobot | null,
+    /** the twin's joints that follow others */
+    private readonly couplings: readonly TdCoupling[] = [],
   ) {
     stage.onFrame(() => {
       if (!this.robot || !this.latest) return false;
-      applyJoints(this.robot, this.latest);
+      applyJoints(this.robot, this.latest, this.couplings);
       this.latest = null;
       return true;
     });

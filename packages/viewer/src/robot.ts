@@ -8,6 +8,7 @@ import { ColladaLoader } from "three/examples/jsm/loaders/ColladaLoader.js";
 import { OBJLoader } from "three/examples/jsm/loaders/OBJLoader.js";
 import { STLLoader } from "three/examples/jsm/loaders/STLLoader.js";
 import URDFLoader, { type URDFLink, type URDFRobot } from "urdf-loader";
+import { type TdCoupling, withFollowers } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 
 export interface LoadedRobot {
@@ -88,10 +89,11 @@ function errText(err: unknown): string {
   return String(err);
 }
 
-/** Apply joint values (names unknown to the model are reported back, not ignored silently). */
-export function applyJoints(robot: URDFRobot, joints: Record<string, number>): string[] {
+/** Apply joint values, and each follower's from its `couplings` (names unknown to the model are reported
+ * back, not ignored silently). */
+export function applyJoints(robot: URDFRobot, joints: Record<string, number>, couplings: readonly TdCoupling[] = []): string[] {
   const unknown: string[] = [];
-  for (const [name, value] of Object.entries(joints)) {
+  for (const [name, value] of Object.entries(withFollowers(joints, couplings))) {
     const joint = robot.joints[name];
     if (joint) joint.setJointValue(value);
     else unknown.push(name);

@@ -24,7 +24,7 @@ import { createWorldRoot, urdfToThree } from "./three-frames.js";
 
 export class Stage {
   readonly scene = new Scene();
-  /** Parent of everything built from twin data, in URDF world coordinates (see frames.ts). */
+  /** Parent of everything built from twin data, in URDF world coordinates (see three-frames.ts). */
   readonly worldRoot = createWorldRoot();
   readonly camera = new PerspectiveCamera(45, 1, 0.01, 100);
   readonly renderer: WebGLRenderer;
@@ -62,7 +62,7 @@ export class Stage {
     this.dirty = true;
   }
 
-  /** Origin of `obj`'s frame in URDF world coordinates (through worldRoot, see frames.ts). */
+  /** Origin of `obj`'s frame in URDF world coordinates (through worldRoot, see three-frames.ts). */
   positionInWorld(obj: Object3D | null): { x: number; y: number; z: number } | null {
     if (!obj) return null;
     this.scene.updateMatrixWorld(true);

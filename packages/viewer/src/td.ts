@@ -2,7 +2,7 @@
  * The twin's Thing Description as the viewer needs it: affordance URLs (HTTP forms), joint limits,
  * and the linked model / workspace files (Contract 3).
  */
-import { jointLimits, type JointLimit, linkUrl, liveUrl, REACHABILITY_REL, RobwotError, speedRange, TdError, type ThingDescriptionLike, TWIN_FILES } from "@robwot/core/browser";
+import { jointLimits, type JointLimit, linkUrl, liveUrl, REACHABILITY_REL, RobwotError, speedRange, type TdCoupling, tdCouplings, TdError, type ThingDescriptionLike, TWIN_FILES } from "@robwot/core/browser";
 import { ViewerError } from "./errors.js";
 import { fetchJson, isRecord } from "./http.js";
 
@@ -19,6 +19,8 @@ export interface TwinTd {
   links: { model: string; pointCloud: string | null; workspace: string | null; reachability: string | null; summary: string | null; scene: string | null };
   /** End-effector link (`robwot:eeLink`), if the TD names one. */
   eeLink: string | null;
+  /** The joints that follow others (`robwot:couplings`): drawn where the linkage puts them. */
+  couplings: TdCoupling[];
   /** Live WebSocket endpoint from the TD's link with rel `robwot:live` (Contract 4), if any. */
   live: string | null;
 }
@@ -56,6 +58,7 @@ export async function loadTd(slug: string): Promise<TwinTd> {
     },
     live: liveLink(raw),
     eeLink: typeof raw["robwot:eeLink"] === "string" ? raw["robwot:eeLink"] : null,
+    couplings: tdCouplings(raw),
   };
 }
 

@@ -152,7 +152,7 @@ function addProgramPanel(td: TwinTd, stage: Stage, content: HTMLElement, state: 
         if (!robot || !ee) return [];
         const saved = Object.fromEntries(Object.entries(robot.joints).map(([n, j]) => [n, Number(j.angle)]));
         const out = configurations.map((q) => {
-          applyJoints(robot, Object.fromEntries(names.map((n, i) => [n, q[i] ?? 0])));
+          applyJoints(robot, Object.fromEntries(names.map((n, i) => [n, q[i] ?? 0])), td.couplings);
           const p = stage.positionInWorld(ee);
           return [p?.x ?? 0, p?.y ?? 0, p?.z ?? 0] as [number, number, number];
         });
@@ -175,7 +175,7 @@ function drawLatestJoints(td: TwinTd, stage: Stage, state: PageState, joints: Jo
   stage.onFrame(() => {
     const { robot, latest } = state;
     if (!robot || !latest) return false;
-    const unknown = applyJoints(robot, latest).filter((n) => !reportedUnknown.has(n));
+    const unknown = applyJoints(robot, latest, td.couplings).filter((n) => !reportedUnknown.has(n));
     for (const n of unknown) {
       reportedUnknown.add(n);
       showError("live", `joint "${n}" is not in the model (known: ${Object.keys(robot.joints).join(", ")})`);
@@ -209,7 +209,7 @@ function startLoading(td: TwinTd, stage: Stage, state: PageState, controls: Cont
     motion.addLayer("robot", true, (v) => stage.setVisible(r, v));
     return r;
   });
-  const physical = new PhysicalRobotLayer(stage, motion, td.links.model, poseTask, () => state.robot);
+  const physical = new PhysicalRobotLayer(stage, motion, td.links.model, poseTask, () => state.robot, td.couplings);
   const obstacles = new ObstacleLayer(stage, motion, td.base);
   const sceneTask = loadScene(td, obstacles);
   const cloudTask = loadCloud(td, stage, motion);

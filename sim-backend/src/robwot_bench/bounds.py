@@ -48,13 +48,13 @@ def _unsound(world: World, rid: str, qs: np.ndarray, apart: np.ndarray, free: np
     """Decided rows that fresh Bullet distance queries contradict (apart: no other body within 0; free:
     also no checked self pair touching)."""
     bounds = world.queries.outer_bounds(rid)
-    body, cid = world._entry(rid).bound.body, world.bullet.cid
+    body, cid = world.scene.entry(rid).bound.body, world.scene.bullet.cid
     links = [ln for ln in range(-1, pb.getNumJoints(body, physicsClientId=cid))
              if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]
     bad = 0
     for i in np.flatnonzero(apart)[:FRESH]:
         world.set_joint_positions(rid, qs[i])
-        near = any(c[8] <= 0.0 for other in world.table.names if other != body
+        near = any(c[8] <= 0.0 for other in world.scene.table.names if other != body
                    for c in pb.getClosestPoints(body, other, 0.0, physicsClientId=cid))
         touch = free[i] and any(c[8] <= 0.0 for a, b in bounds.pairs
                                 for c in pb.getClosestPoints(body, body, 0.0, links[a], links[b],

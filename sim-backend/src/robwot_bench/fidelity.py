@@ -108,7 +108,7 @@ def graze_trials(world: World, rid: str, rng: np.random.Generator, count: int, t
     """``count`` grazing plates for random free moves of robot ``rid`` (joint speed ``speed`` as a share of
     the limits): a ``thickness`` m plate across a moving link half-way along the move, pushed out along a
     random normal by bisection (8 steps, ~1.6 mm) until the reference sweep only just touches it."""
-    e = world._robots[rid]
+    e = world.scene.entry(rid)
     lo, hi = world.robot_model(rid).limits()
     out = Grazes()
     while out.grazes < count:
@@ -119,7 +119,7 @@ def graze_trials(world: World, rid: str, rng: np.random.Generator, count: int, t
         path = world.plan_motion(rid, goal, speed=speed).rows()  # a move's states: a few hundred
         e.bound.apply(path[0] + rng.uniform(0.3, 0.7) * (path[-1] - path[0]))
         link = int(rng.choice(e.bound.moving_links[len(e.bound.moving_links) // 3:]))
-        center = np.array(world.bullet.link_frame(e.bound.body, link)[0])
+        center = np.array(world.scene.bullet.link_frame(e.bound.body, link)[0])
         e.bound.apply(start)
         normal = rng.normal(size=3)
         normal /= np.linalg.norm(normal)

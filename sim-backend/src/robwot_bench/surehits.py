@@ -54,10 +54,10 @@ def _predecessor(qs: np.ndarray, hits: np.ndarray, i: int) -> np.ndarray | None:
 def _touches(world: World, rid: str, q: np.ndarray) -> bool:
     """Fresh Bullet distance queries find the robot, at ``q``, at distance <= 0 from another body or
     between two links of a pair the sure-hit test checks."""
-    body, cid = world._entry(rid).bound.body, world.bullet.cid
+    body, cid = world.scene.entry(rid).bound.body, world.scene.bullet.cid
     sure = world.queries.sure_hits(rid)
     world.set_joint_positions(rid, q)
-    return (any(c[8] <= 0.0 for other in world.table.names if other != body
+    return (any(c[8] <= 0.0 for other in world.scene.table.names if other != body
                 for c in pb.getClosestPoints(body, other, 0.0, physicsClientId=cid))
             or any(c[8] <= 0.0 for a, b in sure.pairs
                    for c in pb.getClosestPoints(body, body, 0.0, sure.links[a].link, sure.links[b].link,

@@ -167,7 +167,8 @@ class UnknownPackage(FileNotFound):
             self,
             f"{where}{reference}: ROS package {package!r} not found (not a --package-root, not a package "
             f"holding the file, not on ROS_PACKAGE_PATH, not in an AMENT_PREFIX_PATH prefix, not in "
-            f"pybullet_data): give --package-root {package}=DIR (the folder holding its package.xml) or add "
+            f"pybullet_data; for package:// no folder of that name holds the file or stands beside one): "
+            f"give --package-root {package}=DIR (the folder holding its package.xml) or add "
             "the folder it is in to ROS_PACKAGE_PATH",
             file=reference, package=package, reference=reference, searched=list(searched),
             urdf=urdf, line=line,

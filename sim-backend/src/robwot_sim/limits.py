@@ -54,6 +54,7 @@ DEFAULT_SPEED = float(value_schema("Speed")["default"])
 #: fraction of the acceleration limits a motion runs at; seconds a joint without an acceleration limit takes
 #: to reach its velocity limit from rest; the end effector's acceleration (m/s^2) along a LIN or CIRC
 ACCELERATION = Range.of("Acceleration")
+DEFAULT_ACCELERATION = float(value_schema("Acceleration")["default"])
 ACCELERATION_TIME = float(value_schema("Acceleration")["x-accelerationTime"])
 TCP_ACCELERATION = float(value_schema("Acceleration")["x-tcpAcceleration"])
 #: the end effector's speed (m/s) along a LIN or CIRC, and the default

@@ -1,11 +1,11 @@
 """Executes robot motions from the asyncio loop: one operation per move — plan, then run — streamed.
 
 `robot.move` takes the robot (busy from here: `E_BUSY` for a second move, `stop` ends it), plans the
-target (`sim/planner.py`: limits, IK solutions, a collision-free path; `Rejected` when none), asks the
-world for the timed path (`World.plan_motion`: time-optimal within the velocity limits x speed and the
-acceleration limits, fixed dt; a program's states come from `sim/program.py`), then for every
-step: waits until its wall-clock due time (`t0 + t_sim / realtime`; with realtime 0 it only yields to
-the loop) and teleports the robot there. The plan checked this very path; once anything else in the
+target (`sim/planner.py`: limits, IK solutions, a collision-free path; `Rejected` when none) and runs the
+timed path the plan carries (`Plan.path`, timed by `sim/trajectory.py`; a program's states come from
+`sim/program.py`), never planned again: for every state it waits until its wall-clock due time
+(`t0 + t_sim / realtime`; with realtime 0 it only yields to the loop) and teleports the robot there.
+The plan checked this very path; once anything else in the
 world changes during the motion (an obstacle added or moved, another robot moving: `World.others_stamp`)
 every further step is checked again (`World.check_step`: subdivided so no point travels more than twice
 the clearance unchecked, other bodies kept the clearance away).
@@ -31,18 +31,17 @@ import contextlib
 import functools
 import math
 import threading
-from collections.abc import Awaitable, Callable, Mapping, Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
 from robwot_sim.errors import Busy, Rejected
-from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED, PLAN_BUDGET
+from robwot_sim.limits import DEFAULT_DT, PLAN_BUDGET
 from robwot_sim.sim.planner import Plan
-from robwot_sim.sim.program import plan_program
+from robwot_sim.sim.program import ProgramStep, plan_program
 from robwot_sim.sim.timed import TimedPath
-from robwot_sim.sim.trajectory import timed_path
 from robwot_sim.sim.types import CollisionReport, Pose
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Cancelled, Kind
@@ -92,13 +91,14 @@ class _Motion:
 
 @dataclass(frozen=True)
 class _Prepared:
-    """What the plan job hands to the run: the verdict, and when valid the path and its guard."""
+    """What the plan job hands to the run: the checked, timed path, the stamp of the world it was checked
+    in and the clearance the motion keeps; a move's plan, or a program's step starts (index in ``path``)
+    and report."""
 
-    plan: Plan
+    path: TimedPath
     stamp: tuple[int, int]
-    path: TimedPath | None = None
-    clearance: float = 0.0
-    #: a program's: index in ``path`` where each step starts, and the program's report
+    clearance: float
+    plan: Plan | None = None
     starts: tuple[int, ...] = ()
     program: dict[str, Any] | None = None
 
@@ -132,24 +132,22 @@ class MotionRunner:
         for motion in motions:
             await motion.done.wait()
 
-    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = DEFAULT_SPEED,
-                   realtime: float = 1.0, dt: float = DEFAULT_DT) -> dict[str, Any]:
-        """Plan with `planner` and move `robot` to the plan's joint target; returns the MoveResult dict
+    async def move(self, robot: str, planner: Callable[[], Plan], *, realtime: float = 1.0) -> dict[str, Any]:
+        """Plan with `planner` and move `robot` along the plan's timed path; returns the MoveResult dict
         (with the plan). `Rejected` when the plan is not valid: nothing moved."""
-        job = functools.partial(self._prepare, robot, planner, speed, dt)
-        result = await self._perform(robot, job, realtime, dt)
+        job = functools.partial(self._prepare, robot, planner)
+        result = await self._perform(robot, job, realtime)
         return {k: v for k, v in result.items() if k not in ("step", "program")}
 
-    async def run_program(self, robot: str, steps: Sequence[Mapping[str, Any]], *, realtime: float = 1.0,
+    async def run_program(self, robot: str, steps: Sequence[ProgramStep], *, realtime: float = 1.0,
                           dt: float = DEFAULT_DT) -> dict[str, Any]:
         """Plan the program (``sim/program.py``) and run its states; returns the ProgramRunResult dict.
         `Rejected` (with the program's report) when a step is refused: nothing moved."""
         job = functools.partial(self._prepare_program, robot, steps, dt)
-        result = await self._perform(robot, job, realtime, dt)
+        result = await self._perform(robot, job, realtime)
         return {"step": 0, **{k: v for k, v in result.items() if k != "plan"}}
 
-    async def _perform(self, robot: str, job: Callable[[], _Prepared], realtime: float,
-                       dt: float) -> dict[str, Any]:
+    async def _perform(self, robot: str, job: Callable[[], _Prepared], realtime: float) -> dict[str, Any]:
         if robot in self._active:
             raise Busy(robot)
         motion = _Motion(robot)
@@ -164,43 +162,42 @@ class MotionRunner:
                 q = await self._on_world(lambda: self._world.get_joint_positions(robot), robot=robot)
                 return {"status": "stopped", "positions": _floats(q), "duration": 0.0,
                         "wallTime": loop.time() - t0, "contacts": []}
-            plan = prepared.plan
-            if prepared.path is None:
-                raise Rejected(plan.reasons, plan.checks, prepared.program)
-            result = await self._run(motion, prepared.path, realtime, dt, prepared.stamp, prepared.clearance,
+            result = await self._run(motion, prepared.path, realtime, prepared.stamp, prepared.clearance,
                                      prepared.starts)
             if prepared.program is not None:
                 result["program"] = prepared.program
-            return {**result, "plan": plan.to_json()}
+            if prepared.plan is not None:
+                result["plan"] = prepared.plan.to_json()
+            return result
         finally:
             del self._active[robot]
             motion.done.set()
 
-    def _prepare(self, robot: str, planner: Callable[[], Plan], speed: float, dt: float) -> _Prepared:
-        """On the world's thread: the plan, and when valid its path and the clearance the motion keeps.
-        The plan checks exactly this path in this world: steps are checked again once anything else
-        changes from here on (stamped before planning: a change during or after it counts)."""
+    def _prepare(self, robot: str, planner: Callable[[], Plan]) -> _Prepared:
+        """On the world's thread: the plan, its timed path (the one the plan checked: not planned again) and
+        the clearance the motion keeps; `Rejected` when the plan is not valid. The plan checked exactly
+        this path in this world: steps are checked again once anything else changes from here on (stamped
+        before planning: a change during or after it counts)."""
         stamp = self._world.others_stamp(robot)
-        plan, path = timed_path(self._world, robot, planner(), speed=speed, dt=dt)
-        if path is None:
-            return _Prepared(plan, stamp)
-        return _Prepared(plan, stamp, path, self._world.motion_clearance(robot, path.last))
+        plan = planner()
+        if plan.path is None:
+            raise Rejected(plan.reasons, plan.checks)
+        return _Prepared(plan.path, stamp, self._world.motion_clearance(robot, plan.path.last), plan)
 
-    def _prepare_program(self, robot: str, steps: Sequence[Mapping[str, Any]], dt: float) -> _Prepared:
-        """On the world's thread: the program's plan (``plan_program``); when every step passes, its states.
-        Like a move's, the states are checked again once anything else changes from the stamp on."""
+    def _prepare_program(self, robot: str, steps: Sequence[ProgramStep], dt: float) -> _Prepared:
+        """On the world's thread: the program's plan (``plan_program``) and its states; `Rejected` with the
+        report naming the first refused step. Like a move's, the states are checked again once anything
+        else changes from the stamp on."""
         stamp = self._world.others_stamp(robot)
         program = plan_program(self._world, robot, steps, dt, PROGRAM_RATE)
         report = program.report
         if program.path is None:
             k = int(report["firstFailingStep"])
             failing = report["steps"][k]
-            plan = Plan(False, None, tuple(f"step {k}: {r}" for r in failing["reasons"]), failing["checks"])
-            return _Prepared(plan, stamp, program=report)
-        plan = Plan(True, tuple(float(v) for v in program.path.last))
+            raise Rejected(tuple(f"step {k}: {r}" for r in failing["reasons"]), failing["checks"], report)
         ends = [program.path[i] for i in program.starts] + [program.path.last]
-        return _Prepared(plan, stamp, program.path, self._world.motion_clearance(robot, *ends),
-                         tuple(program.starts), report)
+        return _Prepared(program.path, stamp, self._world.motion_clearance(robot, *ends),
+                         starts=tuple(program.starts), program=report)
 
     def _state(self, robot: str, time: float, q: Any, pose: Pose, moving: bool,
                planned: float, step: int | None = None) -> dict[str, Any]:
@@ -228,9 +225,10 @@ class MotionRunner:
     def _final_pose(self, robot: str) -> Pose | None:
         return self._world.fk(robot) if robot in self._world.robot_ids() else None
 
-    async def _run(self, motion: _Motion, plan: TimedPath, realtime: float, dt: float,
-                   checked: tuple[int, int], clearance: float, starts: Sequence[int] = ()) -> dict[str, Any]:
+    async def _run(self, motion: _Motion, plan: TimedPath, realtime: float, checked: tuple[int, int],
+                   clearance: float, starts: Sequence[int] = ()) -> dict[str, Any]:
         loop = asyncio.get_running_loop()
+        dt = plan.dt
         robot = motion.robot
         t0 = loop.time()
         reached = plan.first

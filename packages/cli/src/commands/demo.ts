@@ -99,6 +99,8 @@ export async function run(argv: string[]): Promise<number> {
       alpha: "auto",
       reachVoxel: "auto",
       packageRoots: {},
+      couplings: [],
+      keepLevel: [],
       csvJoints: false,
       json: false,
       force: false,

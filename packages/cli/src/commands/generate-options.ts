@@ -10,7 +10,7 @@ import { quatArr, quatMul } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { CliError } from "../errors.js";
 
-const { Clearance, Position, ReachVoxel, Rpy, Samples, Seed, ToolOffset, ToolSize, Workers } = VALUE_SCHEMAS;
+const { Clearance, CouplingRule, CouplingRules, Position, ReachVoxel, Rpy, Samples, Seed, ToolOffset, ToolSize, Workers } = VALUE_SCHEMAS;
 /** The clearance (m) a robot keeps unless told (the backend contract's default). */
 export const DEFAULT_CLEARANCE = Clearance.default;
 import { EXAMPLE_NAMES, type ExampleRobot, findExample, looksLikeExampleName } from "../examples.js";
@@ -58,6 +58,10 @@ export interface GenerateOptions {
   toolShape?: ToolShape;
   /** `--limits`: a MoveIt-style joint_limits.yaml whose velocity limits replace the URDF's */
   limits?: string;
+  /** `--couple FOLLOWER=EXPR` (repeatable): joints that follow others, read by the backend (`robot.load` `couplings`) */
+  couplings: string[];
+  /** `--keep-level LINK` (repeatable): links whose orientation the derived couplings keep */
+  keepLevel: string[];
   csvJoints: boolean;
   backend?: string;
   json: boolean;
@@ -85,6 +89,8 @@ export const GENERATE_OPTIONS = {
   limits: { type: "string" },
   "tool-mesh": { type: "string" },
   "xacro-arg": { type: "string", multiple: true },
+  couple: { type: "string", multiple: true },
+  "keep-level": { type: "string", multiple: true },
   "moveit-config": { type: "string" },
   group: { type: "string" },
   "csv-joints": { type: "boolean" },
@@ -256,6 +262,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const scene = values.scene === undefined ? undefined : parseSceneFile(values.scene);
   checkEndEffector(values, moveitConfig);
+  const { couplings, keepLevel } = parseCouplings(values);
   const out = resolve(values.out ?? join("twins", slugify(robotName({ robotArg, urdfFile, example, moveitConfig }))));
   return {
     ...(urdfFile ? { urdfFile } : {}),
@@ -281,6 +288,8 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(toolMesh ? { toolMesh } : {}),
     ...(toolShape ? { toolShape } : {}),
     ...(limits ? { limits } : {}),
+    couplings,
+    keepLevel,
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),
     json: values.json ?? false,
@@ -330,6 +339,23 @@ function checkEndEffector(values: GenerateValues, moveitConfig: string | undefin
   if (values.group !== undefined && values.srdf === undefined && moveitConfig === undefined) {
     throw new CliError("--group names a planning group of an SRDF: give --srdf FILE or --moveit-config DIR");
   }
+}
+
+/**
+ * `--couple FOLLOWER=EXPR` and `--keep-level LINK`, each repeatable: their shape checked here (the
+ * contract's `CouplingRule`), the rules themselves by the backend against the robot's joints.
+ */
+function parseCouplings(values: GenerateValues): Pick<GenerateOptions, "couplings" | "keepLevel"> {
+  const couplings = (values.couple ?? []).map((c) => c.trim());
+  if (couplings.length > CouplingRules.maxItems) throw new CliError(`--couple: at most ${CouplingRules.maxItems} rules, got ${couplings.length}`);
+  for (const c of couplings) {
+    if (c.length > CouplingRule.maxLength || !new RegExp(CouplingRule.pattern).test(c)) {
+      throw new CliError(`--couple must be FOLLOWER=EXPR (e.g. "joint_4=joint_3-joint_2", at most ${CouplingRule.maxLength} characters), got "${c.slice(0, 80)}"`);
+    }
+  }
+  const keepLevel = (values["keep-level"] ?? []).map((l) => l.trim());
+  if (keepLevel.some((l) => l === "")) throw new CliError("--keep-level must name a link");
+  return { couplings, keepLevel };
 }
 
 /** The robot's name, which names the default output folder: the example's, the URDF's, or the file's. */

@@ -1,11 +1,13 @@
 /** `robwot generate`: wiring of options, output folder, backend, progress and the summary printout. */
 import { relative } from "node:path";
-import { openBackend } from "../backend.js";
+import { BackendGuard } from "../backend-guard.js";
 import { describeError } from "../errors.js";
 import { exampleHelp } from "../examples.js";
 import { type GenerateResult, generateTwin } from "../generate-twin.js";
 import { onCleanup } from "../lifecycle.js";
+import { preflight } from "../preflight.js";
 import { createProgress } from "../progress.js";
+import { warmTdValidator } from "../td.js";
 import { StagedDir } from "../twin-dir.js";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { DEFAULT_BASE_URL, DEFAULT_SAMPLES, type GenerateOptions, parseGenerateArgs } from "./generate-options.js";
@@ -21,8 +23,9 @@ reachability.csv (reachability map: index per voxel).
 
 Options:
   --scene FILE            scene JSON with obstacles (default: none)
-  --srdf FILE             the robot's SRDF (MoveIt): its <disable_collisions> pairs are never checked;
-                          every link and joint it names must be the robot's; its end effector is the default --ee
+  --srdf FILE             the robot's SRDF (MoveIt): its <disable_collisions> pairs are never checked; an
+                          entry naming a link or joint the robot lacks is skipped with a warning (one mostly
+                          of unknown names is refused); its end effector is the default --ee
   --moveit-config DIR     a MoveIt config package as the robot: its URDF or xacro (.setup_assistant, else
                           config/*.urdf.xacro|*.urdf) with its xacro args, its SRDF (config/*.srdf), the
                           velocity limits of config/joint_limits.yaml
@@ -58,7 +61,15 @@ Options:
   --xacro-arg NAME:=VALUE an argument of the xacro file given as the robot (repeatable); the file is
                           expanded with the xacro package (no ROS install), robot.urdf is the result
   --package-root NAME=DIR resolve package://NAME/... and $(find NAME) (repeatable); also searched: the ROS
-                          package holding the file (its package.xml), the folders of ROS_PACKAGE_PATH
+                          package holding the file (its package.xml), the folders of ROS_PACKAGE_PATH,
+                          then (no package.xml naming it) a folder NAME holding the URDF or beside one
+  --couple FOLLOWER=EXPR  a joint that follows others (repeatable): EXPR a linear combination of joints plus a
+                          constant, e.g. "joint_4=joint_3-joint_2" or "j5=-0.5*j2+j3+0.1"; it leaves the
+                          joint vector (TD inputs, sliders, relay, programs) and is set wherever the linkage
+                          puts it (FK, IK, collisions); a rule for a <mimic> joint replaces its tag
+  --keep-level LINK       derive the --couple rule that keeps LINK's orientation as at the zero configuration
+                          (a parallel-linkage arm's passive joint; the joints tilting LINK must turn about
+                          one axis); the rule is printed and recorded in twin.json (repeatable)
   --csv-joints            add the joint values to workspace.csv
   --backend ws://HOST:PORT use a running backend instead of starting one
   --json                  print a machine-readable summary on stdout
@@ -74,6 +85,7 @@ function printHuman(r: GenerateResult, seconds: number): void {
   const lines = [
     `robwot: twin "${r.robot.name}" written to ${rel.startsWith("..") ? r.out : rel}/ in ${seconds.toFixed(1)} s`,
     `  robot      ${r.robot.controllable.length} joints (${r.robot.controllable.join(", ")}), end effector ${r.robot.eeLink}`,
+    ...(r.robot.couplings.length > 0 ? [`  coupled    ${r.robot.couplings.join("; ")}`] : []),
     `  scene      ${r.obstacles} obstacle(s)${r.otherRobots.length ? `, ${r.otherRobots.length} other robot(s): ${r.otherRobots.map((o) => `${o.id} at [${o.basePosition.map((v) => v.toFixed(3)).join(", ")}] m`).join(", ")}` : ""}${r.scene ? ` from ${r.scene}` : ""}`,
     `  workspace  ${s.samples} samples, ${s.collisionFree} collision-free (${((100 * s.collisionFree) / Math.max(1, s.samples)).toFixed(1)}%), ` +
       `${s.method}${s.alpha !== null ? ` alpha ${s.alpha.toFixed(3)} m` : ""}, volume ${s.volume.toFixed(3)} m^3`,
@@ -93,8 +105,10 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
   const staged = StagedDir.create(opts.out, { force: opts.force, inputs });
   const dropStaged = onCleanup(() => staged.discard());
   try {
+    await preflight(opts);
     progress.stage("backend");
-    const backend = await openBackend(opts.backend);
+    // the TD validator warms up while the backend's Python starts
+    const [backend] = await Promise.all([BackendGuard.open(opts.backend), warmTdValidator()]);
     const dropBackend = onCleanup(() => backend.close());
     // on a signal the staged folder goes first (cheap), then the backend stops, then it goes again
     // (the backend may have written into it meanwhile)

@@ -2,11 +2,11 @@
  * Data shapes of the twin's affordances as a consumer sees them (ARCHITECTURE.md Contract 3), taken
  * from @robwot/core so producer and consumers cannot drift apart.
  */
-export type { MotionStatus, MoveResult, ValidationReport, CollisionEvent, Xyz, Quaternion } from "@robwot/core";
+export type { MotionStatus, MoveOutput, ValidationReport, CollisionEvent, Xyz, Quaternion } from "@robwot/core";
 import type { Quaternion, Xyz } from "@robwot/core";
 
 /** A move result from a twin served with `--relay`: what the physical robot's Thing answered. */
-export type { RelayedMoveResult } from "@robwot/core";
+export type { RelayedMoveOutput } from "@robwot/core";
 
 /** `getCartesianPosition` value. */
 export interface CartesianPose extends Xyz {

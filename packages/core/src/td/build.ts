@@ -4,7 +4,9 @@
  * (longpoll observeproperty), `actions/<name>` (POST, invokeaction), `events/<name>` (longpoll
  * subscribeevent), and `properties` (readallproperties) at the Thing level.
  */
+import type { Coupling } from "../backend-contract.js";
 import { transformBounds, type SimilarityTransform } from "../calibration.js";
+import type { TdCoupling } from "../couplings.js";
 import { ThingDescriptionError } from "../errors.js";
 import { TWIN_FILES } from "../twin-layout.js";
 import type { Bounds, JointSpec, RobotModelLike, WorkspaceSummary } from "../types.js";
@@ -127,6 +129,16 @@ function normaliseBaseUrl(baseUrl: string): URL {
   return url;
 }
 
+/** The couplings given or derived at load (not the URDF's `<mimic>` tags). */
+function addedCouplings(model: RobotModelLike): Coupling[] {
+  return (model.couplings ?? []).filter((c) => c.source !== "mimic");
+}
+
+/** A coupling as the TD states it: the follower's value is `sum(factor * joint) + offset` (rad or m). */
+function tdCoupling(c: Coupling): TdCoupling {
+  return { follower: c.follower, terms: c.terms.map((t) => ({ joint: t.joint, factor: t.factor })), offset: c.offset, expression: c.expression, source: c.source };
+}
+
 /** Stable Thing id: same robot model + same scene id gives the same urn. */
 export function thingId(model: RobotModelLike, slug: string, sceneId?: string): string {
   const robot = {
@@ -136,6 +148,8 @@ export function thingId(model: RobotModelLike, slug: string, sceneId?: string): 
     joints: model.joints.map((j) => ({ name: j.name, type: j.type, lower: j.lower, upper: j.upper, velocity: j.velocity, effort: j.effort, mimic: j.mimic })),
     basePosition: model.basePosition,
     baseOrientation: model.baseOrientation,
+    // rules beyond the URDF's own mimic tags make another robot (absent: the ids of earlier twins hold)
+    ...(addedCouplings(model).length > 0 ? { couplings: addedCouplings(model).map((c) => c.expression) } : {}),
   };
   return `urn:robwot:${slug}:${fnv1a64(canonicalJson({ robot, scene: sceneId ?? null }))}`;
 }
@@ -202,6 +216,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     "robwot:controllableJoints": joints.map((j) => j.name),
     ...(model.clearance !== undefined ? { "robwot:clearance": model.clearance } : {}),
     ...(options.tool ? { "robwot:tool": toolTerm(options.tool) } : {}),
+    ...((model.couplings ?? []).length > 0 ? { "robwot:couplings": (model.couplings ?? []).map(tdCoupling) } : {}),
   };
   if (summary) {
     td["robwot:workspace"] = {

@@ -13,7 +13,7 @@ type Json = Record<string, unknown>;
 
 const JOINTS_SCHEMA: DataSchema = {
   type: "object",
-  description: "one number per controllable joint of {{ROBOT_NAME}}, named as in its URDF, within the joint's limits (rad or m)",
+  description: "one number per controllable joint of {{ROBOT_NAME}}, named as in its URDF, within the joint's limits (rad or m); joints that follow others (the TD's robwot:couplings: mimic joints, parallel-linkage joints) are not among them",
 };
 
 export function buildThingModel(): Json {

@@ -6,8 +6,8 @@ Frames: the world frame (Z up). The robot's root link frame is placed at the bas
 motion about/along ``<axis>`` (expressed in the joint frame). The result is the URDF link frame of the
 target link (not its centre of mass), as ``World.fk`` reports it.
 
-Joint values come in the order of the robot's ``controllable`` list; mimic joints follow their master
-(``value = multiplier * master + offset``); fixed joints only contribute their origin.
+Joint values come in the order of the robot's ``controllable`` list; coupled joints (mimic ones included)
+follow their rule in those joints' coordinates; fixed joints only contribute their origin.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.errors import UnknownLink
+from robwot_sim.model.couplings import Coupling
 from robwot_sim.model.joints import MOVABLE, JointInfo
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 
@@ -28,16 +29,21 @@ FloatArray = npt.NDArray[np.float64]
 
 @dataclass(frozen=True)
 class ChainJoint:
-    """One joint on the chain. ``source`` indexes the joint vector (-1 for fixed joints)."""
+    """One joint on the chain: its value is ``sum(q[i] * factor for i, factor in terms) + offset`` (a
+    controllable joint: one term of factor 1; a follower: its coupling; a fixed joint: no term, and it
+    does not move)."""
 
     name: str
     type: str
     origin_xyz: tuple[float, float, float]
     origin_rot: tuple[tuple[float, float, float], ...]
     axis: tuple[float, float, float]
-    source: int
-    multiplier: float = 1.0
+    terms: tuple[tuple[int, float], ...] = ()
     offset: float = 0.0
+
+    @property
+    def moves(self) -> bool:
+        return self.type in MOVABLE
 
 
 class ChainFK:
@@ -54,27 +60,31 @@ class ChainFK:
 
     @classmethod
     def from_joints(cls, joints: Sequence[JointInfo], links: Sequence[str], ee_link: str,
-                    controllable: Sequence[str], *, base_position: Sequence[float] = (0.0, 0.0, 0.0),
+                    controllable: Sequence[str], couplings: Sequence[Coupling], *,
+                    base_position: Sequence[float] = (0.0, 0.0, 0.0),
                     base_orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0)) -> ChainFK:
         """The chain root -> ``ee_link`` of a parsed joint tree (``joints.parse_model``, or a robot model
         holding its joints: a tree, so the walk up from any link ends at the root)."""
         if ee_link not in links:
             raise UnknownLink(ee_link, list(links))
         by_child = {j.child: j for j in joints}
-        by_name = {j.name: j for j in joints}
         index = {n: i for i, n in enumerate(controllable)}
+        rules = {c.follower: c for c in couplings}
         chain: list[JointInfo] = []
         link = ee_link
         while link in by_child:
             chain.append(by_child[link])
             link = by_child[link].parent
         chain.reverse()
-        return cls([_chain_joint(j, index, by_name) for j in chain], len(controllable), ee_link,
+        return cls([_chain_joint(j, index, rules) for j in chain], len(controllable), ee_link,
                    base_position, base_orientation)
 
     def _values(self, qs: FloatArray, j: ChainJoint) -> FloatArray:
-        v = qs[:, j.source]
-        return v if j.multiplier == 1.0 and j.offset == 0.0 else v * j.multiplier + j.offset
+        (first, factor), *rest = j.terms or ((0, 0.0),)
+        v = qs[:, first] if factor == 1.0 else qs[:, first] * factor
+        for i, f in rest:
+            v = v + qs[:, i] * f
+        return v if j.offset == 0.0 else v + j.offset
 
     def poses(self, qs: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
         """Positions ``(n, 3)`` (m) and rotation matrices ``(n, 3, 3)`` of the end link, world frame."""
@@ -146,11 +156,11 @@ def chain_frames(chains: Sequence[ChainFK], qs: FloatArray) -> list[tuple[FloatA
                 p, r = done[j.name]
                 continue
             p = p + r @ np.asarray(j.origin_xyz)
-            if j.source >= 0 and j.type != "prismatic":
+            if j.moves and j.type != "prismatic":
                 r = _turn(r, np.asarray(j.origin_rot), np.asarray(j.axis), fk._values(qs, j))
             else:
                 r = r @ np.asarray(j.origin_rot)
-                if j.source >= 0:
+                if j.moves:
                     p = p + (r @ np.asarray(j.axis)) * fk._values(qs, j)[:, None]
             done[j.name] = (p, r)
         out.append((p, r))
@@ -172,21 +182,18 @@ def _turn(r: FloatArray, origin: FloatArray, axis: FloatArray, angle: FloatArray
     return out
 
 
-def _chain_joint(j: JointInfo, index: dict[str, int], by_name: dict[str, JointInfo]) -> ChainJoint:
-    source, mult, off = _source(j.name, index, by_name) if j.type in MOVABLE else (-1, 1.0, 0.0)
+def _chain_joint(j: JointInfo, index: dict[str, int], rules: dict[str, Coupling]) -> ChainJoint:
+    """The chain joint of ``j``, driven by the joint vector (``index``) directly or through its coupling
+    (``rules``: couplings written in the controllable joints' coordinates)."""
+    terms: tuple[tuple[int, float], ...] = ()
+    offset = 0.0
+    if j.type in MOVABLE:
+        if j.name in index:
+            terms = ((index[j.name], 1.0),)
+        elif j.name in rules:
+            terms, offset = tuple((index[n], f) for n, f in rules[j.name].terms), rules[j.name].offset
+        else:
+            raise ValueError(f"joint {j.name!r} is neither in the joint vector nor coupled to it")
     rot = rpy_matrix(*j.origin_rpy)
     return ChainJoint(j.name, j.type, j.origin_xyz, tuple((float(a), float(b), float(c)) for a, b, c in rot),
-                      j.axis, source, mult, off)
-
-
-def _source(name: str, index: dict[str, int], by_name: dict[str, JointInfo]) -> tuple[int, float, float]:
-    """Joint-vector index plus the composed mimic multiplier/offset driving joint ``name`` (the joint tree
-    checked that a mimic's master is a controllable joint)."""
-    mult, off = 1.0, 0.0
-    while name not in index:
-        mimic = by_name[name].mimic
-        if mimic is None:
-            raise ValueError(f"joint {name!r} is neither in the joint vector nor a mimic of one in it")
-        mult, off = mult * mimic.multiplier, off + mult * mimic.offset  # v = mult * (m * master + o) + off
-        name = mimic.joint
-    return index[name], mult, off
+                      j.axis, terms, offset)

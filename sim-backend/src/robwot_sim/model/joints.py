@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from robwot_sim.errors import NoMovableJoint, UrdfError
+from robwot_sim.model.couplings import Coupling, keep_level, parse_coupling, resolve
 from robwot_sim.model.urdf import UrdfDoc
 
 Vec3 = tuple[float, float, float]
@@ -116,10 +118,26 @@ class UrdfModel:
     links: tuple[str, ...]
     joints: tuple[JointInfo, ...]
     children: dict[str, list[JointInfo]] = field(hash=False)
+    #: every joint that follows others, written in the controllable joints' coordinates (``<mimic>`` tags
+    #: and the couplings given at load)
+    couplings: tuple[Coupling, ...] = ()
 
     @property
     def controllable(self) -> tuple[str, ...]:
-        return tuple(j.name for j in self.joints if j.type in MOVABLE and j.mimic is None)
+        """The movable joints that follow no other: a joint vector's order."""
+        followers = {c.follower for c in self.couplings}
+        return tuple(j.name for j in self.joints if j.type in MOVABLE and j.name not in followers)
+
+    def coupled(self, rules: Sequence[str] = (), level_links: Sequence[str] = ()) -> UrdfModel:
+        """This model with the couplings ``rules`` (``FOLLOWER=EXPR``; one replaces the ``<mimic>`` of its
+        follower) and, after them, those keeping each of ``level_links`` level (``couplings.keep_level``)."""
+        given = [parse_coupling(text, f"couplings[{k}]") for k, text in enumerate(rules)]
+        named = {c.follower for c in given}
+        mimics = [c for c in _mimic_couplings(self.joints) if c.follower not in named]
+        out = [*mimics, *given]
+        for link in level_links:
+            out.append(keep_level(link, self.joints, {c.follower for c in out}))
+        return replace(self, couplings=resolve(out, self.joints))
 
     def default_ee(self) -> str:
         """Tip of the longest serial chain: from the root, follow the child subtree holding strictly the
@@ -171,7 +189,8 @@ def parse_model(doc: UrdfDoc) -> UrdfModel:
     children: dict[str, list[JointInfo]] = {}
     for j in joints:
         children.setdefault(j.parent, []).append(j)
-    model = UrdfModel(root.get("name", "robot"), roots[0], tuple(links), tuple(joints), children)
+    model = UrdfModel(root.get("name", "robot"), roots[0], tuple(links), tuple(joints), children,
+                      resolve(_mimic_couplings(joints), joints))
     if not model.controllable:
         raise NoMovableJoint(f)
     return model
@@ -283,6 +302,11 @@ def _joint_axis(el: ET.Element, doc: UrdfDoc, name: str, jtype: str) -> Vec3:
         where = doc.line_of(axis_el) if axis_el is not None else doc.line_of(el)
         raise UrdfError(f"joint {name!r}: zero axis", file=str(doc.file), line=where, joint=name)
     return (ax[0] / norm, ax[1] / norm, ax[2] / norm)
+
+
+def _mimic_couplings(joints: Sequence[JointInfo]) -> list[Coupling]:
+    return [Coupling(j.name, ((j.mimic.joint, j.mimic.multiplier),), j.mimic.offset, "mimic")
+            for j in joints if j.mimic is not None]
 
 
 def _check_unique_and_mimics(joints: list[JointInfo], links: list[str], f: str) -> None:

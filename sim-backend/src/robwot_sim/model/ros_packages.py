@@ -1,11 +1,18 @@
 """ROS packages found the way ROS finds them: a folder is the package NAME when its ``package.xml`` says
-``<name>NAME</name>`` (a folder that merely has the name, such as ``/tmp``, is not a package).
+``<name>NAME</name>``.
 
 Three places are searched, beside the caller's explicit ``NAME -> DIR`` roots: the ancestors of a file (the
 package that holds a URDF or a xacro file), the folders of ``ROS_PACKAGE_PATH`` (colon-separated), each
 crawled as ``rospack`` does: a folder with a ``package.xml`` is a package and is not descended into,
 folders holding ``CATKIN_IGNORE``/``COLCON_IGNORE``/``AMENT_IGNORE`` and hidden folders are skipped, and the
 ROS 2 install prefixes of ``AMENT_PREFIX_PATH`` (``PREFIX/share/NAME``).
+
+Robot descriptions copied out of a ROS workspace often lost their ``package.xml`` (the paper's robots: a
+``dobot_description`` folder holding ``urdf/`` and ``meshes/``). For them, and only when no manifest names
+the package, ``folder_named`` takes a folder that has the package's name and holds the file, or stands
+beside a folder holding it, within ``MAX_NAMED_LEVELS`` of the file's folder; never the filesystem root,
+its direct children (``/tmp``, ``/home``) or the home folder and its ancestors, where a folder that merely
+has the name is not the robot's; never a folder whose ``package.xml`` names another package.
 """
 
 from __future__ import annotations
@@ -23,6 +30,9 @@ MAX_DEPTH = 6
 IGNORE_MARKERS = ("CATKIN_IGNORE", "COLCON_IGNORE", "AMENT_IGNORE")
 #: largest package.xml read (a real one is a few KiB)
 MAX_MANIFEST_BYTES = 64 * 1024
+#: how many folders above a file's own folder a folder taken by its name may be (pkg/urdf/xacro/robot.xacro
+#: fits)
+MAX_NAMED_LEVELS = 3
 
 
 def package_name(folder: Path) -> str | None:
@@ -107,4 +117,41 @@ def find_on_ros_package_path(name: str) -> Path | None:
         share = Path(prefix) / "share" / name if prefix else None
         if share is not None and share.is_dir() and package_name(share) == name:
             return share.resolve()
+    return None
+
+
+def _too_general(folder: Path) -> bool:
+    """The filesystem root, a direct child of it, or the home folder or one of its ancestors: a folder there
+    that merely has a package's name is not the robot's."""
+    if len(folder.parts) <= 2:
+        return True
+    try:
+        home = Path.home().resolve()
+    except (RuntimeError, OSError):
+        return False
+    return folder == home or folder in home.parents
+
+
+def folder_named(start: Path, name: str) -> Path | None:
+    """The folder taken as ROS package ``name`` by its name alone (no ``package.xml`` names it anywhere: the
+    caller asks the manifests first): the nearest ancestor of ``start`` (itself included, at most
+    ``MAX_NAMED_LEVELS`` above it) named ``name``, else the nearest folder named ``name`` beside one of
+    those ancestors. A folder whose ``package.xml`` names another package, or one ``_too_general``, is
+    never taken. ``start`` should be resolved; a sibling is returned as written (not resolved), so the
+    caller's confinement refuses a symlinked sibling that leads elsewhere."""
+    if not name or name in (".", ".."):
+        return None
+    ancestors = [start, *start.parents][: MAX_NAMED_LEVELS + 1]
+
+    def fits(folder: Path) -> bool:
+        return (folder.is_dir() and not _too_general(folder)
+                and package_name(folder) in (None, name))
+
+    for anc in ancestors:
+        if anc.name == name and fits(anc):
+            return anc
+    for anc in ancestors:
+        sibling = anc.parent / name
+        if anc.parent != anc and sibling != anc and fits(sibling):
+            return sibling
     return None

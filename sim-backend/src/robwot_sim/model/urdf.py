@@ -3,7 +3,8 @@
 * No DTD, no entities: a document containing ``<!DOCTYPE`` or ``<!ENTITY`` is refused before parsing
   (XXE, billion laughs), and the expat parser refuses them again if they slip through an encoding.
 * Mesh filenames are resolved (``package://``, relative, absolute) and must stay inside the allowed roots:
-  the URDF folder, user package roots, package folders found as ancestors of the URDF, ``pybullet_data``.
+  the URDF folder, user package roots, package folders found as ancestors of the URDF (or, without a
+  ``package.xml``, by their folder's name: ``ros_packages.folder_named``), ``pybullet_data``.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from robwot_sim.model import xmlsafe
 from robwot_sim.model.confine import inside
 from robwot_sim.model.decompose import FloatArray, IndexArray, OnMesh, collision_cache, split_collisions
 from robwot_sim.model.meshcheck import check_mesh, read_mesh, snippet
-from robwot_sim.model.ros_packages import enclosing_package, find_on_ros_package_path
+from robwot_sim.model.ros_packages import enclosing_package, find_on_ros_package_path, folder_named
 from robwot_sim.wholefile import TooLarge, read_whole
 
 MAX_URDF_BYTES = 20 * 1024 * 1024
@@ -129,24 +130,27 @@ def resolve_mesh(
     *,
     urdf: str | None = None,
     line: int | None = None,
+    notes: dict[str, str] | None = None,
 ) -> Path:
     """Resolve a URDF mesh filename to an existing absolute path inside the allowed roots.
 
     ``package://NAME/rest`` (NAME must not be empty) is looked up in ``package_roots[NAME]``, then in the
-    ROS package NAME that holds the URDF (an ancestor folder with a ``package.xml`` naming NAME: a folder
-    that merely has the name, such as ``/tmp``, is not a package), then in the package NAME found on
-    ``ROS_PACKAGE_PATH`` and ``AMENT_PREFIX_PATH`` (ros_packages.py), then ``pybullet_data/NAME``, then the
-    URDF folder (PyBullet's own rule, used by pybullet_data's panda). ``file://`` and absolute paths are
-    taken as is; others are relative to the URDF folder. Raises PathEscape when the result leaves the
-    allowed roots (``..``, symlinks), UnknownPackage when NAME is found nowhere and no fallback file exists
-    (naming the option that fixes it), FileNotFound when missing. ``line`` is the referencing element's
-    line in ``urdf``.
+    ROS package NAME that holds the URDF (an ancestor folder with a ``package.xml`` naming NAME), then in
+    the package NAME found on ``ROS_PACKAGE_PATH`` and ``AMENT_PREFIX_PATH`` (ros_packages.py); when none
+    of these knows NAME, in the folder named NAME that holds the URDF or stands beside a folder holding it
+    (``ros_packages.folder_named``; ``notes[NAME]`` then says so, once per package); then
+    ``pybullet_data/NAME``, then the URDF folder (PyBullet's own rule, used by pybullet_data's panda).
+    ``file://`` and absolute paths are taken as is; others are relative to the URDF folder. Raises
+    PathEscape when the result leaves the allowed roots (``..``, symlinks), UnknownPackage when NAME is
+    found nowhere and no fallback file exists (naming the option that fixes it), FileNotFound when
+    missing. ``line`` is the referencing element's line in ``urdf``.
     """
     udir = Path(urdf_dir).resolve()
     roots = allowed_roots(udir, package_roots)
     pkg_roots = {k: Path(v).expanduser().resolve() for k, v in (package_roots or {}).items()}
     candidates: list[Path] = []
     extra_roots: list[Path] = []
+    by_name: tuple[Path, str, str] | None = None  # (candidate, package, note): a package taken by its name
     if filename.startswith("package://"):
         rest = filename[len("package://") :]
         name, _, sub = rest.partition("/")
@@ -159,6 +163,12 @@ def resolve_mesh(
             if package is not None:
                 candidates.append(package / sub)
                 extra_roots.append(package)
+        named = folder_named(udir, name) if name not in pkg_roots and not extra_roots else None
+        if named is not None:
+            note = _named_note(filename, name, named, urdf, line)
+            by_name = (Path(os.path.normpath(named / sub)), name, note)
+            candidates.append(by_name[0])
+            extra_roots.append(named)
         known = bool(name in pkg_roots or extra_roots or (pybullet_data_path() / name).is_dir())
         candidates.append(pybullet_data_path() / name / sub)
         candidates.append(udir / name / sub)
@@ -177,6 +187,8 @@ def resolve_mesh(
             real = c.resolve()  # follow symlinks: they must not lead out either
             if not inside(real, roots):
                 raise PathEscape(str(real), [str(r) for r in roots], urdf=urdf)
+            if by_name is not None and c == by_name[0] and notes is not None:
+                notes.setdefault(by_name[1], by_name[2])
             return real
     if filename.startswith("package://") and not known:
         raise UnknownPackage(filename, filename[len("package://"):].partition("/")[0], urdf=urdf, line=line,
@@ -193,6 +205,13 @@ def resolve_mesh(
     )
 
 
+def _named_note(filename: str, name: str, folder: Path, urdf: str | None, line: int | None) -> str:
+    """What the user is told when a package was taken by its folder's name: where, and how to choose."""
+    where = f"{urdf}:{line}: " if urdf and line is not None else f"{urdf}: " if urdf else ""
+    return (f"{where}{filename}: no package.xml names ROS package {name!r}; taken as the folder {folder} by "
+            f"its name (give --package-root {name}=DIR to choose another)")
+
+
 @dataclass
 class PreparedUrdf:
     """A URDF checked and rewritten for PyBullet: absolute mesh paths, visuals stripped."""
@@ -202,6 +221,8 @@ class PreparedUrdf:
     meshes: dict[str, Path]  # original filename -> checked absolute path PyBullet loads
     tmpdir: str
     collision_parts: tuple[Path, ...] = ()  # convex decomposition cache folders used (see decompose.py)
+    #: what the user should know of how the meshes were found (a package taken by its folder's name)
+    notes: tuple[str, ...] = ()
 
     def cleanup(self) -> None:
         shutil.rmtree(self.tmpdir, ignore_errors=True)
@@ -220,13 +241,15 @@ def prepare_urdf(
     doc = doc or parse_urdf(path)
     udir = doc.file.parent
     meshes: dict[str, Path] = {}
+    notes: dict[str, str] = {}
     root = ET.fromstring(ET.tostring(doc.root))
     for el in doc.root.iter("mesh"):
         fn = el.get("filename")
         if not fn:
             raise UrdfError("<mesh> without filename", file=str(doc.file), line=doc.line_of(el))
         if fn not in meshes:
-            resolved = resolve_mesh(fn, udir, package_roots, urdf=str(doc.file), line=doc.line_of(el))
+            resolved = resolve_mesh(fn, udir, package_roots, urdf=str(doc.file), line=doc.line_of(el),
+                                    notes=notes)
             if resolved.suffix.lower() not in MESH_SUFFIXES:
                 raise UrdfError(
                     f"unsupported mesh format {snippet(resolved.suffix)} ({snippet(fn, 200, quote=False)}); "
@@ -248,7 +271,8 @@ def prepare_urdf(
     # PyBullet would turn each concave collision mesh into one convex hull: split it into convex parts
     parts = split_collisions(root, collision_cache(udir), _triangles, allow_decompose=decompose,
                              on_mesh=on_mesh)
-    return PreparedUrdf(doc, _write_for_bullet(root, Path(tmpdir)), meshes, tmpdir, parts)
+    return PreparedUrdf(doc, _write_for_bullet(root, Path(tmpdir)), meshes, tmpdir, parts,
+                        tuple(notes.values()))
 
 
 def _write_for_bullet(root: ET.Element, tmpdir: Path) -> Path:

@@ -32,7 +32,7 @@ from typing import Any
 from robwot_sim.errors import FileNotFound, Forbidden, PathEscape, SimError, UnknownPackage, UrdfError
 from robwot_sim.model import xmlsafe
 from robwot_sim.model.confine import inside
-from robwot_sim.model.ros_packages import enclosing_packages, find_on_ros_package_path
+from robwot_sim.model.ros_packages import enclosing_packages, find_on_ros_package_path, folder_named
 from robwot_sim.model.urdf import MAX_URDF_BYTES, UrdfDoc, refuse_unexpanded, resolve_mesh
 from robwot_sim.wholefile import TooLarge, read_whole
 
@@ -250,7 +250,9 @@ def expand_xacro(xacro: str | Path, args: Mapping[str, str] | None = None,
         real = resolve_mesh(fn, src.parent, out_roots, urdf=str(src))  # refusals name the xacro file
         if fn.startswith("package://"):
             name = fn[len("package://"):].partition("/")[0]
-            pkg = roots.get(name) or enclosing.get(name) or find_on_ros_package_path(name)
+            # found as resolve_mesh found it (a folder taken by its name last), so the copy finds it too
+            pkg = (roots.get(name) or enclosing.get(name) or find_on_ros_package_path(name)
+                   or folder_named(src.parent, name))
             if pkg is not None:
                 out_roots[name] = str(pkg)
         elif not fn.startswith("file://") and not Path(fn).is_absolute():

@@ -2,7 +2,9 @@
 every method's params, result and errors and of every notification. The TS types of `sim-client` and
 `PROTOCOL.md` are generated from the same file (`npm run gen:contract`).
 
-Here it validates params before a handler runs (replacing per-method hand-written checks) and, when
+Here it validates params before a handler runs (replacing per-method hand-written checks), fills in the
+defaults of nested values (a program step's `speed`, `blend`, ...: a handler reads them, never a default of
+its own) and, when
 asked (`ROBWOT_CHECK_RESULTS=1`, set by the test suites), the results too. A failure names the param
 (`positions[3]`, `shape.size[0]`), what the contract expects and what was received.
 """
@@ -134,7 +136,8 @@ class Contract:
         return schema
 
     def validate_params(self, method: str, raw: Mapping[str, Any] | list[Any] | None) -> dict[str, Any]:
-        """The params object checked against the method's params schema, or a `Fault` naming the param."""
+        """The params object checked against the method's params schema, or a `Fault` naming the param;
+        nested defaults filled in (`with_defaults`; a param's own default is `MethodContract.defaults`)."""
         if isinstance(raw, list):
             raise Fault.of("E_INVALID_PARAMS", "params must be an object of named parameters, not an array",
                            param="params", expected="object", got=describe(raw))
@@ -146,7 +149,24 @@ class Contract:
         error = best_match(unknown or errors)
         if error is not None:
             raise self._fault(error)
-        return values
+        schemas = self.methods[method].params_schema["properties"]
+        return {k: self.with_defaults(schemas[k], v) for k, v in values.items()}
+
+    def with_defaults(self, schema: Mapping[str, Any], value: Any) -> Any:
+        """``value`` (valid against ``schema``) with the defaults of the properties of the objects it holds
+        filled in where absent, through arrays and `$ref`s."""
+        schema = self.resolve(schema)
+        if isinstance(value, list) and isinstance(schema.get("items"), Mapping):
+            return [self.with_defaults(schema["items"], v) for v in value]
+        if isinstance(value, dict) and "properties" in schema:
+            out = dict(value)
+            for name, sub in schema["properties"].items():
+                if name in out:
+                    out[name] = self.with_defaults(sub, out[name])
+                elif (default := self._default(sub)) is not None:
+                    out[name] = copy.deepcopy(default)
+            return out
+        return value
 
     def check_result(self, method: str, result: Any) -> None:
         """Raise E_INTERNAL when a result contradicts the contract (a bug in the backend)."""

@@ -1,63 +1,63 @@
-"""`robot.checkPath`, `robot.plan`, `robot.move`, `robot.stop`. Ranges of `speed`, `dt` and `realtime`
-are the contract's (`schemas/protocol.openrpc.json`)."""
+"""`robot.checkPath`, `robot.plan`, `robot.move`, `robot.stop`, `program.plan`, `program.run`. Ranges of
+`speed`, `dt` and `realtime` are the contract's (`schemas/protocol.openrpc.json`), checked with the rest of
+a request's shape before a handler runs; what a schema cannot state (a goal's rules) is checked here, once,
+as the request is parsed into typed values (`Goal`, `Timing`, `ProgramStep`) the planners trust."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from robwot_sim.limits import PLAN_BUDGET
-from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
-from robwot_sim.sim.planner import Plan, plan_joints, plan_lin, plan_pose
-from robwot_sim.sim.program import plan_program
+from robwot_sim.sim.planner import Goal, Plan, Timing
+from robwot_sim.sim.planner import plan as plan_goal
+from robwot_sim.sim.program import ProgramStep, plan_program
 from robwot_sim.sim.world_thread import Kind
 
 
-def _planner(p: Params, s: Services) -> Callable[[], Plan]:
-    """The plan of a `target` (joints) or `position` (+ `orientation`) param: exactly one of them."""
-    model = robot_param(p, s)
+def goal_of(p: Params, dof: int) -> Goal:
+    """A move's or a program step's goal: exactly one of `target` (joints: one value per controllable
+    joint, by PTP only) or `position` (with `orientation` only: a quaternion of non-zero norm,
+    normalised), `via` (a point of the arc) exactly with a CIRC."""
+    motion = str(p["motion"])
     if p.has("target") == p.has("position"):
-        raise invalid_param("target", "exactly one of 'target' (joints) or 'position' (pose)",
-                            p["target"], missing=not p.has("target"))
+        raise p.invalid("target", "exactly one of 'target' (joints) or 'position' (pose)",
+                        missing=not p.has("target"))
     if p.has("orientation") and not p.has("position"):
-        raise invalid_param("orientation", "'orientation' only together with 'position'", p["orientation"])
-    speed, dt = float(p["speed"]), float(p["dt"])
-    target = p.joint_vector("target", model.dof)
-    if p.has("via") and p["motion"] != "circ":
-        raise invalid_param("via", "'via' only with motion 'circ'", p["via"])
-    if p["motion"] in ("lin", "circ"):
-        if target is not None:
-            raise invalid_param("motion", f"'{p['motion']}' moves the end effector to a pose: give "
-                                "'position' (and 'orientation'), not 'target'", p["motion"])
-        if p["motion"] == "circ" and not p.has("via"):
-            raise invalid_param("via", "motion 'circ' needs 'via', a point of the arc", None, missing=True)
-        pose, turn, through = p.floats("position"), p.quaternion("orientation"), p.floats("via")
-        assert pose is not None
-        return lambda: plan_lin(s.world, model.id, pose, turn, through, speed=speed)
-    if target is not None:
-        joints = target
-        return lambda: plan_joints(s.world, model.id, joints, speed, dt)
-    position, orientation = p.floats("position"), p.quaternion("orientation")
-    assert position is not None
-    return lambda: plan_pose(s.world, model.id, position, orientation, speed, dt)
+        raise p.invalid("orientation", "'orientation' only together with 'position'")
+    if p.has("target") and motion != "ptp":
+        raise p.invalid("target", f"joints only with motion 'ptp': a {motion.upper()} moves the end "
+                        "effector to a 'position' (and 'orientation')")
+    if p.has("via") != (motion == "circ"):
+        raise p.invalid("via", "'via', a point of the arc, exactly with motion 'circ'",
+                        missing=not p.has("via"))
+    return Goal(motion, _tuple(p.joint_vector("target", dof)), _tuple(p.floats("position")),
+                _tuple(p.quaternion("orientation")), _tuple(p.floats("via")))
 
 
-def _program_steps(p: Params, dof: int) -> list[dict[str, Any]]:
-    """A program's steps, each with exactly one target, joint targets of ``dof`` values by PTP only, and
-    ``via`` exactly with a CIRC."""
-    steps = [dict(step) for step in p["steps"]]
-    for k, step in enumerate(steps):
-        motion = step.get("motion", "ptp")
-        if ("target" in step) == ("position" in step):
-            raise invalid_param(f"steps[{k}]", "exactly one of 'target' (joints) or 'position' (pose)", step)
-        if "target" in step and (motion != "ptp" or len(step["target"]) != dof):
-            raise invalid_param(f"steps[{k}].target", f"{dof} joint values, with motion 'ptp'", step)
-        if ("via" in step) != (motion == "circ"):
-            raise invalid_param(f"steps[{k}].via", "'via' exactly with motion 'circ'", step)
+def _tuple(values: list[float] | None) -> tuple[float, ...] | None:
+    return None if values is None else tuple(values)
+
+
+def _planner(p: Params, s: Services) -> Callable[[], Plan]:
+    """The plan of a `robot.plan` or `robot.move` request."""
+    model = robot_param(p, s)
+    goal, timing = goal_of(p, model.dof), Timing(float(p["speed"]), float(p["dt"]))
+    return lambda: plan_goal(s.world, model.id, goal, timing)
+
+
+def program_steps(values: Sequence[Mapping[str, Any]], dof: int) -> list[ProgramStep]:
+    """A program's steps as the contract checked them (its defaults filled in), each goal checked
+    (``goal_of``)."""
+    steps = []
+    for k, raw in enumerate(values):
+        step = Params(raw, where=f"steps[{k}].")
+        steps.append(ProgramStep(goal_of(step, dof), float(step["speed"]), float(step["acceleration"]),
+                                 float(step["tcpSpeed"]), float(step["blend"])))
     return steps
 
 
@@ -76,7 +76,7 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("program.plan")
     async def program(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        steps = _program_steps(p, model.dof)
+        steps = program_steps(p["steps"], model.dof)
         dt, rate = float(p["dt"]), float(p["rate"])
         return await s.on_world(lambda: plan_program(s.world, model.id, steps, dt, rate).report, Kind.LONG,
                                 robot=model.id, budget=PLAN_BUDGET)
@@ -84,7 +84,7 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("program.run")
     async def run(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)
-        steps = _program_steps(p, model.dof)
+        steps = program_steps(p["steps"], model.dof)
         return await s.motions.run_program(model.id, steps, realtime=float(p["realtime"]), dt=float(p["dt"]))
 
     @d.method("robot.plan")
@@ -97,8 +97,7 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("robot.move")
     async def move(p: Params, call: Call) -> dict[str, Any]:
         planner = _planner(p, s)
-        return await s.motions.move(str(p["robot"]), planner, speed=float(p["speed"]),
-                                    realtime=float(p["realtime"]), dt=float(p["dt"]))
+        return await s.motions.move(str(p["robot"]), planner, realtime=float(p["realtime"]))
 
     @d.method("robot.stop")
     async def stop(p: Params, call: Call) -> dict[str, Any]:

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 from typing import Any
 
+from robwot_sim.model.rotations import quat_from_rpy
 from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
-from robwot_sim.sim.world_scene import read_obstacle
+from robwot_sim.sim.scene_files import read_obstacle
 from robwot_sim.sim.world_thread import Kind
 
 
@@ -46,9 +47,8 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("obstacle.move")
     async def move(p: Params, call: Call) -> dict[str, Any]:
         pose = pose_params(p)
-        return await s.on_world(lambda: s.world.move_obstacle(
-            p["name"], pose["position"], orientation=pose.get("orientation"), rpy=pose.get("rpy")),
-            Kind.PLAIN)
+        quat = pose.get("orientation") or (quat_from_rpy(pose["rpy"]) if "rpy" in pose else None)
+        return await s.on_world(lambda: s.world.move_obstacle(p["name"], pose["position"], quat), Kind.PLAIN)
 
     @d.method("obstacle.remove")
     async def remove(p: Params, call: Call) -> dict[str, Any]:

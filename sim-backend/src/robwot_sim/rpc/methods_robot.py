@@ -6,10 +6,10 @@ from typing import Any
 
 from robwot_sim.errors import Busy, NameTaken, UnknownRobot
 from robwot_sim.model.decompose import MeshDone
+from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
-from robwot_sim.sim.types import RobotModel
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Kind
 
@@ -57,7 +57,9 @@ def _register_lifecycle(d: Dispatcher, s: Services) -> None:
                 clearance=float(p["clearance"]), accelerations=dict(p["accelerationLimits"])), Kind.LONG)
         finally:
             files.cleanup()  # add_robot did, unless it never ran
-        return model.to_json()
+        # what the load guessed or skipped (a package taken by its folder's name, SRDF entries of unknown
+        # names): the result's only, robot.model does not repeat it
+        return {**model.to_json(), "warnings": list(files.notes)}
 
     @d.method("robot.remove")
     async def remove(p: Params, call: Call) -> dict[str, Any]:

@@ -11,11 +11,11 @@ from typing import Any, cast
 import numpy as np
 import numpy.typing as npt
 
+from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
-from robwot_sim.sim.types import RobotModel
 from robwot_sim.sim.world import World
 from robwot_sim.workspace import generate_workspace, warm_up
 

@@ -8,15 +8,23 @@ from collections.abc import Mapping
 from typing import Any
 
 from robwot_sim.rpc.contract import invalid_param
+from robwot_sim.rpc.protocol import Fault
 from robwot_sim.validate import MIN_QUATERNION_NORM, unit_quaternion
 
 
 class Params:
-    """Validated params by name; absent ones read as the contract's default (or None)."""
+    """Validated params by name; absent ones read as the contract's default (or None). ``where`` names
+    the object they belong to in errors (``steps[2].``: a program's step)."""
 
-    def __init__(self, values: Mapping[str, Any], defaults: Mapping[str, Any] | None = None) -> None:
+    def __init__(self, values: Mapping[str, Any], defaults: Mapping[str, Any] | None = None,
+                 where: str = "") -> None:
         self.raw = dict(values)
         self._defaults = dict(defaults or {})
+        self.where = where
+
+    def invalid(self, name: str, expected: str, *, missing: bool = False) -> Fault:
+        """`E_INVALID_PARAMS` for param ``name`` (what was received, or missing)."""
+        return invalid_param(self.where + name, expected, self.raw.get(name), missing=missing)
 
     def has(self, name: str) -> bool:
         return name in self.raw
@@ -33,8 +41,7 @@ class Params:
         """A joint vector with exactly one value per controllable joint (None when absent)."""
         value = self.floats(name)
         if value is not None and len(value) != dof:
-            raise invalid_param(name, f"an array of {dof} finite numbers (one per controllable joint)",
-                                self.raw[name])
+            raise self.invalid(name, f"an array of {dof} finite numbers (one per controllable joint)")
         return value
 
     def quaternion(self, name: str) -> list[float] | None:
@@ -44,6 +51,5 @@ class Params:
             return None
         quat = unit_quaternion(value)
         if quat is None:
-            raise invalid_param(name, f"a quaternion [x, y, z, w] of norm >= {MIN_QUATERNION_NORM:g}",
-                                self.raw.get(name, value))
+            raise self.invalid(name, f"a quaternion [x, y, z, w] of norm >= {MIN_QUATERNION_NORM:g}")
         return quat

@@ -11,9 +11,10 @@ import threading
 from collections.abc import Awaitable, Callable, Mapping, Sequence
 from typing import Any, Protocol, TypeVar
 
-from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
+from robwot_sim.limits import DEFAULT_DT
+from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.sim.planner import Plan
-from robwot_sim.sim.types import RobotModel
+from robwot_sim.sim.program import ProgramStep
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Kind
 
@@ -29,10 +30,10 @@ class Motions(Protocol):
 
     async def stop_and_wait(self, robots: Sequence[str] | None = None) -> None: ...
 
-    async def move(self, robot: str, planner: Callable[[], Plan], *, speed: float = DEFAULT_SPEED,
-                   realtime: float = 1.0, dt: float = DEFAULT_DT) -> dict[str, Any]: ...
+    async def move(self, robot: str, planner: Callable[[], Plan], *,
+                   realtime: float = 1.0) -> dict[str, Any]: ...
 
-    async def run_program(self, robot: str, steps: Sequence[Mapping[str, Any]], *, realtime: float = 1.0,
+    async def run_program(self, robot: str, steps: Sequence[ProgramStep], *, realtime: float = 1.0,
                           dt: float = DEFAULT_DT) -> dict[str, Any]: ...
 
 

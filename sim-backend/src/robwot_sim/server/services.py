@@ -19,12 +19,12 @@ import threading
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
+from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.motion_runner import MotionRunner
 from robwot_sim.rpc.dispatch import Dispatcher
 from robwot_sim.rpc.protocol import DEFAULT_MAX_MESSAGE_BYTES, notification_message
 from robwot_sim.rpc.table import build_dispatcher
 from robwot_sim.server.peer import Peer
-from robwot_sim.sim.types import RobotModel
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Kind, WorldThread
 

@@ -15,7 +15,7 @@ Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 
 
-#: the key of a read mesh shape holding its convex hull's scaled vertices (``world_scene.mesh_hull``)
+#: the key of a read mesh shape holding its convex hull's scaled vertices (``scene_files.mesh_hull``)
 HULL = "hull"
 
 class JointInfo(NamedTuple):

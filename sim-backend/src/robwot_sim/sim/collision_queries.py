@@ -9,45 +9,23 @@ robot alone, keyed by the scene's version). The queries read the scene and never
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
-from robwot_sim.sim.loader import RobotEntry
 from robwot_sim.sim.outerbounds import OuterBounds, build_outer_bounds
+from robwot_sim.sim.planning_scene import Scene
 from robwot_sim.sim.surehit import SureHits, build_sure_hits
-
-
-class SceneView(Protocol):
-    """What the queries read of a scene: its robots, its obstacles, its version."""
-
-    @property
-    def version(self) -> int:
-        """Bumped on every change of the scene's bodies (added, moved, removed)."""
-        ...
-
-    def entries(self) -> Mapping[str, RobotEntry]: ...
-
-    def obstacle_bodies(self) -> list[tuple[int, dict[str, Any]]]:
-        """(body, spec) of every obstacle."""
-        ...
-
-    def built_specs(self) -> list[dict[str, Any]]:
-        """The obstacles' specs with the shapes their bodies were built from."""
-        ...
-
-    def others_stamp(self, robot_id: str) -> tuple[int, int]: ...
 
 
 class CollisionQueries:
     """Batch collision checks of one robot's configurations against a scene. ``close()`` frees the
     mirror worlds."""
 
-    def __init__(self, scene: SceneView) -> None:
+    def __init__(self, scene: Scene) -> None:
         self._scene = scene
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
         self._alone: dict[str, FastWorld] = {}  # per robot: a mirror of it alone (its self-contact)
@@ -67,8 +45,8 @@ class CollisionQueries:
         for self-contact in a world holding the robot alone, and rows also free of self-contact for sure
         are not checked by Bullet (off by default: on the robots and scenes measured, the numpy tests cost
         as much as the Bullet work they save; ``python -m robwot_bench.bounds``)."""
+        e = self._scene.entry(robot_id)
         entries = self._scene.entries()
-        e = entries[robot_id]
         arr = _rows(qs, e.bound.dof)
         bad = (
             ~np.isfinite(arr).all(axis=1)

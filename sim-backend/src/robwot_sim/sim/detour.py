@@ -33,9 +33,10 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from robwot_sim.sim.collision import CollisionChecker
-from robwot_sim.sim.pathcheck import Guard, first_contact
+from robwot_sim.sim.pathcheck import first_contact, path_clearance
+from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.robot import BoundRobot
-from robwot_sim.sim.sweep import substeps
+from robwot_sim.sim.sweep import Guard, substeps
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world_thread import checkpoint
 
@@ -164,22 +165,26 @@ def _vector(state: ob.State, dof: int) -> FloatArray:
 
 
 class DetourMemory:
-    """The last `REMEMBERED` detours of one robot, each with the world version it was found in."""
+    """The last `REMEMBERED` detours of each robot of a scene, found in its current version (a change of
+    the scene makes the older ones useless: they are dropped at the next one remembered)."""
 
     def __init__(self) -> None:
-        self._paths: list[tuple[int, list[FloatArray]]] = []
+        self._paths: dict[str, list[tuple[int, list[FloatArray]]]] = {}
 
-    def remember(self, version: int, path: list[FloatArray]) -> None:
+    def remember(self, robot_id: str, version: int, path: list[FloatArray]) -> None:
         """``path``: start and goal included."""
-        kept = [(v, p) for v, p in self._paths if v == version][-(REMEMBERED - 1):]
-        self._paths = [*kept, (version, path)]
+        self._paths = {rid: [(v, p) for v, p in paths if v == version]
+                       for rid, paths in self._paths.items()}
+        kept = self._paths.get(robot_id, [])[-(REMEMBERED - 1):]
+        self._paths[robot_id] = [*kept, (version, path)]
 
-    def stretches(self, version: int, start: FloatArray, goal: FloatArray) -> list[list[FloatArray]]:
-        """The stretches of remembered detours (newest first) from a state at ``start`` to a later or
-        earlier state at ``goal``, in the order they were found (a move back: reversed), their ends
-        replaced by the given states."""
+    def stretches(self, robot_id: str, version: int, start: FloatArray,
+                  goal: FloatArray) -> list[list[FloatArray]]:
+        """The stretches of the robot's remembered detours (newest first) from a state at ``start`` to a
+        later or earlier state at ``goal``, in the order they were found (a move back: reversed), their
+        ends replaced by the given states."""
         out = []
-        for v, path in reversed(self._paths):
+        for v, path in reversed(self._paths.get(robot_id, [])):
             if v != version:
                 continue
             i, j = _index(path, start), _index(path, goal)
@@ -198,16 +203,41 @@ def _index(path: list[FloatArray], q: FloatArray) -> int | None:
     return None
 
 
-def recall(robot: BoundRobot, checker: CollisionChecker, memory: DetourMemory, version: int,
-           start: FloatArray, goal: FloatArray, guard: Guard, clearance: float) -> list[FloatArray] | None:
-    """Waypoints like `find_detour`'s along a remembered detour from ``start`` to ``goal`` that passes
-    our path check now, or None. A stretch is checked in the order it was found: a move back asks our
-    path check the very states the search's check asked. Moves the robot: the caller restores it."""
-    for path in memory.stretches(version, start, goal):
+def recall(robot: BoundRobot, checker: CollisionChecker, stretches: list[list[FloatArray]],
+           start: FloatArray, guard: Guard, clearance: float) -> list[FloatArray] | None:
+    """Waypoints like `find_detour`'s along one of the remembered ``stretches``
+    (`DetourMemory.stretches`) that passes our path check now, or None. A stretch is checked in the order
+    it was found: a move back asks our path check the very states the search's check asked. Moves the
+    robot: the caller restores it."""
+    for path in stretches:
         if _passes(robot, checker, path, guard, clearance):
             forward = np.array_equal(path[0], start)
             return path[1:] if forward else path[::-1][1:]
     return None
+
+
+def detour(scene: Scene, robot_id: str, target: JointVector, memory: DetourMemory,
+           budget: float = BUDGET) -> list[tuple[float, ...]] | None:
+    """Waypoints (ending at ``target``) of a collision-free path of a robot of ``scene`` from its current
+    state around what blocks the straight one, or None; the scene unchanged. A stretch of a detour found
+    before in this version of the scene (either way along it: ``memory``) is taken again when it still
+    passes the path check; else RRT-Connect searches one (`find_detour`), remembered when found."""
+    e = scene.entry(robot_id)
+    tgt = e.bound.validate(target, "target")
+    saved = e.bound.q.copy()
+    version = scene.version
+    try:
+        clearance = path_clearance(e.bound, e.checker, saved, e.guard, tgt)
+        with scene.holding(robot_id):
+            stretches = memory.stretches(robot_id, version, saved, tgt)
+            found = recall(e.bound, e.checker, stretches, saved, e.guard, clearance)
+            if found is None:
+                found = find_detour(e.bound, e.checker, saved, tgt, e.guard, clearance, budget)
+                if found is not None:
+                    memory.remember(robot_id, version, [saved, *found])
+    finally:
+        e.bound.apply(saved)
+    return None if found is None else [tuple(float(x) for x in w) for w in found]
 
 
 def smooth(robot: BoundRobot, checker: CollisionChecker, path: list[FloatArray], guard: Guard,

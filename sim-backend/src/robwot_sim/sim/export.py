@@ -7,15 +7,17 @@ images (``<init_from>``) found next to a mesh are copied too, so the viewer sees
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import shutil
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from robwot_sim.model.urdf import parse_urdf, resolve_mesh
+from robwot_sim.sim.loader import RobotEntry
 from robwot_sim.twin_layout import COLLISION_DIR, MESHES_DIR, URDF
 
 _MTLLIB = re.compile(rb"^\s*mtllib\s+(.+?)\s*$", re.MULTILINE)
@@ -87,3 +89,10 @@ def export_urdf(
         shutil.copytree(folder, out / COLLISION_DIR / folder.name, dirs_exist_ok=True)
     ET.ElementTree(root).write(out / URDF, encoding="utf-8", xml_declaration=True)
     return {"urdf": URDF, "meshes": sorted(set(mapping.values()))}
+
+
+def export_job(entry: RobotEntry, out_dir: str | Path) -> Callable[[], dict[str, Any]]:
+    """The export (``export_urdf``) of a loaded robot as a function that needs no world: it only copies
+    files (any thread)."""
+    return functools.partial(export_urdf, entry.urdf_path, out_dir, entry.package_roots,
+                             entry.collision_parts)

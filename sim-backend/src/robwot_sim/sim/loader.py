@@ -10,17 +10,18 @@ import numpy as np
 import pybullet as pb
 
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
+from robwot_sim.limits import DEFAULT_CLEARANCE
 from robwot_sim.model.decompose import OnMesh
 from robwot_sim.model.joints import UrdfModel, parse_model
-from robwot_sim.model.srdf import disabled_pairs
+from robwot_sim.model.robot_model import RobotModel
+from robwot_sim.model.srdf import read_srdf
 from robwot_sim.model.urdf import PreparedUrdf, UrdfDoc, parse_urdf, prepare_urdf, pybullet_data_path
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable, CollisionChecker, find_always_colliding
 from robwot_sim.sim.kinematics import reach_sphere
-from robwot_sim.sim.pathcheck import Guard
 from robwot_sim.sim.robot import BoundRobot
-from robwot_sim.sim.sweep import CLEARANCE, joint_reach
-from robwot_sim.sim.types import FloatArray, RobotModel
+from robwot_sim.sim.sweep import Guard, joint_reach
+from robwot_sim.sim.types import FloatArray
 
 FILTER_SEED = 12345
 
@@ -37,8 +38,8 @@ class RobotEntry:
     reach: FloatArray
     #: a sphere (centre, radius; m, world) holding every end-effector position (kinematics.reach_sphere)
     sphere: tuple[FloatArray, float]
-    #: clearance (m) its paths and motions keep to other bodies (pathcheck.Guard)
-    clearance: float = CLEARANCE
+    #: clearance (m) its paths and motions keep to other bodies (sweep.Guard)
+    clearance: float = DEFAULT_CLEARANCE
 
     @property
     def guard(self) -> Guard:
@@ -87,6 +88,8 @@ class RobotFiles:
     srdf_pairs: frozenset[tuple[str, str]]
     prepared: PreparedUrdf
     package_roots: dict[str, str]
+    #: what the user should know of the load: a package taken by its folder's name, SRDF entries skipped
+    notes: tuple[str, ...] = ()
 
     def cleanup(self) -> None:
         self.prepared.cleanup()
@@ -114,10 +117,12 @@ def read_robot_files(
     if ee not in urdf_model.links:
         raise UnknownLink(ee, urdf_model.links)
     srdf_path = Path(srdf).expanduser().resolve() if srdf is not None else None
-    srdf_pairs = disabled_pairs(srdf_path, urdf_model.links) if srdf_path is not None else frozenset()
+    joints = [j.name for j in urdf_model.joints]
+    semantic = read_srdf(srdf_path, urdf_model.links, joints) if srdf_path is not None else None
     prepared = prepare_urdf(path, package_roots, doc, decompose=decompose, on_mesh=on_mesh)
-    return RobotFiles(path, doc, urdf_model, ee, srdf_path, frozenset(srdf_pairs), prepared,
-                      dict(package_roots))
+    notes = (*prepared.notes, *(semantic.warnings if semantic else ()))
+    return RobotFiles(path, doc, urdf_model, ee, srdf_path, semantic.disabled if semantic else frozenset(),
+                      prepared, dict(package_roots), notes)
 
 
 def load_robot_body(
@@ -166,6 +171,7 @@ def load_robot_body(
         base_orientation=(base_orientation[0], base_orientation[1], base_orientation[2], base_orientation[3]),
         package_roots=dict(package_roots),
         srdf=str(srdf_path) if srdf_path is not None else None,
+        couplings=urdf_model.couplings,
     )
     return RobotEntry(model, bound, checker, path, dict(package_roots), prepared.collision_parts,
                       joint_reach(bound), reach_sphere(bound))

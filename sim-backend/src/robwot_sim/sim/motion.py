@@ -28,33 +28,8 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from robwot_sim.errors import InvalidParams
-from robwot_sim.limits import ACCELERATION, DT, SPEED, TCP_ACCELERATION, Range
 from robwot_sim.sim.timed import Curve, Straight
 from robwot_sim.sim.types import FloatArray
-
-__all__ = ["TCP_ACCELERATION", "check_fraction", "check_speed_dt", "plan_curve_path", "plan_joint_path"]
-
-
-def check_speed_dt(speed: object, dt: object) -> tuple[float, float]:
-    """Validate a speed fraction and a time step (s) against the contract's ranges."""
-    for name, v, bounds in (("speed", speed, SPEED), ("dt", dt, DT)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise InvalidParams(f"{name} must be a finite number", param=name, expected="number", got=v)
-        if v not in bounds:
-            within = f"[{bounds.minimum:g}, {bounds.maximum:g}]"
-            raise InvalidParams(f"{name} must be in {within}, got {v}", param=name, expected=within, got=v)
-    return float(speed), float(dt)  # type: ignore[arg-type]
-
-
-def check_fraction(name: str, value: object, bounds: Range = ACCELERATION) -> float:
-    """Validate ``value`` (``acceleration`` or ``tcpSpeed``) against its contract range."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise InvalidParams(f"{name} must be a finite number", param=name, expected="number", got=value)
-    if value not in bounds:
-        within = f"[{bounds.minimum:g}, {bounds.maximum:g}]"
-        raise InvalidParams(f"{name} must be in {within}, got {value}", param=name, expected=within,
-                            got=value)
-    return float(value)
 
 
 def _steps(duration: float, dt: float) -> int:

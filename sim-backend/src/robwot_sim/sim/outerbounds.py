@@ -261,7 +261,7 @@ def build_outer_bounds(bound: Any, filtered: set[tuple[int, int]], model: Any,
         return never
     world = ChainFK([], bound.dof, bound.link_names[-1])  # the identity: the base's box is in the world
     fks = [world if ln < 0 else ChainFK.from_joints(
-        model.joints, model.links, bound.link_names[ln], model.controllable,
+        model.joints, model.links, bound.link_names[ln], model.controllable, model.couplings,
         base_position=model.base_position, base_orientation=model.base_orientation) for ln in links]
     q = np.asarray(bound.q, dtype=np.float64)[None, :]
     for ln, fk in zip(links, fks, strict=True):

@@ -3,50 +3,39 @@
 Between the planned states (one per ``dt``) the path is subdivided so that no point of the robot travels
 more than twice the robot's clearance between two checked states (a straight piece from its ends, a
 curve at points spaced by that travel: the work follows the geometry, not the number of states), and
-other bodies must stay that clearance away (a `Guard`; 2 mm unless the robot was loaded with another):
+other bodies must stay that clearance away (a `Guard`: the contract's default clearance unless the robot
+was loaded with another):
 then no contact can hide between checked states, at any speed (see ``sweep.py``). A path that starts or
 ends within the clearance (e.g. after a motion stopped on contact) is checked for contact only, so the
 robot can always move away from such a state and back to it: the verdict on a path never depends on its
 direction.
+
+The functions at the end take a robot of a scene (``planning_scene.Scene``): a path, a step or a motion's
+clearance checked with the robot held, its state restored.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
 
 import numpy as np
 
-from robwot_sim.limits import CLEARANCE as CLEARANCE_RANGE
+from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
 from robwot_sim.sim.collision import TOUCH, CollisionChecker
+from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.robot import BoundRobot
-from robwot_sim.sim.sweep import CLEARANCE, substeps
+from robwot_sim.sim.sweep import Guard, substeps
 from robwot_sim.sim.timed import Curve, Straight, TimedPath
-from robwot_sim.sim.types import FirstCollision, FloatArray, PathReport
+from robwot_sim.sim.trajectory import plan_motion
+from robwot_sim.sim.types import CollisionReport, FirstCollision, FloatArray, PathReport
 from robwot_sim.sim.world_thread import checkpoint
 
-#: the clearance a robot may be loaded with (m): above 0 for the sweep bound to hold; at most Bullet's
-#: contact breaking threshold (2 cm), the farthest distance at which it reports other bodies
-MIN_CLEARANCE, MAX_CLEARANCE = CLEARANCE_RANGE.minimum, CLEARANCE_RANGE.maximum
 #: how far beyond the clearance (m) a path check measures the distance to other bodies: the travel that
 #: needs no further distance query (larger: fewer queries, each asking more bodies and points)
 GAP_CAP = 0.05
 #: halvings of a parameter interval that place a curve's checked state (its travel known to ~1e-15 of it)
 BISECTIONS = 50
-
-
-@dataclass(frozen=True)
-class Guard:
-    """What a path check of one robot keeps: ``clearance`` (m) to other bodies, no point travelling more
-    than twice that between checked states (``reach``: per joint, how far the farthest collision point
-    travels per unit of motion, from ``sweep.joint_reach``)."""
-
-    reach: FloatArray
-    clearance: float = CLEARANCE
-
-    @property
-    def max_sweep(self) -> float:
-        return 2.0 * self.clearance
 
 
 def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, guard: Guard,
@@ -215,3 +204,41 @@ def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: TimedPa
     finally:
         robot.apply(saved)
     return PathReport(True, path.duration, len(path))
+
+
+def check_states(scene: Scene, robot_id: str, path: TimedPath) -> PathReport:
+    """``check_joint_path`` of a robot of ``scene`` (its state unchanged)."""
+    e = scene.entry(robot_id)
+    with scene.holding(robot_id):
+        return check_joint_path(e.bound, e.checker, path, e.guard)
+
+
+def check_path(scene: Scene, robot_id: str, target: JointVector, start: JointVector | None = None,
+               speed: float = DEFAULT_SPEED, dt: float = DEFAULT_DT,
+               via: Sequence[JointVector] = ()) -> PathReport:
+    """The path a move from ``start`` (default: the current state) through ``via`` to ``target`` runs
+    (``trajectory.plan_motion``), checked (``check_states``)."""
+    return check_states(scene, robot_id, plan_motion(scene, robot_id, target, start, speed, dt, via))
+
+
+def motion_clearance(scene: Scene, robot_id: str, *through: JointVector) -> float:
+    """The clearance (m) a motion of a robot of ``scene`` from its current state through (or to) the
+    states ``through`` keeps (``path_clearance``)."""
+    e = scene.entry(robot_id)
+    return path_clearance(e.bound, e.checker, e.bound.q.copy(), e.guard,
+                          *(e.bound.validate(q, "through") for q in through))
+
+
+def check_step(scene: Scene, robot_id: str, q_from: JointVector, q_to: JointVector,
+               clearance: float) -> CollisionReport:
+    """Contacts on the way from ``q_from`` to ``q_to`` (``first_contact``: other bodies closer than
+    ``clearance`` count). The robot's state unchanged."""
+    e = scene.entry(robot_id)
+    saved = e.bound.q.copy()
+    try:
+        hit = first_contact(e.bound, e.checker, np.asarray(q_from, dtype=np.float64),
+                            np.asarray(q_to, dtype=np.float64), e.guard, clearance)
+        contacts = e.checker.contacts(clearance) if hit is not None else []
+    finally:
+        e.bound.apply(saved)
+    return CollisionReport(hit is None, tuple(contacts))

@@ -1,7 +1,7 @@
 """How to reach a target: the one place where a move is validated and its joint target chosen.
 
 - A joint target: within the joint limits, then the straight joint-space path from the current state
-  checked as a motion would run it (`World.check_path`: subdivided, 2 mm clearance).
+  checked as a motion would run it (`pathcheck.check_states`: subdivided, the robot's clearance kept).
 - A pose target (end-effector position, optional orientation): an IK solution from the current state
   first; when its path collides, further IK solutions from other start configurations (up to
   `IK_ALTERNATIVES`, seeded from the target so the answer is reproducible) until one has a free path.
@@ -9,9 +9,11 @@
   around what blocks the way to the (first) target, every segment checked like a path (`detour.py`).
 
 The verdict names every check it made (`checks.ik`, `checks.limits`, `checks.path`) and, when invalid,
-the reasons in words. World coordinates (m, rad); the state of the world is not changed. A plan is a
-long job of the world's thread (`world_thread.py`): it reaches checkpoints between and inside its
-searches, where it may be cancelled (`Cancelled`) and where other requests' short jobs run.
+the reasons in words. A valid plan carries the timed path it checked (`Plan.path`, timed by
+`trajectory.py` as the request asks): that path is what a move runs, never planned again. World
+coordinates (m, rad); the state of the world is not changed. A plan is a long job of the world's thread
+(`world_thread.py`): it reaches checkpoints between and inside its searches, where it may be cancelled
+(`Cancelled`) and where other requests' short jobs run.
 """
 
 from __future__ import annotations
@@ -19,17 +21,18 @@ from __future__ import annotations
 import hashlib
 import struct
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from robwot_sim.errors import Unreachable
-from robwot_sim.limits import DEFAULT_TCP_SPEED
+from robwot_sim.limits import DEFAULT_ACCELERATION, DEFAULT_DT, DEFAULT_SPEED, DEFAULT_TCP_SPEED
+from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.lin import circ_path, lin_path
 from robwot_sim.sim.timed import TimedPath
-from robwot_sim.sim.types import Contact, RobotModel
+from robwot_sim.sim.types import Contact
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
 
@@ -38,8 +41,34 @@ IK_ALTERNATIVES = 8
 
 
 @dataclass(frozen=True)
+class Goal:
+    """What a motion reaches, as parsed where its request enters (``rpc/``): joints (``target``, PTP only)
+    or an end-effector pose (``position`` m; ``orientation`` ``[x, y, z, w]`` normalised, None: any for a
+    PTP, kept for a LIN or CIRC), by ``motion`` ``ptp``, ``lin`` or ``circ`` (``via``: a point of the arc,
+    a CIRC's only)."""
+
+    motion: str
+    target: tuple[float, ...] | None = None
+    position: tuple[float, ...] | None = None
+    orientation: tuple[float, ...] | None = None
+    via: tuple[float, ...] | None = None
+
+
+@dataclass(frozen=True)
+class Timing:
+    """How a plan's path is timed: ``speed`` x the joint velocity limits, ``acceleration`` x the
+    acceleration limits (and the end effector's along a LIN or CIRC), the end effector at ``tcp_speed``
+    (m/s) along a LIN or CIRC, states ``dt`` (s) apart; within the contract's ranges."""
+
+    speed: float = DEFAULT_SPEED
+    dt: float = DEFAULT_DT
+    acceleration: float = DEFAULT_ACCELERATION
+    tcp_speed: float = DEFAULT_TCP_SPEED
+
+
+@dataclass(frozen=True)
 class Plan:
-    """The verdict on a target, and the joint target a move would run to when valid."""
+    """The verdict on a target and, when valid, the joint target a move runs to along ``path``."""
 
     valid: bool
     target: tuple[float, ...] | None
@@ -48,17 +77,12 @@ class Plan:
     #: waypoints before ``target`` (a detour, or a LIN's or CIRC's samples); empty for a straight path
     via: tuple[tuple[float, ...], ...] = ()
     #: a LIN or CIRC: the end effector's distance along its curve (m) at the start, each waypoint and the
-    #: target, and its speed along it (m/s); the motion runs through the waypoints without stopping
+    #: target; the motion runs through the waypoints without stopping
     arc: tuple[float, ...] = ()
-    tcp_speed: float = DEFAULT_TCP_SPEED
-    #: the straight timed path the path check ran over, from the state the plan was made in, and the
-    #: (speed, dt) it was timed with: a move at the same timing runs it as checked (``timed_path``)
+    #: a valid plan's timed path, from the state the plan was made in, checked in this world: what a move
+    #: of the plan runs. None when refused, or for a LIN or CIRC of a program left untimed (``timed``
+    #: False): it is timed with the steps it blends into
     path: TimedPath | None = field(default=None, compare=False, repr=False)
-    timing: tuple[float, float] | None = None
-
-    def motion_kwargs(self) -> dict[str, Any]:
-        """What ``World.plan_motion`` needs besides the target to time this plan's path."""
-        return {"via": self.via, "arc": self.arc, "tcp_speed": self.tcp_speed}
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"valid": self.valid, "reasons": list(self.reasons), "checks": self.checks}
@@ -94,10 +118,11 @@ def _limit_violations(model: RobotModel, q: Sequence[float]) -> list[dict[str, A
     return out
 
 
-def _path(world: World, robot: str, q: Sequence[float], speed: float,
-          dt: float) -> tuple[bool, list[Contact], TimedPath]:
-    """``World.check_path`` from the current state, keeping the timed path it checked."""
-    path = world.plan_motion(robot, q, None, speed, dt)
+def _path(world: World, robot: str, q: Sequence[float],
+          timing: Timing) -> tuple[bool, list[Contact], TimedPath]:
+    """The straight path from the current state to ``q``, timed and checked (``World.check_path``),
+    with the timed path it checked."""
+    path = world.plan_motion(robot, q, None, timing.speed, timing.dt, acceleration=timing.acceleration)
     report = world.check_states(robot, path)
     contacts = list(report.first_collision.contacts) if report.first_collision is not None else []
     return report.collision_free, contacts, path
@@ -113,17 +138,37 @@ def path_check(clearance: float, ok: bool, contacts: Sequence[Contact], planned:
 _NO_DETOUR = f"; no detour around it found within {DETOUR_BUDGET:g} s (RRT-Connect)"
 
 
-def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str, Any]) -> Plan | None:
-    """A valid plan around what blocks the straight path to ``target``, or None."""
+def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str, Any],
+            timing: Timing) -> Plan | None:
+    """A valid plan around what blocks the straight path to ``target``, or None. Its timed path runs
+    straight in joint space between the waypoints, each segment as the detour search checked it."""
     waypoints = world.detour(robot, target)
     if waypoints is None:
         return None
+    timed = world.plan_motion(robot, waypoints[-1], None, timing.speed, timing.dt, waypoints[:-1],
+                              acceleration=timing.acceleration)
     path = path_check(world.robot_model(robot).clearance, True, [], "detour", "found")
-    return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": path}, tuple(waypoints[:-1]))
+    return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": path}, tuple(waypoints[:-1]), path=timed)
 
 
-def plan_joints(world: World, robot: str, target: Sequence[float], speed: float, dt: float) -> Plan:
+def plan(world: World, robot: str, goal: Goal, timing: Timing, *, timed: bool = True) -> Plan:
+    """The verdict on ``goal``, its path timed by ``timing`` (``plan_joints``, ``plan_pose`` or
+    ``plan_lin``; ``timed`` False: a LIN's or CIRC's path is left to the caller to time)."""
+    if goal.target is not None:
+        return plan_joints(world, robot, goal.target, timing.speed, timing.dt,
+                           acceleration=timing.acceleration)
+    assert goal.position is not None  # a goal has a target or a position (``Goal``)
+    if goal.motion == "ptp":
+        return plan_pose(world, robot, goal.position, goal.orientation, timing.speed, timing.dt,
+                         acceleration=timing.acceleration)
+    return plan_lin(world, robot, goal.position, goal.orientation, goal.via, speed=timing.speed,
+                    dt=timing.dt, acceleration=timing.acceleration, tcp_speed=timing.tcp_speed, timed=timed)
+
+
+def plan_joints(world: World, robot: str, target: Sequence[float], speed: float = DEFAULT_SPEED,
+                dt: float = DEFAULT_DT, *, acceleration: float = DEFAULT_ACCELERATION) -> Plan:
     """The verdict on a joint target."""
+    timing = Timing(speed, dt, acceleration)
     model = world.robot_model(robot)
     violations = _limit_violations(model, target)
     limits: dict[str, Any] = {"ok": not violations}
@@ -134,13 +179,13 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float,
         reasons = tuple(f"joint {v['joint']} = {_fmt(v['value'])} outside its limits "
                         f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}]" for v in violations)
         return Plan(False, None, reasons, checks)
-    ok, contacts, path = _path(world, robot, target, speed, dt)
+    ok, contacts, path = _path(world, robot, target, timing)
     if ok:
         checks["path"] = path_check(model.clearance, True, [])
-        return Plan(True, tuple(float(v) for v in target), (), checks, path=path, timing=(speed, dt))
+        return Plan(True, tuple(float(v) for v in target), (), checks, path=path)
     at_target = world.check_collision(robot, target)
     if at_target.collision_free:
-        detour = _detour(world, robot, target, checks)
+        detour = _detour(world, robot, target, checks, timing)
         if detour is not None:
             return detour
         searched = "not found"
@@ -165,8 +210,10 @@ def _alternative_seeds(model: RobotModel, position: Sequence[float], orientation
 
 
 def plan_pose(world: World, robot: str, position: Sequence[float], orientation: Sequence[float] | None,
-              speed: float, dt: float, alternatives: int = IK_ALTERNATIVES) -> Plan:
+              speed: float = DEFAULT_SPEED, dt: float = DEFAULT_DT, alternatives: int = IK_ALTERNATIVES, *,
+              acceleration: float = DEFAULT_ACCELERATION) -> Plan:
     """The verdict on an end-effector pose: the first IK solution whose path is free."""
+    timing = Timing(speed, dt, acceleration)
     model = world.robot_model(robot)
     where = f"({', '.join(_fmt(v) for v in position)}) m"
     seeds: list[list[float] | None] = [None, *_alternative_seeds(model, position, orientation, alternatives)]
@@ -194,13 +241,13 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
         if not ik.collision_free:
             reached_colliding = reached_colliding if reached_colliding is not None else ik.positions
             continue
-        ok, contacts, checked = _path(world, robot, ik.positions, speed, dt)
+        ok, contacts, checked = _path(world, robot, ik.positions, timing)
         if first is None:
             first = (ik.positions, ik.position_error, contacts)
         if ok:
             checks = {"ik": {"ok": True, "positionError": ik.position_error, "solutions": tried},
                       "limits": {"ok": True}, "path": path_check(model.clearance, True, [])}
-            return Plan(True, ik.positions, (), checks, path=checked, timing=(speed, dt))
+            return Plan(True, ik.positions, (), checks, path=checked)
     if first is None:
         error = best_error if best_error != float("inf") else -1.0
         ik_check = {"ok": False, "positionError": error, "solutions": tried}
@@ -219,7 +266,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
         return Plan(False, None, (reason,), {"ik": ik_check})
     positions, error, contacts = first
     checks = {"ik": {"ok": True, "positionError": error, "solutions": tried}, "limits": {"ok": True}}
-    detour = _detour(world, robot, positions, checks)
+    detour = _detour(world, robot, positions, checks, timing)
     if detour is not None:
         return detour
     checks["path"] = path_check(model.clearance, False, contacts, detour="not found")
@@ -230,11 +277,14 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
 
 def plan_lin(world: World, robot: str, position: Sequence[float],
              orientation: Sequence[float] | None, via: Sequence[float] | None = None, *,
-             speed: float = 1.0, tcp_speed: float = DEFAULT_TCP_SPEED) -> Plan:
+             speed: float = DEFAULT_SPEED, dt: float = DEFAULT_DT, acceleration: float = DEFAULT_ACCELERATION,
+             tcp_speed: float = DEFAULT_TCP_SPEED, timed: bool = True) -> Plan:
     """The verdict on a LIN to a pose, or a CIRC through ``via`` (``lin.py``): the end effector on the
     straight line or the arc, every sample within the joint limits, the joints able to keep the end
     effector at ``tcp_speed`` (m/s) within their velocity limits x ``speed`` (near a singularity they
-    are not), every segment collision-free; the waypoints as ``via``."""
+    are not), every segment collision-free, and the timed motion through the samples too (``time_lin``;
+    with ``timed`` False left to the caller: a program's step blended into others); the waypoints as
+    ``via``."""
     model = world.robot_model(robot)
     kind = "lin" if via is None else "circ"
     path = lin_path(world, robot, position, orientation) if via is None else circ_path(
@@ -260,7 +310,28 @@ def plan_lin(world: World, robot: str, position: Sequence[float],
               "limits": {"ok": True}, "path": path_check(model.clearance, True, [], kind)}
     target = tuple(float(v) for v in path.waypoints[-1])
     waypoints = tuple(tuple(float(v) for v in w) for w in path.waypoints[1:-1])
-    return Plan(True, target, (), checks, waypoints, tuple(path.arc), tcp_speed)
+    samples = Plan(True, target, (), checks, waypoints, tuple(path.arc))
+    return time_lin(world, robot, samples, Timing(speed, dt, acceleration, tcp_speed)) if timed else samples
+
+
+def time_lin(world: World, robot: str, plan: Plan, timing: Timing,
+             start: Sequence[float] | None = None) -> Plan:
+    """``plan`` (a LIN's or CIRC's samples, from ``start``; default: the current state) with its timed
+    path when that passes the path check, else refused naming the bodies: the states of a LIN or CIRC lie
+    on the spline through its checked samples, not on the chords between them, so every state a motion
+    runs is checked in this world."""
+    assert plan.target is not None
+    path = world.plan_motion(robot, plan.target, start, timing.speed, timing.dt, plan.via,
+                             acceleration=timing.acceleration, arc=plan.arc, tcp_speed=timing.tcp_speed)
+    report = world.check_states(robot, path)
+    if report.collision_free or report.first_collision is None:
+        return replace(plan, path=path)
+    kind = str(plan.checks["path"]["planned"])
+    contacts = report.first_collision.contacts
+    reason = (f"{kind.upper()} refused: the timed path between its checked samples collides"
+              f"{contact_words(contacts)}")
+    checks = {**plan.checks, "path": path_check(world.robot_model(robot).clearance, False, contacts, kind)}
+    return Plan(False, None, (reason,), checks)
 
 
 def _joint_rate_violation(world: World, robot: str, waypoints: Sequence[Any], arc: Sequence[float],

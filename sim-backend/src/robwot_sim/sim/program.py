@@ -1,12 +1,13 @@
 """A program: steps planned one after the other, each from where the previous one ends, by the same
 planners as single moves (``planner.py``: PTP with its detours, LIN, CIRC). The robot's true state is
-untouched: the steps are planned in ``World.hypothetical`` states.
+untouched: the steps are planned in ``Scene.hypothetical`` states (``planning_scene.py``).
 
-Each step is timed as a move of the same step is (``trajectory.timed_path``: the joint velocity limits x its
-``speed``, acceleration limits x its ``acceleration``, a LIN's or CIRC's ``tcpSpeed``), at rest where it
-ends. The program's path is those states one after the other, one per ``dt``: its cycle time is the time a
-run of it takes at real time (``program.run`` runs exactly these states), and the trajectory a client gets
-is that path sampled at ``rate`` (at most ``MAX_TRAJECTORY_SAMPLES`` samples: a longer program at a lower
+Each step is planned and timed as a move of the same step is (``planner.plan``: the joint velocity limits x
+its ``speed``, acceleration limits x its ``acceleration``, a LIN's or CIRC's ``tcpSpeed``; the plan carries
+its checked, timed path), at rest where it ends; steps joined by blends are timed again as one motion.
+The program's path is those states one after the other, one per ``dt``: its cycle time is the time a run
+of it takes at real time (``program.run`` runs exactly these states), and the trajectory a client gets is
+that path sampled at ``rate`` (at most ``MAX_TRAJECTORY_SAMPLES`` samples: a longer program at a lower
 rate). The states are computed when asked for (``timed.py``): a slow program costs no more to plan than a
 fast one, and no more memory.
 """
@@ -16,17 +17,16 @@ from __future__ import annotations
 import contextlib
 import itertools
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from robwot_sim.errors import PlanBudget
-from robwot_sim.limits import DEFAULT_TCP_SPEED, MAX_TRAJECTORY_SAMPLES
-from robwot_sim.sim.planner import Plan, contact_words, plan_joints, plan_lin, plan_pose
+from robwot_sim.limits import MAX_TRAJECTORY_SAMPLES
+from robwot_sim.sim.planner import Goal, Plan, Timing, contact_words, plan, time_lin
 from robwot_sim.sim.timed import Curve, TimedPath
-from robwot_sim.sim.trajectory import timed_path
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
@@ -49,29 +49,37 @@ class ProgramPlan:
     starts: list[int] = field(default_factory=list)
 
 
-def _plan_step(world: World, robot: str, step: Mapping[str, Any], dt: float) -> Plan:
-    motion, speed = str(step.get("motion", "ptp")), float(step.get("speed", 1.0))
-    if step.get("target") is not None:
-        return plan_joints(world, robot, [float(v) for v in step["target"]], speed, dt)
-    position = [float(v) for v in step["position"]]
-    orientation = [float(v) for v in step["orientation"]] if step.get("orientation") is not None else None
-    if motion == "ptp":
-        return plan_pose(world, robot, position, orientation, speed, dt)
-    via = [float(v) for v in step["via"]] if motion == "circ" else None
-    return plan_lin(world, robot, position, orientation, via, speed=speed,
-                    tcp_speed=float(step.get("tcpSpeed", DEFAULT_TCP_SPEED)))
+@dataclass(frozen=True)
+class ProgramStep:
+    """One step as parsed where the request enters (``rpc/``, the contract's defaults filled in): its goal,
+    how it is timed (the program's ``dt`` aside) and its blend radius (m)."""
+
+    goal: Goal
+    speed: float
+    acceleration: float
+    tcp_speed: float
+    blend: float
+
+    def timing(self, dt: float) -> Timing:
+        return Timing(self.speed, dt, self.acceleration, self.tcp_speed)
 
 
 @dataclass
 class _Step:
-    """A planned step: its plan and the joint state it starts from."""
+    """A planned step: the step, its plan and the joint state it starts from."""
 
+    step: ProgramStep
     plan: Plan
     start: FloatArray
-    speed: float
-    acceleration: float
-    tcp_speed: float | None  # a LIN's or CIRC's
-    blend: float
+
+    @property
+    def tcp_speed(self) -> float | None:
+        """A LIN's or CIRC's end effector speed (m/s); None for a PTP."""
+        return None if self.step.goal.motion == "ptp" else self.step.tcp_speed
+
+    @property
+    def blend(self) -> float:
+        return self.step.blend
 
 
 def _detour(step: _Step) -> bool:
@@ -148,8 +156,9 @@ def _blend_group(world: World, robot: str, group: list[_Step],
         owners.extend([k] * (n_out - first))
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.array(where), axis=0), axis=1))])
     lin_speeds = [st.tcp_speed for st in group if st.tcp_speed is not None]
-    states = world.plan_motion(robot, points[-1], points[0], min(st.speed for st in group), dt, points[1:-1],
-                               acceleration=min(st.acceleration for st in group), arc=arc.tolist(),
+    states = world.plan_motion(robot, points[-1], points[0], min(st.step.speed for st in group), dt,
+                               points[1:-1], acceleration=min(st.step.acceleration for st in group),
+                               arc=arc.tolist(),
                                tcp_speed=min(lin_speeds) if lin_speeds else None)
     starts = [0] + [_first_state_of(states, owners, k) for k in range(1, len(group))]
     report = world.check_states(robot, states)
@@ -160,7 +169,7 @@ def _blend_group(world: World, robot: str, group: list[_Step],
     return None, starts, contact_words(report.first_collision.contacts), k
 
 
-def _plan_steps(world: World, robot: str, steps: Sequence[Mapping[str, Any]], dt: float,
+def _plan_steps(world: World, robot: str, steps: Sequence[ProgramStep], dt: float,
                 verdicts: list[dict[str, Any]]) -> tuple[list[_Step], int | None]:
     """Each step planned from where the previous one ends, up to the first refused one (its index, or
     None); a verdict per step planned appended to ``verdicts``."""
@@ -171,16 +180,15 @@ def _plan_steps(world: World, robot: str, steps: Sequence[Mapping[str, Any]], dt
             with _naming(k, len(steps)):
                 checkpoint()
                 world.place(robot, q)
-                plan = _plan_step(world, robot, step, dt)
-            verdicts.append({"step": k, "ok": plan.valid, "reasons": list(plan.reasons),
-                             "checks": plan.checks, "duration": 0.0})
-            if not plan.valid or plan.target is None:
+                # a LIN or CIRC that may be blended is timed with its group, not alone (``plan_program``)
+                blends = (step.blend > 0 and k + 1 < len(steps)) or (k > 0 and steps[k - 1].blend > 0)
+                verdict = plan(world, robot, step.goal, step.timing(dt), timed=not blends)
+            verdicts.append({"step": k, "ok": verdict.valid, "reasons": list(verdict.reasons),
+                             "checks": verdict.checks, "duration": 0.0})
+            if not verdict.valid or verdict.target is None:
                 return planned, k
-            motion = str(step.get("motion", "ptp"))
-            planned.append(_Step(plan, q, float(step.get("speed", 1.0)), float(step.get("acceleration", 1.0)),
-                                 float(step.get("tcpSpeed", DEFAULT_TCP_SPEED)) if motion != "ptp" else None,
-                                 float(step.get("blend", 0.0))))
-            q = np.asarray(plan.target, dtype=np.float64)
+            planned.append(_Step(step, verdict, q))
+            q = np.asarray(verdict.target, dtype=np.float64)
     return planned, None
 
 
@@ -204,7 +212,7 @@ def _sampled(trajectory: TimedPath, rate: float) -> tuple[FloatArray, int]:
     return picked, stride
 
 
-def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], dt: float,
+def plan_program(world: World, robot: str, steps: Sequence[ProgramStep], dt: float,
                  rate: float) -> ProgramPlan:
     """Per-step verdicts (from the first step to the first refused one), the index of the first refused
     step (None when all pass), the cycle time (s) and the joint trajectory sampled at ``rate`` (Hz).
@@ -226,14 +234,15 @@ def plan_program(world: World, robot: str, steps: Sequence[Mapping[str, Any]], d
         group = planned[k:end + 1]
         with _naming(k, len(steps)):
             checkpoint()
-            if len(group) == 1:
+            if len(group) == 1:  # the path its plan checked
                 st = group[0]
-                plan, states = timed_path(world, robot, st.plan, speed=st.speed, dt=dt,
-                                          acceleration=st.acceleration, start=st.start.tolist())
-                group_starts, failed = [0], None if states is not None else 0
-                if states is None:
-                    verdicts[k] = {**verdicts[k], "ok": False, "reasons": list(plan.reasons),
-                                   "checks": plan.checks}
+                if st.plan.path is None:  # a LIN or CIRC whose blends a detour next to it stops
+                    st.plan = time_lin(world, robot, st.plan, st.step.timing(dt), st.start.tolist())
+                    if st.plan.path is None:
+                        verdicts[k] = {**verdicts[k], "ok": False, "reasons": list(st.plan.reasons),
+                                       "checks": st.plan.checks}
+                states, group_starts = st.plan.path, [0]
+                failed = None if states is not None else 0
             else:
                 states, group_starts, contact, failed_at = _blend_group(world, robot, group, dt)
                 failed = None if contact is None else failed_at

@@ -396,7 +396,8 @@ def build_sure_hits(bound: Any, filtered: set[tuple[int, int]], model: Any,
     cid, body = bound.bullet.cid, bound.body
     links = [ln for ln in bound.moving_links if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]
     fks = [ChainFK.from_joints(model.joints, model.links, bound.link_names[ln], model.controllable,
-                               base_position=model.base_position, base_orientation=model.base_orientation)
+                               model.couplings, base_position=model.base_position,
+                               base_orientation=model.base_orientation)
            for ln in links]
     q = np.asarray(bound.q, dtype=np.float64)[None, :]
     for ln, fk in zip(links, fks, strict=True):

@@ -12,6 +12,7 @@ plus the radius of each link's collision shape about its frame (from its boundin
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pybullet as pb
@@ -20,10 +21,22 @@ from robwot_sim.limits import DEFAULT_CLEARANCE
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray
 
-#: clearance kept to other bodies along checked paths and motions (m), unless a robot is loaded with another
-CLEARANCE = DEFAULT_CLEARANCE
-#: largest travel of any robot point between two checked states (m): twice the clearance
-MAX_SWEEP = 2 * CLEARANCE
+#: largest travel of any robot point between two checked states (m): twice the default clearance
+MAX_SWEEP = 2 * DEFAULT_CLEARANCE
+
+
+@dataclass(frozen=True)
+class Guard:
+    """What a path check of one robot keeps: ``clearance`` (m) to other bodies, no point travelling more
+    than twice that between checked states (``reach``: per joint, how far the farthest collision point
+    travels per unit of motion, from ``joint_reach``)."""
+
+    reach: FloatArray
+    clearance: float = DEFAULT_CLEARANCE
+
+    @property
+    def max_sweep(self) -> float:
+        return 2.0 * self.clearance
 
 
 def joint_reach(robot: BoundRobot) -> FloatArray:

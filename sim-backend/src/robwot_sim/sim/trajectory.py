@@ -1,53 +1,69 @@
-"""Trajectory timing (MoveIt's trajectory processing): the timed path a valid plan's move runs.
+"""Trajectory timing (MoveIt's trajectory processing): a joint path through waypoints becomes the timed
+path a motion runs, states one per ``dt`` (computed when asked for, ``timed.py``), within the robot's joint
+velocity limits x ``speed`` and acceleration limits x ``acceleration`` (``motion.py``).
 
-A plan whose straight path was checked carries that timed path (``Plan.path``): a move at the same
-timing runs it, not a path planned again. Otherwise (a detour, a LIN or CIRC, another acceleration) the
-path is timed here from the plan's waypoints; the states of a LIN or CIRC between its checked samples are
-checked once more, so every state a motion runs was checked in this world.
+The planners time the path they check (``planner.py``): a valid plan carries that timed path and a move
+runs it, so no path is timed twice.
 """
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
-import numpy as np
-
-from robwot_sim.sim.planner import Plan, contact_words, path_check
+from robwot_sim.limits import (
+    DEFAULT_ACCELERATION,
+    DEFAULT_DT,
+    DEFAULT_SPEED,
+    DEFAULT_TCP_SPEED,
+    TCP_ACCELERATION,
+)
+from robwot_sim.model.robot_model import RobotModel
+from robwot_sim.sim.motion import plan_curve_path, plan_joint_path
+from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.timed import TimedPath
-from robwot_sim.sim.world import World
+from robwot_sim.sim.types import FloatArray
 
 
-def timed_path(world: World, robot: str, plan: Plan, *, speed: float, dt: float, acceleration: float = 1.0,
-               start: Sequence[float] | None = None) -> tuple[Plan, TimedPath | None]:
-    """The timed path, states one per ``dt``, that a move of the valid ``plan`` runs
-    (``World.plan_motion``), with the plan; None for a refused plan. The states of a LIN or CIRC lie on the
-    spline through its checked samples, not on the chords between them: they are checked again, and a
-    contact refuses the plan (naming the bodies), so every state a motion runs was checked in this world."""
-    if not plan.valid or plan.target is None:
-        return plan, None
-    if _checked_path_fits(plan, speed, dt, acceleration, start):
-        assert plan.path is not None
-        return plan, plan.path  # the path the plan checked: not planned again
-    path = world.plan_motion(robot, plan.target, start, speed, dt, acceleration=acceleration,
-                             **plan.motion_kwargs())
-    if not plan.arc:
-        return plan, path
-    report = world.check_states(robot, path)
-    if report.collision_free or report.first_collision is None:
-        return plan, path
-    contacts = report.first_collision.contacts
-    kind = str(plan.checks.get("path", {}).get("planned", "lin"))
-    reason = (f"{kind.upper()} refused: the timed path between its checked samples collides"
-              f"{contact_words(contacts)}")
-    checks = {**plan.checks, "path": path_check(world.robot_model(robot).clearance, False, contacts, kind)}
-    return Plan(False, None, (reason,), checks), None
+def time_path(model: RobotModel, points: Sequence[FloatArray], speed: float, dt: float,
+              acceleration: float, arc: Sequence[float] = (),
+              tcp_speed: float | None = DEFAULT_TCP_SPEED) -> TimedPath:
+    """The timed path through ``points`` (joint states within the limits, the start first), states ``dt``
+    (s) apart, within the joint velocity limits x ``speed`` and acceleration limits x ``acceleration``
+    (values within the contract's ranges: checked where a request enters). Without ``arc``: each segment
+    straight in joint space, at rest at every point. With ``arc`` (the end effector's distance along its
+    curve at each point, m): one smooth motion through them, the end effector at most ``tcp_speed`` (m/s;
+    None: the joint limits only, a blended group of PTP steps) and ``acceleration`` x its acceleration
+    limit."""
+    velocity = model.velocity_limits() * speed
+    accelerations = model.acceleration_limits() * acceleration
+    if len(arc):
+        if len(arc) != len(points):
+            raise ValueError(f"arc needs one distance per point: {len(arc)} for {len(points)}")
+        curve = plan_curve_path(points, arc, velocity, accelerations, tcp_speed,
+                                TCP_ACCELERATION * acceleration, dt, model.limits())
+        return TimedPath([curve], dt)
+    pieces = [plan_joint_path(a, b, velocity, accelerations, dt) for a, b in itertools.pairwise(points)]
+    return TimedPath(pieces, dt)
 
 
-def _checked_path_fits(plan: Plan, speed: float, dt: float, acceleration: float,
-                       start: Sequence[float] | None) -> bool:
-    """Whether the path the plan checked is the one a move from ``start`` (None: where the plan was made)
-    at this timing runs: timed alike (the check runs at the full acceleration limits), from the same
-    state."""
-    if plan.path is None or plan.timing != (speed, dt) or acceleration != 1.0:
-        return False
-    return start is None or bool(np.array_equal(plan.path.first, np.asarray(start, dtype=np.float64)))
+def plan_motion(
+    scene: Scene,
+    robot_id: str,
+    target: JointVector,
+    start: JointVector | None = None,
+    speed: float = DEFAULT_SPEED,
+    dt: float = DEFAULT_DT,
+    via: Sequence[JointVector] = (),
+    *,
+    acceleration: float = DEFAULT_ACCELERATION,
+    arc: Sequence[float] = (),
+    tcp_speed: float | None = DEFAULT_TCP_SPEED,
+) -> TimedPath:
+    """``time_path`` from ``start`` (default: the current state) through ``via`` to ``target``, each
+    checked against the robot's joint limits."""
+    e = scene.entry(robot_id)
+    tgt = e.bound.validate(target, "target")
+    st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
+    points = [st, *(e.bound.validate(w, f"via[{i}]") for i, w in enumerate(via)), tgt]
+    return time_path(e.model, points, speed, dt, acceleration, arc, tcp_speed)

@@ -63,7 +63,7 @@ def versions() -> dict[str, str]:
 def chain_fk(world: World, robot_id: str) -> ChainFK:
     """Vectorised FK of a loaded robot's end-effector link (its URDF chain and base pose)."""
     model = world.robot_model(robot_id)
-    return ChainFK.from_joints(model.joints, model.links, model.ee_link, model.controllable,
+    return ChainFK.from_joints(model.joints, model.links, model.ee_link, model.controllable, model.couplings,
                                base_position=model.base_position, base_orientation=model.base_orientation)
 
 

@@ -1,0 +1,98 @@
+"""The joint model of a loaded robot (Contract 1 ``RobotModel``): its links, joints and limits as the
+contract reports them. Units: metres, radians, seconds; quaternions ``[x, y, z, w]``; world frame, Z up."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from robwot_sim.limits import ACCELERATION_TIME, DEFAULT_CLEARANCE
+from robwot_sim.model.couplings import Coupling
+from robwot_sim.model.joints import JointInfo
+
+FloatArray = npt.NDArray[np.float64]
+#: the velocity limit (rad/s or m/s) of a joint whose URDF gives none (or a non-positive one)
+DEFAULT_VELOCITY = 1.0
+
+
+def _floats(v: Any) -> list[float]:
+    return [float(x) for x in v]
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """The joint model of a loaded robot (Contract 1 ``RobotModel``)."""
+
+    id: str
+    name: str
+    urdf: str
+    ee_link: str
+    links: tuple[str, ...]
+    joints: tuple[JointInfo, ...]
+    controllable: tuple[str, ...]
+    filtered_pairs: tuple[tuple[str, str], ...]
+    base_position: tuple[float, float, float]
+    base_orientation: tuple[float, float, float, float]
+    package_roots: dict[str, str] = field(default_factory=dict)
+    #: the SRDF whose ``<disable_collisions>`` pairs are in ``filtered_pairs`` (absolute path), if any
+    srdf: str | None = None
+    #: clearance (m) its paths and motions keep to other bodies
+    clearance: float = DEFAULT_CLEARANCE
+    #: joint -> acceleration limit (rad/s^2 or m/s^2) from a joint_limits.yaml (see acceleration_limits)
+    accelerations: dict[str, float] = field(default_factory=dict)
+    #: the joints that follow others, in the controllable joints' coordinates (``model/couplings.py``)
+    couplings: tuple[Coupling, ...] = ()
+
+    @property
+    def dof(self) -> int:
+        return len(self.controllable)
+
+    def joint(self, name: str) -> JointInfo:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(name)
+
+    def limits(self) -> tuple[FloatArray, FloatArray]:
+        """Lower and upper limits of the controllable joints, in vector order."""
+        js = [self.joint(n) for n in self.controllable]
+        return (
+            np.array([j.lower for j in js], dtype=np.float64),
+            np.array([j.upper for j in js], dtype=np.float64),
+        )
+
+    def velocity_limits(self) -> FloatArray:
+        """Velocity limits (rad/s or m/s) of the controllable joints.
+
+        A missing or non-positive URDF velocity limit is taken as ``DEFAULT_VELOCITY`` (1 rad/s or m/s).
+        """
+        v = [self.joint(n).velocity for n in self.controllable]
+        return np.array([x if x > 0 and math.isfinite(x) else DEFAULT_VELOCITY for x in v], dtype=np.float64)
+
+    def acceleration_limits(self) -> FloatArray:
+        """Acceleration limits (rad/s^2 or m/s^2) of the controllable joints: those of ``accelerations``;
+        a joint without one reaches its velocity limit from rest in ``ACCELERATION_TIME``."""
+        v = self.velocity_limits()
+        return np.array([self.accelerations.get(n, v[i] / ACCELERATION_TIME)
+                         for i, n in enumerate(self.controllable)], dtype=np.float64)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "id": self.id,
+            "name": self.name,
+            "urdf": self.urdf,
+            "eeLink": self.ee_link,
+            "links": list(self.links),
+            "joints": [j.to_json() for j in self.joints],
+            "controllable": list(self.controllable),
+            "filteredPairs": [list(p) for p in self.filtered_pairs],
+            "basePosition": _floats(self.base_position),
+            "baseOrientation": _floats(self.base_orientation),
+            **({"srdf": self.srdf} if self.srdf else {}),
+            "clearance": self.clearance,
+            "couplings": [c.to_json() for c in self.couplings],
+        }

@@ -1,0 +1,426 @@
+"""The planning scene (MoveIt's): the bodies of one PyBullet DIRECT client, robots and static obstacles,
+their states and their versions. Everything that is a body lives here: what plans, checks or labels
+reads a scene and never keeps bodies of its own.
+
+Every public method checks its input before touching the client: a failed call changes nothing.
+PyBullet is not thread-safe: once ``bind`` is called only that thread may use the scene (the server's
+`world_thread.WorldThread`); calls from others are refused. A long search moves a robot through states
+it is not in: it holds the robot (``holding``), so that at its checkpoints others see the true state.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import math
+import threading
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, ParamSpec, Self, TypeVar
+
+import numpy as np
+import numpy.typing as npt
+
+from robwot_sim import validate as v
+from robwot_sim.errors import InvalidParams, NameTaken, UnknownObject, UnknownRobot
+from robwot_sim.limits import CLEARANCE, DEFAULT_CLEARANCE
+from robwot_sim.model.robot_model import RobotModel
+from robwot_sim.model.rotations import quat_from_rpy
+from robwot_sim.sim.client import Bullet
+from robwot_sim.sim.collision import BodyTable
+from robwot_sim.sim.kinematics import fk_pose
+from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body
+from robwot_sim.sim.scene_files import ReadObstacle, SceneFiles, read_obstacle, read_robot, read_scene
+from robwot_sim.sim.types import CollisionReport, Pose
+from robwot_sim.sim.world_thread import holding
+
+Vec3 = Sequence[float]
+Quat = Sequence[float]
+JointVector = Sequence[float] | npt.NDArray[np.float64]
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def owned(fn: Callable[P, R]) -> Callable[P, R]:
+    """A public Scene method: refused from any thread but the owner's, once one is bound (``bind``)."""
+    @functools.wraps(fn)
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        owner = args[0]._owner  # type: ignore[attr-defined]
+        if owner is not None and owner != threading.get_ident():
+            raise RuntimeError(f"Scene.{fn.__name__} called off the world's thread")
+        return fn(*args, **kwargs)
+
+    return wrapper
+
+
+class Scene:
+    """Robots and static obstacles in one PyBullet DIRECT client. Context manager; ``close()``."""
+
+    def __init__(self) -> None:
+        self._owner: int | None = None  # the only thread that may use the scene, once bound
+        self.bullet = Bullet()
+        self.table = BodyTable()
+        self._robots: dict[str, RobotEntry] = {}
+        self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
+        self._built: dict[str, dict[str, Any]] = {}  # per obstacle: the shape its body was built from
+        self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
+
+    def bind(self) -> None:
+        """From now on only the calling thread may use the scene: a call from another thread raises
+        instead of racing it. PyBullet is not thread-safe."""
+        self._owner = threading.get_ident()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.bullet.close()
+
+    # versions
+    @property
+    def version(self) -> int:
+        """Bumped on every change of the bodies (added, moved, removed)."""
+        return self.table.version
+
+    def _changed(self) -> None:
+        self.table.version += 1
+
+    @owned
+    def others_stamp(self, robot_id: str) -> tuple[int, int]:
+        """Changes to everything but ``robot_id``'s own joints: obstacles and robots added, moved or removed,
+        other robots' joints set. Equal stamps: the world the robot moves in is the same."""
+        return self.table.version, sum(n for rid, n in self._moves.items() if rid != robot_id)
+
+    # robots
+    @owned
+    def entry(self, robot_id: str) -> RobotEntry:
+        """The robot in the scene: its model, body, collision checker and path guard."""
+        if robot_id not in self._robots:
+            raise UnknownRobot(str(robot_id), self._robots)
+        return self._robots[robot_id]
+
+    @owned
+    def entries(self) -> Mapping[str, RobotEntry]:
+        return self._robots
+
+    @owned
+    def robot_model(self, robot_id: str) -> RobotModel:
+        return self.entry(robot_id).model
+
+    @owned
+    def robot_ids(self) -> list[str]:
+        return list(self._robots)
+
+    def _check_free_name(self, name: str) -> None:
+        if name in self._robots or name in self._obstacles:
+            raise NameTaken(name)
+
+    @owned
+    def load_robot(
+        self,
+        urdf: str | Path,
+        *,
+        robot_id: str | None = None,
+        base_position: Vec3 = (0.0, 0.0, 0.0),
+        base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
+        ee_link: str | None = None,
+        package_roots: Mapping[str, str] | None = None,
+        srdf: str | Path | None = None,
+        clearance: float = DEFAULT_CLEARANCE,
+        _base_dir: Path | None = None,
+        decompose: bool = True,
+    ) -> RobotModel:
+        """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model.
+        ``clearance`` (m) is what its checked paths and motions keep to other bodies. =
+        ``scene_files.read_robot`` then ``add_robot``."""
+        if robot_id is not None:
+            self._check_free_name(v.name("id", robot_id))
+        files = read_robot(urdf, robot_id=robot_id, ee_link=ee_link, package_roots=package_roots, srdf=srdf,
+                           _base_dir=_base_dir, decompose=decompose)
+        return self.add_robot(files, robot_id=robot_id, base_position=base_position,
+                              base_orientation=base_orientation, clearance=clearance)
+
+    @owned
+    def add_robot(
+        self,
+        files: RobotFiles,
+        *,
+        robot_id: str | None = None,
+        base_position: Vec3 = (0.0, 0.0, 0.0),
+        base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
+        clearance: float = DEFAULT_CLEARANCE,
+        accelerations: Mapping[str, float] | None = None,
+    ) -> RobotModel:
+        """Create the body of ``files`` (``scene_files.read_robot``); removes their temporary copy.
+        ``accelerations``: joint -> acceleration limit (rad/s^2 or m/s^2) of controllable joints."""
+        try:
+            if robot_id is not None:
+                self._check_free_name(v.name("id", robot_id))
+            pos = v.position("basePosition", base_position)
+            quat = v.quaternion("baseOrientation", base_orientation)
+            # above 0 for the sweep bound to hold (sweep.py); at most the farthest distance at which
+            # Bullet reports other bodies (its contact breaking threshold)
+            if clearance not in CLEARANCE:
+                within = f"[{CLEARANCE.minimum}, {CLEARANCE.maximum}]"
+                raise InvalidParams(f"clearance must be in {within} m", param="clearance",
+                                    expected=f"number in {within}", got=clearance)
+            movable = [j.name for j in files.urdf_model.joints if j.type != "fixed"]
+            limits = _accelerations(movable, accelerations or {})
+        except Exception:
+            files.cleanup()
+            raise
+        entry = load_robot_body(self.bullet, self.table, files, robot_id or "robot", pos, quat)
+        if robot_id is None:
+            base, k, rid = entry.model.name or "robot", 2, entry.model.name or "robot"
+            while rid in self._robots or rid in self._obstacles:
+                rid, k = f"{base}-{k}", k + 1
+            entry.model = replace(entry.model, id=rid)
+        entry.clearance = float(clearance)
+        entry.model = replace(entry.model, clearance=entry.clearance, accelerations=limits)
+        rid = entry.model.id
+        self._robots[rid] = entry
+        self.table.names[entry.bound.body] = rid
+        self.table.robots[entry.bound.body] = entry.bound
+        self._changed()
+        return entry.model
+
+    @owned
+    def remove_robot(self, robot_id: str) -> None:
+        e = self.entry(robot_id)
+        self.bullet.remove_body(e.bound.body)
+        del self._robots[robot_id]
+        del self.table.names[e.bound.body]
+        del self.table.robots[e.bound.body]
+        self._changed()
+
+    # states
+    @owned
+    def get_joint_positions(self, robot_id: str) -> npt.NDArray[np.float64]:
+        return self.entry(robot_id).bound.q.copy()
+
+    @owned
+    def set_joint_positions(self, robot_id: str, q: JointVector) -> None:
+        """Teleport the controllable joints (limits checked; mimic joints follow)."""
+        b = self.entry(robot_id).bound
+        b.apply(b.validate(q))
+        self._moves[robot_id] = self._moves.get(robot_id, 0) + 1
+
+    @contextlib.contextmanager
+    def holding(self, robot_id: str) -> Iterator[None]:
+        """A long operation moves ``robot_id`` through many states and restores it at its end; at its
+        checkpoints (`world_thread.checkpoint`) the robot is put back at its true state meanwhile."""
+        b = self.entry(robot_id).bound
+        true_q = b.q.copy()
+
+        def park() -> Callable[[], None]:
+            search_q = b.q.copy()
+            b.apply(true_q)
+            return lambda: b.apply(search_q)
+
+        with holding(robot_id, park):
+            yield
+
+    @contextlib.contextmanager
+    def hypothetical(self, robot_id: str) -> Iterator[None]:
+        """Within this block ``place`` puts the robot in states it is not in (a program planned step after
+        step); checkpoints show others its true state, and the block ends with the robot back there."""
+        b = self.entry(robot_id).bound
+        saved = b.q.copy()
+        with self.holding(robot_id):
+            try:
+                yield
+            finally:
+                b.apply(saved)
+
+    @owned
+    def place(self, robot_id: str, q: JointVector) -> None:
+        """Puts the robot at ``q`` for planning from there (inside ``hypothetical``; limits checked)."""
+        b = self.entry(robot_id).bound
+        b.apply(b.validate(q))
+
+    @owned
+    def fk(self, robot_id: str, q: JointVector | None = None) -> Pose:
+        """End-effector link frame (world) at ``q`` (default: current state, which is left unchanged)."""
+        b = self.entry(robot_id).bound
+        if q is None:
+            return fk_pose(b)
+        qv, saved = b.validate(q), b.q.copy()
+        try:
+            b.apply(qv)
+            return fk_pose(b)
+        finally:
+            b.apply(saved)
+
+    @owned
+    def check_collision(self, robot_id: str, q: JointVector | None = None) -> CollisionReport:
+        """What the robot touches at ``q`` (default: current state), itself and other bodies. No state
+        change."""
+        e = self.entry(robot_id)
+        saved = e.bound.q.copy()
+        try:
+            if q is not None:
+                e.bound.apply(e.bound.validate(q))
+            contacts = e.checker.contacts()
+        finally:
+            e.bound.apply(saved)
+        return CollisionReport(not contacts, tuple(contacts))
+
+    # obstacles
+    def obstacle_bodies(self) -> list[tuple[int, dict[str, Any]]]:
+        return list(self._obstacles.values())
+
+    def built_specs(self) -> list[dict[str, Any]]:
+        """The obstacles' specs with the shapes the scene built them from (a mesh: the file PyBullet may
+        load, an ASCII STL converted, and its hull), for the mirror worlds: PyBullet crashes on some files
+        the specs name."""
+        return [{**spec, "shape": self._built.get(name, spec["shape"])}
+                for name, (_, spec) in self._obstacles.items()]
+
+    def _add_obstacle(self, obstacle: ReadObstacle) -> dict[str, Any]:
+        spec, shape = obstacle
+        self._check_free_name(spec["name"])
+        try:
+            body = self.bullet.create_static(shape, spec["position"], spec["orientation"])
+        except Exception as e:  # a mesh PyBullet cannot read
+            raise InvalidParams(
+                f"obstacle {spec['name']!r}: {e}", param="shape", expected="loadable shape", got=spec["shape"]
+            ) from None
+        self._obstacles[spec["name"]] = (body, spec)
+        self._built[spec["name"]] = shape
+        self.table.names[body] = spec["name"]
+        self._changed()
+        return spec
+
+    @owned
+    def add_obstacle(self, spec: dict[str, Any] | ReadObstacle) -> dict[str, Any]:
+        """Add a static obstacle ``{name, shape, position, orientation? | rpy?}`` (or one already read by
+        ``scene_files.read_obstacle``, off the world's thread); returns it normalised."""
+        return self._add_obstacle(spec if isinstance(spec, tuple) else read_obstacle(spec))
+
+    @owned
+    def move_obstacle(self, name: str, position: Vec3, orientation: Quat | None = None) -> dict[str, Any]:
+        """Put an obstacle at ``position`` (m), turned to ``orientation`` (``[x, y, z, w]``; default: as
+        it is)."""
+        if name not in self._obstacles:
+            raise UnknownObject(str(name), self._obstacles)
+        pos = v.position("position", position)
+        body, spec = self._obstacles[name]
+        quat = list(spec["orientation"]) if orientation is None else v.quaternion("orientation", orientation)
+        self.bullet.reset_base(body, pos, quat)
+        spec = {**spec, "position": pos, "orientation": quat}
+        self._obstacles[name] = (body, spec)
+        self._changed()
+        return spec
+
+    @owned
+    def remove_obstacle(self, name: str) -> None:
+        if name not in self._obstacles:
+            raise UnknownObject(str(name), self._obstacles)
+        body, _ = self._obstacles.pop(name)
+        self._built.pop(name, None)
+        self.bullet.remove_body(body)
+        del self.table.names[body]
+        self._changed()
+
+    # scene documents
+    @owned
+    def load_scene(
+        self, scene: dict[str, Any] | str | Path, package_roots: Mapping[str, str] | None = None
+    ) -> dict[str, Any]:
+        """Add a scene's obstacles and robots, all or nothing: ``{"robots": [id], "obstacles": [name]}``.
+        = ``scene_files.read_scene`` then ``add_scene``."""
+        return self.add_scene(read_scene(scene, package_roots))
+
+    @owned
+    def add_scene(self, files: SceneFiles) -> dict[str, Any]:
+        """Add a read scene (``scene_files.read_scene``), all or nothing; removes the robots' temporary
+        copies."""
+        added_obs: list[str] = []
+        added_rob: list[str] = []
+        try:
+            for spec, _ in files.obstacles:
+                self._check_free_name(spec["name"])
+            for obstacle in files.obstacles:
+                added_obs.append(self._add_obstacle(obstacle)["name"])
+            for r, robot_files in files.robots:
+                quat = r.get("baseOrientation") or (
+                    quat_from_rpy(r["baseRpy"]) if "baseRpy" in r else (0.0, 0.0, 0.0, 1.0)
+                )
+                model = self.add_robot(robot_files, robot_id=r.get("id"),
+                                       base_position=r.get("basePosition", (0.0, 0.0, 0.0)),
+                                       base_orientation=quat)
+                added_rob.append(model.id)
+                if "positions" in r:
+                    self.set_joint_positions(model.id, r["positions"])
+        except Exception:  # all or nothing: undo what this scene added
+            for rid in added_rob:
+                self.remove_robot(rid)
+            for name in added_obs:
+                self.remove_obstacle(name)
+            raise
+        finally:
+            files.cleanup()
+        return {"robots": added_rob, "obstacles": added_obs}
+
+    @owned
+    def list(self) -> dict[str, Any]:
+        robots = [
+            {
+                "id": rid,
+                "urdf": e.model.urdf,
+                "basePosition": list(e.model.base_position),
+                "baseOrientation": list(e.model.base_orientation),
+                "eeLink": e.model.ee_link,
+            }
+            for rid, e in self._robots.items()
+        ]
+        return {"robots": robots, "obstacles": [spec for _, spec in self._obstacles.values()]}
+
+    @owned
+    def reset(self) -> None:
+        """Remove every robot and obstacle."""
+        for rid in list(self._robots):
+            self.remove_robot(rid)
+        for name in list(self._obstacles):
+            self.remove_obstacle(name)
+
+    @owned
+    def scene_spec(self) -> dict[str, Any]:
+        """The current scene as a scene document (absolute paths); ``load_scene`` rebuilds it."""
+        robots = []
+        for rid, e in self._robots.items():
+            r: dict[str, Any] = {
+                "id": rid,
+                "urdf": str(e.urdf_path),
+                "basePosition": list(e.model.base_position),
+                "baseOrientation": list(e.model.base_orientation),
+                "eeLink": e.model.ee_link,
+                "positions": [float(x) for x in e.bound.q],
+            }
+            if e.model.srdf:
+                r["srdf"] = e.model.srdf
+            if e.package_roots:
+                r["packageRoots"] = {
+                    k: str(Path(p).expanduser().resolve()) for k, p in e.package_roots.items()
+                }
+            robots.append(r)
+        obstacles = [spec for _, spec in self._obstacles.values()]
+        return {"version": 1, "obstacles": obstacles, "robots": robots}
+
+
+def _accelerations(movable: Sequence[str], given: Mapping[str, float]) -> dict[str, float]:
+    """``given`` checked: each a movable joint's, a positive finite number."""
+    out: dict[str, float] = {}
+    for joint, value in given.items():
+        if joint not in movable:
+            raise InvalidParams(f"accelerationLimits: {joint!r} is not a movable joint of the robot",
+                                param="accelerationLimits", expected=list(movable), got=joint)
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
+            raise InvalidParams(f"accelerationLimits: {joint!r} must be a positive number, got {value!r}",
+                                param="accelerationLimits", expected="positive number", got=value)
+        out[joint] = float(value)
+    return out
