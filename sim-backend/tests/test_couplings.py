@@ -69,11 +69,11 @@ def test_followers_of_followers_are_flattened_into_the_leaders() -> None:
 @pytest.mark.parametrize(("rules", "why"), [
     (["bar_joint=plate_joint", "plate_joint=bar_joint+1"], "bar_joint -> plate_joint -> bar_joint"),
     (["bar_joint=bar_joint"], "bar_joint -> bar_joint"),
-    (["bar_joint=joint_9"], "'joint_9', which it does not have"),
-    (["nope=joint_2"], "'nope', which it does not have"),
+    (["bar_joint=joint_9"], "'joint_9', which the robot does not have"),
+    (["nope=joint_2"], "'nope', which the robot does not have"),
     (["bar_joint=joint_2", "bar_joint=joint_3"], "'bar_joint' is coupled twice"),
     ([f"{j}=0" for j in ("joint_1", "joint_2", "joint_3", "end_joint", "wrist", "bar_joint", "plate_joint")],
-     "every movable joint follows another"),
+     "none is left to control"),
 ])
 def test_bad_couplings_are_refused_naming_the_joints(rules: list[str], why: str) -> None:
     with pytest.raises(InvalidParams) as ei:
@@ -117,7 +117,7 @@ def test_keep_level_follows_axis_directions(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("link", "edit", "why"), [
-    ("base_link", None, "is the root or not a link"),
+    ("base_link", None, "is the root link or not a link"),
     ("link_2", None, "two or more tilting joints"),
     ("link_4", ('0.147 0 0"/><axis xyz="0 1 0"/>', '0.147 0 0"/><axis xyz="1 0 0"/>'),
      "turn about different axes"),

@@ -167,17 +167,17 @@ def resolve(couplings: Sequence[Coupling], joints: Sequence[JointAxis]) -> tuple
     for c in couplings:
         for name in (c.follower, *(n for n, _ in c.terms)):
             if name not in known:
-                raise _refuse("couplings", f"joints of the robot; {c.expression!r} names {name!r}, "
-                                           "which it does not have", c.expression)
+                raise _refuse("couplings", f"{c.expression!r} names {name!r}, which the robot "
+                                           "does not have", c.expression)
             if name not in movable:
-                raise _refuse("couplings", f"movable joints; {c.expression!r} names the fixed joint {name!r}",
+                raise _refuse("couplings", f"{c.expression!r} names the fixed joint {name!r}",
                               c.expression)
         if c.follower in rules:
-            raise _refuse("couplings", f"one rule per joint; {c.follower!r} is coupled twice "
+            raise _refuse("couplings", f"{c.follower!r} is coupled twice "
                                        f"({rules[c.follower].expression!r}, {c.expression!r})", c.expression)
         rules[c.follower] = c
     if rules and movable <= rules.keys():
-        raise _refuse("couplings", "at least one joint left to control; every movable joint follows another",
+        raise _refuse("couplings", "every movable joint would follow another: none is left to control",
                       [c.expression for c in couplings])
     flat: dict[str, Coupling] = {}
     for follower in rules:
@@ -191,7 +191,7 @@ def _flatten(name: str, rules: Mapping[str, Coupling], flat: dict[str, Coupling]
         return flat[name]
     if name in path:
         cycle = " -> ".join([*path[path.index(name):], name])
-        raise _refuse("couplings", f"rules without a cycle; {cycle}", cycle)
+        raise _refuse("couplings", f"the rules form a cycle: {cycle}", cycle)
     rule = rules[name]
     factors: dict[str, float] = {}
     offset = rule.offset
@@ -225,7 +225,7 @@ def keep_level(link: str, joints: Sequence[JointAxis], followers: Iterable[str] 
     others (``sum(sign * q) = 0`` with ``sign`` the direction of each axis along the common one)."""
     chain = chain_to(link, joints)
     if not chain:
-        raise _refuse("keepLevel", f"a link below a joint; {link!r} is the root or not a link", link)
+        raise _refuse("keepLevel", f"{link!r} is the root link or not a link of the robot", link)
     rot = np.eye(3)
     tilting: list[tuple[JointAxis, np.ndarray]] = []
     for j in chain:
@@ -235,12 +235,12 @@ def keep_level(link: str, joints: Sequence[JointAxis], followers: Iterable[str] 
         axis = rot @ np.asarray(j.axis, dtype=np.float64)
         if abs(abs(axis[2]) - 1.0) <= PARALLEL:
             if tilting:
-                raise _refuse("keepLevel", f"parallel tilting axes; {j.name!r} turns about the vertical "
+                raise _refuse("keepLevel", f"{j.name!r} turns about the vertical "
                                            f"after {tilting[-1][0].name!r} tilts, so {link!r} cannot be kept "
                                            "level by a linear coupling", link)
             continue
         if tilting and abs(abs(float(axis @ tilting[0][1])) - 1.0) > PARALLEL:
-            raise _refuse("keepLevel", f"parallel tilting axes; {j.name!r} and {tilting[0][0].name!r} turn "
+            raise _refuse("keepLevel", f"{j.name!r} and {tilting[0][0].name!r} turn "
                                        f"about different axes, so {link!r} cannot be kept level by a linear "
                                        "coupling", link)
         tilting.append((j, axis))
@@ -250,8 +250,8 @@ def keep_level(link: str, joints: Sequence[JointAxis], followers: Iterable[str] 
 def _level_rule(link: str, tilting: list[tuple[JointAxis, np.ndarray]], followers: set[str]) -> Coupling:
     free = [j for j, _ in tilting if j.name not in followers]
     if len(tilting) < 2 or not free:
-        raise _refuse("keepLevel", f"two or more tilting joints above the link, one of them not yet coupled; "
-                                   f"{link!r} has {[j.name for j, _ in tilting]}", link)
+        raise _refuse("keepLevel", f"keeping {link!r} level needs two or more tilting joints above it, one "
+                                   f"of them not yet coupled; it has {[j.name for j, _ in tilting]}", link)
     ref = tilting[0][1]
     sign = {j.name: (1.0 if float(axis @ ref) > 0 else -1.0) for j, axis in tilting}
     follower = free[-1].name
@@ -284,6 +284,21 @@ def passive_hints(joints: Sequence[JointAxis], velocity: Mapping[str, float],
     return [(name, "; ".join(r)) for name, r in why.items() if r and name not in coupled]
 
 
+class LimitedJoint(Protocol):
+    """What ``Followers`` reads of a URDF joint (``model/joints.py``'s ``JointInfo``)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def type(self) -> str: ...
+    @property
+    def lower(self) -> float: ...
+    @property
+    def upper(self) -> float: ...
+    @property
+    def velocity(self) -> float: ...
+
+
 @dataclass(frozen=True)
 class Followers:
     """The followers of a robot as arrays over its joint vector: ``values(q) = q @ matrix.T + offset``, one
@@ -299,8 +314,11 @@ class Followers:
 
     @classmethod
     def of(cls, controllable: Sequence[str], couplings: Sequence[Coupling],
-           limits: Mapping[str, tuple[float, float, float]]) -> Followers:
-        """``limits``: joint -> (lower, upper, velocity limit), ``lower > upper`` for an unbounded joint."""
+           joints: Sequence[LimitedJoint]) -> Followers:
+        """The followers of ``couplings`` over the joint vector ``controllable``, limits from ``joints``
+        (a continuous joint is unbounded)."""
+        limits = {j.name: (j.lower, j.upper, j.velocity) if j.type != "continuous"
+                  else (1.0, -1.0, j.velocity) for j in joints}
         index = {n: i for i, n in enumerate(controllable)}
         matrix = np.zeros((len(couplings), len(controllable)))
         for row, c in enumerate(couplings):
@@ -337,3 +355,13 @@ class Followers:
             if not self.lower[k] - tolerance <= v[k] <= self.upper[k] + tolerance:
                 return name, float(v[k]), float(self.lower[k]), float(self.upper[k])
         return None
+
+
+def passive_notes(file: str, joints: Sequence[JointAxis], velocity: Mapping[str, float],
+                  origins: Mapping[str, tuple[float, ...]], transmitted: set[str],
+                  coupled: set[str]) -> list[str]:
+    """One line per joint that looks passive (``passive_hints``) and is not coupled: what the user can do
+    about it. Nothing is guessed: such a joint stays controllable until a rule says otherwise."""
+    return [f"{file}: joint {name!r} looks passive ({why}): if a linkage drives it, give --keep-level LINK "
+            f"(the link it keeps level) or --couple \"{name}=EXPR\"; it is served as a controllable joint"
+            for name, why in passive_hints(joints, velocity, transmitted, origins, coupled)]

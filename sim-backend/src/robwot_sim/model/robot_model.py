@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.limits import ACCELERATION_TIME, DEFAULT_CLEARANCE
-from robwot_sim.model.couplings import Coupling
+from robwot_sim.model.couplings import Coupling, Followers
 from robwot_sim.model.joints import JointInfo
 
 FloatArray = npt.NDArray[np.float64]
@@ -21,6 +21,19 @@ DEFAULT_VELOCITY = 1.0
 
 def _floats(v: Any) -> list[float]:
     return [float(x) for x in v]
+
+
+@dataclass(frozen=True)
+class Rates:
+    """Limits on linear combinations of the joint velocities: ``|rows @ qdot| <= velocity`` and
+    ``|rows @ qddot| <= acceleration``, one row per limited follower."""
+
+    rows: FloatArray
+    velocity: FloatArray
+    acceleration: FloatArray
+
+    def scaled(self, speed: float, acceleration: float) -> Rates:
+        return Rates(self.rows, self.velocity * speed, self.acceleration * acceleration)
 
 
 @dataclass(frozen=True)
@@ -46,6 +59,10 @@ class RobotModel:
     accelerations: dict[str, float] = field(default_factory=dict)
     #: the joints that follow others, in the controllable joints' coordinates (``model/couplings.py``)
     couplings: tuple[Coupling, ...] = ()
+
+    def followers(self) -> Followers:
+        """The joints that follow others, as arrays over the joint vector."""
+        return Followers.of(self.controllable, self.couplings, self.joints)
 
     @property
     def dof(self) -> int:
@@ -79,6 +96,16 @@ class RobotModel:
         v = self.velocity_limits()
         return np.array([self.accelerations.get(n, v[i] / ACCELERATION_TIME)
                          for i, n in enumerate(self.controllable)], dtype=np.float64)
+
+    def follower_rates(self) -> Rates:
+        """The followers with a velocity limit (a passive joint has none): their rows over the joint vector,
+        velocity limits and acceleration limits (those of ``accelerations``, else reached from rest in
+        ``ACCELERATION_TIME``)."""
+        f = self.followers()
+        keep = f.velocity > 0
+        acc = np.array([self.accelerations.get(n, v / ACCELERATION_TIME) for n, v in zip(f.names, f.velocity,
+                                                                                      strict=True)])
+        return Rates(f.matrix[keep], f.velocity[keep], acc[keep] if len(acc) else acc)
 
     def to_json(self) -> dict[str, Any]:
         return {

@@ -50,7 +50,8 @@ def _register_lifecycle(d: Dispatcher, s: Services) -> None:
 
         files = await s.off_world(lambda: World.read_robot(
             p["urdf"], robot_id=p["id"], ee_link=p["eeLink"], package_roots=p["packageRoots"],
-            srdf=p["srdf"], decompose=bool(p["decompose"]), on_mesh=mesh_done), background=True)
+            srdf=p["srdf"], decompose=bool(p["decompose"]), on_mesh=mesh_done,
+            couplings=p["couplings"] or (), keep_level=p["keepLevel"] or ()), background=True)
         try:
             model = await s.change_world(lambda: s.world.add_robot(
                 files, robot_id=p["id"], base_position=base_position, base_orientation=base_orientation,

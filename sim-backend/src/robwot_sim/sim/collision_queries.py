@@ -69,9 +69,9 @@ class CollisionQueries:
             sure_free = outer.self_free(arr[alone])
             out[alone[sure_free]] = True
             alone = alone[~sure_free]
-            out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], {}, e.bound.mimic)
+            out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], {}, e.bound.followers)
         others = {rid: o.bound.full_values(o.bound.q) for rid, o in entries.items() if rid != robot_id}
-        out[todo] = self.mirror().batch(robot_id, arr[todo], others, e.bound.mimic)
+        out[todo] = self.mirror().batch(robot_id, arr[todo], others, e.bound.followers)
         return out
 
     def outer_bounds(self, robot_id: str) -> OuterBounds:

@@ -16,8 +16,10 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import pybullet as pb
+from scipy.spatial.transform import Rotation
 
 from robwot_sim.errors import Unreachable
+from robwot_sim.model.chain_ik import solve_chain_ik
 from robwot_sim.model.rotations import quat_angle, quat_matrix
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray, IkResult, Pose
@@ -67,8 +69,9 @@ def reach_sphere(robot: BoundRobot) -> tuple[FloatArray, float]:
         link = infos[link].parent_index
     chain.reverse()
     ranges = {i: hi - lo for i, lo, hi in zip(robot.ctrl_idx, robot.lower, robot.upper, strict=True)}
-    for follower, master, multiplier, _ in robot.mimic:
-        ranges[follower] = abs(multiplier) * (robot.upper[master] - robot.lower[master])
+    spans = np.abs(robot.followers.matrix) @ (robot.upper - robot.lower)
+    for k, idx in enumerate(robot.set_idx[robot.dof:]):
+        ranges[idx] = float(spans[k])
     origins, axes = [], []
     for ji in chain:
         pos, quat = b.link_frame(body, ji.idx)
@@ -113,6 +116,8 @@ def solve_ik(
         beyond = float(np.linalg.norm(np.asarray(position, dtype=np.float64) - sphere[0])) - sphere[1]
         if beyond > ACCEPT_POSITION:
             raise Unreachable(beyond, 0.0, [float(v) for v in seed], beyond_reach=True)
+    if robot.linkage_on_chain:
+        return _solve_linkage(robot, position, quat_xyzw, seed, rng, is_free)
     b = robot.bullet
     damping = [DAMPING] * len(robot.movable_idx)
     target_p = tuple(float(v) for v in position)
@@ -161,3 +166,52 @@ def solve_ik(
         return IkResult(tuple(float(v) for v in fallback[1]), fallback[2], fallback[3], False)
     assert best is not None
     raise Unreachable(best[2], best[3], [float(v) for v in best[1]])
+
+
+#: starts of the linkage solver's first batch (the seed, the middle of the limits, random ones); the rest
+#: of ``RESTARTS`` form the second batch, run only when the first finds no acceptable solution
+LINKAGE_BATCH = 16
+
+
+def _good(pe: FloatArray, oe: FloatArray) -> bool:
+    """Some start is already good enough to stop restarting."""
+    return bool(((pe <= GOOD_POSITION) & (oe <= GOOD_ORIENTATION)).any())
+
+
+def _solve_linkage(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequence[float] | None,
+                   seed: FloatArray, rng: np.random.Generator,
+                   is_free: Callable[[FloatArray], bool] | None) -> IkResult:
+    """``solve_ik`` for a robot with a follower on its end-effector chain: PyBullet's IK would turn the
+    follower on its own, so the solver works in the controllable joints' coordinates
+    (``model/chain_ik.py``); a solution must keep every follower within its limits."""
+    fk = robot.linkage_fk()
+    target = np.asarray(position, dtype=np.float64)
+    rotation = None if quat_xyzw is None else Rotation.from_quat([float(v) for v in quat_xyzw])
+    mid = (robot.lower + robot.upper) / 2
+    batches = [np.vstack([seed, mid, robot.random_q(rng, LINKAGE_BATCH - 2)]),
+               robot.random_q(rng, RESTARTS - LINKAGE_BATCH)]
+    best: tuple[float, FloatArray, float, float] | None = None
+    fallback: tuple[float, FloatArray, float, float] | None = None
+    for starts in batches:
+        checkpoint()
+        res = solve_chain_ik(fk, target, rotation, starts, robot.lower, robot.upper, stop=_good)
+        linked = robot.followers.within(res.q)
+        score = res.position_error + 0.1 * res.orientation_error
+        for k in np.argsort(score):
+            pe, oe, q = float(res.position_error[k]), float(res.orientation_error[k]), res.q[k]
+            if not linked[k]:
+                continue
+            within = pe <= ACCEPT_POSITION and oe <= ACCEPT_ORIENTATION
+            if within and is_free is not None and not is_free(q):
+                fallback = fallback or (float(score[k]), q, pe, oe)
+                continue
+            if best is None or score[k] < best[0]:
+                best = (float(score[k]), q, pe, oe)
+            break
+        if best is not None and best[2] <= ACCEPT_POSITION and best[3] <= ACCEPT_ORIENTATION:
+            return IkResult(tuple(float(v) for v in best[1]), best[2], best[3], True)
+    if fallback is not None:
+        return IkResult(tuple(float(v) for v in fallback[1]), fallback[2], fallback[3], False)
+    q = best[1] if best is not None else seed
+    pe = best[2] if best is not None else math.inf
+    raise Unreachable(pe, best[3] if best is not None else math.inf, [float(v) for v in q])

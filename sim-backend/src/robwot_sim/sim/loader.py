@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,6 +11,7 @@ import pybullet as pb
 
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
 from robwot_sim.limits import DEFAULT_CLEARANCE
+from robwot_sim.model.couplings import passive_notes
 from robwot_sim.model.decompose import OnMesh
 from robwot_sim.model.joints import UrdfModel, parse_model
 from robwot_sim.model.robot_model import RobotModel
@@ -95,6 +96,14 @@ class RobotFiles:
         self.prepared.cleanup()
 
 
+def _linkage_notes(doc: UrdfDoc, model: UrdfModel) -> list[str]:
+    """What looks like a passive joint of a linkage no coupling covers (``couplings.passive_notes``)."""
+    transmitted = {el.get("name", "") for t in doc.root.findall("transmission") for el in t.findall("joint")}
+    return passive_notes(str(doc.file), model.joints, {j.name: j.velocity for j in model.joints},
+                         {j.name: j.origin_xyz for j in model.joints}, transmitted,
+                         {c.follower for c in model.couplings})
+
+
 def read_robot_files(
     urdf: str | Path,
     ee_link: str | None,
@@ -103,6 +112,9 @@ def read_robot_files(
     srdf: str | Path | None = None,
     decompose: bool = True,
     on_mesh: OnMesh | None = None,
+    *,
+    couplings: Sequence[str] = (),
+    keep_level: Sequence[str] = (),
 ) -> RobotFiles:
     """Check the URDF (and SRDF) completely and prepare it for PyBullet; touches no PyBullet client.
 
@@ -112,7 +124,7 @@ def read_robot_files(
         if not Path(folder).expanduser().is_dir():
             raise FileNotFound(str(folder), what=f"package root {name!r} folder")
     doc = parse_urdf(path)
-    urdf_model = parse_model(doc)
+    urdf_model = parse_model(doc).coupled(couplings, keep_level)
     ee = ee_link if ee_link is not None else urdf_model.default_ee()
     if ee not in urdf_model.links:
         raise UnknownLink(ee, urdf_model.links)
@@ -120,7 +132,7 @@ def read_robot_files(
     joints = [j.name for j in urdf_model.joints]
     semantic = read_srdf(srdf_path, urdf_model.links, joints) if srdf_path is not None else None
     prepared = prepare_urdf(path, package_roots, doc, decompose=decompose, on_mesh=on_mesh)
-    notes = (*prepared.notes, *(semantic.warnings if semantic else ()))
+    notes = (*prepared.notes, *(semantic.warnings if semantic else ()), *_linkage_notes(doc, urdf_model))
     return RobotFiles(path, doc, urdf_model, ee, srdf_path, semantic.disabled if semantic else frozenset(),
                       prepared, dict(package_roots), notes)
 

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from robwot_sim.errors import InvalidParams
+from robwot_sim.model.robot_model import Rates
 from robwot_sim.sim.timed import Curve, Straight
 from robwot_sim.sim.types import FloatArray
 
@@ -49,18 +50,24 @@ def trapezoid(distance: float, vmax: float, amax: float) -> tuple[float, float]:
 
 
 def plan_joint_path(
-    start: FloatArray, target: FloatArray, velocity: FloatArray, acceleration: FloatArray, dt: float
+    start: FloatArray, target: FloatArray, velocity: FloatArray, acceleration: FloatArray, dt: float,
+    followers: Rates | None = None,
 ) -> Straight:
     """The timed straight line from ``start`` to ``target``: states one per ``dt`` (both ends included),
     at rest at both ends; no joint exceeds ``velocity`` (rad/s or m/s) nor ``acceleration`` (rad/s^2 or
-    m/s^2)."""
+    m/s^2), nor any of ``followers`` its limits."""
     delta = target - start
+    rates, accels = velocity, acceleration
+    if followers is not None and len(followers.rows):
+        delta_f = followers.rows @ delta  # a follower moves its row times the joints' motion
+        delta, rates = np.concatenate([delta, delta_f]), np.concatenate([velocity, followers.velocity])
+        accels = np.concatenate([acceleration, followers.acceleration])
     moving = np.abs(delta) > 0
     if not moving.any():
         return Straight(start, start, 0.0, 0.0, 1.0, 0)
     # the path parameter s in [0, 1]: joint i moves |delta_i| * s, so s may go at most velocity_i / |delta_i|
-    vmax = float(np.min(velocity[moving] / np.abs(delta[moving])))
-    amax = float(np.min(acceleration[moving] / np.abs(delta[moving])))
+    vmax = float(np.min(rates[moving] / np.abs(delta[moving])))
+    amax = float(np.min(accels[moving] / np.abs(delta[moving])))
     duration, peak = trapezoid(1.0, vmax, amax)
     # the profile slowed uniformly to fill whole steps: state k is the profile at k * duration / steps
     return Straight(start, target, duration, peak, amax, max(1, _steps(duration, dt)))
@@ -75,6 +82,7 @@ def plan_curve_path(
     tcp_acceleration: float,
     dt: float,
     bounds: tuple[FloatArray, FloatArray],
+    followers: Rates | None = None,
 ) -> Curve | Straight:
     """The timed cubic spline through ``points`` (the first is the start, the last the target): states one
     per ``dt``, at rest at both ends, time-optimal (TOPP-RA) under the joint limits and the end effector's
@@ -98,12 +106,16 @@ def plan_curve_path(
     knots = np.concatenate([[0.0], np.cumsum(gaps)])
     knots /= knots[-1]  # exactly 1 at the end, as the grid's
     q, length, ss = q[keep], length[keep], knots[keep]
-    if tcp_speed is None:
-        waypoints, vlim, alim = q, velocity, acceleration
-    else:
-        waypoints = np.hstack([q, length[:, None]])
-        vlim = np.hstack([velocity, [tcp_speed]])
-        alim = np.hstack([acceleration, [tcp_acceleration]])
+    waypoints, vlim, alim = q, velocity, acceleration
+    if followers is not None and len(followers.rows):
+        # the limited followers as more coordinates of the spline (linear in the joints, so exact)
+        waypoints = np.hstack([q, q @ followers.rows.T])
+        vlim = np.hstack([velocity, followers.velocity])
+        alim = np.hstack([acceleration, followers.acceleration])
+    if tcp_speed is not None:
+        waypoints = np.hstack([waypoints, length[:, None]])
+        vlim = np.hstack([vlim, [tcp_speed]])
+        alim = np.hstack([alim, [tcp_acceleration]])
     spline = CubicSpline(ss, waypoints, bc_type="not-a-knot")  # the spline toppra's interpolator makes
     path = toppra.SplineInterpolator(ss, waypoints, bc_type="not-a-knot")
     constraints = [toppra.constraint.JointVelocityConstraint(np.stack([-vlim, vlim], axis=1)),

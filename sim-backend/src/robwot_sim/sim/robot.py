@@ -1,4 +1,5 @@
-"""A URDF joint model (``model/joints.py``) bound to a loaded PyBullet body: index maps, limits, mimic."""
+"""A URDF joint model (``model/joints.py``) bound to a loaded PyBullet body: index maps, limits, followers
+(mimic and coupled joints, set from the joint vector)."""
 
 from __future__ import annotations
 
@@ -7,16 +8,22 @@ import math
 import numpy as np
 
 from robwot_sim.errors import InvalidParams, OutOfLimits
+from robwot_sim.model.couplings import Followers, chain_to
+from robwot_sim.model.fk import ChainFK
 from robwot_sim.model.joints import MOVABLE, UrdfModel
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.types import FloatArray
 
 #: joint values this far beyond a limit (rad or m) are clipped to it, not refused
 LIMIT_TOL = 1e-9
+#: draws of ``random_q`` before it gives up keeping followers within their limits
+REJECTION_ROUNDS = 64
+#: seed of the draw that replaces a home configuration whose followers leave their limits
+HOME_SEED = 0x40E
 
 
 class BoundRobot:
-    """A URDF model bound to a loaded PyBullet body: index maps, limits, mimic enforcement."""
+    """A URDF model bound to a PyBullet body: index maps, limits, followers set with the joint vector."""
 
     def __init__(self, bullet: Bullet, body: int, model: UrdfModel, ee_link: str) -> None:
         self.bullet, self.body, self.urdf = bullet, body, model
@@ -30,13 +37,9 @@ class BoundRobot:
         self.ctrl_idx = [by_joint[n].idx for n in self.ctrl_names]
         self.movable_idx = [ji.idx for ji in infos if joints[ji.name].type in MOVABLE]
         self.ik_slots = np.array([self.movable_idx.index(i) for i in self.ctrl_idx], dtype=np.intp)
-        pos = {n: k for k, n in enumerate(self.ctrl_names)}
-        self.mimic = [
-            (by_joint[j.name].idx, pos[j.mimic.joint], j.mimic.multiplier, j.mimic.offset)
-            for j in model.joints
-            if j.mimic is not None
-        ]
-        self.set_idx = self.ctrl_idx + [m[0] for m in self.mimic]
+        #: the joints that follow others (mimic tags and couplings): set with the joint vector, never given
+        self.followers = Followers.of(self.ctrl_names, model.couplings, model.joints)
+        self.set_idx = self.ctrl_idx + [by_joint[n].idx for n in self.followers.names]
         js = [joints[n] for n in self.ctrl_names]
         self.lower = np.array([j.lower for j in js], dtype=np.float64)
         self.upper = np.array([j.upper for j in js], dtype=np.float64)
@@ -45,6 +48,9 @@ class BoundRobot:
         self.continuous = np.array([j.type == "continuous" for j in js], dtype=bool)
         self.ee_link = ee_link
         self.ee_index = self.link_index[ee_link]
+        chain = {j.name for j in chain_to(ee_link, model.joints)}
+        #: a follower turns on the way to the end effector: IK works in the joint vector's coordinates
+        self.linkage_on_chain = any(n in chain for n in self.followers.names)
         moving: set[int] = set()
         for ji in infos:  # parents come before children in PyBullet's order
             if joints[ji.name].type in MOVABLE or ji.parent_index in moving:
@@ -60,17 +66,26 @@ class BoundRobot:
         margin = 0.1 * (self.upper - self.lower)
         zero_ok = (self.lower + margin <= 0) & (self.upper - margin >= 0)
         out: FloatArray = np.where(zero_ok, 0.0, (self.lower + self.upper) / 2)
+        if not self.followers.within(out)[0]:
+            # a linkage whose followers leave their limits there: the first valid draw of a fixed sequence
+            out = self.random_q(np.random.default_rng(HOME_SEED))
         return out
+
+    def linkage_fk(self) -> ChainFK:
+        """The vectorised FK of the end-effector link at the body's current base pose, followers coupled."""
+        position, orientation = self.bullet.base_pose(self.body)
+        return ChainFK.from_joints(self.urdf.joints, self.urdf.links, self.ee_link, self.ctrl_names,
+                                   self.urdf.couplings, base_position=position, base_orientation=orientation)
 
     @property
     def dof(self) -> int:
         return len(self.ctrl_idx)
 
     def full_values(self, q: FloatArray) -> list[float]:
-        """Values for ``set_idx``: the controllable joints then the mimic joints (follower = m * q + off)."""
+        """Values for ``set_idx``: the controllable joints, then the followers."""
         vals: list[float] = np.asarray(q, dtype=np.float64).tolist()
-        if self.mimic:
-            vals += [vals[k] * m + off for _, k, m, off in self.mimic]
+        if len(self.followers):
+            vals += self.followers.values(q).tolist()
         return vals
 
     def apply(self, q: FloatArray) -> None:
@@ -117,9 +132,25 @@ class BoundRobot:
                 if x < lo - LIMIT_TOL or x > hi + LIMIT_TOL:
                     raise OutOfLimits(self.ctrl_names[k], x, lo, hi)
                 clipped = True
-        return np.clip(arr, self.lower, self.upper) if clipped else arr.copy()
+        out = np.clip(arr, self.lower, self.upper) if clipped else arr.copy()
+        past = self.followers.first_violation(out, LIMIT_TOL) if len(self.followers) else None
+        if past is not None:
+            raise OutOfLimits(*past)
+        return out
 
     def random_q(self, rng: np.random.Generator, n: int | None = None) -> FloatArray:
-        if n is None:
-            return rng.uniform(self.lower, self.upper)
-        return rng.uniform(self.lower, self.upper, size=(n, self.dof))
+        """Joint vectors drawn uniformly within the limits; with followers, only those keeping every
+        follower within its limits (rejection sampling; a linkage no draw satisfies keeps its last draws)."""
+        if not len(self.followers):
+            return rng.uniform(self.lower, self.upper) if n is None else rng.uniform(self.lower, self.upper,
+                                                                                     size=(n, self.dof))
+        want = 1 if n is None else n
+        got = np.empty((0, self.dof))
+        for _ in range(REJECTION_ROUNDS):
+            draws = rng.uniform(self.lower, self.upper, size=(max(want, 16), self.dof))
+            got = np.vstack([got, draws[self.followers.within(draws)]])
+            if len(got) >= want:
+                break
+        if len(got) < want:
+            got = np.vstack([got, draws[: want - len(got)]])
+        return got[0] if n is None else got[:want]

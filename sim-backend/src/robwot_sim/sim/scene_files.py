@@ -4,7 +4,7 @@ document read, checked and prepared on any thread, so the world's thread only cr
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,8 +50,11 @@ def read_robot(
     _base_dir: Path | None = None,
     decompose: bool = True,
     on_mesh: OnMesh | None = None,
+    couplings: Sequence[str] = (),
+    keep_level: Sequence[str] = (),
 ) -> RobotFiles:
-    """The part of a load that needs no world (any thread): params checked, URDF/SRDF read, meshes
+    """The part of a load that needs no world (any thread): params checked, URDF/SRDF read (with the
+    ``couplings`` rules and the ``keep_level`` links' rules, ``model/couplings.py``), meshes
     parsed, concave ones split into convex parts (minutes for a robot's first load). ``Scene.add_robot``
     then creates the body. ``on_mesh`` hears of each mesh decomposed."""
     if robot_id is not None:
@@ -63,7 +66,8 @@ def read_robot(
     roots = v.string_map("packageRoots", package_roots)
     if srdf is not None and (not isinstance(srdf, (str, Path)) or not str(srdf)):
         raise InvalidParams("srdf must be a file path", param="srdf", expected="string", got=srdf)
-    return read_robot_files(urdf, ee_link, roots, _base_dir, srdf, decompose, on_mesh)
+    return read_robot_files(urdf, ee_link, roots, _base_dir, srdf, decompose, on_mesh,
+                            couplings=couplings, keep_level=keep_level)
 
 
 def read_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False) -> ReadObstacle:

@@ -61,8 +61,10 @@ def joint_reach(robot: BoundRobot) -> FloatArray:
     prismatic = {ji.idx for ji in infos if ji.type == pb.JOINT_PRISMATIC}
     per_link = {ln: (1.0 if ln in prismatic else farthest(ln)) for ln in children if ln >= 0}
     reach = np.array([per_link[i] for i in robot.ctrl_idx], dtype=np.float64)
-    for follower, master, multiplier, _ in robot.mimic:
-        reach[master] += abs(multiplier) * per_link[follower]
+    follow = robot.followers
+    if len(follow):
+        # a follower turns by sum(|factor| * leader's turn): its links' travel is owed to its leaders
+        reach += np.abs(follow.matrix).T @ np.array([per_link[i] for i in robot.set_idx[robot.dof:]])
     return reach
 
 

@@ -37,13 +37,15 @@ def time_path(model: RobotModel, points: Sequence[FloatArray], speed: float, dt:
     limit."""
     velocity = model.velocity_limits() * speed
     accelerations = model.acceleration_limits() * acceleration
+    followers = model.follower_rates().scaled(speed, acceleration)
     if len(arc):
         if len(arc) != len(points):
             raise ValueError(f"arc needs one distance per point: {len(arc)} for {len(points)}")
         curve = plan_curve_path(points, arc, velocity, accelerations, tcp_speed,
-                                TCP_ACCELERATION * acceleration, dt, model.limits())
+                                TCP_ACCELERATION * acceleration, dt, model.limits(), followers)
         return TimedPath([curve], dt)
-    pieces = [plan_joint_path(a, b, velocity, accelerations, dt) for a, b in itertools.pairwise(points)]
+    pieces = [plan_joint_path(a, b, velocity, accelerations, dt, followers)
+              for a, b in itertools.pairwise(points)]
     return TimedPath(pieces, dt)
 
 

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from robwot_sim.model.couplings import Followers
 from robwot_sim.model.fk import ChainFK
 from robwot_sim.workspace.io import csv_table, format_rows
 from robwot_sim.workspace.reachability import ReachabilityMap, direction_bins
@@ -41,6 +42,8 @@ class ChunkJob:
     voxel: float  # reachability voxel of the partial maps (m)
     row_format: str  # workspace.csv row format (io.csv_layout)
     joints: bool  # joint columns in workspace.csv
+    #: a draw that drives a follower past its limit is not a configuration of the robot: left out
+    followers: Followers | None = None
 
 
 @dataclass(frozen=True)
@@ -73,6 +76,8 @@ def label_chunk(job: ChunkJob, start: int, count: int,
     from robwot_sim.workspace.pool import worker_label
 
     qs = sample_configurations(job.lower, job.upper, count, job.seed, start)
+    if job.followers is not None and len(job.followers):
+        qs = qs[job.followers.within(qs)]
     positions, bins = end_link(job.fk, qs)
     flags = worker_label(job.key, job.spec, job.robot_id, qs) if label is None else label(qs)
     if isinstance(flags, dict):

@@ -181,7 +181,8 @@ def _prepare(world: World, req: _Request, csv_joints: bool) -> _Prepared:
     t_reach = time.perf_counter() - t_reach
     header, row_format = csv_layout(len(model.controllable) if csv_joints else None, model.controllable)
     job = ChunkJob(spec_key(spec), spec, req.robot_id, fk, np.asarray(lower, dtype=np.float64),
-                   np.asarray(upper, dtype=np.float64), req.seed, base_voxel, row_format, csv_joints)
+                   np.asarray(upper, dtype=np.float64), req.seed, base_voxel, row_format, csv_joints,
+                   model.followers())
     return _Prepared(out, job, header, reach_min, reach_max, t_reach)
 
 
