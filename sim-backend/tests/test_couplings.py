@@ -198,3 +198,13 @@ def test_coupled_fk_matches_pinocchio_and_keeps_the_end_level(urdf: str, rules: 
         turn = np.stack([np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
                          for a in yaw])
         assert np.abs(level_fk.poses(qs)[1] - turn @ zero).max() < 1e-9
+
+
+def test_a_joint_that_states_no_velocity_limit_is_not_suspect() -> None:
+    """A continuous joint without ``<limit>`` states no velocity: only a stated 0 looks passive."""
+    model = _model(ROBOTS / "dobot_like.urdf")
+    origins = {j.name: j.origin_xyz for j in model.joints}
+    stated = {j.name: j.velocity for j in model.joints if j.name != "joint_4"}
+    assert passive_hints(model.joints, stated, set(), origins, set()) == []
+    stated["joint_4"] = 0.0
+    assert [n for n, _ in passive_hints(model.joints, stated, set(), origins, set())] == ["joint_4"]

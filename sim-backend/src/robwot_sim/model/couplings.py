@@ -263,15 +263,17 @@ def passive_hints(joints: Sequence[JointAxis], velocity: Mapping[str, float],
                   transmitted: set[str], origins: Mapping[str, tuple[float, ...]],
                   coupled: set[str]) -> list[tuple[str, str]]:
     """Movable joints that look passive, each with why, skipping those already coupled: a velocity limit
-    of 0 where other joints have one, no ``<transmission>`` where other joints have one, or a parent and
-    origin shared with another movable joint (parallelogram bars hinge side by side)."""
+    of 0 where other joints have one (``velocity`` holds the limits the URDF states; a joint it lacks
+    states none, as a continuous joint without ``<limit>``, and is not suspect), no ``<transmission>``
+    where other joints have one, or a parent and origin shared with another movable joint (parallelogram
+    bars hinge side by side)."""
     movable = [j for j in joints if j.type != "fixed"]
     some_speed = any(velocity.get(j.name, 0.0) > 0 for j in movable)
     seen: dict[tuple[str, tuple[float, ...]], str] = {}
     why: dict[str, list[str]] = {}
     for j in movable:
         reasons = why.setdefault(j.name, [])
-        if some_speed and velocity.get(j.name, 0.0) <= 0:
+        if some_speed and velocity.get(j.name, 1.0) <= 0:
             reasons.append("its velocity limit is 0 where other joints have one")
         if transmitted and j.name not in transmitted:
             reasons.append("it has no <transmission> where other joints have one")

@@ -99,7 +99,10 @@ class RobotFiles:
 def _linkage_notes(doc: UrdfDoc, model: UrdfModel) -> list[str]:
     """What looks like a passive joint of a linkage no coupling covers (``couplings.passive_notes``)."""
     transmitted = {el.get("name", "") for t in doc.root.findall("transmission") for el in t.findall("joint")}
-    return passive_notes(str(doc.file), model.joints, {j.name: j.velocity for j in model.joints},
+    stated = {el.get("name", "") for el in doc.root.findall("joint")
+              if (lim := el.find("limit")) is not None and lim.get("velocity") is not None}
+    return passive_notes(str(doc.file), model.joints,
+                         {j.name: j.velocity for j in model.joints if j.name in stated},
                          {j.name: j.origin_xyz for j in model.joints}, transmitted,
                          {c.follower for c in model.couplings})
 
