@@ -226,6 +226,11 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     } finally {
       await served.stop();
     }
+    // --home wins over the SRDF's home: the joints it names, the others where the robot loads
+    const over = join(work, "homed-cli");
+    const h = await runCli(["generate", join(work, "tiny.urdf"), "--srdf", srdf, "--home", "elbow=0.3", "--samples", SAMPLES, "--out", over]);
+    expect(h.code, h.stderr).toBe(0);
+    expect(json(join(over, "twin.json")).robot.home).toEqual({ joints: { yaw: 0, shoulder: 0, elbow: 0.3 }, from: "--home" });
   }, 120_000);
 
   it("--limits FILE: a joint_limits.yaml's velocities replace the URDF's and its accelerations time the moves, recorded in twin.json; bad values are refused", async () => {

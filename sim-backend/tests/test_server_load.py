@@ -44,6 +44,8 @@ def test_a_first_load_decomposing_a_mesh_does_not_hold_the_loop(tmp_path: Path,
         assert [(p["done"], p["total"]) for p in progress] == [(0, 1), (1, 1)]
         assert progress[1]["mesh"] == "u.obj" and progress[1]["parts"] >= 2 and progress[1]["eta"] == 0
         assert 0 < progress[1]["seconds"] <= progress[1]["elapsed"]
+        # each report names the collision cache folder the parts go to: the one this load used
+        assert {p["cache"] for p in progress} == {str(tmp_path / "cache")}
         # a second load of the same robot finds its parts cached: nothing to report
         client.notifications.clear()
         client.wait(client.send("robot.load", {"urdf": str(tmp_path / "u_arm.urdf"), "id": "u2"}), timeout=60)

@@ -5,16 +5,18 @@
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { buildThingModel, mulberry32, reachOverlaps, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
+import { buildThingModel, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
 import type { RobotLoadProgressNotification, RobotModel, SimClient, WorkspaceSummary, WorldList } from "@robwot/sim-client";
 import type { BackendGuard } from "./backend-guard.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError, describeError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
-import { formatDuration, type ProgressSink, whileSlow } from "./progress.js";
+import { meshProgress, SLOW_LOAD, SLOW_LOAD_MS } from "./mesh-progress.js";
+import { type ProgressSink, whileSlow } from "./progress.js";
 import { prepareRosInput, type RosInput } from "./ros-input.js";
 import { sceneDocument } from "./scene-doc.js";
+import { checkStart, type Home, overlapWarnings, Warnings } from "./start-state.js";
 import { StagedDir } from "./twin-dir.js";
 import { VERSION } from "./version.js";
 
@@ -29,8 +31,9 @@ export interface GenerateResult {
   seconds: number;
   /** the scene's other robots (id, base position in m) */
   otherRobots: { id: string; basePosition: number[] }[];
-  /** what the user should know: what reading the robot skipped or guessed (SRDF entries of unknown names,
-   * packages taken by their folder's name), robots of the scene this one can touch */
+  /** what the user should know, each printed as soon as it is known: what reading the robot skipped or
+   * guessed (SRDF entries of unknown names, packages taken by their folder's name), a start pose in
+   * contact, robots of the scene this one can touch */
   warnings: string[];
 }
 
@@ -188,31 +191,6 @@ async function loadRobotInScene(
   }, { onProgress: onMesh });
 }
 
-/** A load that takes longer than this without a mesh reported is (nearly always) the first decomposition
- * of the meshes of a scene's other robots, which report no progress. */
-const SLOW_LOAD_MS = 10_000;
-const CACHED_WHERE =
-  "cached in $ROBWOT_COLLISION_CACHE, else $XDG_CACHE_HOME/robwot/collision or ~/.cache/robwot/collision, and in the twin folder";
-const SLOW_LOAD = `still loading: the first time a robot is used, its concave collision meshes are split into convex parts (${CACHED_WHERE})`;
-
-/** Progress of a robot's first load: what happens, then one step per collision mesh with an ETA. */
-function meshProgress(progress: ProgressSink): { onMesh: (m: RobotLoadProgressNotification) => void; seen: () => boolean } {
-  let seen = false;
-  return {
-    seen: () => seen,
-    onMesh(m) {
-      seen = true;
-      if (m.done === 0) {
-        progress.info(`first use of this robot: its ${m.total} new collision mesh(es) are split into convex parts where concave (${CACHED_WHERE})`);
-        progress.stage("decompose");
-        return;
-      }
-      const what = m.parts === 0 ? "convex, kept" : `${m.parts} convex parts`;
-      progress.step("decompose", m.done, m.total, `${m.mesh} (${what}, ${formatDuration(m.seconds)})`, m.eta ?? undefined);
-    },
-  };
-}
-
 /**
  * Runs the whole pipeline against an open backend whose world is empty. `staged` must have been created
  * by the caller (before starting the backend, so output problems are reported first); it is committed
@@ -268,8 +246,14 @@ async function generateFrom(
   for (const c of model.couplings.filter((k) => k.source === "keep-level")) {
     progress.info(`--keep-level: derived --couple "${c.expression}" (recorded in twin.json)`);
   }
+  // what the user should know is said before sampling whenever it is known by then
+  const warnings = new Warnings(progress);
+  warnings.say(inputWarnings(input, model));
+  const home = await checkStart(sim, model, opts.home, input.home, warnings);
   const world = await sim.listWorld();
   const obstacles = world.obstacles;
+  const others = world.robots.filter((r) => r.id !== model.id);
+  warnings.say(overlapWarnings(model, others));
 
   // Generation starts first: the backend serves the export (and the CLI writes its files) meanwhile.
   const generating = startGenerating(opts, sim, model, staged.tmp, progress);
@@ -277,7 +261,7 @@ async function generateFrom(
   if (opts.srdf !== undefined) copyFileSync(opts.srdf, join(staged.tmp, TWIN_FILES.srdf));
   const scene = sceneDocument(world, model.id, staged.tmp, opts.scene, await exportSceneRobots(sim, world, model.id, staged.tmp));
   writeJson(join(staged.tmp, TWIN_FILES.scene), scene);
-  writeManifest(staged.tmp, model, opts, input);
+  writeManifest(staged.tmp, model, opts, input, home);
 
   // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
   // make a valid TD fails fast (the validator was loaded and warmed while the backend started).
@@ -286,9 +270,9 @@ async function generateFrom(
   );
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
   const summary = await generating;
-  const others = world.robots.filter((r) => r.id !== model.id);
-  const warnings = overlapWarnings(model, others, summary);
-  await refuseDegenerate(summary, staged.tmp, sim, model, warnings);
+  const overlaps = overlapWarnings(model, others, summary);
+  warnings.say(overlaps);
+  await refuseDegenerate(summary, staged.tmp, sim, model, overlaps);
   writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
   writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
   noteSurface(summary, progress);
@@ -310,7 +294,7 @@ async function generateFrom(
     td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
     seconds: (performance.now() - t0) / 1000,
     otherRobots: others.map((r) => ({ id: r.id, basePosition: r.basePosition })),
-    warnings: [...inputWarnings(input, model), ...warnings],
+    warnings: warnings.all,
   };
 }
 
@@ -336,7 +320,7 @@ function startGenerating(opts: GenerateOptions, sim: SimClient, model: RobotMode
 }
 
 /** twin.json: the robot as `serve` loads it again, and what it was made from. */
-function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, input: RosInput): void {
+function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, input: RosInput, home: Home | undefined): void {
   const rules = model.couplings.filter((c) => c.source !== "mimic").map((c) => c.expression);
   writeJson(join(dir, TWIN_FILES.manifest), {
     version: 1,
@@ -352,8 +336,8 @@ function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, in
       ...(input.xacro ? { xacro: input.xacro } : {}),
       // the SRDF planning group chosen with --group (its end effector is eeLink unless --ee)
       ...(input.group !== undefined ? { group: input.group } : {}),
-      // the SRDF's home state: the pose serve starts the twin in
-      ...(input.home !== undefined ? { home: input.home } : {}),
+      // --home, else the SRDF's home state: the pose serve starts the twin in
+      ...(home !== undefined ? { home } : {}),
       // --limits: the joint_limits.yaml whose velocities robot.urdf carries
       ...(input.limits !== undefined ? { limits: input.limits } : {}),
       // its (or a MoveIt config's) accelerations, which a URDF cannot carry: serve passes them to robot.load
@@ -373,15 +357,6 @@ function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, in
  * SRDF's skipped entries; `robot.load` the packages it took by their folder's name). */
 function inputWarnings(input: RosInput, model: RobotModel): string[] {
   return [...new Set([...(input.srdfWarnings ?? []), ...(model.warnings ?? [])])];
-}
-
-/** Robots of the scene whose reach overlaps this one's: the user should know they can touch. */
-function overlapWarnings(model: RobotModel, others: WorldList["robots"], summary: WorkspaceSummary): string[] {
-  const base = (p: readonly number[]): [number, number, number] => [p[0] ?? 0, p[1] ?? 0, p[2] ?? 0];
-  return reachOverlaps([
-    { name: `this robot (${model.id})`, base: base(model.basePosition ?? [0, 0, 0]), ...(summary.reachBounds ? { reach: summary.reachBounds } : {}) },
-    ...others.map((r) => ({ name: `the scene's robot ${r.id}`, base: base(r.basePosition) })),
-  ]);
 }
 
 /** What the user should know about a workspace surface that is not the alpha shape of the samples. */

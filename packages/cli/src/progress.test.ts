@@ -39,6 +39,16 @@ describe("progress", () => {
       "robwot: decompose 2/3: link2.stl (convex, kept, 0.1s)",
       "robwot: decompose done in 0.0s",
     ]);
+    // steps left: an ETA is never printed as 0, and an unknown one is said to be
+    const left = sink(false);
+    left.p.step("decompose", 2, 3, "small.stl (2 convex parts, 0.3s)", 0.01);
+    left.p.step("decompose", 2, 3, "small.stl (2 convex parts, 0.3s)", null);
+    left.p.step("decompose", 3, 3, "big.stl (8 convex parts, 54s)", 0);
+    expect(left.text().trim().split("\n").slice(1)).toEqual([
+      "robwot: decompose 2/3, ETA 0.1s: small.stl (2 convex parts, 0.3s)",
+      "robwot: decompose 2/3, ETA unknown: small.stl (2 convex parts, 0.3s)",
+      "robwot: decompose 3/3: big.stl (8 convex parts, 54s)",
+    ]);
     const tty = sink(true);
     tty.p.step("decompose", 1, 3, "link1.stl (5 convex parts, 2.0s)", 12);
     expect(tty.text()).toMatch(/\r\x1b\[2Kdecompose 1\/3, ETA 12s: link1\.stl \(5 convex parts, 2\.0s\)$/);
@@ -58,6 +68,10 @@ describe("progress", () => {
     expect(formatDuration(3.21)).toBe("3.2s");
     expect(formatDuration(42.4)).toBe("42s");
     expect(formatDuration(125)).toBe("2m05s");
+    // rounded once: never 2m60s nor 60s
+    expect(formatDuration(179.6)).toBe("3m00s");
+    expect(formatDuration(59.7)).toBe("1m00s");
+    expect(formatDuration(9.97)).toBe("10s");
     expect(formatDuration(Number.NaN)).toBe("?");
   });
 });

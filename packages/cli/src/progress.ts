@@ -11,9 +11,9 @@ export interface ProgressSink {
   /** Free text (kept on its own line). */
   info(text: string): void;
   /** One step of a stage whose steps are uneven (a mesh decomposed): `text` says what was done, `eta` is
-   * the caller's estimate of the time left (s; undefined when it has none). A redrawn line on a
-   * terminal, one plain line per step otherwise. */
-  step(name: string, done: number, total: number, text: string, eta?: number): void;
+   * the caller's estimate of the time left (s; undefined when it gives none, null when it cannot tell
+   * while steps remain). A redrawn line on a terminal, one plain line per step otherwise. */
+  step(name: string, done: number, total: number, text: string, eta?: number | null): void;
   /** Clears the bar; call once at the end (`ok` false: the current stage did not finish). */
   end(ok?: boolean): void;
 }
@@ -28,14 +28,18 @@ export interface ProgressOptions {
 
 const BAR_WIDTH = 28;
 
+/** Seconds for people: tenths below ten, whole seconds below a minute, else minutes and seconds; rounded
+ * once, before it is cut into minutes, so the seconds never read 60. */
 export function formatDuration(seconds: number): string {
   if (!Number.isFinite(seconds) || seconds < 0) return "?";
-  if (seconds < 10) return `${seconds.toFixed(1)}s`;
-  if (seconds < 60) return `${Math.round(seconds)}s`;
-  const m = Math.floor(seconds / 60);
-  const s = Math.round(seconds % 60);
-  return `${m}m${String(s).padStart(2, "0")}s`;
+  if (seconds < 9.95) return `${seconds.toFixed(1)}s`;
+  const whole = Math.round(seconds);
+  if (whole < 60) return `${whole}s`;
+  return `${Math.floor(whole / 60)}m${String(whole % 60).padStart(2, "0")}s`;
 }
+
+/** An estimate of the time left while work remains: never printed as 0 (its least is a tenth). */
+const timeLeft = (eta: number): string => formatDuration(Math.max(eta, 0.1));
 
 export function createProgress(opts: ProgressOptions = {}): ProgressSink {
   const stream = opts.stream ?? process.stderr;
@@ -104,7 +108,7 @@ export function createProgress(opts: ProgressOptions = {}): ProgressSink {
     },
     step(name, done, total, text, eta) {
       if (name !== current) this.stage(name);
-      const left = eta === undefined ? "" : `, ETA ${formatDuration(eta)}`;
+      const left = eta === undefined || done >= total ? "" : eta === null ? ", ETA unknown" : `, ETA ${timeLeft(eta)}`;
       if (tty) {
         stream.write(`\r\x1b[2K${name} ${done}/${total}${left}: ${text}`);
         barShown = true;

@@ -762,9 +762,13 @@ export interface RobotLoadProgressNotification {
    */
   elapsed: number;
   /**
-   * estimated time left (s): the triangles still to decompose at the rate of those done; null until a concave mesh is done
+   * estimated time left (s): the triangles still to decompose at the rate of those done, less the time the running meshes have run; null until a concave mesh is done and while a running mesh has outrun its estimate (never 0 while a mesh is left)
    */
   eta: number | null;
+  /**
+   * the collision cache folder the convex parts are written to (absolute)
+   */
+  cache: string;
 }
 export interface ToolAttached {
   /**

@@ -33,7 +33,7 @@ export type { WorkspacePointCheck } from "./workspace/workspace.js";
 export { loadWorkspaceFromUrls, reachabilityVoxel } from "./workspace/load-url.js";
 export type { FetchLike } from "./workspace/load-url.js";
 export * from "./geometry.js";
-export { reachOverlaps, SAME_BASE } from "./overlap.js";
+export { reachOverlaps, SAME_BASE, startCollision } from "./overlap.js";
 export type { PlacedRobot } from "./overlap.js";
 export {
   activeCalibration,

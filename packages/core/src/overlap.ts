@@ -2,9 +2,10 @@
  * Robots sharing one world that can touch each other, said in words: the scene's other robots at
  * generate, the twins of one `robwot serve`. A robot's reach is its end link's reach box in the world
  * frame (workspace.json `reachBounds`); a robot whose reach is unknown (a scene's other robot at
- * generate) is judged by its base alone.
+ * generate, any robot before its workspace is sampled) is judged by its base alone. Also: a start pose
+ * that already touches something (`startCollision`).
  */
-import type { Bounds, Vec3 } from "./backend-contract.js";
+import type { Bounds, Contact, Vec3 } from "./backend-contract.js";
 import { norm, sub } from "./geometry.js";
 
 export interface PlacedRobot {
@@ -38,4 +39,20 @@ export function reachOverlaps(robots: readonly PlacedRobot[]): string[] {
     }
   });
   return out;
+}
+
+const side = (s: Contact["a"]): string => (s.link === null ? s.body : `${s.body}/${s.link}`);
+
+/** Pairs named by `startCollision`; the others are counted. */
+const NAMED_PAIRS = 4;
+
+/**
+ * A start pose in contact, in words (`robot.checkCollision`'s contacts at it), or undefined when it is free:
+ * the pairs touching, deepest first (the rest counted), and what that means for the twin's moves.
+ */
+export function startCollision(who: string, contacts: readonly Contact[]): string | undefined {
+  if (contacts.length === 0) return undefined;
+  const pairs = [...contacts].sort((x, y) => y.depth - x.depth).map((c) => `${side(c.a)} with ${side(c.b)} (${(c.depth * 1000).toFixed(1)} mm deep)`);
+  const more = pairs.length > NAMED_PAIRS ? ` and ${pairs.length - NAMED_PAIRS} more pair(s)` : "";
+  return `${who} collides (${pairs.slice(0, NAMED_PAIRS).join(", ")}${more}): a move must first leave the contact (only a path along which it recedes until free is allowed); choose another start pose (generate --home J=V,...) or move what it touches`;
 }

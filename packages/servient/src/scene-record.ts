@@ -3,11 +3,12 @@
  * world itself): the union of the twins' scenes (obstacles
  * and other robots), each twin's robot (robots see each other as obstacles), and run-time scene
  * edits. `restore` rebuilds it on a fresh backend (start and after a crash), putting every robot back
- * at its last known joint state. Emits `scene` after every run-time edit (the /live `scene` message).
+ * at its last known joint state; at the first, a twin whose start pose collides is warned about. Emits
+ * `scene` after every run-time edit (the /live `scene` message).
  */
 import { EventEmitter } from "node:events";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
-import { TWIN_FILES } from "@robwot/core";
+import { startCollision, TWIN_FILES } from "@robwot/core";
 import type { ObstacleMoveParams, SimClient } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { ServientError } from "./errors.js";
@@ -35,6 +36,9 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
   private readonly meshUrls = new Map<string, string>();
   /** robots of the scene files that are not twins */
   private readonly sceneRobots: Record<string, unknown>[] = [];
+
+  /** whether the twins' start poses were checked (`warnStartCollisions`: at the first restore only) */
+  private startChecked = false;
 
   /** folders run-time mesh obstacles may come from: the twin folders, then `--mesh-root` folders */
   readonly meshRoots: string[];
@@ -107,7 +111,19 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
       const { positions } = await sim.getJointPositions({ robot: twin.robotId });
       twin.applyPose(positions, await sim.fk({ robot: twin.robotId, positions }));
     }
+    if (!this.startChecked) await this.warnStartCollisions(sim);
   };
+
+  /** Once, when the twins are first restored: a twin whose start pose touches something is warned about,
+   * naming the bodies (its moves must first leave the contact). */
+  private async warnStartCollisions(sim: SimClient): Promise<void> {
+    this.startChecked = true;
+    for (const twin of this.twins) {
+      const { contacts } = await sim.checkCollision({ robot: twin.robotId });
+      const said = startCollision(`twin ${twin.robotId}: its start pose`, contacts);
+      if (said !== undefined) process.emitWarning(`robwot serve: ${said}`, { code: "ROBWOT_START_COLLIDES" });
+    }
+  }
 
   /**
    * The file of a run-time mesh obstacle: a path relative to a mesh root (first match), or an absolute

@@ -62,6 +62,9 @@ export interface GenerateOptions {
   couplings: string[];
   /** `--keep-level LINK` (repeatable): links whose orientation the derived couplings keep */
   keepLevel: string[];
+  /** `--home J=V,...`: the start pose's joints (rad or m) by name, over the SRDF's `home` state; checked
+   * against the robot's joints and limits once it is loaded */
+  home?: Record<string, number>;
   csvJoints: boolean;
   backend?: string;
   json: boolean;
@@ -91,6 +94,7 @@ export const GENERATE_OPTIONS = {
   "xacro-arg": { type: "string", multiple: true },
   couple: { type: "string", multiple: true },
   "keep-level": { type: "string", multiple: true },
+  home: { type: "string" },
   "moveit-config": { type: "string" },
   group: { type: "string" },
   "csv-joints": { type: "boolean" },
@@ -263,6 +267,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   const scene = values.scene === undefined ? undefined : parseSceneFile(values.scene);
   checkEndEffector(values, moveitConfig);
   const { couplings, keepLevel } = parseCouplings(values);
+  const home = parseHome(values.home);
   const out = resolve(values.out ?? join("twins", slugify(robotName({ robotArg, urdfFile, example, moveitConfig }))));
   return {
     ...(urdfFile ? { urdfFile } : {}),
@@ -290,6 +295,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     ...(limits ? { limits } : {}),
     couplings,
     keepLevel,
+    ...(home !== undefined ? { home } : {}),
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),
     json: values.json ?? false,
@@ -364,4 +370,19 @@ function robotName({ urdfFile, example, moveitConfig }: RobotSource): string {
   // a xacro's name may itself be an expression: then the file name it has
   const fileName = moveitConfig !== undefined ? basename(moveitConfig).replace(/_moveit_config$/, "") : basename(urdfFile ?? "robot").replace(/(\.urdf)?(\.xacro)?$/, "");
   return example?.name ?? (declared?.includes("$") ? undefined : declared) ?? fileName;
+}
+
+/** `--home J=V,...`: joint names with finite values (rad or m), each named once; which joints the robot
+ * has and their limits are checked once it is loaded (`start-state.ts`). */
+export function parseHome(value: string | undefined): Record<string, number> | undefined {
+  if (value === undefined) return undefined;
+  const out: Record<string, number> = {};
+  for (const item of value.split(",")) {
+    const m = /^\s*([^=\s]+)\s*=\s*(\S+)\s*$/.exec(item);
+    const v = m ? Number(m[2]) : Number.NaN;
+    if (!m || !Number.isFinite(v)) throw new CliError(`--home must be JOINT=VALUE,... (radians or metres by joint name), got "${item.slice(0, 80)}" in "${value.slice(0, 200)}"`);
+    if (Object.hasOwn(out, m[1]!)) throw new CliError(`--home names joint ${m[1]} twice`);
+    out[m[1]!] = v;
+  }
+  return out;
 }

@@ -46,6 +46,10 @@ Options:
                           checked for collisions with the scene and the robot like a link, drawn by the viewer
   --tool-box SX,SY,SZ     the tool as a box (metres) from the end-effector link along its z axis
   --tool-cylinder R,L     the tool as a cylinder (radius, length in metres) likewise; with or without --tool-mesh
+  --home J=V,...          the start pose: joints by name (radians or metres), e.g. "joint_2=-0.5,joint_4=1.2";
+                          the joints not named stay where the robot loads; over the SRDF's "home" state;
+                          an unknown joint or a value outside its limits is refused. generate warns when
+                          the start pose collides, naming the bodies in contact
   --limits FILE           a MoveIt-style joint_limits.yaml: its max_velocity values (joints with
                           has_velocity_limits) replace the URDF's <limit velocity> (over a --moveit-config's)
   --out DIR, -o DIR       output folder (default twins/<example name or URDF robot name>);
@@ -93,8 +97,8 @@ function printHuman(r: GenerateResult, seconds: number): void {
     `  reach      ${s.reachability.voxels} voxels of ${s.reachability.voxel.toFixed(3)} m (reachability.csv)`,
     `  td         ${r.td.file} (id ${r.td.id})`,
   ];
+  // the warnings were printed as they became known (generate-twin.ts)
   process.stdout.write(`${lines.join("\n")}\n`);
-  for (const w of r.warnings) process.stderr.write(`robwot: warning: ${w}\n`);
 }
 
 /** Validates, generates and reports. Returns the exit code. */

@@ -37,6 +37,7 @@ import numpy.typing as npt
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 from robwot_sim.errors import MeshError, PathEscape
+from robwot_sim.model.mesh_eta import MeshEta
 from robwot_sim.model.meshcheck import check_mesh, snippet
 from robwot_sim.twin_layout import COLLISION_DIR
 from robwot_sim.wholefile import TooLarge, read_whole
@@ -85,7 +86,8 @@ class MeshDone:
     """A mesh of a robot's first load decomposed: its file name, how many of the load's new meshes are done
     (convex ones count at once), the mesh's own time and parts, the load's elapsed time and an estimate
     of the time left (seconds; None until a concave mesh is done: from the triangles still to do at the
-    rate of those done). The first report, before any work, has ``done`` 0 and no mesh name."""
+    rate of those done, ``mesh_eta.py``: None while unknown). The first report, before any work, has
+    ``done`` 0 and no mesh name. ``cache``: the collision cache folder the parts are written to."""
 
     mesh: str
     done: int
@@ -94,6 +96,7 @@ class MeshDone:
     parts: int
     elapsed: float
     eta: float | None
+    cache: str
 
 
 OnMesh = Callable[[MeshDone], None]
@@ -453,29 +456,32 @@ def decompose_all(meshes: dict[str, tuple[FloatArray, IndexArray, bool, str]], c
     so the threads run side by side, and its parts do not depend on what runs beside it (seeded)."""
     start = time.perf_counter()
     convex = {key for key, (v, f, _, _) in meshes.items() if is_convex(v, f)}
-    left = sum(len(f) for key, (_, f, _, _) in meshes.items() if key not in convex)
+    concave = sorted((key for key in meshes if key not in convex), key=lambda k: -len(meshes[k][1]))
+    workers = max(1, min(len(concave), os.cpu_count() or 1))
+    eta = MeshEta({key: len(meshes[key][1]) for key in concave}, workers)
     lock = threading.Lock()
-    done = {"meshes": 0, "faces": 0}
+    done = {"meshes": 0}
+    where = str(cache_dir)
 
     def one(key: str) -> None:
         vertices, faces, whole, name = meshes[key]
         t = time.perf_counter()
+        eta.start(key, t)
         parts = decompose(vertices, faces, key, cache_dir, whole, key in convex)
+        left = eta.done(key, time.perf_counter()) if key not in convex else None
         if on_mesh is None:
             return
         with lock:
             now = time.perf_counter()
             done["meshes"] += 1
-            done["faces"] += 0 if key in convex else len(faces)
-            eta = (now - start) / done["faces"] * (left - done["faces"]) if done["faces"] else None
-            on_mesh(MeshDone(name, done["meshes"], len(meshes), now - t, len(parts.parts), now - start, eta))
+            on_mesh(MeshDone(name, done["meshes"], len(meshes), now - t, len(parts.parts), now - start, left,
+                             where))
 
     if on_mesh is not None and meshes:
-        on_mesh(MeshDone("", 0, len(meshes), 0.0, 0, 0.0, None))
+        on_mesh(MeshDone("", 0, len(meshes), 0.0, 0, 0.0, None, where))
     for key in convex:
         one(key)
-    concave = sorted((key for key in meshes if key not in convex), key=lambda k: -len(meshes[k][1]))
-    with ThreadPoolExecutor(max(1, min(len(concave), os.cpu_count() or 1))) as pool:
+    with ThreadPoolExecutor(workers) as pool:
         for job in [pool.submit(one, key) for key in concave]:
             job.result()
 

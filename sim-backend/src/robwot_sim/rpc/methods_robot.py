@@ -46,7 +46,7 @@ def _register_lifecycle(d: Dispatcher, s: Services) -> None:
         def mesh_done(m: MeshDone) -> None:
             progress("robot.loadProgress", {"mesh": m.mesh, "done": m.done, "total": m.total,
                                             "seconds": m.seconds, "parts": m.parts, "elapsed": m.elapsed,
-                                            "eta": m.eta})
+                                            "eta": m.eta, "cache": m.cache})
 
         files = await s.off_world(lambda: World.read_robot(
             p["urdf"], robot_id=p["id"], ee_link=p["eeLink"], package_roots=p["packageRoots"],

@@ -8,7 +8,8 @@ was loaded with another):
 then no contact can hide between checked states, at any speed (see ``sweep.py``). A path that starts or
 ends within the clearance (e.g. after a motion stopped on contact) is checked for contact only, so the
 robot can always move away from such a state and back to it: the verdict on a path never depends on its
-direction.
+direction. A path that starts in contact may leave it while the contact recedes (``exit_contact.py``);
+the check applies from the first state free of it.
 
 The functions at the end take a robot of a scene (``planning_scene.Scene``): a path, a step or a motion's
 clearance checked with the robot held, its state restored.
@@ -23,12 +24,13 @@ import numpy as np
 
 from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
 from robwot_sim.sim.collision import TOUCH, CollisionChecker
+from robwot_sim.sim.exit_contact import leave_contact
 from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.sweep import Guard, substeps
-from robwot_sim.sim.timed import Curve, Straight, TimedPath
+from robwot_sim.sim.timed import Curve, Piece, Straight, TimedPath
 from robwot_sim.sim.trajectory import plan_motion
-from robwot_sim.sim.types import CollisionReport, FirstCollision, FloatArray, PathReport
+from robwot_sim.sim.types import CollisionReport, Contact, FirstCollision, FloatArray, PathReport
 from robwot_sim.sim.world_thread import checkpoint
 
 #: how far beyond the clearance (m) a path check measures the distance to other bodies: the travel that
@@ -184,26 +186,59 @@ def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: TimedPa
         first = path.first
         clearance = path_clearance(robot, checker, first, guard, path.last)
         robot.apply(first)
+        resume = 0.0
+        start: tuple[Contact, ...] = ()
         if not checker.is_free():
-            start = FirstCollision(0.0, tuple(float(x) for x in first), tuple(checker.contacts()))
-            return PathReport(False, path.duration, len(path), start)
+            # a start in contact: the path may leave it while the contact recedes (``exit_contact.py``)
+            left = leave_contact(robot, checker, path, guard)
+            start = left.start
+            if left.free_at is None:
+                report = FirstCollision(left.at * path.dt, left.positions, left.contacts)
+                return PathReport(False, path.duration, len(path), report, start)
+            resume = left.free_at
         for offset, piece in path.offsets():
-            if piece.steps == 0:
+            if piece.steps == 0 or offset + piece.steps <= resume:
                 continue
-            if isinstance(piece, Straight):
-                hit = first_contact(robot, checker, piece.start, piece.target, guard, clearance)
-                found = None if hit is None else (piece.index_of(hit[0]), hit[1])
-            else:
-                assert isinstance(piece, Curve)
-                found = _curve_contact(robot, checker, piece, guard, clearance)
+            found = _piece_contact(robot, checker, piece, guard, clearance, max(0.0, resume - offset))
             if found is not None:
                 at, q = found
                 report = FirstCollision((offset + at) * path.dt, tuple(float(x) for x in np.asarray(q)),
                                         tuple(checker.contacts(clearance)))
-                return PathReport(False, path.duration, len(path), report)
+                return PathReport(False, path.duration, len(path), report, start)
     finally:
         robot.apply(saved)
-    return PathReport(True, path.duration, len(path))
+    return PathReport(True, path.duration, len(path), None, start)
+
+
+def _piece_contact(robot: BoundRobot, checker: CollisionChecker, piece: Piece, guard: Guard,
+                   clearance: float, after: float) -> tuple[float, FloatArray] | None:
+    """The first contact along ``piece`` after its fractional state index ``after`` (0: its first state,
+    excluded), as (fractional state index, state). Only a path leaving a contact starts past 0: a straight
+    piece from the state there to its end (the state lies on the segment), a curve along its states
+    from there as a polyline."""
+    if isinstance(piece, Straight):
+        if after <= 0.0:
+            hit = first_contact(robot, checker, piece.start, piece.target, guard, clearance)
+            return None if hit is None else (piece.index_of(hit[0]), hit[1])
+        k = int(after)
+        q = piece.at(np.array([k, min(k + 1, piece.steps)], dtype=np.int64))
+        q_from = q[0] + (q[1] - q[0]) * (after - k)
+        span = piece.target - piece.start
+        done = float(np.dot(q_from - piece.start, span) / max(float(np.dot(span, span)), 1e-300))
+        hit = first_contact(robot, checker, q_from, piece.target, guard, clearance)
+        return None if hit is None else (piece.index_of(done + hit[0] * (1.0 - done)), hit[1])
+    assert isinstance(piece, Curve)
+    if after <= 0.0:
+        return _curve_contact(robot, checker, piece, guard, clearance)
+    k = int(after)
+    rows = piece.at(np.arange(k, piece.steps + 1, dtype=np.int64))
+    rows[0] = rows[0] + (rows[min(1, len(rows) - 1)] - rows[0]) * (after - k)
+    corners = _vertices(rows)
+    along = first_contact_along(robot, checker, rows[corners], guard, clearance)
+    if along is None:
+        return None
+    j, frac, q = along
+    return k + corners[j] + frac * (corners[j + 1] - corners[j]), q
 
 
 def check_states(scene: Scene, robot_id: str, path: TimedPath) -> PathReport:

@@ -119,13 +119,20 @@ def _limit_violations(model: RobotModel, q: Sequence[float]) -> list[dict[str, A
 
 
 def _path(world: World, robot: str, q: Sequence[float],
-          timing: Timing) -> tuple[bool, list[Contact], TimedPath]:
+          timing: Timing) -> tuple[bool, list[Contact], TimedPath, tuple[Contact, ...]]:
     """The straight path from the current state to ``q``, timed and checked (``World.check_path``),
-    with the timed path it checked."""
+    with the timed path it checked and the contacts of the current state (none unless it collides)."""
     path = world.plan_motion(robot, q, None, timing.speed, timing.dt, acceleration=timing.acceleration)
     report = world.check_states(robot, path)
     contacts = list(report.first_collision.contacts) if report.first_collision is not None else []
-    return report.collision_free, contacts, path
+    return report.collision_free, contacts, path, report.start_contacts
+
+
+def start_words(start: Sequence[Contact], contacts: Sequence[Contact]) -> str:
+    """Why a path from a colliding current state is refused: that state's contacts first, then where the
+    path stopped leaving them (``exit_contact.py``)."""
+    return (f"the current state already collides{contact_words(start)}: a path may leave it only while the "
+            f"contact recedes until free, and this one does not{contact_words(contacts)}")
 
 
 def path_check(clearance: float, ok: bool, contacts: Sequence[Contact], planned: str = "straight",
@@ -179,11 +186,15 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float 
         reasons = tuple(f"joint {v['joint']} = {_fmt(v['value'])} outside its limits "
                         f"[{_fmt(v['lower'])}, {_fmt(v['upper'])}]" for v in violations)
         return Plan(False, None, reasons, checks)
-    ok, contacts, path = _path(world, robot, target, timing)
+    ok, contacts, path, start = _path(world, robot, target, timing)
     if ok:
         checks["path"] = path_check(model.clearance, True, [])
         return Plan(True, tuple(float(v) for v in target), (), checks, path=path)
     at_target = world.check_collision(robot, target)
+    if start and at_target.collision_free:
+        # no detour starts in contact: the search needs a free start
+        checks["path"] = path_check(model.clearance, False, contacts, detour="not searched")
+        return Plan(False, tuple(float(v) for v in target), (start_words(start, contacts),), checks)
     if at_target.collision_free:
         detour = _detour(world, robot, target, checks, timing)
         if detour is not None:
@@ -218,6 +229,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     where = f"({', '.join(_fmt(v) for v in position)}) m"
     seeds: list[list[float] | None] = [None, *_alternative_seeds(model, position, orientation, alternatives)]
     first: tuple[tuple[float, ...], float, list[Contact]] | None = None
+    start: tuple[Contact, ...] = ()
     #: an IK solution that reaches the target but whose configuration collides
     reached_colliding: Sequence[float] | None = None
     tried = 0
@@ -241,7 +253,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
         if not ik.collision_free:
             reached_colliding = reached_colliding if reached_colliding is not None else ik.positions
             continue
-        ok, contacts, checked = _path(world, robot, ik.positions, timing)
+        ok, contacts, checked, start = _path(world, robot, ik.positions, timing)
         if first is None:
             first = (ik.positions, ik.position_error, contacts)
         if ok:
@@ -266,6 +278,10 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
         return Plan(False, None, (reason,), {"ik": ik_check})
     positions, error, contacts = first
     checks = {"ik": {"ok": True, "positionError": error, "solutions": tried}, "limits": {"ok": True}}
+    if start:
+        checks["path"] = path_check(model.clearance, False, contacts, detour="not searched")
+        reason = f"to every IK solution tried ({tried}): {start_words(start, contacts)}"
+        return Plan(False, positions, (reason,), checks)
     detour = _detour(world, robot, positions, checks, timing)
     if detour is not None:
         return detour
@@ -291,10 +307,14 @@ def plan_lin(world: World, robot: str, position: Sequence[float],
         world, robot, via, position, orientation)
     if path.reason is not None:
         checks: dict[str, Any] = {"limits": {"ok": True}}
+        why = f"{path.reason}{contact_words(path.contacts)}"
         if path.contacts:
             checks["path"] = path_check(model.clearance, False, path.contacts, kind)
-        return Plan(False, None, (f"{kind.upper()} refused: {path.reason}{contact_words(path.contacts)}",),
-                    checks)
+            here = world.check_collision(robot)
+            if not here.collision_free:  # a LIN or CIRC never leaves a contact: a joint move can
+                why = (f"the current state already collides{contact_words(here.contacts)} (a joint or PTP "
+                       f"move may leave it): {why}")
+        return Plan(False, None, (f"{kind.upper()} refused: {why}",), checks)
     for i, q in enumerate(path.waypoints):
         violations = _limit_violations(model, [float(v) for v in q])
         if violations:
@@ -328,8 +348,9 @@ def time_lin(world: World, robot: str, plan: Plan, timing: Timing,
         return replace(plan, path=path)
     kind = str(plan.checks["path"]["planned"])
     contacts = report.first_collision.contacts
-    reason = (f"{kind.upper()} refused: the timed path between its checked samples collides"
-              f"{contact_words(contacts)}")
+    why = (start_words(report.start_contacts, contacts) if report.start_contacts else
+           f"the timed path between its checked samples collides{contact_words(contacts)}")
+    reason = f"{kind.upper()} refused: {why}"
     checks = {**plan.checks, "path": path_check(world.robot_model(robot).clearance, False, contacts, kind)}
     return Plan(False, None, (reason,), checks)
 

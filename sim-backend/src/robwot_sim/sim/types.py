@@ -108,6 +108,9 @@ class PathReport:
     duration: float
     steps: int
     first_collision: FirstCollision | None = None
+    #: the contacts of the path's first state when it starts in contact (``exit_contact.py``): a path
+    #: refused for them is refused because the current state collides
+    start_contacts: tuple[Contact, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
