@@ -199,3 +199,17 @@ def test_bad_couplings_are_refused_before_anything_is_loaded(world: World, rules
         World.read_robot(str(DOBOT), couplings=rules, keep_level=level)
     assert why in str(ei.value)
     assert world.robot_ids() == []
+
+
+def test_the_scene_document_carries_the_rules_so_a_worker_world_rebuilds_the_same_robot(world: World) -> None:
+    """The labelling workers and a restored backend rebuild the world from ``scene_spec``: a coupled robot
+    must come back with the same joint vector (it came back with the followers as joints)."""
+    _load(world, UARM, UARM_RULES, ("end",))
+    spec = world.scene_spec()
+    assert spec["robots"][0]["couplings"] == ["end_joint=-joint_2-joint_3", "bar_joint=joint_2+joint_3",
+                                               "plate_joint=-joint_2"]
+    with World() as other:
+        other.load_scene(spec)
+        assert other.robot_model("arm").controllable == world.robot_model("arm").controllable
+        q = _draw(world, 1, 5)[0]
+        assert np.allclose(other.fk("arm", q).position, world.fk("arm", q).position)

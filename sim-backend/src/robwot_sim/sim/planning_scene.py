@@ -403,6 +403,9 @@ class Scene:
             }
             if e.model.srdf:
                 r["srdf"] = e.model.srdf
+            added = [c.expression for c in e.model.couplings if c.source != "mimic"]
+            if added:
+                r["couplings"] = added  # the rules flattened: keep-level ones included
             if e.package_roots:
                 r["packageRoots"] = {
                     k: str(Path(p).expanduser().resolve()) for k, p in e.package_roots.items()

@@ -126,7 +126,7 @@ def read_scene(
                 r["urdf"], robot_id=r.get("id"), ee_link=r.get("eeLink"),
                 package_roots={**roots, **r.get("packageRoots", {})},
                 srdf=resolve_file(r["srdf"], base, what="SRDF file") if "srdf" in r else None,
-                decompose=decompose, _base_dir=base)
+                decompose=decompose, _base_dir=base, couplings=r.get("couplings", ()))
             out.robots.append((r, files))
     except Exception:
         out.cleanup()
