@@ -213,3 +213,14 @@ def test_the_scene_document_carries_the_rules_so_a_worker_world_rebuilds_the_sam
         assert other.robot_model("arm").controllable == world.robot_model("arm").controllable
         q = _draw(world, 1, 5)[0]
         assert np.allclose(other.fk("arm", q).position, world.fk("arm", q).position)
+
+
+def test_a_urdf_without_collision_geometry_is_said_to_check_nothing(tmp_path: Path) -> None:
+    """The paper's uArm URDF has visuals only: the twin would call every configuration free."""
+    text = DOBOT.read_text()
+    bare = "\n".join(line for line in text.splitlines() if "<collision>" not in line)
+    urdf = tmp_path / "bare.urdf"
+    urdf.write_text(bare)
+    files = World.read_robot(str(urdf), keep_level=("link_4",))
+    assert any("no link has <collision> geometry" in n for n in files.notes)
+    assert not any("no link has <collision>" in n for n in World.read_robot(str(DOBOT)).notes)

@@ -96,6 +96,15 @@ class RobotFiles:
         self.prepared.cleanup()
 
 
+def _geometry_notes(doc: UrdfDoc) -> list[str]:
+    """A URDF whose links have no ``<collision>`` at all: nothing of the robot can be checked."""
+    if any(link.find("collision") is not None for link in doc.root.findall("link")):
+        return []
+    return [f"{doc.file}: no link has <collision> geometry, so every configuration is collision-free to the "
+            "twin (self-collisions and obstacles alike): add <collision> elements (e.g. copies of the "
+            "<visual> ones) before trusting its verdicts"]
+
+
 def _linkage_notes(doc: UrdfDoc, model: UrdfModel) -> list[str]:
     """What looks like a passive joint of a linkage no coupling covers (``couplings.passive_notes``)."""
     transmitted = {el.get("name", "") for t in doc.root.findall("transmission") for el in t.findall("joint")}
@@ -135,7 +144,8 @@ def read_robot_files(
     joints = [j.name for j in urdf_model.joints]
     semantic = read_srdf(srdf_path, urdf_model.links, joints) if srdf_path is not None else None
     prepared = prepare_urdf(path, package_roots, doc, decompose=decompose, on_mesh=on_mesh)
-    notes = (*prepared.notes, *(semantic.warnings if semantic else ()), *_linkage_notes(doc, urdf_model))
+    notes = (*prepared.notes, *(semantic.warnings if semantic else ()), *_linkage_notes(doc, urdf_model),
+             *_geometry_notes(doc))
     return RobotFiles(path, doc, urdf_model, ee, srdf_path, semantic.disabled if semantic else frozenset(),
                       prepared, dict(package_roots), notes)
 
