@@ -147,7 +147,7 @@ def test_labels_with_the_bounds_equal_bullets_labels(load: Callable[[World], str
         assert 0 < bullet.sum() < ROWS
         differ = np.flatnonzero(with_bounds != bullet)
         assert len(differ) <= ROWS // 100, differ
-        mimic = w.scene.entry(rid).bound.mimic
+        mimic = w.scene.entry(rid).bound.followers
         for i in differ:
             world = w.queries.mirror(rid) if alone[i] else w.queries.mirror()
             same = np.flatnonzero((alone == alone[i]) & ~sure)

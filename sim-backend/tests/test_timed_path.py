@@ -147,6 +147,10 @@ def test_a_slow_curve_checked_at_its_checkpoints_lets_no_contact_through() -> No
             centre = tcp[rng.integers(len(tcp))] + rng.uniform(-0.15, 0.15, 3)
             w.add_obstacle({"name": "box", "shape": {"type": "box", "size": [0.02, 0.02, 0.02]},
                             "position": centre.tolist()})
+            if _touching(w, m.id, rows[:1]):
+                # a start in contact may be left while the contact recedes: test_sim_exit_contact.py
+                w.remove_obstacle("box")
+                continue
             if w.check_states(m.id, path).collision_free:
                 assert not _touching(w, m.id, dense), f"a contact passed, box at {centre}"
                 passed += 1
