@@ -140,8 +140,9 @@ def _term(toks: list[tuple[str, str]], k: int, param: str, text: str) -> tuple[f
     return (float(first[1]), None, k) if first[0] == "num" else (1.0, first[1], k)
 
 
-class JointAxis(Protocol):
-    """What ``resolve`` and ``keep_level`` read of a URDF joint (``model/joints.py``'s ``JointInfo``)."""
+class UrdfJoint(Protocol):
+    """What this module reads of a URDF joint (``model/joints.py``'s ``JointInfo``, which imports this
+    module and so cannot be imported here)."""
 
     @property
     def name(self) -> str: ...
@@ -155,9 +156,15 @@ class JointAxis(Protocol):
     def origin_rpy(self) -> tuple[float, float, float]: ...
     @property
     def axis(self) -> tuple[float, float, float]: ...
+    @property
+    def lower(self) -> float: ...
+    @property
+    def upper(self) -> float: ...
+    @property
+    def velocity(self) -> float: ...
 
 
-def resolve(couplings: Sequence[Coupling], joints: Sequence[JointAxis]) -> tuple[Coupling, ...]:
+def resolve(couplings: Sequence[Coupling], joints: Sequence[UrdfJoint]) -> tuple[Coupling, ...]:
     """Every follower written in the leaders' coordinates (followers of followers substituted), in URDF
     joint order. A later coupling of a follower given twice is refused, as are unknown or fixed joints and
     cycles; at least one joint stays a leader."""
@@ -208,17 +215,17 @@ def _flatten(name: str, rules: Mapping[str, Coupling], flat: dict[str, Coupling]
     return out
 
 
-def chain_to(link: str, joints: Sequence[JointAxis]) -> list[JointAxis]:
+def chain_to(link: str, joints: Sequence[UrdfJoint]) -> list[UrdfJoint]:
     """The joints from the root link down to ``link``, root first (empty for the root)."""
     by_child = {j.child: j for j in joints}
-    chain: list[JointAxis] = []
+    chain: list[UrdfJoint] = []
     while link in by_child:
         chain.append(by_child[link])
         link = by_child[link].parent
     return chain[::-1]
 
 
-def keep_level(link: str, joints: Sequence[JointAxis], followers: Iterable[str] = ()) -> Coupling:
+def keep_level(link: str, joints: Sequence[UrdfJoint], followers: Iterable[str] = ()) -> Coupling:
     """The coupling that keeps ``link``'s orientation as at the zero configuration: the joints between
     the base and ``link`` that tilt it (revolute axes not along the root's vertical) must all turn about
     one axis and come after every vertical one; the last of them not already a follower follows the
@@ -227,7 +234,7 @@ def keep_level(link: str, joints: Sequence[JointAxis], followers: Iterable[str] 
     if not chain:
         raise _refuse("keepLevel", f"{link!r} is the root link or not a link of the robot", link)
     rot = np.eye(3)
-    tilting: list[tuple[JointAxis, np.ndarray]] = []
+    tilting: list[tuple[UrdfJoint, np.ndarray]] = []
     for j in chain:
         rot = rot @ rpy_matrix(*j.origin_rpy)
         if j.type not in ("revolute", "continuous"):
@@ -247,7 +254,7 @@ def keep_level(link: str, joints: Sequence[JointAxis], followers: Iterable[str] 
     return _level_rule(link, tilting, set(followers))
 
 
-def _level_rule(link: str, tilting: list[tuple[JointAxis, np.ndarray]], followers: set[str]) -> Coupling:
+def _level_rule(link: str, tilting: list[tuple[UrdfJoint, np.ndarray]], followers: set[str]) -> Coupling:
     free = [j for j, _ in tilting if j.name not in followers]
     if len(tilting) < 2 or not free:
         raise _refuse("keepLevel", f"keeping {link!r} level needs two or more tilting joints above it, one "
@@ -259,7 +266,7 @@ def _level_rule(link: str, tilting: list[tuple[JointAxis, np.ndarray]], follower
     return Coupling(follower, terms, 0.0, "keep-level")
 
 
-def passive_hints(joints: Sequence[JointAxis], velocity: Mapping[str, float],
+def passive_hints(joints: Sequence[UrdfJoint], velocity: Mapping[str, float],
                   transmitted: set[str], origins: Mapping[str, tuple[float, ...]],
                   coupled: set[str]) -> list[tuple[str, str]]:
     """Movable joints that look passive, each with why, skipping those already coupled: a velocity limit
@@ -286,21 +293,6 @@ def passive_hints(joints: Sequence[JointAxis], velocity: Mapping[str, float],
     return [(name, "; ".join(r)) for name, r in why.items() if r and name not in coupled]
 
 
-class LimitedJoint(Protocol):
-    """What ``Followers`` reads of a URDF joint (``model/joints.py``'s ``JointInfo``)."""
-
-    @property
-    def name(self) -> str: ...
-    @property
-    def type(self) -> str: ...
-    @property
-    def lower(self) -> float: ...
-    @property
-    def upper(self) -> float: ...
-    @property
-    def velocity(self) -> float: ...
-
-
 @dataclass(frozen=True)
 class Followers:
     """The followers of a robot as arrays over its joint vector: ``values(q) = q @ matrix.T + offset``, one
@@ -316,7 +308,7 @@ class Followers:
 
     @classmethod
     def of(cls, controllable: Sequence[str], couplings: Sequence[Coupling],
-           joints: Sequence[LimitedJoint]) -> Followers:
+           joints: Sequence[UrdfJoint]) -> Followers:
         """The followers of ``couplings`` over the joint vector ``controllable``, limits from ``joints``
         (a continuous joint is unbounded)."""
         limits = {j.name: (j.lower, j.upper, j.velocity) if j.type != "continuous"
@@ -359,7 +351,7 @@ class Followers:
         return None
 
 
-def passive_notes(file: str, joints: Sequence[JointAxis], velocity: Mapping[str, float],
+def passive_notes(file: str, joints: Sequence[UrdfJoint], velocity: Mapping[str, float],
                   origins: Mapping[str, tuple[float, ...]], transmitted: set[str],
                   coupled: set[str]) -> list[str]:
     """One line per joint that looks passive (``passive_hints``) and is not coupled: what the user can do
