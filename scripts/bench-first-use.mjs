@@ -78,7 +78,8 @@ const median = (xs) => {
   return s.length % 2 ? s[m] : (s[m - 1] + s[m]) / 2;
 };
 
-/** One `robwot generate` process: wall seconds and the per-mesh lines it printed. */
+/** One `robwot generate` process: wall seconds and the per-mesh lines it printed; `refused`: generate's
+ * last error line when it failed (a robot whose files are incomplete is a row of the table, not the end). */
 function generate(files, cache, out) {
   const roots = Object.entries(files.roots).flatMap(([k, v]) => ["--package-root", `${k}=${v}`]);
   const t0 = performance.now();
@@ -87,7 +88,10 @@ function generate(files, cache, out) {
     env: { ...process.env, ROBWOT_COLLISION_CACHE: cache },
   });
   const seconds = (performance.now() - t0) / 1000;
-  if (r.status !== 0) throw new Error(`generate ${files.urdf} failed:\n${r.stderr}`);
+  if (r.status !== 0) {
+    const error = r.stderr.split("\n").filter((l) => l.startsWith("robwot: error:")).at(-1);
+    return { seconds, meshes: [], refused: error?.slice("robwot: error: ".length) ?? `exit ${r.status}` };
+  }
   const meshes = [...r.stderr.matchAll(/decompose (\d+)\/(\d+)(?:, ETA [^:]+)?: (\S+) \((convex, kept|(\d+) convex parts), ([\d.]+m?[\d.]*s)\)/g)].map((m) => ({
     mesh: m[3],
     parts: m[5] === undefined ? 0 : Number(m[5]),
@@ -105,12 +109,22 @@ try {
     const files = robotFiles(name);
     const cold = [];
     let meshes = [];
+    let refused;
     for (let i = 0; i < runs; i++) {
       const cache = join(work, `${name}-cache-${i}`);
       const run = generate(files, cache, join(work, `${name}-twin`));
+      if (run.refused !== undefined) {
+        refused = run.refused;
+        break;
+      }
       cold.push(run.seconds);
       meshes = run.meshes;
       if (i < runs - 1) rmSync(cache, { recursive: true, force: true });
+    }
+    if (refused !== undefined) {
+      rows.push({ name, refused });
+      console.log(`\n${name}: refused: ${refused}`);
+      continue;
     }
     const warm = generate(files, join(work, `${name}-cache-${runs - 1}`), join(work, `${name}-twin`));
     rows.push({ name, cold: median(cold), warm: warm.seconds, meshes, cache: join(work, `${name}-cache-${runs - 1}`) });
@@ -120,10 +134,14 @@ try {
   }
   console.log(`\n${"robot".padEnd(16)}${"new meshes".padStart(11)}${"concave".padStart(9)}${"first twin (s)".padStart(16)}${"cached (s)".padStart(12)}`);
   for (const r of rows) {
+    if (r.refused !== undefined) {
+      console.log(`${r.name.padEnd(16)}  refused (${r.refused.slice(0, 60)})`);
+      continue;
+    }
     console.log(`${r.name.padEnd(16)}${String(r.meshes.length).padStart(11)}${String(r.meshes.filter((m) => m.parts > 0).length).padStart(9)}${r.cold.toFixed(1).padStart(16)}${r.warm.toFixed(1).padStart(12)}`);
   }
   if (Number(values["fidelity-samples"]) > 0) {
-    for (const r of rows.filter((row) => !(row.name in PAPER))) {
+    for (const r of rows.filter((row) => !(row.name in PAPER) && row.refused === undefined)) {
       console.log("");
       const f = spawnSync(python, ["-m", "robwot_bench.fidelity", "--robots", r.name, "--samples", values["fidelity-samples"], "--targets", "0", "--grazes", "0"], {
         encoding: "utf8",

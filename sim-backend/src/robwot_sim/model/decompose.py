@@ -37,6 +37,7 @@ import numpy.typing as npt
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 from robwot_sim.errors import MeshError, PathEscape
+from robwot_sim.model.hull_merge import NEAR, merge_parts
 from robwot_sim.model.mesh_eta import MeshEta
 from robwot_sim.model.meshcheck import check_mesh, snippet
 from robwot_sim.twin_layout import COLLISION_DIR
@@ -48,14 +49,19 @@ MeshReader = Callable[[Path], "tuple[FloatArray, IndexArray] | None"]
 
 #: CoACD parameters (``coacd.run_coacd`` keyword names): concavity threshold 0.05 (of the mesh's size);
 #: a shallow tree search, one cut deep (deeper searches cost a robot's first use much more time for labels
-#: as close to the exact-mesh reference's); at most 8 parts per mesh, merged by CoACD where the concavity
-#: grows least: Bullet's cost per check grows with the parts, and the cap leaves the labels against the
-#: exact-mesh reference as they were (README "Fidelity", "First use of your own robot" and "Running on a
-#: Ray cluster" have the measurements).
+#: as close to the exact-mesh reference's). CoACD's own merge is off: its pieces are merged by
+#: ``hull_merge`` to at most ``MAX_MESH_PARTS`` (README "Fidelity", "First use of your own robot" and
+#: "The paper's robots" have the measurements).
 COACD_PARAMS: dict[str, Any] = {"threshold": 0.05, "preprocess_mode": "auto",
                                 "resolution": 1000, "mcts_nodes": 10, "mcts_iterations": 30,
-                                "mcts_max_depth": 1, "merge": True, "max_convex_hull": 8,
-                                "max_ch_vertex": 64, "seed": 0}
+                                "mcts_max_depth": 1, "merge": False, "max_ch_vertex": 64, "seed": 0}
+#: Parts per mesh at most: Bullet's cost per check grows with the parts.
+MAX_MESH_PARTS = 8
+#: Concavity (metres) CoACD may leave in a piece whatever the mesh's size: the threshold is a fraction of
+#: the mesh's size, so a small link's engravings and screw holes were cut out piece by piece (hundreds of
+#: pieces) only to be merged into ``MAX_MESH_PARTS`` again. The same as ``REMESH_VOXEL``, the detail a
+#: remeshed mesh keeps; meshes larger than 1/threshold of it are cut as before.
+CONCAVITY_FLOOR = 0.005
 #: Non-manifold meshes (the UR and KUKA ones) are remeshed on a voxel grid first, which fattens them: the
 #: coarser, the fatter. Voxels of at most this side (m), between ``REMESH_RESOLUTION`` voxels per side:
 #: a fixed count per side fattens large meshes, a finer grid costs decomposition time for no fewer false
@@ -116,7 +122,8 @@ def cache_key(mesh_bytes: bytes, scale: tuple[float, float, float], whole_as_par
     h = hashlib.sha256(mesh_bytes)
     h.update(json.dumps({"scale": scale, "coacd": [version("coacd"), COACD_PARAMS],
                          **({"whole_as_part": True} if whole_as_part else {}),
-                         "remesh": [REMESH_VOXEL, REMESH_RESOLUTION],
+                         "remesh": [REMESH_VOXEL, REMESH_RESOLUTION], "merge": [MAX_MESH_PARTS, NEAR],
+                         "floor": CONCAVITY_FLOOR,
                          "cover": [COVER_TOLERANCE, 2], "slim": SLIM_MARGIN}, sort_keys=True).encode())
     return h.hexdigest()[:24]
 
@@ -178,14 +185,16 @@ def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path
 
 
 def convex_parts(vertices: FloatArray, faces: IndexArray) -> list[FloatArray]:
-    """CoACD's convex parts of a mesh (their vertices)."""
+    """CoACD's convex pieces of a mesh merged to at most ``MAX_MESH_PARTS`` parts (their vertices)."""
     import coacd  # imported here: most robots have only convex meshes
 
     coacd.set_log_level("error")
     mesh = coacd.Mesh(np.ascontiguousarray(vertices, dtype=np.float64),
                       np.ascontiguousarray(faces, dtype=np.int32))
-    return [np.asarray(v, dtype=np.float64) for v, _ in
-            coacd.run_coacd(mesh, preprocess_resolution=remesh_resolution(vertices), **COACD_PARAMS)]
+    size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
+    params = {**COACD_PARAMS, "threshold": max(COACD_PARAMS["threshold"], CONCAVITY_FLOOR / (size or 1.0))}
+    pieces = coacd.run_coacd(mesh, preprocess_resolution=remesh_resolution(vertices), **params)
+    return merge_parts([np.asarray(v, dtype=np.float64) for v, _ in pieces], MAX_MESH_PARTS)
 
 
 def remesh_resolution(vertices: FloatArray) -> int:

@@ -25,7 +25,6 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.robot_model import Rates
@@ -93,6 +92,7 @@ def plan_curve_path(
     import toppra
     import toppra.algorithm
     import toppra.constraint
+    from scipy.interpolate import CubicSpline
 
     toppra.setup_logging("WARNING")
     q = np.asarray(points, dtype=np.float64)

@@ -24,13 +24,15 @@ import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import numpy.typing as npt
-from scipy.interpolate import CubicSpline
 
 from robwot_sim.sim.types import FloatArray
+
+if TYPE_CHECKING:  # scipy.interpolate costs the backend's start a tenth of a second; motion.py imports it
+    from scipy.interpolate import CubicSpline
 
 IntArray = npt.NDArray[np.int64]
 
