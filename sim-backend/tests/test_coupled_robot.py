@@ -224,3 +224,28 @@ def test_a_urdf_without_collision_geometry_is_said_to_check_nothing(tmp_path: Pa
     files = World.read_robot(str(urdf), keep_level=("link_4",))
     assert any("no link has <collision> geometry" in n for n in files.notes)
     assert not any("no link has <collision>" in n for n in World.read_robot(str(DOBOT)).notes)
+
+
+@pytest.mark.parametrize(("urdf", "rules", "level", "level_link", "formula"), CASES)
+def test_the_workspace_volume_matches_the_reference_s(
+        world: World, urdf: Path, rules: tuple[str, ...], level: tuple[str, ...], level_link: str,
+        formula: Formula) -> None:
+    """The volume of the collision-free end-link positions among two boxes, 4,000 random leader
+    configurations: ours (our labels, our FK) within 5 % of the reference's (Pinocchio's FK and Pinocchio +
+    Coal's labels with the followers set by hand), both through the same alpha shape at one radius, so
+    the difference is the labels' and the FK's."""
+    from robwot_sim.workspace.alpha_shape import alpha_shape, auto_alpha
+
+    _load(world, urdf, rules, level)
+    boxes = _box_scene(world)
+    model = world.robot_model("arm")
+    qs = _draw(world, 4000, 5)
+    joints, full = _full(model.controllable, qs, formula)
+    ours = world.collision_free_batch("arm", qs)
+    mine = np.array([world.fk("arm", q).position for q in qs[ours]])
+    ref = ExactReference(urdf, {}, joints, obstacles=boxes).collision_free(full)
+    theirs, _ = _pin_frames(urdf, joints, full[ref], model.ee_link)
+    radius = auto_alpha(theirs)
+    volumes = [alpha_shape(points, radius).volume for points in (mine, theirs)]
+    assert volumes[1] > 0
+    assert abs(volumes[0] - volumes[1]) <= 0.05 * volumes[1], volumes
