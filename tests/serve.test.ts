@@ -50,7 +50,7 @@ describe("TD and files", () => {
     expect(r.type).toContain("application/td+json");
     const td = r.body;
     expect(td.base).toBe(`${base}/`);
-    expect(Object.keys(td.properties).sort()).toEqual(["calibration", "getCartesianPosition", "getJointPosition", "motionStatus", "physicalState"]);
+    expect(Object.keys(td.properties).sort()).toEqual(["calibration", "getCartesianPosition", "getJointPosition", "motionStatus", "objects", "physicalState"]);
     expect(Object.keys(td.actions)).toEqual(
       expect.arrayContaining(["moveToJointPosition", "moveToCartesianPosition", "validateJointPosition", "validateCartesianPosition", "stop", "calibrate", "addObstacle", "moveObstacle", "removeObstacle"]),
     );

@@ -41,6 +41,7 @@ type Debug = {
   workspaceTriangles: number;
   reachability: { voxels: number; shown: number; maxIndex: number; visible: boolean } | null;
   obstacles: string[];
+  objects: Record<string, number[]>;
   otherRobots: Record<string, { base: number[]; joints: Joints }>;
   errors: string[];
   twins: string[];
@@ -179,6 +180,25 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer in headless 
     await waitFor(async () => JSON.stringify((await debug()).obstacles) === '["block"]', { ...PAGE, what: "the page to drop the removed obstacles" });
     const d = await debug();
     expect(d.errors).toEqual([]);
+    expect(problems).toEqual([]);
+  });
+
+  it("objects are drawn where they rest and follow moveObject (live scene)", async () => {
+    const { problems } = browser;
+    problems.length = 0;
+    // let go above the block (top 0.3 m): it rests on it; moved beside it: it rests on the floor
+    await invoke(twin, "addObject", { name: "mug", shape: { type: "cylinder", radius: 0.04, length: 0.1 }, position: [-0.5, 0.5, 0.6], color: [0.9, 0.2, 0.2] });
+    try {
+      await waitFor(async () => (await debug()).objects["mug"] !== undefined, { ...PAGE, what: "the page to draw the object" });
+      expect((await debug()).objects["mug"]![2]).toBeCloseTo(0.35, 2);
+      await invoke(twin, "moveObject", { name: "mug", position: [-0.9, -1.0, 0.3] });
+      await waitFor(async () => ((await debug()).objects["mug"]?.[2] ?? 1) < 0.1, { ...PAGE, what: "the page to draw the object on the floor" });
+      expect((await debug()).objects["mug"]![2]).toBeCloseTo(0.05, 2);
+    } finally {
+      await invoke(twin, "removeObject", { name: "mug" }).catch(() => undefined);
+    }
+    await waitFor(async () => Object.keys((await debug()).objects).length === 0, { ...PAGE, what: "the page to drop the removed object" });
+    expect((await debug()).errors).toEqual([]);
     expect(problems).toEqual([]);
   });
 

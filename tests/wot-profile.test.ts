@@ -206,6 +206,9 @@ describe("HTTP Basic Profile: Actions", () => {
       ["addObstacle", { name: "profile-box", shape: { type: "box", size: [0.1, 0.1, 0.1] }, position: [1.5, 1.5, 0.1] }],
       ["moveObstacle", { name: "profile-box", position: [1.5, -1.5, 0.1] }],
       ["removeObstacle", { name: "profile-box" }],
+      ["addObject", { name: "profile-cube", shape: { type: "box", size: [0.1, 0.1, 0.1] }, position: [1.5, 1.5, 0.3] }],
+      ["moveObject", { name: "profile-cube", position: [1.5, -1.5, 0.3] }],
+      ["removeObject", { name: "profile-cube" }],
       ["stop", {}],
     ];
     for (const [name, input] of cases) {

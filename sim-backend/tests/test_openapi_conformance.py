@@ -70,7 +70,7 @@ def test_bounded_fuzz_run_finds_no_5xx_and_no_contradiction(api: Api) -> None:
                          capture_output=True, text=True, timeout=300, env=env)
     assert run.returncode in (0, 1), run.stderr
     figures = json.loads(run.stdout.strip().splitlines()[-1])
-    assert figures["operations"] == 23  # every operation but the long-poll and stream routes
+    assert figures["operations"] == 27  # every operation but the long-poll and stream routes
     assert figures["cases"] > 300
     assert figures["responses5xx"] == 0, figures
     assert figures["failures"] == [] and figures["errors"] == [], figures

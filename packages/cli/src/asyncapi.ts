@@ -138,7 +138,10 @@ function liveReceived(properties: Json, events: Json): Record<string, Json> {
       orientation: { type: "object", properties: { x: { type: "number" }, y: { type: "number" }, z: { type: "number" }, w: { type: "number" } } },
     }),
     status: liveMessage("status", "the motion status (motionStatus) after every change", schema("motionStatus")),
-    scene: liveMessage("scene", "the shared world's obstacles (scene.json's shape) after every scene edit", null, { obstacles: { type: "array", items: { type: "object" } } }),
+    scene: liveMessage("scene", "the shared world's obstacles (scene.json's shape) and objects where they rest (the objects property) after every scene edit", null, {
+      obstacles: { type: "array", items: { type: "object" } },
+      objects: schema("objects") ?? { type: "array", items: { type: "object" } },
+    }),
     gap: liveMessage("gap", "events after `resume` are no longer known (sent first, without seq)", null, {
       resume: { type: "integer", minimum: 0 },
       firstKept: { type: "integer", minimum: 0 },

@@ -7,7 +7,7 @@ import type { BackendGuard as Guard } from "./backend-guard.js";
 function hangingBackend(): { server: WebSocketServer; url: () => string } {
   const server = new WebSocketServer({ host: "127.0.0.1", port: 0 });
   let hung = false;
-  const results: Record<string, unknown> = { ping: { pybulletData: "/data" }, "world.list": { robots: [], obstacles: [] } };
+  const results: Record<string, unknown> = { ping: { pybulletData: "/data" }, "world.list": { robots: [], obstacles: [], objects: [] } };
   server.on("connection", (ws) => {
     ws.on("message", (data: Buffer) => {
       const { id, method } = JSON.parse(data.toString()) as { id: number; method: string };

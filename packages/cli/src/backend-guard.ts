@@ -68,9 +68,9 @@ export class BackendGuard {
 
 async function refuseBusy(sim: SimClient, url: string): Promise<void> {
   const world = await sim.listWorld();
-  if (world.robots.length > 0 || world.obstacles.length > 0) {
+  if (world.robots.length > 0 || world.obstacles.length > 0 || world.objects.length > 0) {
     throw new CliError(
-      `the backend at ${url} is in use (${world.robots.length} robot(s), ${world.obstacles.length} obstacle(s) loaded); ` +
+      `the backend at ${url} is in use (${world.robots.length} robot(s), ${world.obstacles.length} obstacle(s), ${world.objects.length} object(s) loaded); ` +
         "generate needs an empty world: omit --backend to start a dedicated one",
       "E_BACKEND",
       1,

@@ -26,6 +26,8 @@ export interface GenerateResult {
   robot: { name: string; id: string; urdf: string; eeLink: string; controllable: string[]; couplings: string[] };
   scene: string | null;
   obstacles: number;
+  /** the scene's objects (README "Objects"), written to scene.json where they rest */
+  objects: number;
   summary: WorkspaceSummary;
   td: { id: string; title: string; file: string };
   seconds: number;
@@ -290,6 +292,7 @@ async function generateFrom(
     robot: { name: model.name, id: model.id, urdf: source, eeLink: model.eeLink, controllable: model.controllable, couplings: model.couplings.map((c) => c.expression) },
     scene: opts.scene ?? null,
     obstacles: obstacles.length,
+    objects: world.objects.length,
     summary,
     td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
     seconds: (performance.now() - t0) / 1000,

@@ -1,7 +1,7 @@
 /**
  * The twin's `scene.json`: the world as the backend has it after loading (Contract 2, scene schema
- * `sim-backend/src/robwot_sim/schemas/scene.schema.json`), with mesh obstacles copied into the folder so
- * it stays self-contained.
+ * `sim-backend/src/robwot_sim/schemas/scene.schema.json`), with mesh obstacles and objects copied into the
+ * folder so it stays self-contained; objects where they rest.
  */
 import { copyFileSync, existsSync, mkdirSync, readFileSync } from "node:fs";
 import { basename, join } from "node:path";
@@ -13,6 +13,7 @@ export interface SceneDoc {
   name?: string;
   description?: string;
   obstacles: Record<string, unknown>[];
+  objects?: Record<string, unknown>[];
   robots: Record<string, unknown>[];
 }
 
@@ -30,25 +31,29 @@ function sourceMeta(sceneFile: string | undefined): { name?: string; description
 }
 
 /**
- * Builds the normalised scene from `world.list` (our own robot excluded) and copies mesh obstacle files
- * into `<dir>/meshes/scene/`, rewriting their paths relative to the twin folder; the other robots' URDFs
+ * Builds the normalised scene from `world.list` (our own robot excluded) and copies mesh obstacle and
+ * object files into `<dir>/meshes/scene/`, rewriting their paths relative to the twin folder; the other robots' URDFs
  * are the exported copies `robotUrdfs` names (id -> path relative to the twin folder).
  */
 export function sceneDocument(world: WorldList, ownRobot: string, dir: string, sceneFile?: string, robotUrdfs: ReadonlyMap<string, string> = new Map()): SceneDoc {
-  const obstacles = world.obstacles.map((o) => {
-    const ob = { ...(o as unknown as Record<string, unknown>) };
-    const shape = ob["shape"] as Record<string, unknown> | undefined;
-    if (shape?.["type"] === "mesh" && typeof shape["file"] === "string" && existsSync(shape["file"])) {
-      const rel = join(TWIN_FOLDERS.sceneMeshes, `${String(ob["name"])}-${basename(shape["file"])}`);
-      mkdirSync(join(dir, TWIN_FOLDERS.sceneMeshes), { recursive: true });
-      copyFileSync(shape["file"], join(dir, rel));
-      ob["shape"] = { ...shape, file: rel };
-    }
-    if (ob["orientation"] !== undefined) delete ob["rpy"];
-    return ob;
-  });
+  const obstacles = world.obstacles.map((o) => inFolder(o, dir));
+  const objects = world.objects.map((o) => inFolder(o, dir));
   const robots = world.robots
     .filter((r) => r.id !== ownRobot)
     .map((r) => ({ id: r.id, urdf: robotUrdfs.get(r.id) ?? r.urdf, basePosition: r.basePosition, baseOrientation: r.baseOrientation, eeLink: r.eeLink }));
-  return { version: 1, ...sourceMeta(sceneFile), obstacles, robots };
+  return { version: 1, ...sourceMeta(sceneFile), obstacles, ...(objects.length > 0 ? { objects } : {}), robots };
+}
+
+/** An obstacle or object of `world.list` for scene.json: a mesh file copied into `<dir>/meshes/scene/`. */
+function inFolder(body: object, dir: string): Record<string, unknown> {
+  const ob = { ...(body as Record<string, unknown>) };
+  const shape = ob["shape"] as Record<string, unknown> | undefined;
+  if (shape?.["type"] === "mesh" && typeof shape["file"] === "string" && existsSync(shape["file"])) {
+    const rel = join(TWIN_FOLDERS.sceneMeshes, `${String(ob["name"])}-${basename(shape["file"])}`);
+    mkdirSync(join(dir, TWIN_FOLDERS.sceneMeshes), { recursive: true });
+    copyFileSync(shape["file"], join(dir, rel));
+    ob["shape"] = { ...shape, file: rel };
+  }
+  if (ob["orientation"] !== undefined) delete ob["rpy"];
+  return ob;
 }

@@ -39,7 +39,7 @@ export type QuatXyzw = [number, number, number, number];
  */
 export type JointVector = number[];
 /**
- * a robot id or obstacle name
+ * a robot id, obstacle or object name
  */
 export type Name = string;
 /**
@@ -123,6 +123,16 @@ export type ToolOffset = [number, number, number, number, number, number];
  * m
  */
 export type ToolSize = number;
+/**
+ * mass (kg); 0.1 kg unless given
+ */
+export type Mass = number;
+/**
+ * the objects of a world: at most `maxItems` (a scene file's and the world's after `object.add`)
+ *
+ * @maxItems 1000
+ */
+export type SceneObjects = ObjectSpec[];
 /**
  * Result of `ping`.
  */
@@ -234,6 +244,18 @@ export type ObstacleMoveResult = Obstacle;
  * Result of `obstacle.remove`.
  */
 export type ObstacleRemoveResult = Empty;
+/**
+ * Result of `object.add`.
+ */
+export type ObjectAddResult = SceneObject;
+/**
+ * Result of `object.move`.
+ */
+export type ObjectMoveResult = SceneObject;
+/**
+ * Result of `object.remove`.
+ */
+export type ObjectRemoveResult = Empty;
 /**
  * Result of `workspace.generate`.
  */
@@ -386,18 +408,34 @@ export interface WorldRobot {
 export interface WorldList {
   robots: WorldRobot[];
   obstacles: Obstacle[];
+  objects: SceneObject[];
+}
+/**
+ * an object as the world holds it: its live pose (m, quaternion [x, y, z, w], world frame)
+ */
+export interface SceneObject {
+  name: string;
+  shape: ObstacleShape;
+  position: Vec3;
+  orientation: QuatXyzw;
+  color?: Color;
+  /**
+   * kg
+   */
+  mass: number;
 }
 export interface SceneLoaded {
   robots: string[];
   obstacles: string[];
+  objects: string[];
 }
 export interface BodyLink {
   /**
-   * robot id or obstacle name
+   * robot id, obstacle or object name
    */
   body: string;
   /**
-   * link name, or null for an obstacle / a robot base
+   * link name, or null for an obstacle, an object or a robot base
    */
   link: string | null;
 }
@@ -873,6 +911,18 @@ export interface ProgramOutcome {
   program?: ProgramPlan;
 }
 /**
+ * an object of a scene file: a body that rests on what is below it (settled under gravity when added) and can be moved; robots collide with it as with an obstacle. Give `orientation` or `rpy`, not both
+ */
+export interface ObjectSpec {
+  name: Name;
+  shape: ObstacleShape;
+  position: Position;
+  orientation?: QuatXyzw;
+  rpy?: Rpy;
+  color?: Color;
+  mass?: Mass;
+}
+/**
  * Params of `ping`.
  */
 export interface PingParams {}
@@ -1169,6 +1219,33 @@ export interface ObstacleRemoveParams {
   name: Name;
 }
 /**
+ * Params of `object.add`.
+ */
+export interface ObjectAddParams {
+  name: Name;
+  shape: ObstacleShape;
+  position: Position;
+  orientation?: QuatXyzw;
+  rpy?: Rpy;
+  color?: Color;
+  mass?: Mass;
+}
+/**
+ * Params of `object.move`.
+ */
+export interface ObjectMoveParams {
+  name: Name;
+  position: Position;
+  orientation?: QuatXyzw;
+  rpy?: Rpy;
+}
+/**
+ * Params of `object.remove`.
+ */
+export interface ObjectRemoveParams {
+  name: Name;
+}
+/**
  * Params of `workspace.generate`.
  */
 export interface WorkspaceGenerateParams {
@@ -1233,6 +1310,9 @@ export interface Methods {
   "obstacle.add": { params: ObstacleAddParams; result: ObstacleAddResult };
   "obstacle.move": { params: ObstacleMoveParams; result: ObstacleMoveResult };
   "obstacle.remove": { params: ObstacleRemoveParams; result: ObstacleRemoveResult };
+  "object.add": { params: ObjectAddParams; result: ObjectAddResult };
+  "object.move": { params: ObjectMoveParams; result: ObjectMoveResult };
+  "object.remove": { params: ObjectRemoveParams; result: ObjectRemoveResult };
   "workspace.generate": { params: WorkspaceGenerateParams; result: WorkspaceGenerateResult };
   "workspace.warmUp": { params: WorkspaceWarmUpParams; result: WorkspaceWarmUpResult };
 }
@@ -1276,6 +1356,7 @@ export const ERRORS = {
   E_PLAN_BUDGET: { rpcCode: -32014, httpStatus: 422 },
   E_CLUSTER: { rpcCode: -32013, httpStatus: 502 },
   E_INTERNAL: { rpcCode: -32603, httpStatus: 500 },
+  E_OVERLAP: { rpcCode: -32015, httpStatus: 409 },
 } as const;
 
 export type ErrorCode = keyof typeof ERRORS;
@@ -1308,7 +1389,7 @@ export const VALUE_SCHEMAS = {
   Rpy: {"type":"array","items":{"type":"number","minimum":-10000,"maximum":10000},"minItems":3,"maxItems":3,"description":"[roll, pitch, yaw] in rad, each within +-1e4 rad"},
   QuatXyzw: {"type":"array","items":{"type":"number"},"minItems":4,"maxItems":4,"x-minNorm":0.000001,"description":"quaternion [x, y, z, w]; a request's is normalised (norm >= x-minNorm, huge components without overflow)"},
   JointVector: {"type":"array","items":{"type":"number"},"maxItems":512,"description":"joint values (rad or m) in the order of the model's `controllable` list, one per controllable joint"},
-  Name: {"type":"string","minLength":1,"maxLength":200,"description":"a robot id or obstacle name"},
+  Name: {"type":"string","minLength":1,"maxLength":200,"description":"a robot id, obstacle or object name"},
   RealtimeFactor: {"type":"number","minimum":0.01,"maximum":1000,"description":"real-time factor of a motion: 1 = wall clock, 2 = twice as fast (0, as fast as possible, is allowed beside it)"},
   Samples: {"type":"integer","minimum":1,"maximum":10000000,"default":80000,"description":"sampled configurations of a workspace"},
   Seed: {"type":"integer","minimum":0,"maximum":4294967295,"default":1,"description":"random seed (32 bits)"},
@@ -1330,4 +1411,6 @@ export const VALUE_SCHEMAS = {
   ProgramSteps: {"type":"array","minItems":1,"maxItems":100,"items":{"$ref":"#/components/schemas/ProgramStep"}},
   ToolOffset: {"type":"array","items":{"type":"number","minimum":-10,"maximum":10},"minItems":6,"maxItems":6,"default":[0,0,0,0,0,0]},
   ToolSize: {"type":"number","exclusiveMinimum":0,"maximum":10,"description":"m"},
+  Mass: {"type":"number","exclusiveMinimum":0,"maximum":10000,"default":0.1,"description":"mass (kg); 0.1 kg unless given"},
+  SceneObjects: {"type":"array","items":{"$ref":"#/components/schemas/ObjectSpec"},"maxItems":1000,"description":"the objects of a world: at most `maxItems` (a scene file's and the world's after `object.add`)"},
 } as const;

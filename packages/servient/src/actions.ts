@@ -3,13 +3,13 @@
  * by the router (`http-middleware.ts`); handlers check what a schema cannot (quaternion norm, calibration
  * geometry) and throw ServientErrors that the router answers with their status.
  */
-import type { ObstacleMoveParams } from "@robwot/sim-client";
+import type { ObjectMoveParams, ObstacleMoveParams } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { objectInput, type ActionHandler } from "./affordance-routes.js";
 import { calibrate, type CalibrateInput } from "./calibrate.js";
 import { backendDown } from "./errors.js";
 import type { CartesianInput, JointInput, Mover, MoveWatch, ProgramInput } from "./moves.js";
-import type { SceneObstacle } from "./twin-folder.js";
+import type { SceneObject, SceneObstacle } from "./twin-folder.js";
 import type { Twin } from "./twin.js";
 import type { SceneRecord } from "./scene-record.js";
 
@@ -57,5 +57,8 @@ export function actionHandlers(described: readonly string[], d: ActionDeps): Map
   on<SceneObstacle>("addObstacle", (i) => d.world.addObstacle(d.backend, i));
   on<ObstacleMoveParams>("moveObstacle", (i) => d.world.moveObstacle(d.backend, i));
   on<{ name: string }>("removeObstacle", (i) => d.world.removeObstacle(d.backend, i.name));
+  on<SceneObject>("addObject", (i) => d.world.addObject(d.backend, i));
+  on<ObjectMoveParams>("moveObject", (i) => d.world.moveObject(d.backend, i));
+  on<{ name: string }>("removeObject", (i) => d.world.removeObject(d.backend, i.name));
   return handlers;
 }

@@ -55,8 +55,8 @@ export async function exposeTwin(env: ExposeEnv, slug: string, twin: Twin, check
     : null;
   if (follower) twin.follow(() => follower.view());
   const described = (kind: "properties" | "actions"): string[] => Object.keys(twin.folder.td[kind] ?? {});
-  const properties = propertyReaders(described("properties"), twin, () => follower?.view() ?? null);
-  registerProperties(thing, twin, properties);
+  const properties = propertyReaders(described("properties"), twin, env.world, () => follower?.view() ?? null);
+  registerProperties(thing, twin, env.world, properties);
   const actions = actionHandlers(described("actions"), {
     backend: env.backend,
     twin,
@@ -77,7 +77,7 @@ export async function exposeTwin(env: ExposeEnv, slug: string, twin: Twin, check
       const a = td().actions?.[name];
       return a ? ((a.input as object | undefined) ?? undefined) : null;
     },
-    observe: (kind, name) => sseSource(twin, properties, kind, name),
+    observe: (kind, name) => sseSource(twin, env.world, properties, kind, name),
     affordances: { properties, actions },
     statuses: new ActionStatusStore(),
   };

@@ -4,8 +4,8 @@
  * `ws://host:port/live?thing=<slug>` subscribes at once. Server -> client:
  * `{thing, type: "joints", time, joints, position, orientation}` (>= 30 Hz of simulated time while moving),
  * `{thing, type: "status", ...motionStatus}`, `{thing, type: "collision", ...collision event}`,
- * `{thing, type: "scene", obstacles}` (the shared world's obstacles in scene.json's shape, after every
- * scene edit; edits in a burst share one frame, at most 30 per second, the last one always reflecting the
+ * `{thing, type: "scene", obstacles, objects}` (the shared world's obstacles in scene.json's shape and its
+ * objects where they rest, after every scene edit (object poses change only by one); edits in a burst share one frame, at most 30 per second, the last one always reflecting the
  * latest edit), `{type: "error", code, message, details}` for a bad message. A snapshot (joints, status,
  * scene) follows every subscription.
  *
@@ -132,7 +132,7 @@ class LiveHub {
   }
 
   private sceneOf(slug: string): object {
-    return { thing: slug, type: "scene", obstacles: this.world.sceneObstacles() };
+    return { thing: slug, type: "scene", obstacles: this.world.sceneObstacles(), objects: this.world.sceneObjects() };
   }
 
   /** at most one scene frame per SCENE_INTERVAL_MS, the latest scene: a burst of edits costs one

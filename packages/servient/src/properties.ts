@@ -1,18 +1,22 @@
 /** The twin's properties: readers by name (`Affordances.properties`), and their changes told to node-wot's
- *  long-poll observers. Every value is served from the twin's in-memory state (no backend round trip). */
+ *  long-poll observers. Every value is served from the twin's in-memory state or the servient's record of
+ *  the shared world (`objects`; no backend round trip). */
 import { registerReaders, type Affordances } from "./affordance-routes.js";
 import { calibrationProperty } from "./calibrate.js";
 import type { PhysicalState } from "./follow.js";
+import type { SceneRecord } from "./scene-record.js";
 import type { SseSource } from "./sse.js";
 import type { Twin } from "./twin.js";
 
 /** The twin's change event after which each observable property has a new value. */
 const CHANGED_BY = { getJointPosition: "joints", getCartesianPosition: "joints", motionStatus: "status", physicalState: "physical" } as const;
+/** The properties that change with the shared world's scene (the record's `scene` event). */
+const SCENE_PROPERTIES = ["objects"];
 /** The TD's events, each the twin's event of the same name. */
 const EVENTS = ["collision", "collisionImminent", "divergence"] as const;
 
 /** What an SSE form streams: an observable property's values (its reader's, after each change) or an event's. */
-export function sseSource(twin: Twin, readers: Affordances["properties"], kind: "properties" | "events", name: string): SseSource | null {
+export function sseSource(twin: Twin, world: SceneRecord, readers: Affordances["properties"], kind: "properties" | "events", name: string): SseSource | null {
   const on = (event: "joints" | "status" | "physical" | (typeof EVENTS)[number], value: (e: unknown) => unknown) => (send: (v: unknown) => void) => {
     const listener = (e: unknown): void => send(value(e));
     twin.on(event, listener as never);
@@ -20,13 +24,23 @@ export function sseSource(twin: Twin, readers: Affordances["properties"], kind: 
   };
   if (kind === "events") return (EVENTS as readonly string[]).includes(name) ? { subscribe: on(name as (typeof EVENTS)[number], (e) => e) } : null;
   const read = readers.get(name);
+  if (read && SCENE_PROPERTIES.includes(name)) {
+    return {
+      current: read,
+      subscribe: (send) => {
+        const listener = (): void => send(read());
+        world.on("scene", listener);
+        return () => void world.off("scene", listener);
+      },
+    };
+  }
   const event = (CHANGED_BY as Record<string, "joints" | "status" | "physical">)[name];
   return read && event ? { current: read, subscribe: on(event, () => read()) } : null;
 }
 
 /** `physical`: the follower's state (serve --follow), null when the twin follows no physical robot. The
  *  readers of the properties the TD describes (a folder generated before physicalState existed lacks it). */
-export function propertyReaders(described: readonly string[], twin: Twin, physical: () => PhysicalState | null = () => null): Affordances["properties"] {
+export function propertyReaders(described: readonly string[], twin: Twin, world: SceneRecord, physical: () => PhysicalState | null = () => null): Affordances["properties"] {
   const all: [string, () => unknown][] = [
     ["getJointPosition", () => twin.jointsRecord()],
     [
@@ -39,12 +53,13 @@ export function propertyReaders(described: readonly string[], twin: Twin, physic
     ["motionStatus", () => twin.status],
     ["calibration", () => calibrationProperty(twin.folder.calibration)],
     ["physicalState", () => physical() ?? { following: false, followed: 0 }],
+    ["objects", () => world.sceneObjects()],
   ];
   return new Map(all.filter(([name]) => described.includes(name)));
 }
 
 /** Serves the readers to node-wot's observers and tells them of each change; emits the TD's events. */
-export function registerProperties(thing: WoT.ExposedThing, twin: Twin, readers: Affordances["properties"]): void {
+export function registerProperties(thing: WoT.ExposedThing, twin: Twin, world: SceneRecord, readers: Affordances["properties"]): void {
   registerReaders(thing, readers);
   // node-wot's emitPropertyChange returns a promise at run time (typed void): never leave it unhandled
   const change = (name: string): void => void Promise.resolve(thing.emitPropertyChange(name) as unknown).catch(() => undefined);
@@ -65,6 +80,7 @@ export function registerProperties(thing: WoT.ExposedThing, twin: Twin, readers:
   });
   twin.on("status", () => change("motionStatus"));
   twin.on("physical", () => change("physicalState"));
+  if (readers.has("objects")) world.on("scene", () => change("objects"));
   // a twin folder generated before these events existed does not describe them
   const emit = (name: string, e: unknown): void => {
     if (!thing.getThingDescription().events?.[name]) return;

@@ -1,23 +1,23 @@
 /**
  * The servient's record of the one simulation world every twin of a `serve` shares (the backend holds the
- * world itself): the union of the twins' scenes (obstacles
+ * world itself): the union of the twins' scenes (obstacles, objects
  * and other robots), each twin's robot (robots see each other as obstacles), and run-time scene
- * edits. `restore` rebuilds it on a fresh backend (start and after a crash), putting every robot back
+ * edits; objects where the backend says they rest. `restore` rebuilds it on a fresh backend (start and after a crash), putting every robot back
  * at its last known joint state; at the first, a twin whose start pose collides is warned about. Emits
  * `scene` after every run-time edit (the /live `scene` message).
  */
 import { EventEmitter } from "node:events";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import { startCollision, TWIN_FILES } from "@robwot/core";
-import type { ObstacleMoveParams, SimClient } from "@robwot/sim-client";
+import type { ObjectMoveParams, ObstacleMoveParams, SceneObject as RestingObject, SimClient } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { ServientError } from "./errors.js";
 import { confine } from "./static-files.js";
-import type { SceneObstacle } from "./twin-folder.js";
+import type { SceneObject, SceneObstacle } from "./twin-folder.js";
 import type { Twin } from "./twin.js";
 
 /** Mesh obstacle files in scene.json are relative to the twin folder (copied there by generate). */
-function withAbsoluteMesh(ob: SceneObstacle, dir: string): SceneObstacle {
+function withAbsoluteMesh<T extends SceneObstacle>(ob: T, dir: string): T {
   if (ob.shape.type !== "mesh" || isAbsolute(ob.shape.file)) return ob;
   return { ...ob, shape: { ...ob.shape, file: join(dir, ob.shape.file) } };
 }
@@ -32,7 +32,9 @@ function servedMeshUrl(ob: SceneObstacle, slug: string): string | null {
 export class SceneRecord extends EventEmitter<{ scene: [] }> {
   /** current obstacles by name (scene files + run-time edits), world frame */
   readonly obstacles = new Map<string, SceneObstacle>();
-  /** mesh files of scene-file obstacles as URLs of the twin folder that holds them */
+  /** current objects by name (scene files + run-time edits), where they rest (world frame) */
+  readonly objects = new Map<string, SceneObject>();
+  /** mesh files of scene-file obstacles and objects as URLs of the twin folder that holds them */
   private readonly meshUrls = new Map<string, string>();
   /** robots of the scene files that are not twins */
   private readonly sceneRobots: Record<string, unknown>[] = [];
@@ -58,6 +60,12 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
         const url = servedMeshUrl(ob, t.slug);
         if (url !== null) this.meshUrls.set(ob.name, url);
       }
+      for (const ob of t.folder.scene.objects ?? []) {
+        if (this.objects.has(ob.name)) continue;
+        this.objects.set(ob.name, withAbsoluteMesh(ob, t.folder.dir));
+        const url = servedMeshUrl(ob, t.slug);
+        if (url !== null) this.meshUrls.set(ob.name, url);
+      }
       for (const r of (t.folder.scene.robots ?? []) as Record<string, unknown>[]) {
         const key = JSON.stringify([r.id ?? null, r.urdf, r.basePosition ?? null]);
         if (robotKeys.has(key) || (typeof r.id === "string" && twinIds.has(r.id))) continue;
@@ -69,17 +77,26 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
 
   /** The current obstacles in scene.json's shape (Contract 2), mesh files as URLs where they are served. */
   sceneObstacles(): SceneObstacle[] {
-    return [...this.obstacles.values()].map((ob) => {
-      const url = this.meshUrls.get(ob.name);
-      return url === undefined || ob.shape.type !== "mesh" ? ob : { ...ob, shape: { ...ob.shape, file: url } };
-    });
+    return [...this.obstacles.values()].map((ob) => this.served(ob));
+  }
+
+  /** The current objects where they rest, mesh files as URLs where they are served (the `objects` property). */
+  sceneObjects(): SceneObject[] {
+    return [...this.objects.values()].map((ob) => this.served(ob));
+  }
+
+  private served<T extends SceneObstacle>(ob: T): T {
+    const url = this.meshUrls.get(ob.name);
+    return url === undefined || ob.shape.type !== "mesh" ? ob : { ...ob, shape: { ...ob.shape, file: url } };
   }
 
   /** Builds the world on a (new) backend connection. */
   readonly restore = async (sim: SimClient): Promise<void> => {
     await sim.resetWorld();
     // the scene's robots load from the twin folders (jailed): their convex parts are there, never decomposed
-    await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], robots: this.sceneRobots }, decompose: false });
+    const objects = [...this.objects.values()];
+    await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], objects, robots: this.sceneRobots }, decompose: false });
+    if (objects.length > 0) for (const o of (await sim.listWorld()).objects) this.rested(o);
     for (const twin of this.twins) {
       const m = twin.folder.manifest.robot;
       const model = await sim.loadRobot({
@@ -149,10 +166,7 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
   }
 
   async addObstacle(backend: BackendSupervisor, input: SceneObstacle): Promise<unknown> {
-    if (this.obstacles.has(input.name) || this.twins.some((t) => t.robotId === input.name)) {
-      throw new ServientError(409, "E_NAME_TAKEN", `an object named '${input.name}' already exists`, { name: input.name });
-    }
-    const spec: SceneObstacle = input.shape.type === "mesh" ? { ...input, shape: { ...input.shape, file: this.meshFile(input.shape.file) } } : input;
+    const spec = this.newBody(input);
     const out = await backend.sim.addObstacle(spec);
     this.obstacles.set(spec.name, { ...spec, ...(out ?? {}) });
     this.emit("scene");
@@ -182,7 +196,46 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
     return {};
   }
 
-  private unknown(name: string): ServientError {
-    return new ServientError(404, "E_UNKNOWN_OBJECT", `no obstacle named '${name}'`, { name, available: [...this.obstacles.keys()] });
+  /** A new obstacle's or object's spec: its name free, a mesh file inside the mesh roots. */
+  private newBody<T extends SceneObstacle>(input: T): T {
+    if (this.obstacles.has(input.name) || this.objects.has(input.name) || this.twins.some((t) => t.robotId === input.name)) {
+      throw new ServientError(409, "E_NAME_TAKEN", `an obstacle, object or robot named '${input.name}' already exists`, { name: input.name });
+    }
+    return input.shape.type === "mesh" ? { ...input, shape: { ...input.shape, file: this.meshFile(input.shape.file) } } : input;
+  }
+
+  async addObject(backend: BackendSupervisor, input: SceneObject): Promise<RestingObject> {
+    const out = await backend.sim.addObject(this.newBody(input));
+    this.rested(out);
+    this.emit("scene");
+    return this.served(out);
+  }
+
+  async moveObject(backend: BackendSupervisor, pose: ObjectMoveParams): Promise<RestingObject> {
+    if (!this.objects.has(pose.name)) throw this.unknown(pose.name, "object");
+    const out = await backend.sim.moveObject(pose);
+    this.rested(out);
+    this.emit("scene");
+    return this.served(out);
+  }
+
+  async removeObject(backend: BackendSupervisor, name: string): Promise<Record<string, never>> {
+    if (!this.objects.has(name)) throw this.unknown(name, "object");
+    await backend.sim.removeObject({ name });
+    this.objects.delete(name);
+    this.meshUrls.delete(name);
+    this.emit("scene");
+    return {};
+  }
+
+  /** An object where the backend says it rests (replayed there on a fresh backend). */
+  private rested(o: RestingObject): void {
+    const { name, shape, position, orientation, mass } = o;
+    this.objects.set(name, { name, shape, position, orientation, mass, ...(o.color ? { color: o.color } : {}) });
+  }
+
+  private unknown(name: string, kind: "obstacle" | "object" = "obstacle"): ServientError {
+    const known = kind === "obstacle" ? this.obstacles : this.objects;
+    return new ServientError(404, "E_UNKNOWN_OBJECT", `no ${kind} named '${name}'`, { name, available: [...known.keys()] });
   }
 }

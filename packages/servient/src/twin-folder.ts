@@ -3,7 +3,7 @@
  * calibration.json. Errors name the folder and the file. The folder is a jail (see `Jail`): a hostile
  * folder can neither make serve read outside it nor make an error quote another file's bytes.
  */
-import type { ObstacleAddParams } from "@robwot/sim-client";
+import type { ObjectAddParams, ObstacleAddParams } from "@robwot/sim-client";
 import { existsSync, readFileSync, statSync } from "node:fs";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import { checkCalibration, jailFile, jsonErrorAt, realFolder, snippet, TWIN_FILES, type CalibrationFile, type JailVerdict, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
@@ -23,7 +23,7 @@ export interface TwinFolder {
   dir: string;
   td: TdDocument;
   manifest: TwinManifest;
-  /** scene document (obstacles, other robots), as written by generate */
+  /** scene document (obstacles, objects, other robots), as written by generate */
   scene: SceneDoc;
   workspace: WorkspaceSummary;
   calibration: CalibrationFile | null;
@@ -34,10 +34,13 @@ export interface TwinFolder {
 
 /** An obstacle of scene.json: what `obstacle.add` takes (the backend checks scene files the same way). */
 export type SceneObstacle = ObstacleAddParams;
+/** An object of scene.json (where it rests): what `object.add` takes. */
+export type SceneObject = ObjectAddParams;
 
 export interface SceneDoc {
   version?: number;
   obstacles?: SceneObstacle[];
+  objects?: SceneObject[];
   robots?: unknown[];
   [k: string]: unknown;
 }
@@ -115,26 +118,29 @@ class Jail {
 }
 
 /**
- * scene.json's mesh obstacles: a file relative to the folder or absolute, inside the folder or a
+ * scene.json's mesh obstacles and objects: a file relative to the folder or absolute, inside the folder or a
  * `--mesh-root` after symlinks. Files inside the folder become relative (served as `/<slug>/<file>`).
  */
 function jailScene(jail: Jail, file: string, scene: SceneDoc, meshRoots: readonly string[]): SceneDoc {
-  for (const key of ["obstacles", "robots"] as const) {
+  for (const key of ["obstacles", "objects", "robots"] as const) {
     if (scene[key] !== undefined && !Array.isArray(scene[key])) {
       throw servientError("E_TWIN_FOLDER", `${join(jail.dir, file)}: ${key} must be an array`, { folder: jail.dir, file });
     }
   }
   const robots = scene.robots === undefined ? undefined : scene.robots.map((r, i) => jailSceneRobot(jail, file, r, i));
-  const obstacles = (scene.obstacles ?? []).map((ob, i) => {
-    const shape = (ob as Partial<SceneObstacle> | null)?.shape as { type?: unknown; file?: unknown } | undefined;
-    if (shape?.type !== "mesh") return ob;
-    const name = typeof ob.name === "string" ? ob.name : String(i);
-    const real = jail.path(file, `obstacle ${JSON.stringify(snippet(name, 40))} mesh`, shape.file, { required: true, roots: meshRoots })!;
-    const rel = relative(jail.real, real);
-    const inFolder = rel !== "" && !rel.startsWith("..") && !isAbsolute(rel);
-    return { ...ob, shape: { ...ob.shape, file: inFolder ? rel.split(sep).join("/") : real } } as SceneObstacle;
-  });
-  return { ...scene, ...(scene.obstacles === undefined ? {} : { obstacles }), ...(robots === undefined ? {} : { robots }) };
+  const obstacles = scene.obstacles?.map((ob, i) => jailMesh(jail, file, ob, i, "obstacle", meshRoots));
+  const objects = scene.objects?.map((ob, i) => jailMesh(jail, file, ob, i, "object", meshRoots));
+  return { ...scene, ...(obstacles === undefined ? {} : { obstacles }), ...(objects === undefined ? {} : { objects }), ...(robots === undefined ? {} : { robots }) };
+}
+
+function jailMesh<T extends SceneObstacle>(jail: Jail, file: string, ob: T, i: number, kind: string, meshRoots: readonly string[]): T {
+  const shape = (ob as Partial<SceneObstacle> | null)?.shape as { type?: unknown; file?: unknown } | undefined;
+  if (shape?.type !== "mesh") return ob;
+  const name = typeof ob.name === "string" ? ob.name : String(i);
+  const real = jail.path(file, `${kind} ${JSON.stringify(snippet(name, 40))} mesh`, shape.file, { required: true, roots: meshRoots })!;
+  const rel = relative(jail.real, real);
+  const inFolder = rel !== "" && !rel.startsWith("..") && !isAbsolute(rel);
+  return { ...ob, shape: { ...ob.shape, file: inFolder ? rel.split(sep).join("/") : real } };
 }
 
 /**

@@ -22,15 +22,15 @@ export abstract class ContractMethods {
   ping(params: Params<"ping"> = {}, options: CallOptions = {}): Result<"ping"> {
     return this.request("ping", params, options);
   }
-  /** `world.reset`: remove every robot and obstacle: Stops running motions, then removes every robot and obstacle. */
+  /** `world.reset`: remove every robot, obstacle and object: Stops running motions, then removes every robot, obstacle and object. */
   resetWorld(params: Params<"world.reset"> = {}, options: CallOptions = {}): Result<"world.reset"> {
     return this.request("world.reset", params, options);
   }
-  /** `world.list`: robots and obstacles in the world */
+  /** `world.list`: robots, obstacles and objects in the world */
   listWorld(params: Params<"world.list"> = {}, options: CallOptions = {}): Result<"world.list"> {
     return this.request("world.list", params, options);
   }
-  /** `world.loadScene`: load a scene file or document: Exactly one of `path` and `scene`. Adds the scene's obstacles and robots to the world (all or nothing). The scene format is versioned and described by `src/robwot_sim/schemas/scene.schema.json`. */
+  /** `world.loadScene`: load a scene file or document: Exactly one of `path` and `scene`. Adds the scene's obstacles, objects (each settled onto what is below it, `object.add`) and robots to the world (all or nothing). The scene format is versioned and described by `src/robwot_sim/schemas/scene.schema.json`. */
   loadScene(params: Params<"world.loadScene"> = {}, options: CallOptions = {}): Result<"world.loadScene"> {
     return this.request("world.loadScene", params, options);
   }
@@ -126,6 +126,18 @@ export abstract class ContractMethods {
   /** `obstacle.remove`: remove an obstacle */
   removeObstacle(params: Params<"obstacle.remove">, options: CallOptions = {}): Result<"obstacle.remove"> {
     return this.request("obstacle.remove", params, options);
+  }
+  /** `object.add`: add an object: An object is a body robots collide with as with an obstacle (every verdict names it), that rests on what is below it and can be moved. It then settles under gravity (PyBullet's physics, 1/240 s steps, at most `ObjectSpec`'s `x-settleSteps` of them; the same input gives the same pose) onto the obstacles and objects below it, or onto the floor plane z = 0 when nothing is below; robots hold nothing up. Placed into a robot, an obstacle or another object (deeper than `x-overlapTolerance` m), or coming to rest touching a robot: refused with `E_OVERLAP` naming both bodies, nothing changed. At most `SceneObjects`' `maxItems` objects in the world. */
+  addObject(params: Params<"object.add">, options: CallOptions = {}): Result<"object.add"> {
+    return this.request("object.add", params, options);
+  }
+  /** `object.move`: move an object (teleported, then settled): Without `orientation` or `rpy` the orientation is kept. It then settles under gravity (PyBullet's physics, 1/240 s steps, at most `ObjectSpec`'s `x-settleSteps` of them; the same input gives the same pose) onto the obstacles and objects below it, or onto the floor plane z = 0 when nothing is below; robots hold nothing up. Placed into a robot, an obstacle or another object (deeper than `x-overlapTolerance` m), or coming to rest touching a robot: refused with `E_OVERLAP` naming both bodies, nothing changed. Objects that rested on it stay where they are. */
+  moveObject(params: Params<"object.move">, options: CallOptions = {}): Result<"object.move"> {
+    return this.request("object.move", params, options);
+  }
+  /** `object.remove`: remove an object: Objects that rested on it stay where they are. */
+  removeObject(params: Params<"object.remove">, options: CallOptions = {}): Result<"object.remove"> {
+    return this.request("object.remove", params, options);
   }
   /** `workspace.generate`: sample the reachable, collision-free workspace; write workspace.csv, workspace.stl and reachability.csv: Samples random joint configurations of the robot in the current world, labels them collision-free or not (in worker processes), and writes `workspace.csv` (`x,y,z,collision_free[,joint...]`) and `workspace.stl` (alpha shape of the collision-free end-effector points) into `outDir`, and the reachability map `reachability.csv` (`x,y,z,samples,free,directions,index` per voxel; see the `reachability` result). Runs in the background: other requests are served meanwhile. Sends `workspace.progress` to the caller. `workers` defaults to the CPU count. */
   generateWorkspace(params: Params<"workspace.generate">, options: CallOptions & { onProgress?: (p: Notifications["workspace.progress"]) => void } = {}): Result<"workspace.generate"> {

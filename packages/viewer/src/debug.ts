@@ -27,6 +27,8 @@ export interface DebugState {
   /** reachability.csv: voxels in the file, drawn (reached collision-free), largest index, layer shown */
   reachability: { voxels: number; shown: number; maxIndex: number; visible: boolean } | null;
   obstacles: string[];
+  /** The world's objects as drawn: position (URDF world, m) by name. */
+  objects: Record<string, number[]>;
   /** Robots of the other twins sharing this world: base position (URDF world, m) and joints shown. */
   otherRobots: Record<string, { base: number[]; joints: Record<string, number> }>;
   /** The physical robot the twin follows (`/live` `physical`): its joints, the reading's age (s), whether it
@@ -54,6 +56,7 @@ export const debugState: DebugState = {
   workspaceTriangles: 0,
   reachability: null,
   obstacles: [],
+  objects: {},
   otherRobots: {},
   physical: null,
   program: null,

@@ -1,6 +1,6 @@
 /**
- * Scene obstacles from `scene.json` (Contract 2; shapes as in Contract 1), built in URDF world
- * coordinates (Z up) for `worldRoot`.
+ * Scene obstacles and objects from `scene.json` or a /live `scene` message (Contract 2; shapes as in
+ * Contract 1; objects at the pose where they rest), built in URDF world coordinates (Z up) for `worldRoot`.
  */
 import {
   BoxGeometry,
@@ -18,10 +18,17 @@ import { rpyToQuaternion, xyzwToQuaternion, type Vec3 } from "./three-frames.js"
 import { fetchBuffer, fetchText, isRecord } from "./http.js";
 
 const MATERIAL = new MeshPhongMaterial({ color: 0x8d99ae, specular: 0x222222, shininess: 20 });
+/** an object without a colour of its own: apart from the grey obstacles */
+const OBJECT_COLOUR = 0xe07a1f;
+
+type Kind = "obstacles" | "objects";
 
 export interface BuiltObstacles {
   group: Group;
+  /** the obstacles' names */
   names: string[];
+  /** each object's position (m, world frame) as drawn */
+  objects: Record<string, number[]>;
   errors: ViewerError[];
 }
 
@@ -29,13 +36,14 @@ export async function buildObstacles(scene: unknown, base: string): Promise<Buil
   const group = new Group();
   group.name = "obstacles";
   const errors: ViewerError[] = [];
-  const list = isRecord(scene) && Array.isArray(scene["obstacles"]) ? scene["obstacles"] : [];
+  const list = (kind: Kind): [unknown, Kind, number][] =>
+    isRecord(scene) && Array.isArray(scene[kind]) ? (scene[kind] as unknown[]).map((s, i): [unknown, Kind, number] => [s, kind, i]) : [];
   const meshes = await Promise.all(
-    list.map(async (spec: unknown, i: number) => {
+    [...list("obstacles"), ...list("objects")].map(async ([spec, kind, i]) => {
       try {
-        return await buildOne(spec, base, i);
+        return await buildOne(spec, base, i, kind);
       } catch (err) {
-        errors.push(err instanceof ViewerError ? err : new ViewerError("E_SCENE", String(err), { index: i }));
+        errors.push(err instanceof ViewerError ? err : new ViewerError("E_SCENE", String(err), { path: `/${kind}/${i}` }));
         return null;
       }
     }),
@@ -43,15 +51,17 @@ export async function buildObstacles(scene: unknown, base: string): Promise<Buil
   // in the scene's order, whatever order the mesh files arrived in
   const built = meshes.filter((m): m is Mesh => m !== null);
   for (const m of built) group.add(m);
-  return { group, names: built.map((m) => m.name), errors };
+  const objects = built.filter((m) => m.userData["kind"] === "objects").map((m) => [m.name, m.position.toArray()] as const);
+  return { group, names: built.filter((m) => m.userData["kind"] === "obstacles").map((m) => m.name), objects: Object.fromEntries(objects), errors };
 }
 
-async function buildOne(spec: unknown, base: string, index: number): Promise<Mesh> {
+async function buildOne(spec: unknown, base: string, index: number, kind: Kind): Promise<Mesh> {
   if (!isRecord(spec) || !isRecord(spec["shape"])) {
-    throw new ViewerError("E_SCENE", `obstacle #${index} has no shape`, { path: `/obstacles/${index}` });
+    throw new ViewerError("E_SCENE", `${kind === "objects" ? "object" : "obstacle"} #${index} has no shape`, { path: `/${kind}/${index}` });
   }
-  const name = typeof spec["name"] === "string" ? spec["name"] : `obstacle-${index}`;
+  const name = typeof spec["name"] === "string" ? spec["name"] : `${kind}-${index}`;
   const material = MATERIAL.clone();
+  if (kind === "objects") material.color.setHex(OBJECT_COLOUR);
   const colour = spec["color"];
   if (Array.isArray(colour) && colour.length >= 3 && colour.every((c) => typeof c === "number")) {
     material.color.setRGB(colour[0] as number, colour[1] as number, colour[2] as number);
@@ -62,6 +72,7 @@ async function buildOne(spec: unknown, base: string, index: number): Promise<Mes
   }
   const mesh = new Mesh(await geometry(spec["shape"], base, name), material);
   mesh.name = name;
+  mesh.userData["kind"] = kind;
   const pos = vec3(spec["position"]) ?? [0, 0, 0];
   mesh.position.set(pos[0], pos[1], pos[2]);
   const q = quat(spec["orientation"]);

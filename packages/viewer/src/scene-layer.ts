@@ -1,6 +1,7 @@
 /**
- * The obstacle layer: built from scene.json at load, rebuilt from every /live `scene` message (the shared
- * world's obstacles after a run-time add/move/remove, Contract 4). The newest scene always wins: a
+ * The obstacle layer: obstacles and objects (in their colours, where they rest), built from scene.json at
+ * load, rebuilt from every /live `scene` message (the shared world's obstacles and objects after a run-time
+ * add/move/remove, Contract 4). The newest scene always wins: a
  * slower, older build is discarded, and scene.json never replaces a scene that came live.
  */
 import { Group, Mesh } from "three";
@@ -32,7 +33,7 @@ export class ObstacleLayer {
     });
   }
 
-  /** A scene document (`{obstacles: [...]}`) from scene.json (`live` false) or a /live message. */
+  /** A scene document (`{obstacles: [...], objects: [...]}`) from scene.json (`live` false) or a /live message. */
   async show(scene: unknown, live: boolean): Promise<void> {
     if (live) this.liveSeen = true;
     else if (this.liveSeen) return;
@@ -57,6 +58,7 @@ export class ObstacleLayer {
     this.stage.setVisible(built.group, this.visible);
     this.stage.invalidate();
     debugState.obstacles = built.names;
+    debugState.objects = built.objects;
     publishDebug();
   }
 }

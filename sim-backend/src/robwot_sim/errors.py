@@ -293,6 +293,18 @@ class NameTaken(SimError):
         super().__init__(f"name {name!r} is already used", name=name)
 
 
+class Overlap(SimError):
+    """An object placed into (or coming to rest in) another body: ``object`` and ``body`` name both,
+    ``depth`` (m) how deep."""
+
+    code = "E_OVERLAP"
+
+    def __init__(self, obj: str, body: str, depth: float, *, at_rest: bool = False) -> None:
+        how = "comes to rest touching" if at_rest else f"is placed {depth * 1000:.1f} mm deep into"
+        super().__init__(f"object {obj!r} {how} {body!r}; nothing added or moved", object=obj, body=body,
+                         depth=depth)
+
+
 def _jsonable(value: Any) -> Any:
     """Best-effort JSON-safe echo of a bad value (NaN/Infinity become strings)."""
     if isinstance(value, float) and (value != value or value in (float("inf"), float("-inf"))):

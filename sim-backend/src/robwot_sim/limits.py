@@ -83,3 +83,11 @@ MAX_TRAJECTORY_SAMPLES = int(
 #: most joints a joint_limits file may name: its velocities and accelerations both cross the contract
 MAX_LIMITED_JOINTS = min(int(value_schema("JointVelocities")["maxProperties"]),
                          int(value_schema("JointAccelerations")["maxProperties"]))
+#: most objects a world (and a scene file) holds
+MAX_OBJECTS = int(value_schema("SceneObjects")["maxItems"])
+#: an object's mass (kg) unless given
+DEFAULT_MASS = float(value_schema("Mass")["default"])
+#: most physics steps (1/240 s each) an added or moved object settles for
+SETTLE_STEPS = int(value_schema("ObjectSpec")["x-settleSteps"])
+#: deepest (m) an object may be placed into another body (settled bodies rest slightly inside their support)
+OVERLAP_TOLERANCE = float(value_schema("ObjectSpec")["x-overlapTolerance"])

@@ -1,7 +1,9 @@
 """Scene documents: versioned JSON checked against ``schemas/scene.schema.json``.
 
-A scene is ``{"version": 1, "obstacles": [Obstacle], "robots": [Robot]}``; relative URDF and mesh paths
-are relative to the scene file's folder (then ``pybullet_data`` for URDFs). Errors carry a JSON pointer.
+A scene is ``{"version": 1, "obstacles": [Obstacle], "objects": [Object], "robots": [Robot]}``; an object is
+an obstacle's shape and pose with a mass (kg), one namespace holds the obstacles', objects' and robots'
+names. Relative URDF and mesh paths are relative to the scene file's folder (then ``pybullet_data`` for
+URDFs). Errors carry a JSON pointer.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import jsonschema
 
 from robwot_sim.errors import FileNotFound, InvalidParams, SceneError
 from robwot_sim.jsondepth import TooDeep, loads_bounded
+from robwot_sim.limits import DEFAULT_MASS, MAX_OBJECTS
 from robwot_sim.model.rotations import quat_from_rpy
 from robwot_sim.model.urdf import pybullet_data_path
 from robwot_sim.validate import MIN_QUATERNION_NORM, unit_quaternion
@@ -61,18 +64,35 @@ def _nonfinite(value: Any, path: tuple[Any, ...] = ()) -> tuple[tuple[Any, ...],
 
 def schema_errors(doc: Any) -> tuple[str, str] | None:
     """First problem of a scene document as (JSON pointer, message), or None when valid."""
+    objects = doc.get("objects") if isinstance(doc, dict) else None
+    if isinstance(objects, list) and len(objects) > MAX_OBJECTS:  # said before the schema quotes them all
+        return "/objects", f"{len(objects)} objects, more than the limit of {MAX_OBJECTS}"
     bad = _nonfinite(doc)
     if bad is not None:
         return _pointer(bad[0]), f"{bad[1]} is not a finite number"
     err = jsonschema.exceptions.best_match(_validator().iter_errors(doc))
     if err is not None:
         return _pointer(err.absolute_path), err.message
+    return _duplicate_name(doc) or _zero_quaternion(doc)
+
+
+def _duplicate_name(doc: dict[str, Any]) -> tuple[str, str] | None:
+    """The first name an obstacle, object or robot id repeats (one namespace)."""
     names: set[str] = set()
-    for i, ob in enumerate(doc.get("obstacles", [])):
-        if ob["name"] in names:
-            return f"/obstacles/{i}/name", f"duplicate obstacle name {ob['name']!r}"
-        names.add(ob["name"])
-    for kind, key in (("obstacles", "orientation"), ("robots", "baseOrientation")):
+    for kind, key in (("obstacles", "name"), ("objects", "name"), ("robots", "id")):
+        for i, entry in enumerate(doc.get(kind, [])):
+            if key not in entry:
+                continue
+            if entry[key] in names:
+                shared = "obstacles, objects and robots share one namespace"
+                return f"/{kind}/{i}/{key}", f"duplicate name {entry[key]!r} ({shared})"
+            names.add(entry[key])
+    return None
+
+
+def _zero_quaternion(doc: dict[str, Any]) -> tuple[str, str] | None:
+    quaternions = (("obstacles", "orientation"), ("objects", "orientation"), ("robots", "baseOrientation"))
+    for kind, key in quaternions:
         for i, ob in enumerate(doc.get(kind, [])):
             if key in ob and unit_quaternion(ob[key]) is None:
                 return f"/{kind}/{i}/{key}", f"quaternion has zero norm (< {MIN_QUATERNION_NORM:g})"
@@ -111,16 +131,19 @@ def read_scene(scene: dict[str, Any] | str | Path) -> tuple[dict[str, Any], Path
     return doc, base, file
 
 
-def normalise_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False) -> dict[str, Any]:
+def normalise_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False,
+                       kind: str = "obstacles") -> dict[str, Any]:
     """Validate one obstacle spec (InvalidParams with a JSON pointer) and return it normalised:
     ``{name, shape, position, orientation}`` with a unit quaternion; mesh files made absolute.
+    ``kind="objects"``: an object's spec, normalised with its ``mass`` (kg; the contract's default).
     ``checked=True`` skips the schema check for specs of a document ``read_scene`` already validated
     (with 239 obstacles the second check cost ~0.3 s of every scene load)."""
-    problem = None if checked else schema_errors({"version": 1, "obstacles": [spec]})
+    what = "obstacle" if kind == "obstacles" else "object"
+    problem = None if checked else schema_errors({"version": 1, kind: [spec]})
     if problem is not None:
-        ptr = problem[0].removeprefix("/obstacles/0")
+        ptr = problem[0].removeprefix(f"/{kind}/0")
         raise InvalidParams(
-            f"obstacle{ptr or ''}: {problem[1]}", param=ptr or "/", expected="Obstacle", got=None
+            f"{what}{ptr or ''}: {problem[1]}", param=ptr or "/", expected=what.capitalize(), got=None
         )
     shape = dict(spec["shape"])
     if shape["type"] == "mesh":
@@ -130,8 +153,8 @@ def normalise_obstacle(spec: Any, base: Path | None = None, *, checked: bool = F
     if "orientation" in spec:
         quat = unit_quaternion([float(v) for v in spec["orientation"]])
         if quat is None:  # schema_errors refuses it; reached only with checked=True on a bad document
-            raise InvalidParams("obstacle/orientation: quaternion has zero norm", param="/orientation",
-                                expected="Obstacle", got=None)
+            raise InvalidParams(f"{what}/orientation: quaternion has zero norm", param="/orientation",
+                                expected=what.capitalize(), got=None)
     elif "rpy" in spec:
         quat = list(quat_from_rpy(spec["rpy"]))
     else:
@@ -144,6 +167,8 @@ def normalise_obstacle(spec: Any, base: Path | None = None, *, checked: bool = F
     }
     if "color" in spec:
         out["color"] = list(spec["color"])
+    if kind == "objects":
+        out["mass"] = float(spec.get("mass", DEFAULT_MASS))
     return out
 
 

@@ -1,7 +1,7 @@
 /** The affordances of a RobWoT twin (Contract 3), without forms. */
 import { MAX_CALIBRATION_COORDINATE as C } from "../calibration.js";
 import type { Bounds, JointSpec } from "../types.js";
-import { moveObstacleSchema, obstacleOutputSchema, obstacleSchema, removeObstacleSchema } from "./obstacle-schemas.js";
+import { moveObjectSchema, moveObstacleSchema, objectOutputSchema, objectSchema, objectsSchema, obstacleOutputSchema, obstacleSchema, removeObstacleSchema } from "./obstacle-schemas.js";
 import {
   calibrationResultSchema,
   cartesianSchema,
@@ -43,6 +43,13 @@ export function propertyAffordances(joints: JointSpec[]): Record<string, NoForms
     motionStatus: motionStatusProperty(joints),
     physicalState: physicalStateProperty(joints),
     calibration: calibrationProperty(),
+    objects: {
+      ...objectsSchema(),
+      title: "Objects",
+      description: "Every object of the world (scene file objects and addObject's) where it rests now: name, shape, position (m) and orientation (quaternion [x, y, z, w]) in the world frame, mass (kg), colour",
+      readOnly: true,
+      observable: true,
+    },
   };
 }
 
@@ -184,6 +191,17 @@ export function actionAffordances(joints: JointSpec[], bounds: Bounds | null): R
     addObstacle: { title: "Add an obstacle", input: obstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: false },
     moveObstacle: { title: "Move an obstacle", input: moveObstacleSchema(), output: obstacleOutputSchema(), safe: false, idempotent: true },
     removeObstacle: { title: "Remove an obstacle", input: removeObstacleSchema(), output: { type: "object", properties: {} }, safe: false, idempotent: true },
+    ...objectActions(),
+  };
+}
+
+/** Objects: added, moved (let go, then settled onto what is below them) and removed; robots collide with them as with obstacles. */
+function objectActions(): Record<"addObject" | "moveObject" | "removeObject", NoForms<ActionAffordance>> {
+  const settles = "It settles under gravity onto the obstacles and objects below it, or onto the floor z = 0; placed into a robot, an obstacle or another object it is refused (409 E_OVERLAP naming both).";
+  return {
+    addObject: { title: "Add an object", description: `Adds an object robots collide with as with an obstacle. ${settles}`, input: objectSchema(), output: objectOutputSchema(), safe: false, idempotent: false },
+    moveObject: { title: "Move an object", description: `Puts an object at a new pose. ${settles}`, input: moveObjectSchema(), output: objectOutputSchema(), safe: false, idempotent: false },
+    removeObject: { title: "Remove an object", input: removeObstacleSchema(), output: { type: "object", properties: {} }, safe: false, idempotent: true },
   };
 }
 

@@ -1,6 +1,7 @@
-/** Data schemas of the scene-editing actions (obstacle shapes as in Contract 1). */
+/** Data schemas of the scene-editing actions and the `objects` property (obstacle shapes as in Contract 1;
+ *  an object is an obstacle's shape and pose with a mass). */
 import { OBSTACLE_SHAPE, VALUE_SCHEMAS } from "../backend-contract.js";
-import { MIN_QUATERNION_NORM, UNIT_M, vec3Schema } from "./schemas.js";
+import { MIN_QUATERNION_NORM, UNIT_KG, UNIT_M, vec3Schema } from "./schemas.js";
 import type { DataSchema } from "./types.js";
 
 /** Largest |coordinate| (m) of a position, |angle| (rad) of an rpy triple, and largest size, radius,
@@ -117,4 +118,31 @@ export function moveObstacleSchema(): DataSchema {
 
 export function removeObstacleSchema(): DataSchema {
   return { type: "object", properties: { name: NAME }, required: ["name"] };
+}
+
+/** An object's mass (kg): the contract's `Mass` (range; its default where a request may leave it out). */
+const MASS: DataSchema = { type: "number", unit: UNIT_KG, exclusiveMinimum: VALUE_SCHEMAS.Mass.exclusiveMinimum, maximum: VALUE_SCHEMAS.Mass.maximum, description: "mass (kg)" };
+
+export function objectSchema(): DataSchema {
+  const common: Record<string, DataSchema> = { name: NAME, shape: shapeSchema(), position: bounded("position in the world frame it is let go at", UNIT_M), color: COLOR, mass: { ...MASS, default: VALUE_SCHEMAS.Mass.default } };
+  return withOrientation("Object (it then settles onto what is below it, or onto the floor z = 0)", common, ["name", "shape", "position"]);
+}
+
+/** An object as the twin reports it: where it rests (world frame), orientation always as a quaternion. */
+export function objectOutputSchema(): DataSchema {
+  return {
+    type: "object",
+    description: "Object at its live pose",
+    properties: { name: { type: "string" }, shape: shapeSchema(), position: bounded("position in the world frame", UNIT_M), orientation: ORIENTATION, color: COLOR, mass: MASS },
+    required: ["name", "shape", "position", "orientation", "mass"],
+  };
+}
+
+export function moveObjectSchema(): DataSchema {
+  return withOrientation("New pose of an object (it then settles)", { name: NAME, position: bounded("position in the world frame it is let go at", UNIT_M) }, ["name", "position"]);
+}
+
+/** The `objects` property: every object of the shared world at its live pose. */
+export function objectsSchema(): DataSchema {
+  return { type: "array", items: objectOutputSchema(), maxItems: VALUE_SCHEMAS.SceneObjects.maxItems, description: "every object of the world at its live pose (world frame)" };
 }

@@ -6,6 +6,7 @@ import type { DataSchema } from "./types.js";
 export const UNIT_RAD = "rad";
 export const UNIT_M = "m";
 export const UNIT_S = "s";
+export const UNIT_KG = "kg";
 export const UNIT_M_PER_S = "m/s";
 
 export function jointUnit(joint: JointSpec): string {

@@ -223,7 +223,6 @@ class Bullet:
     ) -> int:
         """A mass-0 body with one collision shape, no visual (``shape`` as in Contract 1, file resolved; a
         mesh with ``hull``: its convex hull's scaled vertices, the shape Bullet builds from the file)."""
-        hull = shape.get(HULL)
         key = json.dumps({k: v for k, v in shape.items() if k != HULL}, sort_keys=True)
         parked = self._parked.get(key)
         if parked:
@@ -231,6 +230,29 @@ class Bullet:
             self.reset_base(body, position, quat_xyzw)
             self._static_key[body] = key
             return body
+        body = self.create_body(shape, position, quat_xyzw, 0.0)
+        self._static_key[body] = key
+        return body
+
+    def create_body(
+        self, shape: dict[str, Any], position: Sequence[float], quat_xyzw: Sequence[float], mass: float
+    ) -> int:
+        """A body of one collision shape (as ``create_static``) and ``mass`` (kg; 0: static), no visual;
+        never parked. A mesh with mass is its convex hull to Bullet."""
+        col = self._collision_shape(shape)
+        return int(
+            pb.createMultiBody(
+                baseMass=mass,
+                baseCollisionShapeIndex=col,
+                baseVisualShapeIndex=-1,
+                basePosition=list(position),
+                baseOrientation=list(quat_xyzw),
+                physicsClientId=self.cid,
+            )
+        )
+
+    def _collision_shape(self, shape: dict[str, Any]) -> int:
+        hull = shape.get(HULL)
         t = shape["type"]
         if t == "box":
             col = pb.createCollisionShape(
@@ -255,15 +277,31 @@ class Bullet:
                 raise RuntimeError(f"PyBullet could not read the mesh {shape['file']}")
         if col < 0:
             raise RuntimeError(f"PyBullet could not create the collision shape {shape}")
-        body = int(
-            pb.createMultiBody(
-                baseMass=0,
-                baseCollisionShapeIndex=col,
-                baseVisualShapeIndex=-1,
-                basePosition=list(position),
-                baseOrientation=list(quat_xyzw),
-                physicsClientId=self.cid,
-            )
-        )
-        self._static_key[body] = key
-        return body
+        return int(col)
+
+    # physics (settling objects: ``settle.py``, in a client of its own)
+    def add_floor(self) -> int:
+        """A static plane z = 0 (its normal +z), and gravity -9.81 m/s^2 along z."""
+        pb.setGravity(0.0, 0.0, -9.81, physicsClientId=self.cid)
+        col = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=self.cid)
+        return int(pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=col, physicsClientId=self.cid))
+
+    def step(self) -> None:
+        pb.stepSimulation(physicsClientId=self.cid)
+
+    def inertia(self, body: int) -> Vec3:
+        """The diagonal of a body's base inertia (kg m^2, its inertial frame)."""
+        return tuple(pb.getDynamicsInfo(body, -1, physicsClientId=self.cid)[2])
+
+    def set_inertia(self, body: int, diagonal: Sequence[float]) -> None:
+        pb.changeDynamics(body, -1, localInertiaDiagonal=list(diagonal), physicsClientId=self.cid)
+
+    def base_velocity(self, body: int) -> tuple[Vec3, Vec3]:
+        """(linear m/s, angular rad/s) of a body's base, world frame."""
+        lin, ang = pb.getBaseVelocity(body, physicsClientId=self.cid)
+        return tuple(lin), tuple(ang)
+
+    def aabb(self, body: int, link: int = -1) -> tuple[Vec3, Vec3]:
+        """(min, max) corners (m, world frame) of a body's (link's) bounding box."""
+        lo, hi = pb.getAABB(body, link, physicsClientId=self.cid)
+        return tuple(lo), tuple(hi)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -9,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 
-from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
+from robwot_sim.errors import FileNotFound, InvalidParams, UnknownLink, UrdfError
 from robwot_sim.limits import DEFAULT_CLEARANCE
 from robwot_sim.model.couplings import passive_notes
 from robwot_sim.model.decompose import OnMesh
@@ -200,3 +201,17 @@ def load_robot_body(
     )
     return RobotEntry(model, bound, checker, path, dict(package_roots), prepared.collision_parts,
                       joint_reach(bound), reach_sphere(bound))
+
+
+def acceleration_limits(movable: Sequence[str], given: Mapping[str, float]) -> dict[str, float]:
+    """``given`` checked: each a movable joint's, a positive finite number."""
+    out: dict[str, float] = {}
+    for joint, value in given.items():
+        if joint not in movable:
+            raise InvalidParams(f"accelerationLimits: {joint!r} is not a movable joint of the robot",
+                                param="accelerationLimits", expected=list(movable), got=joint)
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
+            raise InvalidParams(f"accelerationLimits: {joint!r} must be a positive number, got {value!r}",
+                                param="accelerationLimits", expected="positive number", got=value)
+        out[joint] = float(value)
+    return out

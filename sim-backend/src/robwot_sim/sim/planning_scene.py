@@ -1,5 +1,6 @@
-"""The planning scene (MoveIt's): the bodies of one PyBullet DIRECT client, robots and static obstacles,
-their states and their versions. Everything that is a body lives here: what plans, checks or labels
+"""The planning scene (MoveIt's): the bodies of one PyBullet DIRECT client, robots, static obstacles and
+objects (obstacles whose pose changes: each settled where it comes to rest, ``settle.py``), their states
+and their versions. Everything that is a body lives here: what plans, checks or labels
 reads a scene and never keeps bodies of its own.
 
 Every public method checks its input before touching the client: a failed call changes nothing.
@@ -12,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import math
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import replace
@@ -24,14 +24,22 @@ import numpy.typing as npt
 
 from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams, NameTaken, UnknownObject, UnknownRobot
-from robwot_sim.limits import CLEARANCE, DEFAULT_CLEARANCE
+from robwot_sim.limits import CLEARANCE, DEFAULT_CLEARANCE, MAX_OBJECTS
 from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.model.rotations import quat_from_rpy
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.kinematics import fk_pose
-from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body
-from robwot_sim.sim.scene_files import ReadObstacle, SceneFiles, read_obstacle, read_robot, read_scene
+from robwot_sim.sim.loader import RobotEntry, RobotFiles, acceleration_limits, load_robot_body
+from robwot_sim.sim.scene_files import (
+    ReadObstacle,
+    SceneFiles,
+    read_object,
+    read_obstacle,
+    read_robot,
+    read_scene,
+)
+from robwot_sim.sim.settle import Placed, check_placed, in_column, settle
 from robwot_sim.sim.types import CollisionReport, Pose
 from robwot_sim.sim.world_thread import holding
 
@@ -55,7 +63,9 @@ def owned(fn: Callable[P, R]) -> Callable[P, R]:
 
 
 class Scene:
-    """Robots and static obstacles in one PyBullet DIRECT client. Context manager; ``close()``."""
+    """Robots, static obstacles and objects in one PyBullet DIRECT client. Context manager; ``close()``.
+    An object is an obstacle (a static body every check sees, named in every contact) whose pose changes:
+    ``_obstacles`` holds both, ``_objects`` names the objects."""
 
     def __init__(self) -> None:
         self._owner: int | None = None  # the only thread that may use the scene, once bound
@@ -64,6 +74,7 @@ class Scene:
         self._robots: dict[str, RobotEntry] = {}
         self._obstacles: dict[str, tuple[int, dict[str, Any]]] = {}
         self._built: dict[str, dict[str, Any]] = {}  # per obstacle: the shape its body was built from
+        self._objects: set[str] = set()  # the obstacles that are objects
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
 
     def bind(self) -> None:
@@ -169,7 +180,7 @@ class Scene:
                 raise InvalidParams(f"clearance must be in {within} m", param="clearance",
                                     expected=f"number in {within}", got=clearance)
             movable = [j.name for j in files.urdf_model.joints if j.type != "fixed"]
-            limits = _accelerations(movable, accelerations or {})
+            limits = acceleration_limits(movable, accelerations or {})
         except Exception:
             files.cleanup()
             raise
@@ -301,30 +312,113 @@ class Scene:
         ``scene_files.read_obstacle``, off the world's thread); returns it normalised."""
         return self._add_obstacle(spec if isinstance(spec, tuple) else read_obstacle(spec))
 
-    @owned
-    def move_obstacle(self, name: str, position: Vec3, orientation: Quat | None = None) -> dict[str, Any]:
-        """Put an obstacle at ``position`` (m), turned to ``orientation`` (``[x, y, z, w]``; default: as
-        it is)."""
-        if name not in self._obstacles:
-            raise UnknownObject(str(name), self._obstacles)
+    def _known(self, name: str, *, objects: bool) -> tuple[int, dict[str, Any]]:
+        """The body and spec of obstacle (object, with ``objects``) ``name``, else UnknownObject."""
+        if name not in self._obstacles or (name in self._objects) != objects:
+            raise UnknownObject(str(name), [n for n in self._obstacles if (n in self._objects) == objects])
+        return self._obstacles[name]
+
+    def _put(self, name: str, position: Vec3, orientation: Quat | None) -> dict[str, Any]:
+        """Teleport obstacle or object ``name`` (orientation None: as it is); returns its spec before."""
         pos = v.position("position", position)
         body, spec = self._obstacles[name]
         quat = list(spec["orientation"]) if orientation is None else v.quaternion("orientation", orientation)
         self.bullet.reset_base(body, pos, quat)
-        spec = {**spec, "position": pos, "orientation": quat}
-        self._obstacles[name] = (body, spec)
+        self._obstacles[name] = (body, {**spec, "position": pos, "orientation": quat})
         self._changed()
         return spec
 
     @owned
+    def move_obstacle(self, name: str, position: Vec3, orientation: Quat | None = None) -> dict[str, Any]:
+        """Put an obstacle at ``position`` (m), turned to ``orientation`` (``[x, y, z, w]``; default: as
+        it is)."""
+        self._known(name, objects=False)
+        self._put(name, position, orientation)
+        return self._obstacles[name][1]
+
+    @owned
     def remove_obstacle(self, name: str) -> None:
-        if name not in self._obstacles:
-            raise UnknownObject(str(name), self._obstacles)
+        self._known(name, objects=False)
+        self._remove_body(name)
+
+    def _remove_body(self, name: str) -> None:
         body, _ = self._obstacles.pop(name)
         self._built.pop(name, None)
+        self._objects.discard(name)
         self.bullet.remove_body(body)
         del self.table.names[body]
         self._changed()
+
+    # objects
+    @owned
+    def add_object(self, spec: dict[str, Any] | ReadObstacle) -> dict[str, Any]:
+        """Add an object ``{name, shape, position, orientation? | rpy?, color?, mass?}`` (or one already
+        read by ``scene_files.read_object``), settled onto what is below it; returns it at rest."""
+        return self._add_objects([spec if isinstance(spec, tuple) else read_object(spec)])[0]
+
+    def _add_objects(self, objects: Sequence[ReadObstacle]) -> list[dict[str, Any]]:
+        """Objects added and settled together (a scene's stack settles as one), all or nothing: each
+        placed into another body or coming to rest touching a robot is refused (``settle.check_placed``)."""
+        if len(self._objects) + len(objects) > MAX_OBJECTS:
+            raise InvalidParams(
+                f"a world holds at most {MAX_OBJECTS} objects: it holds {len(self._objects)}, "
+                f"{len(objects)} more asked for", param="objects", expected=f"at most {MAX_OBJECTS} objects",
+                got=len(self._objects) + len(objects))
+        added: list[str] = []
+        try:
+            for obj in objects:
+                added.append(self._add_obstacle(obj)["name"])
+                self._objects.add(added[-1])
+            for name in added:
+                check_placed(self.bullet, self.table, self._obstacles[name][0], self._placed(name))
+            self._settle(added)
+        except Exception:
+            for name in added:
+                self._remove_body(name)
+            raise
+        return [self._obstacles[name][1] for name in added]
+
+    def _settle(self, names: Sequence[str]) -> None:
+        """Puts objects ``names`` where they come to rest (``settle.py``); one touching a robot there:
+        ``Overlap``."""
+        if not names:
+            return
+        moving = set(names)
+        boxes = {name: self.bullet.aabb(body) for name, (body, _) in self._obstacles.items()}
+        others = [(boxes[n], self._placed(n)) for n in self._obstacles if n not in moving]
+        poses = settle([self._placed(n) for n in names], in_column([boxes[n] for n in names], others))
+        for name, (pos, quat) in zip(names, poses, strict=True):
+            body, spec = self._obstacles[name]
+            self.bullet.reset_base(body, pos, quat)
+            self._obstacles[name] = (body, {**spec, "position": list(pos), "orientation": list(quat)})
+        self._changed()
+        for name in names:
+            check_placed(self.bullet, self.table, self._obstacles[name][0], self._placed(name), at_rest=True)
+
+    def _placed(self, name: str) -> Placed:
+        _, spec = self._obstacles[name]
+        return Placed(self._built[name], spec["position"], spec["orientation"], spec.get("mass", 0.0))
+
+    @owned
+    def move_object(self, name: str, position: Vec3, orientation: Quat | None = None) -> dict[str, Any]:
+        """Teleport an object to ``position`` (m), turned to ``orientation`` (``[x, y, z, w]``; default: as
+        it is), then settle it; refused (``Overlap``), it stays where it was. Returns it at rest."""
+        body, _ = self._known(name, objects=True)
+        before = self._put(name, position, orientation)
+        try:
+            check_placed(self.bullet, self.table, body, self._placed(name))
+            self._settle([name])
+        except Exception:  # back where it rested, to the bit
+            self.bullet.reset_base(body, before["position"], before["orientation"])
+            self._obstacles[name] = (body, before)
+            self._changed()
+            raise
+        return self._obstacles[name][1]
+
+    @owned
+    def remove_object(self, name: str) -> None:
+        self._known(name, objects=True)
+        self._remove_body(name)
 
     # scene documents
     @owned
@@ -337,12 +431,12 @@ class Scene:
 
     @owned
     def add_scene(self, files: SceneFiles) -> dict[str, Any]:
-        """Add a read scene (``scene_files.read_scene``), all or nothing; removes the robots' temporary
-        copies."""
+        """Add a read scene (``scene_files.read_scene``), all or nothing: its obstacles, its robots, then its
+        objects, settled together; removes the robots' temporary copies."""
         added_obs: list[str] = []
         added_rob: list[str] = []
         try:
-            for spec, _ in files.obstacles:
+            for spec, _ in [*files.obstacles, *files.objects]:
                 self._check_free_name(spec["name"])
             for obstacle in files.obstacles:
                 added_obs.append(self._add_obstacle(obstacle)["name"])
@@ -356,15 +450,16 @@ class Scene:
                 added_rob.append(model.id)
                 if "positions" in r:
                     self.set_joint_positions(model.id, r["positions"])
+            objects = [spec["name"] for spec in self._add_objects(files.objects)]
         except Exception:  # all or nothing: undo what this scene added
             for rid in added_rob:
                 self.remove_robot(rid)
             for name in added_obs:
-                self.remove_obstacle(name)
+                self._remove_body(name)
             raise
         finally:
             files.cleanup()
-        return {"robots": added_rob, "obstacles": added_obs}
+        return {"robots": added_rob, "obstacles": added_obs, "objects": objects}
 
     @owned
     def list(self) -> dict[str, Any]:
@@ -378,19 +473,22 @@ class Scene:
             }
             for rid, e in self._robots.items()
         ]
-        return {"robots": robots, "obstacles": [spec for _, spec in self._obstacles.values()]}
+        specs = [(name, spec) for name, (_, spec) in self._obstacles.items()]
+        return {"robots": robots, "obstacles": [spec for name, spec in specs if name not in self._objects],
+                "objects": [spec for name, spec in specs if name in self._objects]}
 
     @owned
     def reset(self) -> None:
-        """Remove every robot and obstacle."""
+        """Remove every robot, obstacle and object."""
         for rid in list(self._robots):
             self.remove_robot(rid)
         for name in list(self._obstacles):
-            self.remove_obstacle(name)
+            self._remove_body(name)
 
     @owned
     def scene_spec(self) -> dict[str, Any]:
-        """The current scene as a scene document (absolute paths); ``load_scene`` rebuilds it."""
+        """The current scene as a scene document (absolute paths); ``load_scene`` rebuilds it (its objects
+        as obstacles at their poses)."""
         robots = []
         for rid, e in self._robots.items():
             r: dict[str, Any] = {
@@ -411,19 +509,6 @@ class Scene:
                     k: str(Path(p).expanduser().resolve()) for k, p in e.package_roots.items()
                 }
             robots.append(r)
-        obstacles = [spec for _, spec in self._obstacles.values()]
+        # objects as obstacles where they rest now (a rebuilt world holds them there, settled already)
+        obstacles = [{k: v for k, v in spec.items() if k != "mass"} for _, spec in self._obstacles.values()]
         return {"version": 1, "obstacles": obstacles, "robots": robots}
-
-
-def _accelerations(movable: Sequence[str], given: Mapping[str, float]) -> dict[str, float]:
-    """``given`` checked: each a movable joint's, a positive finite number."""
-    out: dict[str, float] = {}
-    for joint, value in given.items():
-        if joint not in movable:
-            raise InvalidParams(f"accelerationLimits: {joint!r} is not a movable joint of the robot",
-                                param="accelerationLimits", expected=list(movable), got=joint)
-        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
-            raise InvalidParams(f"accelerationLimits: {joint!r} must be a positive number, got {value!r}",
-                                param="accelerationLimits", expected="positive number", got=value)
-        out[joint] = float(value)
-    return out

@@ -29,11 +29,12 @@ MAX_HULL_POINTS = 40_000
 
 @dataclass
 class SceneFiles:
-    """A scene read and checked off the world's thread (``read_scene``): its obstacles with their meshes
-    parsed, its robots' files prepared. ``cleanup()`` once added (or given up)."""
+    """A scene read and checked off the world's thread (``read_scene``): its obstacles and objects with
+    their meshes parsed, its robots' files prepared. ``cleanup()`` once added (or given up)."""
 
     obstacles: list[ReadObstacle]
     robots: list[tuple[dict[str, Any], RobotFiles]] = field(default_factory=list)
+    objects: list[ReadObstacle] = field(default_factory=list)
 
     def cleanup(self) -> None:
         for _, files in self.robots:
@@ -70,11 +71,12 @@ def read_robot(
                             couplings=couplings, keep_level=keep_level)
 
 
-def read_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False) -> ReadObstacle:
+def read_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False,
+                  kind: str = "obstacles") -> ReadObstacle:
     """An obstacle spec normalised (``scene.normalise_obstacle``) and, for a mesh, the mesh parsed by our
     own reader (PyBullet crashes on some broken meshes) and its convex hull computed: work that needs no
-    world, any thread."""
-    norm = normalise_obstacle(spec, base, checked=checked)
+    world, any thread. ``kind="objects"``: an object's spec (with its mass)."""
+    norm = normalise_obstacle(spec, base, checked=checked, kind=kind)
     shape = norm["shape"]
     if shape["type"] == "mesh":
         try:
@@ -82,10 +84,16 @@ def read_obstacle(spec: Any, base: Path | None = None, *, checked: bool = False)
             hull = mesh_hull(Path(shape["file"]), shape.get("scale", 1.0))
         except MeshError as e:
             name = norm["name"]
-            raise MeshError(f"obstacle {name!r}: {e.message}", obstacle=name, **e.data) from None
+            what = "obstacle" if kind == "obstacles" else "object"
+            raise MeshError(f"{what} {name!r}: {e.message}", obstacle=name, **e.data) from None
         if hull is not None:
             shape = {**shape, HULL: hull}
     return norm, shape
+
+
+def read_object(spec: Any, base: Path | None = None, *, checked: bool = False) -> ReadObstacle:
+    """An object spec read as an obstacle's (``read_obstacle``), normalised with its mass (kg)."""
+    return read_obstacle(spec, base, checked=checked, kind="objects")
 
 
 def mesh_hull(path: Path, scale: float | list[float]) -> list[list[float]] | None:
@@ -119,7 +127,8 @@ def read_scene(
         )
     roots = v.string_map("packageRoots", package_roots)
     doc, base, _file = read_scene_document(scene)
-    out = SceneFiles([read_obstacle(o, base, checked=True) for o in doc.get("obstacles", [])])
+    out = SceneFiles([read_obstacle(o, base, checked=True) for o in doc.get("obstacles", [])],
+                     objects=[read_object(o, base, checked=True) for o in doc.get("objects", [])])
     try:
         for r in doc.get("robots", []):
             files = read_robot(

@@ -65,6 +65,9 @@ class World:
         self.add_obstacle = scene.add_obstacle
         self.move_obstacle = scene.move_obstacle
         self.remove_obstacle = scene.remove_obstacle
+        self.add_object = scene.add_object
+        self.move_object = scene.move_object
+        self.remove_object = scene.remove_object
         self.load_scene = scene.load_scene
         self.add_scene = scene.add_scene
         self.list = scene.list
