@@ -278,6 +278,29 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     expect(existsSync(join(work, "never-limits"))).toBe(false);
   }, 120_000);
 
+  it("--limits FILE: position limits (ros2_control's has_position_limits) bound a continuous joint, which becomes revolute; min >= max is refused", async () => {
+    writeFileSync(join(work, "tiny-continuous.urdf"), TINY_URDF.replace('<joint name="yaw" type="revolute">', '<joint name="yaw" type="continuous">'));
+    const yaml = join(work, "position_limits.yaml");
+    writeFileSync(yaml, "joint_limits:\n  yaw:\n    has_position_limits: true\n    min_position: -1.5\n    max_position: 1.25\n");
+    const out = join(work, "positions");
+    const r = await runCli(["generate", join(work, "tiny-continuous.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", out]);
+    expect(r.code, r.stderr).toBe(0);
+    const urdf = readFileSync(join(out, "robot.urdf"), "utf8");
+    const yaw = /<joint name="yaw" type="(\w+)"[\s\S]*?<limit [^>]*>/.exec(urdf);
+    expect(yaw?.[1]).toBe("revolute");
+    expect(yaw?.[0]).toMatch(/lower="-1.5"/);
+    expect(yaw?.[0]).toMatch(/upper="1.25"/);
+    const td = json(join(out, "td.json"));
+    const schema = td.properties.getJointPosition.properties.yaw;
+    expect([schema.minimum, schema.maximum]).toEqual([-1.5, 1.25]);
+    expect(json(join(out, "twin.json")).robot.limits.positions).toEqual({ yaw: [-1.5, 1.25] });
+    writeFileSync(yaml, "joint_limits:\n  yaw:\n    has_position_limits: true\n    min_position: 1\n    max_position: 1\n");
+    const bad = await runCli(["generate", join(work, "tiny-continuous.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", join(work, "never-positions")]);
+    expect(bad.code).toBe(1);
+    expect(bad.stderr).toContain("joint 'yaw': min_position 1.0 must be below max_position 1.0");
+    expect(existsSync(join(work, "never-positions"))).toBe(false);
+  }, 120_000);
+
   it("refuses an SRDF written for another robot (most of its names unknown) with file:line", async () => {
     const srdf = join(work, "other.srdf");
     writeFileSync(srdf, '<?xml version="1.0"?>\n<robot name="other">\n  <group name="arm">\n    <chain base_link="panda_link0" tip_link="panda_link8"/>\n  </group>\n</robot>\n');

@@ -145,3 +145,49 @@ def test_robot_description_of_a_launch_file(tmp_path: Path) -> None:
     c = find_moveit_config(cfg, {"tinyxacro_description": str(DESCRIPTION)})
     assert (c.urdf, c.xacro_args) == (DESCRIPTION / "urdf" / "arm.urdf.xacro", {"upper_length": "0.2"})
     assert c.srdf == cfg / "config" / "arm.srdf"
+
+
+def test_position_limits_bound_a_joint_and_make_a_continuous_one_revolute(tmp_path: Path) -> None:
+    """ros2_control's ``has_position_limits`` keys are read; the expansion writes them into ``<limit>``, a
+    continuous joint becoming revolute (its limits would be ignored); a fixed joint, an unknown one and
+    min >= max are refused naming the joint."""
+    import xml.etree.ElementTree as ET
+
+    from robwot_sim.model.moveit_config import joint_limits
+
+    f = tmp_path / "joint_limits.yaml"
+    f.write_text("joint_limits:\n  yaw:\n    has_position_limits: true\n    min_position: -1.5\n"
+                 "    max_position: 1.25\n  elbow:\n    has_position_limits: false\n    min_position: 0\n"
+                 "    max_position: 0.1\n")
+    limits = joint_limits(f)
+    assert limits.positions == {"yaw": (-1.5, 1.25)}
+    source = tmp_path / "arm.urdf"
+    source.write_text(
+        '<robot name="a"><link name="b"/><link name="t"/><link name="u"/>'
+        '<joint name="yaw" type="continuous"><parent link="b"/><child link="t"/><axis xyz="0 0 1"/></joint>'
+        '<joint name="bolt" type="fixed"><parent link="t"/><child link="u"/></joint></robot>')
+    urdf, _ = expand_xacro(source, {}, {}, {}, limits.positions)
+    yaw = next(j for j in ET.parse(urdf).getroot().iter("joint") if j.get("name") == "yaw")
+    limit = yaw.find("limit")
+    assert yaw.get("type") == "revolute" and limit is not None
+    assert (float(limit.get("lower", "nan")), float(limit.get("upper", "nan"))) == (-1.5, 1.25)
+    with pytest.raises(UrdfError, match="fixed joint 'bolt'"):
+        expand_xacro(source, {}, {}, {}, {"bolt": (0.0, 1.0)})
+    with pytest.raises(UrdfError, match="names joint 'knee'"):
+        expand_xacro(source, {}, {}, {}, {"knee": (0.0, 1.0)})
+    f.write_text("joint_limits:\n  yaw:\n    has_position_limits: true\n    min_position: 2\n"
+                 "    max_position: 1\n")
+    with pytest.raises(UrdfError, match=r"min_position 2\.0 must be below max_position 1\.0"):
+        joint_limits(f)
+    f.write_text("joint_limits:\n  yaw:\n    has_position_limits: true\n    min_position: -1\n")
+    with pytest.raises(UrdfError, match="max_position None must be a number"):
+        joint_limits(f)
+
+
+def test_the_shipped_m1_pro_limits_file_reads() -> None:
+    """examples/limits/dobot_m1pro.yaml (README "The paper's robots"): three rotary joints bounded."""
+    from robwot_sim.model.moveit_config import joint_limits
+
+    limits = joint_limits(Path(__file__).resolve().parents[2] / "examples" / "limits" / "dobot_m1pro.yaml")
+    assert set(limits.positions) == {"joint2", "joint3", "joint4"} and not limits.velocities
+    assert limits.positions["joint3"] == (-2.3562, 2.3562)

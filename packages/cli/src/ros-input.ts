@@ -26,8 +26,8 @@ export interface RosInput {
   xacro?: { file: string; args: Record<string, string> };
   /** the temporary folder of the expansion, if any (the caller removes it, or keeps it for an error) */
   expandedDir?: string;
-  /** `--limits`: the joint_limits.yaml's name and the velocity limits it put into the URDF */
-  limits?: { file: string; velocities: Record<string, number>; accelerations: Record<string, number> };
+  /** `--limits`: the joint_limits.yaml's name and the velocity and position limits it put into the URDF */
+  limits?: { file: string; velocities: Record<string, number>; accelerations: Record<string, number>; positions?: Record<string, [number, number]> };
   /** joint -> acceleration limit (rad/s^2 or m/s^2) of a MoveIt config's or `--limits`' joint_limits.yaml */
   accelerations?: Record<string, number>;
   /** `--tcp` / `--tool-mesh`: the flange the tool is mounted on, the TCP offset and the mesh's file name */
@@ -79,6 +79,7 @@ export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, sou
   let srdf = opts.srdf;
   let xacroArgs = opts.xacroArgs;
   let velocityLimits: Record<string, number> = {};
+  let positionLimits: Record<string, [number, number]> = {};
   let accelerations: Record<string, number> = {};
   let limitsRecord: RosInput["limits"];
   if (opts.moveitConfig !== undefined) {
@@ -90,13 +91,20 @@ export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, sou
     // are written into the expansion, never into the user's file
     xacroArgs = { ...definedStrings(config.xacroArgs), ...(opts.xacroArgs ?? {}) };
     velocityLimits = definedNumbers(config.velocityLimits);
+    positionLimits = definedRanges(config.positionLimits);
     accelerations = definedNumbers(config.accelerationLimits);
   }
   if (opts.limits !== undefined) {
-    // a joint_limits.yaml for any robot: its velocities go into the URDF through the same expansion
+    // a joint_limits.yaml for any robot: its velocities and positions go into the URDF through the same expansion
     const read = await sim.jointLimits({ file: opts.limits });
-    const limits = { velocities: definedNumbers(read.velocityLimits), accelerations: definedNumbers(read.accelerationLimits) };
+    const positions = definedRanges(read.positionLimits);
+    const limits = {
+      velocities: definedNumbers(read.velocityLimits),
+      accelerations: definedNumbers(read.accelerationLimits),
+      ...(Object.keys(positions).length > 0 ? { positions } : {}),
+    };
     velocityLimits = { ...velocityLimits, ...limits.velocities };
+    positionLimits = { ...positionLimits, ...positions };
     accelerations = { ...accelerations, ...limits.accelerations };
     xacroArgs ??= {};
     limitsRecord = { file: basename(opts.limits), ...limits };
@@ -105,7 +113,7 @@ export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, sou
   // a URDF has no acceleration limits: they go to twin.json and robot.load
   if (Object.keys(accelerations).length > 0) input.accelerations = accelerations;
   if (xacroArgs !== undefined) {
-    const expanded = await sim.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits });
+    const expanded = await sim.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits, positionLimits });
     input.urdf = expanded.urdf;
     input.expandedDir = dirname(expanded.urdf);
     input.packageRoots = definedStrings(expanded.packageRoots);
@@ -150,6 +158,12 @@ export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, sou
     if (input.toolDir !== undefined) rmSync(input.toolDir, { recursive: true, force: true });
     throw err;
   }
+}
+
+function definedRanges(values: Record<string, number[] | undefined>): Record<string, [number, number]> {
+  return Object.fromEntries(
+    Object.entries(values).flatMap(([k, v]) => (v !== undefined && v.length === 2 ? [[k, [v[0], v[1]] as [number, number]]] : [])),
+  );
 }
 
 function definedNumbers(values: Record<string, number | undefined>): Record<string, number> {

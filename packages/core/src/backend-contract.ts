@@ -179,6 +179,7 @@ export type RobotMoveitConfigResult = MoveitConfig;
 export type RobotJointLimitsResult = {
   velocityLimits: JointVelocities;
   accelerationLimits: JointAccelerations;
+  positionLimits: JointPositionLimits;
 };
 /**
  * Result of `robot.readSrdf`.
@@ -620,6 +621,7 @@ export interface MoveitConfig {
   packageRoots: PackageRoots;
   velocityLimits: JointVelocities;
   accelerationLimits: JointAccelerations;
+  positionLimits: JointPositionLimits;
 }
 /**
  * joint name -> velocity limit (rad/s or m/s) of controllable joints, as a MoveIt joint_limits.yaml gives them (`max_velocity`)
@@ -632,6 +634,16 @@ export interface JointVelocities {
  */
 export interface JointAccelerations {
   [k: string]: number | undefined;
+}
+/**
+ * joint name -> [lower, upper] position limits (rad or m) of controllable joints, as a joint_limits.yaml gives them (`has_position_limits`, `min_position`, `max_position`, the keys of ros2_control's joint limits); a continuous joint given them becomes revolute
+ */
+export interface JointPositionLimits {
+  /**
+   * @minItems 2
+   * @maxItems 2
+   */
+  [k: string]: [number, number] | undefined;
 }
 /**
  * an SRDF's groups (links, joints, chains, subgroups), named group states, end effectors (in file order)
@@ -1023,6 +1035,7 @@ export interface RobotExpandXacroParams {
   };
   packageRoots?: PackageRoots;
   velocityLimits?: JointVelocities;
+  positionLimits?: JointPositionLimits;
 }
 /**
  * Params of `robot.moveitConfig`.

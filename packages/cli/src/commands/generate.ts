@@ -51,7 +51,8 @@ Options:
                           an unknown joint or a value outside its limits is refused. generate warns when
                           the start pose collides, naming the bodies in contact
   --limits FILE           a MoveIt-style joint_limits.yaml: its max_velocity values (joints with
-                          has_velocity_limits) replace the URDF's <limit velocity> (over a --moveit-config's)
+                          has_velocity_limits) replace the URDF's <limit velocity> (over a --moveit-config's),
+                          min_position/max_position (has_position_limits) its <limit lower upper>
   --out DIR, -o DIR       output folder (default twins/<example name or URDF robot name>);
                           an existing twin there is replaced only on success
   --base-url URL          base URL of the servient for the TD (default ${DEFAULT_BASE_URL})

@@ -15,8 +15,10 @@ Where the files are, in the order the MoveIt setup assistant records them:
   ``config/*.srdf``.
 
 ``joint_limits.yaml``: ``joint_limits: {JOINT: {has_velocity_limits: true, max_velocity: V,
-has_acceleration_limits: true, max_acceleration: A}}``; MoveIt plans with these instead of the URDF's, so the
-twin does too (xacro_expand writes the velocities into the expanded URDF; the accelerations, which a URDF
+has_acceleration_limits: true, max_acceleration: A, has_position_limits: true, min_position: L, max_position:
+U}}`` (the position keys as ros2_control's joint limits have them); MoveIt plans with these instead of the
+URDF's, so the twin does too (xacro_expand writes the velocities and positions into the expanded URDF, a
+continuous joint given positions becoming revolute; the accelerations, which a URDF
 cannot carry, go to twin.json and ``robot.load``).
 
 The package is a jail, as a twin folder is (``confine.py``): every file read from it (``.setup_assistant``,
@@ -65,7 +67,8 @@ class MoveitConfig:
     def to_json(self) -> dict[str, Any]:
         return {"urdf": str(self.urdf), "xacroArgs": self.xacro_args, "srdf": str(self.srdf),
                 "packageRoots": self.package_roots, "velocityLimits": self.limits.velocities,
-                "accelerationLimits": self.limits.accelerations}
+                "accelerationLimits": self.limits.accelerations,
+                "positionLimits": {k: list(v) for k, v in self.limits.positions.items()}}
 
 
 def _in_package(path: Path, package: Path, named_by: str) -> Path:
@@ -137,42 +140,56 @@ def _launch_robot_description(config: Path, roots: dict[str, str]) -> tuple[Path
 @dataclass(frozen=True)
 class JointLimits:
     """What a ``joint_limits.yaml`` says: joint -> max velocity (rad/s or m/s), joint -> max acceleration
-    (rad/s^2 or m/s^2), each only for the joints whose ``has_..._limits`` is true."""
+    (rad/s^2 or m/s^2), joint -> (min, max) position (rad or m), each only for the joints whose
+    ``has_..._limits`` is true."""
 
     velocities: dict[str, float]
     accelerations: dict[str, float]
+    positions: dict[str, tuple[float, float]]
 
 
 def joint_limits(file: Path, *, required: bool = False) -> JointLimits:
-    """The velocity and acceleration limits of a MoveIt ``joint_limits.yaml``. A missing file gives none,
-    or FileNotFound when ``required`` (``robwot generate --limits FILE``)."""
+    """The velocity, acceleration and position limits of a MoveIt / ros2_control ``joint_limits.yaml``. A
+    missing file gives none, or FileNotFound when ``required`` (``robwot generate --limits FILE``)."""
     if not file.is_file():
         if required:
             raise FileNotFound(str(file), what="joint limits file")
-        return JointLimits({}, {})
+        return JointLimits({}, {}, {})
     doc = load_yaml(file)
     table = doc.get("joint_limits") if isinstance(doc, dict) else None
     if not isinstance(table, dict):
         raise UrdfError("no joint_limits: mapping", file=str(file))
     if len(table) > MAX_LIMITED_JOINTS:
-        # its velocities and accelerations are handed on whole (robot.expandXacro, robot.load): a robot
-        # has tens of joints, and the contract takes at most this many
+        # its limits are handed on whole (robot.expandXacro, robot.load): a robot has tens of joints, and
+        # the contract takes at most this many
         raise UrdfError(f"joint_limits names {len(table)} joints, more than the {MAX_LIMITED_JOINTS} a robot "
                         "may have limits for: refused whole", file=str(file), joints=len(table),
                         limit=MAX_LIMITED_JOINTS)
-    out = JointLimits({}, {})
+    out = JointLimits({}, {}, {})
     for joint, limits in table.items():
         if not isinstance(limits, dict):
             continue
         for flag, key, into in (("has_velocity_limits", "max_velocity", out.velocities),
                                 ("has_acceleration_limits", "max_acceleration", out.accelerations)):
-            if not limits.get(flag) or key not in limits:
-                continue
-            v = limits[key]
-            if not isinstance(v, int | float) or isinstance(v, bool) or not 0 < float(v) < 1e4:
-                raise UrdfError(f"joint {joint!r}: {key} {v!r} must be a positive number", file=str(file))
-            into[str(joint)] = float(v)
+            if limits.get(flag) and key in limits:
+                into[str(joint)] = _number(file, joint, key, limits[key], positive=True)
+        if limits.get("has_position_limits"):
+            lower, upper = (_number(file, joint, key, limits.get(key))
+                            for key in ("min_position", "max_position"))
+            if not lower < upper:
+                raise UrdfError(f"joint {joint!r}: min_position {lower!r} must be below max_position "
+                                f"{upper!r}", file=str(file), joint=str(joint))
+            out.positions[str(joint)] = (lower, upper)
     return out
+
+
+def _number(file: Path, joint: object, key: str, v: object, *, positive: bool = False) -> float:
+    """A limit's value: a number, positive where ``positive``, within 10^4 (rad, m, and per second)."""
+    if not isinstance(v, int | float) or isinstance(v, bool) or not -1e4 < float(v) < 1e4 \
+            or (positive and not float(v) > 0):
+        raise UrdfError(f"joint {joint!r}: {key} {v!r} must be a {'positive ' if positive else ''}number "
+                        "within 10^4", file=str(file), joint=str(joint))
+    return float(v)
 
 
 def find_moveit_config(folder: str | Path, package_roots: Mapping[str, str] | None = None) -> MoveitConfig:

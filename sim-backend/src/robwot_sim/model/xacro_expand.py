@@ -201,22 +201,38 @@ def _run_child(xacro_file: Path, args: Mapping[str, str], package_roots: Mapping
     raise failure
 
 
-def _set_velocities(root: ET.Element, src: Path, limits: Mapping[str, float]) -> None:
+def _set_limits(root: ET.Element, src: Path, velocities: Mapping[str, float],
+                positions: Mapping[str, tuple[float, float]]) -> None:
+    """A joint_limits.yaml's velocities and positions written into the joints' ``<limit>``; a continuous
+    joint given positions becomes revolute (a URDF's continuous joint has no position limits)."""
     joints = {j.get("name"): j for j in root.findall("joint")}
-    for name, velocity in limits.items():
+
+    def limit_of(name: str) -> ET.Element:
         joint = joints.get(name)
         if joint is None:
             raise UrdfError(f"joint_limits.yaml names joint {name!r}, which the robot does not have (joints: "
                             f"{', '.join(sorted(str(j) for j in joints))})", file=str(src), joint=name)
+        if joint.get("type") == "fixed":
+            raise UrdfError(f"joint_limits.yaml gives limits to the fixed joint {name!r}", file=str(src),
+                            joint=name)
         limit = joint.find("limit")
-        if limit is None:
-            limit = ET.SubElement(joint, "limit", {"effort": "0"})
-        limit.set("velocity", repr(float(velocity)))
+        return limit if limit is not None else ET.SubElement(joint, "limit", {"effort": "0", "velocity": "0"})
+
+    for name, velocity in velocities.items():
+        limit_of(name).set("velocity", repr(float(velocity)))
+    for name, (lower, upper) in positions.items():
+        limit = limit_of(name)
+        limit.set("lower", repr(float(lower)))
+        limit.set("upper", repr(float(upper)))
+        if joints[name].get("type") == "continuous":
+            joints[name].set("type", "revolute")
 
 
 def expand_xacro(xacro: str | Path, args: Mapping[str, str] | None = None,
                  package_roots: Mapping[str, str] | None = None,
-                 velocity_limits: Mapping[str, float] | None = None) -> tuple[Path, dict[str, str]]:
+                 velocity_limits: Mapping[str, float] | None = None,
+                 position_limits: Mapping[str, tuple[float, float]] | None = None,
+                 ) -> tuple[Path, dict[str, str]]:
     """Expand ``xacro`` (with ``args``, xacro's ``NAME:=VALUE`` arguments) into a URDF file in a new
     temporary folder. Returns (that file, package roots to load it with: ``package_roots`` plus every
     package the expansion or its meshes used, and the xacro's folder under SOURCE_ROOT).
@@ -225,7 +241,8 @@ def expand_xacro(xacro: str | Path, args: Mapping[str, str] | None = None,
     UnknownPackage (``$(find)`` or ``package://`` naming a package found nowhere: says which option fixes
     it) or UrdfError (xacro's own error, with the file and, for XML errors, the line; an expansion that
     still holds ``${...}``/``$(...)``). ``velocity_limits`` (joint -> max velocity, a MoveIt config's
-    joint_limits.yaml) replace the URDF's ``<limit velocity>``; a joint the URDF lacks is refused."""
+    joint_limits.yaml) replace the URDF's ``<limit velocity>``, ``position_limits`` (joint -> (lower, upper))
+    its ``lower``/``upper`` (``_set_limits``); a joint the URDF lacks is refused."""
     src = Path(xacro).expanduser()
     if not src.is_file():
         raise FileNotFound(str(src), what="xacro file")
@@ -242,7 +259,7 @@ def expand_xacro(xacro: str | Path, args: Mapping[str, str] | None = None,
     if root.tag != "robot":
         raise UrdfError(f"expands to <{root.tag}>, expected <robot>", file=str(src))
     refuse_unexpanded(UrdfDoc(root, src, {}))  # names the xacro file: its expansion's lines are not its own
-    _set_velocities(root, src, velocity_limits or {})
+    _set_limits(root, src, velocity_limits or {}, position_limits or {})
     out_roots = {**roots, **answer["packages"], SOURCE_ROOT: str(src.parent)}
     enclosing = enclosing_packages(src.parent)
     for el in root.iter("mesh"):

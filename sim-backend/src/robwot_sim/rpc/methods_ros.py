@@ -34,7 +34,9 @@ def register(d: Dispatcher, s: Services) -> None:
     async def expand(p: Params, call: Call) -> dict[str, Any]:
         args, roots = _strings(p["args"]), _strings(p["packageRoots"])
         limits = {str(k): float(v) for k, v in dict(p["velocityLimits"]).items()}
-        urdf, package_roots = await s.off_world(lambda: expand_xacro(p["xacro"], args, roots, limits))
+        positions = {str(k): (float(v[0]), float(v[1])) for k, v in dict(p["positionLimits"]).items()}
+        urdf, package_roots = await s.off_world(
+            lambda: expand_xacro(p["xacro"], args, roots, limits, positions))
         return {"urdf": str(urdf), "packageRoots": package_roots}
 
     @d.method("robot.moveitConfig")
@@ -47,7 +49,8 @@ def register(d: Dispatcher, s: Services) -> None:
     async def joint_limits(p: Params, call: Call) -> dict[str, Any]:
         file = Path(p["file"]).expanduser()
         limits = await s.off_world(lambda: read_joint_limits(file, required=True))
-        return {"velocityLimits": limits.velocities, "accelerationLimits": limits.accelerations}
+        return {"velocityLimits": limits.velocities, "accelerationLimits": limits.accelerations,
+                "positionLimits": {k: list(v) for k, v in limits.positions.items()}}
 
     @d.method("robot.readSrdf")
     async def srdf(p: Params, call: Call) -> dict[str, Any]:
