@@ -6,8 +6,12 @@
  * unanswered past the deadline has hung (or was stopped). It is then killed (an own backend) or dropped (a
  * shared one), which fails every pending call at once, with that reason instead of waiting.
  */
-import { BackendSupervisor, launchConnector, urlConnector, type SimClient } from "@robwot/sim-client";
+import { BackendDownError, BackendSupervisor, ConnectionClosedError, launchConnector, urlConnector, type SimClient } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
+
+/** How long a dropped connection waits for its process's end to be known (the exit follows the socket's
+ *  close within milliseconds; a process still alive after this is reported as the socket saw it). */
+const EXIT_WAIT_MS = 2000;
 
 export class BackendGuard {
   private closing: Promise<void> | null = null;
@@ -19,6 +23,11 @@ export class BackendGuard {
     /** a backend someone else runs (`--backend`): left with an empty world, as found */
     private readonly shared: boolean,
   ) {}
+
+  /** The process id of an own backend (undefined for `--backend`). */
+  get pid(): number | undefined {
+    return this.shared ? undefined : this.supervisor.pid;
+  }
 
   /** The typed client; once the backend was declared dead, every call fails with the reason. */
   get sim(): SimClient {
@@ -53,6 +62,16 @@ export class BackendGuard {
       await supervisor.stop().catch(() => undefined);
       throw err;
     }
+  }
+
+  /**
+   * The error to report for `err`: a connection that closed under a call, when our own backend process has
+   * ended, says how it ended (exit code or signal, and a native crash's report) instead of the socket's code.
+   */
+  async explain(err: unknown): Promise<unknown> {
+    if (!(err instanceof ConnectionClosedError || err instanceof BackendDownError) || this.shared) return err;
+    const how = await this.supervisor.exitReason(EXIT_WAIT_MS);
+    return how === undefined ? err : new CliError(`the simulation backend ${how}`, "E_BACKEND", 1);
   }
 
   /** Leaves the world as found (when connected to a running backend) and stops an own backend. Idempotent. */

@@ -7,7 +7,7 @@ export type { BackendEvents, ExitInfo, LaunchOptions } from "./launcher.js";
 export { BackendDownError, BackendStartError, ConnectionClosedError, isRpcError, RpcError, RpcTimeoutError } from "./errors.js";
 export { BackendSupervisor, DEFAULT_DEADLINES } from "./supervisor.js";
 export type { Deadlines, SimConnector, SimSession, SupervisorEvents, SupervisorOptions } from "./supervisor.js";
-export { launchConnector, urlConnector } from "./connectors.js";
+export { describeExit, launchConnector, urlConnector } from "./connectors.js";
 export { startHeartbeat } from "./heartbeat.js";
 export type { HeartbeatOptions } from "./heartbeat.js";
 export type { RpcErrorData } from "./errors.js";

@@ -33,6 +33,8 @@ export interface SimSession extends RpcCaller {
   readonly pid?: number | undefined;
   /** Ends a backend that does not answer, at once (SIGKILL a launched process, drop a connection). */
   kill(): void;
+  /** A launched process: resolves when it has exited, with how (code or signal) and its last words. */
+  readonly exited?: Promise<string>;
 }
 
 /** The supervisor's deadlines in ms; the defaults are the contract's (`TRANSPORT`, the why of each there). */
@@ -74,6 +76,8 @@ export interface SupervisorOptions {
 
 export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   private session: SimSession | null = null;
+  /** the session that closed last (its process's end stays readable: `exitReason`) */
+  private lastSession: SimSession | null = null;
   private up = false;
   private stopping = false;
   private recovering: Promise<void> | null = null;
@@ -133,6 +137,23 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
   /** Why the backend was declared dead (a ping or a call unanswered in time); null while it answers. */
   get deadReason(): string | null {
     return this.dead;
+  }
+
+  /**
+   * How the launched backend of the current or last session ended (exit code or signal, its last words
+   * on stderr), once it has, waiting at most `withinMs`; undefined for a connection to a running backend
+   * or a process still alive then.
+   */
+  async exitReason(withinMs: number): Promise<string | undefined> {
+    const exited = (this.session ?? this.lastSession)?.exited;
+    if (exited === undefined) return undefined;
+    let timer: ReturnType<typeof setTimeout> | undefined;
+    const late = new Promise<undefined>((resolve) => (timer = setTimeout(() => resolve(undefined), withinMs)));
+    try {
+      return await Promise.race([exited, late]);
+    } finally {
+      clearTimeout(timer);
+    }
   }
 
   get pid(): number | undefined {
@@ -257,6 +278,7 @@ export class BackendSupervisor extends EventEmitter<SupervisorEvents> {
     if (this.session !== s || this.stopping) return;
     this.clearHeartbeat();
     this.up = false;
+    this.lastSession = s;
     this.session = null;
     this.ended = s.close().catch(() => undefined); // a dead session is already gone: closing only waits for it
     this.emit("down", this.dead ?? "backend connection closed");

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import faulthandler
 import json
 import logging
 import os
@@ -50,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
     ready_fd = os.dup(1)
     os.dup2(2, 1)
     sys.stdout = sys.stderr
+    # a crash in native code (PyBullet, CoACD) leaves every thread's Python stack on stderr, which the
+    # launcher hands to whoever sees the connection drop
+    faulthandler.enable()
     logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     from robwot_sim.server.app import run_server

@@ -119,7 +119,9 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
     // (the backend may have written into it meanwhile)
     const dropEarly = onCleanup(() => staged.discard());
     try {
-      const result = await generateTwin(opts, backend, staged, progress);
+      const result = await generateTwin(opts, backend, staged, progress).catch(async (err: unknown) => {
+        throw await backend.explain(err);
+      });
       const seconds = (performance.now() - t0) / 1000;
       if (opts.json) process.stdout.write(`${JSON.stringify({ ok: true, ...result, seconds }, null, 2)}\n`);
       else printHuman(result, seconds);
