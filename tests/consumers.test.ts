@@ -164,9 +164,14 @@ describe("pick-and-place", () => {
 
 describe("observe-joints", () => {
   it("receives live WebSocket and long-poll updates (with credentials) while the robot moves; the last equals the final pose", async () => {
-    const run = await runScenario("observe-joints", [tdUrl(live), "--seconds", "2", "--quiet"], AUTH_ENV);
+    const run = await runScenario("observe-joints", [tdUrl(live), "--seconds", "2"], AUTH_ENV);
     expect(run.code, run.stderr).toBe(0);
-    const { moves, motionSeconds, observers, lastWs } = run.result;
+    const { moves, motionSeconds, observers, lastWs, lastPoll } = run.result;
+    // by default a summary line per second of observation, not a line per update
+    const lines = run.stdout.split("\n").filter((l) => /^\[\+[\d.]+ s\] updates: /.test(l));
+    expect(lines.length).toBeGreaterThanOrEqual(1);
+    expect(lines.length).toBeLessThanOrEqual(Math.floor(Math.max(lastWs.t, lastPoll?.t ?? 0)));
+    expect(run.stdout).not.toMatch(/^\[\+[\d.]+ s\] (ws|poll) +lbr_iiwa_joint_1=/m);
     expect(moves).toBeGreaterThanOrEqual(1);
     expect(motionSeconds).toBeGreaterThan(0);
     const ws = observers.find((o: any) => o.source === "ws");
@@ -221,6 +226,10 @@ describe("program", () => {
     expect(run.code, run.stdout + run.stderr).toBe(0);
     const { report, run: result, wall, atHome } = run.result;
     expect(report.valid).toBe(true);
+    // the trajectory summed up, its samples only with --verbose
+    expect(report.trajectory.samples).toBeGreaterThan(1);
+    expect(run.stdout).toContain(`trajectory: ${report.trajectory.samples} samples at`);
+    expect(run.stdout).not.toMatch(/^ +t=/m);
     expect([1, 2, 4, 5].map((k) => report.steps[k].planned)).toEqual(["lin", "lin", "lin", "lin"]);
     expect(result.status).toBe("reached");
     expect(result.duration).toBeCloseTo(report.cycleTime, 9);

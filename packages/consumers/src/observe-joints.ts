@@ -6,11 +6,13 @@
  *  - `poll`: node-wot `observeProperty("getJointPosition")` (HTTP long-poll; node-wot 0.9.2 delivers one
  *    value per poll, so it sees fewer updates than the WebSocket).
  * Meanwhile a separate node-wot request moves the robot back and forth between two validated joint
- * targets. Each update is printed with its time since start; at the end the update rate of each
- * observer, measured while the robot was moving, is printed.
+ * targets. Once a second a line says how many updates each observer received, how many moves ended and
+ * the latest joints (`--verbose`: every update, status message and move's end with its time since start;
+ * `--quiet`: neither); at
+ * the end the update rate of each observer, measured while the robot was moving, is printed.
  *
  *   node packages/consumers/dist/observe-joints.js [TD URL] [--seconds 5] [--speed 1] [--via ws|poll|both]
- *        [--no-move] [--quiet] [--json]
+ *        [--no-move] [--quiet | --verbose] [--json]
  */
 import { numberOption, speedOption, parseArgs, stringOption, UsageError } from "./lib/args.js";
 import { defaultTdUrl, invoke, openSession, read, type Twin } from "./lib/connect.js";
@@ -22,7 +24,10 @@ import { jointLimits } from "@robwot/core";
 import type { MoveOutput } from "./lib/types.js";
 import type * as WoTTypes from "wot-typescript-definitions";
 
-const USAGE = "observe-joints [TD URL] [--seconds N] [--speed 0..1] [--via ws|poll|both] [--no-move] [--quiet] [--json]";
+const USAGE = "observe-joints [TD URL] [--seconds N] [--speed 0..1] [--via ws|poll|both] [--no-move] [--quiet | --verbose] [--json]";
+
+/** What is printed while observing: nothing, a line a second, or every update. */
+type Output = "quiet" | "summary" | "verbose";
 
 interface Update {
   source: "ws" | "poll";
@@ -43,7 +48,7 @@ interface ObserveOptions {
   seconds: number;
   speed: number;
   via: string;
-  quiet: boolean;
+  output: Output;
   /** move the robot back and forth (false: `--no-move`, just watch) */
   move: boolean;
   json: boolean;
@@ -55,6 +60,7 @@ function parseObserveArgs(argv: string[]): ObserveOptions {
     speed: "value",
     via: "value",
     quiet: "flag",
+    verbose: "flag",
     "no-move": "flag",
     json: "flag",
   });
@@ -63,7 +69,9 @@ function parseObserveArgs(argv: string[]): ObserveOptions {
   const speed = speedOption(args, 1);
   const via = stringOption(args, "via") ?? "both";
   if (!["ws", "poll", "both"].includes(via)) throw new UsageError(`--via must be ws, poll or both, got ${via}`);
-  return { url, seconds, speed, via, quiet: args.options.has("quiet"), move: !args.options.has("no-move"), json: args.options.has("json") };
+  if (args.options.has("quiet") && args.options.has("verbose")) throw new UsageError("--quiet and --verbose exclude each other");
+  const output: Output = args.options.has("quiet") ? "quiet" : args.options.has("verbose") ? "verbose" : "summary";
+  return { url, seconds, speed, via, output, move: !args.options.has("no-move"), json: args.options.has("json") };
 }
 
 /** The observers' updates and the motion windows, timed from the start of the observation. */
@@ -76,8 +84,11 @@ class Observation {
   /** set once the observers are being stopped: their errors then are expected */
   stopping = false;
   private t0 = performance.now();
+  /** summary output: updates per observer since the last line, and when the next line is due (s) */
+  private readonly counts = { ws: 0, poll: 0, moves: 0 };
+  private nextLine = 1;
 
-  constructor(private readonly quiet: boolean) {}
+  constructor(private readonly output: Output) {}
 
   /** Observation starts now. */
   start(): void {
@@ -91,7 +102,25 @@ class Observation {
   record(source: Update["source"], joints: Joints): void {
     const u: Update = { source, t: this.now(), joints };
     this.updates.push(u);
-    if (!this.quiet) console.log(`[+${fmt(u.t)} s] ${source.padEnd(4)} ${fmtJoints(joints)}`);
+    if (this.output === "verbose") console.log(`[+${fmt(u.t)} s] ${source.padEnd(4)} ${fmtJoints(joints)}`);
+    if (this.output !== "summary") return;
+    this.counts[source]++;
+    if (u.t < this.nextLine) return;
+    const counts = (["ws", "poll"] as const).filter((s) => this.counts[s] > 0).map((s) => `${s} ${this.counts[s]}`);
+    console.log(`[+${fmt(u.t, 1)} s] updates: ${counts.join(", ")}; moves ended: ${this.counts.moves}; latest ${fmtJoints(joints)}`);
+    this.counts.ws = this.counts.poll = this.counts.moves = 0;
+    this.nextLine = Math.floor(u.t) + 1;
+  }
+
+  /** A move's end: a line with --verbose, counted in the next summary line by default. */
+  moveEnded(line: string): void {
+    this.counts.moves++;
+    this.detail(line);
+  }
+
+  /** A line printed only with --verbose (a status message). */
+  detail(line: string): void {
+    if (this.output === "verbose") console.log(`[+${fmt(this.now())} s] ${line}`);
   }
 
   fail(source: string): (err: Error) => void {
@@ -104,7 +133,7 @@ class Observation {
 async function main(): Promise<void> {
   const opts = parseObserveArgs(process.argv.slice(2));
   const session = await openSession();
-  const obs = new Observation(opts.quiet);
+  const obs = new Observation(opts.output);
   try {
     const twin = await session.connect(opts.url);
     console.log(`Observing "${twin.td.title ?? "?"}" (${opts.url}) for ${opts.seconds} s via ${opts.via}`);
@@ -136,7 +165,7 @@ async function startObservers(twin: Twin, obs: Observation, opts: ObserveOptions
         twin,
         (msg) => {
           if (msg.type === "joints" && msg.joints !== undefined) obs.record("ws", msg.joints);
-          else if (msg.type === "status" && !opts.quiet) console.log(`[+${fmt(obs.now())} s] ws   status ${String(msg["state"])}`);
+          else if (msg.type === "status") obs.detail(`ws   status ${String(msg["state"])}`);
         },
         obs.fail("ws"),
       );
@@ -176,7 +205,7 @@ async function moveBackAndForth(twin: Twin, obs: Observation, opts: ObserveOptio
     const result = await invoke<MoveOutput>(twin, "moveToJointPosition", { joints: toward, speed: opts.speed });
     obs.moves.push([a, obs.now()]);
     simulated += result.duration;
-    if (!opts.quiet) console.log(`[+${fmt(obs.now())} s] move ${result.status} after ${fmt(result.duration)} s`);
+    obs.moveEnded(`move ${result.status} after ${fmt(result.duration)} s`);
     toward = toward === away ? start : away;
   }
   return simulated;

@@ -10,9 +10,10 @@
  * stations on the other axis, then without a fixed orientation (the PTP's IK chooses one, the LINs keep
  * it), then closer to the middle. The accepted program runs with `runProgram`: the scenario prints each
  * step's planned duration, the cycle time, and the simulated duration and wall time of the run; the
- * simulated duration must equal the cycle time.
+ * simulated duration must equal the cycle time. The trajectory validateProgram answers is summed up in one
+ * line (samples, rate, time span); `--verbose` prints its samples (and keeps it in the `--json` summary).
  *
- *   node packages/consumers/dist/program.js [TD URL] [--lift 0.08] [--tcp-speed 0.2] [--json]
+ *   node packages/consumers/dist/program.js [TD URL] [--lift 0.08] [--tcp-speed 0.2] [--verbose] [--json]
  */
 import { numberOption, parseArgs } from "./lib/args.js";
 import { defaultTdUrl, invoke, openSession, read } from "./lib/connect.js";
@@ -21,7 +22,7 @@ import { runScenario } from "./lib/run.js";
 import { tableStations } from "./lib/targets.js";
 import { cartesianBounds, xyz, type Vec3 } from "@robwot/core";
 
-const USAGE = "program [TD URL] [--lift 0.01..0.3] [--tcp-speed 0.01..1] [--json]";
+const USAGE = "program [TD URL] [--lift 0.01..0.3] [--tcp-speed 0.01..1] [--verbose] [--json]";
 /** the end-effector frame's z axis pointing down (a half turn about x), quaternion {x, y, z, w} */
 const DOWN = { x: 1, y: 0, z: 0, w: 0 };
 
@@ -30,6 +31,7 @@ interface ProgramReport {
   firstFailingStep?: number;
   cycleTime: number;
   steps: { step: number; ok: boolean; reasons: string[]; duration: number; planned?: string }[];
+  trajectory?: { rate: number; names: string[]; positions: number[][] };
 }
 
 interface RunResult {
@@ -40,6 +42,24 @@ interface RunResult {
 }
 
 type Step = Record<string, unknown>;
+
+/** The trajectory in one line, or (verbose) a line per sample: time (s) and joints (rad or m). */
+function printTrajectory(report: ProgramReport, verbose: boolean): void {
+  const t = report.trajectory;
+  if (!t) return;
+  const span = t.positions.length > 1 ? (t.positions.length - 1) / t.rate : 0;
+  console.log(`trajectory: ${t.positions.length} samples at ${Number(t.rate.toFixed(3))} Hz over ${fmt(span, 3)} s${verbose ? "" : " (--verbose prints them)"}`);
+  if (!verbose) return;
+  t.positions.forEach((q, i) => console.log(`  t=${fmt(i / t.rate, 3)} s ${t.names.map((n, j) => `${n}=${fmt(q[j] ?? NaN, 4)}`).join(" ")}`));
+}
+
+/** The report as the `--json` summary carries it: the trajectory's sample count instead of its samples
+ *  unless verbose. */
+function reported(report: ProgramReport, verbose: boolean): unknown {
+  if (verbose || !report.trajectory) return report;
+  const { trajectory, ...rest } = report;
+  return { ...rest, trajectory: { rate: trajectory.rate, names: trajectory.names, samples: trajectory.positions.length } };
+}
 
 /** The pick-and-place program from `pick` to `place`, approached `lift` m above, back to `home`. */
 function pickAndPlace(home: Record<string, number>, pick: Vec3, place: Vec3, lift: number, tcpSpeed: number, down: boolean): { label: string; step: Step }[] {
@@ -56,7 +76,8 @@ function pickAndPlace(home: Record<string, number>, pick: Vec3, place: Vec3, lif
 }
 
 async function main(): Promise<void> {
-  const args = parseArgs(process.argv.slice(2), { lift: "value", "tcp-speed": "value", json: "flag" });
+  const args = parseArgs(process.argv.slice(2), { lift: "value", "tcp-speed": "value", verbose: "flag", json: "flag" });
+  const verbose = args.options.has("verbose");
   const url = args.positional[0] ?? defaultTdUrl();
   const lift = numberOption(args, "lift", 0.08, 0.01, 0.3);
   const tcpSpeed = numberOption(args, "tcp-speed", 0.2, 0.01, 1);
@@ -95,10 +116,11 @@ async function main(): Promise<void> {
     const { pick, place } = chosen;
     const rows = report.steps.map((s) => [String(s.step), program[s.step]?.label ?? "", s.planned ?? "", s.ok ? "ok" : s.reasons.join("; "), `${fmt(s.duration, 3)} s`]);
     console.log(table(["step", "what", "path", "verdict", "duration"], rows));
+    printTrajectory(report, verbose);
     if (!report.valid) {
       console.log(`the program is refused at step ${report.firstFailingStep}: nothing runs`);
       process.exitCode = 1;
-      if (args.options.has("json")) printJsonSummary({ pick, place, report });
+      if (args.options.has("json")) printJsonSummary({ pick, place, report: reported(report, verbose) });
       return;
     }
     console.log(`cycle time ${fmt(report.cycleTime, 3)} s; running it`);
@@ -110,7 +132,7 @@ async function main(): Promise<void> {
     const atHome = Object.keys(home).every((j) => Math.abs((back[j] ?? NaN) - (home[j] ?? NaN)) < 1e-6);
     console.log(`back home: ${atHome ? "yes" : "no"}`);
     if (run.status !== "reached" || Math.abs(run.duration - report.cycleTime) > 1e-6 || !atHome) process.exitCode = 1;
-    if (args.options.has("json")) printJsonSummary({ pick, place, report, run, wall, atHome });
+    if (args.options.has("json")) printJsonSummary({ pick, place, report: reported(report, verbose), run, wall, atHome });
   } finally {
     await session.close();
   }

@@ -34,7 +34,8 @@ export interface DebugState {
   /** The physical robot the twin follows (`/live` `physical`): its joints, the reading's age (s), whether it
    *  is drawn and the simulated robot shown as a ghost; null when the twin follows nothing. */
   physical: { joints: Record<string, number>; age: number | null; drawn: boolean; ghost: boolean } | null;
-  /** The program drawn by the program panel (TCP points per passed step, the refused step), null before one. */
+  /** The program drawn by the program panel (TCP points per passed step, the refused step) and plotted (joint
+   *  positions and velocities, TCP speed over time), null before one. */
   program: ProgramDrawn | null;
   errors: string[];
   twins: string[];

@@ -3,12 +3,14 @@
  * draws the TCP path of the timed trajectory the twin answers, one colour per step, and marks a refused
  * step red from where the program stands to its target; "Play" runs a marker along that path at the
  * trajectory's own time; "Run" asks the twin to run the program (the live stream then moves the model).
- * "Example" writes a program from the current pose: a LIN square of 10 cm and back home.
+ * "Example" writes a program from the current pose: a LIN square of 10 cm and back home. Below the verdict,
+ * `program-plots.ts` plots the validated trajectory: joint positions, joint velocities and the TCP speed.
  */
 import { BufferGeometry, Group, Line, LineBasicMaterial, LineDashedMaterial, Mesh, MeshBasicMaterial, SphereGeometry, Vector3 } from "three";
 import { el, fmt } from "./dom.js";
 import { showError } from "./errors.js";
 import { isRecord } from "./http.js";
+import { ProgramPlots, type PlotsDrawn } from "./program-plots.js";
 import type { Stage } from "./stage.js";
 import { invokeAction, type TwinTd } from "./td.js";
 
@@ -47,6 +49,8 @@ export interface ProgramDrawn {
   /** the refused step drawn red, if any */
   failing: number | null;
   played: number;
+  /** what the plots show (joint positions and velocities, TCP speed over time); null before a validation */
+  plots: PlotsDrawn | null;
 }
 
 const COLOURS = [0x1f77b4, 0x2ca02c, 0x9467bd, 0x8c564b, 0x17becf, 0xbcbd22];
@@ -58,6 +62,7 @@ export class ProgramPanel {
   private readonly marker = new Mesh(new SphereGeometry(0.015, 12, 6), new MeshBasicMaterial({ color: 0xff8800 }));
   private path: { points: Xyz[]; rate: number } | null = null;
   private playing: { t0: number } | null = null;
+  private readonly plots: ProgramPlots;
 
   constructor(
     parent: HTMLElement,
@@ -71,6 +76,8 @@ export class ProgramPanel {
       b.addEventListener("click", () => void Promise.resolve(run()).catch((err: unknown) => showError(`program: ${text}`, err)));
       return b;
     };
+    const units = new Map(td.joints.map((j) => [j.name, j.unit]));
+    this.plots = new ProgramPlots((joint) => units.get(joint) ?? "");
     this.marker.visible = false;
     this.layer.add(this.marker);
     stage.add(this.layer);
@@ -83,6 +90,7 @@ export class ProgramPanel {
         this.text,
         el("div", { class: "row" }, button("Example", () => this.example()), button("Validate", () => this.validate()), button("Play", () => this.play()), button("Run", () => this.run())),
         this.verdict,
+        this.plots.element,
       ),
     );
   }
@@ -141,7 +149,7 @@ export class ProgramPanel {
     return true;
   }
 
-  private drawn: ProgramDrawn = { valid: false, cycleTime: 0, points: [], failing: null, played: 0 };
+  private drawn: ProgramDrawn = { valid: false, cycleTime: 0, points: [], failing: null, played: 0, plots: null };
 
   private say(ok: boolean, text: string): void {
     this.verdict.hidden = false;
@@ -159,13 +167,17 @@ export class ProgramPanel {
     const { names, positions, rate } = report.trajectory;
     const tcp = this.view.tcpOf(names, positions);
     const points: number[] = [];
+    const marks: number[] = [];
     let at = 0;
+    let end = 0;
     for (const s of report.steps.filter((v) => v.ok)) {
       const n = Math.round(s.duration * rate);
       const part = tcp.slice(at, Math.min(tcp.length, at + n + 1));
       this.layer.add(line(part, new LineBasicMaterial({ color: COLOURS[s.step % COLOURS.length] })));
       points.push(part.length);
       at += n;
+      end += s.duration;
+      marks.push(end);
     }
     let failing: number | null = null;
     if (report.firstFailingStep !== undefined) {
@@ -180,7 +192,9 @@ export class ProgramPanel {
       }
     }
     this.path = { points: tcp, rate };
-    this.drawn = { valid: report.valid, cycleTime: report.cycleTime, points, failing, played: this.drawn.played };
+    const plots = positions.length > 0 ? this.plots.show(report.trajectory, tcp, marks.slice(0, -1), end) : null;
+    if (!plots) this.plots.hide();
+    this.drawn = { valid: report.valid, cycleTime: report.cycleTime, points, failing, played: this.drawn.played, plots };
     this.onDrawn(this.drawn);
   }
 

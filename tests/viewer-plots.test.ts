@@ -1,0 +1,172 @@
+/**
+ * The program panel's plots in a real browser: `robwot generate` -> servient (in-process, port 0) -> the
+ * viewer in Debian's headless Chromium (playwright-core). A program of joint steps validated through the
+ * panel is plotted (joint positions and velocities, TCP speed over time); what the plots show equals the
+ * validateProgram answer a node-wot consumer gets for the same steps; a refused program is plotted up to
+ * its refused step. Screenshots of the panel go to
+ * test-artifacts/ and, with ROBWOT_UPDATE_SCREENSHOTS=1, the viewer README's into packages/viewer/docs/.
+ */
+import { spawn } from "node:child_process";
+import { existsSync, mkdirSync, mkdtempSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join, resolve } from "node:path";
+import { afterAll, beforeAll, describe, expect, it } from "vitest";
+import { invoke, openSession, read, type Session, type Twin } from "@robwot/consumers";
+import { startServient } from "@robwot/servient";
+import { CHROMIUM, openBrowser, pixelStats, type BrowserSession } from "./helpers/browser.js";
+import { waitFor } from "./helpers/wait.js";
+
+const ROOT = resolve(import.meta.dirname, "..");
+const CLI = join(ROOT, "packages/cli/dist/main.js");
+const ARTIFACTS = join(ROOT, "test-artifacts");
+/** The README's screenshots are taken again only on request (ROBWOT_UPDATE_SCREENSHOTS=1): a test run leaves the tree as it found it. */
+const DOCS = process.env["ROBWOT_UPDATE_SCREENSHOTS"] === "1" ? join(ROOT, "packages/viewer/docs") : null;
+
+type Joints = Record<string, number>;
+interface Plots {
+  rate: number;
+  samples: number;
+  timeSpan: number;
+  joints: string[];
+  units: string[];
+  positions: Record<string, number[]>;
+  maxVelocity: Record<string, number>;
+  maxTcpSpeed: number | null;
+}
+interface Debug {
+  phase: string;
+  liveConnected: boolean;
+  framesApplied: number;
+  errors: string[];
+  program: { valid: boolean; cycleTime: number; plots: Plots | null } | null;
+}
+interface Report {
+  valid: boolean;
+  firstFailingStep?: number;
+  steps: { ok: boolean; duration: number }[];
+  cycleTime: number;
+  trajectory: { rate: number; names: string[]; positions: number[][] };
+}
+
+function run(cmd: string, args: string[]): Promise<string> {
+  return new Promise((ok, fail) => {
+    const child = spawn(cmd, args, { stdio: ["ignore", "pipe", "pipe"] });
+    let out = "";
+    child.stdout.on("data", (d: Buffer) => (out += d.toString()));
+    child.stderr.on("data", (d: Buffer) => (out += d.toString()));
+    child.on("error", fail);
+    child.on("exit", (code) => (code === 0 ? ok(out) : fail(new Error(`${cmd} ${args.join(" ")} exited ${code}:\n${out}`))));
+  });
+}
+
+const PAGE = { intervalMs: 100, ignoreErrors: true } as const;
+
+describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer program plots in headless Chromium", () => {
+  let dir: string;
+  let servient: Awaited<ReturnType<typeof startServient>>;
+  let base: string;
+  let slug: string;
+  let browser: BrowserSession;
+  let session: Session;
+  let twin: Twin;
+  const debug = (): Promise<Debug> => browser.page.evaluate(() => (window as unknown as { __robwot: Debug }).__robwot);
+
+  beforeAll(async () => {
+    if (!existsSync(CHROMIUM)) {
+      throw new Error(`no Chromium at ${CHROMIUM}: apt-get install chromium, or set ROBWOT_CHROMIUM (ROBWOT_SKIP_BROWSER=1 skips)`);
+    }
+    if (!existsSync(join(ROOT, "packages/viewer/dist/viewer.js"))) {
+      throw new Error("packages/viewer/dist is missing: run `npm run build` (it bundles the viewer) first");
+    }
+    dir = mkdtempSync(join(tmpdir(), "robwot-plots-"));
+    const out = join(dir, "kuka");
+    await run(process.execPath, [CLI, "generate", "kuka_iiwa", "--samples", "2000", "--out", out]);
+    servient = await startServient({ twins: [out], port: 0, host: "127.0.0.1" });
+    base = servient.url.endsWith("/") ? servient.url : `${servient.url}/`;
+    slug = servient.things[0]?.slug ?? "";
+    session = await openSession();
+    twin = await session.connect(`${base}${slug}`);
+    browser = await openBrowser({ width: 1280, height: 1000 });
+    mkdirSync(ARTIFACTS, { recursive: true });
+    if (DOCS !== null) mkdirSync(DOCS, { recursive: true });
+  });
+
+  afterAll(async () => {
+    await browser?.close();
+    await session?.close();
+    await servient?.stop();
+    if (dir) rmSync(dir, { recursive: true, force: true });
+  });
+
+  it("plots a validated program's joint positions, velocities and TCP speed as validateProgram answers them", async () => {
+    const { page, problems } = browser;
+    await page.goto(`${base}viewer/?thing=${encodeURIComponent(slug)}`);
+    await page.waitForFunction(() => {
+      const d = (window as unknown as { __robwot: Debug }).__robwot;
+      return d.phase !== "loading" && d.liveConnected && d.framesApplied > 0;
+    });
+    expect((await debug()).phase).toBe("ready");
+    // the whole page as loaded (the view, the panels on top of the side bar) for the viewer README
+    if (DOCS !== null) await page.screenshot({ path: join(DOCS, "viewer.png") });
+    // three joint steps from where the robot stands: two joints out, a third, then back
+    const home = await read<Joints>(twin, "getJointPosition");
+    const [j1, j2, j4] = ["lbr_iiwa_joint_1", "lbr_iiwa_joint_2", "lbr_iiwa_joint_4"].map((j) => home[j] ?? 0) as [number, number, number];
+    const steps = [
+      { joints: { ...home, lbr_iiwa_joint_1: j1 + 0.5, lbr_iiwa_joint_2: j2 + 0.3 } },
+      { joints: { ...home, lbr_iiwa_joint_1: j1 + 0.5, lbr_iiwa_joint_2: j2 + 0.3, lbr_iiwa_joint_4: j4 - 0.4 }, speed: 0.5 },
+      { joints: home },
+    ];
+    await page.locator("#program textarea").fill(JSON.stringify(steps));
+    await page.locator("#program button", { hasText: "Validate" }).click();
+    const plots = await waitFor(async () => (await debug()).program?.plots, { ...PAGE, what: "the program's plots" });
+    const report = await invoke<Report>(twin, "validateProgram", { steps });
+    expect(report.valid).toBe(true);
+    expect((await debug()).program?.cycleTime).toBe(report.cycleTime);
+    const { rate, names, positions } = report.trajectory;
+    // the same samples over the same time span (the last sample where the program ends: its cycle time),
+    // every joint's values those of the answer
+    expect(plots.rate).toBe(rate);
+    expect(plots.samples).toBe(positions.length);
+    expect(plots.timeSpan).toBeCloseTo(report.cycleTime, 9);
+    expect(plots.timeSpan).toBeGreaterThan((positions.length - 2) / rate);
+    expect(plots.timeSpan).toBeLessThanOrEqual((positions.length - 1) / rate + 1e-9);
+    expect(plots.joints).toEqual(names);
+    expect(plots.units).toEqual(names.map(() => "rad"));
+    names.forEach((n, j) => expect(plots.positions[n]).toEqual(positions.map((q) => q[j])));
+    // the joints that move have a velocity, the others none; the TCP moves
+    for (const moved of ["lbr_iiwa_joint_1", "lbr_iiwa_joint_2", "lbr_iiwa_joint_4"]) expect(plots.maxVelocity[moved]).toBeGreaterThan(0.01);
+    expect(plots.maxVelocity["lbr_iiwa_joint_3"]).toBe(0);
+    expect(plots.maxTcpSpeed).toBeGreaterThan(0.01);
+    expect(plots.maxTcpSpeed).toBeLessThan(10);
+    const panel = page.locator("#program");
+    await panel.scrollIntoViewIfNeeded();
+    const chart = await pixelStats(page, page.locator("#program canvas.plot").first());
+    expect(chart.distinctColours).toBeGreaterThan(4);
+    await panel.screenshot({ path: join(ARTIFACTS, "viewer-program-plots.png") });
+    if (DOCS !== null) await panel.screenshot({ path: join(DOCS, "program-plots.png") });
+    expect((await debug()).errors).toEqual([]);
+    expect(problems).toEqual([]);
+  });
+
+  it("plots a refused program up to where the refused step starts", async () => {
+    const { page } = browser;
+    const home = await read<Joints>(twin, "getJointPosition");
+    const tcp = await read<{ x: number; y: number; z: number }>(twin, "getCartesianPosition");
+    // step 1: a LIN to 20 cm below the start's TCP at 3 m/s with the joints at 0.1 % of their velocity
+    // limits, which no joint can keep up with: refused
+    const steps = [
+      { joints: { ...home, lbr_iiwa_joint_1: (home["lbr_iiwa_joint_1"] ?? 0) + 0.5, lbr_iiwa_joint_2: (home["lbr_iiwa_joint_2"] ?? 0) + 0.3 } },
+      { motion: "lin", x: tcp.x, y: tcp.y, z: tcp.z - 0.2, tcpSpeed: 3, speed: 0.001 },
+    ];
+    await page.locator("#program textarea").fill(JSON.stringify(steps));
+    await page.locator("#program button", { hasText: "Validate" }).click();
+    const verdict = page.locator("#program .verdict");
+    await waitFor(async () => ((await verdict.textContent()) ?? "").includes("refused at step 1"), { ...PAGE, what: "the refusal" });
+    const drawn = (await debug()).program!;
+    const report = await invoke<Report>(twin, "validateProgram", { steps });
+    expect(report).toMatchObject({ valid: false, firstFailingStep: 1 });
+    expect(drawn.plots?.samples).toBe(report.trajectory.positions.length);
+    expect(drawn.plots?.timeSpan).toBeCloseTo(report.steps[0]?.duration ?? NaN, 9);
+    expect(drawn.plots?.positions["lbr_iiwa_joint_1"]).toEqual(report.trajectory.positions.map((q) => q[0]));
+  });
+});
