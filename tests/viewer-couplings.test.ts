@@ -4,30 +4,19 @@
  * leaders only and places every link where the linkage does: its end-effector link sits where the
  * twin's forward kinematics (followers applied by the backend) puts it.
  */
-import { spawn } from "node:child_process";
 import { existsSync, mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { invoke, openSession, read, type Session, type Twin } from "@robwot/consumers";
 import { startServient } from "@robwot/servient";
+import { runCli } from "./cli-run.js";
 import { CHROMIUM, openBrowser, type BrowserSession } from "./helpers/browser.js";
 
 const ROOT = resolve(import.meta.dirname, "..");
-const CLI = join(ROOT, "packages/cli/dist/main.js");
 type Joints = Record<string, number>;
 type Xyz = { x: number; y: number; z: number };
 type Debug = { phase: string; ee: Xyz | null; joints: Joints; framesApplied: number; liveConnected: boolean; errors: string[] };
-
-function run(args: string[]): Promise<void> {
-  return new Promise((ok, fail) => {
-    const child = spawn(process.execPath, [CLI, ...args], { stdio: ["ignore", "ignore", "pipe"] });
-    let err = "";
-    child.stderr.on("data", (d: Buffer) => (err += d.toString()));
-    child.on("error", fail);
-    child.on("exit", (code) => (code === 0 ? ok() : fail(new Error(`robwot ${args.join(" ")} exited ${code}:\n${err}`))));
-  });
-}
 
 describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("a coupled robot in the viewer", () => {
   let dir: string;
@@ -42,7 +31,8 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("a coupled robot in 
     if (!existsSync(CHROMIUM)) throw new Error(`no Chromium at ${CHROMIUM}: apt-get install chromium (ROBWOT_SKIP_BROWSER=1 skips)`);
     dir = mkdtempSync(join(tmpdir(), "robwot-viewer-couplings-"));
     const out = join(dir, "dobot");
-    await run(["generate", join(ROOT, "examples/robots/dobot_like.urdf"), "--keep-level", "link_4", "--samples", "2000", "--out", out]);
+    const generated = await runCli(["generate", join(ROOT, "examples/robots/dobot_like.urdf"), "--keep-level", "link_4", "--samples", "2000", "--out", out]);
+    expect(generated.code, generated.stderr).toBe(0);
     servient = await startServient({ twins: [out], port: 0, host: "127.0.0.1" });
     const base = servient.url.endsWith("/") ? servient.url : `${servient.url}/`;
     const slug = servient.things[0]?.slug ?? "";

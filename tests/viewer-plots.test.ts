@@ -6,18 +6,17 @@
  * its refused step. Screenshots of the panel go to
  * test-artifacts/ and, with ROBWOT_UPDATE_SCREENSHOTS=1, the viewer README's into packages/viewer/docs/.
  */
-import { spawn } from "node:child_process";
 import { existsSync, mkdirSync, mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { invoke, openSession, read, type Session, type Twin } from "@robwot/consumers";
 import { startServient } from "@robwot/servient";
+import { runCli } from "./cli-run.js";
 import { CHROMIUM, openBrowser, pixelStats, type BrowserSession } from "./helpers/browser.js";
 import { waitFor } from "./helpers/wait.js";
 
 const ROOT = resolve(import.meta.dirname, "..");
-const CLI = join(ROOT, "packages/cli/dist/main.js");
 const ARTIFACTS = join(ROOT, "test-artifacts");
 /** The README's screenshots are taken again only on request (ROBWOT_UPDATE_SCREENSHOTS=1): a test run leaves the tree as it found it. */
 const DOCS = process.env["ROBWOT_UPDATE_SCREENSHOTS"] === "1" ? join(ROOT, "packages/viewer/docs") : null;
@@ -48,17 +47,6 @@ interface Report {
   trajectory: { rate: number; names: string[]; positions: number[][] };
 }
 
-function run(cmd: string, args: string[]): Promise<string> {
-  return new Promise((ok, fail) => {
-    const child = spawn(cmd, args, { stdio: ["ignore", "pipe", "pipe"] });
-    let out = "";
-    child.stdout.on("data", (d: Buffer) => (out += d.toString()));
-    child.stderr.on("data", (d: Buffer) => (out += d.toString()));
-    child.on("error", fail);
-    child.on("exit", (code) => (code === 0 ? ok(out) : fail(new Error(`${cmd} ${args.join(" ")} exited ${code}:\n${out}`))));
-  });
-}
-
 const PAGE = { intervalMs: 100, ignoreErrors: true } as const;
 
 describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer program plots in headless Chromium", () => {
@@ -80,7 +68,8 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer program plot
     }
     dir = mkdtempSync(join(tmpdir(), "robwot-plots-"));
     const out = join(dir, "kuka");
-    await run(process.execPath, [CLI, "generate", "kuka_iiwa", "--samples", "2000", "--out", out]);
+    const generated = await runCli(["generate", "kuka_iiwa", "--samples", "2000", "--out", out]);
+    expect(generated.code, generated.stderr).toBe(0);
     servient = await startServient({ twins: [out], port: 0, host: "127.0.0.1" });
     base = servient.url.endsWith("/") ? servient.url : `${servient.url}/`;
     slug = servient.things[0]?.slug ?? "";
