@@ -131,7 +131,7 @@ def test_a_scene_with_a_bad_object_loads_nothing() -> None:
         with pytest.raises(Overlap) as ei:
             w.load_scene(doc)
         assert {ei.value.data["object"], ei.value.data["body"]} == {"a", "b"}
-        assert w.list() == {"robots": [], "obstacles": [], "objects": []}
+        assert w.list() == {"robots": [], "obstacles": [], "objects": [], "conveyors": [], "sensors": []}
 
 
 @pytest.mark.parametrize(("objects", "pointer", "words"), [
@@ -153,7 +153,7 @@ def test_bad_objects_in_a_scene_file_are_refused_with_file_and_place(
             w.load_scene(f)
         assert ei.value.data["file"] == str(f) and ei.value.data["path"] == pointer
         assert words in ei.value.message and len(ei.value.message) < 500
-        assert w.list() == {"robots": [], "obstacles": [], "objects": []}
+        assert w.list() == {"robots": [], "obstacles": [], "objects": [], "conveyors": [], "sensors": []}
 
 
 def test_the_world_holds_at_most_the_contracts_number_of_objects(monkeypatch: pytest.MonkeyPatch) -> None:

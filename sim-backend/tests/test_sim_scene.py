@@ -61,7 +61,7 @@ def test_schema_violations_give_json_pointer(doc: dict, pointer: str) -> None:
             w.load_scene(doc)
         assert ei.value.data["path"] == pointer
         assert ei.value.rpc_code == -32006
-        assert w.list() == {"robots": [], "obstacles": [], "objects": []}
+        assert w.list() == {"robots": [], "obstacles": [], "objects": [], "conveyors": [], "sensors": []}
 
 
 def test_scene_file_errors(tmp_path) -> None:
@@ -86,7 +86,7 @@ def test_scene_file_nested_too_deep_is_a_scene_error(tmp_path, depth: int) -> No
         with pytest.raises(SceneError, match="deeper than 64 levels") as ei:
             w.load_scene(deep)
         assert ei.value.data["file"] == str(deep)
-        assert w.list() == {"robots": [], "obstacles": [], "objects": []}
+        assert w.list() == {"robots": [], "obstacles": [], "objects": [], "conveyors": [], "sensors": []}
 
 
 def test_failed_scene_leaves_world_unchanged(tmp_path) -> None:
@@ -99,7 +99,7 @@ def test_failed_scene_leaves_world_unchanged(tmp_path) -> None:
     with World() as w:
         with pytest.raises(FileNotFound):
             w.load_scene(doc)
-        assert w.list() == {"robots": [], "obstacles": [], "objects": []}
+        assert w.list() == {"robots": [], "obstacles": [], "objects": [], "conveyors": [], "sensors": []}
 
 
 @pytest.mark.parametrize("n", scenegen.SIZES)
@@ -121,7 +121,8 @@ def test_table_scene_and_round_trip() -> None:
     """table.json loads a kuka and obstacles; scene_spec() rebuilds an identical world."""
     with World() as w:
         out = w.load_scene(SCENES / "table.json")
-        assert out == {"robots": ["kuka"], "obstacles": ["table", "box", "can"], "objects": []}
+        assert out == {"robots": ["kuka"], "obstacles": ["table", "box", "can"], "objects": [],
+                       "conveyors": [], "sensors": []}
         w.set_joint_positions("kuka", [0.2, 0.5, 0, -1.0, 0, 0.4, 0])
         spec = w.scene_spec()
         json.dumps(spec)

@@ -154,7 +154,7 @@ def test_obstacles_add_move_remove_and_reset() -> None:
             }
         )
         w.reset()
-        assert w.list() == {"robots": [], "obstacles": [], "objects": []}
+        assert w.list() == {"robots": [], "obstacles": [], "objects": [], "conveyors": [], "sensors": []}
 
 
 def test_export_robot_is_self_contained(tmp_path) -> None:

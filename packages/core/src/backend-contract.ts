@@ -87,6 +87,14 @@ export type ObstacleShape = BoxShape | SphereShape | CylinderShape | MeshShape;
  * @maxItems 4
  */
 export type Color = [number, number, number] | [number, number, number, number];
+/**
+ * a belt stopped, running along its box's local +x (`forward`) or -x (`backward`)
+ */
+export type ConveyorState = "stopped" | "forward" | "backward";
+/**
+ * `presence`: whether an object is in view; `color`: also the RGB colour of the object in view
+ */
+export type SensorKind = "presence" | "color";
 export type MoveStatus = "reached" | "stopped" | "collision";
 export type Workers = number;
 /**
@@ -133,6 +141,38 @@ export type Mass = number;
  * @maxItems 1000
  */
 export type SceneObjects = ObjectSpec[];
+/**
+ * a conveyor belt's surface speed (m/s)
+ */
+export type BeltSpeed = number;
+/**
+ * the conveyors of a world: at most `maxItems`
+ *
+ * @maxItems 100
+ */
+export type SceneConveyors = ConveyorSpec[];
+/**
+ * the sensors of a world: at most `maxItems`
+ *
+ * @maxItems 100
+ */
+export type SceneSensors = SensorSpec[];
+/**
+ * what happened in the cell during an advance, in time order
+ */
+export type CellEvent = DetectedObjectEvent | ObjectLeftEvent | AtEndEvent | FellEvent | StuckEvent;
+/**
+ * simulated time (s) one `cell.advance` runs
+ */
+export type CellDt = number;
+/**
+ * s an opening or closing of a gripper takes
+ */
+export type GripTime = number;
+/**
+ * m: how far from the TCP an object is caught when a gripper closes
+ */
+export type GripCapture = number;
 /**
  * Result of `ping`.
  */
@@ -257,6 +297,34 @@ export type ObjectMoveResult = SceneObject;
  * Result of `object.remove`.
  */
 export type ObjectRemoveResult = Empty;
+/**
+ * Result of `gripper.configure`.
+ */
+export type GripperConfigureResult = GripperState;
+/**
+ * Result of `gripper.close`.
+ */
+export type GripperCloseResult = GripperState;
+/**
+ * Result of `gripper.open`.
+ */
+export type GripperOpenResult = GripperState;
+/**
+ * Result of `gripper.state`.
+ */
+export type GripperStateResult = GripperState;
+/**
+ * Result of `conveyor.set`.
+ */
+export type ConveyorSetResult = ConveyorSet;
+/**
+ * Result of `cell.advance`.
+ */
+export type CellAdvanceResult = CellAdvanced;
+/**
+ * Result of `cell.list`.
+ */
+export type CellListResult = CellList;
 /**
  * Result of `workspace.generate`.
  */
@@ -410,6 +478,8 @@ export interface WorldList {
   robots: WorldRobot[];
   obstacles: Obstacle[];
   objects: SceneObject[];
+  conveyors: Conveyor[];
+  sensors: Sensor[];
 }
 /**
  * an object as the world holds it: its live pose (m, quaternion [x, y, z, w], world frame)
@@ -424,11 +494,63 @@ export interface SceneObject {
    * kg
    */
   mass: number;
+  /**
+   * the robot holding it (its gripper closed on it): its pose follows that robot's end effector
+   */
+  heldBy?: string;
+}
+/**
+ * a conveyor as the world holds it: its belt's box (m, quaternion [x, y, z, w], world frame; forward = the box's local +x), speed and state
+ */
+export interface Conveyor {
+  name: string;
+  size: Vec3;
+  position: Vec3;
+  orientation: QuatXyzw;
+  /**
+   * m/s
+   */
+  speed: number;
+  endStop: boolean;
+  state: ConveyorState;
+  color?: Color;
+}
+/**
+ * a sensor as the world holds it: its field of view's box (m, quaternion [x, y, z, w], world frame) and its reading now
+ */
+export interface Sensor {
+  name: string;
+  kind: SensorKind;
+  size: Vec3;
+  position: Vec3;
+  orientation: QuatXyzw;
+  reading: SensorReading;
+}
+/**
+ * a sensor's reading now
+ */
+export interface SensorReading {
+  name: string;
+  kind: SensorKind;
+  /**
+   * an object is in view
+   */
+  objectPresence: boolean;
+  /**
+   * the object in view nearest the box's centre, or null
+   */
+  object: string | null;
+  /**
+   * (colour sensors) the RGB of `object`, or null when nothing is in view
+   */
+  color?: [number, number, number] | null;
 }
 export interface SceneLoaded {
   robots: string[];
   obstacles: string[];
   objects: string[];
+  conveyors: string[];
+  sensors: string[];
 }
 export interface BodyLink {
   /**
@@ -935,6 +1057,178 @@ export interface ObjectSpec {
   mass?: Mass;
 }
 /**
+ * a conveyor of a scene file: a belt whose box (`size`, `position`, `orientation` or `rpy`, not both) is also a static obstacle of the conveyor's name that robots collide with. A running belt carries the objects resting on its top face (`cell.advance`): their bounding box's bottom within `x-restTolerance` m of the top face (along its normal) and their centre over it, at most `x-subStep` m per sub-step
+ */
+export interface ConveyorSpec {
+  name: Name;
+  /**
+   * [length, width, thickness] (m) of the belt's box: length along its local x (forward = +x), thickness along its local z (its top face carries)
+   *
+   * @minItems 3
+   * @maxItems 3
+   */
+  size: [Positive, Positive, Positive];
+  position: Position;
+  orientation?: QuatXyzw;
+  rpy?: Rpy;
+  speed?: BeltSpeed;
+  /**
+   * true: an object stops at the downstream end (its edge flush with it); false: it is carried off the end and falls
+   */
+  endStop?: boolean;
+  state?: ConveyorState;
+  color?: Color;
+}
+/**
+ * a sensor of a scene file: an infrared presence sensor or a colour sensor seeing a box (`orientation` or `rpy`, not both); not a body (robots do not collide with it). An object is in view when its world-axis bounding box and the field of view's box overlap (separating-axis test); a colour sensor reads the object in view nearest the box's centre, its `color` as 0-255 integers (`x-defaultColor` when it has none). Sensor names are unique among sensors
+ */
+export interface SensorSpec {
+  name: Name;
+  kind: SensorKind;
+  /**
+   * full extents (m) of the field of view's box (a beam: a thin box)
+   *
+   * @minItems 3
+   * @maxItems 3
+   */
+  size: [Positive, Positive, Positive];
+  position: Position;
+  orientation?: QuatXyzw;
+  rpy?: Rpy;
+}
+/**
+ * a sensor's presence rose: `object` came into view
+ */
+export interface DetectedObjectEvent {
+  type: "detectedObject";
+  sensor: string;
+  object: string;
+  /**
+   * the cell's time (s) it happened at
+   */
+  time: number;
+}
+/**
+ * a sensor's presence fell: nothing is in view any more (`object`: the one last seen)
+ */
+export interface ObjectLeftEvent {
+  type: "objectLeft";
+  sensor: string;
+  object: string;
+  /**
+   * the cell's time (s) it happened at
+   */
+  time: number;
+}
+/**
+ * an object carried by a belt with `endStop` reached the end (reported once per arrival)
+ */
+export interface AtEndEvent {
+  type: "atEnd";
+  conveyor: string;
+  object: string;
+  /**
+   * the cell's time (s) it happened at
+   */
+  time: number;
+}
+/**
+ * an object carried off the end of a belt without `endStop` fell and came to rest at `position` (m)
+ */
+export interface FellEvent {
+  type: "fell";
+  conveyor: string;
+  object: string;
+  /**
+   * the cell's time (s) it happened at
+   */
+  time: number;
+  position: Vec3;
+}
+/**
+ * an object carried off the end of a belt could not be let fall there (it would rest touching a robot, `E_OVERLAP`): it stays where it left the belt
+ */
+export interface StuckEvent {
+  type: "stuck";
+  conveyor: string;
+  object: string;
+  /**
+   * the cell's time (s) it happened at
+   */
+  time: number;
+  reason: string;
+}
+export interface CellAdvanced {
+  /**
+   * the cell's time (s) after the advance
+   */
+  time: number;
+  /**
+   * the objects moved, where they are now
+   */
+  moved: SceneObject[];
+  events: CellEvent[];
+  sensors: SensorReading[];
+}
+export interface CellList {
+  /**
+   * the cell's time (s): the sum of its advances' `dt`
+   */
+  time: number;
+  conveyors: Conveyor[];
+  sensors: Sensor[];
+}
+export interface ConveyorSet {
+  conveyor: Conveyor;
+  /**
+   * false: the belt was already in that state at that speed
+   */
+  changed: boolean;
+}
+/**
+ * a robot's gripper and what it holds
+ */
+export interface GripperState {
+  robotId: string;
+  /**
+   * where the gripper was last put: open or closed (the servient reports `moving` while it waits out the gripper's time)
+   */
+  state: "open" | "closed";
+  /**
+   * the object held, null when none (closed on nothing, or open)
+   */
+  holding: string | null;
+  gripper: GripperSpec;
+  positions: JointVector;
+  /**
+   * `gripper.open`: the object let go, where it came to rest; null when none was held
+   */
+  released?: null | SceneObject;
+}
+export interface GripperSpec {
+  kind: "fingers" | "suction";
+  /**
+   * finger joints (controllable; their mimic partners follow); empty for a suction cup
+   */
+  joints: string[];
+  /**
+   * each finger joint's open value (rad or m): of its two limits, the one at which the fingers lie farther apart
+   */
+  open: number[];
+  /**
+   * each finger joint's closed value (rad or m)
+   */
+  closed: number[];
+  /**
+   * s an opening or closing takes
+   */
+  time: number;
+  /**
+   * m: an object within this distance of the TCP (or holding the TCP) is caught when closing
+   */
+  capture: number;
+}
+/**
  * Params of `ping`.
  */
 export interface PingParams {}
@@ -1259,6 +1553,77 @@ export interface ObjectRemoveParams {
   name: Name;
 }
 /**
+ * Params of `gripper.configure`.
+ */
+export interface GripperConfigureParams {
+  robot: Name;
+  /**
+   * parallel fingers or a suction cup
+   */
+  kind: "fingers" | "suction";
+  /**
+   * the finger joints (default: every finger joint found)
+   *
+   * @minItems 1
+   * @maxItems 16
+   */
+  joints?:
+    | [Name]
+    | [Name, Name]
+    | [Name, Name, Name]
+    | [Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name]
+    | [Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name, Name];
+  time?: GripTime;
+  capture?: GripCapture;
+}
+/**
+ * Params of `gripper.close`.
+ */
+export interface GripperCloseParams {
+  robot: Name;
+}
+/**
+ * Params of `gripper.open`.
+ */
+export interface GripperOpenParams {
+  robot: Name;
+}
+/**
+ * Params of `gripper.state`.
+ */
+export interface GripperStateParams {
+  robot: Name;
+}
+/**
+ * Params of `conveyor.set`.
+ */
+export interface ConveyorSetParams {
+  name: Name;
+  state: ConveyorState;
+  speed?: BeltSpeed;
+}
+/**
+ * Params of `cell.advance`.
+ */
+export interface CellAdvanceParams {
+  dt: CellDt;
+}
+/**
+ * Params of `cell.list`.
+ */
+export interface CellListParams {}
+/**
  * Params of `workspace.generate`.
  */
 export interface WorkspaceGenerateParams {
@@ -1326,6 +1691,13 @@ export interface Methods {
   "object.add": { params: ObjectAddParams; result: ObjectAddResult };
   "object.move": { params: ObjectMoveParams; result: ObjectMoveResult };
   "object.remove": { params: ObjectRemoveParams; result: ObjectRemoveResult };
+  "gripper.configure": { params: GripperConfigureParams; result: GripperConfigureResult };
+  "gripper.close": { params: GripperCloseParams; result: GripperCloseResult };
+  "gripper.open": { params: GripperOpenParams; result: GripperOpenResult };
+  "gripper.state": { params: GripperStateParams; result: GripperStateResult };
+  "conveyor.set": { params: ConveyorSetParams; result: ConveyorSetResult };
+  "cell.advance": { params: CellAdvanceParams; result: CellAdvanceResult };
+  "cell.list": { params: CellListParams; result: CellListResult };
   "workspace.generate": { params: WorkspaceGenerateParams; result: WorkspaceGenerateResult };
   "workspace.warmUp": { params: WorkspaceWarmUpParams; result: WorkspaceWarmUpResult };
 }
@@ -1426,4 +1798,12 @@ export const VALUE_SCHEMAS = {
   ToolSize: {"type":"number","exclusiveMinimum":0,"maximum":10,"description":"m"},
   Mass: {"type":"number","exclusiveMinimum":0,"maximum":10000,"default":0.1,"description":"mass (kg); 0.1 kg unless given"},
   SceneObjects: {"type":"array","items":{"$ref":"#/components/schemas/ObjectSpec"},"maxItems":1000,"description":"the objects of a world: at most `maxItems` (a scene file's and the world's after `object.add`)"},
+  BeltSpeed: {"type":"number","exclusiveMinimum":0,"maximum":1,"description":"a conveyor belt's surface speed (m/s)"},
+  ConveyorState: {"type":"string","enum":["stopped","forward","backward"],"description":"a belt stopped, running along its box's local +x (`forward`) or -x (`backward`)"},
+  SceneConveyors: {"type":"array","items":{"$ref":"#/components/schemas/ConveyorSpec"},"maxItems":100,"description":"the conveyors of a world: at most `maxItems`"},
+  SensorKind: {"type":"string","enum":["presence","color"],"description":"`presence`: whether an object is in view; `color`: also the RGB colour of the object in view"},
+  SceneSensors: {"type":"array","items":{"$ref":"#/components/schemas/SensorSpec"},"maxItems":100,"description":"the sensors of a world: at most `maxItems`"},
+  CellDt: {"type":"number","exclusiveMinimum":0,"maximum":1,"description":"simulated time (s) one `cell.advance` runs"},
+  GripTime: {"type":"number","minimum":0,"maximum":10,"default":0.5,"description":"s an opening or closing of a gripper takes"},
+  GripCapture: {"type":"number","minimum":0,"maximum":0.1,"default":0.01,"description":"m: how far from the TCP an object is caught when a gripper closes"},
 } as const;

@@ -26,11 +26,11 @@ export abstract class ContractMethods {
   resetWorld(params: Params<"world.reset"> = {}, options: CallOptions = {}): Result<"world.reset"> {
     return this.request("world.reset", params, options);
   }
-  /** `world.list`: robots, obstacles and objects in the world */
+  /** `world.list`: robots, obstacles and objects in the world: Conveyors' belts are listed as `conveyors`, not among `obstacles`; sensors with their readings now. */
   listWorld(params: Params<"world.list"> = {}, options: CallOptions = {}): Result<"world.list"> {
     return this.request("world.list", params, options);
   }
-  /** `world.loadScene`: load a scene file or document: Exactly one of `path` and `scene`. Adds the scene's obstacles, objects (each settled onto what is below it, `object.add`) and robots to the world (all or nothing). The scene format is versioned and described by `src/robwot_sim/schemas/scene.schema.json`. */
+  /** `world.loadScene`: load a scene file or document: Exactly one of `path` and `scene`. Adds the scene's obstacles, conveyors (each belt's box an obstacle named as the conveyor, listed only as the conveyor), objects (each settled onto what is below it, `object.add`), sensors and robots to the world (all or nothing; a sensor named as one the world holds: `E_NAME_TAKEN`). The scene format is versioned and described by `src/robwot_sim/schemas/scene.schema.json`. */
   loadScene(params: Params<"world.loadScene"> = {}, options: CallOptions = {}): Result<"world.loadScene"> {
     return this.request("world.loadScene", params, options);
   }
@@ -123,7 +123,7 @@ export abstract class ContractMethods {
   moveObstacle(params: Params<"obstacle.move">, options: CallOptions = {}): Result<"obstacle.move"> {
     return this.request("obstacle.move", params, options);
   }
-  /** `obstacle.remove`: remove an obstacle */
+  /** `obstacle.remove`: remove an obstacle: A conveyor's belt (the obstacle named as the conveyor): the conveyor is removed with it. */
   removeObstacle(params: Params<"obstacle.remove">, options: CallOptions = {}): Result<"obstacle.remove"> {
     return this.request("obstacle.remove", params, options);
   }
@@ -138,6 +138,34 @@ export abstract class ContractMethods {
   /** `object.remove`: remove an object: Objects that rested on it stay where they are. */
   removeObject(params: Params<"object.remove">, options: CallOptions = {}): Result<"object.remove"> {
     return this.request("object.remove", params, options);
+  }
+  /** `gripper.configure`: declare a robot's gripper: Declares the robot's gripper and opens it: `fingers` (parallel fingers driven by finger joints: controllable joints off the chain to the end effector whose parent link is on it, mimic partners following; default every such joint) or `suction` (a cup at the TCP, no joints). From then on its finger joints are pinned: moves, IK and planning keep them where they are and refuse a joint vector that changes them; only `gripper.close` / `gripper.open` move them. Refused while the gripper holds an object, for a robot without finger joints (`fingers`), or while the robot moves (`E_BUSY`). */
+  configureGripper(params: Params<"gripper.configure">, options: CallOptions = {}): Result<"gripper.configure"> {
+    return this.request("gripper.configure", params, options);
+  }
+  /** `gripper.close`: close the gripper on the object at its TCP: Catches the object nearest the TCP within the gripper's `capture` distance (the TCP inside it, or that close to its surface); fingers close until they touch it (fully on nothing). The object held becomes a link of the robot on its end effector, named as the object: every check of the robot (moves, validation, planning, LIN/CIRC, programs) includes it, against everything but the hand (the link the gripper is mounted on and every link below it); it leaves the world's objects' resting set and `world.list` reports it with `heldBy`. Closing on nothing answers `holding: null`; closing a gripper that holds an object answers its state. An object held by one robot cannot be caught by another. */
+  closeGripper(params: Params<"gripper.close">, options: CallOptions = {}): Result<"gripper.close"> {
+    return this.request("gripper.close", params, options);
+  }
+  /** `gripper.open`: open the gripper, letting go of what it holds: Opens the fingers (releases the cup). An object held is let go where it is and settles onto what is below it (as `object.add`; it may rest touching the robot that let it go); `released` is it at rest. An object that cannot be let go there (`E_OVERLAP`) stays held, nothing changed. */
+  openGripper(params: Params<"gripper.open">, options: CallOptions = {}): Result<"gripper.open"> {
+    return this.request("gripper.open", params, options);
+  }
+  /** `gripper.state`: a robot's gripper and what it holds */
+  gripperState(params: Params<"gripper.state">, options: CallOptions = {}): Result<"gripper.state"> {
+    return this.request("gripper.state", params, options);
+  }
+  /** `conveyor.set`: start (forward or backward) or stop a conveyor belt: Idempotent: a belt already in `state` at that speed answers `changed: false`. The belt carries objects from the next `cell.advance`. Without `speed` the belt keeps its speed (m/s). */
+  setConveyor(params: Params<"conveyor.set">, options: CallOptions = {}): Result<"conveyor.set"> {
+    return this.request("conveyor.set", params, options);
+  }
+  /** `cell.advance`: run the cell's conveyors and sensors for `dt` seconds: Deterministic, kinematic: each running belt moves the objects resting on it along its direction by speed x time, in sub-steps of at most `ConveyorSpec`'s `x-subStep` m; the sensors are read after each sub-step (their edges become events). An object stops behind one ahead of it on the same belt; at the end of a belt with `endStop` it stops flush with the end (`atEnd`, once), without it is carried until clear of the end, then settled onto what is below it (`fell`, as `object.move` settles). Moved objects are obstacles at their new poses for every check. The cell's `time` grows by `dt` (s). */
+  advanceCell(params: Params<"cell.advance">, options: CallOptions = {}): Result<"cell.advance"> {
+    return this.request("cell.advance", params, options);
+  }
+  /** `cell.list`: the cell's conveyors (state, speed) and sensors (readings now) and its time */
+  listCell(params: Params<"cell.list"> = {}, options: CallOptions = {}): Result<"cell.list"> {
+    return this.request("cell.list", params, options);
   }
   /** `workspace.generate`: sample the reachable, collision-free workspace; write workspace.csv, workspace.stl and reachability.csv: Samples random joint configurations of the robot in the current world, labels them collision-free or not (in worker processes), and writes `workspace.csv` (`x,y,z,collision_free[,joint...]`) and `workspace.stl` (alpha shape of the collision-free end-effector points) into `outDir`, and the reachability map `reachability.csv` (`x,y,z,samples,free,directions,index` per voxel; see the `reachability` result). Runs in the background: other requests are served meanwhile. Sends `workspace.progress` to the caller. `workers` defaults to the CPU count. */
   generateWorkspace(params: Params<"workspace.generate">, options: CallOptions & { onProgress?: (p: Notifications["workspace.progress"]) => void } = {}): Result<"workspace.generate"> {

@@ -88,6 +88,12 @@ class UnknownObject(_UnknownName):
     kind = "object"
 
 
+class UnknownConveyor(UnknownObject):
+    """A conveyor name the cell does not hold (``E_UNKNOWN_OBJECT``, naming the conveyors)."""
+
+    kind = "conveyor"
+
+
 class UnknownLink(_UnknownName):
     code = "E_UNKNOWN_LINK"
     kind = "link"

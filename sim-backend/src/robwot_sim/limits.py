@@ -91,3 +91,17 @@ DEFAULT_MASS = float(value_schema("Mass")["default"])
 SETTLE_STEPS = int(value_schema("ObjectSpec")["x-settleSteps"])
 #: deepest (m) an object may be placed into another body (settled bodies rest slightly inside their support)
 OVERLAP_TOLERANCE = float(value_schema("ObjectSpec")["x-overlapTolerance"])
+#: a conveyor belt's highest speed (m/s; above 0), and its speed unless given
+MAX_BELT_SPEED = float(value_schema("BeltSpeed")["maximum"])
+DEFAULT_BELT_SPEED = float(value_schema("ConveyorSpec")["properties"]["speed"]["default"])
+#: how far (m) an object's bottom may be from a belt's top face for the belt to carry it
+BELT_REST_TOLERANCE = float(value_schema("ConveyorSpec")["x-restTolerance"])
+#: the farthest (m) a belt carries an object in one sub-step of ``cell.advance``
+BELT_SUB_STEP = float(value_schema("ConveyorSpec")["x-subStep"])
+#: the longest time step (s) of one ``cell.advance`` (above 0)
+MAX_CELL_DT = float(value_schema("CellDt")["maximum"])
+#: the colour (RGB 0-255) a colour sensor reads of an object without one
+DEFAULT_SENSOR_COLOR = tuple(int(c) for c in value_schema("SensorSpec")["x-defaultColor"])
+#: most conveyors and sensors a world (and a scene file) holds
+MAX_CONVEYORS = int(value_schema("SceneConveyors")["maxItems"])
+MAX_SENSORS = int(value_schema("SceneSensors")["maxItems"])

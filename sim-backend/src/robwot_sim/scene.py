@@ -1,9 +1,10 @@
 """Scene documents: versioned JSON checked against ``schemas/scene.schema.json``.
 
-A scene is ``{"version": 1, "obstacles": [Obstacle], "objects": [Object], "robots": [Robot]}``; an object is
-an obstacle's shape and pose with a mass (kg), one namespace holds the obstacles', objects' and robots'
-names. Relative URDF and mesh paths are relative to the scene file's folder (then ``pybullet_data`` for
-URDFs). Errors carry a JSON pointer.
+A scene is ``{"version": 1, "obstacles": [Obstacle], "objects": [Object], "conveyors": [Conveyor],
+"sensors": [Sensor], "robots": [Robot]}``; an object is an obstacle's shape and pose with a mass (kg), a
+conveyor a belt's box (an obstacle too) with its speed, one namespace holds the obstacles', objects',
+conveyors' and robots' names (sensors': their own). Relative URDF and mesh paths are relative to the scene
+file's folder (then ``pybullet_data`` for URDFs). Errors carry a JSON pointer.
 """
 
 from __future__ import annotations
@@ -77,21 +78,26 @@ def schema_errors(doc: Any) -> tuple[str, str] | None:
 
 
 def _duplicate_name(doc: dict[str, Any]) -> tuple[str, str] | None:
-    """The first name an obstacle, object or robot id repeats (one namespace)."""
-    names: set[str] = set()
-    for kind, key in (("obstacles", "name"), ("objects", "name"), ("robots", "id")):
-        for i, entry in enumerate(doc.get(kind, [])):
-            if key not in entry:
-                continue
-            if entry[key] in names:
-                shared = "obstacles, objects and robots share one namespace"
-                return f"/{kind}/{i}/{key}", f"duplicate name {entry[key]!r} ({shared})"
-            names.add(entry[key])
+    """The first name an obstacle, object, conveyor (its belt is an obstacle) or robot id repeats (one
+    namespace), or a sensor repeats (among sensors)."""
+    shared = "obstacles, objects, conveyors and robots share one namespace"
+    spaces = [((("obstacles", "name"), ("objects", "name"), ("conveyors", "name"), ("robots", "id")), shared),
+              ((("sensors", "name"),), "sensor names are unique among sensors")]
+    for kinds, what in spaces:
+        names: set[str] = set()
+        for kind, key in kinds:
+            for i, entry in enumerate(doc.get(kind, [])):
+                if key not in entry:
+                    continue
+                if entry[key] in names:
+                    return f"/{kind}/{i}/{key}", f"duplicate name {entry[key]!r} ({what})"
+                names.add(entry[key])
     return None
 
 
 def _zero_quaternion(doc: dict[str, Any]) -> tuple[str, str] | None:
-    quaternions = (("obstacles", "orientation"), ("objects", "orientation"), ("robots", "baseOrientation"))
+    quaternions = (("obstacles", "orientation"), ("objects", "orientation"), ("conveyors", "orientation"),
+                   ("sensors", "orientation"), ("robots", "baseOrientation"))
     for kind, key in quaternions:
         for i, ob in enumerate(doc.get(kind, [])):
             if key in ob and unit_quaternion(ob[key]) is None:

@@ -24,7 +24,7 @@ from typing import Any
 from robwot_sim.errors import FileNotFound, UnknownLink, UrdfError
 from robwot_sim.model.joints import parse_model
 from robwot_sim.model.meshcheck import check_mesh
-from robwot_sim.model.urdf import parse_urdf, resolve_mesh
+from robwot_sim.model.urdf import UrdfDoc, parse_urdf, resolve_mesh
 
 TOOL_LINK = "robwot_tool"
 TCP_LINK = "robwot_tcp"
@@ -40,7 +40,7 @@ class AttachedTool:
     tcp_link: str
 
 
-def _link(parent: ET.Element, name: str) -> ET.Element:
+def link_element(parent: ET.Element, name: str) -> ET.Element:
     """A link with a nominal inertial (PyBullet warns of links without one; fixed links carry no dynamics
     here: DIRECT mode only checks collisions)."""
     link = ET.SubElement(parent, "link", {"name": name})
@@ -51,7 +51,7 @@ def _link(parent: ET.Element, name: str) -> ET.Element:
     return link
 
 
-def _fixed(name: str, parent: str, child: str, xyz: Sequence[float], rpy: Sequence[float]) -> ET.Element:
+def fixed_joint(name: str, parent: str, child: str, xyz: Sequence[float], rpy: Sequence[float]) -> ET.Element:
     joint = ET.Element("joint", {"name": name, "type": "fixed"})
     ET.SubElement(joint, "parent", {"link": parent})
     ET.SubElement(joint, "child", {"link": child})
@@ -71,6 +71,27 @@ def _primitive(shape: Mapping[str, Any]) -> tuple[ET.Element, float]:
     radius, length = float(shape["radius"]), float(shape["length"])
     ET.SubElement(geometry, "cylinder", {"radius": f"{radius:.9g}", "length": f"{length:.9g}"})
     return geometry, length
+
+
+def portable_copy(doc: UrdfDoc, package_roots: Mapping[str, str]) -> tuple[ET.Element, dict[str, str]]:
+    """A copy of a URDF's tree that loads from any folder, and the package roots to load it with: relative
+    mesh paths made absolute, each ``package://`` package's folder a root of its name, the URDF's folder
+    the root ``URDF_FOLDER_ROOT``."""
+    root = ET.fromstring(ET.tostring(doc.root))
+    roots = {**package_roots, URDF_FOLDER_ROOT: str(doc.file.parent)}
+    for el in root.iter("mesh"):
+        fn = el.get("filename", "")
+        real = resolve_mesh(fn, doc.file.parent, package_roots, urdf=str(doc.file))
+        if fn.startswith("package://"):
+            # the package stays found from the copy's folder: its folder becomes a root of its name
+            name, _, rest = fn[len("package://"):].partition("/")
+            folder = real
+            for _ in Path(rest).parts:
+                folder = folder.parent
+            roots.setdefault(name, str(folder))
+        elif not fn.startswith("file://") and not Path(fn).is_absolute():
+            el.set("filename", str(real))
+    return root, roots
 
 
 def attach_tool(urdf: str | Path, package_roots: Mapping[str, str], ee_link: str | None,
@@ -96,24 +117,11 @@ def attach_tool(urdf: str | Path, package_roots: Mapping[str, str], ee_link: str
         if not tool_mesh.is_file():
             raise FileNotFound(str(tool_mesh), what="tool mesh")
         check_mesh(tool_mesh.resolve())
-    root = ET.fromstring(ET.tostring(doc.root))
-    roots = {**package_roots, URDF_FOLDER_ROOT: str(doc.file.parent)}
-    for el in root.iter("mesh"):
-        fn = el.get("filename", "")
-        real = resolve_mesh(fn, doc.file.parent, package_roots, urdf=str(doc.file))
-        if fn.startswith("package://"):
-            # the package stays found from the copy's folder: its folder becomes a root of its name
-            name, _, rest = fn[len("package://"):].partition("/")
-            folder = real
-            for _ in Path(rest).parts:
-                folder = folder.parent
-            roots.setdefault(name, str(folder))
-        elif not fn.startswith("file://") and not Path(fn).is_absolute():
-            el.set("filename", str(real))
+    root, roots = portable_copy(doc, package_roots)
     out_dir = Path(tempfile.mkdtemp(prefix="robwot-tool-"))
     parent = flange
     if tool_mesh is not None or shape is not None:
-        link = _link(root, TOOL_LINK)
+        link = link_element(root, TOOL_LINK)
         if tool_mesh is not None:
             copied = out_dir / f"{TOOL_LINK}{tool_mesh.suffix.lower()}"
             shutil.copyfile(tool_mesh, copied)
@@ -126,10 +134,10 @@ def attach_tool(urdf: str | Path, package_roots: Mapping[str, str], ee_link: str
                 element = ET.SubElement(link, kind)
                 ET.SubElement(element, "origin", {"xyz": f"0 0 {length / 2:.9g}", "rpy": "0 0 0"})
                 element.append(geometry)
-        root.append(_fixed(f"{TOOL_LINK}_mount", flange, TOOL_LINK, (0, 0, 0), (0, 0, 0)))
+        root.append(fixed_joint(f"{TOOL_LINK}_mount", flange, TOOL_LINK, (0, 0, 0), (0, 0, 0)))
         parent = TOOL_LINK
-    _link(root, TCP_LINK)
-    root.append(_fixed(f"{TCP_LINK}_joint", parent, TCP_LINK, tcp[:3], tcp[3:6]))
+    link_element(root, TCP_LINK)
+    root.append(fixed_joint(f"{TCP_LINK}_joint", parent, TCP_LINK, tcp[:3], tcp[3:6]))
     out = out_dir / doc.file.name
     ET.indent(root)
     ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)

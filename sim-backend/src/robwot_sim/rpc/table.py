@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 from robwot_sim.rpc import (
+    methods_cell,
+    methods_gripper,
     methods_motion,
     methods_obstacle,
     methods_robot,
@@ -20,7 +22,7 @@ def build_dispatcher(services: Services, max_message_bytes: int = DEFAULT_MAX_ME
     """A dispatcher with every method of the contract bound to `services`."""
     d = Dispatcher(max_message_bytes, check_results=check_results)
     for module in (methods_world, methods_robot, methods_motion, methods_obstacle, methods_workspace,
-                   methods_ros):
+                   methods_ros, methods_gripper, methods_cell):
         module.register(d, services)
     if d.unbound():
         raise RuntimeError(f"contract methods without a handler: {d.unbound()}")

@@ -35,7 +35,7 @@ from ompl import util as ou
 from robwot_sim.sim.collision import CollisionChecker
 from robwot_sim.sim.pathcheck import first_contact, path_clearance
 from robwot_sim.sim.planning_scene import JointVector, Scene
-from robwot_sim.sim.robot import BoundRobot
+from robwot_sim.sim.robot import LIMIT_TOL, BoundRobot
 from robwot_sim.sim.sweep import Guard, substeps
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world_thread import checkpoint
@@ -93,9 +93,10 @@ def _search(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goa
     dof = len(start)
     space = ob.RealVectorStateSpace(dof)
     bounds = ob.RealVectorBounds(dof)
-    for i in range(dof):
-        bounds.setLow(i, float(robot.lower[i]))
-        bounds.setHigh(i, float(robot.upper[i]))
+    for i in range(dof):  # a pinned joint (a gripper's) as a sliver: OMPL needs low < high
+        pinned = robot.pinned.get(i)
+        bounds.setLow(i, float(robot.lower[i]) if pinned is None else pinned - LIMIT_TOL)
+        bounds.setHigh(i, float(robot.upper[i]) if pinned is None else pinned + LIMIT_TOL)
     space.setBounds(bounds)
     setup = og.SimpleSetup(space)
 

@@ -14,6 +14,7 @@ import numpy.typing as npt
 from robwot_sim import validate as v
 from robwot_sim.sim.kinematics import solve_ik
 from robwot_sim.sim.planning_scene import Quat, Scene, Vec3
+from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import IkResult
 
 
@@ -27,6 +28,15 @@ def request_rng(salt: int, *parts: Sequence[float] | npt.NDArray[np.float64] | N
     return np.random.default_rng([salt, *np.frombuffer(h.digest(), dtype=np.uint32).tolist()])
 
 
+def _seed(b: BoundRobot, seed: Sequence[float]) -> npt.NDArray[np.float64]:
+    """A seed checked: a first guess, so a gripper's pinned joints are taken where they are."""
+    try:
+        guess: object = b.pin(np.asarray(seed, dtype=np.float64))
+    except (TypeError, ValueError, IndexError):
+        guess = seed  # not a joint vector: ``validate`` says what is wrong with it
+    return b.validate(guess, "seed")
+
+
 def ik(scene: Scene, robot_id: str, position: Vec3, quat_xyzw: Quat | None = None,
        seed: Sequence[float] | None = None, collision_free: bool = True, *, salt: int = 0) -> IkResult:
     """Joint positions putting the end-effector frame at ``position`` (+ ``quat_xyzw``), from ``seed``
@@ -35,7 +45,7 @@ def ik(scene: Scene, robot_id: str, position: Vec3, quat_xyzw: Quat | None = Non
     b = e.bound
     pos = v.position("position", position)
     quat = None if quat_xyzw is None else v.quaternion("orientation", quat_xyzw)
-    start = b.q.copy() if seed is None else b.validate(seed, "seed")
+    start = b.q.copy() if seed is None else _seed(b, seed)
     want_free = v.flag("collisionFree", collision_free)
     saved = b.q.copy()
 

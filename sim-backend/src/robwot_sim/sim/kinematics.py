@@ -134,17 +134,21 @@ def solve_ik(
 
     best: tuple[float, FloatArray, float, float] | None = None  # (score, q, pe, oe) of any solution
     fallback: tuple[float, FloatArray, float, float] | None = None  # best colliding one within tolerance
-    mid = (robot.lower + robot.upper) / 2
+    mid = robot.pin((robot.lower + robot.upper) / 2)
     for attempt in range(RESTARTS + 2):
         checkpoint()  # between attempts: the robot is only held (world_thread.py)
         # the caller's seed first, then the middle of the limits (far from them), then random restarts
         q = seed if attempt == 0 else mid if attempt == 1 else robot.random_q(rng)
         robot.apply(q)
         for _ in range(CHAIN if attempt >= FIRST_CHAINED else 1):
-            raw = np.asarray(b.ik(robot.body, robot.ee_index, position, quat, damping, ITERATIONS, RESIDUAL))[
-                robot.ik_slots
+            solver, shift = robot.ik_via or (robot, (0.0, 0.0, 0.0))
+            if solver is not robot:
+                solver.apply(robot.q)
+            goal = [p + d for p, d in zip(position, shift, strict=True)]
+            raw = np.asarray(b.ik(solver.body, solver.ee_index, goal, quat, damping, ITERATIONS, RESIDUAL))[
+                solver.ik_slots
             ]
-            q = wrap_clip(robot, raw)
+            q = robot.pin(wrap_clip(robot, raw))
             pe, oe = error(q)  # also leaves the robot at q for the next chained solve
             if pe <= CHAIN_POSITION and oe <= CHAIN_ORIENTATION:
                 break

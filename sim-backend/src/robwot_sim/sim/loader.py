@@ -92,6 +92,9 @@ class RobotFiles:
     package_roots: dict[str, str]
     #: what the user should know of the load: a package taken by its folder's name, SRDF entries skipped
     notes: tuple[str, ...] = ()
+    #: links never put among the always-colliding pairs (a held object: contacts it makes in every
+    #: random configuration are contacts to check, not a design overlap)
+    always_checked: frozenset[str] = frozenset()
 
     def cleanup(self) -> None:
         self.prepared.cleanup()
@@ -177,7 +180,8 @@ def load_robot_body(
         bound = BoundRobot(bullet, body, urdf_model, ee)
         _check_collision_shapes(bullet, bound, doc, prepared.meshes)
         rng = np.random.default_rng(FILTER_SEED)
-        filtered = find_always_colliding(bound, rng)
+        checked = {bound.link_index[name] for name in files.always_checked}
+        filtered = [p for p in find_always_colliding(bound, rng) if not checked.intersection(p)]
         filtered += [(bound.link_index[a], bound.link_index[b]) for a, b in sorted(srdf_pairs)]
         checker = CollisionChecker(bound, table, filtered)
     except Exception:

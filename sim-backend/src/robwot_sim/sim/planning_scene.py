@@ -208,6 +208,20 @@ class Scene:
         del self.table.robots[e.bound.body]
         self._changed()
 
+    @owned
+    def swap_entry(self, robot_id: str, entry: RobotEntry) -> RobotEntry:
+        """Robot ``robot_id`` is ``entry`` from now on (a body of it with a link added or removed,
+        ``gripper.py``); returns the entry it was, whose body leaves every check (the caller parks or
+        removes it)."""
+        old = self.entry(robot_id)
+        del self.table.names[old.bound.body]
+        del self.table.robots[old.bound.body]
+        self._robots[robot_id] = entry
+        self.table.names[entry.bound.body] = robot_id
+        self.table.robots[entry.bound.body] = entry.bound
+        self._changed()
+        return old
+
     # states
     @owned
     def get_joint_positions(self, robot_id: str) -> npt.NDArray[np.float64]:
@@ -356,7 +370,7 @@ class Scene:
         read by ``scene_files.read_object``), settled onto what is below it; returns it at rest."""
         return self._add_objects([spec if isinstance(spec, tuple) else read_object(spec)])[0]
 
-    def _add_objects(self, objects: Sequence[ReadObstacle]) -> list[dict[str, Any]]:
+    def _add_objects(self, objects: Sequence[ReadObstacle], allow: int | None = None) -> list[dict[str, Any]]:
         """Objects added and settled together (a scene's stack settles as one), all or nothing: each
         placed into another body or coming to rest touching a robot is refused (``settle.check_placed``)."""
         if len(self._objects) + len(objects) > MAX_OBJECTS:
@@ -370,15 +384,16 @@ class Scene:
                 added.append(self._add_obstacle(obj)["name"])
                 self._objects.add(added[-1])
             for name in added:
-                check_placed(self.bullet, self.table, self._obstacles[name][0], self._placed(name))
-            self._settle(added)
+                check_placed(self.bullet, self.table, self._obstacles[name][0], self._placed(name),
+                             allow=allow)
+            self._settle(added, allow)
         except Exception:
             for name in added:
                 self._remove_body(name)
             raise
         return [self._obstacles[name][1] for name in added]
 
-    def _settle(self, names: Sequence[str]) -> None:
+    def _settle(self, names: Sequence[str], allow: int | None = None) -> None:
         """Puts objects ``names`` where they come to rest (``settle.py``); one touching a robot there:
         ``Overlap``."""
         if not names:
@@ -393,7 +408,8 @@ class Scene:
             self._obstacles[name] = (body, {**spec, "position": list(pos), "orientation": list(quat)})
         self._changed()
         for name in names:
-            check_placed(self.bullet, self.table, self._obstacles[name][0], self._placed(name), at_rest=True)
+            check_placed(self.bullet, self.table, self._obstacles[name][0], self._placed(name), at_rest=True,
+                         allow=allow)
 
     def _placed(self, name: str) -> Placed:
         _, spec = self._obstacles[name]
@@ -419,6 +435,23 @@ class Scene:
     def remove_object(self, name: str) -> None:
         self._known(name, objects=True)
         self._remove_body(name)
+
+    # objects a gripper takes and lets go (``gripper.py``)
+    @owned
+    def object_bodies(self) -> dict[str, int]:
+        """The objects' bodies by name."""
+        return {name: self._obstacles[name][0] for name in sorted(self._objects)}
+
+    @owned
+    def object_read(self, name: str) -> ReadObstacle:
+        """Object ``name``'s spec and the shape its body was built from."""
+        _, spec = self._known(name, objects=True)
+        return spec, self._built[name]
+
+    @owned
+    def return_object(self, read: ReadObstacle, robot_id: str) -> dict[str, Any]:
+        """An object a robot let go of put back at its pose and settled; it may touch that robot."""
+        return self._add_objects([read], allow=self.entry(robot_id).bound.body)[0]
 
     # scene documents
     @owned
@@ -484,31 +517,3 @@ class Scene:
             self.remove_robot(rid)
         for name in list(self._obstacles):
             self._remove_body(name)
-
-    @owned
-    def scene_spec(self) -> dict[str, Any]:
-        """The current scene as a scene document (absolute paths); ``load_scene`` rebuilds it (its objects
-        as obstacles at their poses)."""
-        robots = []
-        for rid, e in self._robots.items():
-            r: dict[str, Any] = {
-                "id": rid,
-                "urdf": str(e.urdf_path),
-                "basePosition": list(e.model.base_position),
-                "baseOrientation": list(e.model.base_orientation),
-                "eeLink": e.model.ee_link,
-                "positions": [float(x) for x in e.bound.q],
-            }
-            if e.model.srdf:
-                r["srdf"] = e.model.srdf
-            added = [c.expression for c in e.model.couplings if c.source != "mimic"]
-            if added:
-                r["couplings"] = added  # the rules flattened: keep-level ones included
-            if e.package_roots:
-                r["packageRoots"] = {
-                    k: str(Path(p).expanduser().resolve()) for k, p in e.package_roots.items()
-                }
-            robots.append(r)
-        # objects as obstacles where they rest now (a rebuilt world holds them there, settled already)
-        obstacles = [{k: v for k, v in spec.items() if k != "mass"} for _, spec in self._obstacles.values()]
-        return {"version": 1, "obstacles": obstacles, "robots": robots}

@@ -57,6 +57,12 @@ class BoundRobot:
                 moving.add(ji.idx)
         self.moving_links = sorted(moving)
         self.static_links = [-1] + [ji.idx for ji in infos if ji.idx not in moving]
+        #: joints a gripper owns (index in the joint vector -> value): only the gripper moves them; every
+        #: move, search and draw keeps them where they are
+        self.pinned: dict[int, float] = {}
+        #: IK runs on this body instead, shifted by a vector (m): see ``gripper.py`` (PyBullet keeps IK data
+        #: per body address, and a body rebuilt where a freed one lay inherits the freed one's)
+        self.ik_via: tuple[BoundRobot, tuple[float, float, float]] | None = None
         self.q = self.home()
         self.apply(self.q)
 
@@ -92,6 +98,15 @@ class BoundRobot:
         """Teleport to ``q`` (no validation; use ``validate`` first)."""
         self.bullet.reset_joints(self.body, self.set_idx, self.full_values(q))
         self.q = np.array(q, dtype=np.float64)
+
+    def pin(self, q: FloatArray) -> FloatArray:
+        """``q`` (one vector or rows) with the pinned joints at their values."""
+        if not self.pinned:
+            return q
+        out = np.array(q, dtype=np.float64)
+        for k, value in self.pinned.items():
+            out[..., k] = value
+        return out
 
     def validate(self, q: object, param: str = "positions") -> FloatArray:
         """Check a joint vector: a list of dof finite numbers within limits. Returns a float array."""
@@ -136,14 +151,20 @@ class BoundRobot:
         past = self.followers.first_violation(out, LIMIT_TOL) if len(self.followers) else None
         if past is not None:
             raise OutOfLimits(*past)
+        for k, value in self.pinned.items():
+            if abs(out[k] - value) > LIMIT_TOL:
+                raise InvalidParams(
+                    f"{param}[{k}] ({self.ctrl_names[k]}) is {out[k]:.6g}: the gripper's joint is at "
+                    f"{value:.6g} and only gripOpen/gripClose move it", param=f"{param}[{k}]",
+                    expected=value, got=float(out[k]), joint=self.ctrl_names[k])
         return out
 
     def random_q(self, rng: np.random.Generator, n: int | None = None) -> FloatArray:
         """Joint vectors drawn uniformly within the limits; with followers, only those keeping every
         follower within its limits (rejection sampling; a linkage no draw satisfies keeps its last draws)."""
         if not len(self.followers):
-            return rng.uniform(self.lower, self.upper) if n is None else rng.uniform(self.lower, self.upper,
-                                                                                     size=(n, self.dof))
+            return self.pin(rng.uniform(self.lower, self.upper) if n is None
+                            else rng.uniform(self.lower, self.upper, size=(n, self.dof)))
         want = 1 if n is None else n
         got = np.empty((0, self.dof))
         for _ in range(REJECTION_ROUNDS):
@@ -153,4 +174,4 @@ class BoundRobot:
                 break
         if len(got) < want:
             got = np.vstack([got, draws[: want - len(got)]])
-        return got[0] if n is None else got[:want]
+        return self.pin(got[0] if n is None else got[:want])

@@ -19,7 +19,9 @@ from robwot_sim.model.meshcheck import check_mesh, mesh_points
 from robwot_sim.scene import normalise_obstacle, resolve_file
 from robwot_sim.scene import read_scene as read_scene_document
 from robwot_sim.sim.client import HULL
+from robwot_sim.sim.conveyors import Conveyor, read_conveyor
 from robwot_sim.sim.loader import RobotFiles, read_robot_files
+from robwot_sim.sim.sensors import Sensor, read_sensor
 
 #: an obstacle spec as stored (normalised) and the shape PyBullet loads (a checked, maybe converted, mesh)
 ReadObstacle = tuple[dict[str, Any], dict[str, Any]]
@@ -35,6 +37,9 @@ class SceneFiles:
     obstacles: list[ReadObstacle]
     robots: list[tuple[dict[str, Any], RobotFiles]] = field(default_factory=list)
     objects: list[ReadObstacle] = field(default_factory=list)
+    #: the conveyors' own state (their belts are among ``obstacles``, ``cell.py``) and the sensors
+    conveyors: list[Conveyor] = field(default_factory=list)
+    sensors: list[Sensor] = field(default_factory=list)
 
     def cleanup(self) -> None:
         for _, files in self.robots:
@@ -127,8 +132,12 @@ def read_scene(
         )
     roots = v.string_map("packageRoots", package_roots)
     doc, base, _file = read_scene_document(scene)
-    out = SceneFiles([read_obstacle(o, base, checked=True) for o in doc.get("obstacles", [])],
-                     objects=[read_object(o, base, checked=True) for o in doc.get("objects", [])])
+    conveyors = [read_conveyor(c) for c in doc.get("conveyors", [])]
+    obstacles = [*doc.get("obstacles", []), *(belt for _, belt in conveyors)]
+    out = SceneFiles([read_obstacle(o, base, checked=True) for o in obstacles],
+                     objects=[read_object(o, base, checked=True) for o in doc.get("objects", [])],
+                     conveyors=[c for c, _ in conveyors],
+                     sensors=[read_sensor(s) for s in doc.get("sensors", [])])
     try:
         for r in doc.get("robots", []):
             files = read_robot(

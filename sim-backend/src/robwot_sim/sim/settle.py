@@ -115,17 +115,18 @@ def lowest(placed: Placed) -> float | None:
 
 
 def check_placed(bullet: Bullet, table: BodyTable, body: int, placed: Placed, *,
-                 at_rest: bool = False) -> None:
+                 at_rest: bool = False, allow: int | None = None) -> None:
     """``Overlap`` naming the object ``body`` (``placed``) and the body it is put into: deeper than
     ``OVERLAP_TOLERANCE`` into any body or below the floor (placed), or touching a robot (``at_rest``:
-    robots hold nothing up, and a robot's own verdicts count a touch as a contact)."""
+    robots hold nothing up, and a robot's own verdicts count a touch as a contact). Body ``allow`` (the
+    robot letting the object go) may touch it."""
     name = table.names[body]
     low = lowest(placed)
     if not at_rest and low is not None and -low > OVERLAP_TOLERANCE:
         raise Overlap(name, "floor (z = 0)", -low)
     bullet.detect()  # the broadphase's boxes follow the bodies just created or moved
     for other in sorted(bullet.bodies_near_links(body, [-1], 0.0)):
-        if other not in table.names or (at_rest and other not in table.robots):
+        if other not in table.names or other == allow or (at_rest and other not in table.robots):
             continue
         touching = [-c.distance for c in bullet.closest(body, other, 0.0) if c.distance <= 0.0]
         depth = max(touching, default=None)

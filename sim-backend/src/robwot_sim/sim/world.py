@@ -5,6 +5,7 @@
   (``planning_scene.Scene``);
 - ``queries``: batch collision queries and their caches, kept by the scene's version
   (``collision_queries.CollisionQueries``);
+- ``cell``: the conveyors carrying objects, the sensors watching them, the cell's time (``cell.Cell``);
 - IK (``ik.py``), path checks (``pathcheck.py``), detours (``detour.py``, with the detours the World
   remembers) and trajectory timing (``trajectory.py``): free functions over the scene; planning itself
   (``planner.py``, ``program.py``) calls them through the World.
@@ -16,6 +17,7 @@ once ``bind`` is called, other threads are refused).
 
 from __future__ import annotations
 
+import builtins
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Self
@@ -25,9 +27,11 @@ import numpy.typing as npt
 
 from robwot_sim.limits import DEFAULT_ACCELERATION, DEFAULT_DT, DEFAULT_SPEED, DEFAULT_TCP_SPEED
 from robwot_sim.sim import detour as detours
-from robwot_sim.sim import export, pathcheck, scene_files, trajectory
+from robwot_sim.sim import export, pathcheck, scene_doc, scene_files, trajectory
 from robwot_sim.sim import ik as inverse_kinematics
+from robwot_sim.sim.cell import Cell
 from robwot_sim.sim.collision_queries import CollisionQueries
+from robwot_sim.sim.gripper import Grippers
 from robwot_sim.sim.planning_scene import JointVector, Quat, Scene, Vec3
 from robwot_sim.sim.timed import TimedPath
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport
@@ -48,11 +52,15 @@ class World:
         self.queries = CollisionQueries(scene)
         self._detours = detours.DetourMemory()  # each robot's last detours (``detour``)
         self._ik_salt = ik_seed  # salts the per-request IK restart seeds (``ik``)
+        #: the robots' grippers and the objects they hold (``gripper.py``)
+        self.grippers = Grippers(scene)
+        #: the conveyors and sensors around the robots and the cell's time (``cell.py``)
+        self.cell = cell = Cell(scene)
+        cell.held = self.grippers.held_bodies  # sensors see what robots hold
         # bodies and their states: the scene's own methods
         self.bind = scene.bind
         self.load_robot = scene.load_robot
         self.add_robot = scene.add_robot
-        self.remove_robot = scene.remove_robot
         self.robot_model = scene.robot_model
         self.robot_ids = scene.robot_ids
         self.get_joint_positions = scene.get_joint_positions
@@ -64,15 +72,12 @@ class World:
         self.check_collision = scene.check_collision
         self.add_obstacle = scene.add_obstacle
         self.move_obstacle = scene.move_obstacle
-        self.remove_obstacle = scene.remove_obstacle
+        self.remove_obstacle = cell.remove_obstacle  # a conveyor's belt: the conveyor too
         self.add_object = scene.add_object
         self.move_object = scene.move_object
         self.remove_object = scene.remove_object
-        self.load_scene = scene.load_scene
-        self.add_scene = scene.add_scene
-        self.list = scene.list
-        self.reset = scene.reset
-        self.scene_spec = scene.scene_spec
+        self.load_scene = cell.load_scene  # the scene's, with its conveyors and sensors
+        self.add_scene = cell.add_scene
 
     def __enter__(self) -> Self:
         return self
@@ -81,8 +86,29 @@ class World:
         self.close()
 
     def close(self) -> None:
+        self.grippers.close_all()
         self.queries.close()
         self.scene.close()
+
+    def remove_robot(self, robot_id: str) -> None:
+        self.scene.remove_robot(robot_id)
+        self.grippers.forget(robot_id)
+
+    def reset(self) -> None:
+        self.grippers.close_all()
+        self.scene.reset()
+        self.cell.clear()
+
+    def list(self) -> dict[str, Any]:
+        """Robots, obstacles, objects, conveyors and sensors; a held object where the robot holding it has it
+        (``heldBy``)."""
+        out = self.scene.list()
+        out["objects"] = [*out["objects"], *self.grippers.held_objects()]
+        return self.cell.listed(out)
+
+    def scene_spec(self) -> dict[str, Any]:
+        """The world as a scene document (``scene_doc.scene_spec``) with the cell's conveyors and sensors."""
+        return self.cell.documented(scene_doc.scene_spec(self.scene))
 
     def ik(self, robot_id: str, position: Vec3, quat_xyzw: Quat | None = None,
            seed: Sequence[float] | None = None, collision_free: bool = True) -> IkResult:
@@ -118,7 +144,7 @@ class World:
         return pathcheck.check_states(self.scene, robot_id, path)
 
     def detour(self, robot_id: str, target: JointVector,
-               budget: float = detours.BUDGET) -> list[tuple[float, ...]] | None:
+               budget: float = detours.BUDGET) -> builtins.list[tuple[float, ...]] | None:
         return detours.detour(self.scene, robot_id, target, self._detours, budget)
 
     # files

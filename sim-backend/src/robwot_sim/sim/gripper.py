@@ -1,0 +1,459 @@
+"""A gripper on a robot and the object it holds (MoveIt's attached collision object).
+
+A gripper is declared per robot (``Grippers.configure``): parallel ``fingers`` driven by finger joints
+(controllable joints off the end effector's chain whose parent link is on it; their mimic partners
+follow), or a ``suction`` cup at the TCP. Its joints are pinned (``BoundRobot.pinned``): moves, IK, searches
+and draws keep them; only ``close`` and ``open`` move them. A gripper starts open.
+
+Closing catches the object nearest the TCP (the end-effector link's frame) within ``capture`` m of it: the
+TCP inside the object or that close to its surface. Fingers close until they touch it (fully, on nothing).
+The object then becomes part of the robot: the robot's body is rebuilt from its URDF with the object as a
+fixed link on the end effector, named as the object, so every check (moves, validation, planning,
+LIN/CIRC, programs, the mirror worlds, the sure hits) sees it, against everything but the hand: the link
+the gripper is mounted on and every link below it (pairs filtered, as an SRDF's ``disable_collisions``;
+pairs with it are never taken for always-colliding ones). Opening rebuilds the robot without it and lets it
+go where it is: it settles onto what is below it (``settle.py``), allowed to rest touching the robot
+that let it go (the robot leaves such a contact as any other, ``exit_contact.py``).
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pybullet as pb
+from scipy.spatial import ConvexHull
+
+from robwot_sim.errors import InvalidParams
+from robwot_sim.model.couplings import chain_to
+from robwot_sim.model.joints import MOVABLE, UrdfModel
+from robwot_sim.model.tool import fixed_joint, link_element, portable_copy
+from robwot_sim.model.urdf import parse_urdf
+from robwot_sim.sim.bounds import Body
+from robwot_sim.sim.client import HULL
+from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body, read_robot_files
+from robwot_sim.sim.planning_scene import Scene
+from robwot_sim.sim.scene_files import ReadObstacle
+from robwot_sim.sim.settle import Placed
+from robwot_sim.sim.types import Pose
+
+#: how far (m) a holding robot's own body is parked from its base (``Grippers._hold_body``)
+PARK = (1000.0, 1000.0, -1000.0)
+#: radius (m) of the probe ``object_at`` measures from
+PROBE_RADIUS = 1e-4
+#: steps a closing finger takes from open to closed, stopping at the first that touches the object
+CLOSE_STEPS = 50
+KINDS = ("fingers", "suction")
+
+
+@dataclass(frozen=True)
+class Gripper:
+    """A robot's gripper: its kind, finger joints with their open and closed values, the time (s) opening
+    or closing takes, and how far (m) from the TCP an object is caught."""
+
+    kind: str
+    joints: tuple[str, ...]
+    open: tuple[float, ...]
+    closed: tuple[float, ...]
+    time: float
+    capture: float
+
+    def as_json(self) -> dict[str, Any]:
+        return {"kind": self.kind, "joints": list(self.joints), "open": list(self.open),
+                "closed": list(self.closed), "time": self.time, "capture": self.capture}
+
+
+@dataclass
+class Held:
+    """An object a robot holds: its spec and shape as it was caught, its pose in the end-effector frame,
+    the robot's own URDF (without it) and the temporary folder of the URDF with it."""
+
+    name: str
+    read: ReadObstacle
+    offset: tuple[Sequence[float], Sequence[float]]
+    urdf: Path
+    package_roots: dict[str, str]
+    folder: Path
+    held_urdf: Path
+    held_roots: dict[str, str]
+    #: the robot's link pairs never checked while it holds the object (the object and the hand)
+    pairs: frozenset[tuple[str, str]]
+    link: str
+
+    def files(self, scene: Scene, robot_id: str) -> RobotFiles:
+        """The robot's files with the object, its pairs with the hand filtered."""
+        files = read_like(scene, robot_id, self.held_urdf, self.held_roots)
+        return replace(files, srdf_pairs=files.srdf_pairs | self.pairs, always_checked=frozenset({self.link}))
+
+
+def object_at(scene: Scene, position: Sequence[float], within: float) -> str | None:
+    """The object nearest ``position`` (m, world) among those within ``within`` m of it (inside one:
+    distance below 0), or None."""
+    bullet = scene.bullet
+    probe = bullet.create_body({"type": "sphere", "radius": PROBE_RADIUS}, position, (0, 0, 0, 1), 0.0)
+    try:
+        near = [(min(c.distance for c in points), name) for name, body in scene.object_bodies().items()
+                if (points := bullet.closest(probe, body, within))]
+    finally:
+        bullet.remove_body(probe)
+    return min(near)[1] if near else None
+
+
+def touches(scene: Scene, robot_id: str, name: str) -> bool:
+    """Some link of the robot touches object ``name``."""
+    body = scene.object_bodies()[name]
+    return any(c.distance <= 0.0 for c in scene.bullet.closest(scene.entry(robot_id).bound.body, body, 0.0))
+
+
+def read_like(scene: Scene, robot_id: str, urdf: Path, package_roots: dict[str, str]) -> RobotFiles:
+    """Another URDF of the robot (its own with a link added or removed) read as it was read: its end
+    effector, SRDF and couplings."""
+    m = scene.entry(robot_id).model
+    return read_robot_files(urdf, m.ee_link, package_roots, srdf=m.srdf,
+                            couplings=[c.expression for c in m.couplings if c.source != "mimic"])
+
+
+def finger_joints(model: UrdfModel, ee: str) -> list[str]:
+    """The controllable joints off the end effector's chain whose parent link is on it (or is it)."""
+    chain = chain_to(ee, model.joints)
+    on_chain = {ee, *(j.parent for j in chain), *(j.child for j in chain)}
+    chain_joints = {j.name for j in chain}
+    types = {j.name: j for j in model.joints}
+    return [n for n in model.controllable
+            if n not in chain_joints and types[n].type in MOVABLE and types[n].parent in on_chain]
+
+
+def hand_links(model: UrdfModel, ee: str, mount: str) -> set[str]:
+    """``mount`` and every link below it, with the end effector and the links below it."""
+    children: dict[str, list[str]] = {}
+    for j in model.joints:
+        children.setdefault(j.parent, []).append(j.child)
+    out: set[str] = set()
+    todo = [mount, ee]
+    while todo:
+        link = todo.pop()
+        if link not in out:
+            out.add(link)
+            todo.extend(children.get(link, ()))
+    return out
+
+
+class Grippers:
+    """The grippers of a scene's robots and what each holds."""
+
+    def __init__(self, scene: Scene) -> None:
+        self._scene = scene
+        self._grippers: dict[str, Gripper] = {}
+        self._state: dict[str, str] = {}  # "open" | "closed"
+        self._held: dict[str, Held] = {}
+        self._own: dict[str, RobotEntry] = {}  # a holding robot's own body, parked (``_hold_body``)
+
+    def close_all(self) -> None:
+        """Every gripper forgotten (the world reset or closed)."""
+        for robot_id in [*self._grippers]:
+            self.forget(robot_id)
+
+    def forget(self, robot_id: str) -> None:
+        """A robot removed: its gripper, what it held and its parked body go with it."""
+        held = self._held.pop(robot_id, None)
+        if held is not None:
+            shutil.rmtree(held.folder, ignore_errors=True)
+        own = self._own.pop(robot_id, None)
+        if own is not None:
+            self._scene.bullet.remove_body(own.bound.body)
+        self._grippers.pop(robot_id, None)
+        self._state.pop(robot_id, None)
+
+    def _gripper(self, robot_id: str) -> Gripper:
+        self._scene.entry(robot_id)
+        if robot_id not in self._grippers:
+            raise InvalidParams(f"robot {robot_id!r} has no gripper (declare one: generate --gripper)",
+                                param="robotId", expected="a robot with a gripper", got=robot_id)
+        return self._grippers[robot_id]
+
+    # declaring
+    def configure(self, robot_id: str, kind: str, joints: Sequence[str] | None = None, time: float = 0.5,
+                  capture: float = 0.01) -> dict[str, Any]:
+        """Declare ``robot_id``'s gripper and open it. ``joints``: the finger joints (fingers; default all
+        found, ``finger_joints``). Refused while it holds an object."""
+        e = self._scene.entry(robot_id)
+        if robot_id in self._held:
+            raise InvalidParams(f"robot {robot_id!r} holds {self._held[robot_id].name!r}: open the gripper "
+                                "first", param="robotId", expected="an empty gripper", got=robot_id)
+        if kind not in KINDS:
+            raise InvalidParams(f"gripper kind must be one of {', '.join(KINDS)}", param="kind",
+                                expected=list(KINDS), got=kind)
+        names: list[str] = []
+        if kind == "fingers":
+            found = finger_joints(e.bound.urdf, e.model.ee_link)
+            names = list(joints) if joints else found
+            unknown = [n for n in names if n not in found]
+            if not names or unknown:
+                raise InvalidParams(
+                    f"robot {robot_id!r} has no finger joint"
+                    f"{' ' + ', '.join(map(repr, unknown)) if unknown else 's'}"
+                    f" (finger joints: controllable joints off the chain to {e.model.ee_link!r} whose parent "
+                    f"link is on it: {', '.join(found) or 'none'}); a suction cup needs none",
+                    param="joints", expected=found, got=list(joints or []))
+        opened, closed = self._finger_ends(robot_id, names)
+        e.bound.pinned.clear()
+        self._grippers[robot_id] = Gripper(kind, tuple(names), opened, closed, float(time), float(capture))
+        self._set_fingers(robot_id, opened)
+        self._state[robot_id] = "open"
+        return self.state(robot_id)
+
+    def _finger_ends(self, robot_id: str,
+                     names: Sequence[str]) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """Each finger joint's open and closed value: of its two limits, the one at which the links it moves
+        (with its mimic partners) lie farther apart is open."""
+        b = self._scene.entry(robot_id).bound
+        saved = b.q.copy()
+        opened, closed = [], []
+        try:
+            for name in names:
+                k = b.ctrl_names.index(name)
+                spread = []
+                for value in (b.lower[k], b.upper[k]):
+                    q = saved.copy()
+                    q[k] = value
+                    b.apply(q)
+                    points = np.array([b.bullet.link_frame(b.body, i)[0] for i in b.moving_links])
+                    spread.append(float(np.ptp(points, axis=0).sum()) if len(points) else 0.0)
+                lo, hi = float(b.lower[k]), float(b.upper[k])
+                opened.append(hi if spread[1] > spread[0] else lo)
+                closed.append(lo if spread[1] > spread[0] else hi)
+        finally:
+            b.apply(saved)
+        return tuple(opened), tuple(closed)
+
+    def _set_fingers(self, robot_id: str, values: Sequence[float]) -> None:
+        """The finger joints teleported to ``values`` and pinned there."""
+        g = self._grippers[robot_id]
+        b = self._scene.entry(robot_id).bound
+        q = b.q.copy()
+        for name, value in zip(g.joints, values, strict=True):
+            k = b.ctrl_names.index(name)
+            q[k] = value
+            b.pinned[k] = float(value)
+        self._scene.set_joint_positions(robot_id, q)
+
+    # reading
+    def state(self, robot_id: str) -> dict[str, Any]:
+        g = self._gripper(robot_id)
+        held = self._held.get(robot_id)
+        return {"robotId": robot_id, "state": self._state[robot_id], "holding": held.name if held else None,
+                "gripper": g.as_json()}
+
+    def held_objects(self) -> list[dict[str, Any]]:
+        """The held objects' specs where they are now, each with ``heldBy``."""
+        out = []
+        for rid, held in self._held.items():
+            pose = self._held_pose(rid)
+            out.append({**held.read[0], "position": list(pose.position), "orientation": list(pose.quat_xyzw),
+                        "heldBy": rid})
+        return out
+
+    def held_bodies(self) -> list[tuple[Body, Sequence[float] | None]]:
+        """The held objects as the cell's sensors measure them (their shapes as built, where they are now,
+        PyBullet's box of the link), with their colours."""
+        out: list[tuple[Body, Sequence[float] | None]] = []
+        for rid, held in self._held.items():
+            pose, (spec, built) = self._held_pose(rid), held.read
+            b = self._scene.entry(rid).bound
+            box = b.bullet.aabb(b.body, b.link_index[held.link])
+            placed = Placed(built, pose.position, pose.quat_xyzw, spec.get("mass", 0.0))
+            out.append((Body(held.name, placed, box), spec.get("color")))
+        return out
+
+    def _held_pose(self, robot_id: str) -> Pose:
+        held = self._held[robot_id]
+        ee = self._scene.fk(robot_id)
+        pos, quat = pb.multiplyTransforms(ee.position, ee.quat_xyzw, held.offset[0], held.offset[1])
+        return Pose(tuple(pos), tuple(quat))
+
+    # closing and opening
+    def close(self, robot_id: str) -> dict[str, Any]:
+        """Close on the object nearest the TCP within the capture distance, if any, and hold it."""
+        g = self._gripper(robot_id)
+        if robot_id in self._held:
+            return self.state(robot_id)
+        caught = object_at(self._scene, self._scene.fk(robot_id).position, g.capture)
+        values = self._closing(robot_id, g, caught)
+        self._set_fingers(robot_id, values)
+        self._state[robot_id] = "closed"
+        if caught is not None:
+            self._hold(robot_id, caught)
+        return self.state(robot_id)
+
+    def _closing(self, robot_id: str, g: Gripper, caught: str | None) -> tuple[float, ...]:
+        """The finger values a closing stops at: the last step before a finger touches ``caught``."""
+        if caught is None or not g.joints:
+            return g.closed
+        opened, closed = np.array(g.open), np.array(g.closed)
+        last = opened
+        for k in range(1, CLOSE_STEPS + 1):
+            values = opened + (closed - opened) * (k / CLOSE_STEPS)
+            self._set_fingers(robot_id, values.tolist())
+            if touches(self._scene, robot_id, caught):
+                break
+            last = values
+        out = tuple(float(v) for v in last)
+        self._set_fingers(robot_id, out)
+        return out
+
+    def _hold(self, robot_id: str, name: str) -> None:
+        e = self._scene.entry(robot_id)
+        read = self._scene.object_read(name)
+        spec = read[0]
+        ee = self._scene.fk(robot_id)
+        inv_p, inv_q = pb.invertTransform(ee.position, ee.quat_xyzw)
+        offset = pb.multiplyTransforms(inv_p, inv_q, spec["position"], spec["orientation"])
+        own, roots = Path(e.model.urdf), dict(e.package_roots)
+        folder = Path(tempfile.mkdtemp(prefix="robwot-held-"))
+        try:
+            link, urdf, held_roots = _held_urdf(own, roots, e.model.ee_link, name, read[1], offset, folder)
+            pairs = frozenset((min(link, h), max(link, h))
+                              for h in hand_links(e.bound.urdf, e.model.ee_link, self._mount(robot_id)))
+            held = Held(name, read, offset, own, roots, folder, urdf, held_roots, pairs, link)
+            files = held.files(self._scene, robot_id)
+            self._scene.remove_object(name)
+            try:
+                self._hold_body(robot_id, files, own)
+            except Exception:
+                self._scene.return_object(read, robot_id)
+                raise
+        except Exception:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        self._held[robot_id] = held
+
+    def _mount(self, robot_id: str) -> str:
+        """The link the gripper is mounted on: the finger joints' parent, else the nearest link at or above
+        the end effector with collision geometry (a suction cup's), else the end effector."""
+        g = self._grippers[robot_id]
+        e = self._scene.entry(robot_id)
+        joints = {j.name: j for j in e.bound.urdf.joints}
+        if g.joints:
+            return joints[g.joints[0]].parent
+        b = e.bound
+        for j in reversed(chain_to(e.model.ee_link, e.bound.urdf.joints)):
+            if b.bullet.has_collision_shape(b.body, b.link_index[j.child]):
+                return j.child
+        return e.model.ee_link
+
+    def _hold_body(self, robot_id: str, files: RobotFiles, own: Path) -> None:
+        """The robot becomes a body of ``files`` (its URDF with the held object; its model keeps naming
+        ``own``) at the same base and joints. Its own body stays in the client, parked ``PARK`` away from
+        every check, and solves its IK (``BoundRobot.ik_via``): a freed body's address may be reused by a
+        new body, which then inherits PyBullet's IK data of the freed one (a body of other joints: "Error in
+        calculateInverseKinematics", at random), so a body that ever solved IK is never freed here."""
+        scene = self._scene
+        old = scene.entry(robot_id)
+        entry = load_robot_body(scene.bullet, scene.table, files, robot_id, list(old.model.base_position),
+                                list(old.model.base_orientation))
+        if entry.bound.ctrl_names != old.bound.ctrl_names:  # never: only a fixed link was added
+            scene.bullet.remove_body(entry.bound.body)
+            raise RuntimeError(f"robot {robot_id!r} rebuilt with other joints")
+        entry.clearance = old.clearance
+        entry.model = replace(entry.model, urdf=str(own), clearance=old.clearance,
+                              accelerations=old.model.accelerations, package_roots=old.model.package_roots)
+        entry.bound.apply(old.bound.q)
+        entry.bound.pinned.update(old.bound.pinned)
+        entry.bound.ik_via = (old.bound, PARK)
+        scene.swap_entry(robot_id, entry)
+        at, turned = scene.bullet.base_pose(old.bound.body)  # its inertial frame's, as reset_base sets it
+        scene.bullet.reset_base(old.bound.body, [v + d for v, d in zip(at, PARK, strict=True)], turned)
+        self._own[robot_id] = old
+
+    def _own_body(self, robot_id: str) -> None:
+        """The robot's own body back in place of the one holding an object (freed: it never solved IK)."""
+        scene = self._scene
+        own = self._own.pop(robot_id)
+        holding = scene.entry(robot_id)
+        own.bound.pinned = dict(holding.bound.pinned)
+        own.bound.apply(holding.bound.q)
+        at, turned = scene.bullet.base_pose(own.bound.body)
+        scene.bullet.reset_base(own.bound.body, [v - d for v, d in zip(at, PARK, strict=True)], turned)
+        scene.swap_entry(robot_id, own)
+        scene.bullet.remove_body(holding.bound.body)
+
+    def open(self, robot_id: str) -> dict[str, Any]:
+        """Open the fingers (or let go of the cup) and release what is held where it is: it settles."""
+        g = self._gripper(robot_id)
+        held = self._held.get(robot_id)
+        released: dict[str, Any] | None = None
+        if held is not None:
+            pose = self._held_pose(robot_id)
+            spec, built = held.read
+            self._own_body(robot_id)
+            try:
+                released = self._scene.return_object(
+                    ({**spec, "position": list(pose.position), "orientation": list(pose.quat_xyzw)}, built),
+                    robot_id)
+            except Exception:  # it cannot be let go there: held as it was
+                self._hold_body(robot_id, held.files(self._scene, robot_id), held.urdf)
+                raise
+            del self._held[robot_id]
+            shutil.rmtree(held.folder, ignore_errors=True)
+        self._set_fingers(robot_id, g.open)
+        self._state[robot_id] = "open"
+        return {**self.state(robot_id), "released": released}
+
+
+def _geometry(shape: dict[str, Any], folder: Path, name: str) -> ET.Element:
+    """A URDF ``<geometry>`` of an object's shape as built (a mesh: its convex hull, written as OBJ)."""
+    geometry = ET.Element("geometry")
+    t = shape["type"]
+    if t == "box":
+        ET.SubElement(geometry, "box", {"size": " ".join(f"{v:.9g}" for v in shape["size"])})
+    elif t == "sphere":
+        ET.SubElement(geometry, "sphere", {"radius": f"{shape['radius']:.9g}"})
+    elif t == "cylinder":
+        ET.SubElement(geometry, "cylinder", {"radius": f"{shape['radius']:.9g}",
+                                             "length": f"{shape['length']:.9g}"})
+    else:
+        points = np.asarray(shape[HULL], dtype=np.float64)
+        hull = ConvexHull(points)
+        out = folder / f"{name}_hull.obj"
+        lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in points]
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in _outward(points, hull)]
+        out.write_text("\n".join(lines) + "\n")
+        ET.SubElement(geometry, "mesh", {"filename": out.name})
+    return geometry
+
+
+def _outward(points: np.ndarray, hull: ConvexHull) -> list[tuple[int, int, int]]:
+    """The hull's triangles wound outward (their normal away from the hull's centre)."""
+    centre = points[hull.vertices].mean(axis=0)
+    out = []
+    for a, b, c in hull.simplices:
+        n = np.cross(points[b] - points[a], points[c] - points[a])
+        out.append((int(a), int(b), int(c)) if n @ (points[a] - centre) >= 0 else (int(a), int(c), int(b)))
+    return out
+
+
+def _held_urdf(urdf: Path, roots: dict[str, str], ee: str, name: str, shape: dict[str, Any],
+               offset: tuple[Sequence[float], Sequence[float]],
+               folder: Path) -> tuple[str, Path, dict[str, str]]:
+    """The robot's URDF with the object as a fixed link on ``ee`` at ``offset``, written into ``folder``:
+    (the link's name, the file, its package roots). The link is named as the object unless the robot has
+    a link of that name (then ``held_`` + name)."""
+    doc = parse_urdf(urdf)
+    root, held_roots = portable_copy(doc, roots)
+    links = {el.get("name") for el in root.findall("link")}
+    link_name = name if name not in links else f"held_{name}"
+    link = link_element(root, link_name)
+    collision = ET.SubElement(link, "collision")
+    collision.append(_geometry(shape, folder, link_name))
+    rpy = pb.getEulerFromQuaternion(offset[1])
+    root.append(fixed_joint(f"{link_name}_grasp", ee, link_name, offset[0], rpy))
+    out = folder / urdf.name
+    ET.indent(root)
+    ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
+    return link_name, out, held_roots
