@@ -141,6 +141,7 @@ function liveReceived(properties: Json, events: Json): Record<string, Json> {
     scene: liveMessage("scene", "the shared world's obstacles (scene.json's shape) and objects where they rest (the objects property) after every scene edit", null, {
       obstacles: { type: "array", items: { type: "object" } },
       objects: schema("objects") ?? { type: "array", items: { type: "object" } },
+      conveyors: { type: "array", items: { type: "object" }, description: "(a world with conveyors) each belt as scene.json states it: box size, position, orientation, speed, state" },
     }),
     gap: liveMessage("gap", "events after `resume` are no longer known (sent first, without seq)", null, {
       resume: { type: "integer", minimum: 0 },

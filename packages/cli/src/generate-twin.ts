@@ -5,7 +5,7 @@
  */
 import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { buildThingModel, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
+import { buildThingModel, type GripperDecl, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
 import type { RobotLoadProgressNotification, RobotModel, SimClient, WorkspaceSummary, WorldList } from "@robwot/sim-client";
 import type { BackendGuard } from "./backend-guard.js";
 import { buildTd, tdErrorsMessage } from "./td.js";
@@ -252,6 +252,7 @@ async function generateFrom(
   const warnings = new Warnings(progress);
   warnings.say(inputWarnings(input, model));
   const home = await checkStart(sim, model, opts.home, input.home, warnings);
+  if (opts.gripper !== undefined) await declareGripper(sim, model, opts.gripper);
   const world = await sim.listWorld();
   const obstacles = world.obstacles;
   const others = world.robots.filter((r) => r.id !== model.id);
@@ -267,7 +268,7 @@ async function generateFrom(
 
   // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
   // make a valid TD fails fast (the validator was loaded and warmed while the backend started).
-  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool).validate())().catch(
+  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool, opts.gripper).validate())().catch(
     (err: unknown) => [err instanceof Error ? err.message : String(err)],
   );
   if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
@@ -280,7 +281,7 @@ async function generateFrom(
   noteSurface(summary, progress);
 
   progress.stage("td");
-  const td = buildTd(model, summary, scene, opts.baseUrl, input.tool);
+  const td = buildTd(model, summary, scene, opts.baseUrl, input.tool, opts.gripper);
   const errors = await td.validate();
   if (errors.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(errors)}`, "E_TD_INVALID", 1);
   writeJson(join(staged.tmp, TWIN_FILES.td), td.td);
@@ -349,10 +350,20 @@ function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, in
       ...(input.tool !== undefined ? { tool: input.tool } : {}),
       // --couple rules and those --keep-level derived (robot.urdf's own <mimic> tags aside): serve loads them
       ...(rules.length > 0 ? { couplings: rules } : {}),
+      // --gripper: serve declares it to the backend (gripper.configure) when it loads the robot
+      ...(opts.gripper !== undefined ? { gripper: opts.gripper } : {}),
     },
     scene: TWIN_FILES.scene,
     generatedAt: new Date().toISOString(),
     tool: `robwot ${VERSION}`,
+  });
+}
+
+/** `--gripper` declared to the backend as serve will: a robot without the finger joints is refused here. */
+async function declareGripper(sim: SimClient, model: RobotModel, g: GripperDecl): Promise<void> {
+  type Joints = Parameters<SimClient["configureGripper"]>[0]["joints"];
+  await sim.configureGripper({ robot: model.id, kind: g.kind, time: g.time, capture: g.capture, ...(g.joints !== undefined ? { joints: g.joints as Joints } : {}) }).catch((err: unknown) => {
+    throw new CliError(`--gripper: ${err instanceof Error ? err.message : String(err)}`, "E_USAGE", 2);
   });
 }
 

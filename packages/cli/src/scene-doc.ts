@@ -1,7 +1,8 @@
 /**
  * The twin's `scene.json`: the world as the backend has it after loading (Contract 2, scene schema
  * `sim-backend/src/robwot_sim/schemas/scene.schema.json`), with mesh obstacles and objects copied into the
- * folder so it stays self-contained; objects where they rest.
+ * folder so it stays self-contained; objects where they rest; conveyors (their state) and sensors (without
+ * their readings).
  */
 import { copyFileSync, existsSync, mkdirSync, readFileSync } from "node:fs";
 import { basename, join } from "node:path";
@@ -14,6 +15,10 @@ export interface SceneDoc {
   description?: string;
   obstacles: Record<string, unknown>[];
   objects?: Record<string, unknown>[];
+  /** the conveyors as the world holds them (belt box, speed, end stop, state) */
+  conveyors?: Record<string, unknown>[];
+  /** the sensors (kind, field-of-view box), without their readings */
+  sensors?: Record<string, unknown>[];
   robots: Record<string, unknown>[];
 }
 
@@ -41,7 +46,18 @@ export function sceneDocument(world: WorldList, ownRobot: string, dir: string, s
   const robots = world.robots
     .filter((r) => r.id !== ownRobot)
     .map((r) => ({ id: r.id, urdf: robotUrdfs.get(r.id) ?? r.urdf, basePosition: r.basePosition, baseOrientation: r.baseOrientation, eeLink: r.eeLink }));
-  return { version: 1, ...sourceMeta(sceneFile), obstacles, ...(objects.length > 0 ? { objects } : {}), robots };
+  // the conveyors in their state now; a sensor's reading is the world's, not part of a scene document
+  const conveyors = (world.conveyors ?? []).map((c) => ({ ...c }));
+  const sensors = (world.sensors ?? []).map(({ reading: _reading, ...s }) => s);
+  return {
+    version: 1,
+    ...sourceMeta(sceneFile),
+    obstacles,
+    ...(objects.length > 0 ? { objects } : {}),
+    ...(conveyors.length > 0 ? { conveyors } : {}),
+    ...(sensors.length > 0 ? { sensors } : {}),
+    robots,
+  };
 }
 
 /** An obstacle or object of `world.list` for scene.json: a mesh file copied into `<dir>/meshes/scene/`. */

@@ -25,8 +25,8 @@ export interface BuiltTd {
   validate(): Promise<string[]>;
 }
 
-export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unknown, baseUrl: string, tool?: BuildThingDescriptionOptions["tool"]): BuiltTd {
-  const td = buildThingDescription({ model, summary, baseUrl, sceneId: fnv1a64(canonicalJson(scene)), srdf: model.srdf !== undefined, ...(tool ? { tool } : {}) });
+export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unknown, baseUrl: string, tool?: BuildThingDescriptionOptions["tool"], gripper?: BuildThingDescriptionOptions["gripper"]): BuiltTd {
+  const td = buildThingDescription({ model, summary, baseUrl, sceneId: fnv1a64(canonicalJson(scene)), srdf: model.srdf !== undefined, ...(tool ? { tool } : {}), ...(gripper ? { gripper } : {}) });
   return {
     td,
     async validate() {

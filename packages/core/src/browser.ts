@@ -53,3 +53,5 @@ export type { Calibration, CalibrationPair, PointLike, SimilarityTransform } fro
 export { gaussian, mulberry32 } from "./random.js";
 export { tdCouplings, withFollowers } from "./couplings.js";
 export type { TdCoupling } from "./couplings.js";
+export { conveyorThingDescription, sensorThingDescription, BELT_SPEED_SCHEMA, CONVEYOR_ACTIONS, CONVEYOR_STATE_SCHEMA } from "./td/cell-things.js";
+export type { CellThingOptions } from "./td/cell-things.js";

@@ -48,6 +48,16 @@ export interface RobotModelLike {
   clearance?: number;
 }
 
+/** A gripper as `generate --gripper` declares it: parallel fingers (finger joints, default every one found)
+ *  or a suction cup at the TCP; `time` (s) an opening or closing takes, `capture` (m) how far from the TCP an
+ *  object is caught. */
+export interface GripperDecl {
+  kind: "fingers" | "suction";
+  joints?: string[];
+  time: number;
+  capture: number;
+}
+
 /** `twin.json` (Contract 2). */
 export interface TwinManifest {
   version: 1;
@@ -70,6 +80,8 @@ export interface TwinManifest {
     couplings?: string[];
     /** `--tcp` / `--tool-mesh`: the tool robot.urdf carries, mounted on `flange`; `eeLink` is its TCP link */
     tool?: { flange: string; tcp: number[]; mesh?: string; shape?: { type: "box"; size: number[] } | { type: "cylinder"; radius: number; length: number } };
+    /** `--gripper`: the robot's gripper, declared to the backend (`gripper.configure`) when serve loads it */
+    gripper?: GripperDecl;
   };
   scene: string;
   generatedAt: string;

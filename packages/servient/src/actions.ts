@@ -7,6 +7,7 @@ import type { ObjectMoveParams, ObstacleMoveParams } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { objectInput, type ActionHandler } from "./affordance-routes.js";
 import { calibrate, type CalibrateInput } from "./calibrate.js";
+import { grip } from "./grip.js";
 import { backendDown } from "./errors.js";
 import type { CartesianInput, JointInput, Mover, MoveWatch, ProgramInput } from "./moves.js";
 import type { SceneObject, SceneObstacle } from "./twin-folder.js";
@@ -18,6 +19,8 @@ export interface ActionDeps {
   twin: Twin;
   mover: Mover;
   world: SceneRecord;
+  /** the simulation's realtime factor (0: as fast as possible): the gripper's time scales with it */
+  realtime: number;
   onCalibrated(): void;
 }
 
@@ -60,5 +63,7 @@ export function actionHandlers(described: readonly string[], d: ActionDeps): Map
   on<SceneObject>("addObject", (i) => d.world.addObject(d.backend, i));
   on<ObjectMoveParams>("moveObject", (i) => d.world.moveObject(d.backend, i));
   on<{ name: string }>("removeObject", (i) => d.world.removeObject(d.backend, i.name));
+  on<Record<string, never>>("gripClose", (_, w) => grip(d, true, w));
+  on<Record<string, never>>("gripOpen", (_, w) => grip(d, false, w));
   return handlers;
 }

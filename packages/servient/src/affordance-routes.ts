@@ -20,6 +20,21 @@ export type ActionHandler = (input: unknown, watch?: (handle: never) => void) =>
 export interface Affordances {
   properties: Map<string, () => unknown>;
   actions: Map<string, ActionHandler>;
+  /** writable properties (`writeproperty`, `PUT <thing>/properties/<name>`): the value's schema, the writer */
+  writers?: Map<string, PropertyWriter>;
+}
+
+/** A writable property: its value checked against `schema` by the router, then written. */
+export interface PropertyWriter {
+  schema: object;
+  write(value: unknown): Promise<void>;
+}
+
+/** `writeproperty`: 204 once written (the value read, parsed and checked by the router). */
+export async function writeProperty(res: ServerResponse, writer: PropertyWriter, value: unknown): Promise<void> {
+  await writer.write(value);
+  res.writeHead(204);
+  res.end();
 }
 
 /** The input of an action that takes an object (the schema says so; an absent body is refused here). */

@@ -18,6 +18,9 @@ export type Details = Record<string, unknown>;
 export class ServientError extends RobwotError {
   override name = "ServientError";
   readonly status: number;
+  /** an answer in another shape than problem details: the error response a served device's TD declares
+   *  (`as-device.ts`), its content type and body */
+  shaped?: { contentType: string; body: unknown };
 
   constructor(status: number, code: string, message: string, details: Details = {}) {
     super(code, message, details);
@@ -32,8 +35,8 @@ export class ServientError extends RobwotError {
 
 /** The problem details body of `err` with its status; `headers` (e.g. `Allow`, `WWW-Authenticate`) beside. */
 export function sendProblem(res: ServerResponse, err: ServientError, headers: Record<string, string> = {}): void {
-  const text = JSON.stringify(err.problem());
-  res.writeHead(err.status, { ...headers, "Content-Type": PROBLEM_JSON, "Content-Length": Buffer.byteLength(text) });
+  const text = JSON.stringify(err.shaped ? err.shaped.body : err.problem());
+  res.writeHead(err.status, { ...headers, "Content-Type": err.shaped?.contentType ?? PROBLEM_JSON, "Content-Length": Buffer.byteLength(text) });
   res.end(text);
 }
 
@@ -50,8 +53,10 @@ export const SERVIENT_STATUS = {
   E_NOT_FOUND: 404,
   E_METHOD_NOT_ALLOWED: 405,
   E_NOT_CANCELLABLE: 409,
+  E_NOT_REACHED: 409,
   E_UNSUPPORTED_MEDIA_TYPE: 415,
   E_MISDIRECTED: 421,
+  E_NOT_IMPLEMENTED: 501,
   E_BACKEND_DOWN: 503,
   E_STARTING: 503,
   E_BACKEND_TIMEOUT: 504,

@@ -62,6 +62,7 @@ export async function exposeTwin(env: ExposeEnv, slug: string, twin: Twin, check
     twin,
     mover,
     world: env.world,
+    realtime: env.realtime,
     onCalibrated: () => {
       cached = null;
       env.changed(String(td().id ?? ""));

@@ -12,7 +12,7 @@
 import type { IncomingMessage, ServerResponse } from "node:http";
 import { ASYNC_ACTIONS, RESPOND_ASYNC } from "@robwot/core";
 import { actionStatusRoute, preferences, respondAsync, type ActionStatusStore } from "./action-status.js";
-import { invokeAction, readProperty, type Affordances } from "./affordance-routes.js";
+import { invokeAction, readProperty, writeProperty, type Affordances } from "./affordance-routes.js";
 import { challenge, isAuthorized, type AuthConfig } from "./auth.js";
 import { type DirectoryEnv, directoryRoute, isDirectoryPath } from "./directory.js";
 import { toServientError, sendProblem, ServientError, servientError } from "./errors.js";
@@ -204,7 +204,10 @@ async function affordanceRoute(thing: ServedThing, channels: SseChannels, req: I
   if (statusId !== undefined && !asynchronous.includes(name)) {
     throw servientError("E_NOT_FOUND", `${path}: ${name} answers synchronously only (asynchronous: ${asynchronous.join(", ")})`, { path });
   }
-  if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
+  // a writable property (a conveyor's speed): PUT writes it, its value checked against its schema
+  const writer = segments[1] === "properties" && segments[3] === undefined ? thing.affordances.writers?.get(name) : undefined;
+  if (writer && method === "PUT") return writeProperty(res, writer, await readActionBody(req, writer.schema, name));
+  if (!allow.includes(method)) throw methodNotAllowed(res, method, path, writer ? [...allow, "PUT"] : allow);
   if (statusId !== undefined) return actionStatusRoute(req, res, thing.statuses, name, statusId);
   if (segments[3] === "sse") {
     const stream = channels.of(thing, segments[1] as "properties" | "events", name);

@@ -51,6 +51,12 @@ function describe(e: ErrorObject): { path: string; message: string; params: Reco
   return { path, message, params: e.params as Record<string, unknown> };
 }
 
+/** Compiles an input schema ahead of its first request (a served device's TD, checked at start); throws
+ *  when the schema cannot be compiled. */
+export function compileInput(schema: object): void {
+  compile(schema);
+}
+
 /** Parses a request body (JSON text) for an action; throws 400 ServientErrors. */
 export function parseBody(text: string, hasInput: boolean, action: string): unknown {
   if (text.trim().length === 0) {

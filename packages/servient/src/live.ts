@@ -132,7 +132,9 @@ class LiveHub {
   }
 
   private sceneOf(slug: string): object {
-    return { thing: slug, type: "scene", obstacles: this.world.sceneObstacles(), objects: this.world.sceneObjects() };
+    // a world with conveyors: their belts too (scene.json's shape, state now; `cell-record.ts`)
+    const conveyors = this.world.cell.conveyors.size > 0 ? { conveyors: [...this.world.cell.conveyors.values()] } : {};
+    return { thing: slug, type: "scene", obstacles: this.world.sceneObstacles(), objects: this.world.sceneObjects(), ...conveyors };
   }
 
   /** at most one scene frame per SCENE_INTERVAL_MS, the latest scene: a burst of edits costs one

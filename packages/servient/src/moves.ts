@@ -141,6 +141,12 @@ export class Mover {
     });
   }
 
+  /** Runs `run` as the twin's one motion (409 `E_BUSY` while another holds the twin; a stop cancels it:
+   *  `cancelled()` says so). The gripper's opening and closing (`grip.ts`). */
+  exclusive<T>(run: (cancelled: () => boolean) => Promise<T>, watch?: MoveWatch): Promise<T> {
+    return this.session.guarded(watch, (move) => run(() => move.cancelled));
+  }
+
   /** Cancels the pending move and stops the simulation and the physical robot at once (`MotionSession.stop`). */
   stop(): Promise<StopReport> {
     return this.session.stop();

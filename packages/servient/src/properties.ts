@@ -9,7 +9,7 @@ import type { SseSource } from "./sse.js";
 import type { Twin } from "./twin.js";
 
 /** The twin's change event after which each observable property has a new value. */
-const CHANGED_BY = { getJointPosition: "joints", getCartesianPosition: "joints", motionStatus: "status", physicalState: "physical" } as const;
+const CHANGED_BY = { getJointPosition: "joints", getCartesianPosition: "joints", motionStatus: "status", physicalState: "physical", gripper: "gripper" } as const;
 /** The properties that change with the shared world's scene (the record's `scene` event). */
 const SCENE_PROPERTIES = ["objects"];
 /** The TD's events, each the twin's event of the same name. */
@@ -17,7 +17,7 @@ const EVENTS = ["collision", "collisionImminent", "divergence"] as const;
 
 /** What an SSE form streams: an observable property's values (its reader's, after each change) or an event's. */
 export function sseSource(twin: Twin, world: SceneRecord, readers: Affordances["properties"], kind: "properties" | "events", name: string): SseSource | null {
-  const on = (event: "joints" | "status" | "physical" | (typeof EVENTS)[number], value: (e: unknown) => unknown) => (send: (v: unknown) => void) => {
+  const on = (event: "joints" | "status" | "physical" | "gripper" | (typeof EVENTS)[number], value: (e: unknown) => unknown) => (send: (v: unknown) => void) => {
     const listener = (e: unknown): void => send(value(e));
     twin.on(event, listener as never);
     return () => void twin.off(event, listener as never);
@@ -34,7 +34,7 @@ export function sseSource(twin: Twin, world: SceneRecord, readers: Affordances["
       },
     };
   }
-  const event = (CHANGED_BY as Record<string, "joints" | "status" | "physical">)[name];
+  const event = (CHANGED_BY as Record<string, "joints" | "status" | "physical" | "gripper">)[name];
   return read && event ? { current: read, subscribe: on(event, () => read()) } : null;
 }
 
@@ -54,6 +54,7 @@ export function propertyReaders(described: readonly string[], twin: Twin, world:
     ["calibration", () => calibrationProperty(twin.folder.calibration)],
     ["physicalState", () => physical() ?? { following: false, followed: 0 }],
     ["objects", () => world.sceneObjects()],
+    ["gripper", () => twin.gripper],
   ];
   return new Map(all.filter(([name]) => described.includes(name)));
 }
@@ -80,6 +81,7 @@ export function registerProperties(thing: WoT.ExposedThing, twin: Twin, world: S
   });
   twin.on("status", () => change("motionStatus"));
   twin.on("physical", () => change("physicalState"));
+  twin.on("gripper", () => change("gripper"));
   if (readers.has("objects")) world.on("scene", () => change("objects"));
   // a twin folder generated before these events existed does not describe them
   const emit = (name: string, e: unknown): void => {

@@ -149,7 +149,7 @@ export class RequestGuard {
     res.writeHead(204, {
       "Access-Control-Allow-Origin": origin,
       "Access-Control-Allow-Credentials": "true",
-      "Access-Control-Allow-Methods": "GET, HEAD, POST, DELETE, OPTIONS",
+      "Access-Control-Allow-Methods": "GET, HEAD, POST, PUT, DELETE, OPTIONS",
       "Access-Control-Allow-Headers": "content-type, authorization, prefer",
       "Access-Control-Max-Age": "600",
       Vary: "Origin",

@@ -11,6 +11,7 @@ import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import { startCollision, TWIN_FILES } from "@robwot/core";
 import type { ObjectMoveParams, ObstacleMoveParams, SceneObject as RestingObject, SimClient } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
+import { CellRecord } from "./cell-record.js";
 import { ServientError } from "./errors.js";
 import { confine } from "./static-files.js";
 import type { SceneObject, SceneObstacle } from "./twin-folder.js";
@@ -34,10 +35,14 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
   readonly obstacles = new Map<string, SceneObstacle>();
   /** current objects by name (scene files + run-time edits), where they rest (world frame) */
   readonly objects = new Map<string, SceneObject>();
+  /** object -> the robot holding it (its pose in `objects`: where it was when last synced) */
+  private readonly heldBy = new Map<string, string>();
   /** mesh files of scene-file obstacles and objects as URLs of the twin folder that holds them */
   private readonly meshUrls = new Map<string, string>();
   /** robots of the scene files that are not twins */
   private readonly sceneRobots: Record<string, unknown>[] = [];
+  /** the conveyors (state now) and sensors of the twins' scenes, replayed with the scene (`cell-record.ts`) */
+  readonly cell: CellRecord;
 
   /** whether the twins' start poses were checked (`warnStartCollisions`: at the first restore only) */
   private startChecked = false;
@@ -51,6 +56,7 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
   ) {
     super();
     this.meshRoots = [...twins.map((t) => t.folder.dir), ...meshRoots].map((d) => resolve(d));
+    this.cell = new CellRecord(twins.map((t) => t.folder.scene));
     const robotKeys = new Set<string>();
     const twinIds = new Set(twins.map((t) => t.robotId));
     for (const t of twins) {
@@ -82,7 +88,10 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
 
   /** The current objects where they rest, mesh files as URLs where they are served (the `objects` property). */
   sceneObjects(): SceneObject[] {
-    return [...this.objects.values()].map((ob) => this.served(ob));
+    return [...this.objects.values()].map((ob) => {
+      const by = this.heldBy.get(ob.name);
+      return this.served(by === undefined ? ob : { ...ob, heldBy: by });
+    });
   }
 
   private served<T extends SceneObstacle>(ob: T): T {
@@ -95,7 +104,7 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
     await sim.resetWorld();
     // the scene's robots load from the twin folders (jailed): their convex parts are there, never decomposed
     const objects = [...this.objects.values()];
-    await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], objects, robots: this.sceneRobots }, decompose: false });
+    await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], objects, robots: this.sceneRobots, ...this.cell.sceneParts() }, decompose: false });
     if (objects.length > 0) for (const o of (await sim.listWorld()).objects) this.rested(o);
     for (const twin of this.twins) {
       const m = twin.folder.manifest.robot;
@@ -112,6 +121,14 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
         decompose: false, // generate wrote the convex parts: serve never decomposes (refused instead)
       });
       twin.model = model;
+      if (m.gripper !== undefined) {
+        // a fresh backend's gripper starts open: what it held was replayed as an object where it was
+        const { kind, time, capture, joints } = m.gripper;
+        type Joints = Parameters<SimClient["configureGripper"]>[0]["joints"];
+        await sim.configureGripper({ robot: twin.robotId, kind, time, capture, ...(joints !== undefined ? { joints: joints as Joints } : {}) });
+        twin.gripper = { state: "open", holding: null, kind, time };
+        twin.emit("gripper");
+      }
       if (twin.q.length === 0 && m.home !== undefined) {
         // the first start: the SRDF's home pose (its joints checked against the URDF's limits by the backend)
         const home = m.home.joints;
@@ -226,6 +243,31 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
     this.meshUrls.delete(name);
     this.emit("scene");
     return {};
+  }
+
+  /** Whether some robot holds an object. */
+  get holding(): boolean {
+    return this.heldBy.size > 0;
+  }
+
+  /** The objects as the backend holds them now, those a gripper holds with `heldBy` (after a gripper
+   *  closed or opened). */
+  async syncObjects(backend: BackendSupervisor): Promise<void> {
+    const now = (await backend.sim.listWorld()).objects;
+    this.objects.clear();
+    this.heldBy.clear();
+    for (const o of now) {
+      this.rested(o);
+      if (o.heldBy !== undefined) this.heldBy.set(o.name, o.heldBy);
+    }
+    this.emit("scene");
+  }
+
+  /** Objects a running conveyor moved (`cell.advance`'s `moved`, `cell-clock.ts`): where they are now. */
+  movedByCell(moved: readonly RestingObject[]): void {
+    if (moved.length === 0) return;
+    for (const o of moved) if (this.objects.has(o.name)) this.rested(o);
+    this.emit("scene");
   }
 
   /** An object where the backend says it rests (replayed there on a fresh backend). */

@@ -16,6 +16,8 @@ import { fromBackendError, servientError } from "./errors.js";
 import { createMiddleware, type ServedThing } from "./http-middleware.js";
 import { attachLive, type LiveServer } from "./live.js";
 import { exposeTwin, type ExposeEnv, type ExposedTwin } from "./expose-twin.js";
+import { exposeCell, type ExposedCell } from "./cell-things.js";
+import { exposeDevice, prepareDevice, type AsDeviceSpec, type PreparedDevice } from "./as-device.js";
 import { boundedHttpClientFactory, LoopError, Outbound } from "./outbound.js";
 import { Relay } from "./relay.js";
 import { DIRECTORY_SEGMENTS } from "./directory.js";
@@ -26,7 +28,7 @@ import { defaultViewerDir } from "./static-files.js";
 import { RequestGuard } from "./request-guard.js";
 import { loadTwinFolder } from "./twin-folder.js";
 import { Twin } from "./twin.js";
-import { loadWorkspaceChecks } from "./workspace-checks.js";
+import { loadWorkspaceChecks, type WorkspaceChecks } from "./workspace-checks.js";
 import { SceneRecord } from "./scene-record.js";
 
 const require = createRequire(import.meta.url);
@@ -76,6 +78,19 @@ export interface ServientOptions {
   allowedHosts?: string[];
   /** folders (besides the twin folders) that run-time mesh obstacles (`addObstacle`) may come from */
   meshRoots?: string[];
+  /** `--as DEVICE=TD [--as-map MAP]` (each): a twin also served as that physical device, at `/<name>`,
+   *  with the device's own TD (`as-device.ts`); the files checked at start (`AsDeviceError`) */
+  as?: AsDeviceSpec[];
+}
+
+/** A device the twin answers as (`--as`). */
+export interface DeviceInfo {
+  name: string;
+  id: string;
+  title: string;
+  tdUrl: string;
+  /** the slug of the twin behind it */
+  twin: string;
 }
 
 export interface ThingInfo {
@@ -95,8 +110,13 @@ export interface RunningServient {
   twins: Map<string, Twin>;
   /** the Things it relays to, follows and registers at (URLs without credentials) */
   peers: { relay?: string; follow?: string; register?: string };
+  /** the devices the twin answers as (`--as`) */
+  devices: DeviceInfo[];
   stop(): Promise<void>;
 }
+
+/** URL path segments of the servient's own routes: no twin or device is served there. */
+const RESERVED_SEGMENTS = ["viewer", "live", "robwot.json", ...DIRECTORY_SEGMENTS];
 
 const isLoopback = (h: string): boolean => h === "127.0.0.1" || h === "localhost" || h === "::1" || h.startsWith("127.");
 
@@ -118,7 +138,7 @@ function checkOptions(opts: ServientOptions, host: string): number {
  *  one id per Thing (node-wot needs them distinct: the same robot in the same scene has the same id). */
 function nameTwins(opts: ServientOptions, backend: BackendSupervisor): Map<string, Twin> {
   const twins = new Map<string, Twin>();
-  const slugs = new Set<string>(["viewer", "live", "robwot.json", ...DIRECTORY_SEGMENTS]);
+  const slugs = new Set<string>(RESERVED_SEGMENTS);
   const ids = new Set<string>();
   for (const folder of opts.twins.map((t) => loadTwinFolder(t, opts.meshRoots ?? []))) {
     const base = slugify(folder.td.title, { lower: true });
@@ -198,6 +218,8 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call), { mapError: fromBackendError });
   const twins = nameTwins(opts, backend);
   const world = new SceneRecord([...twins.values()], opts.meshRoots ?? []);
+  // the device's TD and map are checked against the twin before a backend is started for it
+  const devices = prepareDevices(opts.as ?? [], twins);
   watchBackend(backend, twins);
   // the twin folders are checked completely before a backend is started for them
   const checks = new Map(await Promise.all([...twins].map(async ([s, t]) => [s, await loadWorkspaceChecks(t.folder.dir)] as const)));
@@ -215,13 +237,14 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     guard,
     things: served,
     viewerDir: existsSync(viewerDir) ? viewerDir : null,
-    index: () => ({ url: urls.url, live: urls.live, viewer: `${urls.url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: thingInfos(twins, urls.url) }),
+    index: () => ({ url: urls.url, live: urls.live, viewer: `${urls.url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: thingInfos(twins, urls.url), devices: deviceInfos(devices, served, urls.url) }),
     directory: { url: () => urls.url, tds: () => [...served.values()].map((t) => t.td()), auth: opts.auth },
     hop: outbound.token,
   });
   const { servient, http } = nodeWot(host, opts.port ?? 8080, middleware, outbound);
   let live: LiveServer | null = null;
   const exposed: ExposedTwin[] = [];
+  let cell: ExposedCell | null = null;
   const shown: RunningServient["peers"] = {};
   // URL userinfo becomes an Authorization header of that origin; only the URL without it is shown
   const registerUrl = opts.register ? outbound.authorize(opts.register) : null;
@@ -248,16 +271,14 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
       ...(opts.horizon !== undefined ? { horizon: opts.horizon } : {}),
     };
     const env: ExposeEnv = { wot, backend, world, realtime, auth: opts.auth, url: urls.url, liveUrl: urls.live, ...peers, follow, changed: (id) => registrar?.changed(id) };
-    for (const [slug, twin] of twins) {
-      const t = await exposeTwin(env, slug, twin, checks.get(slug) ?? null);
-      exposed.push(t);
-      served.set(slug, t.served);
-    }
+    await exposeAll(env, twins, checks, devices, served, exposed);
+    cell = await exposeCell({ wot, backend, world, realtime, url: urls.url, auth: opts.auth, reserved: RESERVED_SEGMENTS }, served);
     live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth, guard);
     for (const t of exposed) t.follower?.start();
     if (registrar) await registrar.start();
   } catch (err) {
     for (const t of exposed) t.follower?.stop();
+    await cell?.stop();
     // start-up failed: the original error is rethrown below, a failing shutdown adds nothing to it
     await servient.shutdown().catch(() => undefined);
     outbound.close();
@@ -270,11 +291,54 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     url: urls.url,
     liveUrl: urls.live,
     things: thingInfos(twins, urls.url),
+    devices: deviceInfos(devices, served, urls.url),
     backend,
     twins,
     peers: shown,
-    stop: () => (stopping ??= shutdown({ exposed, registrar, live, servient, http, outbound, backend })),
+    stop: () => (stopping ??= (cell?.stop() ?? Promise.resolve()).then(() => shutdown({ exposed, registrar, live, servient, http, outbound, backend }))),
   };
+}
+
+/** Each twin exposed (its Thing, Mover, Follower, served routes), then the device it answers as (`--as`). */
+async function exposeAll(
+  env: ExposeEnv,
+  twins: Map<string, Twin>,
+  checks: Map<string, WorkspaceChecks | null>,
+  devices: PreparedDevice[],
+  served: Map<string, ServedThing>,
+  exposed: ExposedTwin[],
+): Promise<void> {
+  for (const [slug, twin] of twins) {
+    const t = await exposeTwin(env, slug, twin, checks.get(slug) ?? null);
+    exposed.push(t);
+    served.set(slug, t.served);
+  }
+  for (const device of devices) {
+    const twin = twins.get(device.twin);
+    const behind = served.get(device.twin);
+    if (twin && behind) served.set(device.name, exposeDevice(device, { url: env.url, auth: env.auth, twin, behind }));
+  }
+}
+
+/** Each `--as` device's TD and map checked against the twin answering as it; their paths distinct. */
+function prepareDevices(specs: readonly AsDeviceSpec[], twins: Map<string, Twin>): PreparedDevice[] {
+  const taken = new Set([...twins.keys(), ...RESERVED_SEGMENTS]);
+  const tds = new Map([...twins].map(([slug, t]) => [slug, t.folder.td] as const));
+  return specs.map((spec) => {
+    const device = prepareDevice(spec, tds, taken);
+    taken.add(device.name);
+    return device;
+  });
+}
+
+/** What `robwot.json` and the start-up banner say of the devices twins answer as. */
+function deviceInfos(devices: readonly PreparedDevice[], served: Map<string, ServedThing>, url: string): DeviceInfo[] {
+  return devices.flatMap((device) => {
+    const thing = served.get(device.name);
+    if (!thing) return [];
+    const td = thing.td();
+    return [{ name: device.name, id: String(td["id"]), title: String(td["title"]), tdUrl: `${url}/${device.name}`, twin: device.twin }];
+  });
 }
 
 /** What `robwot.json` and the start-up banner say of each served twin. */

@@ -3,7 +3,7 @@
  * calibration.json. Errors name the folder and the file. The folder is a jail (see `Jail`): a hostile
  * folder can neither make serve read outside it nor make an error quote another file's bytes.
  */
-import type { ObjectAddParams, ObstacleAddParams } from "@robwot/sim-client";
+import type { ConveyorSpec, ObjectAddParams, ObstacleAddParams, SensorSpec } from "@robwot/sim-client";
 import { existsSync, readFileSync, statSync } from "node:fs";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import { checkCalibration, jailFile, jsonErrorAt, realFolder, snippet, TWIN_FILES, type CalibrationFile, type JailVerdict, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
@@ -41,6 +41,9 @@ export interface SceneDoc {
   version?: number;
   obstacles?: SceneObstacle[];
   objects?: SceneObject[];
+  /** conveyors (belt box, speed, state) and sensors (field-of-view box): no file paths, checked by the backend's scene schema */
+  conveyors?: ConveyorSpec[];
+  sensors?: SensorSpec[];
   robots?: unknown[];
   [k: string]: unknown;
 }
@@ -122,10 +125,18 @@ class Jail {
  * `--mesh-root` after symlinks. Files inside the folder become relative (served as `/<slug>/<file>`).
  */
 function jailScene(jail: Jail, file: string, scene: SceneDoc, meshRoots: readonly string[]): SceneDoc {
-  for (const key of ["obstacles", "objects", "robots"] as const) {
+  for (const key of ["obstacles", "objects", "robots", "conveyors", "sensors"] as const) {
     if (scene[key] !== undefined && !Array.isArray(scene[key])) {
       throw servientError("E_TWIN_FOLDER", `${join(jail.dir, file)}: ${key} must be an array`, { folder: jail.dir, file });
     }
+  }
+  // conveyors and sensors name no file: each an object with a name (the rest is the backend's scene schema's)
+  for (const key of ["conveyors", "sensors"] as const) {
+    scene[key]?.forEach((c: unknown, i) => {
+      if (typeof c !== "object" || c === null || Array.isArray(c) || typeof (c as { name?: unknown }).name !== "string") {
+        throw servientError("E_TWIN_FOLDER", `${join(jail.dir, file)}: ${key}[${i}] must be an object with a name`, { folder: jail.dir, file, entry: `${key}[${i}]` });
+      }
+    });
   }
   const robots = scene.robots === undefined ? undefined : scene.robots.map((r, i) => jailSceneRobot(jail, file, r, i));
   const obstacles = scene.obstacles?.map((ob, i) => jailMesh(jail, file, ob, i, "obstacle", meshRoots));
@@ -174,6 +185,19 @@ function checkBounds(dir: string, ws: WorkspaceSummary): void {
   }
 }
 
+/** twin.json's `robot.gripper` (`generate --gripper`), when there: its kind, finger joints, time and capture
+ *  distance as the backend's `gripper.configure` takes them (ranges checked there). */
+function checkGripper(dir: string, g: unknown): void {
+  if (g === undefined) return;
+  const r = (typeof g === "object" && g !== null ? g : {}) as Record<string, unknown>;
+  const finite = (v: unknown): boolean => typeof v === "number" && Number.isFinite(v) && v >= 0;
+  const ok = (r.kind === "fingers" || r.kind === "suction") && finite(r.time) && finite(r.capture)
+    && (r.joints === undefined || (Array.isArray(r.joints) && r.joints.every((j) => typeof j === "string")));
+  if (!ok) {
+    throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.gripper must be {kind: "fingers" | "suction", joints?: [name], time: s, capture: m}`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.gripper" });
+  }
+}
+
 /**
  * Reads and checks a twin folder. Every path read from it resolves inside it after symlinks (scene mesh
  * obstacles: inside it or a `meshRoots` folder), else the folder is refused naming the file and entry.
@@ -201,6 +225,7 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
     const ok = typeof joints === "object" && joints !== null && !Array.isArray(joints) && Object.values(joints).every((v) => typeof v === "number" && Number.isFinite(v)) && typeof home?.from === "string";
     if (!ok) throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.home must be {joints: {name: finite number}, from: text}`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.home" });
   }
+  checkGripper(dir, robot.gripper as unknown);
   const couplings = robot.couplings as unknown;
   if (couplings !== undefined && !(Array.isArray(couplings) && couplings.every((c) => typeof c === "string"))) {
     throw servientError("E_TWIN_FOLDER", `${join(dir, TWIN_FILES.manifest)}: robot.couplings must be a list of "FOLLOWER=EXPR" texts`, { folder: dir, file: TWIN_FILES.manifest, field: "robot.couplings" });

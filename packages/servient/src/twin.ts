@@ -31,6 +31,17 @@ export interface TwinEvents {
   divergence: [event: DivergenceEvent];
   /** the safety monitor predicts a contact of the physical robot (serve --follow) */
   collisionImminent: [event: CollisionImminentEvent];
+  /** the gripper started or ended opening or closing (`gripper`) */
+  gripper: [];
+}
+
+/** The `gripper` property: where the gripper is and what it holds. */
+export interface GripperStatus {
+  state: "open" | "closed" | "moving";
+  holding: string | null;
+  kind: "fingers" | "suction";
+  /** s an opening or closing takes */
+  time: number;
 }
 
 /** `collisionImminent` event: what the physical robot would touch within the horizon, and whether it was stopped. */
@@ -72,6 +83,8 @@ export class Twin extends EventEmitter<TwinEvents> {
   /** the twin's own motion: busy, the streamed states, the relayed command (changed through its methods only: by the
    *  motion and relay sessions, and by `onState`/`onCollision` here) */
   readonly motion = new MotionRecord();
+  /** `generate --gripper`: the gripper's state (null: the twin has none) */
+  gripper: GripperStatus | null = null;
   /** `serve --follow`: the physical robot's state as `physicalState` reports it */
   private physicalView: (() => object) | null = null;
 
@@ -137,6 +150,13 @@ export class Twin extends EventEmitter<TwinEvents> {
     else if (lastError !== undefined) next.lastError = lastError;
     this.status = next;
     this.emit("status", this.status);
+  }
+
+  /** The gripper's new state (`gripper` event). */
+  setGripper(patch: Partial<GripperStatus>): void {
+    if (this.gripper === null) return;
+    this.gripper = { ...this.gripper, ...patch };
+    this.emit("gripper");
   }
 
   applyPose(q: number[], fk: Pick<PoseResult, "position" | "orientation">): void {

@@ -38,8 +38,11 @@ export async function buildObstacles(scene: unknown, base: string): Promise<Buil
   const errors: ViewerError[] = [];
   const list = (kind: Kind): [unknown, Kind, number][] =>
     isRecord(scene) && Array.isArray(scene[kind]) ? (scene[kind] as unknown[]).map((s, i): [unknown, Kind, number] => [s, kind, i]) : [];
+  // a conveyor's belt is drawn as the box obstacle it is (scene.json and /live list it as a conveyor)
+  const conveyors = isRecord(scene) && Array.isArray(scene["conveyors"]) ? (scene["conveyors"] as unknown[]) : [];
+  const belts = conveyors.map((c, i): [unknown, Kind, number] => [isRecord(c) ? { ...c, shape: { type: "box", size: c["size"] } } : c, "obstacles", i]);
   const meshes = await Promise.all(
-    [...list("obstacles"), ...list("objects")].map(async ([spec, kind, i]) => {
+    [...list("obstacles"), ...belts, ...list("objects")].map(async ([spec, kind, i]) => {
       try {
         return await buildOne(spec, base, i, kind);
       } catch (err) {

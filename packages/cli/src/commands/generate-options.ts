@@ -6,7 +6,7 @@ import { existsSync, readFileSync, statSync } from "node:fs";
 import { basename, join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { existingFile, parseAlpha, parseInteger, parseNumber, parsePackageRoots, parseUrl, usageError } from "../args.js";
-import { quatArr, quatMul } from "@robwot/core";
+import { quatArr, quatMul, type GripperDecl } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { CliError } from "../errors.js";
 
@@ -65,6 +65,8 @@ export interface GenerateOptions {
   /** `--home J=V,...`: the start pose's joints (rad or m) by name, over the SRDF's `home` state; checked
    * against the robot's joints and limits once it is loaded */
   home?: Record<string, number>;
+  /** `--gripper fingers[=J,...]|suction` with `--grip-time`, `--grip-capture`: declared to the backend, recorded */
+  gripper?: GripperDecl;
   csvJoints: boolean;
   backend?: string;
   json: boolean;
@@ -95,6 +97,9 @@ export const GENERATE_OPTIONS = {
   couple: { type: "string", multiple: true },
   "keep-level": { type: "string", multiple: true },
   home: { type: "string" },
+  gripper: { type: "string" },
+  "grip-time": { type: "string" },
+  "grip-capture": { type: "string" },
   "moveit-config": { type: "string" },
   group: { type: "string" },
   "csv-joints": { type: "boolean" },
@@ -268,6 +273,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
   checkEndEffector(values, moveitConfig);
   const { couplings, keepLevel } = parseCouplings(values);
   const home = parseHome(values.home);
+  const gripper = parseGripper(values);
   const out = resolve(values.out ?? join("twins", slugify(robotName({ robotArg, urdfFile, example, moveitConfig }))));
   return {
     ...(urdfFile ? { urdfFile } : {}),
@@ -296,6 +302,7 @@ export function parseGenerateArgs(argv: string[]): GenerateOptions {
     couplings,
     keepLevel,
     ...(home !== undefined ? { home } : {}),
+    ...(gripper !== undefined ? { gripper } : {}),
     csvJoints: values["csv-joints"] ?? false,
     ...(backend ? { backend } : {}),
     json: values.json ?? false,
@@ -362,6 +369,27 @@ function parseCouplings(values: GenerateValues): Pick<GenerateOptions, "coupling
   const keepLevel = (values["keep-level"] ?? []).map((l) => l.trim());
   if (keepLevel.some((l) => l === "")) throw new CliError("--keep-level must name a link");
   return { couplings, keepLevel };
+}
+
+/**
+ * `--gripper fingers[=JOINT,...]` (parallel fingers: the named finger joints, default every one the backend
+ * finds) or `--gripper suction` (a cup at the TCP), `--grip-time S` and `--grip-capture M` (the contract's
+ * `GripTime`, `GripCapture`); the joints are checked against the robot by the backend (`gripper.configure`).
+ */
+function parseGripper(values: GenerateValues): GripperDecl | undefined {
+  const { GripTime, GripCapture } = VALUE_SCHEMAS;
+  if (values.gripper === undefined) {
+    if (values["grip-time"] !== undefined || values["grip-capture"] !== undefined) throw new CliError("--grip-time and --grip-capture need --gripper");
+    return undefined;
+  }
+  const m = /^(fingers|suction)(?:=(.+))?$/.exec(values.gripper.trim());
+  const joints = m?.[2]?.split(",").map((j) => j.trim());
+  if (!m || (m[1] === "suction" && joints !== undefined) || joints?.some((j) => j === "")) {
+    throw new CliError(`--gripper must be fingers, fingers=JOINT,... or suction, got "${values.gripper.slice(0, 80)}"`);
+  }
+  const time = parseNumber("grip-time", values["grip-time"], GripTime.default, GripTime.minimum, GripTime.maximum);
+  const capture = parseNumber("grip-capture", values["grip-capture"], GripCapture.default, GripCapture.minimum, GripCapture.maximum);
+  return { kind: m[1] as GripperDecl["kind"], ...(joints !== undefined ? { joints } : {}), time, capture };
 }
 
 /** The robot's name, which names the default output folder: the example's, the URDF's, or the file's. */

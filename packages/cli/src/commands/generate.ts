@@ -12,7 +12,7 @@ import { StagedDir } from "../twin-dir.js";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { DEFAULT_BASE_URL, DEFAULT_SAMPLES, type GenerateOptions, parseGenerateArgs } from "./generate-options.js";
 
-const { Clearance, ReachVoxel, Seed } = VALUE_SCHEMAS;
+const { Clearance, GripCapture, GripTime, ReachVoxel, Seed } = VALUE_SCHEMAS;
 
 export const USAGE = `Usage: robwot generate <robot.urdf | robot.urdf.xacro | example-name> [options]
        robwot generate --moveit-config DIR [options]
@@ -75,6 +75,12 @@ Options:
   --keep-level LINK       derive the --couple rule that keeps LINK's orientation as at the zero configuration
                           (a parallel-linkage arm's passive joint; the joints tilting LINK must turn about
                           one axis); the rule is printed and recorded in twin.json (repeatable)
+  --gripper KIND          a gripper: fingers (parallel fingers driven by the URDF's finger joints, mimic ones
+                          following), fingers=JOINT,... (those joints), or suction (a cup at the TCP); the TD
+                          gets gripOpen, gripClose and the property gripper; a closed gripper holds the object
+                          at its TCP, checked with the robot in every verdict
+  --grip-time S           seconds an opening or closing takes (default ${GripTime.default})
+  --grip-capture M        how far from the TCP (metres) an object is caught (default ${GripCapture.default})
   --csv-joints            add the joint values to workspace.csv
   --backend ws://HOST:PORT use a running backend instead of starting one
   --json                  print a machine-readable summary on stdout

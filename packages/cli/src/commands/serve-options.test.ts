@@ -62,3 +62,31 @@ describe("serve options", () => {
     expect(() => parseServeArgs([join(dir, "twin"), join(dir, ".", "twin") + "/"])).toThrow(/twin folder given twice: .*twin \(copy the folder/);
   });
 });
+
+describe("serve --as", () => {
+  it("takes DEVICE=FILE and an optional --as-map, both files resolved; refuses a malformed or misplaced one", () => {
+    const twin = join(dir, "twin");
+    const td = join(dir, "device.td.json");
+    const map = join(dir, "device.map.json");
+    writeFileSync(td, "{}");
+    writeFileSync(map, "{}");
+    expect(parseServeArgs([twin, "--as", `desk-arm=${td}`, "--as-map", map]).as).toEqual([{ name: "desk-arm", td, map }]);
+    expect(parseServeArgs([twin, "--as", `desk-arm=${td}`]).as).toEqual([{ name: "desk-arm", td }]);
+    expect(parseServeArgs([twin]).as).toBeUndefined();
+    expect(() => parseServeArgs([twin, "--as-map", map])).toThrow(/--as-map goes with --as DEVICE=real-td\.json/);
+    expect(() => parseServeArgs([twin, "--as", td])).toThrow(/--as must be DEVICE=real-td\.json/);
+    expect(() => parseServeArgs([twin, "--as", `a/b=${td}`])).toThrow(/--as must be DEVICE=real-td\.json/);
+    expect(() => parseServeArgs([twin, "--as", "desk-arm="])).toThrow(/--as must be DEVICE=real-td\.json/);
+    expect(() => parseServeArgs([twin, "--as", `desk-arm=${join(dir, "nope.json")}`])).toThrow(/--as: file not found: .*nope\.json/);
+    expect(() => parseServeArgs([twin, "--as", `desk-arm=${td}`, "--as-map", dir])).toThrow(/--as-map: file not found/);
+    mkdirSync(join(dir, "twin2"), { recursive: true });
+    writeFileSync(join(dir, "twin2", "td.json"), "{}");
+    writeFileSync(join(dir, "twin2", "twin.json"), "{}");
+    // several devices: a map each, by device; the twin each answers as is its map's (checked at start)
+    const two = parseServeArgs([twin, join(dir, "twin2"), "--as", `desk-arm=${td}`, "--as", `belt=${td}`, "--as-map", `belt=${map}`]).as;
+    expect(two).toEqual([{ name: "desk-arm", td }, { name: "belt", td, map }]);
+    expect(() => parseServeArgs([twin, "--as", `a=${td}`, "--as", `a=${td}`])).toThrow(/--as names device a twice/);
+    expect(() => parseServeArgs([twin, "--as", `a=${td}`, "--as", `b=${td}`, "--as-map", map])).toThrow(/--as-map must be DEVICE=map\.json/);
+    expect(() => parseServeArgs([twin, "--as", `a=${td}`, "--as-map", `c=${map}`, "--as-map", map])).toThrow(/--as-map c: no --as c=\.\.\. names that device/);
+  });
+});

@@ -33,6 +33,8 @@ export interface ServeOptions {
   allowedHosts: string[];
   /** folders run-time mesh obstacles may come from besides the twin folders (--mesh-root, repeatable) */
   meshRoots?: string[];
+  /** --as DEVICE=TD [--as-map [DEVICE=]MAP] (repeatable): twins also served as physical devices (their own TDs) */
+  as?: { name: string; td: string; map?: string }[];
   json: boolean;
 }
 
@@ -54,6 +56,8 @@ export const SERVE_OPTIONS = {
   "cors-origin": { type: "string", multiple: true },
   "allowed-host": { type: "string", multiple: true },
   "mesh-root": { type: "string", multiple: true },
+  as: { type: "string", multiple: true },
+  "as-map": { type: "string", multiple: true },
   json: { type: "boolean" },
 } as const;
 
@@ -109,6 +113,42 @@ export function checkTwinFolder(folder: string): string {
   return dir;
 }
 
+/** `--as DEVICE=FILE` (repeatable) and `--as-map [DEVICE=]FILE` (one per device; the bare FILE with one
+ *  --as): names URL path segments, each named once, the files regular files (their content is checked
+ *  when serve starts, `@robwot/servient`'s as-map.ts; with several twin folders a map names its twin). */
+export function parseAs(values: string[] | undefined, maps: string[] | undefined): ServeOptions["as"] {
+  if (values === undefined) {
+    if (maps !== undefined) throw new CliError("--as-map goes with --as DEVICE=real-td.json");
+    return undefined;
+  }
+  const file = (option: string, f: string): string => {
+    const path = resolve(f);
+    if (!existsSync(path) || !statSync(path).isFile()) throw new CliError(`${option}: file not found: ${path}`);
+    return path;
+  };
+  const named = (option: string, value: string, what: string): [string, string] => {
+    const eq = value.indexOf("=");
+    const name = value.slice(0, Math.max(eq, 0));
+    if (eq <= 0 || !/^[A-Za-z0-9_-]{1,64}$/.test(name) || eq === value.length - 1) {
+      throw new CliError(`${option} must be DEVICE=${what}, DEVICE being the URL path segment it is served at (1-64 of A-Z a-z 0-9 _ -), got "${value.slice(0, 80)}"`);
+    }
+    return [name, value.slice(eq + 1)];
+  };
+  const devices = values.map((v) => named("--as", v, "real-td.json"));
+  const names = devices.map(([n]) => n);
+  const twice = names.find((n, i) => names.indexOf(n) !== i);
+  if (twice !== undefined) throw new CliError(`--as names device ${twice} twice`);
+  const byDevice = new Map<string, string>();
+  for (const m of maps ?? []) {
+    const bare = devices.length === 1 && !/^[A-Za-z0-9_-]{1,64}=/.test(m);
+    const [name, f] = bare ? [names[0]!, m] : named("--as-map", m, "map.json");
+    if (!names.includes(name)) throw new CliError(`--as-map ${name}: no --as ${name}=... names that device`);
+    if (byDevice.has(name)) throw new CliError(`--as-map names device ${name} twice`);
+    byDevice.set(name, file("--as-map", f));
+  }
+  return devices.map(([name, td]) => ({ name, td: file("--as", td), ...(byDevice.has(name) ? { map: byDevice.get(name)! } : {}) }));
+}
+
 const MONITOR_MODES: readonly MonitorMode[] = ["stop", "warn", "off"];
 
 function parseMonitor(value: string | undefined): MonitorMode {
@@ -149,6 +189,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   const backend = parseUrl("backend", values.backend, ["ws", "wss"])?.href;
   const register = parseUrl("register", values.register, ["http", "https"], "send")?.href;
   const auth = parseAuth(values.auth);
+  const as = parseAs(values.as, values["as-map"]);
   return {
     folders,
     port: parseInteger("port", values.port, 8080, 0, 65535),
@@ -176,6 +217,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
       if (!existsSync(dir) || !statSync(dir).isDirectory()) throw new CliError(`--mesh-root: folder not found: ${dir}`);
       return dir;
     }),
+    ...(as ? { as } : {}),
     json: values.json ?? false,
   };
 }

@@ -1,6 +1,7 @@
 /** `robwot serve`: wires CLI flags to the servient (`@robwot/servient`) and prints where things are. */
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
-import { DIVERGENCE_BOUND, FOLLOW_RATE, MONITOR_HORIZON, startServient, type RunningServient } from "@robwot/servient";
+import { AsDeviceError, DIVERGENCE_BOUND, FOLLOW_RATE, MONITOR_HORIZON, startServient, type RunningServient } from "@robwot/servient";
+import { CliError } from "../errors.js";
 import { onCleanup } from "../lifecycle.js";
 import { isLoopback, parseServeArgs, type ServeOptions } from "./serve-options.js";
 
@@ -40,6 +41,13 @@ Options:
                                repeatable (any other path is refused with 403)
   --allowed-host NAME          accept this name in the Host header besides the bound address (e.g. the
                                machine's DNS name with --host 0.0.0.0); repeatable
+  --as DEVICE=TD.json          also serve a twin as a physical device, at /DEVICE, with that device's own TD
+                               (its affordance names, schemas, integer types, ranges, units; our forms and
+                               security): a mashup written for the device runs unchanged against the twin
+                               (README "Serving a real device's TD"); repeatable, one per device
+  --as-map [DEVICE=]FILE       JSON mapping each affordance of the device's TD onto the twin's (units, frame
+                               offset, orientation, sequences, "unsupported", with several twin folders the
+                               twin); default: inferred by name and shape. DEVICE= when several --as
   --json                       print the URLs as JSON on stdout
 `;
 
@@ -55,13 +63,14 @@ export function robwotWarnings(): void {
 
 export function printServing(s: RunningServient, json: boolean): void {
   if (json) {
-    process.stdout.write(`${JSON.stringify({ url: s.url, liveUrl: s.liveUrl, viewer: `${s.url}/viewer/`, things: s.things, peers: s.peers })}\n`);
+    process.stdout.write(`${JSON.stringify({ url: s.url, liveUrl: s.liveUrl, viewer: `${s.url}/viewer/`, things: s.things, devices: s.devices, peers: s.peers })}\n`);
     return;
   }
   const lines = [`robwot: serving ${s.things.length} twin(s) at ${s.url} (Ctrl-C to stop)`];
   for (const t of s.things) {
     lines.push(`  ${t.title}`, `    TD      ${t.tdUrl}`, `    viewer  ${t.viewerUrl}`);
   }
+  for (const d of s.devices) lines.push(`  ${d.title} (the twin ${d.twin} as --as ${d.name})`, `    TD      ${d.tdUrl}`);
   lines.push(`  live WebSocket ${s.liveUrl}`);
   // where commands go and what is watched: the physical robot's Thing, the directory (credentials never shown)
   if (s.peers.relay) lines.push(`  relays to      ${s.peers.relay}`);
@@ -77,6 +86,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
     process.stderr.write(`robwot: warning: binding ${opts.host} without --auth: anyone on the network can move the robot\n`);
   }
   const running = await startServient({
+    ...(opts.as ? { as: opts.as } : {}),
     twins: opts.folders,
     host: opts.host,
     port: opts.port,
@@ -93,6 +103,9 @@ export async function serve(opts: ServeOptions): Promise<number> {
     corsOrigins: opts.corsOrigins,
     allowedHosts: opts.allowedHosts,
     meshRoots: opts.meshRoots ?? [],
+  }).catch((err: unknown) => {
+    // the device's TD or map refused: a usage error, said as such
+    throw err instanceof AsDeviceError ? new CliError(err.message, "E_USAGE", 2) : err;
   });
   onCleanup(() => running.stop());
   printServing(running, opts.json);

@@ -26,6 +26,54 @@ type NoForms<T> = Omit<T, "forms">;
 /** Calibration points lie within MAX_CALIBRATION_COORDINATE (m) of the origin on every axis. */
 const CALIBRATION_BOX: Bounds = { min: [-C, -C, -C], max: [C, C, C] };
 
+/** The gripper's state: open, closed or moving (while it opens or closes), the object it holds. */
+export function gripperProperty(): NoForms<PropertyAffordance> {
+  return {
+    title: "Gripper",
+    description: "The gripper: open, closed, or moving while it opens or closes (for its time); the object it holds (null when none: closed on nothing, or open). A held object moves with the TCP and is checked with the robot in every verdict.",
+    type: "object",
+    properties: {
+      state: { type: "string", enum: ["open", "closed", "moving"] },
+      holding: { oneOf: [{ type: "string" }, { type: "null" }], description: "the name of the object held, null when none" },
+      kind: { type: "string", enum: ["fingers", "suction"] },
+      time: { type: "number", unit: UNIT_S, minimum: 0, description: "time an opening or closing takes" },
+    },
+    required: ["state", "holding", "kind", "time"],
+    readOnly: true,
+    observable: true,
+  };
+}
+
+/** gripOpen / gripClose: the real lab's names. */
+export function gripperActions(): Record<"gripOpen" | "gripClose", NoForms<ActionAffordance>> {
+  const output: DataSchema = {
+    type: "object",
+    properties: {
+      status: { type: "string", enum: ["done", "stopped"] },
+      state: { type: "string", enum: ["open", "closed"] },
+      holding: { oneOf: [{ type: "string" }, { type: "null" }], description: "the name of the object held, null when none" },
+      released: { oneOf: [{ type: "object" }, { type: "null" }], description: "gripOpen: the object let go, where it came to rest; null when none was held" },
+    },
+    required: ["status", "state", "holding"],
+  };
+  return {
+    gripClose: {
+      title: "Close the gripper",
+      description: "Closes the gripper (for its time) on the object nearest the TCP within its capture distance, if any, and holds it: it moves with the TCP and every check of the robot includes it (against everything but the hand). Closing on nothing answers holding: null. Busy (409) while the robot moves; a stop ends it before it closes.",
+      output,
+      safe: false,
+      idempotent: true,
+    },
+    gripOpen: {
+      title: "Open the gripper",
+      description: "Opens the gripper (for its time); an object held is let go where it is and settles onto what is below it (409 E_OVERLAP, still held, where it cannot be let go).",
+      output,
+      safe: false,
+      idempotent: true,
+    },
+  };
+}
+
 export function propertyAffordances(joints: JointSpec[]): Record<string, NoForms<PropertyAffordance>> {
   // the pose *reading* has no bounds: the twin's own states (its home pose, a pose outside the sampled
   // collision-free points) may lie beyond them, and consumers validate readings against the schema

@@ -9,9 +9,9 @@ import { transformBounds, type SimilarityTransform } from "../calibration.js";
 import type { TdCoupling } from "../couplings.js";
 import { ThingDescriptionError } from "../errors.js";
 import { TWIN_FILES } from "../twin-layout.js";
-import type { Bounds, JointSpec, RobotModelLike, WorkspaceSummary } from "../types.js";
+import type { Bounds, GripperDecl, JointSpec, RobotModelLike, WorkspaceSummary } from "../types.js";
 import { ACTION_STATUS_SCHEMA, actionStatusSchema, ASYNC_ACTIONS, asyncActionForms, asyncActionVariables } from "./async-actions.js";
-import { actionAffordances, eventAffordances, propertyAffordances } from "./affordances.js";
+import { actionAffordances, eventAffordances, gripperActions, gripperProperty, propertyAffordances } from "./affordances.js";
 import { canonicalJson, fnv1a64, MAX_SLUG_LENGTH, thingSlug } from "./hash.js";
 import { PROBLEM_JSON, PROBLEM_SCHEMA } from "./problem.js";
 import { closeSchema, moveResultSchema } from "./schemas.js";
@@ -62,6 +62,8 @@ export interface BuildThingDescriptionOptions {
   srdf?: boolean;
   /** A tool mounted on `flange` (`--tcp`, `--tool-mesh`): the model's end effector is its TCP link. */
   tool?: { flange: string; tcp: readonly number[]; mesh?: string; shape?: Record<string, unknown> };
+  /** `--gripper`: the property `gripper` and the actions `gripOpen`, `gripClose` */
+  gripper?: GripperDecl;
 }
 
 function controllableJoints(model: RobotModelLike): JointSpec[] {
@@ -206,8 +208,8 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     // the ActionStatus of the asynchronous moves (`async-actions.ts`); their output is the move result
     schemaDefinitions: { error: ERROR_SCHEMA, [ACTION_STATUS_SCHEMA]: actionStatusSchema(moveResultSchema(joints), ERROR_SCHEMA) },
     security: "nosec_sc",
-    properties: propertiesWithForms(joints),
-    actions: actionsWithForms(joints, bounds),
+    properties: propertiesWithForms(joints, options.gripper !== undefined),
+    actions: actionsWithForms(joints, bounds, options.gripper !== undefined),
     events: eventsWithForms(joints),
     links: twinLinks(options.srdf === true, live),
     forms: [{ href: "properties", contentType: JSON_TYPE, op: ["readallproperties", "readmultipleproperties"] }],
@@ -216,6 +218,7 @@ export function buildThingDescription(options: BuildThingDescriptionOptions): Th
     "robwot:controllableJoints": joints.map((j) => j.name),
     ...(model.clearance !== undefined ? { "robwot:clearance": model.clearance } : {}),
     ...(options.tool ? { "robwot:tool": toolTerm(options.tool) } : {}),
+    ...(options.gripper ? { "robwot:gripper": { ...options.gripper, unit: { time: "s", capture: "m" } } } : {}),
     ...((model.couplings ?? []).length > 0 ? { "robwot:couplings": (model.couplings ?? []).map(tdCoupling) } : {}),
   };
   if (summary) {
@@ -245,17 +248,17 @@ function checkedSlug(title: string, slugIn: string | undefined): string {
   return slug;
 }
 
-function propertiesWithForms(joints: JointSpec[]): Record<string, PropertyAffordance> {
+function propertiesWithForms(joints: JointSpec[], gripper: boolean): Record<string, PropertyAffordance> {
   const properties: Record<string, PropertyAffordance> = {};
-  for (const [name, p] of Object.entries(propertyAffordances(joints))) {
+  for (const [name, p] of Object.entries({ ...propertyAffordances(joints), ...(gripper ? { gripper: gripperProperty() } : {}) })) {
     properties[name] = { ...p, forms: propertyForms(name, p.observable === true) };
   }
   return properties;
 }
 
-function actionsWithForms(joints: JointSpec[], bounds: Bounds | null): Record<string, ActionAffordance> {
+function actionsWithForms(joints: JointSpec[], bounds: Bounds | null, gripper: boolean): Record<string, ActionAffordance> {
   const actions: Record<string, ActionAffordance> = {};
-  for (const [name, a] of Object.entries(actionAffordances(joints, bounds))) {
+  for (const [name, a] of Object.entries({ ...actionAffordances(joints, bounds), ...(gripper ? gripperActions() : {}) })) {
     const sync: Form = { href: `actions/${name}`, contentType: JSON_TYPE, op: ["invokeaction"], "htv:methodName": "POST", additionalResponses: ERROR_RESPONSES };
     const isAsync = ASYNC_ACTIONS.includes(name);
     // inputs are closed: the servient refuses a property the schema does not name, and the TD says so
