@@ -50,8 +50,11 @@ it("picks the cube, carries it checked with the robot, and lets it go on the tab
   expect((await http(`${base}/properties/gripper`)).body).toMatchObject({ state: "closed", holding: "cube" });
   expect((await objects())["cube"]!.heldBy).toBe(s.things[0]!.slug);
 
-  // lifted out of its contact with the table; pushed 2 cm into the table: refused, naming the cube
+  // lifted out of its contact with the table (the cube with the TCP, in `objects` too); pushed 2 cm into the
+  // table: refused, naming the cube
   expect((await moveTo(0.5, 0, 0.45)).body.status).toBe("reached");
+  const carried = (await objects())["cube"]!;
+  [0.5, 0, 0.45].forEach((v, k) => expect(Math.abs(carried.position[k]! - v)).toBeLessThan(0.002));
   const into = await invoke(base, "validateCartesianPosition", { x: 0.5, y: 0, z: 0.3, orientation: DOWN });
   expect(into.body.valid).toBe(false);
   expect(into.body.reasons.join(" ")).toMatch(/cube.*table|table.*cube/);

@@ -43,6 +43,12 @@ export function quatMul(a: Quaternion, b: Quaternion): Quaternion {
 /** The inverse rotation of a unit quaternion. */
 export const quatConj = (q: Quaternion): Quaternion => ({ x: -q.x, y: -q.y, z: -q.z, w: q.w });
 
+/** `v` turned by the unit quaternion `q` (q ⊗ v ⊗ q*). */
+export function quatRotate(q: Quaternion, v: Vec3): Vec3 {
+  const r = quatMul(quatMul(q, { x: v[0], y: v[1], z: v[2], w: 0 }), quatConj(q));
+  return [r.x, r.y, r.z];
+}
+
 function entry(m: readonly (readonly number[])[], r: number, c: number): number {
   const v = m[r]?.[c];
   if (v === undefined) throw new RangeError("a rotation must be a 3x3 matrix");

@@ -8,7 +8,7 @@
  */
 import { EventEmitter } from "node:events";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
-import { startCollision, TWIN_FILES } from "@robwot/core";
+import { quat, quatArr, quatConj, quatMul, quatRotate, startCollision, TWIN_FILES, type Quaternion, type Vec3 } from "@robwot/core";
 import type { ObjectMoveParams, ObstacleMoveParams, SceneObject as RestingObject, SimClient } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { CellRecord } from "./cell-record.js";
@@ -30,13 +30,20 @@ function servedMeshUrl(ob: SceneObstacle, slug: string): string | null {
   return `/${encodeURIComponent(slug)}/${rel.map(encodeURIComponent).join("/")}`;
 }
 
+/** ms between two `scene` events while a held object moves with its robot */
+const HELD_SCENE_MS = 100;
+
 export class SceneRecord extends EventEmitter<{ scene: [] }> {
   /** current obstacles by name (scene files + run-time edits), world frame */
   readonly obstacles = new Map<string, SceneObstacle>();
   /** current objects by name (scene files + run-time edits), where they rest (world frame) */
   readonly objects = new Map<string, SceneObject>();
-  /** object -> the robot holding it (its pose in `objects`: where it was when last synced) */
+  /** object -> the robot holding it */
   private readonly heldBy = new Map<string, string>();
+  /** object -> its pose in the frame of the end effector holding it (m, quaternion), taken when it was
+   *  caught: its pose in `objects` follows the robot's joints */
+  private readonly heldOffset = new Map<string, { p: Vec3; q: Quaternion }>();
+  private sceneTimer: NodeJS.Timeout | null = null;
   /** mesh files of scene-file obstacles and objects as URLs of the twin folder that holds them */
   private readonly meshUrls = new Map<string, string>();
   /** robots of the scene files that are not twins */
@@ -78,6 +85,29 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
         robotKeys.add(key);
         this.sceneRobots.push(r);
       }
+      t.on("joints", () => this.followHeld(t));
+    }
+  }
+
+  /** The objects `twin` holds put where its end effector has them now; the `scene` event at most every
+   *  `HELD_SCENE_MS` while they move (the last pose always told). */
+  private followHeld(twin: Twin): void {
+    let moved = false;
+    for (const [name, by] of this.heldBy) {
+      const off = this.heldOffset.get(name);
+      const ob = this.objects.get(name);
+      if (by !== twin.robotId || !off || !ob) continue;
+      const at = quatRotate(twin.orientation, off.p);
+      const position: Vec3 = [twin.position[0] + at[0], twin.position[1] + at[1], twin.position[2] + at[2]];
+      this.objects.set(name, { ...ob, position, orientation: quatArr(quatMul(twin.orientation, off.q)) });
+      moved = true;
+    }
+    if (moved && this.sceneTimer === null) {
+      this.sceneTimer = setTimeout(() => {
+        this.sceneTimer = null;
+        this.emit("scene");
+      }, HELD_SCENE_MS);
+      this.sceneTimer.unref?.();
     }
   }
 
@@ -105,6 +135,9 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
     // the scene's robots load from the twin folders (jailed): their convex parts are there, never decomposed
     const objects = [...this.objects.values()];
     await sim.loadScene({ scene: { version: 1, obstacles: [...this.obstacles.values()], objects, robots: this.sceneRobots, ...this.cell.sceneParts() }, decompose: false });
+    // a fresh backend's grippers are open: what they held is an object again, settled where it was
+    this.heldBy.clear();
+    this.heldOffset.clear();
     if (objects.length > 0) for (const o of (await sim.listWorld()).objects) this.rested(o);
     for (const twin of this.twins) {
       const m = twin.folder.manifest.robot;
@@ -256,9 +289,15 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
     const now = (await backend.sim.listWorld()).objects;
     this.objects.clear();
     this.heldBy.clear();
+    this.heldOffset.clear();
     for (const o of now) {
       this.rested(o);
-      if (o.heldBy !== undefined) this.heldBy.set(o.name, o.heldBy);
+      const twin = o.heldBy === undefined ? undefined : this.twins.find((t) => t.robotId === o.heldBy);
+      if (twin === undefined) continue;
+      this.heldBy.set(o.name, twin.robotId);
+      const back = quatConj(twin.orientation);
+      const rel = quatRotate(back, [o.position[0]! - twin.position[0], o.position[1]! - twin.position[1], o.position[2]! - twin.position[2]]);
+      this.heldOffset.set(o.name, { p: rel, q: quatMul(back, quat(o.orientation)) });
     }
     this.emit("scene");
   }

@@ -14,6 +14,11 @@ signed distance of 0 for some deep ones (their depth then says so). A depth thre
 interpenetrating configurations free, so the reference could not catch a part that no longer covers
 its mesh.
 
+A carried object (MoveIt's attached collision object) is a box fixed to a frame of the robot
+(``attach_box``), checked against the obstacles and the robot's geometries but those of the hand holding it.
+With ``mimic`` set, a joint with a URDF ``<mimic>`` tag follows its leader (Pinocchio reads it as an
+independent joint, left at 0: a Panda's right finger closed whatever the left one does).
+
 Needs the ``dev`` extra (``pin``, ``example-robot-data``); used by tests and ``fidelity.py``, never by the
 twin itself.
 """
@@ -21,7 +26,8 @@ twin itself.
 from __future__ import annotations
 
 import sys
-from collections.abc import Sequence
+import xml.etree.ElementTree as ET
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -74,11 +80,13 @@ def example_robot(name: str) -> ExampleRobot:
 class ExactReference:
     """Self-collision of one robot on its exact meshes, for joint vectors in the twin's joint order, and its
     contacts with fixed boxes (``obstacles``: size, position, quaternion xyzw in the robot's base frame),
-    which every geometry of a moving link is checked against."""
+    which every geometry of a moving link is checked against. ``mimic``: joints with a URDF ``<mimic>`` tag
+    follow their leader (else they stay at 0)."""
 
     def __init__(self, urdf: Path, package_roots: dict[str, str], joint_names: Sequence[str],
                  srdf: Path | None = None,
-                 obstacles: Sequence[tuple[Sequence[float], Sequence[float], Sequence[float]]] = ()) -> None:
+                 obstacles: Sequence[tuple[Sequence[float], Sequence[float], Sequence[float]]] = (),
+                 mimic: bool = False) -> None:
         import pinocchio as pin
 
         self._pin = pin
@@ -103,6 +111,53 @@ class ExactReference:
         for name in joint_names:
             joint = self.model.joints[self.model.getJointId(name)]
             self._slots.append((joint.idx_q, joint.nq))
+        #: (follower's q index, leader's position in ``joint_names``, multiplier, offset)
+        self._mimics: list[tuple[int, int, float, float]] = []
+        if mimic:
+            self._mimics = self._mimic_slots(urdf, list(joint_names))
+        self._attached = 0
+
+    def _mimic_slots(self, urdf: Path, names: list[str]) -> list[tuple[int, int, float, float]]:
+        out = []
+        for el in ET.parse(urdf).getroot().iter("joint"):
+            tag = el.find("mimic")
+            name = el.get("name")
+            if tag is None or name is None or not self.model.existJointName(name):
+                continue
+            leader = tag.get("joint")
+            if leader not in names:
+                raise ValueError(f"joint {name!r} mimics {leader!r}, which is not among the joints given")
+            joint = self.model.joints[self.model.getJointId(name)]
+            if joint.nq != 1:
+                raise ValueError(f"mimic joint {name!r} is not a one-coordinate joint")
+            out.append((joint.idx_q, names.index(leader), float(tag.get("multiplier", "1")),
+                        float(tag.get("offset", "0"))))
+        return out
+
+    def attach_box(self, frame: str, size: Sequence[float], position: Sequence[float],
+                   quat_xyzw: Sequence[float], ignore: Collection[str] = ()) -> None:
+        """A box (a carried object) fixed to ``frame`` (a link or frame of the model) at ``position``,
+        ``quat_xyzw`` in that frame, checked against the obstacles and every geometry of the robot but
+        those of the links named in ``ignore`` (the hand holding it), whatever joints lie between."""
+        import coal
+
+        pin: Any = self._pin
+        fid = self.model.getFrameId(frame)
+        if fid >= len(self.model.frames):
+            raise ValueError(f"no frame {frame!r} in the model")
+        f = self.model.frames[fid]
+        x, y, z, w = (float(v) for v in quat_xyzw)
+        offset = pin.SE3(pin.Quaternion(w, x, y, z).matrix(), np.asarray(position, dtype=np.float64))
+        box = pin.GeometryObject(f"attached_{self._attached}", f.parentJoint, fid, f.placement * offset,
+                                 coal.Box(*(float(s) for s in size)))
+        self._attached += 1
+        others = [i for i, g in enumerate(self.geometry.geometryObjects)
+                  if self.model.frames[g.parentFrame].name not in ignore]
+        gid = self.geometry.addGeometryObject(box)
+        for g in others:
+            self.geometry.addCollisionPair(pin.CollisionPair(g, gid))
+        self.pairs = len(self.geometry.collisionPairs)
+        self._gdata = pin.GeometryData(self.geometry)
 
     def _add_boxes(self, boxes: Sequence[tuple[Sequence[float], Sequence[float], Sequence[float]]]) -> None:
         import coal
@@ -124,6 +179,8 @@ class ExactReference:
                 out[idx:idx + 2] = (np.cos(v), np.sin(v))
             else:
                 out[idx] = v
+        for idx, leader, multiplier, offset in self._mimics:
+            out[idx] = multiplier * q[leader] + offset
         return out
 
     def collision_free(self, qs: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
