@@ -63,6 +63,20 @@ describe("serve options", () => {
   });
 });
 
+describe("a cell folder", () => {
+  it("serves the twin folders inside a folder that is none itself, in name order; refuses one that holds none", () => {
+    const cell = join(dir, "cell");
+    for (const arm of ["warehouse", "arm"]) {
+      mkdirSync(join(cell, arm), { recursive: true });
+      writeFileSync(join(cell, arm, "td.json"), "{}");
+      writeFileSync(join(cell, arm, "twin.json"), "{}");
+    }
+    mkdirSync(join(cell, "notes"), { recursive: true });
+    expect(parseServeArgs([cell]).folders).toEqual([join(cell, "arm"), join(cell, "warehouse")]);
+    expect(() => parseServeArgs([join(dir, "empty")])).toThrow(/is not a twin folder: no td\.json/);
+  });
+});
+
 describe("serve --as", () => {
   it("takes DEVICE=FILE and an optional --as-map, both files resolved; refuses a malformed or misplaced one", () => {
     const twin = join(dir, "twin");

@@ -1,5 +1,5 @@
 /** `robwot serve` options, validated before anything starts (folders exist and hold a twin, URLs parse). */
-import { existsSync, statSync } from "node:fs";
+import { existsSync, readdirSync, statSync } from "node:fs";
 import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
@@ -102,6 +102,8 @@ export function isLoopback(host: string): boolean {
   return isIP(h) === 4 && h.startsWith("127.");
 }
 
+const isTwinFolder = (dir: string): boolean => [TWIN_FILES.td, TWIN_FILES.manifest].every((f) => existsSync(join(dir, f)));
+
 export function checkTwinFolder(folder: string): string {
   const dir = resolve(folder);
   if (!existsSync(dir) || !statSync(dir).isDirectory()) throw new CliError(`twin folder not found: ${dir}`, "E_TWIN_FOLDER", 1);
@@ -111,6 +113,17 @@ export function checkTwinFolder(folder: string): string {
     }
   }
   return dir;
+}
+
+/** A twin folder, or a cell folder: a folder without td.json whose subfolders holding td.json and twin.json
+ *  are its twins (in name order; the cell's arms generated into one folder, README "A whole cell"). */
+export function twinFoldersOf(folder: string): string[] {
+  const dir = resolve(folder);
+  if (existsSync(dir) && statSync(dir).isDirectory() && !existsSync(join(dir, TWIN_FILES.td))) {
+    const twins = readdirSync(dir, { withFileTypes: true }).filter((e) => e.isDirectory() && isTwinFolder(join(dir, e.name))).map((e) => join(dir, e.name)).sort();
+    if (twins.length > 0) return twins;
+  }
+  return [checkTwinFolder(dir)];
 }
 
 /** `--as DEVICE=FILE` (repeatable) and `--as-map [DEVICE=]FILE` (one per device; the bare FILE with one
@@ -167,7 +180,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   }
   const { values, positionals } = parsed;
   if (positionals.length === 0) throw new CliError("missing twin folder (robwot serve <twin-folder>...)");
-  const folders = positionals.map(checkTwinFolder);
+  const folders = positionals.flatMap(twinFoldersOf);
   const twice = folders.find((f, i) => folders.indexOf(f) !== i);
   if (twice !== undefined) {
     throw new CliError(`twin folder given twice: ${twice} (copy the folder to serve a second robot; place it in its ${TWIN_FILES.manifest})`);

@@ -8,7 +8,8 @@ import { isLoopback, parseServeArgs, type ServeOptions } from "./serve-options.j
 export const USAGE = `Usage: robwot serve <twin-folder>... [options]
 
 Serves twin folders (made by robwot generate) as node-wot Things over HTTP, with live state on the
-/live WebSocket and the browser viewer at /viewer/. Several folders share one simulated world.
+/live WebSocket and the browser viewer at /viewer/. Several folders share one simulated world; a cell
+folder (a folder of twin folders) serves each twin in it.
 
 Options:
   --port N, -p N               HTTP port (default 8080; 0 = any free port)
