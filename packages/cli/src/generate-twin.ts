@@ -28,6 +28,9 @@ export interface GenerateResult {
   obstacles: number;
   /** the scene's objects (README "Objects"), written to scene.json where they rest */
   objects: number;
+  /** the scene's conveyors and sensors (README "Conveyors and sensors"), kept in scene.json */
+  conveyors: number;
+  sensors: number;
   summary: WorkspaceSummary;
   td: { id: string; title: string; file: string };
   seconds: number;
@@ -294,6 +297,8 @@ async function generateFrom(
     scene: opts.scene ?? null,
     obstacles: obstacles.length,
     objects: world.objects.length,
+    conveyors: world.conveyors.length,
+    sensors: world.sensors.length,
     summary,
     td: { id: td.td.id, title: td.td.title, file: join(staged.out, TWIN_FILES.td) },
     seconds: (performance.now() - t0) / 1000,

@@ -97,7 +97,7 @@ function printHuman(r: GenerateResult, seconds: number): void {
     `robwot: twin "${r.robot.name}" written to ${rel.startsWith("..") ? r.out : rel}/ in ${seconds.toFixed(1)} s`,
     `  robot      ${r.robot.controllable.length} joints (${r.robot.controllable.join(", ")}), end effector ${r.robot.eeLink}`,
     ...(r.robot.couplings.length > 0 ? [`  coupled    ${r.robot.couplings.join("; ")}`] : []),
-    `  scene      ${r.obstacles} obstacle(s)${r.objects ? `, ${r.objects} object(s)` : ""}${r.otherRobots.length ? `, ${r.otherRobots.length} other robot(s): ${r.otherRobots.map((o) => `${o.id} at [${o.basePosition.map((v) => v.toFixed(3)).join(", ")}] m`).join(", ")}` : ""}${r.scene ? ` from ${r.scene}` : ""}`,
+    `  scene      ${r.obstacles} obstacle(s)${r.objects ? `, ${r.objects} object(s)` : ""}${r.conveyors ? `, ${r.conveyors} conveyor(s)` : ""}${r.sensors ? `, ${r.sensors} sensor(s)` : ""}${r.otherRobots.length ? `, ${r.otherRobots.length} other robot(s): ${r.otherRobots.map((o) => `${o.id} at [${o.basePosition.map((v) => v.toFixed(3)).join(", ")}] m`).join(", ")}` : ""}${r.scene ? ` from ${r.scene}` : ""}`,
     `  workspace  ${s.samples} samples, ${s.collisionFree} collision-free (${((100 * s.collisionFree) / Math.max(1, s.samples)).toFixed(1)}%), ` +
       `${s.method}${s.alpha !== null ? ` alpha ${s.alpha.toFixed(3)} m` : ""}, volume ${s.volume.toFixed(3)} m^3`,
     `  bounds     ${s.bounds.min === null || s.bounds.max === null ? "none (no collision-free sample)" : `min [${s.bounds.min.map((v) => v.toFixed(3)).join(", ")}] max [${s.bounds.max.map((v) => v.toFixed(3)).join(", ")}] m`}`,
