@@ -17,7 +17,8 @@ its mesh.
 A carried object (MoveIt's attached collision object) is a box fixed to a frame of the robot
 (``attach_box``), checked against the obstacles and the robot's geometries but those of the hand holding it.
 With ``mimic`` set, a joint with a URDF ``<mimic>`` tag follows its leader (Pinocchio reads it as an
-independent joint, left at 0: a Panda's right finger closed whatever the left one does).
+independent joint, left at 0: a Panda's right finger closed whatever the left one does). Every query
+starts Coal's GJK from its default guess, never from the pair's previous query (``_geometry_data``).
 
 Needs the ``dev`` extra (``pin``, ``example-robot-data``); used by tests and ``fidelity.py``, never by the
 twin itself.
@@ -26,6 +27,7 @@ twin itself.
 from __future__ import annotations
 
 import sys
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass
@@ -106,7 +108,7 @@ class ExactReference:
         self._add_boxes(obstacles)
         self.pairs = len(self.geometry.collisionPairs)
         self._data = self.model.createData()
-        self._gdata = pin.GeometryData(self.geometry)
+        self._gdata = self._geometry_data()
         self._slots: list[tuple[int, int]] = []
         for name in joint_names:
             joint = self.model.joints[self.model.getJointId(name)]
@@ -151,13 +153,28 @@ class ExactReference:
         box = pin.GeometryObject(f"attached_{self._attached}", f.parentJoint, fid, f.placement * offset,
                                  coal.Box(*(float(s) for s in size)))
         self._attached += 1
+        frames = self.model.frames
+        # an obstacle's parentFrame is unset (no frame of the model): never a link of the hand
         others = [i for i, g in enumerate(self.geometry.geometryObjects)
-                  if self.model.frames[g.parentFrame].name not in ignore]
+                  if not (g.parentFrame < len(frames) and frames[g.parentFrame].name in ignore)]
         gid = self.geometry.addGeometryObject(box)
         for g in others:
             self.geometry.addCollisionPair(pin.CollisionPair(g, gid))
         self.pairs = len(self.geometry.collisionPairs)
-        self._gdata = pin.GeometryData(self.geometry)
+        self._gdata = self._geometry_data()
+
+    def _geometry_data(self) -> Any:
+        """Pinocchio's per-pair state, each query starting GJK from Coal's default guess: Pinocchio
+        enables the guess cached from the pair's previous query, and from a stale one GJK called a 5 cm
+        box 1 cm deep into another's top face free (after a query with them 25 cm apart; free or not
+        then depended on what was checked before)."""
+        pin: Any = self._pin
+        gdata = pin.GeometryData(self.geometry)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # the flag is deprecated, and still read
+            for request in [*gdata.collisionRequests, *gdata.distanceRequests]:
+                request.enable_cached_gjk_guess = False
+        return gdata
 
     def _add_boxes(self, boxes: Sequence[tuple[Sequence[float], Sequence[float], Sequence[float]]]) -> None:
         import coal
