@@ -79,3 +79,26 @@ it("closes on nothing holding nothing; a joint target that moves the fingers is 
   expect(JSON.stringify(moved.body)).toContain("panda_finger_joint1");
   expect((await invoke(base, "gripOpen", {})).body).toMatchObject({ state: "open", holding: null, released: null });
 });
+
+it("runs a program with grip and release steps: validated with the cube carried, run, the cube placed", async () => {
+  const cube0 = (await objects())["cube"]!;
+  const down = (x: number, y: number, z: number, motion = "ptp"): Record<string, unknown> => ({ motion, x, y, z, orientation: DOWN });
+  const program = {
+    steps: [down(cube0.position[0]!, cube0.position[1]!, 0.45), down(cube0.position[0]!, cube0.position[1]!, 0.32, "lin"), { motion: "grip" }, down(cube0.position[0]!, cube0.position[1]!, 0.45, "lin"), down(0.5, -0.15, 0.45), { motion: "release" }],
+  };
+  const checked = await invoke(base, "validateProgram", program);
+  expect(checked.status).toBe(200);
+  expect(checked.body.valid).toBe(true);
+  expect(checked.body.steps[2]).toMatchObject({ planned: "grip", holding: "cube", ok: true });
+  expect((await objects())["cube"]!.position).toEqual(cube0.position); // validating moved nothing
+  const bad = await invoke(base, "validateProgram", { steps: [{ motion: "grip", x: 0.5, y: 0, z: 0.4 }] });
+  expect(bad.status).toBe(400);
+  const run = await invoke(base, "runProgram", program);
+  expect(run.status).toBe(200);
+  expect(run.body.status).toBe("reached");
+  const placed = (await objects())["cube"]!;
+  expect(placed.heldBy).toBeUndefined();
+  expect(placed.position[1]).toBeCloseTo(-0.15, 2);
+  expect(placed.position[2]).toBeCloseTo(0.32, 2); // on the table top
+  expect((await http(`${base}/properties/gripper`)).body).toMatchObject({ state: "open", holding: null });
+});

@@ -7,14 +7,17 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from rpc_backend import RpcClient
-from simhelp import DATA, KUKA, PANDA
+from simhelp import DATA, KUKA, PANDA, steps_of
 
 from robwot_sim.errors import InvalidParams, Overlap
+from robwot_sim.limits import DEFAULT_DT
 from robwot_sim.model.tool import attach_tool
+from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.world import World
 
 DOWN = [1.0, 0.0, 0.0, 0.0]  # the hand's z axis pointing down
@@ -174,3 +177,61 @@ def test_a_colour_sensor_reads_the_cube_a_robot_holds_up_to_it(world: World) -> 
     out = world.cell.advance(0.1)
     assert out["sensors"][0]["object"] == "cube" and out["sensors"][0]["color"] == [255, 0, 0]
     assert [e["type"] for e in out["events"]] == ["detectedObject"]
+
+
+def pick_and_place(place: list[float]) -> list[dict[str, Any]]:
+    """A pick of the cube on the table and a place at ``place`` (the TCP's position there), hand down."""
+    return [
+        {"motion": "ptp", "position": [0.5, 0.0, 0.45], "orientation": DOWN},
+        {"motion": "lin", "position": [0.5, 0.0, 0.32], "orientation": DOWN},
+        {"motion": "grip"},
+        {"motion": "lin", "position": [0.5, 0.0, 0.45], "orientation": DOWN},
+        {"motion": "ptp", "position": place, "orientation": DOWN},
+        {"motion": "release"},
+    ]
+
+
+def test_a_program_with_grip_and_release_steps_checks_every_later_step_with_the_cube(world: World) -> None:
+    world.grippers.configure("panda", "fingers", time=0.2)
+    before = world.list()["objects"]
+    q0 = world.get_joint_positions("panda")
+    steps = steps_of(pick_and_place([0.5, 0.2, 0.45]), 8)
+    report = plan_program(world, "panda", steps, DEFAULT_DT, 50).report
+    assert report["valid"], report["steps"]
+    grip, release = report["steps"][2], report["steps"][5]
+    assert (grip["planned"], grip["holding"]) == ("grip", "cube")
+    assert grip["duration"] == pytest.approx(0.2, abs=0.02)
+    assert (release["planned"], release["holding"]) == ("release", None)
+    assert 0.015 < grip["target"][-1] < 0.025  # the fingers on the cube from the grip on
+    # planning moved nothing: the cube on the table, nothing held, the robot where it was
+    assert world.list()["objects"] == before and world.grippers.state("panda")["holding"] is None
+    assert np.allclose(world.get_joint_positions("panda"), q0)
+    # carried through the post: refused at that step, naming the cube (the empty hand passes above it)
+    world.add_obstacle({"name": "post", "shape": {"type": "box", "size": [0.05, 0.05, 0.05]},
+                        "position": [0.5, 0.16, 0.41]})
+    through = plan_program(world, "panda", steps, DEFAULT_DT, 50).report
+    assert through["firstFailingStep"] == 4
+    why = " ".join(through["steps"][4]["reasons"])
+    assert "cube" in why and "post" in why
+    empty = [s for s in pick_and_place([0.5, 0.2, 0.45]) if s["motion"] not in ("grip", "release")]
+    assert plan_program(world, "panda", steps_of(empty, 8), DEFAULT_DT, 50).report["valid"]
+
+
+def test_a_run_program_grips_and_releases_the_cube_on_the_wire(client: RpcClient) -> None:
+    tool = client.call("robot.attachTool", {"urdf": str(DATA / PANDA), "eeLink": "panda_hand",
+                                            "tcp": [0, 0, 0.1034, 0, 0, 0]})
+    client.call("world.reset")
+    client.call("robot.load", {"urdf": tool["urdf"], "id": "panda", "eeLink": tool["tcpLink"],
+                               "packageRoots": tool["packageRoots"]})
+    client.call("obstacle.add", TABLE)
+    client.call("object.add", CUBE)
+    client.call("gripper.configure", {"robot": "panda", "kind": "fingers", "time": 0.1})
+    err = client.error("program.plan", {"robot": "panda",
+                                        "steps": [{"motion": "grip", "position": [0, 0, 1]}]})
+    assert err.data["code"] == "E_INVALID_PARAMS" and "grip step has no 'position'" in str(err)
+    out = client.call("program.run", {"robot": "panda", "steps": pick_and_place([0.5, 0.2, 0.45]),
+                                      "realtime": 0})
+    assert out["status"] == "reached"
+    cube = next(o for o in client.call("world.list")["objects"] if o["name"] == "cube")
+    assert cube["position"] == pytest.approx([0.5, 0.2, 0.32], abs=3e-3) and "heldBy" not in cube
+    assert client.call("gripper.state", {"robot": "panda"})["state"] == "open"

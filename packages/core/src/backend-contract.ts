@@ -963,10 +963,10 @@ export interface ToolAttached {
   tcpLink: string;
 }
 /**
- * one step: `target` (joints, PTP) or `position` (+ `orientation`) reached by `motion`; `via` for circ; `speed` and `acceleration` scale the joint limits, `tcpSpeed` is a LIN's or CIRC's speed
+ * one step: `target` (joints, PTP) or `position` (+ `orientation`) reached by `motion`; `via` for circ; `speed` and `acceleration` scale the joint limits, `tcpSpeed` is a LIN's or CIRC's speed; `grip` closes the robot's gripper (`gripper.close`: the object at the TCP held from then on, checked with the robot in every later step) and `release` opens it (`gripper.open`: the object let go, settled), each where the step before ends, taking the gripper's time, with no target and never blended
  */
 export interface ProgramStep {
-  motion?: "ptp" | "lin" | "circ";
+  motion?: "ptp" | "lin" | "circ" | "grip" | "release";
   target?: JointVector;
   position?: Position;
   orientation?: QuatXyzw;
@@ -995,7 +995,7 @@ export interface ProgramPlan {
      * s
      */
     duration: number;
-    planned?: "straight" | "detour" | "lin" | "circ";
+    planned?: "straight" | "detour" | "lin" | "circ" | "grip" | "release";
     /**
      * the joints the step ends at
      */
@@ -1004,6 +1004,10 @@ export interface ProgramPlan {
      * the motion goes on into the next step without stopping (its `blend` radius); the step's duration ends where the blended motion is nearest the next step's path
      */
     blended?: boolean;
+    /**
+     * a grip or release step: what the gripper holds after it
+     */
+    holding?: string | null;
   }[];
   trajectory: {
     /**

@@ -7,7 +7,7 @@ import type { ObjectMoveParams, ObstacleMoveParams } from "@robwot/sim-client";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import { objectInput, type ActionHandler } from "./affordance-routes.js";
 import { calibrate, type CalibrateInput } from "./calibrate.js";
-import { grip } from "./grip.js";
+import { grip, gripChanged } from "./grip.js";
 import { backendDown } from "./errors.js";
 import type { CartesianInput, JointInput, Mover, MoveWatch, ProgramInput } from "./moves.js";
 import type { SceneObject, SceneObstacle } from "./twin-folder.js";
@@ -41,7 +41,13 @@ export function actionHandlers(described: readonly string[], d: ActionDeps): Map
   };
   on<JointInput>("moveToJointPosition", (i, w) => d.mover.moveJoints(i, w));
   on<CartesianInput>("moveToCartesianPosition", (i, w) => d.mover.moveCartesian(i, w));
-  on<ProgramInput>("runProgram", (i, w) => d.mover.runProgram(i, w));
+  on<ProgramInput>("runProgram", async (i, w) => {
+    try {
+      return await d.mover.runProgram(i, w);
+    } finally {
+      if (i.steps.some((s) => s.motion === "grip" || s.motion === "release")) await gripChanged(d);
+    }
+  });
   on<JointInput>("validateJointPosition", (i) => d.mover.validateJoints(i));
   on<CartesianInput>("validateCartesianPosition", (i) => d.mover.validateCartesian(i));
   on<ProgramInput>("validateProgram", (i) => d.mover.validateProgram(i));

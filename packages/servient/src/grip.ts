@@ -44,6 +44,18 @@ export async function grip(d: ActionDeps, close: boolean, watch?: MoveWatch): Pr
 
 const secondsToMs = (s: number): number => s * 1000;
 
+/** After a program whose grip or release steps ran (or some of them): the gripper's state and the world's
+ *  objects as the backend holds them now. Never throws: a backend that is down restores both anyway. */
+export async function gripChanged(d: ActionDeps): Promise<void> {
+  try {
+    const g = await d.backend.sim.gripperState({ robot: d.twin.robotId });
+    await d.world.syncObjects(d.backend);
+    d.twin.setGripper({ state: g.state, holding: g.holding });
+  } catch {
+    /* the backend restarted or went down: its restore reopens the gripper and replays the objects */
+  }
+}
+
 /** Waits `ms`, checking `cancelled` every 20 ms: a stop ends the wait at once. */
 async function waitUnless(cancelled: () => boolean, ms: number): Promise<void> {
   const end = Date.now() + ms;

@@ -133,6 +133,14 @@ export function parseProgram(twin: Twin, input: ProgramInput): ProgramMove {
       ...(step.blend !== undefined ? { blend: step.blend } : {}),
     };
     const hasXyz = step.x !== undefined || step.y !== undefined || step.z !== undefined;
+    if (step.motion === "grip" || step.motion === "release") {
+      // the gripper acts where the step before ends; the physical robot's gripClose / gripOpen when relayed
+      if (step.joints !== undefined || hasXyz || step.orientation !== undefined || step.via !== undefined) {
+        throw badInput(`steps[${k}]: a ${step.motion} step has no target: the gripper acts where the step before ends`, { param: `steps[${k}]` });
+      }
+      legs.push({ action: step.motion === "grip" ? "gripClose" : "gripOpen", input: {} });
+      return { motion: step.motion };
+    }
     if ((step.joints !== undefined) === hasXyz) {
       throw badInput(`steps[${k}]: give joints (a PTP step) or x, y, z, not ${hasXyz ? "both" : "neither"}`, { param: `steps[${k}]` });
     }

@@ -31,7 +31,7 @@ import contextlib
 import functools
 import math
 import threading
-from collections.abc import Awaitable, Callable, Sequence
+from collections.abc import Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, TypeVar
 
@@ -101,6 +101,8 @@ class _Prepared:
     plan: Plan | None = None
     starts: tuple[int, ...] = ()
     program: dict[str, Any] | None = None
+    #: a program's grip and release steps: the gripper acts just before the state of that index
+    grips: tuple[tuple[int, str], ...] = ()
 
 
 class MotionRunner:
@@ -163,7 +165,7 @@ class MotionRunner:
                 return {"status": "stopped", "positions": _floats(q), "duration": 0.0,
                         "wallTime": loop.time() - t0, "contacts": []}
             result = await self._run(motion, prepared.path, realtime, prepared.stamp, prepared.clearance,
-                                     prepared.starts)
+                                     prepared.starts, dict(prepared.grips))
             if prepared.program is not None:
                 result["program"] = prepared.program
             if prepared.plan is not None:
@@ -195,9 +197,16 @@ class MotionRunner:
             k = int(report["firstFailingStep"])
             failing = report["steps"][k]
             raise Rejected(tuple(f"step {k}: {r}" for r in failing["reasons"]), failing["checks"], report)
-        ends = [program.path[i] for i in program.starts] + [program.path.last]
+        if program.grips and self._world.others_stamp(robot)[1] == stamp[1]:
+            # planned through a trial of the gripper (``Grippers.trial``), which rebuilt bodies and put
+            # objects back: the world is the one checked unless another robot moved meanwhile (scene edits
+            # never run during a plan, ``world_thread.py``)
+            stamp = self._world.others_stamp(robot)
+        # the fingers as the gripper holds them now (a grip step's states have them where it will put them)
+        pin = self._world.scene.entry(robot).bound.pin
+        ends = [pin(program.path[i]) for i in program.starts] + [pin(program.path.last)]
         return _Prepared(program.path, stamp, self._world.motion_clearance(robot, *ends),
-                         starts=tuple(program.starts), program=report)
+                         starts=tuple(program.starts), program=report, grips=tuple(program.grips))
 
     def _state(self, robot: str, time: float, q: Any, pose: Pose, moving: bool,
                planned: float, step: int | None = None) -> dict[str, Any]:
@@ -225,8 +234,23 @@ class MotionRunner:
     def _final_pose(self, robot: str) -> Pose | None:
         return self._world.fk(robot) if robot in self._world.robot_ids() else None
 
+    def _grip(self, robot: str, act: str, reached: Any,
+              checked: tuple[int, int]) -> tuple[Any, tuple[int, int]]:
+        """On the world's thread: a program's grip (``gripper.close``) or release (``gripper.open``); the
+        state reached with the fingers where the gripper put them, and the stamp the states from here on
+        were checked against: the world as the gripper leaves it (the program was planned through it),
+        unless something else changed meanwhile (then every state is checked again)."""
+        unchanged = self._world.others_stamp(robot) == checked
+        if act == "grip":
+            self._world.grippers.close(robot)
+        else:
+            self._world.grippers.open(robot)
+        stamp = self._world.others_stamp(robot) if unchanged else checked
+        return self._world.scene.entry(robot).bound.pin(reached), stamp
+
     async def _run(self, motion: _Motion, plan: TimedPath, realtime: float, checked: tuple[int, int],
-                   clearance: float, starts: Sequence[int] = ()) -> dict[str, Any]:
+                   clearance: float, starts: Sequence[int] = (), grips: Mapping[int, str] | None = None,
+                   ) -> dict[str, Any]:
         loop = asyncio.get_running_loop()
         dt = plan.dt
         robot = motion.robot
@@ -249,6 +273,9 @@ class MotionRunner:
             if i >= base + len(chunk):
                 base, chunk = i, next(states)
             q = chunk[i - base]
+            if grips and i in grips:  # the gripper acts first: the states from here on have its fingers
+                act = functools.partial(self._grip, robot, grips[i], reached, checked)
+                reached, checked = await self._on_world(act, robot=robot, writes=True)
             crosses = (math.floor(sim_time / STATE_PERIOD + 1e-9)
                        > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9))
             step = functools.partial(self._step, robot, reached, q, clearance, checked, crosses)

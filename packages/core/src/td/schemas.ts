@@ -108,9 +108,13 @@ export function programInputSchema(joints: JointSpec[], bounds: Bounds | null): 
         maxItems: VALUE_SCHEMAS.ProgramSteps.maxItems,
         items: {
           type: "object",
-          description: "joints (PTP to a joint target), or x, y, z (+ orientation) reached by motion (via for circ); speed a fraction of the velocity limits",
+          description: "joints (PTP to a joint target), or x, y, z (+ orientation) reached by motion (via for circ), or motion grip / release alone (the gripper acts where the step before ends); speed a fraction of the velocity limits",
           properties: {
-            motion: motionSchema(),
+            motion: {
+              ...motionSchema(),
+              enum: ["ptp", "lin", "circ", "grip", "release"],
+              description: `${String(motionSchema().description)}; grip: the gripper closes (for its time) where the step before ends, and the object it catches is checked with the robot in every later step; release: it opens, the object let go and settled (a twin generated with --gripper)`,
+            },
             joints: jointsSchema(joints, "Target position of every controllable joint (a PTP step)"),
             ...xyz,
             orientation: quaternionSchema("End-effector orientation quaternion {x,y,z,w}; any orientation (PTP) or kept (LIN, CIRC) if absent"),
@@ -202,7 +206,8 @@ export function programReportSchema(): DataSchema {
             ok: { type: "boolean" },
             reasons: { type: "array", items: { type: "string" } },
             duration: { type: "number", unit: UNIT_S, minimum: 0 },
-            planned: { type: "string", enum: ["straight", "detour", "lin", "circ"] },
+            planned: { type: "string", enum: ["straight", "detour", "lin", "circ", "grip", "release"] },
+            holding: { oneOf: [{ type: "string" }, { type: "null" }], description: "a grip or release step: the object the gripper holds after it" },
             blended: { type: "boolean", description: "the motion goes on into the next step without stopping" },
           },
           required: ["step", "ok", "reasons", "duration"],

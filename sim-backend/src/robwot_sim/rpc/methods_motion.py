@@ -15,7 +15,7 @@ from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.sim.planner import Goal, Plan, Timing
 from robwot_sim.sim.planner import plan as plan_goal
-from robwot_sim.sim.program import ProgramStep, plan_program
+from robwot_sim.sim.program import GRIPS, ProgramStep, plan_program
 from robwot_sim.sim.world_thread import Kind
 
 
@@ -24,6 +24,12 @@ def goal_of(p: Params, dof: int) -> Goal:
     joint, by PTP only) or `position` (with `orientation` only: a quaternion of non-zero norm,
     normalised), `via` (a point of the arc) exactly with a CIRC."""
     motion = str(p["motion"])
+    if motion in GRIPS:  # the gripper acts where the step before ends: no target of its own
+        for name in ("target", "position", "orientation", "via"):
+            if p.has(name):
+                raise p.invalid(name, f"a {motion} step has no {name!r}: the gripper acts where the step "
+                                "before ends")
+        return Goal(motion)
     if p.has("target") == p.has("position"):
         raise p.invalid("target", "exactly one of 'target' (joints) or 'position' (pose)",
                         missing=not p.has("target"))

@@ -18,10 +18,11 @@ that let it go (the robot leaves such a contact as any other, ``exit_contact.py`
 
 from __future__ import annotations
 
+import contextlib
 import shutil
 import tempfile
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -153,6 +154,47 @@ class Grippers:
         self._state: dict[str, str] = {}  # "open" | "closed"
         self._held: dict[str, Held] = {}
         self._own: dict[str, RobotEntry] = {}  # a holding robot's own body, parked (``_hold_body``)
+        self._trying = False  # within ``trial``: a held object's files stay for the trial's end
+
+    @contextlib.contextmanager
+    def trial(self, robot_id: str) -> Iterator[None]:
+        """Within: ``close`` and ``open`` of ``robot_id``'s gripper change the world as they would (a program
+        planned across its grip steps); at the end the world is as before: what the robot held, its body,
+        its gripper's state and pins, every object where it was (put back, not settled again)."""
+        scene = self._scene
+        held, state = self._held.get(robot_id), self._state.get(robot_id)
+        pins, q = dict(scene.entry(robot_id).bound.pinned), scene.entry(robot_id).bound.q.copy()
+        objects = {name: scene.object_read(name) for name in scene.object_bodies()}
+        self._trying = True
+        try:
+            yield
+        finally:
+            self._trying = False
+            self._undo(robot_id, held, objects)
+            if state is not None:
+                self._state[robot_id] = state
+            scene.entry(robot_id).bound.pinned = pins
+            scene.entry(robot_id).bound.apply(q)
+
+    def _undo(self, robot_id: str, held: Held | None, objects: dict[str, ReadObstacle]) -> None:
+        """``trial``'s end: the robot holding ``held`` again (or nothing), the objects as ``objects``."""
+        scene, now = self._scene, self._held.get(robot_id)
+        if now is not held:
+            if now is not None:
+                self._own_body(robot_id)
+                del self._held[robot_id]
+                shutil.rmtree(now.folder, ignore_errors=True)
+            if held is not None:
+                if held.name in scene.object_bodies():
+                    scene.remove_object(held.name)
+                self._hold_body(robot_id, held.files(scene, robot_id), held.urdf)
+                self._held[robot_id] = held
+        for name in scene.object_bodies():
+            if name not in objects or scene.object_read(name)[0] != objects[name][0]:
+                scene.remove_object(name)
+        for name, read in objects.items():
+            if name not in scene.object_bodies():
+                scene.return_object(read, None, settle=False)
 
     def close_all(self) -> None:
         """Every gripper forgotten (the world reset or closed)."""
@@ -400,7 +442,8 @@ class Grippers:
                 self._hold_body(robot_id, held.files(self._scene, robot_id), held.urdf)
                 raise
             del self._held[robot_id]
-            shutil.rmtree(held.folder, ignore_errors=True)
+            if not self._trying:
+                shutil.rmtree(held.folder, ignore_errors=True)
         self._set_fingers(robot_id, g.open)
         self._state[robot_id] = "open"
         return {**self.state(robot_id), "released": released}

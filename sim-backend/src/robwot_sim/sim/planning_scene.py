@@ -253,13 +253,12 @@ class Scene:
     def hypothetical(self, robot_id: str) -> Iterator[None]:
         """Within this block ``place`` puts the robot in states it is not in (a program planned step after
         step); checkpoints show others its true state, and the block ends with the robot back there."""
-        b = self.entry(robot_id).bound
-        saved = b.q.copy()
+        saved = self.entry(robot_id).bound.q.copy()
         with self.holding(robot_id):
             try:
                 yield
-            finally:
-                b.apply(saved)
+            finally:  # the robot's body now: a gripper may have rebuilt it meanwhile
+                self.entry(robot_id).bound.apply(saved)
 
     @owned
     def place(self, robot_id: str, q: JointVector) -> None:
@@ -370,7 +369,8 @@ class Scene:
         read by ``scene_files.read_object``), settled onto what is below it; returns it at rest."""
         return self._add_objects([spec if isinstance(spec, tuple) else read_object(spec)])[0]
 
-    def _add_objects(self, objects: Sequence[ReadObstacle], allow: int | None = None) -> list[dict[str, Any]]:
+    def _add_objects(self, objects: Sequence[ReadObstacle], allow: int | None = None,
+                     settle: bool = True) -> list[dict[str, Any]]:
         """Objects added and settled together (a scene's stack settles as one), all or nothing: each
         placed into another body or coming to rest touching a robot is refused (``settle.check_placed``)."""
         if len(self._objects) + len(objects) > MAX_OBJECTS:
@@ -386,7 +386,8 @@ class Scene:
             for name in added:
                 check_placed(self.bullet, self.table, self._obstacles[name][0], self._placed(name),
                              allow=allow)
-            self._settle(added, allow)
+            if settle:
+                self._settle(added, allow)
         except Exception:
             for name in added:
                 self._remove_body(name)
@@ -449,9 +450,10 @@ class Scene:
         return spec, self._built[name]
 
     @owned
-    def return_object(self, read: ReadObstacle, robot_id: str) -> dict[str, Any]:
-        """An object a robot let go of put back at its pose and settled; it may touch that robot."""
-        return self._add_objects([read], allow=self.entry(robot_id).bound.body)[0]
+    def return_object(self, read: ReadObstacle, robot_id: str | None, settle: bool = True) -> dict[str, Any]:
+        """An object a robot let go of put back at its pose and settled (it may touch that robot), or
+        (``settle`` False) put back exactly where it was before a trial (``gripper.py``)."""
+        return self._add_objects([read], self.entry(robot_id).bound.body if robot_id else None, settle)[0]
 
     # scene documents
     @owned

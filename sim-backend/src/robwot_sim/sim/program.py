@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from robwot_sim.errors import PlanBudget
+from robwot_sim.errors import PlanBudget, SimError
 from robwot_sim.limits import MAX_TRAJECTORY_SAMPLES
 from robwot_sim.sim.planner import Goal, Plan, Timing, contact_words, plan, time_lin
-from robwot_sim.sim.timed import Curve, TimedPath
+from robwot_sim.sim.timed import Curve, Straight, TimedPath
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
@@ -34,6 +34,8 @@ from robwot_sim.sim.world_thread import checkpoint
 #: radians a joint may turn between two points of a PTP step's path in a blended group (the spline the
 #: group is timed along passes through them: dense points keep it on the straight line)
 BLEND_POINT_STEP = 0.02
+#: the steps where the robot's gripper acts (``gripper.close`` / ``gripper.open``) instead of moving
+GRIPS = ("grip", "release")
 #: points of the Bezier curve that rounds a junction
 BLEND_POINTS = 24
 
@@ -47,6 +49,9 @@ class ProgramPlan:
     path: TimedPath | None = None
     #: index in ``path`` of each step's first state (its start: the previous step's end)
     starts: list[int] = field(default_factory=list)
+    #: the grip and release steps: the index in ``path`` of the first state after the gripper acted, and
+    #: the step's motion (``grip``, ``release``): a run makes the gripper act just before that state
+    grips: list[tuple[int, str]] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -170,20 +175,23 @@ def _blend_group(world: World, robot: str, group: list[_Step],
 
 
 def _plan_steps(world: World, robot: str, steps: Sequence[ProgramStep], dt: float,
-                verdicts: list[dict[str, Any]]) -> tuple[list[_Step], int | None]:
-    """Each step planned from where the previous one ends, up to the first refused one (its index, or
-    None); a verdict per step planned appended to ``verdicts``."""
+                verdicts: list[dict[str, Any]], start: FloatArray | None = None,
+                total: int | None = None) -> tuple[list[_Step], int | None]:
+    """Each step planned from where the previous one ends (the first from ``start``, default the robot's
+    state), up to the first refused one (its index, or None); a verdict per step planned appended to
+    ``verdicts``, numbered after those already there (a program's later segment: ``total`` its steps)."""
     planned: list[_Step] = []
+    offset = len(verdicts)
     with world.hypothetical(robot):
-        q = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
+        q = np.asarray(world.get_joint_positions(robot) if start is None else start, dtype=np.float64)
         for k, step in enumerate(steps):
-            with _naming(k, len(steps)):
+            with _naming(offset + k, total or len(steps)):
                 checkpoint()
                 world.place(robot, q)
                 # a LIN or CIRC that may be blended is timed with its group, not alone (``plan_program``)
                 blends = (step.blend > 0 and k + 1 < len(steps)) or (k > 0 and steps[k - 1].blend > 0)
                 verdict = plan(world, robot, step.goal, step.timing(dt), timed=not blends)
-            verdicts.append({"step": k, "ok": verdict.valid, "reasons": list(verdict.reasons),
+            verdicts.append({"step": offset + k, "ok": verdict.valid, "reasons": list(verdict.reasons),
                              "checks": verdict.checks, "duration": 0.0})
             if not verdict.valid or verdict.target is None:
                 return planned, k
@@ -216,62 +224,33 @@ def plan_program(world: World, robot: str, steps: Sequence[ProgramStep], dt: flo
                  rate: float) -> ProgramPlan:
     """Per-step verdicts (from the first step to the first refused one), the index of the first refused
     step (None when all pass), the cycle time (s) and the joint trajectory sampled at ``rate`` (Hz).
-    `PlanBudget` names the step being planned when the job's budget runs out."""
+    `PlanBudget` names the step being planned when the job's budget runs out. A program with grip or
+    release steps is planned in segments between them, the gripper acting between two in a trial of the
+    world (``Grippers.trial``): every later step is checked with what the gripper then holds."""
     names = list(world.robot_model(robot).controllable)
-    verdicts: list[dict[str, Any]] = []
-    planned, first_failing = _plan_steps(world, robot, steps, dt, verdicts)
-    segments: list[TimedPath] = []
-    starts: list[int] = []
-    done = 0
-    k = 0
-    while k < len(planned):
-        # a group: steps joined by blends (the last step's blend has nothing to go on to; a detour's corners
-        # are stops, so a step planned as a detour is neither blended into nor out of)
-        end = k
-        while (end + 1 < len(planned) and planned[end].blend > 0 and not _detour(planned[end])
-               and not _detour(planned[end + 1])):
-            end += 1
-        group = planned[k:end + 1]
-        with _naming(k, len(steps)):
-            checkpoint()
-            if len(group) == 1:  # the path its plan checked
-                st = group[0]
-                if st.plan.path is None:  # a LIN or CIRC whose blends a detour next to it stops
-                    st.plan = time_lin(world, robot, st.plan, st.step.timing(dt), st.start.tolist())
-                    if st.plan.path is None:
-                        verdicts[k] = {**verdicts[k], "ok": False, "reasons": list(st.plan.reasons),
-                                       "checks": st.plan.checks}
-                states, group_starts = st.plan.path, [0]
-                failed = None if states is not None else 0
-            else:
-                states, group_starts, contact, failed_at = _blend_group(world, robot, group, dt)
-                failed = None if contact is None else failed_at
-                if contact is not None:
-                    at = k + failed_at
-                    where = (f"through the end of step {at} (blend radius {planned[at].blend:g} m)"
-                             if planned[at].blend > 0 and at < end else f"in step {at}")
-                    reason = f"the blended motion of steps {k} to {end} collides {where}{contact}"
-                    verdicts[at] = {**verdicts[at], "ok": False, "checks": {}, "reasons": [reason]}
-        if failed is not None:
-            # the steps of the group before the failing one keep their verdicts, without a duration
-            del verdicts[k + failed + 1:]
-            first_failing = k + failed
-            break
-        assert states is not None
-        bounds = [*group_starts, len(states) - 1]
-        for i in range(len(group)):
-            verdicts[k + i]["duration"] = (bounds[i + 1] - bounds[i]) * dt
-            verdicts[k + i]["planned"] = group[i].plan.checks.get("path", {}).get("planned", "straight")
-            verdicts[k + i]["target"] = [float(v) for v in group[i].plan.target or ()]
-            if group[i].blend > 0 and i < len(group) - 1:
-                verdicts[k + i]["blended"] = True
-            starts.append(done + bounds[i])
-        segments.append(states)
-        done += len(states) - 1
-        k = end + 1
-    trajectory = TimedPath.join(segments) if segments else TimedPath.still(
+    timeline = _Timeline(dt)
+    gripping = any(st.goal.motion in GRIPS for st in steps)
+    with world.grippers.trial(robot) if gripping else contextlib.nullcontext():
+        q: FloatArray | None = None
+        k = 0
+        while k < len(steps) and timeline.failing is None:
+            end = next((i for i in range(k, len(steps)) if steps[i].goal.motion in GRIPS), len(steps))
+            planned, failing = _plan_steps(world, robot, steps[k:end], dt, timeline.verdicts, q, len(steps))
+            timeline.time(world, robot, planned, k, len(steps))
+            if failing is not None and timeline.failing is None:
+                timeline.failing = k + failing
+            if timeline.failing is not None or end == len(steps):
+                break
+            if planned:
+                q = np.asarray(planned[-1].plan.target, dtype=np.float64)
+            elif q is None:
+                q = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
+            q = timeline.grip(world, robot, end, steps[end].goal.motion, q)
+            k = end + 1
+    trajectory = TimedPath.join(timeline.segments) if timeline.segments else TimedPath.still(
         np.asarray(world.get_joint_positions(robot), dtype=np.float64), dt)
     picked, stride = _sampled(trajectory, rate)
+    verdicts, first_failing = timeline.verdicts, timeline.failing
     cycle = float(sum(v["duration"] for v in verdicts))
     report = {"valid": first_failing is None, "firstFailingStep": first_failing, "cycleTime": cycle,
               "steps": verdicts,
@@ -279,4 +258,103 @@ def plan_program(world: World, robot: str, steps: Sequence[ProgramStep], dt: flo
                              "positions": picked.tolist()}}
     if first_failing is not None:
         return ProgramPlan(report)
-    return ProgramPlan(report, trajectory, starts)
+    return ProgramPlan(report, trajectory, timeline.starts, timeline.grips)
+
+
+class _Timeline:
+    """A program's timed path being built: its segments, each step's first state, the verdicts, where the
+    gripper acts, the first refused step."""
+
+    def __init__(self, dt: float) -> None:
+        self.dt = dt
+        self.segments: list[TimedPath] = []
+        self.starts: list[int] = []
+        self.grips: list[tuple[int, str]] = []
+        self.verdicts: list[dict[str, Any]] = []
+        self.failing: int | None = None
+        self.done = 0  # states so far, the first aside
+
+    def _add(self, states: TimedPath) -> None:
+        self.segments.append(states)
+        self.done += len(states) - 1
+
+    def time(self, world: World, robot: str, planned: list[_Step], offset: int, total: int) -> None:
+        """The planned steps of one segment (program steps ``offset`` on) timed in groups joined by
+        blends (``_time_group``); a group that fails ends the program there."""
+        k = 0
+        while k < len(planned):
+            # a group: steps joined by blends (the last step's blend has nothing to go on to; a detour's
+            # corners are stops, so a step planned as a detour is neither blended into nor out of)
+            end = k
+            while (end + 1 < len(planned) and planned[end].blend > 0 and not _detour(planned[end])
+                   and not _detour(planned[end + 1])):
+                end += 1
+            with _naming(offset + k, total):
+                checkpoint()
+                states, group_starts, failed = _time_group(world, robot, planned, (k, end), offset,
+                                                           self.verdicts, self.dt)
+            if failed is not None:
+                # the steps of the group before the failing one keep their verdicts, without a duration
+                del self.verdicts[offset + k + failed + 1:]
+                self.failing = offset + k + failed
+                return
+            assert states is not None
+            bounds = [*group_starts, len(states) - 1]
+            for i, st in enumerate(planned[k:end + 1]):
+                v = self.verdicts[offset + k + i]
+                v["duration"] = (bounds[i + 1] - bounds[i]) * self.dt
+                v["planned"] = st.plan.checks.get("path", {}).get("planned", "straight")
+                v["target"] = [float(x) for x in st.plan.target or ()]
+                if st.blend > 0 and i < end - k:
+                    v["blended"] = True
+                self.starts.append(self.done + bounds[i])
+            self._add(states)
+            k = end + 1
+
+    def grip(self, world: World, robot: str, k: int, motion: str, q: FloatArray) -> FloatArray:
+        """Program step ``k``, a grip or release, where the robot stands at ``q``: the gripper acts (in the
+        planning's trial of the world), then a still stretch of its time with the fingers where it left
+        them; the joints after it. An object it cannot let go (``E_OVERLAP``) refuses the step."""
+        world.place(robot, q)
+        try:
+            out = world.grippers.close(robot) if motion == "grip" else world.grippers.open(robot)
+        except SimError as e:
+            self.verdicts.append({"step": k, "ok": False, "reasons": [e.message], "checks": {},
+                                  "duration": 0.0})
+            self.failing = k
+            return q
+        after = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
+        n = max(1, round(float(out["gripper"]["time"]) / self.dt))
+        self.starts.append(self.done)
+        self.grips.append((self.done + 1, motion))
+        held = TimedPath([Straight(after, after, n * self.dt, 1.0, 1.0, n)], self.dt)
+        self._add(TimedPath.join([TimedPath.still(q, self.dt), held]))
+        self.verdicts.append({"step": k, "ok": True, "reasons": [], "checks": {}, "duration": n * self.dt,
+                              "planned": motion, "target": [float(x) for x in after],
+                              "holding": out["holding"]})
+        return after
+
+
+def _time_group(world: World, robot: str, planned: list[_Step], span: tuple[int, int], offset: int,
+                verdicts: list[dict[str, Any]], dt: float) -> tuple[TimedPath | None, list[int], int | None]:
+    """The states of steps ``span`` (first, last) of a segment (program steps from ``offset``) joined by
+    blends, where each step starts in them, and the failing step (index in the group) or None."""
+    k, end = span
+    group = planned[k:end + 1]
+    if len(group) == 1:  # the path its plan checked
+        st = group[0]
+        if st.plan.path is None:  # a LIN or CIRC whose blends a detour next to it stops
+            st.plan = time_lin(world, robot, st.plan, st.step.timing(dt), st.start.tolist())
+            if st.plan.path is None:
+                verdicts[offset + k] = {**verdicts[offset + k], "ok": False, "reasons": list(st.plan.reasons),
+                                        "checks": st.plan.checks}
+        return st.plan.path, [0], None if st.plan.path is not None else 0
+    states, group_starts, contact, failed_at = _blend_group(world, robot, group, dt)
+    if contact is None:
+        return states, group_starts, None
+    at = k + failed_at
+    where = (f"through the end of step {offset + at} (blend radius {planned[at].blend:g} m)"
+             if planned[at].blend > 0 and at < end else f"in step {offset + at}")
+    reason = f"the blended motion of steps {offset + k} to {offset + end} collides {where}{contact}"
+    verdicts[offset + at] = {**verdicts[offset + at], "ok": False, "checks": {}, "reasons": [reason]}
+    return states, group_starts, failed_at
