@@ -38,6 +38,7 @@ interface Debug {
   framesApplied: number;
   errors: string[];
   program: { valid: boolean; cycleTime: number; plots: Plots | null } | null;
+  objectHistory: { samples: number; timeSpan: number; objects: Record<string, ([number, number, number] | null)[]> } | null;
 }
 interface Report {
   valid: boolean;
@@ -133,6 +134,35 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer program plot
     expect(chart.distinctColours).toBeGreaterThan(4);
     await panel.screenshot({ path: join(ARTIFACTS, "viewer-program-plots.png") });
     if (DOCS !== null) await panel.screenshot({ path: join(DOCS, "program-plots.png") });
+    expect((await debug()).errors).toEqual([]);
+    expect(problems).toEqual([]);
+  });
+
+  it("plots the world's objects over time from /live scene messages, as the objects property has them", async () => {
+    const { page, problems } = browser;
+    await page.goto(`${base}viewer/?thing=${encodeURIComponent(slug)}`);
+    await page.waitForFunction(() => (window as unknown as { __robwot: Debug }).__robwot.liveConnected);
+    const cube = { name: "plotted", shape: { type: "box", size: [0.05, 0.05, 0.05] }, color: [0.9, 0.2, 0.1] };
+    await invoke(twin, "addObject", { ...cube, position: [0.6, 0, 0.3] });
+    for (const position of [[0.6, 0.3, 0.3], [0.3, 0.6, 0.3]]) await invoke(twin, "moveObject", { name: "plotted", position });
+    const rested = (await read<{ name: string; position: number[] }[]>(twin, "objects")).find((o) => o.name === "plotted")!;
+    const history = await waitFor(async () => {
+      const h = (await debug()).objectHistory;
+      const last = h?.objects["plotted"]?.at(-1);
+      return last && Math.abs(last[0] - rested.position[0]!) < 1e-9 ? h : undefined;
+    }, { ...PAGE, what: "the moved object in the objects plot" });
+    // added, moved twice: each resting pose a sample, in order, each on the floor (z = half its size)
+    const track = history.objects["plotted"]!.filter((p): p is [number, number, number] => p !== null);
+    expect(track.length).toBeGreaterThanOrEqual(3);
+    expect(track.map((p) => [Math.round(p[0] * 10) / 10, Math.round(p[1] * 10) / 10])).toEqual(expect.arrayContaining([[0.6, 0], [0.6, 0.3], [0.3, 0.6]]));
+    for (const p of track) expect(p[2]).toBeCloseTo(0.025, 2);
+    expect(track.at(-1)).toEqual(rested.position);
+    const panel = page.locator("#objects-plot");
+    await panel.scrollIntoViewIfNeeded();
+    expect((await pixelStats(page, page.locator("#objects-plot canvas.plot").first())).distinctColours).toBeGreaterThan(3);
+    await panel.screenshot({ path: join(ARTIFACTS, "viewer-objects-plot.png") });
+    if (DOCS !== null) await panel.screenshot({ path: join(DOCS, "objects-plot.png") });
+    await invoke(twin, "removeObject", { name: "plotted" });
     expect((await debug()).errors).toEqual([]);
     expect(problems).toEqual([]);
   });

@@ -2,6 +2,7 @@
  * Read-only debug state exposed as `window.__robwot` for tests and curious users. The page writes it;
  * nothing reads it back, so tampering with it from the console changes nothing.
  */
+import type { ObjectHistory } from "./objects-plot.js";
 import type { ProgramDrawn } from "./program-panel.js";
 
 export interface DebugState {
@@ -37,6 +38,8 @@ export interface DebugState {
   /** The program drawn by the program panel (TCP points per passed step, the refused step) and plotted (joint
    *  positions and velocities, TCP speed over time), null before one. */
   program: ProgramDrawn | null;
+  /** The objects over time plotted from /live `scene` messages (`objects-plot.ts`), null before one. */
+  objectHistory: ObjectHistory | null;
   errors: string[];
   twins: string[];
 }
@@ -61,6 +64,7 @@ export const debugState: DebugState = {
   otherRobots: {},
   physical: null,
   program: null,
+  objectHistory: null,
   errors: [],
   twins: [],
 };

@@ -27,13 +27,13 @@ export interface PlotsDrawn {
   maxTcpSpeed: number | null;
 }
 
-interface Series {
+export interface Series {
   name: string;
   colour: string;
   values: number[];
 }
 
-interface Chart {
+export interface Chart {
   /** the samples' times (s) */
   times: number[];
   title: string;
@@ -99,7 +99,7 @@ export class ProgramPlots {
     ];
     this.legend.replaceChildren(...names.map((n, j) => el("span", {}, el("i", { style: `background:${colour(j)}` }), n)));
     this.element.hidden = false;
-    charts.forEach((c, k) => draw(this.canvases[k]!, c));
+    charts.forEach((c, k) => drawChart(this.canvases[k]!, c));
     return {
       rate,
       samples: positions.length,
@@ -130,8 +130,8 @@ export function ticks(lo: number, hi: number): number[] {
 
 const PAD = { left: 44, right: 8, top: 18, bottom: 26 };
 
-/** One chart: axes with ticks in SI units, time along x (s), each series a line. */
-function draw(canvas: HTMLCanvasElement, chart: Chart): void {
+/** One chart: axes with ticks in SI units, time along x (s), each series a line; `empty` said when it has none. */
+export function drawChart(canvas: HTMLCanvasElement, chart: Chart, empty = "no TCP positions (no model)"): void {
   const ratio = window.devicePixelRatio || 1;
   const width = canvas.clientWidth || 300;
   const height = 140;
@@ -142,7 +142,7 @@ function draw(canvas: HTMLCanvasElement, chart: Chart): void {
   ctx.setTransform(ratio, 0, 0, ratio, 0, 0);
   ctx.clearRect(0, 0, width, height);
   const n = Math.max(0, ...chart.series.map((s) => s.values.length));
-  const all = chart.series.flatMap((s) => s.values);
+  const all = chart.series.flatMap((s) => s.values).filter(Number.isFinite); // NaN: a gap in a series
   let lo = Math.min(0, ...all);
   let hi = Math.max(0, ...all);
   if (hi - lo < 1e-9) [lo, hi] = [lo - 1, hi + 1];
@@ -153,13 +153,17 @@ function draw(canvas: HTMLCanvasElement, chart: Chart): void {
   axes(ctx, chart, box, { x, y, lo, hi, tEnd });
   if (n === 0) {
     ctx.fillStyle = "#889";
-    ctx.fillText("no TCP positions (no model)", box.x + 8, box.y + box.h / 2);
+    ctx.fillText(empty, box.x + 8, box.y + box.h / 2);
   }
   ctx.lineWidth = 1.5;
   for (const s of chart.series) {
     ctx.strokeStyle = s.colour;
     ctx.beginPath();
-    s.values.forEach((v, i) => (i === 0 ? ctx.moveTo(x(chart.times[i] ?? 0), y(v)) : ctx.lineTo(x(chart.times[i] ?? 0), y(v))));
+    s.values.forEach((v, i) => {
+      if (!Number.isFinite(v)) return;
+      if (i === 0 || !Number.isFinite(s.values[i - 1] ?? Number.NaN)) ctx.moveTo(x(chart.times[i] ?? 0), y(v));
+      else ctx.lineTo(x(chart.times[i] ?? 0), y(v));
+    });
     ctx.stroke();
   }
 }

@@ -18,6 +18,7 @@ import { MotionPanel } from "./motion-panel.js";
 import { showOtherRobots } from "./other-robots.js";
 import { PhysicalRobotLayer } from "./physical-robot.js";
 import { applyJoints, highlightLink, loadRobot } from "./robot.js";
+import { ObjectsPlot } from "./objects-plot.js";
 import { ObstacleLayer } from "./scene-layer.js";
 import { Stage, TargetMarker } from "./stage.js";
 import { loadTd, readProperty, type TwinTd } from "./td.js";
@@ -59,6 +60,8 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   const state: PageState = { robot: null, latest: null, tcpNow: null, calibration: null };
   const controls = addControls(td, stage, content, state);
   addProgramPanel(td, stage, content, state);
+  const objectsPlot = new ObjectsPlot();
+  content.append(objectsPlot.element);
   drawLatestJoints(td, stage, state, controls.joints);
 
   // Everything loads in parallel; each failure is shown, the rest of the page keeps working.
@@ -82,6 +85,8 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
     },
     scene: (msg) => {
       loading.obstacles.show(msg, true).catch((e: unknown) => showError("scene (live)", e));
+      debugState.objectHistory = objectsPlot.record(msg["objects"]);
+      publishDebug();
     },
     physical: (msg) => loading.physical.show(msg),
     collision: (msg) => {
