@@ -42,7 +42,7 @@ export interface ProgramReport {
   /** absent when every step passes */
   firstFailingStep?: number;
   cycleTime: number;
-  steps: { step: number; ok: boolean; reasons: string[]; duration: number; planned?: string; blended?: boolean; holding?: string | null }[];
+  steps: { step: number; ok: boolean; reasons: string[]; duration: number; planned?: string; blended?: boolean; holding?: string }[];
   trajectory: { rate: number; names: string[]; positions: number[][] };
 }
 
@@ -214,7 +214,7 @@ function programReport(plan: Awaited<ReturnType<BackendSupervisor["sim"]["planPr
     valid: plan.valid,
     ...(plan.firstFailingStep !== null ? { firstFailingStep: plan.firstFailingStep } : {}),
     cycleTime: plan.cycleTime,
-    steps: plan.steps.map((s) => ({ step: s.step, ok: s.ok, reasons: s.reasons, duration: s.duration, ...(s.planned ? { planned: s.planned } : {}), ...(s.blended ? { blended: true } : {}), ...(s.holding !== undefined ? { holding: s.holding } : {}) })),
+    steps: plan.steps.map((s) => ({ step: s.step, ok: s.ok, reasons: s.reasons, duration: s.duration, ...(s.planned ? { planned: s.planned } : {}), ...(s.blended ? { blended: true } : {}), ...(typeof s.holding === "string" ? { holding: s.holding } : {}) })),
     trajectory: { rate: plan.trajectory.rate, names: plan.trajectory.names, positions: plan.trajectory.positions },
   };
 }

@@ -26,7 +26,9 @@ type NoForms<T> = Omit<T, "forms">;
 /** Calibration points lie within MAX_CALIBRATION_COORDINATE (m) of the origin on every axis. */
 const CALIBRATION_BOX: Bounds = { min: [-C, -C, -C], max: [C, C, C] };
 
-/** The gripper's state: open, closed or moving (while it opens or closes), the object it holds. */
+/** The gripper's state: open, closed or moving (while it opens or closes), the object it holds (null when
+ *  none: a oneOf of typed schemas, TD 1.1 having no list of types; a consumer that needs a `type` on every
+ *  schema, as wotpy does, cannot read this property). */
 export function gripperProperty(): NoForms<PropertyAffordance> {
   return {
     title: "Gripper",

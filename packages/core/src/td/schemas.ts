@@ -207,7 +207,7 @@ export function programReportSchema(): DataSchema {
             reasons: { type: "array", items: { type: "string" } },
             duration: { type: "number", unit: UNIT_S, minimum: 0 },
             planned: { type: "string", enum: ["straight", "detour", "lin", "circ", "grip", "release"] },
-            holding: { oneOf: [{ type: "string" }, { type: "null" }], description: "a grip or release step: the object the gripper holds after it" },
+            holding: { type: "string", description: "a grip or release step: the object the gripper holds after it (absent: none)" },
             blended: { type: "boolean", description: "the motion goes on into the next step without stopping" },
           },
           required: ["step", "ok", "reasons", "duration"],
