@@ -205,6 +205,29 @@ def test_blended_steps_run_through_without_stopping_and_take_less_time(client: R
     assert run["status"] == "reached" and run["duration"] == pytest.approx(b["cycleTime"], abs=1e-9)
 
 
+def test_a_ptp_blended_after_a_lin_runs_at_its_joint_limits_not_at_the_lins_tcp_speed(
+        client: RpcClient) -> None:
+    """A slow LIN (5 cm/s) blended into a long PTP: each step keeps its own limits, so the PTP's part of
+    the blended motion takes about what the PTP alone takes (it took 2.6 times as long when the whole
+    group was held to the LIN's TCP speed) and moves the end effector far faster than the LIN's speed."""
+    client.call("robot.setJointPositions", {"robot": "kuka", "positions": START})
+    x, y, z = client.call("robot.fk", {"robot": "kuka", "positions": START})["position"]
+    lin = {"motion": "lin", "position": [x, y + 0.05, z], "tcpSpeed": 0.05}
+    ptp = {"target": [1.2, 0.3, 0.0, -1.0, 0.0, 0.8, 0.0]}
+    dt = 1 / 240
+    sharp = client.call("program.plan", {"robot": "kuka", "steps": [lin, ptp], "dt": dt, "rate": 1 / dt})
+    round_ = client.call("program.plan", {"robot": "kuka", "steps": [{**lin, "blend": 0.015}, ptp],
+                                          "dt": dt, "rate": 1 / dt})
+    assert sharp["valid"] and round_["valid"], round_["steps"]
+    assert round_["steps"][0].get("blended")
+    assert round_["steps"][1]["duration"] < 1.25 * sharp["steps"][1]["duration"]
+    assert round_["cycleTime"] < 1.1 * sharp["cycleTime"]
+    q = np.asarray(round_["trajectory"]["positions"])
+    p = np.array([f["position"] for f in _fk(client, q)])
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) / dt
+    assert speed.max() > 5 * 0.05
+
+
 def test_a_step_beyond_the_reach_or_the_joint_limits_is_the_first_failing_one(client: RpcClient) -> None:
     """Step 2 a pose 2 m up (beyond the reach), or step 1 a joint target beyond a limit: refused as that
     step, with the distance beyond the reach or the joint and its limits named."""

@@ -21,15 +21,20 @@ costs the same whatever its duration (a slow motion at a small ``dt`` has millio
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.robot_model import Rates
 from robwot_sim.sim.timed import Curve, Straight
 from robwot_sim.sim.types import FloatArray
+
+#: a limit standing for none (m/s, m/s^2, rad/s, ...): far beyond any robot's, finite for toppra
+UNLIMITED = 1e9
 
 
 def _steps(duration: float, dt: float) -> int:
@@ -72,23 +77,100 @@ def plan_joint_path(
     return Straight(start, target, duration, peak, amax, max(1, _steps(duration, dt)))
 
 
+@dataclass(frozen=True)
+class CurveLimits:
+    """The limits a curve is timed under, one row per point of it (they may change along the curve: a
+    blended chain keeps each step's own): the joints' ``velocity`` and ``acceleration`` (n, dof); the
+    limited followers (``rows`` over the joint vector, their ``follower_velocity`` and
+    ``follower_acceleration``, (n, f)); the end effector's speed ``tcp_speed`` (m/s) and tangential
+    acceleration ``tcp_acceleration`` (m/s^2) along the curve, (n,), ``inf`` where it is not limited.
+    Between two points the smaller limit of both holds."""
+
+    velocity: FloatArray
+    acceleration: FloatArray
+    tcp_speed: FloatArray
+    tcp_acceleration: FloatArray
+    rows: FloatArray
+    follower_velocity: FloatArray
+    follower_acceleration: FloatArray
+
+    def coordinates(self, q: FloatArray, length: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The path's coordinates at the points (joints, limited followers, and the arc length where the end
+        effector is limited anywhere) with their velocity and acceleration limits, one row per point."""
+        coords, vlim, alim = q, self.velocity, self.acceleration
+        if len(self.rows):
+            # the limited followers as more coordinates of the spline (linear in the joints, so exact)
+            coords = np.hstack([coords, q @ self.rows.T])
+            vlim = np.hstack([vlim, self.follower_velocity])
+            alim = np.hstack([alim, self.follower_acceleration])
+        if np.isfinite(self.tcp_speed).any():
+            coords = np.hstack([coords, length[:, None]])
+            vlim = np.hstack([vlim, self.tcp_speed[:, None]])
+            alim = np.hstack([alim, self.tcp_acceleration[:, None]])
+        # a limit that does not hold somewhere: one no motion of a robot reaches (toppra needs numbers)
+        return coords, np.minimum(vlim, UNLIMITED), np.minimum(alim, UNLIMITED)
+
+    def kept(self, keep: npt.NDArray[np.bool_]) -> CurveLimits:
+        """The rows of the points ``keep`` selects."""
+        return replace(self, velocity=self.velocity[keep], acceleration=self.acceleration[keep],
+                       tcp_speed=self.tcp_speed[keep], tcp_acceleration=self.tcp_acceleration[keep],
+                       follower_velocity=self.follower_velocity[keep],
+                       follower_acceleration=self.follower_acceleration[keep])
+
+
+def _between(knots: FloatArray, rows: FloatArray) -> Callable[[FloatArray], FloatArray]:
+    """Limits at path parameters: the smaller of the rows of the two points around each (at a point, of it
+    and its neighbours)."""
+    last = len(knots) - 1
+
+    def at(s: FloatArray) -> FloatArray:
+        s = np.atleast_1d(np.asarray(s, dtype=np.float64))
+        hi = np.clip(np.searchsorted(knots, s, side="right"), 0, last)
+        lo = np.clip(np.searchsorted(knots, s, side="left") - 1, 0, last)
+        out: FloatArray = np.minimum(rows[lo], rows[hi])
+        return out
+
+    return at
+
+
+def _acceleration_constraint(limit_at: Callable[[FloatArray], FloatArray]) -> object:
+    """TOPP-RA's joint acceleration constraint with limits that change along the path: each coordinate's
+    acceleration divided by its limit there kept within [-1, 1] (toppra's own constraint takes one limit
+    for the whole path)."""
+    from toppra.constraint import DiscretizationType, LinearConstraint
+    from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
+
+    class VaryingAcceleration(LinearConstraint):  # type: ignore[misc]
+        def __init__(self) -> None:
+            super().__init__()
+            self.identical = True
+            self.set_discretization_type(DiscretizationType.Interpolation)
+
+        def compute_constraint_params(self, path: Any, gridpoints: FloatArray) -> Any:
+            limits = limit_at(gridpoints)
+            self.dof = path.dof
+            ps = np.asarray(path(gridpoints, 1)).reshape(-1, path.dof) / limits
+            pss = np.asarray(path(gridpoints, 2)).reshape(-1, path.dof) / limits
+            eye = np.eye(path.dof)
+            return canlinear_colloc_to_interpolate(ps, pss, np.zeros_like(ps), np.vstack([eye, -eye]),
+                                                   np.ones(2 * path.dof), None, None, gridpoints,
+                                                   identical=True)
+
+    return VaryingAcceleration()
+
+
 def plan_curve_path(
     points: Sequence[FloatArray],
     arc: Sequence[float],
-    velocity: FloatArray,
-    acceleration: FloatArray,
-    tcp_speed: float | None,
-    tcp_acceleration: float,
+    limits: CurveLimits,
     dt: float,
     bounds: tuple[FloatArray, FloatArray],
-    followers: Rates | None = None,
 ) -> Curve | Straight:
     """The timed cubic spline through ``points`` (the first is the start, the last the target): states one
-    per ``dt``, at rest at both ends, time-optimal (TOPP-RA) under the joint limits and the end effector's
-    ``tcp_speed`` (m/s) and ``tcp_acceleration`` (m/s^2) along the curve (None: the joint limits only),
-    whose arc length at each point is ``arc`` (metres, from 0, increasing). States are clipped to
-    ``bounds`` (lower, upper): the spline through samples within the limits may overshoot one by a hair
-    between two of them."""
+    per ``dt``, at rest at both ends, time-optimal (TOPP-RA) under ``limits`` (the joints', the followers'
+    and the end effector's along the curve), the end effector's arc length at each point being ``arc``
+    (metres, from 0, increasing). States are clipped to ``bounds`` (lower, upper): the spline through
+    samples within the limits may overshoot one by a hair between two of them."""
     import toppra
     import toppra.algorithm
     import toppra.constraint
@@ -106,20 +188,14 @@ def plan_curve_path(
     knots = np.concatenate([[0.0], np.cumsum(gaps)])
     knots /= knots[-1]  # exactly 1 at the end, as the grid's
     q, length, ss = q[keep], length[keep], knots[keep]
-    waypoints, vlim, alim = q, velocity, acceleration
-    if followers is not None and len(followers.rows):
-        # the limited followers as more coordinates of the spline (linear in the joints, so exact)
-        waypoints = np.hstack([q, q @ followers.rows.T])
-        vlim = np.hstack([velocity, followers.velocity])
-        alim = np.hstack([acceleration, followers.acceleration])
-    if tcp_speed is not None:
-        waypoints = np.hstack([waypoints, length[:, None]])
-        vlim = np.hstack([vlim, [tcp_speed]])
-        alim = np.hstack([alim, [tcp_acceleration]])
+    waypoints, vlim, alim = limits.kept(keep).coordinates(q, length)
     spline = CubicSpline(ss, waypoints, bc_type="not-a-knot")  # the spline toppra's interpolator makes
     path = toppra.SplineInterpolator(ss, waypoints, bc_type="not-a-knot")
-    constraints = [toppra.constraint.JointVelocityConstraint(np.stack([-vlim, vlim], axis=1)),
-                   toppra.constraint.JointAccelerationConstraint(np.stack([-alim, alim], axis=1))]
+    velocity_at = _between(ss, vlim)
+    constraints = [
+        toppra.constraint.JointVelocityConstraintVarying(
+            lambda s: np.stack([-velocity_at(s)[0], velocity_at(s)[0]], axis=1)),
+        _acceleration_constraint(_between(ss, alim))]
     grid = np.unique(np.concatenate([ss, np.linspace(0.0, 1.0, 2 * len(ss))]))
     algorithm = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid,
                                         parametrizer="ParametrizeConstAccel")

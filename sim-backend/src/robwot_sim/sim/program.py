@@ -27,6 +27,7 @@ from robwot_sim.errors import PlanBudget, SimError
 from robwot_sim.limits import MAX_TRAJECTORY_SAMPLES
 from robwot_sim.sim.planner import Goal, Plan, Timing, contact_words, plan, time_lin
 from robwot_sim.sim.timed import Curve, Straight, TimedPath
+from robwot_sim.sim.trajectory import Along
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
@@ -117,15 +118,23 @@ def _first_state_of(states: TimedPath, owners: Sequence[int], k: int) -> int:
     return min(piece.steps, math.ceil(piece.index_of(boundary) - 1e-9))
 
 
+def _along(group: list[_Step], owners: Sequence[int]) -> Along:
+    """Each point's limits: those of the step it belongs to (a junction's Bezier: the incoming step's over
+    its first half, the outgoing one's over the second; between two points the smaller of both holds). A
+    PTP's end effector is not limited: a LIN's ``tcpSpeed`` holds on the LIN and its half of the blends."""
+    return Along([group[i].step.speed for i in owners], [group[i].step.acceleration for i in owners],
+                 [group[i].tcp_speed for i in owners])
+
+
 def _blend_group(world: World, robot: str, group: list[_Step],
                  dt: float) -> tuple[TimedPath | None, list[int], str | None, int]:
     """One motion through the steps of ``group`` that rounds each junction within the blend radius of the
     step ending there: the points of the incoming step closer to the junction's TCP than its radius, and of
     the outgoing one, are replaced by the quadratic Bezier (joint space) from the last point outside on one
     side, through the junction, to the first point outside on the other (at most half of either step). The
-    whole is timed by ``plan_motion`` along its points (TOPP-RA; the smallest speed, acceleration and, with
-    a LIN or CIRC among them, TCP speed of the group's steps) and checked again. Returns the states, the
-    index where each step starts, and on a contact the reason and the step whose blend (or path) touches."""
+    whole is timed by ``plan_motion`` along its points (TOPP-RA; each step at its own limits, ``_along``)
+    and checked again. Returns the states, the index where each step starts, and on a contact the reason
+    and the step whose blend (or path) touches."""
     paths = [_points(st) for st in group]
     tcp = [np.array([world.fk(robot, q).position for q in pts]) for pts in paths]
     points: list[FloatArray] = list(paths[0])
@@ -141,9 +150,8 @@ def _blend_group(world: World, robot: str, group: list[_Step],
         while keep > n_in // 2 and np.linalg.norm(tcp[k - 1][keep - 1] - corner) < radius:
             keep -= 1
         drop = (n_in - 1) - keep  # points removed from the end of the incoming step (the junction included)
-        del points[len(points) - drop - 1:]
-        del where[len(where) - drop - 1:]
-        del owners[len(owners) - drop - 1:]
+        for kept in (points, where, owners):
+            del kept[len(kept) - drop - 1:]
         qa = points[-1]
         # outgoing: the first point outside the radius (at most half the step)
         n_out = len(paths[k])
@@ -160,11 +168,8 @@ def _blend_group(world: World, robot: str, group: list[_Step],
         where.extend(tcp[k][first:])
         owners.extend([k] * (n_out - first))
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.array(where), axis=0), axis=1))])
-    lin_speeds = [st.tcp_speed for st in group if st.tcp_speed is not None]
-    states = world.plan_motion(robot, points[-1], points[0], min(st.step.speed for st in group), dt,
-                               points[1:-1], acceleration=min(st.step.acceleration for st in group),
-                               arc=arc.tolist(),
-                               tcp_speed=min(lin_speeds) if lin_speeds else None)
+    states = world.plan_motion(robot, points[-1], points[0], group[0].step.speed, dt, points[1:-1],
+                               arc=arc.tolist(), along=_along(group, owners))
     starts = [0] + [_first_state_of(states, owners, k) for k in range(1, len(group))]
     report = world.check_states(robot, states)
     if report.collision_free or report.first_collision is None:

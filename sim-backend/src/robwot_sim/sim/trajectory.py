@@ -9,7 +9,11 @@ runs it, so no path is timed twice.
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
 
 from robwot_sim.limits import (
     DEFAULT_ACCELERATION,
@@ -19,31 +23,62 @@ from robwot_sim.limits import (
     TCP_ACCELERATION,
 )
 from robwot_sim.model.robot_model import RobotModel
-from robwot_sim.sim.motion import plan_curve_path, plan_joint_path
+from robwot_sim.sim.motion import CurveLimits, plan_curve_path, plan_joint_path
 from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.timed import TimedPath
 from robwot_sim.sim.types import FloatArray
 
 
+@dataclass(frozen=True)
+class Along:
+    """Limits that change along a curve, one value per point: the joint limits x ``speed`` and x
+    ``acceleration``, the end effector at most ``tcp_speed`` (m/s; None: not limited there) with its
+    acceleration limit x ``acceleration`` (a blended chain of steps, each at its own limits)."""
+
+    speed: Sequence[float]
+    acceleration: Sequence[float]
+    tcp_speed: Sequence[float | None]
+
+    @classmethod
+    def constant(cls, n: int, speed: float, acceleration: float, tcp_speed: float | None) -> Along:
+        return cls([speed] * n, [acceleration] * n, [tcp_speed] * n)
+
+
+def curve_limits(model: RobotModel, along: Along) -> CurveLimits:
+    """The limits of each point of a curve of ``model``'s joints, scaled as ``along`` says."""
+    speed = np.asarray(along.speed, dtype=np.float64)[:, None]
+    acc = np.asarray(along.acceleration, dtype=np.float64)[:, None]
+    tcp = np.array([math.inf if v is None else v for v in along.tcp_speed], dtype=np.float64)
+    followers = model.follower_rates()
+    return CurveLimits(
+        velocity=model.velocity_limits()[None, :] * speed,
+        acceleration=model.acceleration_limits()[None, :] * acc,
+        tcp_speed=tcp, tcp_acceleration=np.where(np.isfinite(tcp), TCP_ACCELERATION * acc[:, 0], math.inf),
+        rows=followers.rows, follower_velocity=followers.velocity[None, :] * speed,
+        follower_acceleration=followers.acceleration[None, :] * acc)
+
+
 def time_path(model: RobotModel, points: Sequence[FloatArray], speed: float, dt: float,
               acceleration: float, arc: Sequence[float] = (),
-              tcp_speed: float | None = DEFAULT_TCP_SPEED) -> TimedPath:
+              tcp_speed: float | None = DEFAULT_TCP_SPEED, along: Along | None = None) -> TimedPath:
     """The timed path through ``points`` (joint states within the limits, the start first), states ``dt``
     (s) apart, within the joint velocity limits x ``speed`` and acceleration limits x ``acceleration``
     (values within the contract's ranges: checked where a request enters). Without ``arc``: each segment
     straight in joint space, at rest at every point. With ``arc`` (the end effector's distance along its
     curve at each point, m): one smooth motion through them, the end effector at most ``tcp_speed`` (m/s;
-    None: the joint limits only, a blended group of PTP steps) and ``acceleration`` x its acceleration
-    limit."""
-    velocity = model.velocity_limits() * speed
-    accelerations = model.acceleration_limits() * acceleration
-    followers = model.follower_rates().scaled(speed, acceleration)
+    None: the joint limits only) and ``acceleration`` x its acceleration limit; ``along``, when given,
+    replaces the three by limits per point."""
     if len(arc):
         if len(arc) != len(points):
             raise ValueError(f"arc needs one distance per point: {len(arc)} for {len(points)}")
-        curve = plan_curve_path(points, arc, velocity, accelerations, tcp_speed,
-                                TCP_ACCELERATION * acceleration, dt, model.limits(), followers)
+        along = along or Along.constant(len(points), speed, acceleration, tcp_speed)
+        if len(along.speed) != len(points):
+            raise ValueError(f"along needs limits per point: {len(along.speed)} for {len(points)}")
+        curve = plan_curve_path(points, arc, curve_limits(model, along), dt, model.limits())
         return TimedPath([curve], dt)
+    velocity = model.velocity_limits() * speed
+    accelerations = model.acceleration_limits() * acceleration
+    followers = model.follower_rates().scaled(speed, acceleration)
     pieces = [plan_joint_path(a, b, velocity, accelerations, dt, followers)
               for a, b in itertools.pairwise(points)]
     return TimedPath(pieces, dt)
@@ -61,6 +96,7 @@ def plan_motion(
     acceleration: float = DEFAULT_ACCELERATION,
     arc: Sequence[float] = (),
     tcp_speed: float | None = DEFAULT_TCP_SPEED,
+    along: Along | None = None,
 ) -> TimedPath:
     """``time_path`` from ``start`` (default: the current state) through ``via`` to ``target``, each
     checked against the robot's joint limits."""
@@ -68,4 +104,4 @@ def plan_motion(
     tgt = e.bound.validate(target, "target")
     st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
     points = [st, *(e.bound.validate(w, f"via[{i}]") for i, w in enumerate(via)), tgt]
-    return time_path(e.model, points, speed, dt, acceleration, arc, tcp_speed)
+    return time_path(e.model, points, speed, dt, acceleration, arc, tcp_speed, along)
