@@ -3,16 +3,18 @@
  * viewer in Debian's headless Chromium (playwright-core). A program of joint steps validated through the
  * panel is plotted (joint positions and velocities, TCP speed over time); what the plots show equals the
  * validateProgram answer a node-wot consumer gets for the same steps; a refused program is plotted up to
- * its refused step. Screenshots of the panel go to
+ * its refused step. The world's objects are plotted over time from /live scene messages; a twin relaying to
+ * `robwot emulate` (the physical robot, lagging) plots the divergence the servient reports. Screenshots go to
  * test-artifacts/ and, with ROBWOT_UPDATE_SCREENSHOTS=1, the viewer README's into packages/viewer/docs/.
  */
-import { existsSync, mkdirSync, mkdtempSync, rmSync } from "node:fs";
+import { cpSync, existsSync, mkdirSync, mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 import { afterAll, beforeAll, describe, expect, it } from "vitest";
 import { invoke, openSession, read, type Session, type Twin } from "@robwot/consumers";
-import { startServient } from "@robwot/servient";
+import { startEmulator, startServient } from "@robwot/servient";
 import { runCli } from "./cli-run.js";
+import { http, invoke as post, live } from "./serve-helpers.js";
 import { CHROMIUM, openBrowser, pixelStats, type BrowserSession } from "./helpers/browser.js";
 import { waitFor } from "./helpers/wait.js";
 
@@ -39,6 +41,18 @@ interface Debug {
   errors: string[];
   program: { valid: boolean; cycleTime: number; plots: Plots | null } | null;
   objectHistory: { samples: number; timeSpan: number; objects: Record<string, ([number, number, number] | null)[]> } | null;
+  divergenceHistory: Divergence | null;
+}
+interface Divergence {
+  samples: number;
+  timeSpan: number;
+  times: number[];
+  timestamps: string[];
+  joint: (number | null)[];
+  tcp: (number | null)[];
+  max: { joint: number; tcp: number } | null;
+  bound: number | null;
+  events: { at: number | null; joint: number; tcp: number; bound: number; time: number; differences: Record<string, number> }[];
 }
 interface Report {
   valid: boolean;
@@ -96,6 +110,9 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer program plot
       return d.phase !== "loading" && d.liveConnected && d.framesApplied > 0;
     });
     expect((await debug()).phase).toBe("ready");
+    // a twin that follows no physical robot: no divergence panel
+    expect((await debug()).divergenceHistory).toBeNull();
+    expect(await page.locator("#divergence-plot").isHidden()).toBe(true);
     // the whole page as loaded (the view, the panels on top of the side bar) for the viewer README
     if (DOCS !== null) await page.screenshot({ path: join(DOCS, "viewer.png") });
     // three joint steps from where the robot stands: two joints out, a third, then back
@@ -187,5 +204,78 @@ describe.skipIf(process.env["ROBWOT_SKIP_BROWSER"] === "1")("viewer program plot
     expect(drawn.plots?.samples).toBe(report.trajectory.positions.length);
     expect(drawn.plots?.timeSpan).toBeCloseTo(report.steps[0]?.duration ?? NaN, 9);
     expect(drawn.plots?.positions["lbr_iiwa_joint_1"]).toEqual(report.trajectory.positions.map((q) => q[0]));
+  });
+
+  it("plots a relayed move's divergence from the physical robot (robwot emulate, lagging) as the servient reports it", async () => {
+    const { page, problems } = browser;
+    // the physical robot: an emulated one whose reported joints lag 0.5 s; a twin relaying to it (and so
+    // following it) at 50 readings a second, its simulation at once, the robot after it
+    const robot = await startEmulator({ folder: join(dir, "kuka"), port: 0, lag: 0.5 });
+    const folder = join(dir, "kuka-relayed");
+    cpSync(join(dir, "kuka"), folder, { recursive: true });
+    const relaying = await startServient({ twins: [folder], port: 0, host: "127.0.0.1", realtime: 0, relay: robot.tdUrl, followRate: 50 });
+    const thing = relaying.things[0]!;
+    const stream = await live(`${relaying.liveUrl}?thing=${thing.slug}`);
+    try {
+      await page.goto(`${relaying.url.endsWith("/") ? relaying.url : `${relaying.url}/`}viewer/?thing=${encodeURIComponent(thing.slug)}`);
+      // followed: the panel is shown at once, empty until a move is relayed
+      await page.waitForFunction(() => (window as unknown as { __robwot: Debug }).__robwot.divergenceHistory !== null);
+      expect(await page.locator("#divergence-plot").isVisible()).toBe(true);
+      expect((await debug()).divergenceHistory?.samples).toBe(0);
+      // joint 1 by 1 rad at 5 % of 10 rad/s (0.5 rad/s, 4 time constants): a divergence near 0.5 x 0.5 rad;
+      // joint 2 leaning the arm out so that the TCP diverges too
+      const home = (await http(`${thing.tdUrl}/properties/getJointPosition`)).body as Joints;
+      const target = { ...home, lbr_iiwa_joint_1: (home["lbr_iiwa_joint_1"] ?? 0) - 1, lbr_iiwa_joint_2: (home["lbr_iiwa_joint_2"] ?? 0) + 0.5 };
+      const r = await post(thing.tdUrl, "moveToJointPosition", { joints: target, speed: 0.05 });
+      expect(r.body.relay?.ok, JSON.stringify(r.body)).toBe(true);
+      const state = (await http(`${thing.tdUrl}/properties/physicalState`)).body as { maxDivergence: { joint: number; tcp: number; bound: number } };
+      const event = await stream.waitFor((m) => m.type === "divergence");
+      // the relayed command has ended: its largest divergence as the servient reports it, then a gap
+      const h = await waitFor(
+        async () => {
+          const d = (await debug()).divergenceHistory;
+          return d?.max?.joint === state.maxDivergence.joint && d.joint.at(-1) === null ? d : undefined;
+        },
+        { ...PAGE, what: "the relayed move's divergence in the plot" },
+      );
+      expect(h.max).toEqual({ joint: state.maxDivergence.joint, tcp: state.maxDivergence.tcp });
+      expect(h.bound).toBe(state.maxDivergence.bound);
+      // every reading plotted is one the servient pushed on /live, with its divergence (rad, m) unchanged
+      const pushed = new Map<string, { joint: number; tcp: number }>();
+      for (const m of stream.messages) if (m.type === "physical" && m.divergence && m.timestamp) pushed.set(m.timestamp, m.divergence);
+      const plotted = h.timestamps.flatMap((t, i) => (h.joint[i] === null ? [] : [{ t, joint: h.joint[i]!, tcp: h.tcp[i]! }]));
+      expect(plotted.length).toBeGreaterThan(20);
+      const matched = plotted.filter((p) => pushed.has(p.t));
+      expect(matched.length).toBeGreaterThan(0.8 * plotted.length);
+      for (const p of matched) expect({ joint: p.joint, tcp: p.tcp }).toEqual(pushed.get(p.t));
+      // over the relayed motion's time, times increasing, the largest close to the servient's (a reading
+      // may be coalesced away on a slow socket, never one made up)
+      expect(h.times).toEqual([...h.times].sort((a, b) => a - b));
+      expect(h.timeSpan).toBeGreaterThan(0.5 * r.body.duration);
+      expect(h.timeSpan).toBeLessThan(r.body.duration + 3);
+      const largest = Math.max(...plotted.map((p) => p.joint));
+      expect(largest).toBeLessThanOrEqual(state.maxDivergence.joint);
+      expect(largest).toBeGreaterThan(0.9 * state.maxDivergence.joint);
+      expect(largest).toBeGreaterThan(0.15);
+      expect(Math.max(...plotted.map((p) => p.tcp))).toBeGreaterThan(0.01);
+      // the divergence event: once, marked at the reading that raised it, with its per-joint differences
+      expect(h.events).toHaveLength(1);
+      const [marked] = h.events;
+      expect(marked).toMatchObject({ joint: event.joint, tcp: event.tcp, bound: event.bound, time: event.time });
+      expect(marked!.bound).toBe(state.maxDivergence.bound);
+      expect(marked!.at).toBe(h.times[h.joint.indexOf(event.joint)]);
+      expect(marked!.differences["lbr_iiwa_joint_1"]).toBeCloseTo(event.joints.lbr_iiwa_joint_1 - event.expected.lbr_iiwa_joint_1, 12);
+      const panel = page.locator("#divergence-plot");
+      await panel.scrollIntoViewIfNeeded();
+      expect((await pixelStats(page, page.locator("#divergence-plot canvas.plot").first())).distinctColours).toBeGreaterThan(3);
+      await panel.screenshot({ path: join(ARTIFACTS, "viewer-divergence-plot.png") });
+      if (DOCS !== null) await panel.screenshot({ path: join(DOCS, "divergence-plot.png") });
+      expect((await debug()).errors).toEqual([]);
+      expect(problems).toEqual([]);
+    } finally {
+      stream.close();
+      await relaying.stop();
+      await robot.stop();
+    }
   });
 });

@@ -2,6 +2,7 @@
  * Read-only debug state exposed as `window.__robwot` for tests and curious users. The page writes it;
  * nothing reads it back, so tampering with it from the console changes nothing.
  */
+import type { DivergenceHistory } from "./divergence-plot.js";
 import type { ObjectHistory } from "./objects-plot.js";
 import type { ProgramDrawn } from "./program-panel.js";
 
@@ -40,6 +41,9 @@ export interface DebugState {
   program: ProgramDrawn | null;
   /** The objects over time plotted from /live `scene` messages (`objects-plot.ts`), null before one. */
   objectHistory: ObjectHistory | null;
+  /** The physical robot's divergence over time from /live `physical` messages and `divergence` events
+   *  (`divergence-plot.ts`), null while the twin follows nothing. */
+  divergenceHistory: DivergenceHistory | null;
   errors: string[];
   twins: string[];
 }
@@ -65,6 +69,7 @@ export const debugState: DebugState = {
   physical: null,
   program: null,
   objectHistory: null,
+  divergenceHistory: null,
   errors: [],
   twins: [],
 };

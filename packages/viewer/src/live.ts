@@ -1,6 +1,6 @@
 /**
  * Live state over the servient's `/live` WebSocket (Contract 4): send `{"subscribe": slug}`, receive
- * `{thing, type: "joints" | "status" | "collision" | "scene" | "physical", ...}`. The newest joint message wins; the render loop
+ * `{thing, type: "joints" | "status" | "collision" | "scene" | "physical" | "divergence", ...}`. The newest joint message wins; the render loop
  * picks it up at display rate. Reconnects with back-off and reports the connection state.
  */
 import { ViewerError } from "./errors.js";
@@ -14,6 +14,8 @@ export interface LiveHandlers {
   scene(msg: Record<string, unknown>): void;
   /** `{type: "physical", ...physicalState}`: a reading of the physical robot the twin follows. */
   physical?(msg: Record<string, unknown>): void;
+  /** `{type: "divergence", joint, tcp, time, bound, joints, expected}`: a relayed move passed the divergence bound. */
+  divergence?(msg: Record<string, unknown>): void;
   connection(open: boolean): void;
   error(err: ViewerError): void;
 }
@@ -91,6 +93,9 @@ export class LiveClient {
         return;
       case "physical":
         this.handlers.physical?.(msg);
+        return;
+      case "divergence":
+        this.handlers.divergence?.(msg);
         return;
       case "error":
         this.handlers.error(new ViewerError("E_LIVE", String(msg["message"] ?? "live error"), { msg }));

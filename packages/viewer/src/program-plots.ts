@@ -41,6 +41,8 @@ export interface Chart {
   series: Series[];
   /** times (s) where one step ends and the next begins, drawn as dashed lines */
   marks: number[];
+  /** values drawn as dashed horizontal lines in their colour (a bound), always within the y range */
+  levels?: { value: number; colour: string }[];
 }
 
 export const PLOT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
@@ -142,7 +144,8 @@ export function drawChart(canvas: HTMLCanvasElement, chart: Chart, empty = "no T
   ctx.setTransform(ratio, 0, 0, ratio, 0, 0);
   ctx.clearRect(0, 0, width, height);
   const n = Math.max(0, ...chart.series.map((s) => s.values.length));
-  const all = chart.series.flatMap((s) => s.values).filter(Number.isFinite); // NaN: a gap in a series
+  const levels = chart.levels ?? [];
+  const all = [...chart.series.flatMap((s) => s.values), ...levels.map((l) => l.value)].filter(Number.isFinite); // NaN: a gap in a series
   let lo = Math.min(0, ...all);
   let hi = Math.max(0, ...all);
   if (hi - lo < 1e-9) [lo, hi] = [lo - 1, hi + 1];
@@ -155,6 +158,15 @@ export function drawChart(canvas: HTMLCanvasElement, chart: Chart, empty = "no T
     ctx.fillStyle = "#889";
     ctx.fillText(empty, box.x + 8, box.y + box.h / 2);
   }
+  ctx.setLineDash([6, 4]);
+  for (const l of levels) {
+    ctx.strokeStyle = l.colour;
+    ctx.beginPath();
+    ctx.moveTo(box.x, y(l.value));
+    ctx.lineTo(box.x + box.w, y(l.value));
+    ctx.stroke();
+  }
+  ctx.setLineDash([]);
   ctx.lineWidth = 1.5;
   for (const s of chart.series) {
     ctx.strokeStyle = s.colour;

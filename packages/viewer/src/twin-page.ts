@@ -9,6 +9,7 @@ import { CartesianPanel } from "./cartesian-panel.js";
 import { ProgramPanel } from "./program-panel.js";
 import { Commander } from "./commander.js";
 import { debugState, publishDebug } from "./debug.js";
+import { DivergencePlot } from "./divergence-plot.js";
 import { showError, showNotice } from "./errors.js";
 import { xyzwToQuaternion } from "./three-frames.js";
 import { isRecord } from "./http.js";
@@ -61,7 +62,8 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
   const controls = addControls(td, stage, content, state);
   addProgramPanel(td, stage, content, state);
   const objectsPlot = new ObjectsPlot();
-  content.append(objectsPlot.element);
+  const divergencePlot = new DivergencePlot([...new Set(td.joints.map((j) => j.unit))].join(", ") || "rad");
+  content.append(objectsPlot.element, divergencePlot.element);
   drawLatestJoints(td, stage, state, controls.joints);
 
   // Everything loads in parallel; each failure is shown, the rest of the page keeps working.
@@ -88,7 +90,15 @@ export async function showTwin(slug: string, view: HTMLElement, content: HTMLEle
       debugState.objectHistory = objectsPlot.record(msg["objects"]);
       publishDebug();
     },
-    physical: (msg) => loading.physical.show(msg),
+    physical: (msg) => {
+      loading.physical.show(msg);
+      debugState.divergenceHistory = divergencePlot.record(msg);
+      publishDebug();
+    },
+    divergence: (msg) => {
+      debugState.divergenceHistory = divergencePlot.event(msg);
+      publishDebug();
+    },
     collision: (msg) => {
       debugState.collisions++;
       publishDebug();
@@ -248,7 +258,7 @@ async function loadState(
 function startLive(
   url: string,
   slug: string,
-  on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision" | "scene" | "physical">,
+  on: Pick<ConstructorParameters<typeof LiveClient>[2], "joints" | "status" | "collision" | "scene" | "physical" | "divergence">,
 ): void {
   const badge = document.getElementById("connection");
   // Count every message so tests and users can see the stream is flowing.
@@ -264,6 +274,7 @@ function startLive(
     collision: counted(on.collision),
     scene: counted(on.scene),
     ...(on.physical ? { physical: counted(on.physical) } : {}),
+    ...(on.divergence ? { divergence: counted(on.divergence) } : {}),
     connection: (open) => {
       debugState.liveConnected = open;
       publishDebug();
