@@ -13,6 +13,8 @@ import pytest
 from robwot_bench.reference import example_robot
 from robwot_sim.sim import detour
 from robwot_sim.sim.planner import Plan, plan_joints
+from robwot_sim.sim.timed import Curve, Straight
+from robwot_sim.sim.trajectory import turning
 from robwot_sim.sim.world import World
 
 DT = 1 / 60
@@ -134,3 +136,27 @@ def test_the_straight_path_verdict_does_not_depend_on_its_direction(
             assert world.check_path(rid, x, start=y).collision_free == there
             verdicts.append(there)
     assert 0 < sum(verdicts) < len(verdicts)
+
+
+def test_a_detour_runs_as_one_motion_resting_only_where_its_path_turns(
+        arm: tuple[World, str, np.ndarray, list[np.ndarray]]) -> None:
+    """A detour's timed path is one motion that comes to rest nowhere between its start and its end (it
+    used to stop at every waypoint, collinear ones included: TOPP-RA's speed along the curve is above zero
+    at every inner grid point), takes no longer than its waypoints run straight at rest at each, and
+    touches nothing when checked again state by state. Run with ``stops`` (as a physical robot runs it
+    relayed leg by leg), the same waypoints are straight pieces, each at rest at both ends, one per turn."""
+    world, rid, home, targets = arm
+    for t in targets:
+        there = _plan(world, rid, home, t)
+        assert there.valid and there.path is not None, there.reasons
+        (curve,) = there.path.pieces
+        assert isinstance(curve, Curve) and curve.speeds[1:-1].min() > 0
+        legs = world.plan_motion(rid, there.target, home, 1.0, DT, there.via)
+        assert there.path.duration <= legs.duration + DT
+        assert world.check_states(rid, there.path).collision_free
+        world.set_joint_positions(rid, home)
+        stops = plan_joints(world, rid, t.tolist(), 1.0, DT, detour="stops")
+        assert stops.via == there.via and stops.path is not None  # the remembered detour
+        corners = turning([home, *map(np.asarray, there.via), np.asarray(there.target)])
+        assert [type(p) for p in stops.path.pieces] == [Straight] * (len(corners) - 1)
+        assert stops.path.duration >= there.path.duration

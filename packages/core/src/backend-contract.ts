@@ -174,6 +174,10 @@ export type GripTime = number;
  */
 export type GripCapture = number;
 /**
+ * how a detour runs: `smooth` one motion along its waypoints (the spline through its densely sampled straight stretches, checked again state by state: it slows only where the path turns; where that curve would touch something, the straight segments at rest where the path turns); `stops` at rest at each waypoint where the path turns, as a physical robot runs a detour relayed to it as one joint move per leg
+ */
+export type DetourRun = "smooth" | "stops";
+/**
  * Result of `ping`.
  */
 export type PingResult = Ping;
@@ -1452,6 +1456,7 @@ export interface RobotPlanParams {
    */
   motion?: "ptp" | "lin" | "circ";
   via?: Position;
+  detour?: DetourRun;
 }
 /**
  * Params of `program.plan`.
@@ -1496,6 +1501,7 @@ export interface RobotMoveParams {
    */
   motion?: "ptp" | "lin" | "circ";
   via?: Position;
+  detour?: DetourRun;
 }
 /**
  * Params of `robot.stop`.
@@ -1810,4 +1816,5 @@ export const VALUE_SCHEMAS = {
   CellDt: {"type":"number","exclusiveMinimum":0,"maximum":1,"description":"simulated time (s) one `cell.advance` runs"},
   GripTime: {"type":"number","minimum":0,"maximum":10,"default":0.5,"description":"s an opening or closing of a gripper takes"},
   GripCapture: {"type":"number","minimum":0,"maximum":0.1,"default":0.01,"description":"m: how far from the TCP an object is caught when a gripper closes"},
+  DetourRun: {"type":"string","enum":["smooth","stops"],"default":"smooth","description":"how a detour runs: `smooth` one motion along its waypoints (the spline through its densely sampled straight stretches, checked again state by state: it slows only where the path turns; where that curve would touch something, the straight segments at rest where the path turns); `stops` at rest at each waypoint where the path turns, as a physical robot runs a detour relayed to it as one joint move per leg"},
 } as const;

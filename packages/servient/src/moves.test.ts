@@ -34,6 +34,8 @@ function deferred<T>(): Deferred<T> {
 /** The backend: `robot.move` and `program.run` plan for `PLAN_MS`, then stream states over `MOTION_S` per step until `robot.stop`. */
 class FakeBackendCaller implements RpcCaller {
   readonly calls: string[] = [];
+  /** the params of each `robot.move` */
+  readonly moves: Record<string, unknown>[] = [];
   private readonly listeners: ((method: string, params: Record<string, unknown>) => void)[] = [];
   private halt: (() => void) | null = null;
   q = [0, 0];
@@ -46,6 +48,7 @@ class FakeBackendCaller implements RpcCaller {
       return { stopped: moving } as T;
     }
     // a pose target (no joint vector) leaves the fake robot where it is
+    if (method === "robot.move") this.moves.push(params);
     if (method === "robot.move") return (await this.run([(params.target as number[] | undefined) ?? []])) as T;
     if (method === "program.run") return (await this.run((params.steps as { target?: number[] }[]).map((s) => s.target ?? []))) as T;
     throw new Error(`the fake backend has no ${method}`);
@@ -213,6 +216,20 @@ describe("relay session", () => {
     expect(result.status).toBe("reached");
     expect(h.twin.motion.relayed).toBeNull();
     expect(h.thing.stops).toBe(0);
+  });
+
+  it("a relayed move has the twin run a detour at rest between its legs, as the physical robot runs them; an unrelayed one smoothly", async () => {
+    const relayed = harness({ relay: true });
+    relayed.thing.answer = () => Promise.resolve({ status: "reached" });
+    const moved = relayed.mover.moveJoints(TARGET);
+    await simulated();
+    await moved;
+    expect(relayed.caller.moves.map((p) => p.detour)).toEqual(["stops"]);
+    const alone = harness();
+    const alsoMoved = alone.mover.moveJoints(TARGET);
+    await simulated();
+    await alsoMoved;
+    expect(alone.caller.moves.map((p) => p.detour)).toEqual([undefined]);
   });
 
   it("a stop while the physical robot runs the command stops it there and answers stopped", async () => {

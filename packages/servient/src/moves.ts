@@ -186,9 +186,12 @@ export class Mover {
     const twin = this.twin;
     // the twin's joints and pose are already those of the motion's end: the backend sends its final
     // robot.state (applied by Twin.onState) before it answers the move
+    // relayed, a detour runs on the physical robot as one joint move per leg, at rest between them: the
+    // twin runs it so, or the physical robot's divergence from it would only measure the smoothing
+    const detourRun = this.relays ? { detour: "stops" as const } : {};
     const res = await this.session.motion(
       move,
-      () => this.backend.sim.move({ robot: twin.robotId, ...target, speed, realtime: this.realtime }),
+      () => this.backend.sim.move({ robot: twin.robotId, ...target, speed, realtime: this.realtime, ...detourRun }),
       (e) => {
         const verdict = report({ valid: false, reasons: (e.details.reasons ?? []) as string[], checks: (e.details.checks ?? {}) as PlanChecks }, statics ?? undefined);
         return new ServientError(422, "E_REJECTED", `target rejected by validation: ${verdict.reasons.join("; ")}`, { reasons: verdict.reasons, checks: verdict.checks });

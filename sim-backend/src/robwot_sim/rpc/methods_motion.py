@@ -52,7 +52,8 @@ def _tuple(values: list[float] | None) -> tuple[float, ...] | None:
 def _planner(p: Params, s: Services) -> Callable[[], Plan]:
     """The plan of a `robot.plan` or `robot.move` request."""
     model = robot_param(p, s)
-    goal, timing = goal_of(p, model.dof), Timing(float(p["speed"]), float(p["dt"]))
+    goal = goal_of(p, model.dof)
+    timing = Timing(float(p["speed"]), float(p["dt"]), detour=str(p["detour"]))
     return lambda: plan_goal(s.world, model.id, goal, timing)
 
 

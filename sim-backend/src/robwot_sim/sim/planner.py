@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from robwot_sim.errors import Unreachable
 from robwot_sim.limits import DEFAULT_ACCELERATION, DEFAULT_DT, DEFAULT_SPEED, DEFAULT_TCP_SPEED
@@ -32,6 +33,7 @@ from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.sim.detour import BUDGET as DETOUR_BUDGET
 from robwot_sim.sim.lin import circ_path, lin_path
 from robwot_sim.sim.timed import TimedPath
+from robwot_sim.sim.trajectory import densified, turning
 from robwot_sim.sim.types import Contact
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
@@ -58,12 +60,15 @@ class Goal:
 class Timing:
     """How a plan's path is timed: ``speed`` x the joint velocity limits, ``acceleration`` x the
     acceleration limits (and the end effector's along a LIN or CIRC), the end effector at ``tcp_speed``
-    (m/s) along a LIN or CIRC, states ``dt`` (s) apart; within the contract's ranges."""
+    (m/s) along a LIN or CIRC, states ``dt`` (s) apart; within the contract's ranges. A detour runs as
+    ``detour`` says (the contract's ``DetourRun``): ``smooth`` one motion through its waypoints, ``stops``
+    at rest where its path turns."""
 
     speed: float = DEFAULT_SPEED
     dt: float = DEFAULT_DT
     acceleration: float = DEFAULT_ACCELERATION
     tcp_speed: float = DEFAULT_TCP_SPEED
+    detour: str = "smooth"
 
 
 @dataclass(frozen=True)
@@ -147,15 +152,31 @@ _NO_DETOUR = f"; no detour around it found within {DETOUR_BUDGET:g} s (RRT-Conne
 
 def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str, Any],
             timing: Timing) -> Plan | None:
-    """A valid plan around what blocks the straight path to ``target``, or None. Its timed path runs
-    straight in joint space between the waypoints, each segment as the detour search checked it."""
+    """A valid plan around what blocks the straight path to ``target``, or None. Its timed path is one
+    motion through the waypoints (``_through``)."""
     waypoints = world.detour(robot, target)
     if waypoints is None:
         return None
-    timed = world.plan_motion(robot, waypoints[-1], None, timing.speed, timing.dt, waypoints[:-1],
-                              acceleration=timing.acceleration)
+    start = np.asarray(world.get_joint_positions(robot), dtype=np.float64)
+    timed = _through(world, robot, [start, *(np.asarray(w, dtype=np.float64) for w in waypoints)], timing)
     path = path_check(world.robot_model(robot).clearance, True, [], "detour", "found")
     return Plan(True, tuple(waypoints[-1]), (), {**checks, "path": path}, tuple(waypoints[:-1]), path=timed)
+
+
+def _through(world: World, robot: str, corners: list[npt.NDArray[np.float64]], timing: Timing) -> TimedPath:
+    """A detour's motion: one curve along its waypoints (``smooth``: the spline through its straight
+    stretches, densely sampled, so it slows only where the path turns), checked again as it would run;
+    where that curve touches something, or with ``stops``, the straight segments the search checked, at
+    rest only where the path turns."""
+    if timing.detour == "smooth":
+        points = densified(corners)
+        curve = world.plan_motion(robot, points[-1], points[0], timing.speed, timing.dt, points[1:-1],
+                                  acceleration=timing.acceleration, arc=[0.0] * len(points), tcp_speed=None)
+        if world.check_states(robot, curve).collision_free:
+            return curve
+    legs = turning(corners)
+    return world.plan_motion(robot, legs[-1], legs[0], timing.speed, timing.dt, legs[1:-1],
+                             acceleration=timing.acceleration)
 
 
 def plan(world: World, robot: str, goal: Goal, timing: Timing, *, timed: bool = True) -> Plan:
@@ -163,19 +184,20 @@ def plan(world: World, robot: str, goal: Goal, timing: Timing, *, timed: bool = 
     ``plan_lin``; ``timed`` False: a LIN's or CIRC's path is left to the caller to time)."""
     if goal.target is not None:
         return plan_joints(world, robot, goal.target, timing.speed, timing.dt,
-                           acceleration=timing.acceleration)
+                           acceleration=timing.acceleration, detour=timing.detour)
     assert goal.position is not None  # a goal has a target or a position (``Goal``)
     if goal.motion == "ptp":
         return plan_pose(world, robot, goal.position, goal.orientation, timing.speed, timing.dt,
-                         acceleration=timing.acceleration)
+                         acceleration=timing.acceleration, detour=timing.detour)
     return plan_lin(world, robot, goal.position, goal.orientation, goal.via, speed=timing.speed,
                     dt=timing.dt, acceleration=timing.acceleration, tcp_speed=timing.tcp_speed, timed=timed)
 
 
 def plan_joints(world: World, robot: str, target: Sequence[float], speed: float = DEFAULT_SPEED,
-                dt: float = DEFAULT_DT, *, acceleration: float = DEFAULT_ACCELERATION) -> Plan:
-    """The verdict on a joint target."""
-    timing = Timing(speed, dt, acceleration)
+                dt: float = DEFAULT_DT, *, acceleration: float = DEFAULT_ACCELERATION,
+                detour: str = "smooth") -> Plan:
+    """The verdict on a joint target (a detour run as ``detour`` says: ``Timing``)."""
+    timing = Timing(speed, dt, acceleration, detour=detour)
     model = world.robot_model(robot)
     violations = _limit_violations(model, target)
     limits: dict[str, Any] = {"ok": not violations}
@@ -196,9 +218,9 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float 
         checks["path"] = path_check(model.clearance, False, contacts, detour="not searched")
         return Plan(False, tuple(float(v) for v in target), (start_words(start, contacts),), checks)
     if at_target.collision_free:
-        detour = _detour(world, robot, target, checks, timing)
-        if detour is not None:
-            return detour
+        around = _detour(world, robot, target, checks, timing)
+        if around is not None:
+            return around
         searched = "not found"
         reason = f"the straight path to the target collides{contact_words(contacts)}{_NO_DETOUR}"
     else:
@@ -222,9 +244,10 @@ def _alternative_seeds(model: RobotModel, position: Sequence[float], orientation
 
 def plan_pose(world: World, robot: str, position: Sequence[float], orientation: Sequence[float] | None,
               speed: float = DEFAULT_SPEED, dt: float = DEFAULT_DT, alternatives: int = IK_ALTERNATIVES, *,
-              acceleration: float = DEFAULT_ACCELERATION) -> Plan:
-    """The verdict on an end-effector pose: the first IK solution whose path is free."""
-    timing = Timing(speed, dt, acceleration)
+              acceleration: float = DEFAULT_ACCELERATION, detour: str = "smooth") -> Plan:
+    """The verdict on an end-effector pose: the first IK solution whose path is free (a detour run as
+    ``detour`` says: ``Timing``)."""
+    timing = Timing(speed, dt, acceleration, detour=detour)
     model = world.robot_model(robot)
     where = f"({', '.join(_fmt(v) for v in position)}) m"
     seeds: list[list[float] | None] = [None, *_alternative_seeds(model, position, orientation, alternatives)]
@@ -282,9 +305,9 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
         checks["path"] = path_check(model.clearance, False, contacts, detour="not searched")
         reason = f"to every IK solution tried ({tried}): {start_words(start, contacts)}"
         return Plan(False, positions, (reason,), checks)
-    detour = _detour(world, robot, positions, checks, timing)
-    if detour is not None:
-        return detour
+    around = _detour(world, robot, positions, checks, timing)
+    if around is not None:
+        return around
     checks["path"] = path_check(model.clearance, False, contacts, detour="not found")
     reason = (f"the straight path to every IK solution tried ({tried}) collides{contact_words(contacts)}"
               f"{_NO_DETOUR} to the first")

@@ -15,7 +15,6 @@ fast one, and no more memory.
 from __future__ import annotations
 
 import contextlib
-import itertools
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -27,14 +26,11 @@ from robwot_sim.errors import PlanBudget, SimError
 from robwot_sim.limits import MAX_TRAJECTORY_SAMPLES
 from robwot_sim.sim.planner import Goal, Plan, Timing, contact_words, plan, time_lin
 from robwot_sim.sim.timed import Curve, Straight, TimedPath
-from robwot_sim.sim.trajectory import Along
+from robwot_sim.sim.trajectory import Along, densified
 from robwot_sim.sim.types import FloatArray
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import checkpoint
 
-#: radians a joint may turn between two points of a PTP step's path in a blended group (the spline the
-#: group is timed along passes through them: dense points keep it on the straight line)
-BLEND_POINT_STEP = 0.02
 #: the steps where the robot's gripper acts (``gripper.close`` / ``gripper.open``) instead of moving
 GRIPS = ("grip", "release")
 #: points of the Bezier curve that rounds a junction
@@ -94,17 +90,11 @@ def _detour(step: _Step) -> bool:
 
 def _points(step: _Step) -> list[FloatArray]:
     """The step's joint path as points: a LIN's or CIRC's samples, or each straight segment of a PTP
-    (detour legs included) split so no joint turns more than ``BLEND_POINT_STEP`` between two points."""
+    (detour legs included) split so no joint turns more than ``CURVE_POINT_STEP`` between two points."""
     assert step.plan.target is not None
     corners = [step.start, *(np.asarray(w, dtype=np.float64) for w in step.plan.via),
                np.asarray(step.plan.target, dtype=np.float64)]
-    if step.plan.arc:
-        return corners
-    out = [corners[0]]
-    for a, b in itertools.pairwise(corners):
-        n = max(1, math.ceil(float(np.max(np.abs(b - a))) / BLEND_POINT_STEP))
-        out.extend(a + k / n * (b - a) for k in range(1, n + 1))
-    return out
+    return corners if step.plan.arc else densified(corners)
 
 
 def _first_state_of(states: TimedPath, owners: Sequence[int], k: int) -> int:

@@ -28,6 +28,37 @@ from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.timed import TimedPath
 from robwot_sim.sim.types import FloatArray
 
+#: radians a joint may turn between two points of a straight joint-space stretch a curve is timed along
+#: (the spline through them: dense points keep it on the straight line, rounding only its corners)
+CURVE_POINT_STEP = 0.02
+#: radians the direction of a joint-space path may turn at a point for the point to be on a straight line
+STRAIGHT_ANGLE = 1e-3
+
+
+def densified(corners: Sequence[FloatArray], step: float = CURVE_POINT_STEP) -> list[FloatArray]:
+    """The polyline through ``corners`` as points, each segment split so no joint turns more than ``step``
+    between two of them."""
+    out = [np.asarray(corners[0], dtype=np.float64)]
+    for a, b in itertools.pairwise(np.asarray(c, dtype=np.float64) for c in corners):
+        n = max(1, math.ceil(float(np.max(np.abs(b - a))) / step))
+        out.extend(a + k / n * (b - a) for k in range(1, n + 1))
+    return out
+
+
+def turning(corners: Sequence[FloatArray], angle: float = STRAIGHT_ANGLE) -> list[FloatArray]:
+    """``corners`` without the points where the path does not turn (by less than ``angle`` rad in joint
+    space, or standing still): a motion at rest at each point then rests only at real corners."""
+    out = [np.asarray(corners[0], dtype=np.float64)]
+    for q, nxt in itertools.pairwise(np.asarray(c, dtype=np.float64) for c in corners[1:]):
+        d0, d1 = q - out[-1], nxt - q
+        n0, n1 = float(np.linalg.norm(d0)), float(np.linalg.norm(d1))
+        if n0 == 0 or n1 == 0:
+            continue
+        if math.acos(min(1.0, max(-1.0, float(d0 @ d1) / (n0 * n1)))) >= angle:
+            out.append(q)
+    out.append(np.asarray(corners[-1], dtype=np.float64))
+    return out
+
 
 @dataclass(frozen=True)
 class Along:
