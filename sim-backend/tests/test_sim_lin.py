@@ -68,7 +68,9 @@ def test_a_line_out_of_reach_is_refused_saying_where() -> None:
         a = np.asarray(w.fk(m.id).position)
         plan = plan_lin(w, m.id, tuple(a + np.array([2.0, 0.0, 0.0])), None)
         assert not plan.valid
-        assert "LIN refused: the line leaves the robot's reach" in plan.reasons[0]
+        # the arm stretched out to where its reach with this orientation ends: a singularity
+        reason = plan.reasons[0]
+        assert "LIN refused: the line cannot be followed" in reason and "a singularity" in reason, reason
         assert "mm along the line" in plan.reasons[0]
 
 
@@ -123,3 +125,87 @@ def test_circ_through_a_point_on_the_line_is_refused() -> None:
         plan = plan_lin(w, m.id, tuple(end), None, tuple(via))
         assert not plan.valid
         assert plan.reasons[0].startswith("CIRC refused: the start, via point and target lie on one line")
+
+
+def _pinocchio_reach_along_line(urdf: str, q0: np.ndarray, direction: np.ndarray, length: float) -> float:
+    """How far (m) along the line from the end link's pose at ``q0`` (orientation kept) Pinocchio's own
+    damped least squares follows it in 0.5 mm steps, each from the previous joints, within 0.1 mm: an IK
+    independent of ours (model, Jacobian and solver)."""
+    import pinocchio as pin
+
+    model = pin.buildModelFromUrdf(urdf)
+    data = model.createData()
+    frame = model.getFrameId("wrist_3_link")
+    pin.framesForwardKinematics(model, data, q0)
+    start = data.oMf[frame].copy()
+    q = q0.copy()
+    for k in range(1, int(length / 0.0005) + 1):
+        goal = pin.SE3(start.rotation, start.translation + direction * 0.0005 * k)
+        for _ in range(50):
+            pin.framesForwardKinematics(model, data, q)
+            err = pin.log6(data.oMf[frame].actInv(goal)).vector
+            if np.linalg.norm(err[:3]) < 1e-7 and np.linalg.norm(err[3:]) < 1e-6:
+                break
+            jac = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL)
+            q = q + jac.T @ np.linalg.solve(jac @ jac.T + 1e-8 * np.eye(6), err)
+        pin.framesForwardKinematics(model, data, q)
+        if np.linalg.norm(pin.log6(data.oMf[frame].actInv(goal)).vector[:3]) > 1e-4:
+            return 0.0005 * (k - 1)
+    return length
+
+
+def test_a_line_the_robot_cannot_follow_is_refused_where_its_branch_ends_naming_the_singularity() -> None:
+    """UR5 (example-robot-data), elbow slightly bent, a LIN straight out from the base: the arm
+    stretches until its elbow is straight, a singularity. Refused there, naming it, within 5 mm of where
+    Pinocchio's own IK, following the line from the same joints, stops following it."""
+    from robwot_bench.reference import example_robot
+
+    r = example_robot("ur5")
+    q0 = np.array([0.0, -1.2, 0.4, -0.8, 1.57, 0.0])
+    with World() as w:
+        m = w.load_robot(str(r.urdf), package_roots=r.package_roots, srdf=r.srdf)
+        w.set_joint_positions(m.id, q0)
+        a = np.asarray(w.fk(m.id).position)
+        radial = np.array([a[0], a[1], 0.0]) / np.linalg.norm(a[:2])
+        plan = plan_lin(w, m.id, tuple(a + 0.3 * radial), None)
+    assert not plan.valid
+    reason = plan.reasons[0]
+    assert "cannot be followed" in reason and "a singularity" in reason, reason
+    at = float(reason.split("followed ")[1].split(" mm")[0]) / 1000
+    assert at == pytest.approx(_pinocchio_reach_along_line(str(r.urdf), q0, radial, 0.3), abs=0.005)
+
+
+def test_a_line_a_restart_would_flip_is_followed_on_its_branch() -> None:
+    """xArm7 (example-robot-data): a LIN that IK with restarts answered with a 9.4 rad turn of joint1 within
+    0.15 mm (refused as a flip) is followed continuously: no joint turns more than 0.1 rad between two
+    waypoints, the end effector on the line."""
+    from robwot_bench.reference import example_robot
+
+    r = example_robot("xarm7")
+    q0 = [2.7610793014764763, -1.9712142421576435, -1.8648914473313412, 1.1582517335361957,
+          0.3051068795342573, 1.9601735314249844, 0.34028620651001606]
+    target = (0.16353796993173636, 0.5098476784895332, 0.11282432340007374)
+    with World() as w:
+        m = w.load_robot(str(r.urdf), package_roots=r.package_roots, srdf=r.srdf)
+        w.set_joint_positions(m.id, q0)
+        a = np.asarray(w.fk(m.id).position)
+        plan = plan_lin(w, m.id, target, None)
+        assert plan.valid, plan.reasons
+        path = [np.asarray(q0), *map(np.asarray, plan.via), np.asarray(plan.target)]
+        assert max(float(np.abs(qb - qa).max()) for qa, qb in itertools.pairwise(path)) < 0.1
+        b = np.asarray(target)
+        assert max(distance_to_segment(np.asarray(w.fk(m.id, q).position), a, b) for q in path) < 1e-3
+
+
+def test_a_refusal_names_the_first_cause_along_the_line() -> None:
+    """A post 15 cm along a line that leaves the reach further on: the refusal names the post, the cause
+    met first, not the reach."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, START)
+        a = np.asarray(w.fk(m.id).position)
+        w.add_obstacle({"name": "post", "shape": {"type": "box", "size": [0.02, 0.3, 0.3]},
+                        "position": list(a + np.array([0.15, 0.0, 0.0]))})
+        plan = plan_lin(w, m.id, tuple(a + np.array([2.0, 0.0, 0.0])), None)
+        assert not plan.valid
+        assert plan.reasons[0].startswith("LIN refused: the line collides (") and "post" in plan.reasons[0]

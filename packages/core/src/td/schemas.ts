@@ -233,7 +233,7 @@ export const motionSchema = (): DataSchema => ({
   enum: ["ptp", "lin", "circ"],
   default: "ptp",
   description:
-    "ptp: joint interpolation from the current joints (a detour when the straight one collides); lin: the end effector on the straight line to the target, its orientation turned on the way (kept when absent), within 0.5 mm of the line, refused at a configuration flip or singularity; circ: the same on the arc of the circle through the current position, via and the target",
+    "ptp: joint interpolation from the current joints (a detour when the straight one collides); lin: the end effector on the straight line to the target, its orientation turned on the way (kept when absent), within 0.5 mm of the line, the joints tracked on their branch, refused where it ends (a joint limit, a singularity, the reach, a flip) naming the first cause along the line; circ: the same on the arc of the circle through the current position, via and the target",
 });
 
 export function jointTargetSchema(joints: JointSpec[], description: string): DataSchema {

@@ -122,8 +122,17 @@ class Bullet:
         pb.resetBasePositionAndOrientation(body, list(position), list(quat_xyzw), physicsClientId=self.cid)
 
     def base_pose(self, body: int) -> tuple[Vec3, Quat]:
+        """The base's inertial frame (its centre of mass), as PyBullet keeps and resets it."""
         pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=self.cid)
         return tuple(pos), tuple(orn)
+
+    def base_frame(self, body: int) -> tuple[Vec3, Quat]:
+        """The base link's URDF frame: its inertial frame moved back by the link's inertial origin."""
+        pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=self.cid)
+        local_pos, local_orn = pb.getDynamicsInfo(body, -1, physicsClientId=self.cid)[3:5]
+        inv_pos, inv_orn = pb.invertTransform(local_pos, local_orn)
+        out_pos, out_orn = pb.multiplyTransforms(pos, orn, inv_pos, inv_orn)
+        return tuple(out_pos), tuple(out_orn)
 
     def has_collision_shape(self, body: int, link: int) -> bool:
         return bool(pb.getCollisionShapeData(body, link, physicsClientId=self.cid))
@@ -152,7 +161,7 @@ class Bullet:
     def link_frame(self, body: int, link: int) -> tuple[Vec3, Quat]:
         """World pose of a link *frame* (not its centre of mass); link -1 is the base."""
         if link < 0:
-            return self.base_pose(body)
+            return self.base_frame(body)
         s = pb.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=self.cid)
         return tuple(s[4]), tuple(s[5])
 

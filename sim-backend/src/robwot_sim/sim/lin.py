@@ -1,13 +1,17 @@
 """LIN and CIRC: the end effector (the TCP with a tool) on the straight line, or on the circular arc through
 a via point, from its current pose to a target pose, its orientation turned by slerp on the way.
 
-The line is followed by IK samples, each seeded with the previous one, so the configuration stays on one
-branch: a joint that would jump more than ``MAX_JOINT_STEP`` between neighbouring samples (a
-configuration flip, or a singularity where the joints race) is refused, naming the joint and where on the
-line. Samples are ``LIN_STEP`` / ``LIN_ANGLE_STEP`` apart and split further where the end effector, moved
-straight in joint space between two samples, would leave the curve by more than ``MAX_DEVIATION``. Every
-segment between samples is then checked for contacts as any path is (clearance kept). The result is the
-joint waypoints from the current state to the target.
+The curve is followed by differential IK (``ik.Tracker``): each sample solved from the joints of the
+previous one only (damped least squares kept near them, never a random restart), in smaller steps where
+one does not converge, so the configuration stays on the branch it starts on. Where that branch ends the
+curve is refused saying why: a joint at its limit, a singularity (the Jacobian's smallest singular value),
+the robot's reach, or that only another configuration reaches it (a flip); joints that still race between
+neighbouring samples (more than ``MAX_JOINT_STEP``) are refused naming the joint. Samples are
+``LIN_STEP`` / ``LIN_ANGLE_STEP`` apart and split further where the end effector, moved straight in joint
+space between two samples, would leave the curve by more than ``MAX_DEVIATION``. Every segment between
+samples is then checked for contacts as any path is (clearance kept), the part followed also when the
+curve ends further on: the refusal names the first cause along it. The result is the joint waypoints from
+the current state to the target.
 """
 
 from __future__ import annotations
@@ -42,6 +46,9 @@ IK_ORIENTATION_TOLERANCE = math.radians(0.5)
 ONE_LINE = 1e-6
 #: times a segment may be halved to keep the deviation or the joint step
 MAX_SPLITS = 5
+#: sub-steps tried, one count after the other, where tracking a sample from the previous one in one step
+#: does not converge (the linearisation is poor near a singularity)
+TRACK_PARTS = (1, 4, 16)
 
 
 @dataclass
@@ -121,18 +128,39 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
             return f"{1000 * s * length:.0f} mm along {curve}"
         return f"{math.degrees(s * turn):.1f} deg into the turn"
 
-    def solve(s: float, seed: FloatArray) -> FloatArray | None:
+    tracker = world.tracker(robot, IK_POSITION_TOLERANCE, IK_ORIENTATION_TOLERANCE)
+
+    def solve(s: float, seed: FloatArray, s_seed: float) -> FloatArray | None:
+        """The joints at ``s``, tracked from ``seed`` (the joints at ``s_seed``) on its branch, in smaller
+        steps where one does not converge; None with the reason when the branch ends."""
         checkpoint()
-        target = point(s)
-        try:
-            ik = world.ik(robot, tuple(target), quat_slerp(r0, r1, s), seed=list(seed), collision_free=False)
+        target, quat = point(s), quat_slerp(r0, r1, s)
+        for parts in TRACK_PARTS:
+            q: FloatArray | None = seed
+            for k in range(1, parts + 1):
+                ends = s_seed + (s - s_seed) * k / parts
+                assert q is not None
+                q, cause = tracker.step(q, tuple(point(ends)), quat_slerp(r0, r1, ends))
+                if q is None:
+                    break
+            if q is not None:
+                return q
+        if cause is not None:
+            out.reason = f"{curve} cannot be followed {where(ends)}: {cause}"
+            return None
+        try:  # neither a limit nor a singularity: beyond the reach, or only on another branch
+            ik = world.ik(robot, tuple(target), quat, seed=list(seed), collision_free=False)
         except Unreachable:
             ik = None
         if (ik is None or ik.position_error > IK_POSITION_TOLERANCE
                 or ik.orientation_error > IK_ORIENTATION_TOLERANCE):
             out.reason = f"{curve} leaves the robot's reach {where(s)}: no IK solution keeps the pose there"
             return None
-        return np.asarray(ik.positions, dtype=np.float64)
+        jump = np.abs(np.asarray(ik.positions) - seed)
+        j = int(np.argmax(jump))
+        out.reason = (f"{curve} cannot be followed continuously {where(s)}: only another configuration "
+                      f"reaches it (joint {names[j]} {jump[j]:.2f} rad away), a configuration flip")
+        return None
 
     def segment(sa: float, qa: FloatArray, sb: float, qb: FloatArray, splits: int) -> bool:
         """Appends the waypoints after ``qa`` up to ``qb``, splitting where needed."""
@@ -149,23 +177,26 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
             if jump.max() > MAX_JOINT_STEP:
                 j = int(np.argmax(jump))
                 out.reason = (f"joint {names[j]} would turn {jump[j]:.2f} rad within "
-                              f"{1000 * (sb - sa) * length:.2f} mm {where(sa)}: a configuration flip or a "
-                              f"singularity on {curve}")
+                              f"{1000 * (sb - sa) * length:.2f} mm {where(sa)}: "
+                              f"{tracker.singular_words(qa)} on {curve}")
             else:
                 out.reason = f"the end effector leaves {curve} by {1000 * deviation:.2f} mm {where(sa)}"
             return False
         sm = (sa + sb) / 2
-        qm = solve(sm, qa)
+        qm = solve(sm, qa, sa)
         return qm is not None and segment(sa, qa, sm, qm, splits + 1) and segment(sm, qm, sb, qb, splits + 1)
 
     q_prev = q0
+    followed = True
     for i in range(1, steps + 1):
         s = i / steps
-        q = solve(s, q_prev)
+        q = solve(s, q_prev, (i - 1) / steps)
         if q is None or not segment((i - 1) / steps, q_prev, s, q, 0):
-            out.waypoints, out.arc = [], []
-            return out
+            followed = False
+            break
         q_prev = q
+    # the part followed is checked for contacts even when the curve ends further on: a contact there is
+    # the first cause along it
     clearance = world.motion_clearance(robot, out.waypoints[-1])
     for qa, qb in itertools.pairwise(out.waypoints):
         checkpoint()
@@ -173,6 +204,8 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
         if not report.collision_free:
             out.contacts = list(report.contacts)
             out.reason = f"{curve} collides"
-            out.waypoints, out.arc = [], []
-            return out
+            followed = False
+            break
+    if not followed:
+        out.waypoints, out.arc = [], []
     return out

@@ -79,7 +79,7 @@ class BoundRobot:
 
     def linkage_fk(self) -> ChainFK:
         """The vectorised FK of the end-effector link at the body's current base pose, followers coupled."""
-        position, orientation = self.bullet.base_pose(self.body)
+        position, orientation = self.bullet.base_frame(self.body)
         return ChainFK.from_joints(self.urdf.joints, self.urdf.links, self.ee_link, self.ctrl_names,
                                    self.urdf.couplings, base_position=position, base_orientation=orientation)
 

@@ -115,6 +115,10 @@ class World:
         return inverse_kinematics.ik(self.scene, robot_id, position, quat_xyzw, seed, collision_free,
                                      salt=self._ik_salt)
 
+    def tracker(self, robot_id: str, position_tolerance: float,
+                orientation_tolerance: float) -> inverse_kinematics.Tracker:
+        return inverse_kinematics.tracker(self.scene, robot_id, position_tolerance, orientation_tolerance)
+
     # collision queries
     def collision_free_batch(self, robot_id: str, qs: npt.NDArray[np.float64],
                              bounds: bool = False) -> npt.NDArray[np.bool_]:
