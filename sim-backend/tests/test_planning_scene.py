@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from simhelp import KUKA, MODELS
+from simhelp import DATA, KUKA, MODELS, PANDA
 
 from robwot_sim import limits
 from robwot_sim.errors import UnknownRobot
@@ -43,6 +43,16 @@ def test_a_scene_alone_holds_bodies_states_and_versions() -> None:
         scene.remove_robot(m.id)
         with pytest.raises(UnknownRobot):
             scene.entry(m.id)
+
+
+def test_a_robot_loaded_again_finds_its_always_colliding_pairs_again() -> None:
+    """PyBullet keeps a removed body's pair filters under its id: the body next given that id starts with
+    none (the Panda's link7/hand pair, touching in every configuration, is found and filtered each time)."""
+    with Scene() as scene:
+        for _ in range(2):
+            m = scene.load_robot(DATA / PANDA, robot_id="panda")
+            assert m.filtered_pairs == (("panda_link7", "panda_hand"),)
+            scene.remove_robot("panda")
 
 
 def test_the_parts_over_a_scene_give_the_worlds_answers() -> None:

@@ -17,6 +17,7 @@ from simhelp import DATA, KUKA, PANDA, steps_of
 from robwot_sim.errors import InvalidParams, Overlap
 from robwot_sim.limits import DEFAULT_DT
 from robwot_sim.model.tool import attach_tool
+from robwot_sim.sim import loader
 from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.world import World
 
@@ -75,6 +76,27 @@ def test_a_held_cube_moves_with_the_tcp_and_is_checked_with_the_robot(world: Wor
     assert deepest.depth == pytest.approx(0.02, abs=2e-3)
     free = world.collision_free_batch("panda", np.array([lifted, lowered]))
     assert free.tolist() == [True, False]
+
+
+def test_a_grip_carries_the_robots_filtered_pairs_over_and_samples_nothing(
+        world: World, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The body holding the cube is built from what the robot's own body knows: no always-colliding pair
+    sampled again, the robot's own ones kept, the cube's pairs with the hand added, no other pair of it."""
+    world.grippers.configure("panda", "fingers")
+    own = {tuple(sorted(p)) for p in world.robot_model("panda").filtered_pairs}
+    assert own == {("panda_hand", "panda_link7")}
+
+    def sampled(*_: object) -> None:
+        raise AssertionError("always-colliding pairs sampled again")
+
+    monkeypatch.setattr(loader, "find_always_colliding", sampled)
+    for _ in range(2):  # again with the body of the first grip freed
+        at(world, [0.5, 0.0, 0.32])
+        assert world.grippers.close("panda")["holding"] == "cube"
+        held = {tuple(sorted(p)) for p in world.robot_model("panda").filtered_pairs}
+        hand = ("panda_hand", "panda_leftfinger", "panda_rightfinger", "panda_grasptarget", "robwot_tcp")
+        assert held == own | {tuple(sorted((h, "cube"))) for h in hand}
+        world.grippers.open("panda")
 
 
 def test_a_carried_cube_hitting_an_obstacle_the_hand_clears_is_refused(world: World) -> None:

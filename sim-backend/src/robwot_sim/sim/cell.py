@@ -157,7 +157,7 @@ class Cell:
         free = [b for name, b in bodies.items() if name not in moved]
         done = carry(conveyor, belt, free, conveyor.speed * step)
         for name, body in done.moved.items():
-            self.scene._put(name, body.placed.position, None)  # the Scene's teleport: pose and version
+            self.scene.carry_object(name, body.placed.position)
             bodies[name] = body
         at = {"conveyor": conveyor.name, "time": self.time}
         events += [{"type": "atEnd", "object": name, **at} for name in done.arrived]

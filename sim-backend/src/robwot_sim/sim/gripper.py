@@ -7,13 +7,15 @@ and draws keep them; only ``close`` and ``open`` move them. A gripper starts ope
 
 Closing catches the object nearest the TCP (the end-effector link's frame) within ``capture`` m of it: the
 TCP inside the object or that close to its surface. Fingers close until they touch it (fully, on nothing).
-The object then becomes part of the robot: the robot's body is rebuilt from its URDF with the object as a
-fixed link on the end effector, named as the object, so every check (moves, validation, planning,
+The object then becomes part of the robot: the robot's body is rebuilt with the object as a fixed link on
+the end effector, named as the object (``model/held.py``), so every check (moves, validation, planning,
 LIN/CIRC, programs, the mirror worlds, the sure hits) sees it, against everything but the hand: the link
 the gripper is mounted on and every link below it (pairs filtered, as an SRDF's ``disable_collisions``;
-pairs with it are never taken for always-colliding ones). Opening rebuilds the robot without it and lets it
-go where it is: it settles onto what is below it (``settle.py``), allowed to rest touching the robot
-that let it go (the robot leaves such a contact as any other, ``exit_contact.py``).
+pairs with it are never taken for always-colliding ones). The body is built from the URDF as PyBullet
+loaded the robot (no mesh read, checked or split again) and keeps the robot's filtered pairs (nothing
+sampled); the mirror worlds read a portable copy of its URDF with the link. Opening rebuilds the robot
+without it and lets it go where it is: it settles onto what is below it (``settle.py``), allowed to rest
+touching the robot that let it go (the robot leaves such a contact as any other, ``exit_contact.py``).
 """
 
 from __future__ import annotations
@@ -21,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import shutil
 import tempfile
-import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -29,16 +30,14 @@ from typing import Any
 
 import numpy as np
 import pybullet as pb
-from scipy.spatial import ConvexHull
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.couplings import chain_to
-from robwot_sim.model.joints import MOVABLE, UrdfModel
-from robwot_sim.model.tool import fixed_joint, link_element, portable_copy
-from robwot_sim.model.urdf import parse_urdf
+from robwot_sim.model.held import HeldUrdf, held_urdf
+from robwot_sim.model.joints import MOVABLE, UrdfModel, parse_model
+from robwot_sim.model.urdf import PreparedUrdf, parse_urdf
 from robwot_sim.sim.bounds import Body
-from robwot_sim.sim.client import HULL
-from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_robot_body, read_robot_files
+from robwot_sim.sim.loader import RobotEntry, RobotFiles
 from robwot_sim.sim.planning_scene import Scene
 from robwot_sim.sim.scene_files import ReadObstacle
 from robwot_sim.sim.settle import Placed
@@ -73,24 +72,33 @@ class Gripper:
 @dataclass
 class Held:
     """An object a robot holds: its spec and shape as it was caught, its pose in the end-effector frame,
-    the robot's own URDF (without it) and the temporary folder of the URDF with it."""
+    the robot's own URDF (without it), the temporary folder of the URDF with it (``written``,
+    ``model/held.py``) and the robot's link pairs never checked while it holds it (the object and the
+    hand)."""
 
     name: str
     read: ReadObstacle
     offset: tuple[Sequence[float], Sequence[float]]
     urdf: Path
-    package_roots: dict[str, str]
     folder: Path
-    held_urdf: Path
-    held_roots: dict[str, str]
-    #: the robot's link pairs never checked while it holds the object (the object and the hand)
+    written: HeldUrdf
     pairs: frozenset[tuple[str, str]]
-    link: str
 
-    def files(self, scene: Scene, robot_id: str) -> RobotFiles:
-        """The robot's files with the object, its pairs with the hand filtered."""
-        files = read_like(scene, robot_id, self.held_urdf, self.held_roots)
-        return replace(files, srdf_pairs=files.srdf_pairs | self.pairs, always_checked=frozenset({self.link}))
+    def files(self, own: RobotEntry) -> RobotFiles:
+        """The files of robot ``own`` (its own body) with the object, from what its body knows: no file of
+        the robot read again. PyBullet loads its URDF as it loaded it with the object's link added; its
+        model is the portable copy's (which the mirror worlds read); its filtered pairs carry over as the
+        always-colliding ones (nothing sampled), the object's pairs with the hand added, the object's other
+        pairs checked."""
+        m, w = own.model, self.written
+        doc = parse_urdf(w.urdf)
+        model = parse_model(doc).coupled([c.expression for c in m.couplings if c.source != "mimic"])
+        tmp = Path(tempfile.mkdtemp(prefix="robwot-urdf-", dir=self.folder))  # removed once loaded
+        prepared = PreparedUrdf(doc, w.add_to(own.loaded_urdf, tmp / "robot.urdf"), {}, str(tmp),
+                                own.collision_parts)
+        srdf = Path(m.srdf) if m.srdf else None
+        return RobotFiles(w.urdf, doc, model, m.ee_link, srdf, self.pairs, prepared, w.package_roots,
+                          always_checked=frozenset({w.link}), always_colliding=frozenset(m.filtered_pairs))
 
 
 def object_at(scene: Scene, position: Sequence[float], within: float) -> str | None:
@@ -110,14 +118,6 @@ def touches(scene: Scene, robot_id: str, name: str) -> bool:
     """Some link of the robot touches object ``name``."""
     body = scene.object_bodies()[name]
     return any(c.distance <= 0.0 for c in scene.bullet.closest(scene.entry(robot_id).bound.body, body, 0.0))
-
-
-def read_like(scene: Scene, robot_id: str, urdf: Path, package_roots: dict[str, str]) -> RobotFiles:
-    """Another URDF of the robot (its own with a link added or removed) read as it was read: its end
-    effector, SRDF and couplings."""
-    m = scene.entry(robot_id).model
-    return read_robot_files(urdf, m.ee_link, package_roots, srdf=m.srdf,
-                            couplings=[c.expression for c in m.couplings if c.source != "mimic"])
 
 
 def finger_joints(model: UrdfModel, ee: str) -> list[str]:
@@ -187,7 +187,7 @@ class Grippers:
             if held is not None:
                 if held.name in scene.object_bodies():
                     scene.remove_object(held.name)
-                self._hold_body(robot_id, held.files(scene, robot_id), held.urdf)
+                self._hold_body(robot_id, held.files(scene.entry(robot_id)), held.urdf)
                 self._held[robot_id] = held
         for name in scene.object_bodies():
             if name not in objects or scene.object_read(name)[0] != objects[name][0]:
@@ -308,7 +308,7 @@ class Grippers:
         for rid, held in self._held.items():
             pose, (spec, built) = self._held_pose(rid), held.read
             b = self._scene.entry(rid).bound
-            box = b.bullet.aabb(b.body, b.link_index[held.link])
+            box = b.bullet.aabb(b.body, b.link_index[held.written.link])
             placed = Placed(built, pose.position, pose.quat_xyzw, spec.get("mass", 0.0))
             out.append((Body(held.name, placed, box), spec.get("color")))
         return out
@@ -356,14 +356,16 @@ class Grippers:
         ee = self._scene.fk(robot_id)
         inv_p, inv_q = pb.invertTransform(ee.position, ee.quat_xyzw)
         offset = pb.multiplyTransforms(inv_p, inv_q, spec["position"], spec["orientation"])
-        own, roots = Path(e.model.urdf), dict(e.package_roots)
+        own = Path(e.model.urdf)
         folder = Path(tempfile.mkdtemp(prefix="robwot-held-"))
         try:
-            link, urdf, held_roots = _held_urdf(own, roots, e.model.ee_link, name, read[1], offset, folder)
+            written = held_urdf(parse_urdf(own), e.package_roots, e.model.ee_link, name, read[1], offset,
+                                folder)
+            link = written.link
             pairs = frozenset((min(link, h), max(link, h))
                               for h in hand_links(e.bound.urdf, e.model.ee_link, self._mount(robot_id)))
-            held = Held(name, read, offset, own, roots, folder, urdf, held_roots, pairs, link)
-            files = held.files(self._scene, robot_id)
+            held = Held(name, read, offset, own, folder, written, pairs)
+            files = held.files(e)
             self._scene.remove_object(name)
             try:
                 self._hold_body(robot_id, files, own)
@@ -397,14 +399,13 @@ class Grippers:
         calculateInverseKinematics", at random), so a body that ever solved IK is never freed here."""
         scene = self._scene
         old = scene.entry(robot_id)
-        entry = load_robot_body(scene.bullet, scene.table, files, robot_id, list(old.model.base_position),
-                                list(old.model.base_orientation))
+        m = old.model
+        entry = scene.build_entry(files, robot_id, m.base_position, m.base_orientation, old.clearance,
+                                  m.accelerations)
         if entry.bound.ctrl_names != old.bound.ctrl_names:  # never: only a fixed link was added
             scene.bullet.remove_body(entry.bound.body)
             raise RuntimeError(f"robot {robot_id!r} rebuilt with other joints")
-        entry.clearance = old.clearance
-        entry.model = replace(entry.model, urdf=str(own), clearance=old.clearance,
-                              accelerations=old.model.accelerations, package_roots=old.model.package_roots)
+        entry.model = replace(entry.model, urdf=str(own), package_roots=m.package_roots)
         entry.bound.apply(old.bound.q)
         entry.bound.pinned.update(old.bound.pinned)
         entry.bound.ik_via = (old.bound, PARK)
@@ -439,7 +440,7 @@ class Grippers:
                     ({**spec, "position": list(pose.position), "orientation": list(pose.quat_xyzw)}, built),
                     robot_id)
             except Exception:  # it cannot be let go there: held as it was
-                self._hold_body(robot_id, held.files(self._scene, robot_id), held.urdf)
+                self._hold_body(robot_id, held.files(self._scene.entry(robot_id)), held.urdf)
                 raise
             del self._held[robot_id]
             if not self._trying:
@@ -448,55 +449,3 @@ class Grippers:
         self._state[robot_id] = "open"
         return {**self.state(robot_id), "released": released}
 
-
-def _geometry(shape: dict[str, Any], folder: Path, name: str) -> ET.Element:
-    """A URDF ``<geometry>`` of an object's shape as built (a mesh: its convex hull, written as OBJ)."""
-    geometry = ET.Element("geometry")
-    t = shape["type"]
-    if t == "box":
-        ET.SubElement(geometry, "box", {"size": " ".join(f"{v:.9g}" for v in shape["size"])})
-    elif t == "sphere":
-        ET.SubElement(geometry, "sphere", {"radius": f"{shape['radius']:.9g}"})
-    elif t == "cylinder":
-        ET.SubElement(geometry, "cylinder", {"radius": f"{shape['radius']:.9g}",
-                                             "length": f"{shape['length']:.9g}"})
-    else:
-        points = np.asarray(shape[HULL], dtype=np.float64)
-        hull = ConvexHull(points)
-        out = folder / f"{name}_hull.obj"
-        lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in points]
-        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in _outward(points, hull)]
-        out.write_text("\n".join(lines) + "\n")
-        ET.SubElement(geometry, "mesh", {"filename": out.name})
-    return geometry
-
-
-def _outward(points: np.ndarray, hull: ConvexHull) -> list[tuple[int, int, int]]:
-    """The hull's triangles wound outward (their normal away from the hull's centre)."""
-    centre = points[hull.vertices].mean(axis=0)
-    out = []
-    for a, b, c in hull.simplices:
-        n = np.cross(points[b] - points[a], points[c] - points[a])
-        out.append((int(a), int(b), int(c)) if n @ (points[a] - centre) >= 0 else (int(a), int(c), int(b)))
-    return out
-
-
-def _held_urdf(urdf: Path, roots: dict[str, str], ee: str, name: str, shape: dict[str, Any],
-               offset: tuple[Sequence[float], Sequence[float]],
-               folder: Path) -> tuple[str, Path, dict[str, str]]:
-    """The robot's URDF with the object as a fixed link on ``ee`` at ``offset``, written into ``folder``:
-    (the link's name, the file, its package roots). The link is named as the object unless the robot has
-    a link of that name (then ``held_`` + name)."""
-    doc = parse_urdf(urdf)
-    root, held_roots = portable_copy(doc, roots)
-    links = {el.get("name") for el in root.findall("link")}
-    link_name = name if name not in links else f"held_{name}"
-    link = link_element(root, link_name)
-    collision = ET.SubElement(link, "collision")
-    collision.append(_geometry(shape, folder, link_name))
-    rpy = pb.getEulerFromQuaternion(offset[1])
-    root.append(fixed_joint(f"{link_name}_grasp", ee, link_name, offset[0], rpy))
-    out = folder / urdf.name
-    ET.indent(root)
-    ET.ElementTree(root).write(out, encoding="utf-8", xml_declaration=True)
-    return link_name, out, held_roots

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -42,6 +43,9 @@ class RobotEntry:
     sphere: tuple[FloatArray, float]
     #: clearance (m) its paths and motions keep to other bodies (sweep.Guard)
     clearance: float = DEFAULT_CLEARANCE
+    #: the URDF as PyBullet loaded it (meshes checked, absolute, concave ones split, visuals dropped): a
+    #: body of the robot with a link added is built from it without reading its files again (gripper.py)
+    loaded_urdf: str = ""
 
     @property
     def guard(self) -> Guard:
@@ -76,6 +80,14 @@ def _check_collision_shapes(bullet: Bullet, bound: BoundRobot, doc: UrdfDoc, mes
             )
 
 
+def _clear_pair_filters(bullet: Bullet, bound: BoundRobot) -> None:
+    """Every pair of the new body's links checked as PyBullet checks a new body's (adjacent links never):
+    PyBullet keeps a removed body's pair filters under its id, and a new body given that id would inherit
+    them (its always-colliding pairs then went unfound, yet filtered, or another robot's filtered)."""
+    for a, b in itertools.combinations(sorted(bound.link_names), 2):
+        bullet.set_pair_filter(bound.body, bound.body, a, b, True)
+
+
 @dataclass
 class RobotFiles:
     """A robot's files read, checked and prepared for PyBullet (meshes parsed, concave ones split into
@@ -95,6 +107,9 @@ class RobotFiles:
     #: links never put among the always-colliding pairs (a held object: contacts it makes in every
     #: random configuration are contacts to check, not a design overlap)
     always_checked: frozenset[str] = frozenset()
+    #: the robot's filtered pairs already known (a body of it rebuilt with a link added, gripper.py):
+    #: taken as the always-colliding ones, nothing sampled (pairs with ``always_checked`` links excepted)
+    always_colliding: frozenset[tuple[str, str]] | None = None
 
     def cleanup(self) -> None:
         self.prepared.cleanup()
@@ -171,6 +186,7 @@ def load_robot_body(
     try:
         flags = pb.URDF_USE_SELF_COLLISION
         try:
+            loaded = prepared.bullet_path.read_text(encoding="utf-8")
             body = bullet.load_urdf(str(prepared.bullet_path), base_position, base_orientation, flags)
         except pb.error as e:
             raise UrdfError(f"PyBullet could not load the URDF: {e}", file=str(path)) from None
@@ -179,9 +195,12 @@ def load_robot_body(
     try:
         bound = BoundRobot(bullet, body, urdf_model, ee)
         _check_collision_shapes(bullet, bound, doc, prepared.meshes)
-        rng = np.random.default_rng(FILTER_SEED)
+        _clear_pair_filters(bullet, bound)
         checked = {bound.link_index[name] for name in files.always_checked}
-        filtered = [p for p in find_always_colliding(bound, rng) if not checked.intersection(p)]
+        known = files.always_colliding
+        always = (find_always_colliding(bound, np.random.default_rng(FILTER_SEED)) if known is None
+                  else [(bound.link_index[a], bound.link_index[b]) for a, b in sorted(known)])
+        filtered = [p for p in always if not checked.intersection(p)]
         filtered += [(bound.link_index[a], bound.link_index[b]) for a, b in sorted(srdf_pairs)]
         checker = CollisionChecker(bound, table, filtered)
     except Exception:
@@ -204,7 +223,7 @@ def load_robot_body(
         couplings=urdf_model.couplings,
     )
     return RobotEntry(model, bound, checker, path, dict(package_roots), prepared.collision_parts,
-                      joint_reach(bound), reach_sphere(bound))
+                      joint_reach(bound), reach_sphere(bound), loaded_urdf=loaded)
 
 
 def acceleration_limits(movable: Sequence[str], given: Mapping[str, float]) -> dict[str, float]:

@@ -184,14 +184,12 @@ class Scene:
         except Exception:
             files.cleanup()
             raise
-        entry = load_robot_body(self.bullet, self.table, files, robot_id or "robot", pos, quat)
+        entry = self.build_entry(files, robot_id or "robot", pos, quat, clearance, limits)
         if robot_id is None:
             base, k, rid = entry.model.name or "robot", 2, entry.model.name or "robot"
             while rid in self._robots or rid in self._obstacles:
                 rid, k = f"{base}-{k}", k + 1
             entry.model = replace(entry.model, id=rid)
-        entry.clearance = float(clearance)
-        entry.model = replace(entry.model, clearance=entry.clearance, accelerations=limits)
         rid = entry.model.id
         self._robots[rid] = entry
         self.table.names[entry.bound.body] = rid
@@ -207,6 +205,16 @@ class Scene:
         del self.table.names[e.bound.body]
         del self.table.robots[e.bound.body]
         self._changed()
+
+    @owned
+    def build_entry(self, files: RobotFiles, robot_id: str, pos: Vec3, quat: Quat, clearance: float,
+                    accelerations: Mapping[str, float]) -> RobotEntry:
+        """A body of ``files`` set up as a robot of the scene (``add_robot``; a robot rebuilt with a link
+        added, ``gripper.py``), not yet in it: every check ignores it until ``swap_entry`` or removed."""
+        entry = load_robot_body(self.bullet, self.table, files, robot_id, list(pos), list(quat))
+        entry.clearance = float(clearance)
+        entry.model = replace(entry.model, clearance=entry.clearance, accelerations=dict(accelerations))
+        return entry
 
     @owned
     def swap_entry(self, robot_id: str, entry: RobotEntry) -> RobotEntry:
@@ -332,7 +340,8 @@ class Scene:
         return self._obstacles[name]
 
     def _put(self, name: str, position: Vec3, orientation: Quat | None) -> dict[str, Any]:
-        """Teleport obstacle or object ``name`` (orientation None: as it is); returns its spec before."""
+        """Teleport obstacle or object ``name`` (orientation None: as it is), a version bump; returns its
+        spec before."""
         pos = v.position("position", position)
         body, spec = self._obstacles[name]
         quat = list(spec["orientation"]) if orientation is None else v.quaternion("orientation", orientation)
@@ -421,7 +430,7 @@ class Scene:
         """Teleport an object to ``position`` (m), turned to ``orientation`` (``[x, y, z, w]``; default: as
         it is), then settle it; refused (``Overlap``), it stays where it was. Returns it at rest."""
         body, _ = self._known(name, objects=True)
-        before = self._put(name, position, orientation)
+        before = self.carry_object(name, position, orientation)
         try:
             check_placed(self.bullet, self.table, body, self._placed(name))
             self._settle([name])
@@ -431,6 +440,14 @@ class Scene:
             self._changed()
             raise
         return self._obstacles[name][1]
+
+    @owned
+    def carry_object(self, name: str, position: Vec3, orientation: Quat | None = None) -> dict[str, Any]:
+        """Put an object at ``position`` (m), turned to ``orientation`` (default: as it is) as something
+        carries it (a belt, ``cell.py``): not settled, not checked; a version bump, so every check sees it.
+        Returns its spec before."""
+        self._known(name, objects=True)
+        return self._put(name, position, orientation)
 
     @owned
     def remove_object(self, name: str) -> None:
