@@ -98,3 +98,47 @@ def test_a_program_runs_the_states_it_planned() -> None:
         assert result["positions"] == pytest.approx(report["steps"][1]["target"])
         named = [p["step"] for method, p in sent if method == "robot.state"]
         assert named[0] == 0 and named[-1] == 1 and named == sorted(named)
+
+
+def test_a_run_behind_its_clock_catches_up_checking_every_state() -> None:
+    """A world whose every job takes three states' time (a loaded machine), on a fake clock: the run takes
+    the states due in one job each time it is behind, so it needs far fewer jobs than states and ends when
+    its simulated duration has passed, not three times later; every state is still set (and checked, the
+    world having changed: its stamp is not the plan's)."""
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, START)
+        plan = plan_joints(w, m.id, [0.3, 0.2, 0.0, -0.8, 0.0, 0.4, 0.0], 0.05, 1 / 240)
+        assert plan.valid and plan.path is not None
+        dt, states = plan.path.dt, len(plan.path) - 1
+        assert states > 150
+        w.add_obstacle({"name": "far", "shape": {"type": "box", "size": [0.1, 0.1, 0.1]},
+                        "position": [3.0, 3.0, 0.0]})  # the world changed since the plan: every state checked
+        late = {"by": 0.0, "jobs": 0, "set": 0}
+        setter = w.set_joint_positions
+
+        def counted(robot: str, q: Any) -> None:
+            late["set"] += 1
+            setter(robot, q)
+
+        w.set_joint_positions = counted  # type: ignore[method-assign]
+
+        async def slow(fn: Callable[[], T], kind: Kind = Kind.SHORT, **_: Any) -> T:
+            late["jobs"] += 1
+            late["by"] += 3 * dt  # the job took three states' time
+            return fn()
+
+        async def go() -> tuple[dict[str, Any], float]:
+            loop = asyncio.get_running_loop()
+            real = loop.time
+            loop.time = lambda: real() + late["by"]  # type: ignore[method-assign]
+            runner = MotionRunner(w, lambda *_: None, slow)
+            t0 = loop.time()
+            result = await runner.move(m.id, lambda: plan, realtime=1.0)
+            return result, loop.time() - t0
+
+        result, elapsed = asyncio.run(go())
+        assert result["status"] == "reached" and result["duration"] == pytest.approx(plan.path.duration)
+        assert late["set"] >= states  # every state set
+        assert late["jobs"] < states / 2
+        assert elapsed < 1.5 * plan.path.duration + 40 * 3 * dt  # not three times the duration

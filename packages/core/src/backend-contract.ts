@@ -1466,7 +1466,7 @@ export interface ProgramPlanParams {
   steps: ProgramSteps;
   dt?: Dt;
   /**
-   * samples per second of the returned trajectory (Hz)
+   * samples per second asked of the returned trajectory (Hz): it takes every n-th state, n the whole number of `dt` steps nearest 1 / `rate` (at the default `dt` of 1/240 s, 50 Hz is every 5th state: 48 Hz); its own `rate` says the one used
    */
   rate?: number;
 }

@@ -4,7 +4,9 @@
 target (`sim/planner.py`: limits, IK solutions, a collision-free path; `Rejected` when none) and runs the
 timed path the plan carries (`Plan.path`, timed by `sim/trajectory.py`; a program's states come from
 `sim/program.py`), never planned again: for every state it waits until its wall-clock due time
-(`t0 + t_sim / realtime`; with realtime 0 it only yields to the loop) and teleports the robot there.
+(`t0 + t_sim / realtime`; with realtime 0 it only yields to the loop) and teleports the robot there; a
+run that fell behind its clock (a loaded machine) takes the states due by now in one job of the world's
+thread, each still checked, so it catches up and its wall time stays its simulated duration.
 The plan checked this very path; once anything else in the
 world changes during the motion (an obstacle added or moved, another robot moving: `World.others_stamp`)
 every further step is checked again (`World.check_step`: subdivided so no point travels more than twice
@@ -52,6 +54,8 @@ T = TypeVar("T")
 STATE_PERIOD = 1.0 / 60.0
 #: states of a path computed at once while it runs
 RUN_CHUNK = 256
+#: states a run that fell behind its simulated clock takes in one job of the world's thread
+CATCH_UP = 32
 #: samples per second (Hz) of the trajectory in a run program's report
 PROGRAM_RATE = 50.0
 
@@ -217,19 +221,23 @@ class MotionRunner:
                "position": _floats(pose.position), "orientation": _floats(pose.quat_xyzw)}
         return out if step is None else {**out, "step": step}
 
-    def _step(self, robot: str, reached: Any, q: Any, clearance: float, checked: tuple[int, int],
-              want_pose: bool) -> tuple[str, CollisionReport | None, Pose | None]:
-        """On the world's thread: one step of a motion (``"gone"`` when the robot was removed,
-        ``"collision"`` with the report, else ``"ok"`` with the new pose when ``want_pose``)."""
+    def _steps(self, robot: str, reached: Any, qs: Any, clearance: float, checked: tuple[int, int],
+               want_pose: bool) -> tuple[str, CollisionReport | None, Pose | None, int]:
+        """On the world's thread: states ``qs`` of a motion one after the other (``"gone"`` when the robot
+        was removed, ``"collision"`` with the report at the first that touches, else ``"ok"`` with the
+        last one's pose when ``want_pose``) and how many were reached."""
         world = self._world
         if robot not in world.robot_ids():
-            return "gone", None, None
-        if world.others_stamp(robot) != checked:
-            report = world.check_step(robot, reached, q, clearance)
-            if not report.collision_free:
-                return "collision", report, None
-        world.set_joint_positions(robot, q)
-        return "ok", None, world.fk(robot) if want_pose else None
+            return "gone", None, None, 0
+        recheck = world.others_stamp(robot) != checked
+        for k, q in enumerate(qs):
+            if recheck:
+                report = world.check_step(robot, reached, q, clearance)
+                if not report.collision_free:
+                    return "collision", report, None, k
+            world.set_joint_positions(robot, q)
+            reached = q
+        return "ok", None, world.fk(robot) if want_pose else None, len(qs)
 
     def _final_pose(self, robot: str) -> Pose | None:
         return self._world.fk(robot) if robot in self._world.robot_ids() else None
@@ -256,30 +264,35 @@ class MotionRunner:
         robot = motion.robot
         t0 = loop.time()
         reached = plan.first
-        states = plan.chunks(1, RUN_CHUNK)  # computed as the run reaches them: a slow path has millions
-        chunk, base = np.empty((0, len(reached))), 1
+        chunk, base = np.empty((0, len(reached))), 1  # the states from ``base`` on, computed as reached
         reached_time, reached_index = 0.0, 0
         status = "reached"
         contacts: list[dict[str, Any]] = []
         planned = (len(plan) - 1) * dt
         # the program step state i belongs to: the last step starting before it (None for a move)
         step_of = (lambda i: max(0, bisect.bisect_left(starts, i) - 1)) if starts else (lambda i: None)
-        for i in range(1, len(plan)):
-            sim_time = i * dt
-            await motion.pause(t0 + sim_time / realtime - loop.time() if realtime > 0 else 0.0)
+        acts = sorted(grips or ())
+        i = 1
+        while i < len(plan):
+            await motion.pause(t0 + i * dt / realtime - loop.time() if realtime > 0 else 0.0)
             if motion.stop_requested:
                 status = "stopped"
                 break
-            if i >= base + len(chunk):
-                base, chunk = i, next(states)
-            q = chunk[i - base]
+            n = self._due(loop.time() - t0, realtime, dt, i, len(plan), acts)
+            if i + n > base + len(chunk):
+                base, chunk = i, plan.rows(i, i + max(RUN_CHUNK, n))
+            qs = chunk[i - base:i - base + n]
             if grips and i in grips:  # the gripper acts first: the states from here on have its fingers
                 act = functools.partial(self._grip, robot, grips[i], reached, checked)
                 reached, checked = await self._on_world(act, robot=robot, writes=True)
-            crosses = (math.floor(sim_time / STATE_PERIOD + 1e-9)
-                       > math.floor((sim_time - dt) / STATE_PERIOD + 1e-9))
-            step = functools.partial(self._step, robot, reached, q, clearance, checked, crosses)
-            outcome, report, pose = await self._on_world(step, robot=robot, writes=True)
+            last_time = (i + n - 1) * dt
+            crosses = (math.floor(last_time / STATE_PERIOD + 1e-9)
+                       > math.floor((i - 1) * dt / STATE_PERIOD + 1e-9))
+            step = functools.partial(self._steps, robot, reached, qs, clearance, checked, crosses)
+            outcome, report, pose, done = await self._on_world(step, robot=robot, writes=True)
+            if done:
+                reached, reached_index = qs[done - 1], i + done - 1
+                reached_time = reached_index * dt
             if outcome == "gone":
                 status = "stopped"
                 break
@@ -291,10 +304,10 @@ class MotionRunner:
                     "robot": robot, "contacts": contacts, "positions": _floats(reached),
                     "time": reached_time})
                 break
-            reached, reached_time, reached_index = q, sim_time, i
             if pose is not None:
-                state = self._state(robot, sim_time, q, pose, True, planned, step_of(i))
+                state = self._state(robot, reached_time, reached, pose, True, planned, step_of(reached_index))
                 self._broadcast("robot.state", state)
+            i += n
         wall = loop.time() - t0
         final = await self._on_world(functools.partial(self._final_pose, robot), robot=robot)
         if final is not None:
@@ -302,6 +315,21 @@ class MotionRunner:
                                                        step_of(max(1, reached_index))))
         return {"status": status, "positions": _floats(reached), "duration": reached_time,
                 "wallTime": wall, "contacts": contacts, "step": step_of(max(1, reached_index)) or 0}
+
+
+    @staticmethod
+    def _due(elapsed: float, realtime: float, dt: float, i: int, end: int, acts: Sequence[int]) -> int:
+        """How many states from ``i`` on a run takes in one step of the world: those due by now at
+        ``realtime`` (a run that fell behind its simulated clock catches up, every state still checked),
+        at most ``CATCH_UP`` and never past a state where the gripper acts; one at real time 0."""
+        n = 1
+        if realtime > 0:
+            due = math.floor(elapsed * realtime / dt + 1e-9)
+            n = max(1, min(due - i + 1, CATCH_UP))
+        later = bisect.bisect_right(acts, i)
+        if later < len(acts):
+            n = min(n, acts[later] - i)
+        return max(1, min(n, end - i))
 
 
 def _floats(values: Any) -> list[float]:

@@ -147,19 +147,8 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
                 return q
         if cause is not None:
             out.reason = f"{curve} cannot be followed {where(ends)}: {cause}"
-            return None
-        try:  # neither a limit nor a singularity: beyond the reach, or only on another branch
-            ik = world.ik(robot, tuple(target), quat, seed=list(seed), collision_free=False)
-        except Unreachable:
-            ik = None
-        if (ik is None or ik.position_error > IK_POSITION_TOLERANCE
-                or ik.orientation_error > IK_ORIENTATION_TOLERANCE):
-            out.reason = f"{curve} leaves the robot's reach {where(s)}: no IK solution keeps the pose there"
-            return None
-        jump = np.abs(np.asarray(ik.positions) - seed)
-        j = int(np.argmax(jump))
-        out.reason = (f"{curve} cannot be followed continuously {where(s)}: only another configuration "
-                      f"reaches it (joint {names[j]} {jump[j]:.2f} rad away), a configuration flip")
+        else:  # neither a limit nor a singularity: beyond the reach, or only on another branch
+            out.reason = _off_branch(world, robot, target, quat, seed, f"{curve} %s {where(s)}")
         return None
 
     def segment(sa: float, qa: FloatArray, sb: float, qb: FloatArray, splits: int) -> bool:
@@ -197,6 +186,33 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
         q_prev = q
     # the part followed is checked for contacts even when the curve ends further on: a contact there is
     # the first cause along it
+    if _touches(world, robot, out, curve) or not followed:
+        out.waypoints, out.arc = [], []
+    return out
+
+
+def _off_branch(world: World, robot: str, target: FloatArray, quat: Sequence[float], seed: FloatArray,
+                template: str) -> str:
+    """Why a pose the tracked branch does not reach, with no limit or singularity to say it, cannot be
+    followed: no IK solution at all (beyond the reach), or only one on another branch (a flip).
+    ``template`` has ``%s`` where the verb goes."""
+    try:
+        ik = world.ik(robot, tuple(target), quat, seed=list(seed), collision_free=False)
+    except Unreachable:
+        ik = None
+    if (ik is None or ik.position_error > IK_POSITION_TOLERANCE
+            or ik.orientation_error > IK_ORIENTATION_TOLERANCE):
+        return template % "leaves the robot's reach" + ": no IK solution keeps the pose there"
+    names = world.robot_model(robot).controllable
+    jump = np.abs(np.asarray(ik.positions) - seed)
+    j = int(np.argmax(jump))
+    return (template % "cannot be followed continuously" + f": only another configuration reaches it "
+            f"(joint {names[j]} {jump[j]:.2f} rad away), a configuration flip")
+
+
+def _touches(world: World, robot: str, out: LinPath, curve: str) -> bool:
+    """Whether a segment between ``out``'s waypoints collides (clearance kept); its contacts and the
+    reason then in ``out``."""
     clearance = world.motion_clearance(robot, out.waypoints[-1])
     for qa, qb in itertools.pairwise(out.waypoints):
         checkpoint()
@@ -204,8 +220,5 @@ def _follow(world: World, robot: str, q0: FloatArray, r0_: Sequence[float],
         if not report.collision_free:
             out.contacts = list(report.contacts)
             out.reason = f"{curve} collides"
-            followed = False
-            break
-    if not followed:
-        out.waypoints, out.arc = [], []
-    return out
+            return True
+    return False
