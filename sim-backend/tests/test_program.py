@@ -120,6 +120,26 @@ def test_every_step_keeps_the_velocity_and_acceleration_limits_and_lin_and_circ_
     assert np.abs((p - a) @ n).max() <= 0.0005
 
 
+def test_the_total_tcp_acceleration_stays_within_its_limit_on_an_arc_and_at_a_blend(
+        client: RpcClient) -> None:
+    """A tight CIRC (5 cm radius) at 0.5 m/s and two LINs blended at a right angle: by forward kinematics of
+    every state (second differences at 1/240 s), the end effector's total acceleration, tangential and
+    centripetal, stays within 1.2 m/s^2 (it reached 1.7x on an arc and about 4x at blends when only the
+    tangential part was limited)."""
+    dt = 1 / 240
+    client.call("robot.setJointPositions", {"robot": "kuka", "positions": START})
+    x, y, z = client.call("robot.fk", {"robot": "kuka", "positions": START})["position"]
+    arc = [{"motion": "circ", "via": [x, y + 0.05, z + 0.05], "position": [x, y + 0.1, z], "tcpSpeed": 0.5}]
+    corner = [{"motion": "lin", "position": [x, y + 0.1, z], "tcpSpeed": 0.3, "blend": 0.03},
+              {"motion": "lin", "position": [x - 0.1, y + 0.1, z], "tcpSpeed": 0.3}]
+    for steps in (arc, corner):
+        plan = client.call("program.plan", {"robot": "kuka", "steps": steps, "dt": dt, "rate": 1 / dt})
+        assert plan["valid"], plan["steps"]
+        p = np.array([f["position"] for f in _fk(client, np.asarray(plan["trajectory"]["positions"]))])
+        acc = np.linalg.norm(np.diff(p, n=2, axis=0), axis=1) / dt**2
+        assert acc.max() <= 1.2 * 1.05, acc.max()
+
+
 def test_a_lin_the_joints_cannot_keep_at_its_speed_is_refused_naming_the_joint(client: RpcClient) -> None:
     """At 3 m/s along a 15 cm line at 10 % of the velocity limits, some joint would need more than its
     limit: refused as step 1, naming the joint and tcpSpeed; at the default speed it passes."""

@@ -102,7 +102,7 @@ export type Workers = number;
  */
 export type Speed = number;
 /**
- * fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2); the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)
+ * fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's total acceleration (tangential and centripetal, the vector's length) along a LIN or CIRC and its blends (`x-tcpAcceleration`, m/s^2); the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)
  */
 export type Acceleration = number;
 /**
@@ -1798,7 +1798,7 @@ export const VALUE_SCHEMAS = {
   MoveStatus: {"type":"string","enum":["reached","stopped","collision"]},
   Workers: {"type":"integer","minimum":1,"maximum":256},
   Speed: {"type":"number","minimum":0.001,"maximum":1,"default":1,"description":"fraction of the URDF velocity limits; the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)"},
-  Acceleration: {"type":"number","minimum":0.01,"maximum":1,"default":1,"description":"fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's acceleration along a LIN or CIRC (`x-tcpAcceleration`, m/s^2); the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)","x-accelerationTime":0.25,"x-tcpAcceleration":1.2},
+  Acceleration: {"type":"number","minimum":0.01,"maximum":1,"default":1,"description":"fraction of the joint acceleration limits (joint_limits.yaml; a joint without one reaches its velocity limit from rest in `x-accelerationTime` seconds) and of the end effector's total acceleration (tangential and centripetal, the vector's length) along a LIN or CIRC and its blends (`x-tcpAcceleration`, m/s^2); the smallest plans at the cost of the largest (a motion's states are computed when needed, its checks follow the path's geometry: see `program.plan`)","x-accelerationTime":0.25,"x-tcpAcceleration":1.2},
   TcpSpeed: {"type":"number","minimum":0.001,"maximum":3,"default":0.25,"description":"speed (m/s) of the end effector (the TCP with a tool) along a LIN or CIRC; a configuration whose joints cannot keep it within their velocity limits x speed (near a singularity) is refused"},
   BlendRadius: {"type":"number","minimum":0,"maximum":1,"default":0,"description":"m: within this distance of the TCP from where the step ends, the motion may leave the programmed path to go on into the next step without stopping (0: it stops there; the last step always stops)"},
   Dt: {"type":"number","minimum":0.0001,"maximum":0.1,"default":0.004166666666666667,"description":"time step (s)"},

@@ -20,6 +20,7 @@ costs the same whatever its duration (a slow motion at a small ``dt`` has millio
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -35,6 +36,27 @@ from robwot_sim.sim.types import FloatArray
 
 #: a limit standing for none (m/s, m/s^2, rad/s, ...): far beyond any robot's, finite for toppra
 UNLIMITED = 1e9
+#: directions (one of each opposite pair) along which the end effector's acceleration is limited: its
+#: total acceleration is within the limit when its component along each is within the limit x
+#: ``tcp_cover()`` (``CurveLimits``)
+TCP_DIRECTIONS = 50
+
+
+@functools.cache
+def tcp_directions() -> tuple[FloatArray, float]:
+    """``TCP_DIRECTIONS`` unit vectors spread over a hemisphere (a Fibonacci spiral) and the cosine of the
+    largest angle between any direction and the nearest of them or their opposites, less a degree (the
+    angle is measured on 20,000 directions; the margin covers those between them). A vector whose
+    component along every one (and opposite) is at most ``c`` x that cosine has a length of at most ``c``."""
+    i = np.arange(TCP_DIRECTIONS) + 0.5
+    z = 1.0 - i / TCP_DIRECTIONS
+    r, turn = np.sqrt(1.0 - z * z), math.pi * (1.0 + math.sqrt(5.0)) * i
+    half = np.stack([r * np.cos(turn), r * np.sin(turn), z], axis=1)
+    k = np.arange(20_000) + 0.5
+    polar, around = np.arccos(1.0 - 2.0 * k / len(k)), math.pi * (1.0 + math.sqrt(5.0)) * k
+    probe = np.stack([np.cos(around) * np.sin(polar), np.sin(around) * np.sin(polar), np.cos(polar)], axis=1)
+    widest = float(np.arccos(np.clip(np.abs(probe @ half.T).max(axis=1).min(), -1.0, 1.0)))
+    return half, math.cos(widest + math.radians(1.0))
 
 
 def _steps(duration: float, dt: float) -> int:
@@ -82,9 +104,9 @@ class CurveLimits:
     """The limits a curve is timed under, one row per point of it (they may change along the curve: a
     blended chain keeps each step's own): the joints' ``velocity`` and ``acceleration`` (n, dof); the
     limited followers (``rows`` over the joint vector, their ``follower_velocity`` and
-    ``follower_acceleration``, (n, f)); the end effector's speed ``tcp_speed`` (m/s) and tangential
-    acceleration ``tcp_acceleration`` (m/s^2) along the curve, (n,), ``inf`` where it is not limited.
-    Between two points the smaller limit of both holds."""
+    ``follower_acceleration``, (n, f)); the end effector's speed ``tcp_speed`` (m/s) along the curve and
+    its total acceleration ``tcp_acceleration`` (m/s^2: tangential and centripetal, the vector's length),
+    (n,), ``inf`` where it is not limited. Between two points the smaller limit of both holds."""
 
     velocity: FloatArray
     acceleration: FloatArray
@@ -94,9 +116,13 @@ class CurveLimits:
     follower_velocity: FloatArray
     follower_acceleration: FloatArray
 
-    def coordinates(self, q: FloatArray, length: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """The path's coordinates at the points (joints, limited followers, and the arc length where the end
-        effector is limited anywhere) with their velocity and acceleration limits, one row per point."""
+    def coordinates(self, q: FloatArray, length: FloatArray,
+                    tcp: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The path's coordinates at the points (joints, limited followers, and where the end effector is
+        limited anywhere its arc length and its position ``tcp`` (n, 3) along each of
+        ``tcp_directions``) with their velocity and acceleration limits, one row per point. Linear in the
+        joints or the TCP position, each coordinate's spline is that combination of theirs, so limiting
+        the components limits the vector (``tcp_directions``)."""
         coords, vlim, alim = q, self.velocity, self.acceleration
         if len(self.rows):
             # the limited followers as more coordinates of the spline (linear in the joints, so exact)
@@ -104,9 +130,12 @@ class CurveLimits:
             vlim = np.hstack([vlim, self.follower_velocity])
             alim = np.hstack([alim, self.follower_acceleration])
         if np.isfinite(self.tcp_speed).any():
-            coords = np.hstack([coords, length[:, None]])
-            vlim = np.hstack([vlim, self.tcp_speed[:, None]])
-            alim = np.hstack([alim, self.tcp_acceleration[:, None]])
+            half, cover = tcp_directions()
+            along = tcp @ half.T
+            coords = np.hstack([coords, length[:, None], along])
+            vlim = np.hstack([vlim, self.tcp_speed[:, None], np.full(along.shape, math.inf)])
+            alim = np.hstack([alim, self.tcp_acceleration[:, None],
+                              np.repeat(self.tcp_acceleration[:, None] * cover, along.shape[1], axis=1)])
         # a limit that does not hold somewhere: one no motion of a robot reaches (toppra needs numbers)
         return coords, np.minimum(vlim, UNLIMITED), np.minimum(alim, UNLIMITED)
 
@@ -165,12 +194,14 @@ def plan_curve_path(
     limits: CurveLimits,
     dt: float,
     bounds: tuple[FloatArray, FloatArray],
+    tcp: Sequence[Sequence[float]] | None = None,
 ) -> Curve | Straight:
     """The timed cubic spline through ``points`` (the first is the start, the last the target): states one
     per ``dt``, at rest at both ends, time-optimal (TOPP-RA) under ``limits`` (the joints', the followers'
     and the end effector's along the curve), the end effector's arc length at each point being ``arc``
-    (metres, from 0, increasing). States are clipped to ``bounds`` (lower, upper): the spline through
-    samples within the limits may overshoot one by a hair between two of them."""
+    (metres, from 0, increasing), its position ``tcp`` (m, one per point; needed where it is limited).
+    States are clipped to ``bounds`` (lower, upper): the spline through samples within the limits may
+    overshoot one by a hair between two of them."""
     import toppra
     import toppra.algorithm
     import toppra.constraint
@@ -187,8 +218,11 @@ def plan_curve_path(
         return Straight(q[0], q[0], 0.0, 0.0, 1.0, 0)
     knots = np.concatenate([[0.0], np.cumsum(gaps)])
     knots /= knots[-1]  # exactly 1 at the end, as the grid's
+    at = np.zeros((len(keep), 3)) if tcp is None else np.asarray(tcp, dtype=np.float64)
+    if tcp is None and np.isfinite(limits.tcp_speed).any():
+        raise ValueError("an end effector limited along a curve needs its positions")
     q, length, ss = q[keep], length[keep], knots[keep]
-    waypoints, vlim, alim = limits.kept(keep).coordinates(q, length)
+    waypoints, vlim, alim = limits.kept(keep).coordinates(q, length, at[keep])
     spline = CubicSpline(ss, waypoints, bc_type="not-a-knot")  # the spline toppra's interpolator makes
     path = toppra.SplineInterpolator(ss, waypoints, bc_type="not-a-knot")
     velocity_at = _between(ss, vlim)

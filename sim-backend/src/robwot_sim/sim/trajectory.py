@@ -91,21 +91,23 @@ def curve_limits(model: RobotModel, along: Along) -> CurveLimits:
 
 def time_path(model: RobotModel, points: Sequence[FloatArray], speed: float, dt: float,
               acceleration: float, arc: Sequence[float] = (),
-              tcp_speed: float | None = DEFAULT_TCP_SPEED, along: Along | None = None) -> TimedPath:
+              tcp_speed: float | None = DEFAULT_TCP_SPEED, along: Along | None = None,
+              tcp: Sequence[Sequence[float]] | None = None) -> TimedPath:
     """The timed path through ``points`` (joint states within the limits, the start first), states ``dt``
     (s) apart, within the joint velocity limits x ``speed`` and acceleration limits x ``acceleration``
     (values within the contract's ranges: checked where a request enters). Without ``arc``: each segment
     straight in joint space, at rest at every point. With ``arc`` (the end effector's distance along its
     curve at each point, m): one smooth motion through them, the end effector at most ``tcp_speed`` (m/s;
-    None: the joint limits only) and ``acceleration`` x its acceleration limit; ``along``, when given,
-    replaces the three by limits per point."""
+    None: the joint limits only) and ``acceleration`` x its acceleration limit (the total: tangential and
+    centripetal), its position at each point ``tcp``; ``along``, when given, replaces the three by
+    limits per point."""
     if len(arc):
         if len(arc) != len(points):
             raise ValueError(f"arc needs one distance per point: {len(arc)} for {len(points)}")
         along = along or Along.constant(len(points), speed, acceleration, tcp_speed)
         if len(along.speed) != len(points):
             raise ValueError(f"along needs limits per point: {len(along.speed)} for {len(points)}")
-        curve = plan_curve_path(points, arc, curve_limits(model, along), dt, model.limits())
+        curve = plan_curve_path(points, arc, curve_limits(model, along), dt, model.limits(), tcp)
         return TimedPath([curve], dt)
     velocity = model.velocity_limits() * speed
     accelerations = model.acceleration_limits() * acceleration
@@ -135,4 +137,6 @@ def plan_motion(
     tgt = e.bound.validate(target, "target")
     st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
     points = [st, *(e.bound.validate(w, f"via[{i}]") for i, w in enumerate(via)), tgt]
-    return time_path(e.model, points, speed, dt, acceleration, arc, tcp_speed, along)
+    limited = tcp_speed is not None if along is None else any(v is not None for v in along.tcp_speed)
+    tcp = [scene.fk(robot_id, p).position for p in points] if len(arc) and limited else None
+    return time_path(e.model, points, speed, dt, acceleration, arc, tcp_speed, along, tcp)
