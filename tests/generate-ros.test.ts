@@ -263,6 +263,30 @@ describe("--moveit-config DIR, the SRDF and --group", () => {
     } finally {
       await served.stop();
     }
+    // max_jerk: recorded, loaded by serve, every motion jerk-limited: the shoulder's 0.5 rad (trapezoid 2.5 s, its
+    // cruise 1.5 s longer than A / J = 0.25 s) takes 2.5 + 0.25 s, its jerk by third differences within 2 rad/s^3
+    writeFileSync(yaml, "joint_limits:\n  shoulder:\n    has_velocity_limits: true\n    max_velocity: 0.25\n    has_acceleration_limits: true\n    max_acceleration: 0.5\n    has_jerk_limits: true\n    max_jerk: 2\n");
+    const jerked = join(work, "jerk-limited");
+    const j = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", jerked]);
+    expect(j.code, j.stderr).toBe(0);
+    expect(json(join(jerked, "twin.json")).robot.jerks).toEqual({ shoulder: 2 });
+    const jerkServed = await startServient({ twins: [jerked], port: 0, realtime: 0 });
+    try {
+      const plan = await http(`${jerkServed.things[0]!.tdUrl}/actions/validateProgram`, {
+        method: "POST",
+        headers: { "content-type": "application/json" },
+        body: JSON.stringify({ steps: [{ joints: { yaw: 0, shoulder: 0.5, elbow: 0 } }] }),
+      });
+      expect(plan.status, JSON.stringify(plan.body)).toBe(200);
+      expect(plan.body.cycleTime).toBeCloseTo(2.75, 1);
+      const h = 1 / plan.body.trajectory.rate;
+      const shoulder = (plan.body.trajectory.positions as number[][]).map((q) => q[1]!);
+      const jerk = shoulder.slice(3).map((q, k) => Math.abs(q - 3 * shoulder[k + 2]! + 3 * shoulder[k + 1]! - shoulder[k]!) / h ** 3);
+      expect(Math.max(...jerk)).toBeLessThanOrEqual(2 * 1.05);
+      expect(Math.max(...jerk)).toBeGreaterThan(1);
+    } finally {
+      await jerkServed.stop();
+    }
     writeFileSync(yaml, "joint_limits:\n  wrist:\n    has_acceleration_limits: true\n    max_acceleration: 1\n");
     const noJoint = await runCli(["generate", join(work, "tiny.urdf"), "--limits", yaml, "--samples", SAMPLES, "--out", join(work, "never-limits")]);
     expect(noJoint.code).toBe(1);

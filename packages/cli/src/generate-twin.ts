@@ -157,12 +157,14 @@ async function loadRobotInScene(
   onMesh: (mesh: RobotLoadProgressNotification) => void,
   source: string = urdf,
   accelerations?: Record<string, number>,
+  jerks?: Record<string, number>,
 ): Promise<RobotModel> {
-  // the acceleration limits are checked against the robot's joints here, as serve will load them
+  // the acceleration and jerk limits are checked against the robot's joints here, as serve will load them
   const srdf = {
     ...(opts.srdf !== undefined ? { srdf: opts.srdf } : {}),
     clearance: opts.clearance,
     ...(accelerations !== undefined ? { accelerationLimits: accelerations } : {}),
+    ...(jerks !== undefined ? { jerkLimits: jerks } : {}),
   };
   const base = opts.base ? { basePosition: opts.base.position, baseOrientation: opts.base.orientation } : {};
   const coupled = {
@@ -244,7 +246,7 @@ async function generateFrom(
 ): Promise<GenerateResult> {
   const { source, urdf, packageRoots } = input;
   const meshes = meshProgress(progress);
-  const model = await whileSlow(loadRobotInScene(opts, sim, urdf, packageRoots, meshes.onMesh, source, input.accelerations), SLOW_LOAD_MS, () => {
+  const model = await whileSlow(loadRobotInScene(opts, sim, urdf, packageRoots, meshes.onMesh, source, input.accelerations, input.jerks), SLOW_LOAD_MS, () => {
     if (!meshes.seen()) progress.info(SLOW_LOAD);
   });
   staged.refuseOtherRobot(model.name, opts.force);
@@ -351,6 +353,7 @@ function writeManifest(dir: string, model: RobotModel, opts: GenerateOptions, in
       ...(input.limits !== undefined ? { limits: input.limits } : {}),
       // its (or a MoveIt config's) accelerations, which a URDF cannot carry: serve passes them to robot.load
       ...(input.accelerations !== undefined ? { accelerations: input.accelerations } : {}),
+      ...(input.jerks !== undefined ? { jerks: input.jerks } : {}),
       // --tcp / --tool-mesh: robot.urdf carries the tool (links robwot_tool, robwot_tcp); eeLink is the TCP
       ...(input.tool !== undefined ? { tool: input.tool } : {}),
       // --couple rules and those --keep-level derived (robot.urdf's own <mimic> tags aside): serve loads them

@@ -27,9 +27,11 @@ export interface RosInput {
   /** the temporary folder of the expansion, if any (the caller removes it, or keeps it for an error) */
   expandedDir?: string;
   /** `--limits`: the joint_limits.yaml's name and the velocity and position limits it put into the URDF */
-  limits?: { file: string; velocities: Record<string, number>; accelerations: Record<string, number>; positions?: Record<string, [number, number]> };
+  limits?: { file: string; velocities: Record<string, number>; accelerations: Record<string, number>; jerks?: Record<string, number>; positions?: Record<string, [number, number]> };
   /** joint -> acceleration limit (rad/s^2 or m/s^2) of a MoveIt config's or `--limits`' joint_limits.yaml */
   accelerations?: Record<string, number>;
+  /** joint -> jerk limit (rad/s^3 or m/s^3) of that joint_limits.yaml (`max_jerk`): every motion jerk-limited */
+  jerks?: Record<string, number>;
   /** `--tcp` / `--tool-mesh`: the flange the tool is mounted on, the TCP offset and the mesh's file name */
   tool?: { flange: string; tcp: number[]; mesh?: string; shape?: ToolShape };
   /** the temporary folder of the URDF with the tool (the caller removes it) */
@@ -73,6 +75,20 @@ export function srdfHome(info: SrdfInfo, group: string | undefined): RosInput["h
   return { joints, from: `SRDF group_state "${state.name}" of group "${state.group}"` };
 }
 
+/** `--limits FILE` read: its name, velocities and accelerations, and the jerks and positions it gives. */
+async function limitsFile(sim: SimClient, file: string): Promise<NonNullable<RosInput["limits"]>> {
+  const read = await sim.jointLimits({ file });
+  const positions = definedRanges(read.positionLimits);
+  const jerks = definedNumbers(read.jerkLimits);
+  return {
+    file: basename(file),
+    velocities: definedNumbers(read.velocityLimits),
+    accelerations: definedNumbers(read.accelerationLimits),
+    ...(Object.keys(jerks).length > 0 ? { jerks } : {}),
+    ...(Object.keys(positions).length > 0 ? { positions } : {}),
+  };
+}
+
 /** Resolves the robot's files; on failure removes what it created. */
 export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, source: string): Promise<RosInput> {
   let packageRoots = opts.packageRoots;
@@ -81,6 +97,7 @@ export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, sou
   let velocityLimits: Record<string, number> = {};
   let positionLimits: Record<string, [number, number]> = {};
   let accelerations: Record<string, number> = {};
+  let jerks: Record<string, number> = {};
   let limitsRecord: RosInput["limits"];
   if (opts.moveitConfig !== undefined) {
     const config = await sim.moveitConfig({ dir: opts.moveitConfig, packageRoots });
@@ -93,25 +110,21 @@ export async function prepareRosInput(opts: GenerateOptions, sim: SimClient, sou
     velocityLimits = definedNumbers(config.velocityLimits);
     positionLimits = definedRanges(config.positionLimits);
     accelerations = definedNumbers(config.accelerationLimits);
+    jerks = definedNumbers(config.jerkLimits);
   }
   if (opts.limits !== undefined) {
     // a joint_limits.yaml for any robot: its velocities and positions go into the URDF through the same expansion
-    const read = await sim.jointLimits({ file: opts.limits });
-    const positions = definedRanges(read.positionLimits);
-    const limits = {
-      velocities: definedNumbers(read.velocityLimits),
-      accelerations: definedNumbers(read.accelerationLimits),
-      ...(Object.keys(positions).length > 0 ? { positions } : {}),
-    };
-    velocityLimits = { ...velocityLimits, ...limits.velocities };
-    positionLimits = { ...positionLimits, ...positions };
-    accelerations = { ...accelerations, ...limits.accelerations };
+    limitsRecord = await limitsFile(sim, opts.limits);
+    velocityLimits = { ...velocityLimits, ...limitsRecord.velocities };
+    positionLimits = { ...positionLimits, ...(limitsRecord.positions ?? {}) };
+    accelerations = { ...accelerations, ...limitsRecord.accelerations };
+    jerks = { ...jerks, ...(limitsRecord.jerks ?? {}) };
     xacroArgs ??= {};
-    limitsRecord = { file: basename(opts.limits), ...limits };
   }
   const input: RosInput = { source, urdf: source, packageRoots, ...(srdf !== undefined ? { srdf } : {}), ...(limitsRecord ? { limits: limitsRecord } : {}) };
   // a URDF has no acceleration limits: they go to twin.json and robot.load
   if (Object.keys(accelerations).length > 0) input.accelerations = accelerations;
+  if (Object.keys(jerks).length > 0) input.jerks = jerks;
   if (xacroArgs !== undefined) {
     const expanded = await sim.expandXacro({ xacro: source, args: xacroArgs, packageRoots, velocityLimits, positionLimits });
     input.urdf = expanded.urdf;

@@ -223,6 +223,7 @@ export type RobotMoveitConfigResult = MoveitConfig;
 export type RobotJointLimitsResult = {
   velocityLimits: JointVelocities;
   accelerationLimits: JointAccelerations;
+  jerkLimits: JointJerks;
   positionLimits: JointPositionLimits;
 };
 /**
@@ -747,6 +748,7 @@ export interface MoveitConfig {
   packageRoots: PackageRoots;
   velocityLimits: JointVelocities;
   accelerationLimits: JointAccelerations;
+  jerkLimits: JointJerks;
   positionLimits: JointPositionLimits;
 }
 /**
@@ -759,6 +761,12 @@ export interface JointVelocities {
  * joint name -> acceleration limit (rad/s^2 or m/s^2) of controllable joints, as a MoveIt joint_limits.yaml gives them (`max_acceleration`)
  */
 export interface JointAccelerations {
+  [k: string]: number | undefined;
+}
+/**
+ * joint name -> jerk limit (rad/s^3 or m/s^3) of controllable joints, as a MoveIt / ros2_control joint_limits.yaml gives them (`max_jerk`); with any, every motion of the robot is jerk-limited (a joint without one is not limited)
+ */
+export interface JointJerks {
   [k: string]: number | undefined;
 }
 /**
@@ -1294,6 +1302,7 @@ export interface RobotLoadParams {
    */
   decompose?: boolean;
   accelerationLimits?: JointAccelerations;
+  jerkLimits?: JointJerks;
   couplings?: CouplingRules;
   /**
    * links to keep at the orientation they have at the zero configuration: for each, the coupling making the last tilting joint above it (not yet a follower) follow the others is derived (the joints between the base and the link that tilt it must all turn about one axis, after every joint turning about the vertical) and reported in the result's `couplings` with source `keep-level`

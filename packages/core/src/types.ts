@@ -73,9 +73,11 @@ export interface TwinManifest {
     /** the start pose `serve` takes (rad or m by joint name; joints not named stay at 0): the SRDF's `home` */
     home?: { joints: Record<string, number>; from: string };
     /** `--limits FILE`: its name and the limits it gave (the velocities are robot.urdf's) */
-    limits?: { file: string; velocities: Record<string, number>; accelerations?: Record<string, number> };
+    limits?: { file: string; velocities: Record<string, number>; accelerations?: Record<string, number>; jerks?: Record<string, number> };
     /** joint -> acceleration limit (rad/s^2 or m/s^2) from a joint_limits.yaml; other joints reach their velocity limit in the contract's `Acceleration.x-accelerationTime` */
     accelerations?: Record<string, number>;
+    /** joint -> jerk limit (rad/s^3 or m/s^3) from a joint_limits.yaml (`max_jerk`): with any, every motion is jerk-limited */
+    jerks?: Record<string, number>;
     /** `--couple` rules and those `--keep-level` derived (`FOLLOWER=EXPR`), passed to `robot.load` as `couplings` */
     couplings?: string[];
     /** `--tcp` / `--tool-mesh`: the tool robot.urdf carries, mounted on `flange`; `eeLink` is its TCP link */

@@ -150,6 +150,7 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
         ...(m.srdf ? { srdf: join(twin.folder.dir, m.srdf) } : {}),
         ...(m.clearance !== undefined ? { clearance: m.clearance } : {}),
         ...(m.accelerations !== undefined ? { accelerationLimits: m.accelerations } : {}),
+        ...(m.jerks !== undefined ? { jerkLimits: m.jerks } : {}),
         ...(m.couplings !== undefined ? { couplings: m.couplings } : {}),
         decompose: false, // generate wrote the convex parts: serve never decomposes (refused instead)
       });

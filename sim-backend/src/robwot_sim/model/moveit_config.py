@@ -34,7 +34,7 @@ import os
 import re
 import shlex
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -67,7 +67,7 @@ class MoveitConfig:
     def to_json(self) -> dict[str, Any]:
         return {"urdf": str(self.urdf), "xacroArgs": self.xacro_args, "srdf": str(self.srdf),
                 "packageRoots": self.package_roots, "velocityLimits": self.limits.velocities,
-                "accelerationLimits": self.limits.accelerations,
+                "accelerationLimits": self.limits.accelerations, "jerkLimits": self.limits.jerks,
                 "positionLimits": {k: list(v) for k, v in self.limits.positions.items()}}
 
 
@@ -140,12 +140,13 @@ def _launch_robot_description(config: Path, roots: dict[str, str]) -> tuple[Path
 @dataclass(frozen=True)
 class JointLimits:
     """What a ``joint_limits.yaml`` says: joint -> max velocity (rad/s or m/s), joint -> max acceleration
-    (rad/s^2 or m/s^2), joint -> (min, max) position (rad or m), each only for the joints whose
-    ``has_..._limits`` is true."""
+    (rad/s^2 or m/s^2), joint -> (min, max) position (rad or m), joint -> max jerk (rad/s^3 or m/s^3), each
+    only for the joints whose ``has_..._limits`` is true."""
 
     velocities: dict[str, float]
     accelerations: dict[str, float]
     positions: dict[str, tuple[float, float]]
+    jerks: dict[str, float] = field(default_factory=dict)
 
 
 def joint_limits(file: Path, *, required: bool = False) -> JointLimits:
@@ -170,7 +171,8 @@ def joint_limits(file: Path, *, required: bool = False) -> JointLimits:
         if not isinstance(limits, dict):
             continue
         for flag, key, into in (("has_velocity_limits", "max_velocity", out.velocities),
-                                ("has_acceleration_limits", "max_acceleration", out.accelerations)):
+                                ("has_acceleration_limits", "max_acceleration", out.accelerations),
+                                ("has_jerk_limits", "max_jerk", out.jerks)):
             if limits.get(flag) and key in limits:
                 into[str(joint)] = _number(file, joint, key, limits[key], positive=True)
         if limits.get("has_position_limits"):

@@ -57,6 +57,9 @@ class RobotModel:
     clearance: float = DEFAULT_CLEARANCE
     #: joint -> acceleration limit (rad/s^2 or m/s^2) from a joint_limits.yaml (see acceleration_limits)
     accelerations: dict[str, float] = field(default_factory=dict)
+    #: joint -> jerk limit (rad/s^3 or m/s^3) of controllable joints (a joint_limits.yaml's ``max_jerk``);
+    #: with any, every motion is jerk-limited (``motion.py``)
+    jerks: dict[str, float] = field(default_factory=dict)
     #: the joints that follow others, in the controllable joints' coordinates (``model/couplings.py``)
     couplings: tuple[Coupling, ...] = ()
 
@@ -96,6 +99,10 @@ class RobotModel:
         v = self.velocity_limits()
         return np.array([self.accelerations.get(n, v[i] / ACCELERATION_TIME)
                          for i, n in enumerate(self.controllable)], dtype=np.float64)
+
+    def jerk_limits(self) -> FloatArray:
+        """Jerk limits (rad/s^3 or m/s^3) of the controllable joints, inf for a joint without one."""
+        return np.array([self.jerks.get(n, math.inf) for n in self.controllable], dtype=np.float64)
 
     def follower_rates(self) -> Rates:
         """The followers with a velocity limit (a passive joint has none): their rows over the joint vector,

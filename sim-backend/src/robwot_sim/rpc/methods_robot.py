@@ -55,7 +55,8 @@ def _register_lifecycle(d: Dispatcher, s: Services) -> None:
         try:
             model = await s.change_world(lambda: s.world.add_robot(
                 files, robot_id=p["id"], base_position=base_position, base_orientation=base_orientation,
-                clearance=float(p["clearance"]), accelerations=dict(p["accelerationLimits"])), Kind.LONG)
+                clearance=float(p["clearance"]), accelerations=dict(p["accelerationLimits"]),
+                jerks=dict(p["jerkLimits"])), Kind.LONG)
         finally:
             files.cleanup()  # add_robot did, unless it never ran
         # what the load guessed or skipped (a package taken by its folder's name, SRDF entries of unknown

@@ -50,6 +50,7 @@ def register(d: Dispatcher, s: Services) -> None:
         file = Path(p["file"]).expanduser()
         limits = await s.off_world(lambda: read_joint_limits(file, required=True))
         return {"velocityLimits": limits.velocities, "accelerationLimits": limits.accelerations,
+                "jerkLimits": limits.jerks,
                 "positionLimits": {k: list(v) for k, v in limits.positions.items()}}
 
     @d.method("robot.readSrdf")

@@ -401,7 +401,7 @@ class Grippers:
         old = scene.entry(robot_id)
         m = old.model
         entry = scene.build_entry(files, robot_id, m.base_position, m.base_orientation, old.clearance,
-                                  m.accelerations)
+                                  m.accelerations, m.jerks)
         if entry.bound.ctrl_names != old.bound.ctrl_names:  # never: only a fixed link was added
             scene.bullet.remove_body(entry.bound.body)
             raise RuntimeError(f"robot {robot_id!r} rebuilt with other joints")

@@ -12,7 +12,7 @@ import numpy as np
 import pybullet as pb
 
 from robwot_sim.errors import FileNotFound, InvalidParams, UnknownLink, UrdfError
-from robwot_sim.limits import DEFAULT_CLEARANCE
+from robwot_sim.limits import CLEARANCE, DEFAULT_CLEARANCE
 from robwot_sim.model.couplings import passive_notes
 from robwot_sim.model.decompose import OnMesh
 from robwot_sim.model.joints import UrdfModel, parse_model
@@ -226,15 +226,29 @@ def load_robot_body(
                       joint_reach(bound), reach_sphere(bound), loaded_urdf=loaded)
 
 
-def acceleration_limits(movable: Sequence[str], given: Mapping[str, float]) -> dict[str, float]:
-    """``given`` checked: each a movable joint's, a positive finite number."""
+def load_limits(movable: Sequence[str], clearance: float, accelerations: Mapping[str, float],
+                jerks: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float]]:
+    """A load's ``clearance`` (m) checked, then its acceleration and jerk limits (``acceleration_limits``)."""
+    # above 0 for the sweep bound to hold (sweep.py); at most the farthest distance at which Bullet reports
+    # other bodies (its contact breaking threshold)
+    if clearance not in CLEARANCE:
+        within = f"[{CLEARANCE.minimum}, {CLEARANCE.maximum}]"
+        raise InvalidParams(f"clearance must be in {within} m", param="clearance",
+                            expected=f"number in {within}", got=clearance)
+    return acceleration_limits(movable, accelerations), acceleration_limits(movable, jerks, "jerkLimits")
+
+
+def acceleration_limits(movable: Sequence[str], given: Mapping[str, float],
+                        param: str = "accelerationLimits") -> dict[str, float]:
+    """``given`` (the request's ``param``: acceleration or jerk limits) checked: each a movable joint's, a
+    positive finite number."""
     out: dict[str, float] = {}
     for joint, value in given.items():
         if joint not in movable:
-            raise InvalidParams(f"accelerationLimits: {joint!r} is not a movable joint of the robot",
-                                param="accelerationLimits", expected=list(movable), got=joint)
+            raise InvalidParams(f"{param}: {joint!r} is not a movable joint of the robot",
+                                param=param, expected=list(movable), got=joint)
         if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
-            raise InvalidParams(f"accelerationLimits: {joint!r} must be a positive number, got {value!r}",
-                                param="accelerationLimits", expected="positive number", got=value)
+            raise InvalidParams(f"{param}: {joint!r} must be a positive number, got {value!r}",
+                                param=param, expected="positive number", got=value)
         out[joint] = float(value)
     return out

@@ -77,11 +77,12 @@ def trapezoid(distance: float, vmax: float, amax: float) -> tuple[float, float]:
 
 def plan_joint_path(
     start: FloatArray, target: FloatArray, velocity: FloatArray, acceleration: FloatArray, dt: float,
-    followers: Rates | None = None,
+    followers: Rates | None = None, jerk: FloatArray | None = None,
 ) -> Straight:
     """The timed straight line from ``start`` to ``target``: states one per ``dt`` (both ends included),
     at rest at both ends; no joint exceeds ``velocity`` (rad/s or m/s) nor ``acceleration`` (rad/s^2 or
-    m/s^2), nor any of ``followers`` its limits."""
+    m/s^2), nor any of ``followers`` its limits, nor ``jerk`` (rad/s^3 or m/s^3, inf: none) when given
+    (``_jerk_limited_line``)."""
     delta = target - start
     rates, accels = velocity, acceleration
     if followers is not None and len(followers.rows):
@@ -94,6 +95,11 @@ def plan_joint_path(
     # the path parameter s in [0, 1]: joint i moves |delta_i| * s, so s may go at most velocity_i / |delta_i|
     vmax = float(np.min(rates[moving] / np.abs(delta[moving])))
     amax = float(np.min(accels[moving] / np.abs(delta[moving])))
+    limited = np.isfinite(jerk) & moving[: len(start)] if jerk is not None else np.zeros(len(start), bool)
+    if limited.any():
+        assert jerk is not None
+        per_fraction = float(np.min(jerk[limited] / np.abs(delta[: len(start)][limited])))
+        return _jerk_limited_line(vmax, amax, per_fraction, dt, start, target)
     duration, peak = trapezoid(1.0, vmax, amax)
     # the profile slowed uniformly to fill whole steps: state k is the profile at k * duration / steps
     return Straight(start, target, duration, peak, amax, max(1, _steps(duration, dt)))
@@ -225,11 +231,15 @@ def plan_curve_path(
     waypoints, vlim, alim = limits.kept(keep).coordinates(q, length, at[keep])
     spline = CubicSpline(ss, waypoints, bc_type="not-a-knot")  # the spline toppra's interpolator makes
     path = toppra.SplineInterpolator(ss, waypoints, bc_type="not-a-knot")
-    velocity_at = _between(ss, vlim)
-    constraints = [
-        toppra.constraint.JointVelocityConstraintVarying(
-            lambda s: np.stack([-velocity_at(s)[0], velocity_at(s)[0]], axis=1)),
-        _acceleration_constraint(_between(ss, alim))]
+    if np.all(vlim == vlim[0]) and np.all(alim == alim[0]):  # the same limits all along: toppra's own
+        constraints = [toppra.constraint.JointVelocityConstraint(np.stack([-vlim[0], vlim[0]], axis=1)),
+                       toppra.constraint.JointAccelerationConstraint(np.stack([-alim[0], alim[0]], axis=1))]
+    else:
+        velocity_at = _between(ss, vlim)
+        constraints = [
+            toppra.constraint.JointVelocityConstraintVarying(
+                lambda s: np.stack([-velocity_at(s)[0], velocity_at(s)[0]], axis=1)),
+            _acceleration_constraint(_between(ss, alim))]
     grid = np.unique(np.concatenate([ss, np.linspace(0.0, 1.0, 2 * len(ss))]))
     algorithm = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid,
                                         parametrizer="ParametrizeConstAccel")
@@ -240,3 +250,85 @@ def plan_curve_path(
     curve = Curve(spline, np.asarray(algorithm.problem_data.gridpoints, dtype=np.float64),
                   np.asarray(speeds, dtype=np.float64), q.shape[1], lower, upper, q[0], q[-1], 1, knots)
     return replace(curve, steps=max(1, _steps(curve.duration, dt)))
+
+
+#: rounds of widening or slowing a jerk-limited curve until its sampled peaks are within the limits
+JERK_ROUNDS = 8
+#: how far above a limit a finite-difference peak may lie (the samples' own error)
+JERK_TOLERANCE = 0.02
+
+
+def _jerk_window(amax: float, duration: float, peak: float, jerk: float) -> float:
+    """The window (s) that keeps a trapezoid's fraction (acceleration ``amax``, ``duration`` s, cruising
+    at ``peak``) within ``jerk`` when averaged over it (``Profile.smoothed``): its jerk is then
+    (a(t) - a(t - w)) / w, a the trapezoid's acceleration (+A, 0, -A): with a cruise at least as long as
+    the window no two phases ramp against each other, w = A / J (the time-optimal jerk-limited profile of
+    a line reaching both limits), else 2 A / J."""
+    window = amax / jerk
+    return window if duration - 2 * peak / amax >= window else 2 * window
+
+
+def _jerk_limited_line(vmax: float, amax: float, jerk: float, dt: float, start: FloatArray,
+                       target: FloatArray) -> Straight:
+    """The fastest averaged trapezoid (``_jerk_window``) of a line whose fraction may go ``vmax``,
+    ``amax`` and ``jerk``: a lower acceleration than ``amax`` shortens the window more than it lengthens
+    the trapezoid when the jerk is low, so the acceleration is chosen among 48 between amax / 1000 and
+    amax (the largest time found is within the grid's step of the best)."""
+    best: tuple[float, float, float, float] | None = None
+    for a in amax * np.geomspace(1e-3, 1.0, 48):
+        duration, peak = trapezoid(1.0, vmax, float(a))
+        total = duration + _jerk_window(float(a), duration, peak, jerk)
+        if best is None or total < best[0]:
+            best = (total, float(a), duration, peak)
+    assert best is not None
+    total, a, duration, peak = best
+    return Straight(start, target, duration, peak, a, max(1, _steps(total, dt)), total - duration)
+
+
+def _peaks(curve: Curve) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Each joint's largest |velocity|, |acceleration| and |jerk| along ``curve`` as it is timed, by
+    finite differences of its states at a fine, even time step."""
+    n = int(min(20_000, max(400, 4 * curve.steps)))
+    h = curve.span / n
+    t: FloatArray = np.arange(n + 1, dtype=np.float64) * h
+    param = np.clip(curve.profile.smoothed(t, curve.window) if curve.window > 0 else curve.param_at(t),
+                    curve.grid[0], curve.grid[-1])
+    q = curve.states(param)
+    v, a, j = (np.abs(np.diff(q, k, axis=0)).max(axis=0) / h**k for k in (1, 2, 3))
+    return v, a, j
+
+
+def jerk_limited_curve(curve: Curve, jerk: FloatArray, velocity: FloatArray, acceleration: FloatArray,
+                       dt: float) -> Curve:
+    """``curve`` with every joint's jerk within ``jerk`` (inf: none), its velocity and acceleration still
+    within ``velocity`` and ``acceleration``: its TOPP-RA profile averaged over a window (the parameter's
+    jerk then (a(t) - a(t - w)) / w), the window from the largest change of the parameter's acceleration
+    and each joint's largest slope (the profile first slowed where that makes the whole shorter), then
+    checked by sampling: a jerk still above its limit widens the
+    window, a velocity or acceleration above its limit slows the whole profile (time x k: velocity / k,
+    acceleration / k^2, jerk / k^3)."""
+    limited = np.isfinite(jerk)
+    if curve.steps == 0 or not limited.any():
+        return curve
+    accel = curve.profile.accel
+    jump = max(float(accel.max()), 0.0) - min(float(accel.min()), 0.0)
+    slopes = np.array([curve.slope_bound(np.eye(curve.dof)[j]) for j in range(curve.dof)])
+    window = max(1e-3, float(np.max(slopes[limited] * jump / jerk[limited])))
+    # slowed by k the profile's accelerations and so the window shrink by k^2: the time k T + w / k^2 is
+    # least at k = (2 w / T)^(1/3) (a low jerk limit: a slower profile rather than a long window)
+    k = max(1.0, (2.0 * window / curve.duration) ** (1 / 3))
+    curve, window = replace(curve, speeds=curve.speeds / k), window / k**2
+    for _ in range(JERK_ROUNDS):
+        out = replace(curve, window=window, steps=max(1, _steps(curve.duration + window, dt)))
+        v, a, j = _peaks(out)
+        over_v, over_a = float(np.max(v / velocity)), float(np.max(a / acceleration))
+        over_j = float(np.max(j[limited] / jerk[limited]))
+        if max(over_v, over_a, over_j) <= 1.0 + JERK_TOLERANCE:
+            return out
+        if max(over_v, over_a) <= 1.0 + JERK_TOLERANCE:
+            window *= over_j
+            continue
+        k = max(over_v, math.sqrt(over_a), over_j ** (1 / 3), 1.0) * (1.0 + JERK_TOLERANCE)
+        curve = replace(curve, speeds=curve.speeds / k)
+        window *= k
+    return replace(curve, window=window, steps=max(1, _steps(curve.duration + window, dt)))

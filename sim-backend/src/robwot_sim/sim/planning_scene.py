@@ -24,13 +24,13 @@ import numpy.typing as npt
 
 from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams, NameTaken, UnknownObject, UnknownRobot
-from robwot_sim.limits import CLEARANCE, DEFAULT_CLEARANCE, MAX_OBJECTS
+from robwot_sim.limits import DEFAULT_CLEARANCE, MAX_OBJECTS
 from robwot_sim.model.robot_model import RobotModel
 from robwot_sim.model.rotations import quat_from_rpy
 from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.kinematics import fk_pose
-from robwot_sim.sim.loader import RobotEntry, RobotFiles, acceleration_limits, load_robot_body
+from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_limits, load_robot_body
 from robwot_sim.sim.scene_files import (
     ReadObstacle,
     SceneFiles,
@@ -165,26 +165,21 @@ class Scene:
         base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
         clearance: float = DEFAULT_CLEARANCE,
         accelerations: Mapping[str, float] | None = None,
+        jerks: Mapping[str, float] | None = None,
     ) -> RobotModel:
         """Create the body of ``files`` (``scene_files.read_robot``); removes their temporary copy.
-        ``accelerations``: joint -> acceleration limit (rad/s^2 or m/s^2) of controllable joints."""
+        ``accelerations`` / ``jerks``: joint -> limit (rad/s^2, rad/s^3 or m/...) of controllable joints."""
         try:
             if robot_id is not None:
                 self._check_free_name(v.name("id", robot_id))
             pos = v.position("basePosition", base_position)
             quat = v.quaternion("baseOrientation", base_orientation)
-            # above 0 for the sweep bound to hold (sweep.py); at most the farthest distance at which
-            # Bullet reports other bodies (its contact breaking threshold)
-            if clearance not in CLEARANCE:
-                within = f"[{CLEARANCE.minimum}, {CLEARANCE.maximum}]"
-                raise InvalidParams(f"clearance must be in {within} m", param="clearance",
-                                    expected=f"number in {within}", got=clearance)
             movable = [j.name for j in files.urdf_model.joints if j.type != "fixed"]
-            limits = acceleration_limits(movable, accelerations or {})
+            limits = load_limits(movable, clearance, accelerations or {}, jerks or {})
         except Exception:
             files.cleanup()
             raise
-        entry = self.build_entry(files, robot_id or "robot", pos, quat, clearance, limits)
+        entry = self.build_entry(files, robot_id or "robot", pos, quat, clearance, *limits)
         if robot_id is None:
             base, k, rid = entry.model.name or "robot", 2, entry.model.name or "robot"
             while rid in self._robots or rid in self._obstacles:
@@ -208,12 +203,13 @@ class Scene:
 
     @owned
     def build_entry(self, files: RobotFiles, robot_id: str, pos: Vec3, quat: Quat, clearance: float,
-                    accelerations: Mapping[str, float]) -> RobotEntry:
+                    accelerations: Mapping[str, float], jerks: Mapping[str, float]) -> RobotEntry:
         """A body of ``files`` set up as a robot of the scene (``add_robot``; a robot rebuilt with a link
         added, ``gripper.py``), not yet in it: every check ignores it until ``swap_entry`` or removed."""
         entry = load_robot_body(self.bullet, self.table, files, robot_id, list(pos), list(quat))
         entry.clearance = float(clearance)
-        entry.model = replace(entry.model, clearance=entry.clearance, accelerations=dict(accelerations))
+        entry.model = replace(entry.model, clearance=entry.clearance, accelerations=dict(accelerations),
+                              jerks=dict(jerks))
         return entry
 
     @owned

@@ -70,6 +70,72 @@ def _fractional_index(piece: Piece, continuous: float, progress: float) -> float
 
 
 @dataclass(frozen=True)
+class Profile:
+    """A path parameter under piecewise constant acceleration: at ``times`` (s, from 0, non-decreasing)
+    it is at ``at`` with speed ``speed``, accelerating uniformly between two of them; before the first it
+    stands at the first value, after the last at the last one. What a window (``smoothed``) needs: the
+    parameter, its speed and acceleration at any time, and its integral over time, all exact."""
+
+    times: FloatArray
+    at: FloatArray
+    speed: FloatArray
+
+    @cached_property
+    def accel(self) -> FloatArray:
+        gap = np.diff(self.times)
+        out: FloatArray = np.divide(np.diff(self.speed), gap, out=np.zeros(len(gap)), where=gap > 0)
+        return out
+
+    @cached_property
+    def _integral(self) -> FloatArray:
+        """The integral of the parameter from 0 to each of ``times``."""
+        gap = np.diff(self.times)
+        cells = self.at[:-1] * gap + self.speed[:-1] * gap**2 / 2 + self.accel * gap**3 / 6
+        out: FloatArray = np.concatenate([[0.0], np.cumsum(cells)])
+        return out
+
+    def _cell(self, t: FloatArray) -> tuple[npt.NDArray[np.intp], FloatArray]:
+        i = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
+        return i, np.clip(t, self.times[0], self.times[-1]) - self.times[i]
+
+    def value(self, t: FloatArray) -> FloatArray:
+        i, tau = self._cell(t)
+        out: FloatArray = self.at[i] + self.speed[i] * tau + self.accel[i] * tau**2 / 2
+        return out
+
+    def integral(self, t: FloatArray) -> FloatArray:
+        """The parameter's integral over time from 0 to ``t`` (0 before, growing at the last value after)."""
+        t = np.asarray(t, dtype=np.float64)
+        i, tau = self._cell(t)
+        inside = (self._integral[i] + self.at[i] * tau + self.speed[i] * tau**2 / 2
+                  + self.accel[i] * tau**3 / 6)
+        after = np.maximum(t - self.times[-1], 0.0) * self.at[-1]
+        out: FloatArray = np.where(t <= self.times[0], 0.0, inside + after)
+        return out
+
+    def smoothed(self, t: FloatArray, window: float) -> FloatArray:
+        """The parameter averaged over the ``window`` (s) before ``t``: its acceleration then changes at
+        most by the largest jump of the original's within a window, spread over the window (bounded jerk),
+        its speed and acceleration stay within the original's range; ``window`` longer than the motion."""
+        t = np.asarray(t, dtype=np.float64)
+        out: FloatArray = (self.integral(t) - self.integral(t - window)) / window
+        return out
+
+
+def _smoothed_index(piece: Piece, profile: Profile, window: float, span: float, progress: float) -> float:
+    """``index_of`` of a piece timed by ``profile`` averaged over ``window``: the time by bisection (the
+    average is non-decreasing in time), then linear in progress between the two steps around it."""
+    lo, hi = 0.0, span
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if float(profile.smoothed(np.array([mid]), window)[0]) < progress:
+            lo = mid
+        else:
+            hi = mid
+    return _fractional_index(piece, hi / span * piece.steps, progress)
+
+
+@dataclass(frozen=True)
 class Straight:
     """From ``start`` to ``target`` on the line, the line's fraction on the rest-to-rest trapezoid of
     ``peak`` (fraction/s) and ``amax`` (fraction/s^2) lasting ``duration`` s, sampled at ``steps`` equal
@@ -81,6 +147,21 @@ class Straight:
     peak: float
     amax: float
     steps: int
+    #: seconds the trapezoid's fraction is averaged over (``Profile.smoothed``): 0, or a jerk-limited motion
+    #: ``window`` longer
+    window: float = 0.0
+
+    @cached_property
+    def profile(self) -> Profile:
+        """The trapezoid as a `Profile` of the line's fraction."""
+        ramp = min(self.peak / self.amax, self.duration / 2)
+        times = np.array([0.0, ramp, self.duration - ramp, self.duration])
+        return Profile(times, self._fraction(times), np.array([0.0, self.peak, self.peak, 0.0]))
+
+    @property
+    def span(self) -> float:
+        """Seconds from its first state to its last."""
+        return self.duration + self.window
 
     def _fraction(self, t: FloatArray) -> FloatArray:
         """The line's fraction at profile times ``t`` (clamped to [0, duration])."""
@@ -96,7 +177,10 @@ class Straight:
     def progress(self, k: FloatArray) -> FloatArray:
         if self.steps == 0:
             return np.ones(len(k))
-        return self._fraction(np.asarray(k, dtype=np.float64) * (self.duration / self.steps))
+        t = np.asarray(k, dtype=np.float64) * (self.span / self.steps)
+        if self.window > 0:
+            return np.minimum(self.profile.smoothed(t, self.window), 1.0)
+        return self._fraction(t)
 
     def at(self, k: IntArray) -> FloatArray:
         s = self.progress(np.asarray(k, dtype=np.float64))
@@ -107,6 +191,8 @@ class Straight:
     def index_of(self, progress: float) -> float:
         if self.steps == 0:
             return 0.0
+        if self.window > 0:
+            return _smoothed_index(self, self.profile, self.window, self.span, min(1.0, max(0.0, progress)))
         ramp = self.peak / self.amax
         ramped = 0.5 * self.amax * ramp**2  # the fraction covered while speeding up (and slowing down)
         f = min(1.0, max(0.0, progress))
@@ -138,6 +224,19 @@ class Curve:
     last: FloatArray
     steps: int
     knots: FloatArray
+    #: seconds the parameter's profile is averaged over (``Profile.smoothed``): 0, or a jerk-limited motion
+    #: ``window`` longer
+    window: float = 0.0
+
+    @cached_property
+    def profile(self) -> Profile:
+        """The parameter's profile as a `Profile`."""
+        return Profile(self._times, self.grid, self.speeds)
+
+    @property
+    def span(self) -> float:
+        """Seconds from its first state to its last."""
+        return self.duration + self.window
 
     @cached_property
     def _times(self) -> FloatArray:
@@ -180,7 +279,10 @@ class Curve:
         return out
 
     def progress(self, k: FloatArray) -> FloatArray:
-        return self.param_at(np.asarray(k, dtype=np.float64) * (self.duration / self.steps))
+        t = np.asarray(k, dtype=np.float64) * (self.span / self.steps)
+        if self.window > 0:
+            return np.clip(self.profile.smoothed(t, self.window), self.grid[0], self.grid[-1])
+        return self.param_at(t)
 
     def at(self, k: IntArray) -> FloatArray:
         k = np.asarray(k)
@@ -190,6 +292,8 @@ class Curve:
         return out
 
     def index_of(self, progress: float) -> float:
+        if self.window > 0:
+            return _smoothed_index(self, self.profile, self.window, self.span, progress)
         return _fractional_index(self, self.time_of(progress) / self.duration * self.steps, progress)
 
     def monotone_params(self) -> FloatArray:
@@ -227,7 +331,7 @@ class Curve:
     def row_travel_bound(self, weights: FloatArray) -> float:
         """An upper bound of sum_j weights_j |q_j(k+1) - q_j(k)| between two consecutive states: one time
         step times the largest parameter speed times ``slope_bound`` (clipping only shortens moves)."""
-        return self.duration / self.steps * float(np.max(self.speeds)) * self.slope_bound(weights)
+        return self.span / self.steps * float(np.max(self.speeds)) * self.slope_bound(weights)
 
 
 class TimedPath:

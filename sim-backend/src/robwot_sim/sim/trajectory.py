@@ -23,9 +23,14 @@ from robwot_sim.limits import (
     TCP_ACCELERATION,
 )
 from robwot_sim.model.robot_model import RobotModel
-from robwot_sim.sim.motion import CurveLimits, plan_curve_path, plan_joint_path
+from robwot_sim.sim.motion import (
+    CurveLimits,
+    jerk_limited_curve,
+    plan_curve_path,
+    plan_joint_path,
+)
 from robwot_sim.sim.planning_scene import JointVector, Scene
-from robwot_sim.sim.timed import TimedPath
+from robwot_sim.sim.timed import Curve, TimedPath
 from robwot_sim.sim.types import FloatArray
 
 #: radians a joint may turn between two points of a straight joint-space stretch a curve is timed along
@@ -107,12 +112,17 @@ def time_path(model: RobotModel, points: Sequence[FloatArray], speed: float, dt:
         along = along or Along.constant(len(points), speed, acceleration, tcp_speed)
         if len(along.speed) != len(points):
             raise ValueError(f"along needs limits per point: {len(along.speed)} for {len(points)}")
-        curve = plan_curve_path(points, arc, curve_limits(model, along), dt, model.limits(), tcp)
+        limits = curve_limits(model, along)
+        curve = plan_curve_path(points, arc, limits, dt, model.limits(), tcp)
+        if isinstance(curve, Curve) and model.jerks:
+            fastest = np.max(limits.velocity, axis=0), np.max(limits.acceleration, axis=0)
+            curve = jerk_limited_curve(curve, model.jerk_limits() * min(along.acceleration), *fastest, dt)
         return TimedPath([curve], dt)
     velocity = model.velocity_limits() * speed
     accelerations = model.acceleration_limits() * acceleration
     followers = model.follower_rates().scaled(speed, acceleration)
-    pieces = [plan_joint_path(a, b, velocity, accelerations, dt, followers)
+    jerk = model.jerk_limits() * acceleration
+    pieces = [plan_joint_path(a, b, velocity, accelerations, dt, followers, jerk)
               for a, b in itertools.pairwise(points)]
     return TimedPath(pieces, dt)
 
