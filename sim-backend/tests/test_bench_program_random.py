@@ -66,3 +66,9 @@ def test_smallest_configuration_prints_numbers(capsys: pytest.CaptureFixture[str
         if r.valid:  # cycle time / bound, max and median: finite ratios near 1 or above
             assert re.fullmatch(NUMBER, cells[4]) and re.fullmatch(NUMBER, cells[5]), row
             assert 0.9 < float(cells[4]) < 10, row
+    jerk = out[out.index("jerk limits ("):]
+    for r in results:
+        row = next(line for line in jerk.splitlines() if line.startswith(f"| {r.name} | "))
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        if r.valid and cells[2] == "0":  # planned again with jerk limits: the largest jerk within its limit
+            assert re.fullmatch(NUMBER, cells[3]) and float(cells[3]) <= 1.05, row

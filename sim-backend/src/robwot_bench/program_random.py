@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from robwot_bench import program_jerk
 from robwot_bench.program import Backend, busy_load
 from robwot_bench.program_bound import PIECES, Limits, bound, rests
 from robwot_bench.program_kin import Follow, Kin, follow
@@ -99,7 +100,9 @@ class Gen:
     kind: str
 
 
-def load_arm(b: Backend, name: str) -> Arm:
+def load_arm(b: Backend, name: str, jerk_factor: float = 0.0) -> Arm:
+    """The arm with its tool; with ``jerk_factor``, every joint jerk-limited at that many times its
+    acceleration limit (robot.load ``jerkLimits``: the arm loaded once to learn its joints, then again)."""
     r = example_robot(name)
     att = b.call("robot.attachTool", {"urdf": str(r.urdf), "packageRoots": r.package_roots, "tcp": list(TCP),
                                       "shape": {"type": "box", "size": list(TOOL_SIZE)}})
@@ -110,6 +113,10 @@ def load_arm(b: Backend, name: str) -> Arm:
     model = b.call("robot.load", params)
     names = list(model["controllable"])
     joints = {j["name"]: j for j in model["joints"]}
+    if jerk_factor > 0:
+        b.call("robot.remove", {"robot": name})
+        params["jerkLimits"] = {n: jerk_factor * joints[n]["velocity"] / ACCELERATION_TIME for n in names}
+        b.call("robot.load", params)
     lo = np.array([joints[n]["lower"] for n in names], dtype=np.float64)
     hi = np.array([joints[n]["upper"] for n in names], dtype=np.float64)
     vmax = np.array([joints[n]["velocity"] for n in names], dtype=np.float64)
@@ -223,6 +230,8 @@ class ArmResult:
     #: self-check: a plan within its limits is never faster than the time-optimal on its own path)
     over: int = 0
     pieces: int = 0
+    #: the valid programs: start, steps, cycle time (planned again with jerk limits: ``program_jerk.py``)
+    kept: list[tuple[F, list[dict[str, Any]], float]] = field(default_factory=list)
 
 
 def run_arm(name: str, programs: int, n_steps: tuple[int, int], runs: int, seed: int,
@@ -245,6 +254,7 @@ def run_arm(name: str, programs: int, n_steps: tuple[int, int], runs: int, seed:
                 log(f"{name} program {i}: nothing valid left")
                 continue
             res.valid += 1
+            res.kept.append((q0, steps, float(plan["cycleTime"])))
             res.steps += len(steps)
             res.detours += sum(1 for s in plan["steps"] if s.get("planned") == "detour")
             cycle = float(plan["cycleTime"])
@@ -391,6 +401,7 @@ def run(args: argparse.Namespace, argv: Sequence[str]) -> list[ArmResult]:
         results = [run_arm(name, args.programs, tuple(args.steps), args.runs, args.seed, log)
                    for name in args.arms]
     report(results, argv)
+    program_jerk.report([program_jerk.jerk_arm(r.name, r.kept, log) for r in results])
     print(f"\n{time.perf_counter() - t0:.0f} s, load average {os.getloadavg()[0]:.1f}")
     return results
 
