@@ -70,5 +70,5 @@ def test_smallest_configuration_prints_numbers(capsys: pytest.CaptureFixture[str
     for r in results:
         row = next(line for line in jerk.splitlines() if line.startswith(f"| {r.name} | "))
         cells = [c.strip() for c in row.strip("|").split("|")]
-        if r.valid and cells[2] == "0":  # planned again with jerk limits: the largest jerk within its limit
-            assert re.fullmatch(NUMBER, cells[3]) and float(cells[3]) <= 1.05, row
+        if r.valid and cells[3] == "0":  # planned again with jerk limits: the largest jerk within its limit
+            assert re.fullmatch(NUMBER, cells[4]) and float(cells[4]) <= 1.05, row

@@ -1,5 +1,6 @@
 """Jerk limits on the random programs (``program_random.py``, issue 38): each arm loaded again with every
-joint's jerk limited to ``JERK_FACTOR`` x its acceleration limit (robot.load ``jerkLimits``), among the same
+joint's jerk limited to each of ``JERK_FACTORS`` x its acceleration limit (robot.load ``jerkLimits``; a
+Franka Panda's published limits are about 500 x), among the same
 obstacles, the same valid programs planned again from the same starts. Per program: the largest joint jerk
 of the full-rate trajectory (third differences of its states, independent of how the planner limits it)
 against its limit, and the cycle time against the acceleration-limited one (what jerk limits cost). A
@@ -22,13 +23,15 @@ from robwot_sim.limits import ACCELERATION_TIME, DEFAULT_DT
 if TYPE_CHECKING:
     from robwot_bench.program_random import F
 
-#: jerk limit per joint in multiples of its acceleration limit (1/s): the acceleration reached in 0.1 s
-JERK_FACTOR = 10.0
+#: jerk limits per joint in multiples of its acceleration limit (1/s): the acceleration reached in 10 ms,
+#: and in 0.1 s
+JERK_FACTORS = (100.0, 10.0)
 
 
 @dataclass
 class JerkResult:
     name: str
+    factor: float
     refused: int = 0
     #: per program: largest jerk / its limit over the joints
     peaks: list[float] = field(default_factory=list)
@@ -37,17 +40,18 @@ class JerkResult:
     detour_costs: list[float] = field(default_factory=list)
 
 
-def jerk_arm(name: str, kept: list[tuple[F, list[dict[str, Any]], float]],
+def jerk_arm(name: str, kept: list[tuple[F, list[dict[str, Any]], float]], factor: float,
              log: Callable[[str], None]) -> JerkResult:
-    """The programs ``kept`` (start, steps, acceleration-limited cycle) planned with jerk limits."""
+    """The programs ``kept`` (start, steps, acceleration-limited cycle) planned with jerk limits of
+    ``factor`` x each joint's acceleration limit."""
     from robwot_bench.program_random import OBSTACLES, load_arm
 
     b = Backend()
-    res = JerkResult(name)
+    res = JerkResult(name, factor)
     arm = None
     try:
-        arm = load_arm(b, name, JERK_FACTOR)
-        limit = JERK_FACTOR * arm.lim.vmax / ACCELERATION_TIME
+        arm = load_arm(b, name, factor)
+        limit = factor * arm.lim.vmax / ACCELERATION_TIME
         for obs, size, pos in OBSTACLES:
             b.call("obstacle.add", {"name": obs, "shape": {"type": "box", "size": list(size)},
                                     "position": list(pos)})
@@ -72,16 +76,15 @@ def jerk_arm(name: str, kept: list[tuple[F, list[dict[str, Any]], float]],
 
 
 def report(results: list[JerkResult]) -> None:
-    print(f"\njerk limits ({JERK_FACTOR:g} x each joint's acceleration limit, per s): the same programs "
-          "planned again")
-    print("| arm | programs | refused | largest jerk / limit | cycle / acceleration-limited, median (max) "
-          "| with a detour, median (max) |")
-    print("|---|---|---|---|---|---|")
+    print("\njerk limits (a factor x each joint's acceleration limit, per s): the same programs again")
+    print("| arm | jerk factor | programs | refused | largest jerk / limit "
+          "| cycle / acceleration-limited, median (max) | with a detour, median (max) |")
+    print("|---|---|---|---|---|---|---|")
 
     def spread(xs: list[float]) -> str:
         return f"{statistics.median(xs):.3f} ({max(xs):.3f})" if xs else "-"
 
     for r in results:
         peak = f"{max(r.peaks):.3f}" if r.peaks else "-"
-        print(f"| {r.name} | {len(r.peaks) + r.refused} | {r.refused} | {peak} | {spread(r.costs)} "
-              f"| {spread(r.detour_costs)} |")
+        print(f"| {r.name} | {r.factor:g} | {len(r.peaks) + r.refused} | {r.refused} | {peak} "
+              f"| {spread(r.costs)} | {spread(r.detour_costs)} |")

@@ -401,7 +401,8 @@ def run(args: argparse.Namespace, argv: Sequence[str]) -> list[ArmResult]:
         results = [run_arm(name, args.programs, tuple(args.steps), args.runs, args.seed, log)
                    for name in args.arms]
     report(results, argv)
-    program_jerk.report([program_jerk.jerk_arm(r.name, r.kept, log) for r in results])
+    program_jerk.report([program_jerk.jerk_arm(r.name, r.kept, factor, log) for r in results
+                         for factor in program_jerk.JERK_FACTORS])
     print(f"\n{time.perf_counter() - t0:.0f} s, load average {os.getloadavg()[0]:.1f}")
     return results
 

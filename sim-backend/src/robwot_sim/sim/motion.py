@@ -36,6 +36,8 @@ from robwot_sim.sim.types import FloatArray
 
 #: a limit standing for none (m/s, m/s^2, rad/s, ...): far beyond any robot's, finite for toppra
 UNLIMITED = 1e9
+#: samples of a curve beyond which TOPP-RA's grid is its samples alone
+DENSE = 120
 #: directions (one of each opposite pair) along which the end effector's acceleration is limited: its
 #: total acceleration is within the limit when its component along each is within the limit x
 #: ``tcp_cover()`` (``CurveLimits``)
@@ -240,7 +242,10 @@ def plan_curve_path(
             toppra.constraint.JointVelocityConstraintVarying(
                 lambda s: np.stack([-velocity_at(s)[0], velocity_at(s)[0]], axis=1)),
             _acceleration_constraint(_between(ss, alim))]
-    grid = np.unique(np.concatenate([ss, np.linspace(0.0, 1.0, 2 * len(ss))]))
+    # TOPP-RA's grid: the samples, and twice as many evenly spread where they are few (a LIN's, 5 mm
+    # apart); a densely sampled curve (a detour's, every 0.02 rad) is timed on its samples alone
+    extra = np.linspace(0.0, 1.0, 2 * len(ss)) if len(ss) <= DENSE else np.empty(0)
+    grid = np.unique(np.concatenate([ss, extra]))
     algorithm = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid,
                                         parametrizer="ParametrizeConstAccel")
     speeds = None if algorithm.compute_trajectory(0.0, 0.0) is None else algorithm.problem_data.sd_vec
