@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from simhelp import KUKA
+from simhelp import KUKA, steps_of
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.sim.planner import plan_lin
+from robwot_sim.sim.program import plan_program
 from robwot_sim.sim.timed import Curve, Straight, TimedPath
 from robwot_sim.sim.world import World
 
@@ -87,6 +88,20 @@ def test_a_lin_keeps_the_jerk_limit_on_its_line() -> None:
         assert np.all(v <= model.velocity_limits() * 1.02)
         assert np.all(acc <= model.acceleration_limits() * 1.05)
         assert b.path.duration > a.path.duration
+
+
+def test_a_blended_corner_keeps_the_jerk_limit() -> None:
+    """Two LINs blended through a right angle (a tight joint-space curve, where the path's curvature, not
+    the profile's window, makes the jerk): within the limit by third differences of every state."""
+    with World() as w:
+        rid = _kuka(w, JERK)
+        w.set_joint_positions(rid, START)
+        x, y, z = w.fk(rid).position
+        steps = steps_of([{"motion": "lin", "position": [x, y + 0.1, z], "tcpSpeed": 0.5, "blend": 0.02},
+                          {"motion": "lin", "position": [x - 0.1, y + 0.1, z], "tcpSpeed": 0.5}], 7)
+        plan = plan_program(w, rid, steps, DT, 1 / DT)
+        assert plan.path is not None, plan.report["steps"]
+        assert _rates(plan.path)[2].max() <= JERK * 1.05
 
 
 def test_jerk_limits_of_joints_the_robot_lacks_or_not_positive_are_refused() -> None:

@@ -309,9 +309,9 @@ def jerk_limited_curve(curve: Curve, jerk: FloatArray, velocity: FloatArray, acc
     within ``velocity`` and ``acceleration``: its TOPP-RA profile averaged over a window (the parameter's
     jerk then (a(t) - a(t - w)) / w), the window from the largest change of the parameter's acceleration
     and each joint's largest slope (the profile first slowed where that makes the whole shorter), then
-    checked by sampling: a jerk still above its limit widens the
-    window, a velocity or acceleration above its limit slows the whole profile (time x k: velocity / k,
-    acceleration / k^2, jerk / k^3)."""
+    checked by sampling: a jerk still above its limit first widens the
+    window, then, like a velocity or acceleration above its limit, slows the whole profile (time x k:
+    velocity / k, acceleration / k^2, jerk / k^3, every term of it)."""
     limited = np.isfinite(jerk)
     if curve.steps == 0 or not limited.any():
         return curve
@@ -323,14 +323,15 @@ def jerk_limited_curve(curve: Curve, jerk: FloatArray, velocity: FloatArray, acc
     # least at k = (2 w / T)^(1/3) (a low jerk limit: a slower profile rather than a long window)
     k = max(1.0, (2.0 * window / curve.duration) ** (1 / 3))
     curve, window = replace(curve, speeds=curve.speeds / k), window / k**2
-    for _ in range(JERK_ROUNDS):
+    for rounds in range(JERK_ROUNDS):
         out = replace(curve, window=window, steps=max(1, _steps(curve.duration + window, dt)))
         v, a, j = _peaks(out)
         over_v, over_a = float(np.max(v / velocity)), float(np.max(a / acceleration))
         over_j = float(np.max(j[limited] / jerk[limited]))
         if max(over_v, over_a, over_j) <= 1.0 + JERK_TOLERANCE:
             return out
-        if max(over_v, over_a) <= 1.0 + JERK_TOLERANCE:
+        if rounds == 0 and max(over_v, over_a) <= 1.0 + JERK_TOLERANCE:
+            # the window's part of the jerk falls with its width; the path's curvature's does not
             window *= over_j
             continue
         k = max(over_v, math.sqrt(over_a), over_j ** (1 / 3), 1.0) * (1.0 + JERK_TOLERANCE)
