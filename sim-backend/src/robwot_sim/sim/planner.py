@@ -164,19 +164,21 @@ def _detour(world: World, robot: str, target: Sequence[float], checks: dict[str,
 
 
 def _through(world: World, robot: str, corners: list[npt.NDArray[np.float64]], timing: Timing) -> TimedPath:
-    """A detour's motion: one curve along its waypoints (``smooth``: the spline through its straight
-    stretches, densely sampled, so it slows only where the path turns), checked again as it would run;
-    where that curve touches something, or with ``stops``, the straight segments the search checked, at
-    rest only where the path turns."""
-    if timing.detour == "smooth":
+    """A detour's motion: the straight segments the search checked, at rest only where the path turns,
+    or (``smooth``) one curve along them (the spline through its straight stretches, densely sampled, so
+    it slows only where the path turns) when that is faster and, checked again as it would run, touches
+    nothing."""
+    turns = turning(corners)
+    legs = world.plan_motion(robot, turns[-1], turns[0], timing.speed, timing.dt, turns[1:-1],
+                             acceleration=timing.acceleration)
+    if timing.detour == "smooth" and len(turns) > 2:
         points = densified(corners)
         curve = world.plan_motion(robot, points[-1], points[0], timing.speed, timing.dt, points[1:-1],
                                   acceleration=timing.acceleration, arc=[0.0] * len(points), tcp_speed=None)
-        if world.check_states(robot, curve).collision_free:
+        # a curve through few, sharp turns may take longer than stopping at them: the faster one runs
+        if curve.duration < legs.duration and world.check_states(robot, curve).collision_free:
             return curve
-    legs = turning(corners)
-    return world.plan_motion(robot, legs[-1], legs[0], timing.speed, timing.dt, legs[1:-1],
-                             acceleration=timing.acceleration)
+    return legs
 
 
 def plan(world: World, robot: str, goal: Goal, timing: Timing, *, timed: bool = True) -> Plan:
