@@ -17,6 +17,7 @@ import { runCli } from "./cli-run.js";
 import { http, invoke as post, live } from "./serve-helpers.js";
 import { CHROMIUM, openBrowser, pixelStats, type BrowserSession } from "./helpers/browser.js";
 import { waitFor } from "./helpers/wait.js";
+import type { DivergenceHistory } from "../packages/viewer/src/divergence-plot.js";
 
 const ROOT = resolve(import.meta.dirname, "..");
 const ARTIFACTS = join(ROOT, "test-artifacts");
@@ -41,18 +42,7 @@ interface Debug {
   errors: string[];
   program: { valid: boolean; cycleTime: number; plots: Plots | null } | null;
   objectHistory: { samples: number; timeSpan: number; objects: Record<string, ([number, number, number] | null)[]> } | null;
-  divergenceHistory: Divergence | null;
-}
-interface Divergence {
-  samples: number;
-  timeSpan: number;
-  times: number[];
-  timestamps: string[];
-  joint: (number | null)[];
-  tcp: (number | null)[];
-  max: { joint: number; tcp: number } | null;
-  bound: number | null;
-  events: { at: number | null; joint: number; tcp: number; bound: number; time: number; differences: Record<string, number> }[];
+  divergenceHistory: DivergenceHistory | null;
 }
 interface Report {
   valid: boolean;

@@ -295,10 +295,7 @@ def _peaks(curve: Curve) -> tuple[FloatArray, FloatArray, FloatArray]:
     finite differences of its states at a fine, even time step."""
     n = int(min(20_000, max(400, 4 * curve.steps)))
     h = curve.span / n
-    t: FloatArray = np.arange(n + 1, dtype=np.float64) * h
-    param = np.clip(curve.profile.smoothed(t, curve.window) if curve.window > 0 else curve.param_at(t),
-                    curve.grid[0], curve.grid[-1])
-    q = curve.states(param)
+    q = curve.states(curve.progress(np.arange(n + 1, dtype=np.float64) * (curve.steps / n)))
     v, a, j = (np.abs(np.diff(q, k, axis=0)).max(axis=0) / h**k for k in (1, 2, 3))
     return v, a, j
 

@@ -159,7 +159,8 @@ def _blend_group(world: World, robot: str, group: list[_Step],
         owners.extend([k] * (n_out - first))
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.array(where), axis=0), axis=1))])
     states = world.plan_motion(robot, points[-1], points[0], group[0].step.speed, dt, points[1:-1],
-                               arc=arc.tolist(), along=_along(group, owners))
+                               arc=arc.tolist(), along=_along(group, owners),
+                               tcp=[list(p) for p in where])
     starts = [0] + [_first_state_of(states, owners, k) for k in range(1, len(group))]
     report = world.check_states(robot, states)
     if report.collision_free or report.first_collision is None:

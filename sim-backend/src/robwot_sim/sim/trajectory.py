@@ -140,13 +140,16 @@ def plan_motion(
     arc: Sequence[float] = (),
     tcp_speed: float | None = DEFAULT_TCP_SPEED,
     along: Along | None = None,
+    tcp: Sequence[Sequence[float]] | None = None,
 ) -> TimedPath:
     """``time_path`` from ``start`` (default: the current state) through ``via`` to ``target``, each
-    checked against the robot's joint limits."""
+    checked against the robot's joint limits; the end effector's positions ``tcp`` (one per point) by FK
+    unless the caller has them."""
     e = scene.entry(robot_id)
     tgt = e.bound.validate(target, "target")
     st = e.bound.q.copy() if start is None else e.bound.validate(start, "from")
     points = [st, *(e.bound.validate(w, f"via[{i}]") for i, w in enumerate(via)), tgt]
     limited = tcp_speed is not None if along is None else any(v is not None for v in along.tcp_speed)
-    tcp = [scene.fk(robot_id, p).position for p in points] if len(arc) and limited else None
+    if tcp is None and len(arc) and limited:
+        tcp = [scene.fk(robot_id, p).position for p in points]
     return time_path(e.model, points, speed, dt, acceleration, arc, tcp_speed, along, tcp)

@@ -136,9 +136,11 @@ class World:
                     speed: float = DEFAULT_SPEED, dt: float = DEFAULT_DT, via: Sequence[JointVector] = (),
                     *, acceleration: float = DEFAULT_ACCELERATION, arc: Sequence[float] = (),
                     tcp_speed: float | None = DEFAULT_TCP_SPEED,
-                    along: trajectory.Along | None = None) -> TimedPath:
+                    along: trajectory.Along | None = None,
+                    tcp: Sequence[Sequence[float]] | None = None) -> TimedPath:
         return trajectory.plan_motion(self.scene, robot_id, target, start, speed, dt, via,
-                                      acceleration=acceleration, arc=arc, tcp_speed=tcp_speed, along=along)
+                                      acceleration=acceleration, arc=arc, tcp_speed=tcp_speed, along=along,
+                                      tcp=tcp)
 
     def check_path(self, robot_id: str, target: JointVector, start: JointVector | None = None,
                    speed: float = DEFAULT_SPEED, dt: float = DEFAULT_DT,
