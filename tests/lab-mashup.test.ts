@@ -3,7 +3,7 @@
  * by the real CLI (the uArm-like and Dobot-like arms with suction grippers, both in the cell's scene),
  * served by the real servient with the lab devices' own TDs (`--as`: the uArm's, the warehouse's with its
  * getCube / returnCube sequences), the conveyors and sensors as Things; `consumer:lab-mashup` (node-wot,
- * against those TDs only) runs the paper's sequence at the fastest rate and at real time. Checked from
+ * against those TDs only) runs the paper's sequence at the fastest rate (three times in a row on one cell) and at real time. Checked from
  * outside: the cube ends back in its store, each infrared sensor fired once, the colour read is the cube's.
  */
 import { join } from "node:path";
@@ -51,14 +51,17 @@ it.each([0, 1])("runs the paper's mashup end to end at --realtime %s", async (re
   try {
     const listed = ((await http(`${s.url}/things`)).body as { title: string }[]).map((t) => t.title).sort();
     expect(listed).toEqual(["DeskArm", "Warehouse", "colorSensor", "conveyor1", "conveyor2", "dobot_like", "infraredSensor1", "infraredSensor2", "uarm_like"].sort());
-    const run = await runNode(MASHUP, [s.url, "--realtime", String(realtime), "--json"], { timeoutMs: 240_000 });
-    expect(run.code, run.stderr).toBe(0);
-    const line = run.stdout.split("\n").find((l) => l.startsWith("RESULT "));
-    const result = JSON.parse(line!.slice("RESULT ".length));
-    expect(result.detections).toEqual({ infraredsensor1: 1, infraredsensor2: 1 });
-    expect(result.color).toEqual({ r: 26, g: 76, b: 230 }); // the cube's colour [0.1, 0.3, 0.9] as 0-255
-    const cube = ((await http(`${s.url}/uarm_like/properties/objects`)).body as { name: string; position: number[] }[]).find((o) => o.name === "cube")!;
-    for (let k = 0; k < 3; k++) expect(Math.abs(cube.position[k]! - STORE[k]!)).toBeLessThan(0.01);
+    // at the fastest rate, run after run on one cell (each starts where the last left the cube)
+    for (let k = 0; k < (realtime === 0 ? 3 : 1); k++) {
+      const run = await runNode(MASHUP, [s.url, "--realtime", String(realtime), "--json"], { timeoutMs: 240_000 });
+      expect(run.code, `run ${k + 1}: ${run.stderr}`).toBe(0);
+      const line = run.stdout.split("\n").find((l) => l.startsWith("RESULT "));
+      const result = JSON.parse(line!.slice("RESULT ".length));
+      expect(result.detections).toEqual({ infraredsensor1: 1, infraredsensor2: 1 });
+      expect(result.color).toEqual({ r: 26, g: 76, b: 230 }); // the cube's colour [0.1, 0.3, 0.9] as 0-255
+      const cube = ((await http(`${s.url}/uarm_like/properties/objects`)).body as { name: string; position: number[] }[]).find((o) => o.name === "cube")!;
+      for (let j = 0; j < 3; j++) expect(Math.abs(cube.position[j]! - STORE[j]!)).toBeLessThan(0.01);
+    }
   } finally {
     await s.stop();
     s = undefined;

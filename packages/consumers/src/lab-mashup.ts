@@ -68,22 +68,27 @@ async function main(): Promise<void> {
   try {
     const things = {} as Record<Device, Twin>;
     for (const d of DEVICES) things[d] = await session.connect(stringOption(args, d) ?? `${base}/${d}`);
-    const { uarm, warehouse, conveyor1, conveyor2, infraredsensor1, infraredsensor2, colorsensor } = things;
+    const { uarm, warehouse, conveyor1, conveyor2, colorsensor } = things;
     const detections = { infraredsensor1: 0, infraredsensor2: 0 };
     for (const s of ["infraredsensor1", "infraredsensor2"] as const) {
       await things[s].thing.subscribeEvent("detectedObject", () => void detections[s]++);
     }
-    const until = async (sensor: Twin, what: string): Promise<void> => {
+    /** Until the sensor sees the cube: its `objectPresence` read, or a `detectedObject` event since `seen`
+     *  (the count before the belt started). A reading is the cell's state at the end of a tick of its clock;
+     *  at --realtime 0 a tick runs 1 s of the cell, in which the belt carries the cube through the beam and on
+     *  (the event is raised within the tick, the reading after it), so the event is what cannot be missed. */
+    const until = async (sensor: keyof typeof detections, seen: number, what: string): Promise<void> => {
       const deadline = Date.now() + timeoutMs;
-      while (!(await read<boolean>(sensor, "objectPresence"))) {
+      while (detections[sensor] === seen && !(await read<boolean>(things[sensor], "objectPresence"))) {
         if (Date.now() > deadline) throw new Error(`${what} never saw the cube within ${timeoutMs / 1000} s`);
         await sleep(POLL_MS);
       }
     };
     /** A belt run until a sensor sees the cube, then (the paper's wait later) stopped. */
-    const carry = async (belt: Twin, start: string, beltName: string, sensor: Twin, sensorName: string, waitMs: number): Promise<void> => {
+    const carry = async (belt: Twin, start: string, beltName: string, sensor: keyof typeof detections, sensorName: string, waitMs: number): Promise<void> => {
+      const seen = detections[sensor];
       await invoke(belt, start);
-      await until(sensor, sensorName);
+      await until(sensor, seen, sensorName);
       step(`${sensorName} sees the cube`);
       await sleep(simulated(waitMs));
       await invoke(belt, "stopBelt");
@@ -99,7 +104,7 @@ async function main(): Promise<void> {
     await goTo(START, "start");
     await invoke(warehouse, "getCube");
     step("warehouse: getCube (the cube on conveyor 1)");
-    await carry(conveyor1, "startBeltForward", "conveyor 1", infraredsensor2, "infrared sensor 2", 500);
+    await carry(conveyor1, "startBeltForward", "conveyor 1", "infraredsensor2", "infrared sensor 2", 500);
 
     await invoke(uarm, "gripOpen");
     await goTo(P1, "P1");
@@ -116,7 +121,7 @@ async function main(): Promise<void> {
     step("uArm: gripOpen (the cube on conveyor 2)");
     await goTo(P5, "P5");
 
-    await carry(conveyor2, "startBeltBackward", "conveyor 2", infraredsensor1, "infrared sensor 1", 600);
+    await carry(conveyor2, "startBeltBackward", "conveyor 2", "infraredsensor1", "infrared sensor 1", 600);
     await invoke(warehouse, "returnCube");
     step("warehouse: returnCube (the cube back in its store)");
     const cycle = (Date.now() - t0) / 1000;
