@@ -60,3 +60,37 @@ def test_few_pieces_pass_through_and_the_result_is_deterministic() -> None:
     many = [rng.uniform(0, 1, 3) + rng.uniform(-0.05, 0.05, (10, 3)) for _ in range(30)]
     first, again = merge_parts(many, 4), merge_parts(many, 4)
     assert [p.tolist() for p in first] == [p.tolist() for p in again]
+
+
+def _covered(pieces: list[np.ndarray], merged: list[np.ndarray]) -> bool:
+    return all(np.any([_inside(piece, part) for part in merged], axis=0).all() for piece in pieces)
+
+
+def test_cheap_merges_go_on_down_to_the_limit() -> None:
+    """Boxes tiling a larger box (every union adds nothing) end at ``limit`` parts, whatever ``most``."""
+    pieces = [_box((x, y, 0), (x + 1, y + 1, 1)) for x in range(6) for y in range(4)]
+    merged = merge_parts(pieces, 8, most=16, budget=0.02)
+    assert len(merged) == 8
+    assert _covered(pieces, merged)
+
+
+def test_costly_merges_stop_between_the_limit_and_the_cap() -> None:
+    """Twelve small cubes far apart along an L (every union adds many times their volume) keep more parts
+    than ``limit``, never more than ``most``, and stay covered."""
+    corners = [(2.0 * k, 0.0) for k in range(7)] + [(0.0, 2.0 * k) for k in range(1, 6)]
+    pieces = [_box((x, y, 0), (x + 0.2, y + 0.2, 0.2)) for x, y in corners]
+    merged = merge_parts(pieces, 4, most=8, budget=0.02)
+    assert len(merged) == 8
+    assert _covered(pieces, merged)
+    assert 4 < len(merge_parts(pieces, 4, most=16, budget=0.02)) <= 12
+
+
+def test_the_budget_decides_between_the_limit_and_the_cap() -> None:
+    """Pieces along a ring (neighbours of each other): no budget keeps ``most`` parts, a generous one merges
+    on to ``limit``; ``most`` defaults to ``limit``."""
+    rng = np.random.default_rng(5)
+    pieces = [np.array([np.cos(a), np.sin(a), 0.0]) + rng.uniform(-0.15, 0.15, (12, 3))
+              for a in np.linspace(0, 2 * np.pi, 30, endpoint=False)]
+    assert len(merge_parts(pieces, 4, most=12)) == 12
+    assert len(merge_parts(pieces, 4, most=12, budget=1e6)) == 4
+    assert len(merge_parts(pieces, 4)) == 4

@@ -50,13 +50,18 @@ MeshReader = Callable[[Path], "tuple[FloatArray, IndexArray] | None"]
 #: CoACD parameters (``coacd.run_coacd`` keyword names): concavity threshold 0.05 (of the mesh's size);
 #: a shallow tree search, one cut deep (deeper searches cost a robot's first use much more time for labels
 #: as close to the exact-mesh reference's). CoACD's own merge is off: its pieces are merged by
-#: ``hull_merge`` to at most ``MAX_MESH_PARTS`` (README "Fidelity", "First use of your own robot" and
-#: "The paper's robots" have the measurements).
+#: ``hull_merge`` to ``MAX_MESH_PARTS``, or to at most ``MOST_MESH_PARTS`` where merging costs volume
+#: (README "Fidelity", "First use of your own robot" and "The paper's robots" have the measurements).
 COACD_PARAMS: dict[str, Any] = {"threshold": 0.05, "preprocess_mode": "auto",
                                 "resolution": 1000, "mcts_nodes": 10, "mcts_iterations": 30,
                                 "mcts_max_depth": 1, "merge": False, "max_ch_vertex": 64, "seed": 0}
-#: Parts per mesh at most: Bullet's cost per check grows with the parts.
+#: Parts per mesh where merging them is cheap: Bullet's cost per check grows with the parts.
 MAX_MESH_PARTS = 8
+#: Parts per mesh at most: below this, pieces are merged on down to ``MAX_MESH_PARTS`` only while the
+#: cheapest merge adds less than ``MERGE_BUDGET`` of the mesh's total part volume, so a concave mesh (a
+#: hollow base, a bracket) keeps the parts that stop its hulls from filling the space it encloses.
+MOST_MESH_PARTS = 16
+MERGE_BUDGET = 0.02
 #: Concavity (metres) CoACD may leave in a piece whatever the mesh's size: the threshold is a fraction of
 #: the mesh's size, so a small link's engravings and screw holes were cut out piece by piece (hundreds of
 #: pieces) only to be merged into ``MAX_MESH_PARTS`` again. The same as ``REMESH_VOXEL``, the detail a
@@ -122,7 +127,8 @@ def cache_key(mesh_bytes: bytes, scale: tuple[float, float, float], whole_as_par
     h = hashlib.sha256(mesh_bytes)
     h.update(json.dumps({"scale": scale, "coacd": [version("coacd"), COACD_PARAMS],
                          **({"whole_as_part": True} if whole_as_part else {}),
-                         "remesh": [REMESH_VOXEL, REMESH_RESOLUTION], "merge": [MAX_MESH_PARTS, NEAR],
+                         "remesh": [REMESH_VOXEL, REMESH_RESOLUTION],
+                         "merge": [MAX_MESH_PARTS, MOST_MESH_PARTS, MERGE_BUDGET, NEAR],
                          "floor": CONCAVITY_FLOOR,
                          "cover": [COVER_TOLERANCE, 2], "slim": SLIM_MARGIN}, sort_keys=True).encode())
     return h.hexdigest()[:24]
@@ -185,7 +191,8 @@ def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path
 
 
 def convex_parts(vertices: FloatArray, faces: IndexArray) -> list[FloatArray]:
-    """CoACD's convex pieces of a mesh merged to at most ``MAX_MESH_PARTS`` parts (their vertices)."""
+    """CoACD's convex pieces of a mesh merged to ``MAX_MESH_PARTS`` parts, or to at most ``MOST_MESH_PARTS``
+    where merging would add more than ``MERGE_BUDGET`` of their volume (``hull_merge``; their vertices)."""
     import coacd  # imported here: most robots have only convex meshes
 
     coacd.set_log_level("error")
@@ -194,7 +201,8 @@ def convex_parts(vertices: FloatArray, faces: IndexArray) -> list[FloatArray]:
     size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
     params = {**COACD_PARAMS, "threshold": max(COACD_PARAMS["threshold"], CONCAVITY_FLOOR / (size or 1.0))}
     pieces = coacd.run_coacd(mesh, preprocess_resolution=remesh_resolution(vertices), **params)
-    return merge_parts([np.asarray(v, dtype=np.float64) for v, _ in pieces], MAX_MESH_PARTS)
+    return merge_parts([np.asarray(v, dtype=np.float64) for v, _ in pieces], MAX_MESH_PARTS,
+                       MOST_MESH_PARTS, MERGE_BUDGET)
 
 
 def remesh_resolution(vertices: FloatArray) -> int:

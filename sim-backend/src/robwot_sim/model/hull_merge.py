@@ -1,4 +1,4 @@
-"""Merging convex parts down to a cap, cheapest union first.
+"""Merging convex parts down to a cap, cheapest union first, and below it only while merging is cheap.
 
 CoACD cuts a mesh until every piece is nearly convex; a detailed mesh (engraved text, screw holes, fillets)
 comes out in hundreds of pieces. Its own merge step then compares every pair of pieces against the mesh,
@@ -6,9 +6,11 @@ which is quadratic in the pieces with a costly measure per pair, and on such mes
 times as long as the cuts themselves (README "The paper's robots"). This merge is greedy over neighbours
 only: two parts whose bounding boxes lie within ``NEAR`` of the mesh size of each other are candidates,
 their cost is the volume their union's hull adds to theirs (the space a collision check would wrongly call
-occupied), and the cheapest pair is merged until at most ``limit`` parts are left. Parts that are no
-candidate of anyone (islands) are paired with every other part once the candidates run out, so the cap
-always holds.
+occupied), and the cheapest pair is merged until at most ``most`` parts are left. Parts that are no
+candidate of anyone (islands) are paired with every other part once the candidates run out, so that cap
+always holds. Below it, merging goes on down to ``limit`` parts only while the cheapest merge adds less
+than ``budget`` times the live parts' total volume: a mesh whose pieces tile a simple shape ends at
+``limit``, one whose pieces would only merge into much fatter hulls (a hollow base, a bracket) keeps more.
 """
 
 from __future__ import annotations
@@ -70,10 +72,14 @@ class _Parts:
         self.alive[j] = False
 
 
-def merge_parts(parts: list[FloatArray], limit: int) -> list[FloatArray]:
-    """At most ``limit`` convex parts (their hull vertices) covering every given part (vertex arrays):
-    the cheapest neighbouring pair is merged first (module docstring). Deterministic: ties go to the
-    lowest indices."""
+def merge_parts(parts: list[FloatArray], limit: int, most: int | None = None,
+                budget: float = 0.0) -> list[FloatArray]:
+    """Convex parts (their hull vertices) covering every given part (vertex arrays), at most ``most``
+    (default ``limit``) of them and at most ``limit`` when merging is cheap: the cheapest candidate pair
+    is merged first (module docstring) until at most ``most`` are left, then on down to ``limit`` while
+    the cheapest merge adds less than ``budget`` times the sum of the live parts' volumes (islands are
+    paired only to meet ``most``). Deterministic: ties go to the lowest indices."""
+    most = limit if most is None else max(most, limit)
     if len(parts) <= limit:
         return [np.asarray(p, dtype=np.float64) for p in parts]
     state = _Parts(parts)
@@ -87,16 +93,22 @@ def merge_parts(parts: list[FloatArray], limit: int) -> list[FloatArray]:
         for j in state.near(i):
             if j > i:
                 push(i, int(j))
-    while int(state.alive.sum()) > limit:
-        if not heap:  # islands: every live pair becomes a candidate once
-            live = np.flatnonzero(state.alive).tolist()
+    while (left := int(state.alive.sum())) > limit:
+        if not heap:
+            if left <= most:
+                break  # no candidates left below the cap
+            live = np.flatnonzero(state.alive).tolist()  # islands: every live pair becomes a candidate once
             for n, a in enumerate(live):
                 for b in live[n + 1:]:
                     push(a, b)
             continue
-        _, i, j, vi, vj = heapq.heappop(heap)
+        cost, i, j, vi, vj = heap[0]
         if not (state.alive[i] and state.alive[j]) or vi != state.version[i] or vj != state.version[j]:
+            heapq.heappop(heap)
             continue  # stale: one of the two has merged since
+        if left <= most and cost >= budget * float(state.volume[state.alive].sum()):
+            break  # below the cap, the cheapest merge is too costly
+        heapq.heappop(heap)
         state.merge(i, j)
         for k in state.near(i):
             push(i, int(k))
