@@ -1,12 +1,13 @@
 """Outer bounds side by side: ``python -m robwot_bench.bounds`` (``npm run bench:bounds``).
 
 For each robot and scene, the same seeded configurations labelled by ``World.collision_free_batch``
-without and with the outer bounds (``bounds=True``, ``robwot_sim/sim/outerbounds.py``), alternately in
-one process (the machine's load hits both alike): time per configuration of each and their ratio, the
-share of rows the bounds find apart from every other body and free of self-contact, the labels that
-differ, and how many rows Bullet itself labels differently when it checks them in reverse order (a
-grazing contact's manifold persists from one check to the next on some robots). Rows the bounds decide
-are checked by fresh Bullet distance queries (``unsound`` must be 0). Prints the load average.
+without the outer bounds (``bounds=False``: the sure hits in numpy, then Bullet) and with them (the
+default, ``robwot_sim/sim/outerbounds.py``, compiled), alternately in one process (the machine's load hits
+both alike): wall time per configuration of each and their ratio, the share of rows the bounds find apart
+from every other body, free of self-contact too, and sure hits, the labels that differ, and how many rows
+Bullet itself labels differently when it checks them in reverse order (a grazing contact's manifold
+persists from one check to the next on some robots). Rows the bounds decide are checked by fresh Bullet
+distance queries, sure hits against Bullet's own label (``unsound`` must be 0). Prints the load average.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import pybullet as pb
 
 from robwot_bench.reference import example_robot
 from robwot_sim.model.urdf import pybullet_data_path
+from robwot_sim.sim.outerbounds import SURE_HIT, kernels_ready
 from robwot_sim.sim.world import World
 
 SCENES = Path(__file__).resolve().parents[3] / "examples" / "scenes"
@@ -74,6 +76,8 @@ def setup(world: World, name: str, scene: str | None, samples: int, seed: int) -
 
 
 def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, float | int | str]:
+    if not kernels_ready(timeout=300):
+        raise SystemExit("bench-bounds: the outer bounds' kernels did not load")
     with World() as world:
         rid, qs = setup(world, name, scene, samples, seed)
         world.collision_free_batch(rid, qs[:100], bounds=True)  # builds every mirror world first
@@ -86,16 +90,17 @@ def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, 
                 labels[bounds].append(world.collision_free_batch(rid, qs[a:a + block], bounds=bounds))
                 times[bounds] += time.perf_counter() - t0
         old, new = np.concatenate(labels[False]), np.concatenate(labels[True])
-        reverse = world.collision_free_batch(rid, qs[::-1])[::-1]
+        reverse = world.collision_free_batch(rid, qs[::-1], bounds=False)[::-1]
         outer = world.queries.outer_bounds(rid)
         apart = outer.apart(qs)
         free = np.zeros(samples, dtype=bool)
         free[apart] = outer.self_free(qs[apart])
-        unsound = _unsound(world, rid, qs, apart, free)
+        hits = outer.classify(qs, self_always=False, hits=True) == SURE_HIT
+        unsound = _unsound(world, rid, qs, apart, free) + int((hits & old).sum())
     return {"robot": name, "scene": scene or "-", "samples": samples,
             "us_old": 1e6 * times[False] / samples, "us_new": 1e6 * times[True] / samples,
             "ratio": times[True] / max(times[False], 1e-12), "apart": float(apart.mean()),
-            "free": float(free.mean()), "differ": int((old != new).sum()),
+            "free": float(free.mean()), "hits": float(hits.mean()), "differ": int((old != new).sum()),
             "order": int((old != reverse).sum()), "unsound": unsound}
 
 
@@ -128,7 +133,8 @@ def sweep(doc: str, tag: str, measure: Measure, columns: list[tuple[str, str, st
 def main() -> None:
     sweep(__doc__ or "", "bench-bounds", measure,
           [("us_old", "us old", ".1f"), ("us_new", "us new", ".1f"), ("ratio", "new/old", ".2f"),
-           ("apart", "apart", ".3f"), ("free", "free", ".3f"), ("differ", "differ", "d"),
+           ("apart", "apart", ".3f"), ("free", "free", ".3f"), ("hits", "hits", ".3f"),
+           ("differ", "differ", "d"),
            ("order", "order", "d"), ("unsound", "unsound", "d")], "-,obstacles-4.json,obstacles-239.json")
 
 

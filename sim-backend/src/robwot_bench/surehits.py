@@ -1,8 +1,9 @@
 """Sure hits against Bullet alone: ``python -m robwot_bench.surehits`` (``npm run bench:surehits``).
 
 For each robot and scene, the same seeded configurations labelled by ``World.collision_free_batch``
-with the sure-hit test (``robwot_sim/sim/surehit.py``) and with every row sent to Bullet, alternately in
-blocks of a worker's batch in one process (the machine's load hits both alike): CPU time per
+without the outer bounds (``bounds=False``; ``bench:bounds`` measures those, which include this test
+compiled) with the sure-hit test (``robwot_sim/sim/surehit.py``) and with every row sent to Bullet,
+alternately in blocks of a worker's batch in one process (the machine's load hits both alike): CPU time per
 configuration of each and their ratio, the share of rows that are sure hits, the test's own time, the
 labels that differ and how many rows Bullet alone labels differently when it checks them in reverse order
 (a grazing contact's manifold persists from one check to the next on some robots). Each differing row is
@@ -67,17 +68,17 @@ def _touches(world: World, rid: str, q: np.ndarray) -> bool:
 def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, Any]:
     with World() as world:
         rid, qs = setup(world, name, scene, samples, seed)
-        world.collision_free_batch(rid, qs[:100])  # builds the mirror world and the test first
+        world.collision_free_batch(rid, qs[:100], bounds=False)  # builds the mirror world and the test first
         times = {True: 0.0, False: 0.0}
         labels: dict[bool, list[np.ndarray]] = {True: [], False: []}
         for a in range(0, samples, BLOCK):
             for sure in (True, False):
                 t0 = time.process_time()
                 if sure:
-                    labels[sure].append(world.collision_free_batch(rid, qs[a:a + BLOCK]))
+                    labels[sure].append(world.collision_free_batch(rid, qs[a:a + BLOCK], bounds=False))
                 else:
                     with bullet_only():
-                        labels[sure].append(world.collision_free_batch(rid, qs[a:a + BLOCK]))
+                        labels[sure].append(world.collision_free_batch(rid, qs[a:a + BLOCK], bounds=False))
                 times[sure] += time.process_time() - t0
         t0 = time.process_time()
         sure_hits = world.queries.sure_hits(rid)
@@ -87,12 +88,12 @@ def measure(name: str, scene: str | None, samples: int, seed: int) -> dict[str, 
         differ = np.flatnonzero(new != old)
         unsound = sum(not _touches(world, rid, qs[i]) for i in differ if hits[i])
         with bullet_only():
-            reverse = world.collision_free_batch(rid, qs[::-1])[::-1]
+            reverse = world.collision_free_batch(rid, qs[::-1], bounds=False)[::-1]
             after = 0
             for i in differ[~hits[differ]]:
                 prev = _predecessor(qs, hits, i)
                 pair = qs[i:i + 1] if prev is None else np.stack([prev, qs[i]])
-                after += bool(world.collision_free_batch(rid, pair)[-1] == new[i])
+                after += bool(world.collision_free_batch(rid, pair, bounds=False)[-1] == new[i])
     return {"robot": name, "scene": scene or "-", "samples": samples,
             "us_bullet": 1e6 * times[False] / samples, "us_sure": 1e6 * times[True] / samples,
             "ratio": times[True] / max(times[False], 1e-12), "hits": float(hits.mean()),

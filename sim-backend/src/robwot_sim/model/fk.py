@@ -76,7 +76,7 @@ class ChainFK:
             chain.append(by_child[link])
             link = by_child[link].parent
         chain.reverse()
-        return cls([_chain_joint(j, index, rules) for j in chain], len(controllable), ee_link,
+        return cls([chain_joint(j, index, rules) for j in chain], len(controllable), ee_link,
                    base_position, base_orientation)
 
     def _values(self, qs: FloatArray, j: ChainJoint) -> FloatArray:
@@ -182,7 +182,7 @@ def _turn(r: FloatArray, origin: FloatArray, axis: FloatArray, angle: FloatArray
     return out
 
 
-def _chain_joint(j: JointInfo, index: dict[str, int], rules: dict[str, Coupling]) -> ChainJoint:
+def chain_joint(j: JointInfo, index: dict[str, int], rules: dict[str, Coupling]) -> ChainJoint:
     """The chain joint of ``j``, driven by the joint vector (``index``) directly or through its coupling
     (``rules``: couplings written in the controllable joints' coordinates)."""
     terms: tuple[tuple[int, float], ...] = ()

@@ -14,6 +14,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from robwot_sim.sim.client import ContactPoint
 from robwot_sim.sim.robot import BoundRobot
@@ -63,7 +64,12 @@ def find_always_colliding(
 
 
 class CollisionChecker:
-    """Collision queries for one robot against itself and every other body of the world."""
+    """Collision queries for one robot against itself and every other body of the world. ``sure_free``
+    (set by the scene it belongs to): of states (rows of joint vectors), those surely farther than a
+    clearance (m) from every other body and free of self-contact without asking Bullet (the outer bounds),
+    so that ``is_free`` would say so; None: none known."""
+
+    sure_free: Callable[[npt.NDArray[np.float64], float], npt.NDArray[np.bool_]] | None = None
 
     def __init__(self, robot: BoundRobot, table: BodyTable, filtered: Iterable[tuple[int, int]]) -> None:
         self.robot, self.table = robot, table

@@ -1,9 +1,9 @@
 """Batch collision queries over a scene, and the caches they keep (MoveIt's collision environment).
 
 A batch labels many configurations of one robot at once. Three tests keep it cheap, each built from the
-scene and kept until the scene changes: the sure-hit test (``surehit.py``, keyed by the scene's
-version), the free-for-sure outer bounds (``outerbounds.py``, keyed by everything but the robot's own
-joints: ``others_stamp``) and the collision-only mirror worlds (``fastworld.py``, the whole scene or one
+scene and kept until the scene changes: the free-for-sure outer bounds (``outerbounds.py``, compiled;
+the scene keeps them, as path checks use them too), the sure-hit test (``surehit.py``,
+keyed by the scene's version) and the collision-only mirror worlds (``fastworld.py``, the whole scene or one
 robot alone, keyed by the scene's version). The queries read the scene and never change it.
 """
 
@@ -16,9 +16,12 @@ import numpy.typing as npt
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.sim.fastworld import FastWorld, MirrorRobot
-from robwot_sim.sim.outerbounds import OuterBounds, build_outer_bounds
+from robwot_sim.sim.outerbounds import SURE_HIT, OuterBounds
 from robwot_sim.sim.planning_scene import Scene
 from robwot_sim.sim.surehit import SureHits, build_sure_hits
+
+#: rows of a batch the outer bounds try first, and the share of them they must decide to be used
+PROBE, MIN_DECIDED = 500, 0.2
 
 
 class CollisionQueries:
@@ -30,7 +33,7 @@ class CollisionQueries:
         self._fast: FastWorld | None = None  # collision-only mirror for batches, rebuilt on change
         self._alone: dict[str, FastWorld] = {}  # per robot: a mirror of it alone (its self-contact)
         self._sure: dict[str, tuple[int, SureHits]] = {}  # sure-hit tests by robot, with the version
-        self._outer: dict[str, tuple[tuple[int, int], OuterBounds]] = {}  # by robot, with others_stamp
+        self._paying: dict[str, tuple[OuterBounds, bool]] = {}  # whether the outer bounds pay, by robot
 
     def close(self) -> None:
         for fast in [self._fast, *self._alone.values()]:
@@ -39,12 +42,13 @@ class CollisionQueries:
         self._fast, self._alone = None, {}
 
     def free_batch(self, robot_id: str, qs: npt.NDArray[np.float64],
-                   bounds: bool = False) -> npt.NDArray[np.bool_]:
-        """Collision-free flag per configuration (rows of ``qs`` [n, dof]); restores the state. With
-        ``bounds``, rows the outer bounds (``outerbounds.py``) find apart from every other body are checked
-        for self-contact in a world holding the robot alone, and rows also free of self-contact for sure
-        are not checked by Bullet (off by default: on the robots and scenes measured, the numpy tests cost
-        as much as the Bullet work they save; ``python -m robwot_bench.bounds``)."""
+                   bounds: bool = True) -> npt.NDArray[np.bool_]:
+        """Collision-free flag per configuration (rows of ``qs`` [n, dof]); restores the state. Rows the
+        outer bounds (``outerbounds.py``) find free for sure are not checked by Bullet, rows they find
+        apart from every other body are checked for self-contact in a world holding the robot alone; of
+        the rest, the sure hits (``surehit.py``'s test, compiled with the bounds) are colliding and Bullet
+        checks the others in the whole scene. ``bounds=False`` (or bounds the robot cannot have): the
+        sure hits in numpy, no outer bounds (``python -m robwot_bench.bounds`` compares)."""
         e = self._scene.entry(robot_id)
         entries = self._scene.entries()
         arr = _rows(qs, e.bound.dof)
@@ -58,35 +62,42 @@ class CollisionQueries:
         if e.checker.static_contacts():
             return np.zeros(len(arr), dtype=bool)
         out = np.zeros(len(arr), dtype=bool)
-        todo = np.flatnonzero(~self.sure_hits(robot_id).hits(arr))
+        outer = self.outer_bounds(robot_id)
+        if bounds and not outer.empty and self._pays(robot_id, outer, arr):
+            status = outer.classify(arr, self_always=False, hits=True)
+            out[status == 0] = True
+            todo = np.flatnonzero((status != 0) & (status != SURE_HIT))
+            if not e.checker.massless_moving:  # the mirrors do not check massless links
+                alone = todo[status[todo] == 2]
+                out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], {}, e.bound.followers)
+                todo = todo[status[todo] != 2]
+        else:
+            todo = np.flatnonzero(~self.sure_hits(robot_id).hits(arr))
         if e.checker.massless_moving:
             out[todo] = e.checker.batch(arr[todo])
             return out
-        if bounds:
-            outer = self.outer_bounds(robot_id)
-            apart = outer.apart(arr[todo])
-            alone, todo = todo[apart], todo[~apart]
-            sure_free = outer.self_free(arr[alone])
-            out[alone[sure_free]] = True
-            alone = alone[~sure_free]
-            out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], {}, e.bound.followers)
         others = {rid: o.bound.full_values(o.bound.q) for rid, o in entries.items() if rid != robot_id}
         out[todo] = self.mirror().batch(robot_id, arr[todo], others, e.bound.followers)
         return out
 
-    def outer_bounds(self, robot_id: str) -> OuterBounds:
-        """The robot's free-for-sure test (``outerbounds.py``), rebuilt when anything else changes."""
-        stamp = self._scene.others_stamp(robot_id)
-        cached = self._outer.get(robot_id)
-        if cached is not None and cached[0] == stamp:
+    def _pays(self, robot_id: str, outer: OuterBounds, arr: npt.NDArray[np.float64]) -> bool:
+        """Whether the outer bounds decide enough rows of this robot and scene to pay: at least
+        ``MIN_DECIDED`` of the first batch's first ``PROBE`` rows (a robot whose links always come within
+        the bounds' gap of each other, such as a gripper's knuckles, decides none), the verdict kept until
+        the bounds are rebuilt."""
+        cached = self._paying.get(robot_id)
+        if cached is not None and cached[0] is outer:
             return cached[1]
-        entries = self._scene.entries()
-        e = entries[robot_id]
-        others = [o.bound for rid, o in entries.items() if rid != robot_id]
-        bounds = build_outer_bounds(e.bound, e.checker.filtered, e.model, self._scene.obstacle_bodies(),
-                                    others)
-        self._outer[robot_id] = (stamp, bounds)
-        return bounds
+        if len(arr) < PROBE:
+            return True
+        status = outer.classify(arr[:PROBE], self_always=False, hits=True)
+        pays = bool(((status == 0) | (status == SURE_HIT)).mean() >= MIN_DECIDED)
+        self._paying[robot_id] = (outer, pays)
+        return pays
+
+    def outer_bounds(self, robot_id: str) -> OuterBounds:
+        """The robot's free-for-sure test (``outerbounds.py``, kept by the scene)."""
+        return self._scene.bounds.get(self._scene, robot_id)
 
     def sure_hits(self, robot_id: str) -> SureHits:
         """The robot's sure-hit test (``surehit.py``), rebuilt when the scene changes."""

@@ -1,290 +1,319 @@
-"""Outer bounds: configurations whose collision-freedom is certain from geometry alone, found in numpy for
-a whole batch, so that Bullet checks only the others (the other side of ``surehit.py``).
+"""Outer bounds: configurations whose collision-freedom (or collision) is certain from geometry alone, found
+for a whole batch by compiled kernels (``sphere_kernel.py``), so that Bullet checks only the others.
 
-How: every link with collision shapes gets one box in its URDF link frame that holds every vertex of
-every convex part Bullet holds for it (decomposed mesh parts, primitives: a box's or cylinder's corners,
-a sphere's cube), oriented along the principal axes of those vertices; it holds their convex hull too.
-The box is grown by ``GROW`` (Bullet's collision margins: a convex hull is inflated by its margin;
-rounding). Every other body is a box as well: primitive obstacles exactly (a sphere or cylinder by the
-box around it), mesh obstacles and the links of other robots (which stand still during a check) by their
-Bullet bounding boxes. The separating-axis test (15 axes) on two boxes is exact: boxes it separates do
-not touch. A configuration is
+What they know of the robot itself (its joint tree, spheres, boxes and hulls of its parts, balls inside
+them) is built once per robot body (``robot_shapes.py``). Every other body is exact where it is a
+primitive obstacle (box, sphere, cylinder) and its Bullet bounding box otherwise (mesh obstacles; the
+links of other robots, which stand still during a check). Per configuration the kernel runs the forward
+kinematics of the whole joint tree (couplings applied) and places the shapes; a configuration is
 
-- apart from every other body (`OuterBounds.apart`) when each moving link's box, grown by ``margin``
-  (the clearance a path check keeps; 0 for labels), is separated from every other body's box: Bullet
-  reports no contact with them, nor a body within the margin;
-- free of self-contact (`OuterBounds.self_free`) when the boxes of every link pair Bullet checks
-  (neither the other's parent, not a filtered pair) are separated.
+- apart from every other body (`OuterBounds.apart`) when every sphere of a moving link keeps more than
+  ``margin`` (the clearance a path check keeps; 0 for labels) from every other body, by a grid of the
+  three least distances to the bodies per voxel (``distance_grid``; a whole link first by a coarse grid
+  and the ball holding its spheres; a sphere farther from the voxel's centre than the least distance
+  allows is clear; otherwise, where only one or two bodies can be that close, the sphere's part's hull
+  against each): Bullet reports no contact with them, nor a body within the margin;
+- free of self-contact (`OuterBounds.self_free`) when every part of one link of a pair Bullet checks
+  (neither the other's parent, not a filtered pair) is more than ``HULL_GAP`` from every part of the
+  other: their balls or boxes (separating-axis test) are apart, or a direction is found along which
+  their hulls' vertices are that far apart (found by Gilbert's iteration, proven by the vertices);
+- a sure hit when a ball inside a moving link's part reaches more than ``surehit.DEPTH`` into a
+  primitive obstacle or into a ball of a link of a pair Bullet checks (``surehit.py``'s test, compiled).
 
 A row apart from every other body needs Bullet only for its self-contact, checked in a world holding the
-robot alone (a fraction of a check among hundreds of obstacles); a row free both ways needs no Bullet.
-Candidates are found by world-aligned boxes first (a link's box turned into the world), so the
-separating-axis test runs only for the rows and bodies whose aligned boxes overlap.
+robot alone; a row free both ways, or a sure hit, needs no Bullet (``CollisionQueries.free_batch``). A
+path check asks Bullet only about the states not free for sure (``CollisionChecker.sure_free``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+import sys
+import threading
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
-from robwot_sim.model.fk import ChainFK, chain_frames
-from robwot_sim.model.meshcheck import mesh_points
 from robwot_sim.model.rotations import quat_matrix
+from robwot_sim.sim.robot_shapes import (
+    GROW,
+    LinkShapes,
+    RobotShapes,
+    Tree,
+    ball,
+    robot_shapes,
+    shapes_of,
+    tree_frames,
+)
+from robwot_sim.sim.surehit import DEPTH, LinkBalls
 from robwot_sim.sim.types import FloatArray
 
-GROW = 0.005  # m added to every link box's half extents
-CHUNK = 2048  # rows tested at once against the other bodies (bounds the (rows, bodies) arrays)
-#: rows of a batch tested first: below MIN_APART rows apart from the other bodies (MIN_RATE free of
-#: self-contact) among them, the rest is not tested, for a test that does not pay
-PROBE = 500
-MIN_APART, MIN_RATE = 0.5, 0.05
+#: m two parts' hulls must be apart for their link pair to be free of self-contact: both margins, and 1 mm
+HULL_GAP = 0.003
+MAX_MARGIN = 0.05  # m: the largest margin the grid answers for (a larger one: nothing apart)
+GRID_SIDE = 0.01  # m: the distance grid's finest voxel side
+ZONE_SIDE = 0.05  # m: voxel side of the coarse grid that finds whole links clear
+GRID_VOXELS = 1 << 20  # voxels of a distance grid at most (3 x 4 + 2 x 4 bytes each)
+TOLERANCE = 1e-5  # m: above the float32 rounding of the grid's distances and the FK's
+SURE_HIT = 4  # ``OuterBounds.classify``: the row surely collides
 
 BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.int64]
 
 
-@dataclass(frozen=True)
-class Box:
-    """A box: ``centre`` (3,), ``axes`` (3, 3) with the box's axes as columns, ``half`` extents (3,)."""
-
+# the kernels' arguments (``sphere_kernel.py`` says what each holds)
+class Bodies(NamedTuple):
+    kind: IntArray
+    size: FloatArray
     centre: FloatArray
-    axes: FloatArray
-    half: FloatArray
+    rotation: FloatArray
+    exact: BoolArray
 
 
-def _shape_points(body: int, link: int, cid: int, shape: Any) -> FloatArray | None:
-    """Points whose convex hull holds one collision shape of a link, in its shape frame (None: unknown)."""
-    kind, dims, name = shape[2], shape[3], shape[4]
-    if kind == pb.GEOM_MESH:
-        path = Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name))
-        pts = mesh_points(path) if path.is_file() else None
-        return None if pts is None or not len(pts) else pts * np.asarray(dims, dtype=np.float64)
-    if kind == pb.GEOM_BOX:
-        h = np.asarray(dims[:3], dtype=np.float64) / 2
-    elif kind == pb.GEOM_SPHERE:
-        h = np.full(3, float(dims[0]))
-    elif kind in (pb.GEOM_CYLINDER, pb.GEOM_CAPSULE):
-        length, radius = float(dims[0]), float(dims[1])
-        h = np.array([radius, radius, length / 2 + (radius if kind == pb.GEOM_CAPSULE else 0.0)])
-    else:
-        return None
-    return np.array([[x, y, z] for x in (-h[0], h[0]) for y in (-h[1], h[1]) for z in (-h[2], h[2])])
+class Grid(NamedTuple):
+    lo: FloatArray
+    side: float
+    shape: IntArray
+    d: npt.NDArray[np.float32]
+    near: npt.NDArray[np.int32]
+    bodies_lo: FloatArray
+    bodies_hi: FloatArray
 
 
-def link_points(cid: int, body: int, link: int) -> FloatArray | None:
-    """Points whose convex hull holds every collision shape of a link as Bullet holds it, in its URDF link
-    frame (the fixed base's: in the world frame); None when a shape cannot be read."""
-    if link >= 0:
-        state = pb.getLinkState(body, link, physicsClientId=cid)
-        com_p, com_r = np.asarray(state[2], dtype=np.float64), quat_matrix(state[3])
-    else:  # Bullet's base frame is its inertial frame
-        pos, orn = pb.getBasePositionAndOrientation(body, physicsClientId=cid)
-        com_p, com_r = np.asarray(pos, dtype=np.float64), quat_matrix(orn)
-    shapes = pb.getCollisionShapeData(body, link, physicsClientId=cid) or ()
-    out = []
-    for k, shape in enumerate(shapes):
-        if shape[2] == pb.GEOM_MESH and shape[4] == b"unknown_file":
-            # a URDF cylinder Bullet turned into a hull: its vertices as Bullet holds them, placed in the
-            # inertial frame already
-            _, vertices = pb.getMeshData(body, link, collisionShapeIndex=k, physicsClientId=cid)
-            if not vertices:
-                return None
-            local = np.asarray(vertices, dtype=np.float64)
+_kernels_ready = threading.Event()
+_kernels_lock = threading.Lock()
+_kernels_started = False
+_kernels_ok = False
+
+
+def load_kernels() -> None:
+    """Loads the compiled kernels (``sphere_kernel.py``: numba's import and, from its disk cache, or
+    compiled on a machine's first use, every kernel) on a thread of their own, once per process; until
+    they are loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a
+    caller wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
+    the kernels compiled again; kernels that still fail to load leave the bounds empty for good, said
+    once on stderr."""
+    global _kernels_started
+    with _kernels_lock:
+        if _kernels_started:
+            return
+        _kernels_started = True
+
+    def load() -> None:
+        global _kernels_ok
+        try:
+            try:
+                _warm()
+            except Exception:  # e.g. a cache naming types this version no longer has: compile again
+                from numba.core.registry import CPUDispatcher
+
+                from robwot_sim.sim import sphere_kernel
+                for kernel in vars(sphere_kernel).values():
+                    cache = getattr(kernel, "_cache", None) if isinstance(kernel, CPUDispatcher) else None
+                    if cache is not None:
+                        cache.flush()
+                _warm()
+            _kernels_ok = True
+        except Exception as err:  # the bounds stay empty: every check runs on Bullet alone
+            print(f"robwot: the outer bounds' compiled kernels did not load ({err!r}); checks run on Bullet "
+                  "alone", file=sys.stderr)
+        finally:
+            _kernels_ready.set()
+
+    threading.Thread(target=load, name="robwot-kernels", daemon=True).start()
+
+
+def kernels_ready(timeout: float = 0.0) -> bool:
+    """Whether the kernels are loaded (``load_kernels``, started if not yet), waiting up to ``timeout`` s."""
+    load_kernels()
+    return _kernels_ready.wait(timeout) and _kernels_ok
+
+
+def _warm() -> None:
+    """Every kernel called once with the types the bounds call it with (so each is loaded from numba's
+    cache, or compiled): a one-joint arm with one box part beside a box."""
+    box = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (0.0, 0.5)])
+    link = LinkShapes.of(0, True, [box], LinkBalls(0, np.zeros((1, 3)), np.array([0.05])))
+    tree = Tree(np.array([-1], dtype=np.int64), np.array([1], dtype=np.int64), np.zeros((1, 3)),
+                np.eye(3)[None].copy(), np.array([[0.0, 0.0, 1.0]]), np.ones((1, 1)), np.zeros(1),
+                np.zeros(3), np.eye(3))
+    shapes = shapes_of([link, link], [0, -1], [(0, 1)], [(0, 1)])
+    robot = RobotShapes(tree, (link, link), ((0, 1),), shapes, 1.0)
+    bodies = Bodies(np.zeros(1, dtype=np.int64), np.full((1, 3), 0.05), np.array([[0.3, 0.0, 0.2]]),
+                    np.eye(3)[None].copy(), np.ones(1, dtype=np.bool_))
+    bounds = OuterBounds(robot, bodies, distance_grid(bodies, 0.2, None, GRID_SIDE),
+                         distance_grid(bodies, 0.3, None, ZONE_SIDE))
+    tree_frames(tree, np.zeros(1))
+    bounds.classify(np.zeros((1, 1)), hits=True)
+
+
+def distance_grid(bodies: Bodies, reach: float, clip: tuple[FloatArray, FloatArray] | None,
+                  side: float) -> Grid:
+    """The grid of ``bodies`` (``sphere_kernel.Grid``) over the voxels within ``reach`` (the largest
+    sphere radius plus margin asked about) plus a voxel's side of one, at most the box ``clip`` (the
+    robot's reach), voxels of ``side`` or larger so that it holds at most ``GRID_VOXELS``."""
+    from robwot_sim.sim.sphere_kernel import fill_grid
+
+    kind, size, rot = bodies.kind, bodies.size, bodies.rotation
+    turn = np.abs(rot)  # the body's axes are the columns of its rotation's transpose: world extents
+    box = np.einsum("bji,bj->bi", turn.transpose(0, 2, 1), size)
+    axis = turn[:, :, 2]
+    cyl = axis * size[:, 1:2] + size[:, 0:1] * np.sqrt(np.maximum(0.0, 1.0 - axis * axis))
+    half = np.where((kind == 0)[:, None], box, np.where((kind == 1)[:, None], size[:, :1].repeat(3, 1), cyl))
+    for _ in range(2):  # the voxel side from the extent, the extent from the side
+        # a voxel whose centre is farther than reach + side from a body needs no distance to it: no
+        # point within the voxel comes within the reach of it
+        low, high = bodies.centre - half - reach - side, bodies.centre + half + reach + side
+        if not len(kind):
+            bodies_lo, bodies_hi = np.full(3, np.inf), np.full(3, -np.inf)
+            lo, hi = np.zeros(3), np.zeros(3)
         else:
-            pts = _shape_points(body, link, cid, shape)
-            if pts is None:
-                return None
-            local = np.asarray(shape[5], dtype=np.float64) + pts @ quat_matrix(shape[6]).T
-        out.append(com_p + local @ com_r.T)  # inertial frame -> link frame
-    return np.concatenate(out) if out else None
+            bodies_lo, bodies_hi = low.min(axis=0), high.max(axis=0)
+            lo, hi = bodies_lo.copy(), bodies_hi.copy()
+            if clip is not None:
+                lo, hi = np.maximum(lo, clip[0]), np.minimum(hi, clip[1])
+        extent = np.maximum(hi - lo, 0.0)
+        side = max(side, float(np.prod(extent) / GRID_VOXELS) ** (1 / 3))
+    shape = np.maximum(1, np.ceil(extent / side)).astype(np.int64)
+    count = int(np.prod(shape))
+    grid = Grid(lo, side, shape, np.full((count, 3), np.inf, dtype=np.float32),
+                np.full((count, 2), -1, dtype=np.int32), bodies_lo, bodies_hi)
+    if len(kind):
+        fill_grid(grid, bodies, low, high)
+    return grid
 
 
-def fit_box(points: FloatArray, grow: float) -> Box:
-    """The smaller of the boxes along the principal axes of ``points`` and along the link frame's axes
-    holding them all (principal axes of a round part point anywhere), half extents grown by ``grow``."""
-    centre = points.mean(axis=0)
-    best: Box | None = None
-    candidates = [np.eye(3)]
-    if len(points) > 1:
-        principal = np.linalg.svd(points - centre, full_matrices=False)[2]
-        candidates.append(np.asarray(principal, dtype=np.float64).T)
-    for axes in candidates:
-        local = points @ axes
-        lo, hi = local.min(axis=0), local.max(axis=0)
-        box = Box(axes @ ((lo + hi) / 2), axes, (hi - lo) / 2 + grow)
-        if best is None or float(np.prod(box.half)) < float(np.prod(best.half)):
-            best = box
-    assert best is not None
-    return best
+Body = tuple[int, FloatArray, FloatArray, FloatArray]
 
 
-def spec_box(spec: dict[str, Any]) -> Box:
-    """The box of a primitive obstacle spec (a sphere or cylinder: the box around it)."""
-    s = spec["shape"]
-    if s["type"] == "box":
-        half = np.asarray(s["size"], dtype=np.float64) / 2
-    elif s["type"] == "sphere":
-        half = np.full(3, float(s["radius"]))
-    else:
-        half = np.array([float(s["radius"]), float(s["radius"]), float(s["length"]) / 2])
-    return Box(np.asarray(spec["position"], dtype=np.float64), quat_matrix(spec["orientation"]), half)
+def _body(kind: int, size: Any, centre: Any, rotation: FloatArray) -> Body:
+    out = np.zeros(3)
+    values = np.asarray(size, dtype=np.float64).ravel()
+    out[:len(values)] = values
+    return kind, out, np.asarray(centre, dtype=np.float64).reshape(3), rotation
 
 
-def aabb_box(lo: Any, hi: Any) -> Box:
+def spec_body(spec: dict[str, Any]) -> Body:
+    """A primitive obstacle spec as a body of the grid."""
+    shape, rot = spec["shape"], quat_matrix(spec["orientation"])
+    if shape["type"] == "box":
+        return _body(0, np.asarray(shape["size"], dtype=np.float64) / 2, spec["position"], rot)
+    if shape["type"] == "sphere":
+        return _body(1, [float(shape["radius"])], spec["position"], rot)
+    return _body(2, [float(shape["radius"]), float(shape["length"]) / 2], spec["position"], rot)
+
+
+def aabb_body(lo: Any, hi: Any) -> Body:
+    """A bounding box (world axes) as a body of the grid."""
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
-    return Box((lo + hi) / 2, np.eye(3), (hi - lo) / 2)
-
-
-def separated(ca: FloatArray, ra: FloatArray, ha: FloatArray, cb: FloatArray, rb: FloatArray,
-              hb: FloatArray) -> BoolArray:
-    """Per row: boxes (centre (n, 3), axes as columns (n, 3, 3), half extents (n, 3)) A and B apart, by
-    the separating-axis test (their faces' 6 normals and the 9 cross products of their edges)."""
-    r = np.einsum("nki,nkj->nij", ra, rb)  # B's axes in A's frame
-    t = np.einsum("nki,nk->ni", ra, cb - ca)  # B's centre in A's frame
-    ar = np.abs(r) + 1e-9
-    out = (np.abs(t) > ha + np.einsum("nij,nj->ni", ar, hb)).any(axis=1)
-    out |= (np.abs(np.einsum("ni,nij->nj", t, r)) > np.einsum("ni,nij->nj", ha, ar) + hb).any(axis=1)
-    for i in range(3):
-        i1, i2 = (i + 1) % 3, (i + 2) % 3
-        for j in range(3):
-            j1, j2 = (j + 1) % 3, (j + 2) % 3
-            lhs = np.abs(t[:, i2] * r[:, i1, j] - t[:, i1] * r[:, i2, j])
-            rhs = (ha[:, i1] * ar[:, i2, j] + ha[:, i2] * ar[:, i1, j]
-                   + hb[:, j1] * ar[:, i, j2] + hb[:, j2] * ar[:, i, j1])
-            out |= lhs > rhs
-    return np.asarray(out, dtype=bool)
+    return _body(0, (hi - lo) / 2, (lo + hi) / 2, np.eye(3))
 
 
 class OuterBounds:
-    """The free-for-sure tests of one robot (module docstring): ``boxes[i]`` of link ``links[i]`` in its
-    link frame, ``fks[i]`` giving that frame from a joint vector, ``moving[i]`` whether it moves;
-    ``pairs`` the self pairs Bullet checks (indices into ``boxes``); ``others`` every other body's box."""
+    """The free-for-sure tests of one robot (module docstring) in one world: the robot's shapes and the
+    grids of every other body. Empty (nothing known) without shapes."""
 
-    def __init__(self, boxes: list[Box], fks: list[ChainFK], moving: list[bool], pairs: list[tuple[int, int]],
-                 others: list[Box]) -> None:
-        self.boxes, self.fks, self.moving, self.pairs = boxes, fks, moving, pairs
-        self.other_centre = np.array([o.centre for o in others], dtype=np.float64).reshape(-1, 3)
-        self.other_axes = np.array([o.axes for o in others], dtype=np.float64).reshape(-1, 3, 3)
-        self.other_half = np.array([o.half for o in others], dtype=np.float64).reshape(-1, 3)
-        extent = np.einsum("oij,oj->oi", np.abs(self.other_axes), self.other_half)
-        self.other_lo, self.other_hi = self.other_centre - extent, self.other_centre + extent
+    def __init__(self, robot: RobotShapes | None = None, bodies: Bodies | None = None,
+                 grid: Grid | None = None, zone: Grid | None = None) -> None:
+        self.robot, self.bodies, self.grid, self.zone = robot, bodies, grid, zone
+        self.links = list(robot.links) if robot else []
+        self.pairs = list(robot.pairs) if robot else []
 
     @property
     def empty(self) -> bool:
-        return not self.boxes
+        return self.robot is None or not self.links
 
-    def _world(self, qs: FloatArray) -> list[tuple[FloatArray, FloatArray]]:
-        """Each link box's centre (n, 3) and axes (n, 3, 3) in the world."""
-        return [(p + r @ b.centre, r @ b.axes) for (p, r), b in zip(chain_frames(self.fks, qs), self.boxes,
-                                                                    strict=True)]
+    def classify(self, qs: FloatArray, margin: float = 0.0, self_always: bool = True,
+                 hits: bool = False) -> npt.NDArray[np.int8]:
+        """Per row of ``qs`` (validated): 0 free for sure; bit 1 set where a moving link may come within
+        ``margin`` (m) of another body; bit 2 where a checked self pair may touch (for every row, or with
+        ``self_always`` false only for the rows apart from the other bodies); with ``hits``, ``SURE_HIT``
+        where it surely collides (``surehit.py``'s test, compiled). Empty bounds, or a margin above
+        ``MAX_MARGIN``: 3 everywhere."""
+        out = np.full(len(qs), 3, dtype=np.int8)
+        if self.empty or margin > MAX_MARGIN or not len(qs):
+            return out
+        from robwot_sim.sim.sphere_kernel import classify
 
-    def apart(self, qs: FloatArray, margin: float = 0.0, probe: bool = True) -> BoolArray:
-        """True where every moving link of the configuration (row of ``qs``, validated) keeps more than
-        ``margin`` (m) from every other body, for sure (self-contact not tested). Empty bounds: never.
-        With ``probe``, when fewer than ``MIN_APART`` of the first ``PROBE`` rows are (a scene crowding the
-        robot), the other rows are left to Bullet."""
-        n = len(qs)
-        if self.empty or n == 0:
-            return np.zeros(n, dtype=bool)
-        ok = np.ones(n, dtype=bool)
-        if not len(self.other_centre):
-            return ok
-        starts = [0, *range(PROBE, n, CHUNK)] if probe and n > PROBE else list(range(0, n, CHUNK))
-        for lo, hi in zip(starts, [*starts[1:], n], strict=True):
-            ok[lo:hi] = self._apart(qs[lo:hi], margin)
-            if probe and lo == 0 and hi < n and ok[:hi].mean() < MIN_APART:
-                ok[hi:] = False
-                break
-        return ok
+        assert self.robot is not None and self.bodies is not None
+        assert self.grid is not None and self.zone is not None
+        classify(np.ascontiguousarray(qs, dtype=np.float64), self.robot.tree, self.robot.shapes,
+                 self.bodies, self.grid, self.zone, float(margin), GROW, HULL_GAP, TOLERANCE, self_always,
+                 hits, DEPTH, out)
+        return out
 
-    def _apart(self, qs: FloatArray, margin: float) -> BoolArray:
-        ok = np.ones(len(qs), dtype=bool)
-        for k, (centre, axes) in enumerate(self._world(qs)):
-            if not self.moving[k]:
-                continue
-            half = self.boxes[k].half + margin
-            extent = np.einsum("nij,j->ni", np.abs(axes), half)
-            lo, hi = centre - extent, centre + extent
-            overlap = ((lo[:, None, :] <= self.other_hi[None])
-                       & (hi[:, None, :] >= self.other_lo[None])).all(axis=2)
-            rows, which = np.nonzero(overlap & ok[:, None])
-            if not len(rows):
-                continue
-            apart = separated(centre[rows], axes[rows], np.broadcast_to(half, (len(rows), 3)),
-                              self.other_centre[which], self.other_axes[which], self.other_half[which])
-            ok[rows[~apart]] = False
-        return ok
+    def apart(self, qs: FloatArray, margin: float = 0.0) -> BoolArray:
+        """True where every moving link keeps more than ``margin`` (m) from every other body, for sure."""
+        return np.asarray(self.classify(qs, margin, self_always=False) & 1 == 0)
 
-    def self_free(self, qs: FloatArray, probe: bool = True) -> BoolArray:
-        """True where no self pair Bullet checks can touch in the configuration (row of ``qs``), for sure.
-        With ``probe``, when fewer than ``MIN_RATE`` of the first ``PROBE`` rows are (a robot whose links
-        nest too closely for boxes), the other rows are left to Bullet."""
-        if not probe or len(qs) <= PROBE:
-            return self._self_free(qs)
-        first = self._self_free(qs[:PROBE])
-        if first.mean() < MIN_RATE:
-            return np.concatenate([first, np.zeros(len(qs) - PROBE, dtype=bool)])
-        return np.concatenate([first, self._self_free(qs[PROBE:])])
-
-    def _self_free(self, qs: FloatArray) -> BoolArray:
-        n = len(qs)
-        if self.empty or n == 0:
-            return np.zeros(n, dtype=bool)
-        ok = np.ones(n, dtype=bool)
-        world = self._world(qs)
-        for a, b in self.pairs:
-            rows = np.flatnonzero(ok)
-            (ca, ra), (cb, rb) = world[a], world[b]
-            ha = np.broadcast_to(self.boxes[a].half, (len(rows), 3))
-            hb = np.broadcast_to(self.boxes[b].half, (len(rows), 3))
-            ok[rows[~separated(ca[rows], ra[rows], ha, cb[rows], rb[rows], hb)]] = False
-        return ok
+    def self_free(self, qs: FloatArray) -> BoolArray:
+        """True where no self pair Bullet checks can touch, for sure."""
+        return np.asarray(self.classify(qs) & 2 == 0)
 
 
-def build_outer_bounds(bound: Any, filtered: set[tuple[int, int]], model: Any,
-                       obstacles: list[tuple[int, dict[str, Any]]], others: list[Any]) -> OuterBounds:
-    """The free-for-sure tests of a loaded robot (``BoundRobot``, its filtered pairs and ``RobotModel``) in
-    a world of ``obstacles`` (body id, spec) and other robots (``BoundRobot``, at their current state).
-    Empty (never free for sure) when a link's shapes cannot be read or the FK does not reproduce Bullet's
-    link frames to 1e-6 m / 1e-6."""
-    cid, body = bound.bullet.cid, bound.body
-    never = OuterBounds([], [], [], [], [])
-    moving = set(bound.moving_links)
-    links = [ln for ln in range(-1, pb.getNumJoints(body, physicsClientId=cid))
-             if pb.getCollisionShapeData(body, ln, physicsClientId=cid)]
-    points = [link_points(cid, body, ln) for ln in links]
-    if any(p is None for p in points):
-        return never
-    world = ChainFK([], bound.dof, bound.link_names[-1])  # the identity: the base's box is in the world
-    fks = [world if ln < 0 else ChainFK.from_joints(
-        model.joints, model.links, bound.link_names[ln], model.controllable, model.couplings,
-        base_position=model.base_position, base_orientation=model.base_orientation) for ln in links]
-    q = np.asarray(bound.q, dtype=np.float64)[None, :]
-    for ln, fk in zip(links, fks, strict=True):
-        if ln < 0:
-            continue
-        p, r = fk.poses(q)
-        frame = bound.bullet.link_frame(body, ln)
-        if (np.abs(p[0] - np.asarray(frame[0])).max() > 1e-6
-                or np.abs(r[0] - quat_matrix(frame[1])).max() > 1e-6):
-            return never
-    parent = {ln: int(pb.getJointInfo(body, ln, physicsClientId=cid)[16]) for ln in links if ln >= 0}
-    pairs = [(i, j) for i, a in enumerate(links) for j, b in enumerate(links)
-             if i < j and parent.get(a) != b and parent.get(b) != a
-             and (min(a, b), max(a, b)) not in filtered]
-    boxes = []
-    for ob_body, spec in obstacles:
-        if spec["shape"]["type"] in ("box", "sphere", "cylinder"):
-            boxes.append(spec_box(spec))
-        else:
-            boxes.append(aabb_box(*pb.getAABB(ob_body, -1, physicsClientId=cid)))
+def build_outer_bounds(robot: RobotShapes | None, cid: int, obstacles: list[tuple[int, dict[str, Any]]],
+                       others: list[Any]) -> OuterBounds:
+    """The free-for-sure tests of a robot (its ``robot_shapes``; None: empty bounds) in a world of
+    ``obstacles`` (body id, spec) and other robots (``BoundRobot``, at their current state)."""
+    if robot is None:
+        return OuterBounds()
+    exact = [spec["shape"]["type"] in ("box", "sphere", "cylinder") for _, spec in obstacles]
+    found = [spec_body(spec) if sure else aabb_body(*pb.getAABB(ob_body, -1, physicsClientId=cid))
+             for (ob_body, spec), sure in zip(obstacles, exact, strict=True)]
     for other in others:
         for ln in range(-1, pb.getNumJoints(other.body, physicsClientId=cid)):
             if pb.getCollisionShapeData(other.body, ln, physicsClientId=cid):
-                boxes.append(aabb_box(*pb.getAABB(other.body, ln, physicsClientId=cid)))
-    return OuterBounds([fit_box(p, GROW) for p in points if p is not None], fks,
-                       [ln in moving for ln in links], pairs, boxes)
+                found.append(aabb_body(*pb.getAABB(other.body, ln, physicsClientId=cid)))
+                exact.append(False)
+    bodies = Bodies(np.array([b[0] for b in found], dtype=np.int64),
+                    np.array([b[1] for b in found]).reshape(-1, 3),
+                    np.array([b[2] for b in found]).reshape(-1, 3),
+                    np.array([b[3] for b in found]).reshape(-1, 3, 3),
+                    np.array(exact, dtype=np.bool_))
+    margin = max((float(lk.radii.max()) for lk in robot.links if len(lk.radii)), default=0.0) + MAX_MARGIN
+    base = robot.tree.base_p
+    clip = None if robot.reach is None else (base - robot.reach - margin, base + robot.reach + margin)
+    zone = max((ball(lk.centres, lk.radii)[1] for lk in robot.links), default=0.0) + MAX_MARGIN
+    return OuterBounds(robot, bodies, distance_grid(bodies, margin, clip, GRID_SIDE),
+                       distance_grid(bodies, zone, clip, ZONE_SIDE))
+
+
+class BoundsCache:
+    """The outer bounds of a scene's robots: what the bounds know of each robot itself kept per robot body,
+    the bounds kept while nothing but the robot's own joints changes (``Scene.others_stamp``). Made with
+    a scene, it starts loading the kernels."""
+
+    def __init__(self) -> None:
+        self._bounds: dict[str, tuple[tuple[int, int], OuterBounds]] = {}
+        self._shapes: dict[str, tuple[Any, RobotShapes | None]] = {}
+        load_kernels()  # on a thread of their own, while robots load
+
+    def get(self, scene: Any, robot_id: str) -> OuterBounds:
+        """Robot ``robot_id``'s bounds in ``scene`` (a ``planning_scene.Scene``); empty (nothing known)
+        until the compiled kernels are loaded (``load_kernels``)."""
+        if not kernels_ready():
+            return OuterBounds()
+        stamp = scene.others_stamp(robot_id)
+        cached = self._bounds.get(robot_id)
+        if cached is not None and cached[0] == stamp:
+            return cached[1]
+        entries = scene.entries()
+        e = entries[robot_id]
+        known = self._shapes.get(robot_id)
+        if known is None or known[0] is not e:
+            known = (e, robot_shapes(e.bound, e.checker.filtered, e.model))
+            self._shapes[robot_id] = known
+        others = [o.bound for rid, o in entries.items() if rid != robot_id]
+        bounds = build_outer_bounds(known[1], scene.bullet.cid, scene.obstacle_bodies(), others)
+        self._bounds[robot_id] = (stamp, bounds)
+        return bounds
+
+    def sure_free(self, scene: Any, robot_id: str, entry: Any, qs: FloatArray, clearance: float) -> BoolArray:
+        """The states of robot ``robot_id``'s body ``entry`` (a ``loader.RobotEntry``) its bounds find farther
+        than ``clearance`` from every other body and free of self-contact (``CollisionChecker.sure_free``);
+        none while ``entry`` is not the robot's (a body being rebuilt) or a link fixed to its base touches
+        something (every state then collides)."""
+        if scene.entries().get(robot_id) is not entry or entry.checker.static_contacts():
+            return np.zeros(len(qs), dtype=bool)
+        return np.asarray(self.get(scene, robot_id).classify(qs, clearance) == 0)

@@ -31,6 +31,7 @@ from robwot_sim.sim.client import Bullet
 from robwot_sim.sim.collision import BodyTable
 from robwot_sim.sim.kinematics import fk_pose
 from robwot_sim.sim.loader import RobotEntry, RobotFiles, load_limits, load_robot_body
+from robwot_sim.sim.outerbounds import BoundsCache
 from robwot_sim.sim.scene_files import (
     ReadObstacle,
     SceneFiles,
@@ -76,6 +77,7 @@ class Scene:
         self._built: dict[str, dict[str, Any]] = {}  # per obstacle: the shape its body was built from
         self._objects: set[str] = set()  # the obstacles that are objects
         self._moves: dict[str, int] = {}  # per robot: how often its joints were set (see others_stamp)
+        self.bounds = BoundsCache()  # the robots' outer bounds (``outerbounds.py``)
 
     def bind(self) -> None:
         """From now on only the calling thread may use the scene: a call from another thread raises
@@ -131,20 +133,11 @@ class Scene:
             raise NameTaken(name)
 
     @owned
-    def load_robot(
-        self,
-        urdf: str | Path,
-        *,
-        robot_id: str | None = None,
-        base_position: Vec3 = (0.0, 0.0, 0.0),
-        base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
-        ee_link: str | None = None,
-        package_roots: Mapping[str, str] | None = None,
-        srdf: str | Path | None = None,
-        clearance: float = DEFAULT_CLEARANCE,
-        _base_dir: Path | None = None,
-        decompose: bool = True,
-    ) -> RobotModel:
+    def load_robot(self, urdf: str | Path, *, robot_id: str | None = None,
+                   base_position: Vec3 = (0.0, 0.0, 0.0), base_orientation: Quat = (0.0, 0.0, 0.0, 1.0),
+                   ee_link: str | None = None, package_roots: Mapping[str, str] | None = None,
+                   srdf: str | Path | None = None, clearance: float = DEFAULT_CLEARANCE,
+                   _base_dir: Path | None = None, decompose: bool = True) -> RobotModel:
         """Load a fixed-base robot. Relative URDF paths: cwd, then pybullet_data. Returns its joint model.
         ``clearance`` (m) is what its checked paths and motions keep to other bodies. =
         ``scene_files.read_robot`` then ``add_robot``."""
@@ -210,6 +203,7 @@ class Scene:
         entry.clearance = float(clearance)
         entry.model = replace(entry.model, clearance=entry.clearance, accelerations=dict(accelerations),
                               jerks=dict(jerks))
+        entry.checker.sure_free = functools.partial(self.bounds.sure_free, self, robot_id, entry)
         return entry
 
     @owned

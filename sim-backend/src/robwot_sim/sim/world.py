@@ -121,7 +121,7 @@ class World:
 
     # collision queries
     def collision_free_batch(self, robot_id: str, qs: npt.NDArray[np.float64],
-                             bounds: bool = False) -> npt.NDArray[np.bool_]:
+                             bounds: bool = True) -> npt.NDArray[np.bool_]:
         return self.queries.free_batch(robot_id, qs, bounds)
 
     def motion_clearance(self, robot_id: str, *through: JointVector) -> float:

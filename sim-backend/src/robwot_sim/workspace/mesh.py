@@ -23,7 +23,8 @@ def boundary_mask(neighbors: IntArray, kept: BoolArray, own: BoolArray | None = 
     """``(m, 4)``: face ``i`` of tetrahedron ``s`` is kept and its neighbour across it is not (``own``:
     whether the rows of ``neighbors`` are kept, when they are a subset; ``kept`` is over all)."""
     across = np.where(neighbors >= 0, kept[np.maximum(neighbors, 0)], False)
-    return (kept if own is None else own)[:, None] & ~across
+    out: BoolArray = (kept if own is None else own)[:, None] & ~across
+    return out
 
 
 def boundary_faces(points: FloatArray, simplices: IntArray, neighbors: IntArray, kept: BoolArray) -> IntArray:
