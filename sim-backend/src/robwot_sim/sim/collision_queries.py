@@ -47,8 +47,9 @@ class CollisionQueries:
         outer bounds (``outerbounds.py``) find free for sure are not checked by Bullet, rows they find
         apart from every other body are checked for self-contact in a world holding the robot alone; of
         the rest, the sure hits (``surehit.py``'s test, compiled with the bounds) are colliding and Bullet
-        checks the others in the whole scene. ``bounds=False`` (or bounds the robot cannot have): the
-        sure hits in numpy, no outer bounds (``python -m robwot_bench.bounds`` compares)."""
+        checks the others in the whole scene. ``bounds=False``, bounds the robot cannot have, or a process
+        that has not asked about enough rows yet (``outerbounds.WARM_AFTER``): the sure hits in numpy, no
+        outer bounds (``python -m robwot_bench.bounds`` compares)."""
         e = self._scene.entry(robot_id)
         entries = self._scene.entries()
         arr = _rows(qs, e.bound.dof)
@@ -62,8 +63,8 @@ class CollisionQueries:
         if e.checker.static_contacts():
             return np.zeros(len(arr), dtype=bool)
         out = np.zeros(len(arr), dtype=bool)
-        outer = self.outer_bounds(robot_id)
-        if bounds and not outer.empty and self._pays(robot_id, outer, arr):
+        outer = self._scene.bounds.get(self._scene, robot_id, len(arr)) if bounds else OuterBounds()
+        if not outer.empty and self._pays(robot_id, outer, arr):
             status = outer.classify(arr, self_always=False, hits=True)
             out[status == 0] = True
             todo = np.flatnonzero((status != 0) & (status != SURE_HIT))

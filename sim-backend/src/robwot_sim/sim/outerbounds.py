@@ -81,6 +81,12 @@ class Grid(NamedTuple):
     bodies_hi: FloatArray
 
 
+#: configurations (rows labelled, path states checked) a process asks about before it loads the kernels
+#: and builds each robot's shapes: the fixed cost (numba's import, the kernels' load, a mesh-heavy robot's
+#: shapes: about a second) is paid back only over many checks, so a short generation or a few moves never
+#: pay it
+WARM_AFTER = 100_000
+_asked = 0
 _kernels_ready = threading.Event()
 _kernels_lock = threading.Lock()
 _kernels_started = False
@@ -89,9 +95,10 @@ _kernels_ok = False
 
 def load_kernels() -> None:
     """Loads the compiled kernels (``sphere_kernel.py``: numba's import and, from its disk cache, or
-    compiled on a machine's first use, every kernel) on a thread of their own, once per process; until
-    they are loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a
-    caller wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
+    compiled on a machine's first use, every kernel) on a thread of their own, once per process (once it
+    has asked about ``WARM_AFTER`` configurations, or when told to: ``kernels_ready``); until they are
+    loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a caller
+    wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
     the kernels compiled again; kernels that still fail to load leave the bounds empty for good, said
     once on stderr."""
     global _kernels_started
@@ -122,6 +129,14 @@ def load_kernels() -> None:
             _kernels_ready.set()
 
     threading.Thread(target=load, name="robwot-kernels", daemon=True).start()
+
+
+def asked(rows: int) -> bool:
+    """Counts ``rows`` more configurations asked about in this process; whether the outer bounds are
+    wanted yet (``WARM_AFTER`` reached, or the kernels already loading: ``load_kernels``)."""
+    global _asked
+    _asked += rows
+    return _kernels_started or _asked >= WARM_AFTER
 
 
 def kernels_ready(timeout: float = 0.0) -> bool:
@@ -281,18 +296,17 @@ def build_outer_bounds(robot: RobotShapes | None, cid: int, obstacles: list[tupl
 
 class BoundsCache:
     """The outer bounds of a scene's robots: what the bounds know of each robot itself kept per robot body,
-    the bounds kept while nothing but the robot's own joints changes (``Scene.others_stamp``). Made with
-    a scene, it starts loading the kernels."""
+    the bounds kept while nothing but the robot's own joints changes (``Scene.others_stamp``)."""
 
     def __init__(self) -> None:
         self._bounds: dict[str, tuple[tuple[int, int], OuterBounds]] = {}
         self._shapes: dict[str, tuple[Any, RobotShapes | None]] = {}
-        load_kernels()  # on a thread of their own, while robots load
 
-    def get(self, scene: Any, robot_id: str) -> OuterBounds:
-        """Robot ``robot_id``'s bounds in ``scene`` (a ``planning_scene.Scene``); empty (nothing known)
-        until the compiled kernels are loaded (``load_kernels``)."""
-        if not kernels_ready():
+    def get(self, scene: Any, robot_id: str, rows: int = 0) -> OuterBounds:
+        """Robot ``robot_id``'s bounds in ``scene`` (a ``planning_scene.Scene``), asked for ``rows``
+        configurations (``asked``); empty (nothing known) until the process has asked about enough of them
+        and the compiled kernels are loaded (``load_kernels``)."""
+        if not asked(rows) or not kernels_ready():
             return OuterBounds()
         stamp = scene.others_stamp(robot_id)
         cached = self._bounds.get(robot_id)
@@ -316,4 +330,4 @@ class BoundsCache:
         something (every state then collides)."""
         if scene.entries().get(robot_id) is not entry or entry.checker.static_contacts():
             return np.zeros(len(qs), dtype=bool)
-        return np.asarray(self.get(scene, robot_id).classify(qs, clearance) == 0)
+        return np.asarray(self.get(scene, robot_id, len(qs)).classify(qs, clearance) == 0)
