@@ -81,10 +81,10 @@ class Grid(NamedTuple):
     bodies_hi: FloatArray
 
 
-#: configurations (rows labelled, path states checked) a process asks about before it loads the kernels
-#: and builds each robot's shapes: the fixed cost (numba's import, the kernels' load, a mesh-heavy robot's
-#: shapes: about a second) is paid back only over many checks, so a short generation or a few moves never
-#: pay it
+#: rows a process labels before it loads the kernels and builds each robot's shapes: the fixed cost (numba's
+#: import and compiler, the kernels' load, a mesh-heavy robot's shapes: about a second and 100 MB) is paid
+#: back only over many rows, so a short generation never pays it; path checks use the bounds once loaded
+#: and never load them (a servient planning long programs keeps its memory)
 WARM_AFTER = 100_000
 _asked = 0
 _kernels_ready = threading.Event()
@@ -96,7 +96,7 @@ _kernels_ok = False
 def load_kernels() -> None:
     """Loads the compiled kernels (``sphere_kernel.py``: numba's import and, from its disk cache, or
     compiled on a machine's first use, every kernel) on a thread of their own, once per process (once it
-    has asked about ``WARM_AFTER`` configurations, or when told to: ``kernels_ready``); until they are
+    has labelled ``WARM_AFTER`` rows, or when told to: ``kernels_ready``); until they are
     loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a caller
     wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
     the kernels compiled again; kernels that still fail to load leave the bounds empty for good, said
@@ -326,8 +326,9 @@ class BoundsCache:
     def sure_free(self, scene: Any, robot_id: str, entry: Any, qs: FloatArray, clearance: float) -> BoolArray:
         """The states of robot ``robot_id``'s body ``entry`` (a ``loader.RobotEntry``) its bounds find farther
         than ``clearance`` from every other body and free of self-contact (``CollisionChecker.sure_free``);
-        none while ``entry`` is not the robot's (a body being rebuilt) or a link fixed to its base touches
-        something (every state then collides)."""
+        none until the kernels are loaded (path checks never load them: ``WARM_AFTER``), while ``entry``
+        is not the robot's (a body being rebuilt) or a link fixed to its base touches something (every
+        state then collides)."""
         if scene.entries().get(robot_id) is not entry or entry.checker.static_contacts():
             return np.zeros(len(qs), dtype=bool)
-        return np.asarray(self.get(scene, robot_id, len(qs)).classify(qs, clearance) == 0)
+        return np.asarray(self.get(scene, robot_id).classify(qs, clearance) == 0)
