@@ -64,8 +64,10 @@ class CollisionQueries:
             return np.zeros(len(arr), dtype=bool)
         out = np.zeros(len(arr), dtype=bool)
         outer = self._scene.bounds.get(self._scene, robot_id, len(arr)) if bounds else OuterBounds()
-        if not outer.empty and self._pays(robot_id, outer, arr):
-            status = outer.classify(arr, self_always=False, hits=True)
+        probe = None if outer.empty else self._probe(robot_id, outer, arr)
+        if probe is not None:
+            rest = outer.classify(arr[len(probe):], self_always=False, hits=True)
+            status = np.concatenate([probe, rest])
             out[status == 0] = True
             todo = np.flatnonzero((status != 0) & (status != SURE_HIT))
             if not e.checker.massless_moving:  # the mirrors do not check massless links
@@ -81,20 +83,21 @@ class CollisionQueries:
         out[todo] = self.mirror().batch(robot_id, arr[todo], others, e.bound.followers)
         return out
 
-    def _pays(self, robot_id: str, outer: OuterBounds, arr: npt.NDArray[np.float64]) -> bool:
+    def _probe(self, robot_id: str, outer: OuterBounds, arr: npt.NDArray[np.float64]) -> Any:
         """Whether the outer bounds decide enough rows of this robot and scene to pay: at least
         ``MIN_DECIDED`` of the first batch's first ``PROBE`` rows (a robot whose links always come within
         the bounds' gap of each other, such as a gripper's knuckles, decides none), the verdict kept until
-        the bounds are rebuilt."""
+        the bounds are rebuilt. None when they do not pay, else the status of the rows classified to find
+        out (none once known)."""
         cached = self._paying.get(robot_id)
         if cached is not None and cached[0] is outer:
-            return cached[1]
+            return np.zeros(0, dtype=np.int8) if cached[1] else None
         if len(arr) < PROBE:
-            return True
+            return np.zeros(0, dtype=np.int8)
         status = outer.classify(arr[:PROBE], self_always=False, hits=True)
         pays = bool(((status == 0) | (status == SURE_HIT)).mean() >= MIN_DECIDED)
         self._paying[robot_id] = (outer, pays)
-        return pays
+        return status if pays else None
 
     def outer_bounds(self, robot_id: str) -> OuterBounds:
         """The robot's free-for-sure test (``outerbounds.py``, kept by the scene)."""

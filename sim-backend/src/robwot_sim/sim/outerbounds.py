@@ -329,6 +329,7 @@ class BoundsCache:
         none until the kernels are loaded (path checks never load them: ``WARM_AFTER``), while ``entry``
         is not the robot's (a body being rebuilt) or a link fixed to its base touches something (every
         state then collides)."""
-        if scene.entries().get(robot_id) is not entry or entry.checker.static_contacts():
+        if not (_kernels_ready.is_set() and _kernels_ok) or scene.entries().get(robot_id) is not entry \
+                or entry.checker.static_contacts():
             return np.zeros(len(qs), dtype=bool)
         return np.asarray(self.get(scene, robot_id).classify(qs, clearance) == 0)

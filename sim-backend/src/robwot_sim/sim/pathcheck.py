@@ -84,6 +84,7 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
     queries are saved. A checkpoint (`world_thread.checkpoint`) before
     each state may let other robots move: the distance is then measured again."""
     slack = -1.0  # travel left before the other bodies must be measured again
+    applied = False  # whether the robot stands at the last state checked
     for j in range(len(points) - 1):
         q0, q1 = points[j], points[j + 1]
         n = substeps(q0, q1, guard.reach, guard.max_sweep)
@@ -96,7 +97,8 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
                 sure[i - 1:] = _sure_free(checker, states[i - 1:], clearance)
             q = states[i - 1]
             slack -= step
-            if sure[i - 1]:
+            applied = not sure[i - 1]
+            if not applied:
                 continue
             robot.apply(q)
             apart = clearance > TOUCH and slack >= 0.0
@@ -107,7 +109,8 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
                 apart, slack = True, gap - clearance
             if not checker.is_free(clearance, others_apart=apart):
                 return j, i / n, q
-    robot.apply(points[-1])
+    if not applied:
+        robot.apply(points[-1])
     return None
 
 
