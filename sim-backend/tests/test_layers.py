@@ -20,7 +20,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("robwot_sim.model",),
     ("robwot_sim.scene",),
     ("robwot_sim.sim",),
-    ("robwot_sim.workspace",),
+    ("robwot_sim.workspace", "robwot_sim.scan"),
     ("robwot_sim.motion_runner",),
     ("robwot_sim.rpc",),
     ("robwot_sim.server", "robwot_sim.__main__"),

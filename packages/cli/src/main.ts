@@ -16,6 +16,7 @@ const COMMANDS: Record<string, () => Promise<{ run(argv: string[]): Promise<numb
   openapi: () => import("./commands/openapi.js"),
   asyncapi: () => import("./commands/asyncapi.js"),
   emulate: () => import("./commands/emulate.js"),
+  scene: () => import("./commands/scene.js"),
 };
 
 const HELP = `robwot ${VERSION}: turn a robot arm's URDF into a Web of Things digital twin
@@ -27,6 +28,7 @@ Usage:
   robwot openapi <twin-folder> [--out FILE] [--base URL]  the OpenAPI 3.0 document of a twin's HTTP API
   robwot asyncapi <twin-folder> [--out FILE] [--base URL] the AsyncAPI 3.0 document of its streams
   robwot emulate <twin-folder> [options]                  a stand-in physical robot for the twin to relay to
+  robwot scene from-scan <cloud>... [options]             a conservative scene file from point clouds
   robwot <command> --help                                 options of a command
 
 Example robots:

@@ -178,6 +178,10 @@ export type GripCapture = number;
  */
 export type DetourRun = "smooth" | "stops";
 /**
+ * a sensor's noise (m): the standard deviation of its points along its rays
+ */
+export type ScanNoise = number;
+/**
  * Result of `ping`.
  */
 export type PingResult = Ping;
@@ -193,6 +197,19 @@ export type WorldListResult = WorldList;
  * Result of `world.loadScene`.
  */
 export type WorldLoadSceneResult = SceneLoaded;
+/**
+ * Result of `scene.fromScan`.
+ */
+export type SceneFromScanResult = ScanScene;
+/**
+ * Result of `camera.capture`.
+ */
+export type CameraCaptureResult = {
+  file: string;
+  points: number;
+  position: Vec3;
+  orientation: QuatXyzw;
+};
 /**
  * Result of `robot.load`.
  */
@@ -1245,6 +1262,68 @@ export interface GripperSpec {
   capture: number;
 }
 /**
+ * one point cloud and where its sensor stood
+ */
+export interface ScanCloud {
+  file: FilePath;
+  position?: Position;
+  orientation?: QuatXyzw;
+  /**
+   * the unit of the file's coordinates
+   */
+  units?: "m" | "mm";
+}
+export interface ScanScene {
+  /**
+   * the scene's obstacles, in the scene file's format: supports, objects, with `occluded: block` the shadows
+   */
+  obstacles: Obstacle[];
+  /**
+   * near-horizontal planes found (floor, table tops), each a box obstacle of the same name
+   */
+  supports: {
+    name: string;
+    height: number;
+    points: number;
+    /**
+     * m the support's top was lowered below its scanned surface plus noise, to clear a robot standing on it (0: not lowered)
+     */
+    lowered: number;
+    /**
+     * m^3 hidden under it: down to the next support below, else `reach` (with `occluded: block` its box reaches down so far)
+     */
+    occluded: number;
+  }[];
+  /**
+   * the clusters of points above the supports, each covered by obstacles named after it (`NAME`, or `NAME-1`... for voxels)
+   */
+  objects: {
+    name: string;
+    points: number;
+    cover: "box" | "hull" | "voxels";
+    volume: number;
+    parts: number;
+    /**
+     * m^3 of space hidden behind it from every sensor that saw it (its shadow's volume)
+     */
+    occluded: number;
+  }[];
+  /**
+   * points read (finite), skipped (an organised cloud's non-returns), the robots' own, the supports', the objects'
+   */
+  points: {
+    read: number;
+    dropped: number;
+    robots: number;
+    supports: number;
+    objects: number;
+  };
+  /**
+   * time spent building the scene (reading included)
+   */
+  seconds: number;
+}
+/**
  * Params of `ping`.
  */
 export interface PingParams {}
@@ -1275,6 +1354,74 @@ export interface WorldLoadSceneParams {
    * false: a scene robot's concave collision mesh without cached convex parts (its folder's `collision/`) is refused with `E_MESH` instead of decomposed (`robwot serve` never decomposes)
    */
   decompose?: boolean;
+}
+/**
+ * Params of `scene.fromScan`.
+ */
+export interface SceneFromScanParams {
+  /**
+   * the clouds
+   *
+   * @minItems 1
+   * @maxItems 64
+   */
+  clouds: [ScanCloud, ...ScanCloud[]];
+  noise?: ScanNoise;
+  /**
+   * each object's cover: an oriented box (yaw only), a convex hull, boxes of voxels, or the one of these with the least volume
+   */
+  shape?: "tightest" | "box" | "hull" | "voxels";
+  /**
+   * voxel side (m) of `voxels` covers
+   */
+  voxel?: number;
+  /**
+   * points closer than this (m) belong to one object
+   */
+  gap?: number;
+  /**
+   * points within this (m) of a robot's collision shapes are the robot's
+   */
+  robotPadding?: number;
+  /**
+   * the space hidden behind each object: reported (`objects[].occluded`), or also blocked by an obstacle `NAME-shadow`
+   */
+  occluded?: "report" | "block";
+  /**
+   * how far (m) from the sensor a shadow reaches where its rays never meet a support
+   */
+  reach?: number;
+  meshDir?: FilePath;
+}
+/**
+ * Params of `camera.capture`.
+ */
+export interface CameraCaptureParams {
+  file: FilePath;
+  position: Position;
+  target: Position;
+  /**
+   * pixels
+   */
+  width?: number;
+  /**
+   * pixels
+   */
+  height?: number;
+  /**
+   * vertical field of view (rad)
+   */
+  fov?: number;
+  /**
+   * the farthest return (m)
+   */
+  far?: number;
+  noise?: ScanNoise;
+  /**
+   * the share of pixels returning nothing
+   */
+  dropout?: number;
+  seed?: Seed;
 }
 /**
  * Params of `robot.load`.
@@ -1684,6 +1831,8 @@ export interface Methods {
   "world.reset": { params: WorldResetParams; result: WorldResetResult };
   "world.list": { params: WorldListParams; result: WorldListResult };
   "world.loadScene": { params: WorldLoadSceneParams; result: WorldLoadSceneResult };
+  "scene.fromScan": { params: SceneFromScanParams; result: SceneFromScanResult };
+  "camera.capture": { params: CameraCaptureParams; result: CameraCaptureResult };
   "robot.load": { params: RobotLoadParams; result: RobotLoadResult };
   "robot.remove": { params: RobotRemoveParams; result: RobotRemoveResult };
   "robot.model": { params: RobotModelParams; result: RobotModelResult };
@@ -1761,6 +1910,7 @@ export const ERRORS = {
   E_CLUSTER: { rpcCode: -32013, httpStatus: 502 },
   E_INTERNAL: { rpcCode: -32603, httpStatus: 500 },
   E_OVERLAP: { rpcCode: -32015, httpStatus: 409 },
+  E_SCAN: { rpcCode: -32016, httpStatus: 422 },
 } as const;
 
 export type ErrorCode = keyof typeof ERRORS;
@@ -1826,4 +1976,5 @@ export const VALUE_SCHEMAS = {
   GripTime: {"type":"number","minimum":0,"maximum":10,"default":0.5,"description":"s an opening or closing of a gripper takes"},
   GripCapture: {"type":"number","minimum":0,"maximum":0.1,"default":0.01,"description":"m: how far from the TCP an object is caught when a gripper closes"},
   DetourRun: {"type":"string","enum":["smooth","stops"],"default":"smooth","description":"how a detour runs: `smooth` one motion along its waypoints (the spline through its densely sampled straight stretches, checked again state by state: it slows only where the path turns; where that curve would touch something, the straight segments at rest where the path turns); `stops` at rest at each waypoint where the path turns, as a physical robot runs a detour relayed to it as one joint move per leg"},
+  ScanNoise: {"type":"number","minimum":0,"maximum":0.05,"description":"a sensor's noise (m): the standard deviation of its points along its rays"},
 } as const;

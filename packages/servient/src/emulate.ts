@@ -26,7 +26,7 @@ import { emulatorMiddleware, emulatorTd, type EmulatedThing } from "./emulate-ht
 import { objectInput, type ActionHandler, type Affordances } from "./affordance-routes.js";
 import { fromBackendError, servientError } from "./errors.js";
 import { isLoopback, RequestGuard } from "./request-guard.js";
-import { loadTwinFolder, type TdDocument } from "./twin-folder.js";
+import { loadTwinFolder, robotLoadParams, type TdDocument } from "./twin-folder.js";
 
 // node-wot's packages are CommonJS without named ESM exports
 const require = createRequire(import.meta.url);
@@ -83,15 +83,7 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
   let controller: EmulatedController | null = null;
   let stopServer: (() => Promise<void>) | null = null;
   try {
-    const model = await sim.loadRobot({
-      urdf: folder.urdfPath,
-      id: "emulated",
-      ...(m.basePosition ? { basePosition: m.basePosition } : {}),
-      ...(m.baseOrientation ? { baseOrientation: m.baseOrientation } : {}),
-      ...(m.eeLink ? { eeLink: m.eeLink } : {}),
-      ...(m.couplings !== undefined ? { couplings: m.couplings } : {}),
-      decompose: false,
-    });
+    const model = await sim.loadRobot(robotLoadParams(folder, "emulated"));
     const names = model.controllable;
     const joints = names.map((n) => model.joints.find((j) => j.name === n)!);
     const vmax = joints.map((j) => (j.velocity > 0 ? j.velocity : 1) * scale);

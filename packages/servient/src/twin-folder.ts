@@ -3,7 +3,7 @@
  * calibration.json. Errors name the folder and the file. The folder is a jail (see `Jail`): a hostile
  * folder can neither make serve read outside it nor make an error quote another file's bytes.
  */
-import type { ConveyorSpec, ObjectAddParams, ObstacleAddParams, SensorSpec } from "@robwot/sim-client";
+import type { ConveyorSpec, ObjectAddParams, ObstacleAddParams, RobotLoadParams, SensorSpec } from "@robwot/sim-client";
 import { existsSync, readFileSync, statSync } from "node:fs";
 import { isAbsolute, join, relative, resolve, sep } from "node:path";
 import { checkCalibration, jailFile, jsonErrorAt, realFolder, snippet, TWIN_FILES, type CalibrationFile, type JailVerdict, type TwinManifest, type WorkspaceSummary } from "@robwot/core";
@@ -256,5 +256,20 @@ export function loadTwinFolder(folder: string, meshRoots: readonly string[] = []
     urdfPath,
     stlPath: join(dir, TWIN_FILES.surface),
     csvPath: join(dir, TWIN_FILES.pointCloud),
+  };
+}
+
+/** `robot.load`'s parameters for a twin folder's robot as generated (its files, base, end effector,
+ *  couplings; never decomposed again: the folder holds its convex parts). */
+export function robotLoadParams(folder: TwinFolder, id: string): RobotLoadParams {
+  const m = folder.manifest.robot;
+  return {
+    urdf: folder.urdfPath,
+    id,
+    ...(m.basePosition ? { basePosition: m.basePosition } : {}),
+    ...(m.baseOrientation ? { baseOrientation: m.baseOrientation } : {}),
+    ...(m.eeLink ? { eeLink: m.eeLink } : {}),
+    ...(m.couplings !== undefined ? { couplings: m.couplings } : {}),
+    decompose: false,
   };
 }

@@ -11,7 +11,7 @@ export type Result<M extends MethodName> = Promise<Methods[M]["result"]>;
 /** Methods that may last minutes (`x-long`: a motion, a generation, a first load) and that the backend runs
  *  off its loop, so its heartbeat keeps answering: no request timeout of their own, the caller's heartbeat
  *  bounds them. */
-export const LONG_METHODS: ReadonlySet<MethodName> = new Set<MethodName>(["world.loadScene", "robot.load", "program.run", "robot.move", "workspace.generate"]);
+export const LONG_METHODS: ReadonlySet<MethodName> = new Set<MethodName>(["world.loadScene", "scene.fromScan", "robot.load", "program.run", "robot.move", "workspace.generate"]);
 
 /** One method per contract method; a client supplies the call and the notification listener. */
 export abstract class ContractMethods {
@@ -33,6 +33,14 @@ export abstract class ContractMethods {
   /** `world.loadScene`: load a scene file or document: Exactly one of `path` and `scene`. Adds the scene's obstacles, conveyors (each belt's box an obstacle named as the conveyor, listed only as the conveyor), objects (each settled onto what is below it, `object.add`), sensors and robots to the world (all or nothing; a sensor named as one the world holds: `E_NAME_TAKEN`). The scene format is versioned and described by `src/robwot_sim/schemas/scene.schema.json`. */
   loadScene(params: Params<"world.loadScene"> = {}, options: CallOptions = {}): Result<"world.loadScene"> {
     return this.request("world.loadScene", params, options);
+  }
+  /** `scene.fromScan`: a conservative scene from point clouds: Reads the clouds (`E_SCAN` for a file refused, naming file, line and reason), places them in the world, removes the points of the world's robots at their current joints (within `robotPadding` of a collision shape), finds near-horizontal support planes, clusters the rest (points closer than `gap` in one cluster) and covers each cluster: every point, grown by `noise` in every direction, lies inside the obstacles returned. Supports are boxes holding their points; a support a robot stands on is lowered just below the robot's fixed links. The world is not changed; hull covers are written as OBJ files into `meshDir`. */
+  sceneFromScan(params: Params<"scene.fromScan">, options: CallOptions = {}): Result<"scene.fromScan"> {
+    return this.request("scene.fromScan", params, options);
+  }
+  /** `camera.capture`: a depth image of the world as a point cloud file: A pinhole depth camera over the world's collision geometry (one ray per pixel, nothing drawn): depth along the optical axis with Gaussian noise (`noise` m standard deviation at 1 m, growing with the square of the distance) and dropped pixels, written as a PLY point cloud in the camera's optical frame (z forward, x right, y down) with the camera's pose as its viewpoint. The world is not changed. */
+  captureDepth(params: Params<"camera.capture">, options: CallOptions = {}): Result<"camera.capture"> {
+    return this.request("camera.capture", params, options);
   }
   /** `robot.load`: load a robot from a URDF file (and its SRDF's disabled collision pairs): `eeLink` defaults to the tip of the longest serial chain. With `srdf`, MoveIt's `<disable_collisions>` pairs are added to `filteredPairs` and never checked (its names checked as `robot.readSrdf` checks them). `package://NAME` resolves from `packageRoots`, the ROS package holding the URDF (its package.xml), `ROS_PACKAGE_PATH` and `AMENT_PREFIX_PATH`; when no package.xml names NAME, from a folder named NAME holding the URDF or beside a folder holding it (within three levels of the URDF's folder; never the filesystem root, its direct children or the home folder), with a note in the result's `warnings`; then `pybullet_data`. */
   loadRobot(params: Params<"robot.load">, options: CallOptions & { onProgress?: (p: Notifications["robot.loadProgress"]) => void } = {}): Result<"robot.load"> {

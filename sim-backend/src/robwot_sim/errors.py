@@ -320,3 +320,14 @@ def _jsonable(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [_jsonable(v) for v in value][:64]
     return repr(value)[:200]
+
+
+class ScanError(SimError):
+    """A point cloud our reader refuses (``scan/clouds.py``): ``file``, ``line`` (text formats, where
+    known), ``reason``; the message names all three."""
+
+    code = "E_SCAN"
+
+    def __init__(self, reason: str, *, file: str, line: int | None = None) -> None:
+        where = file + (f":{line}" if line is not None else "")
+        super().__init__(f"{where}: {reason}", file=file, line=line, reason=reason)

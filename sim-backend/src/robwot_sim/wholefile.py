@@ -31,7 +31,11 @@ def read_whole(path: str | Path, limit: int) -> bytes:
         size = os.fstat(f.fileno()).st_size
         if size > limit:
             raise TooLarge(size, limit)
-        data = f.read(limit + 1)
+        # read what the file says it holds (a buffer of the limit's size would be reserved up front), then
+        # on up to the limit when it holds more (it grew, or it is a device or pipe reporting no size)
+        data = f.read(size + 1)
+        if len(data) > size:
+            data += f.read(limit + 1 - len(data))
     if len(data) > limit:
         raise TooLarge(len(data), limit, exact=False)
     return data

@@ -40,6 +40,7 @@ from robwot_sim.errors import MeshError, PathEscape
 from robwot_sim.model.hull_merge import NEAR, merge_parts
 from robwot_sim.model.mesh_eta import MeshEta
 from robwot_sim.model.meshcheck import check_mesh, snippet
+from robwot_sim.model.objfile import write_obj
 from robwot_sim.twin_layout import COLLISION_DIR
 from robwot_sim.wholefile import TooLarge, read_whole
 
@@ -305,9 +306,7 @@ def _write(folder: Path, hulls: list[tuple[FloatArray, npt.NDArray[Any]]]) -> No
         names = []
         for i, (v, f) in enumerate(hulls):
             name = f"part{i:03d}.obj"
-            lines = [f"v {a:.9g} {b:.9g} {c:.9g}\n" for a, b, c in v]
-            lines += [f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f]
-            (tmp / name).write_text("".join(lines))
+            write_obj(tmp / name, v, f)
             names.append(name)
         (tmp / MANIFEST).write_text(json.dumps({"convex": not hulls, "parts": names}))
         try:

@@ -21,6 +21,7 @@ import numpy as np
 import pybullet as pb
 from scipy.spatial import ConvexHull
 
+from robwot_sim.model.objfile import write_obj
 from robwot_sim.model.tool import fixed_joint, link_element, portable_copy
 from robwot_sim.model.urdf import UrdfDoc
 
@@ -45,9 +46,7 @@ def held_geometry(shape: Mapping[str, Any], folder: Path, name: str) -> ET.Eleme
     else:
         points = np.asarray(shape[HULL], dtype=np.float64)
         out = folder / f"{name}_hull.obj"
-        lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in points]
-        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in outward(points, ConvexHull(points))]
-        out.write_text("\n".join(lines) + "\n")
+        write_obj(out, points, outward(points, ConvexHull(points)))
         ET.SubElement(geometry, "mesh", {"filename": str(out.resolve())})
     return geometry
 

@@ -9,6 +9,7 @@ from robwot_sim.rpc import (
     methods_obstacle,
     methods_robot,
     methods_ros,
+    methods_scan,
     methods_workspace,
     methods_world,
 )
@@ -22,7 +23,7 @@ def build_dispatcher(services: Services, max_message_bytes: int = DEFAULT_MAX_ME
     """A dispatcher with every method of the contract bound to `services`."""
     d = Dispatcher(max_message_bytes, check_results=check_results)
     for module in (methods_world, methods_robot, methods_motion, methods_obstacle, methods_workspace,
-                   methods_ros, methods_gripper, methods_cell):
+                   methods_ros, methods_gripper, methods_cell, methods_scan):
         module.register(d, services)
     if d.unbound():
         raise RuntimeError(f"contract methods without a handler: {d.unbound()}")
