@@ -18,7 +18,8 @@ import { attachLive, type LiveServer } from "./live.js";
 import { exposeTwin, type ExposeEnv, type ExposedTwin } from "./expose-twin.js";
 import { exposeCell, type ExposedCell } from "./cell-things.js";
 import { exposeDevice, prepareDevice, type AsDeviceSpec, type PreparedDevice } from "./as-device.js";
-import { boundedHttpClientFactory, LoopError, Outbound } from "./outbound.js";
+import { boundedHttpClientFactory, LoopError, Outbound, OUTBOUND_LIMITS } from "./outbound.js";
+import { MAX_FRAME_BYTES, ScanSource, type ScanSourceOptions } from "./scan-source.js";
 import { Relay } from "./relay.js";
 import { DIRECTORY_SEGMENTS } from "./directory.js";
 import { Registrar } from "./register.js";
@@ -81,6 +82,8 @@ export interface ServientOptions {
   /** `--as DEVICE=TD [--as-map MAP]` (each): a twin also served as that physical device, at `/<name>`,
    *  with the device's own TD (`as-device.ts`); the files checked at start (`AsDeviceError`) */
   as?: AsDeviceSpec[];
+  /** `--scan-source`: the scene kept current from a sensor's clouds (`scan-source.ts`) */
+  scanSource?: ScanSourceOptions;
 }
 
 /** A device the twin answers as (`--as`). */
@@ -112,6 +115,8 @@ export interface RunningServient {
   peers: { relay?: string; follow?: string; register?: string };
   /** the devices the twin answers as (`--as`) */
   devices: DeviceInfo[];
+  /** where the scene is kept current from (`--scan-source`; a URL without credentials) */
+  scan?: string;
   stop(): Promise<void>;
 }
 
@@ -218,6 +223,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call), { mapError: fromBackendError });
   const twins = nameTwins(opts, backend);
   const world = new SceneRecord([...twins.values()], opts.meshRoots ?? []);
+  const scan = opts.scanSource ? new ScanSource(opts.scanSource, backend, world, new Outbound({ ...OUTBOUND_LIMITS, maxBytes: MAX_FRAME_BYTES })) : null;
   // the device's TD and map are checked against the twin before a backend is started for it
   const devices = prepareDevices(opts.as ?? [], twins);
   watchBackend(backend, twins);
@@ -237,7 +243,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     guard,
     things: served,
     viewerDir: existsSync(viewerDir) ? viewerDir : null,
-    index: () => ({ url: urls.url, live: urls.live, viewer: `${urls.url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: thingInfos(twins, urls.url), devices: deviceInfos(devices, served, urls.url) }),
+    index: () => ({ url: urls.url, live: urls.live, viewer: `${urls.url}/viewer/`, security: opts.auth?.scheme ?? "nosec", things: thingInfos(twins, urls.url), devices: deviceInfos(devices, served, urls.url), ...(scan ? { scan: scan.status() } : {}) }),
     directory: { url: () => urls.url, tds: () => [...served.values()].map((t) => t.td()), auth: opts.auth },
     hop: outbound.token,
   });
@@ -246,11 +252,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   const exposed: ExposedTwin[] = [];
   let cell: ExposedCell | null = null;
   const shown: RunningServient["peers"] = {};
-  // URL userinfo becomes an Authorization header of that origin; only the URL without it is shown
-  const registerUrl = opts.register ? outbound.authorize(opts.register) : null;
-  const registrar = registerUrl
-    ? new Registrar(outbound, registerUrl, () => [...served.values()].flatMap((t) => (typeof t.td().id === "string" ? [{ id: t.td().id as string, td: () => t.td() }] : [])))
-    : null;
+  const { registerUrl, registrar } = registration(opts, outbound, served);
   try {
     const wot = await servient.start();
     port = http.getPort();
@@ -276,6 +278,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     live = attachLive(http.getServer() as import("node:http").Server, twins, world, opts.auth, guard);
     for (const t of exposed) t.follower?.start();
     if (registrar) await registrar.start();
+    scan?.start();
   } catch (err) {
     for (const t of exposed) t.follower?.stop();
     await cell?.stop();
@@ -295,8 +298,17 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     backend,
     twins,
     peers: shown,
-    stop: () => (stopping ??= (cell?.stop() ?? Promise.resolve()).then(() => shutdown({ exposed, registrar, live, servient, http, outbound, backend }))),
+    ...(scan ? { scan: scan.status().source } : {}),
+    stop: () => (stopping ??= (scan?.stop(), cell?.stop() ?? Promise.resolve()).then(() => shutdown({ exposed, registrar, live, servient, http, outbound, backend }))),
   };
+}
+
+/** `--register`: the directory's URL (userinfo becomes an Authorization header of that origin; only the
+ *  URL without it is shown) and the registrar of the served TDs. */
+function registration(opts: ServientOptions, outbound: Outbound, served: Map<string, ServedThing>): { registerUrl: string | null; registrar: Registrar | null } {
+  const registerUrl = opts.register ? outbound.authorize(opts.register) : null;
+  const tds = (): { id: string; td: () => Record<string, unknown> }[] => [...served.values()].flatMap((t) => (typeof t.td().id === "string" ? [{ id: t.td().id as string, td: () => t.td() }] : []));
+  return { registerUrl, registrar: registerUrl ? new Registrar(outbound, registerUrl, tds) : null };
 }
 
 /** Each twin exposed (its Thing, Mover, Follower, served routes), then the device it answers as (`--as`). */

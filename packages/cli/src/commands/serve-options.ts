@@ -4,7 +4,8 @@ import { isIP } from "node:net";
 import { join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { TWIN_FILES } from "@robwot/core";
-import { DIVERGENCE_BOUND, FOLLOW_RATE, MONITOR_HORIZON, type MonitorMode } from "@robwot/servient";
+import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
+import { DIVERGENCE_BOUND, FOLLOW_RATE, MONITOR_HORIZON, type MonitorMode, type ScanSourceOptions } from "@robwot/servient";
 import { parseInteger, parseNumber, parseRealtime, parseUrl, usageError } from "../args.js";
 import { CliError } from "../errors.js";
 
@@ -35,6 +36,8 @@ export interface ServeOptions {
   meshRoots?: string[];
   /** --as DEVICE=TD [--as-map [DEVICE=]MAP] (repeatable): twins also served as physical devices (their own TDs) */
   as?: { name: string; td: string; map?: string }[];
+  /** --scan-source SRC [--scan-pose ...] [--scan-noise M] [--scan-period S]: the scene kept current from a sensor */
+  scanSource?: ScanSourceOptions;
   json: boolean;
 }
 
@@ -58,8 +61,41 @@ export const SERVE_OPTIONS = {
   "mesh-root": { type: "string", multiple: true },
   as: { type: "string", multiple: true },
   "as-map": { type: "string", multiple: true },
+  "scan-source": { type: "string" },
+  "scan-pose": { type: "string" },
+  "scan-noise": { type: "string" },
+  "scan-period": { type: "string" },
   json: { type: "boolean" },
 } as const;
+
+/** `--scan-source` (a folder, or an http(s) or ws(s) URL) and its options. */
+export function parseScanSource(values: { "scan-source"?: string; "scan-pose"?: string; "scan-noise"?: string; "scan-period"?: string }): ScanSourceOptions | undefined {
+  const src = values["scan-source"];
+  if (src === undefined) {
+    const stray = (["scan-pose", "scan-noise", "scan-period"] as const).find((o) => values[o] !== undefined);
+    if (stray) throw new CliError(`--${stray} goes with --scan-source`);
+    return undefined;
+  }
+  let source: string;
+  if (/^[a-z]+:\/\//i.test(src)) {
+    source = parseUrl("scan-source", src, ["http", "https", "ws", "wss"], "send")!.href;
+  } else {
+    source = resolve(src);
+    if (!existsSync(source) || !statSync(source).isDirectory()) throw new CliError(`--scan-source: folder not found: ${source} (or give an http(s):// or ws(s):// URL)`);
+  }
+  const pose = values["scan-pose"]?.split(",").map((v) => Number(v.trim()));
+  if (pose !== undefined && (![3, 7].includes(pose.length) || pose.some((v) => !Number.isFinite(v)))) {
+    throw new CliError(`--scan-pose must be X,Y,Z or X,Y,Z,QX,QY,QZ,QW (m), got "${values["scan-pose"]}"`);
+  }
+  const noise = VALUE_SCHEMAS.ScanNoise;
+  return {
+    source,
+    ...(pose ? { position: pose.slice(0, 3) as [number, number, number] } : {}),
+    ...(pose?.length === 7 ? { orientation: pose.slice(3) as [number, number, number, number] } : {}),
+    noise: parseNumber("scan-noise", values["scan-noise"], 0.005, noise.minimum, noise.maximum),
+    periodMs: 1000 * parseNumber("scan-period", values["scan-period"], 0.5, 0.05, 60),
+  };
+}
 
 /** `--cors-origin` values: absolute http(s) origins (scheme://host[:port], nothing after). */
 export function parseCorsOrigins(values: readonly string[] | undefined): string[] {
@@ -203,6 +239,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
   const register = parseUrl("register", values.register, ["http", "https"], "send")?.href;
   const auth = parseAuth(values.auth);
   const as = parseAs(values.as, values["as-map"]);
+  const scanSource = parseScanSource(values);
   return {
     folders,
     port: parseInteger("port", values.port, 8080, 0, 65535),
@@ -231,6 +268,7 @@ export function parseServeArgs(argv: string[]): ServeOptions {
       return dir;
     }),
     ...(as ? { as } : {}),
+    ...(scanSource ? { scanSource } : {}),
     json: values.json ?? false,
   };
 }

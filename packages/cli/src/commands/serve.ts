@@ -49,6 +49,14 @@ Options:
   --as-map [DEVICE=]FILE       JSON mapping each affordance of the device's TD onto the twin's (units, frame
                                offset, orientation, sequences, "unsupported", with several twin folders the
                                twin); default: inferred by name and shape. DEVICE= when several --as
+  --scan-source SRC            keep the scene current from a sensor's point clouds (PLY, PCD or XYZ): a
+                               folder (its newest file, again when one is written), an http(s):// URL
+                               (fetched every --scan-period) or a ws(s):// URL (each binary message a
+                               frame); obstacles scan-N added, moved and removed as addObstacle/
+                               moveObstacle/removeObstacle would (README "The scene from a scan")
+  --scan-pose X,Y,Z[,QX,QY,QZ,QW]   the sensor's pose in the world (default: each frame's own viewpoint)
+  --scan-noise M               the sensor's noise bound, every point grown by it (default 0.005)
+  --scan-period S              seconds between fetches of an http(s) source and looks at a folder (default 0.5)
   --json                       print the URLs as JSON on stdout
 `;
 
@@ -77,6 +85,7 @@ export function printServing(s: RunningServient, json: boolean): void {
   if (s.peers.relay) lines.push(`  relays to      ${s.peers.relay}`);
   if (s.peers.follow) lines.push(`  follows        ${s.peers.follow}`);
   if (s.peers.register) lines.push(`  registered at  ${s.peers.register}`);
+  if (s.scan) lines.push(`  scene from     ${s.scan}`);
   process.stdout.write(`${lines.join("\n")}\n`);
 }
 
@@ -104,6 +113,7 @@ export async function serve(opts: ServeOptions): Promise<number> {
     corsOrigins: opts.corsOrigins,
     allowedHosts: opts.allowedHosts,
     meshRoots: opts.meshRoots ?? [],
+    ...(opts.scanSource ? { scanSource: opts.scanSource } : {}),
   }).catch((err: unknown) => {
     // the device's TD or map refused: a usage error, said as such
     throw err instanceof AsDeviceError ? new CliError(err.message, "E_USAGE", 2) : err;
