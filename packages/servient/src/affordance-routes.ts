@@ -16,9 +16,18 @@ import { sendJson } from "./static-files.js";
  *  (`Prefer: respond-async`, `action-status.ts`) a watch told once the move is accepted. */
 export type ActionHandler = (input: unknown, watch?: (handle: never) => void) => Promise<unknown>;
 
+/** A property value answered as bytes of its own media type instead of JSON (e.g. a point cloud file). */
+export interface PropertyBytes {
+  contentType: string;
+  body: Buffer;
+}
+
+/** A property reader: the property's value (answered as JSON) or `PropertyBytes`, either possibly as a promise. */
+export type PropertyReader = () => unknown;
+
 /** One Thing's readable properties and actions, by name. */
 export interface Affordances {
-  properties: Map<string, () => unknown>;
+  properties: Map<string, PropertyReader>;
   actions: Map<string, ActionHandler>;
   /** writable properties (`writeproperty`, `PUT <thing>/properties/<name>`): the value's schema, the writer */
   writers?: Map<string, PropertyWriter>;
@@ -43,10 +52,22 @@ export function objectInput<T>(v: unknown, action: string): T {
   return v as T;
 }
 
-/** `readproperty` of `name`, or `readallproperties` (every readable property) without one. */
-export function readProperty(res: ServerResponse, a: Affordances, name?: string): void {
-  if (name !== undefined) return sendJson(res, 200, a.properties.get(name)?.());
-  sendJson(res, 200, Object.fromEntries([...a.properties].map(([n, read]) => [n, read()])));
+const isBytes = (v: unknown): v is PropertyBytes =>
+  typeof v === "object" && v !== null && Buffer.isBuffer((v as Partial<PropertyBytes>).body) && typeof (v as Partial<PropertyBytes>).contentType === "string";
+
+/**
+ * `readproperty` of `name` (JSON, or the reader's bytes with their media type), or `readallproperties`
+ * without one: every readable property's JSON value (a property read as bytes has none: it is left out).
+ */
+export async function readProperty(res: ServerResponse, a: Affordances, name?: string): Promise<void> {
+  if (name !== undefined) {
+    const value: unknown = await a.properties.get(name)?.();
+    if (!isBytes(value)) return sendJson(res, 200, value);
+    res.writeHead(200, { "Content-Type": value.contentType, "Content-Length": value.body.length });
+    return void res.end(value.body);
+  }
+  const values = await Promise.all([...a.properties].map(async ([n, read]): Promise<[string, unknown]> => [n, await read()]));
+  sendJson(res, 200, Object.fromEntries(values.filter(([, v]) => !isBytes(v))));
 }
 
 /** `invokeaction`: 200 with the handler's output as JSON, 204 when it has none. */
@@ -60,6 +81,6 @@ export async function invokeAction(res: ServerResponse, handler: ActionHandler, 
 }
 
 /** node-wot's read handlers from the readers (its long-poll observers re-read a property on change). */
-export function registerReaders(thing: WoT.ExposedThing, properties: Map<string, () => unknown>): void {
+export function registerReaders(thing: WoT.ExposedThing, properties: Map<string, PropertyReader>): void {
   for (const [name, read] of properties) thing.setPropertyReadHandler(name, async () => read() as WoT.InteractionInput);
 }

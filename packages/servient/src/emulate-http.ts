@@ -7,6 +7,8 @@
  * - Only the emulated Thing's routes are served: its TD, property reads and action invocations under
  *   `/<slug>` (node-wot's second route per Thing, `/<url-encoded id>`, answers 404 like anything else;
  *   a method a route does not serve 405).
+ * - A property read answers its reader's value as JSON, or the bytes of another media type its form names
+ *   (`pointCloud`, a PLY); `readallproperties` holds the JSON ones only.
  * - An action body is JSON by media type (415), at most `MAX_BODY` bytes (413: read no further), parsed and
  *   valid against the action's input schema (400) (`readActionBody`); a handler's ServientError answers with
  *   its own status. Every error answer is problem details (`errors.ts`).
@@ -43,10 +45,11 @@ const READ = ["GET", "HEAD"] as const;
 
 /**
  * The TD node-wot made for the Thing, as the emulator serves it: only the forms it lets through (the
- * `/<slug>` route, JSON: node-wot also offers CBOR and its `/<url-encoded id>` route), and the security
- * `auth` requires (node-wot itself runs with nosec: the middleware checks the credentials).
+ * `/<slug>` route, JSON: node-wot also offers CBOR and its `/<url-encoded id>` route), those of the
+ * properties in `media` in the media type their readers answer in, and the security `auth` requires
+ * (node-wot itself runs with nosec: the middleware checks the credentials).
  */
-export function emulatorTd(td: Json, slug: string, auth: AuthConfig | undefined): Json {
+export function emulatorTd(td: Json, slug: string, auth: AuthConfig | undefined, media: Record<string, string> = {}): Json {
   const out = structuredClone(td);
   const keep = (forms: unknown): Json[] =>
     ((forms ?? []) as Json[]).filter((f) => {
@@ -57,12 +60,24 @@ export function emulatorTd(td: Json, slug: string, auth: AuthConfig | undefined)
   for (const kind of ["properties", "actions", "events"] as const) {
     for (const a of Object.values((out[kind] ?? {}) as Record<string, Json>)) a.forms = keep(a.forms);
   }
+  for (const [name, contentType] of Object.entries(media)) {
+    const p = ((out.properties ?? {}) as Record<string, Json>)[name];
+    if (p) p.forms = (p.forms as Json[]).map((f) => ({ ...f, contentType }));
+  }
   return securityFor(out as unknown as ThingDescription, auth ? { scheme: auth.scheme } : null) as unknown as Json;
 }
 
 function methodNotAllowed(res: ServerResponse, method: string, path: string, allow: readonly string[]): ServientError {
   res.setHeader("Allow", allow.join(", "));
   return servientError("E_METHOD_NOT_ALLOWED", `${method} is not allowed on ${path} (allowed: ${allow.join(", ")})`, { method, path, allow });
+}
+
+/** The readers `readallproperties` answers with: those of the properties whose forms are JSON (one read as
+ *  bytes of another media type is read on its own). */
+function jsonReaders(thing: EmulatedThing): Affordances {
+  const declared = (thing.td.properties ?? {}) as Record<string, Json>;
+  const json = (name: string): boolean => ((declared[name]?.forms ?? []) as Json[]).every((f) => (f.contentType ?? "application/json") === "application/json");
+  return { ...thing.affordances, properties: new Map([...thing.affordances.properties].filter(([name]) => json(name))) };
 }
 
 /** The methods of a route of the Thing, null when there is no such route (404). */
@@ -99,7 +114,7 @@ export function emulatorMiddleware(env: EmulatorHttpEnv) {
       if (!allow.includes(method)) throw methodNotAllowed(res, method, path, allow);
       if (segments.length === 1) return sendJson(res, 200, thing.td, "application/td+json");
       const name = segments[2];
-      if (segments[1] === "properties") return readProperty(res, thing.affordances, name);
+      if (segments[1] === "properties") return await readProperty(res, name === undefined ? jsonReaders(thing) : thing.affordances, name);
       const handler = thing.affordances.actions.get(name ?? "");
       if (!handler || name === undefined) throw servientError("E_NOT_FOUND", `${path} not found`, { path });
       const action = ((thing.td.actions ?? {}) as Record<string, Json>)[name];

@@ -12,6 +12,10 @@
  * behind) plus Gaussian noise of `noise` rad. `jog` moves joints at given velocities for a time, as a
  * pendant does; a joint that reaches its limit during a jog is a protective stop. `stop` halts at once.
  *
+ * With `camera` it is also a depth camera fixed in the cell (`emulate-camera.ts`): the scene it sees is loaded
+ * into its backend (it still moves as if it did not know it), and its `pointCloud` property answers a frame
+ * captured on request, its robot where the controller's true joints put it then.
+ *
  * It is secured as the twin is (`emulate-http.ts`): Host and Origin checks, CORS only for `corsOrigins`,
  * `auth` on everything (the served TD declares it), bodies capped and inputs validated before node-wot
  * (400/413/415), handler errors with their status (409 busy, 422 out of reach); all as problem details.
@@ -21,12 +25,13 @@ import { gaussian, mulberry32 } from "@robwot/core";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { launchBackend, type LaunchedBackend } from "@robwot/sim-client";
 import type { AuthConfig } from "./auth.js";
+import { cameraProblem, cameraScene, DepthCamera, EMULATED_ID, loadCameraScene, POINT_CLOUD_AFFORDANCE, POINT_CLOUD_TYPE, type EmulatorCamera } from "./emulate-camera.js";
 import { EmulatedController, type MotionEnd } from "./emulate-controller.js";
 import { emulatorMiddleware, emulatorTd, type EmulatedThing } from "./emulate-http.js";
-import { objectInput, type ActionHandler, type Affordances } from "./affordance-routes.js";
+import { objectInput, type ActionHandler, type Affordances, type PropertyReader } from "./affordance-routes.js";
 import { fromBackendError, servientError } from "./errors.js";
 import { isLoopback, RequestGuard } from "./request-guard.js";
-import { loadTwinFolder, robotLoadParams, type TdDocument } from "./twin-folder.js";
+import { loadTwinFolder, robotLoadParams, type TdDocument, type TwinFolder } from "./twin-folder.js";
 
 // node-wot's packages are CommonJS without named ESM exports
 const require = createRequire(import.meta.url);
@@ -52,6 +57,8 @@ export interface EmulatorOptions {
   corsOrigins?: string[];
   /** extra names accepted in the `Host` header */
   allowedHosts?: string[];
+  /** a depth camera over the cell (the `pointCloud` property); none without */
+  camera?: EmulatorCamera;
 }
 
 export interface RunningEmulator {
@@ -81,9 +88,10 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
   const sim = backend.client;
   // what is running when start-up fails after it
   let controller: EmulatedController | null = null;
+  let camera: DepthCamera | null = null;
   let stopServer: (() => Promise<void>) | null = null;
   try {
-    const model = await sim.loadRobot(robotLoadParams(folder, "emulated"));
+    const model = await sim.loadRobot(robotLoadParams(folder, EMULATED_ID));
     const names = model.controllable;
     const joints = names.map((n) => model.joints.find((j) => j.name === n)!);
     const vmax = joints.map((j) => (j.velocity > 0 ? j.velocity : 1) * scale);
@@ -96,6 +104,7 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       amax: vmax.map((v) => v / scale / ACCELERATION_TIME),
     };
     const robot = (controller = new EmulatedController(limits, names.map((n) => m.home?.joints[n] ?? 0), latencyMs, lag));
+    const depth = (camera = o.camera ? await startCamera(sim, folder, o.camera, () => robot.joints, o.seed ?? 1) : null);
 
     let exposed: EmulatedThing | null = null;
     let port = 0;
@@ -114,13 +123,15 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
       (http.getServer() as import("node:http").Server).closeAllConnections();
       await shut;
     });
-    const thing = await wot.produce(thingInit(folder.td, names, { latencyMs, lag, noise }));
+    const thing = await wot.produce(thingInit(folder.td, names, { latencyMs, lag, noise, camera: depth !== null }));
     const { properties, actions } = emulatorAffordances(robot, limits, sim, noise, mulberry32(o.seed ?? 1));
+    if (depth) properties.set("pointCloud", () => depth.frame());
     await thing.expose();
     // node-wot serves the Thing under a path of its own making (its title, slugified): where its forms point
     const href = String(thing.getThingDescription().properties?.["getJointPosition"]?.forms?.[0]?.href ?? "");
     const slug = new URL(href, url).pathname.split("/")[1] ?? "";
-    exposed = { slug, td: emulatorTd(thing.getThingDescription() as unknown as Json, slug, o.auth), affordances: { properties, actions } };
+    const media: Record<string, string> = depth ? { pointCloud: POINT_CLOUD_TYPE } : {};
+    exposed = { slug, td: emulatorTd(thing.getThingDescription() as unknown as Json, slug, o.auth, media), affordances: { properties, actions } };
     return {
       url,
       tdUrl: `${url}/${slug}`,
@@ -128,12 +139,14 @@ export async function startEmulator(o: EmulatorOptions): Promise<RunningEmulator
         robot.close();
         await closeServer();
         await backend.stop();
+        depth?.close();
       },
     };
   } catch (err) {
     controller?.close();
     await stopServer?.();
     await backend.stop();
+    camera?.close();
     throw new Error(`robwot emulate ${o.folder}: ${message(err)}`);
   }
 }
@@ -145,7 +158,7 @@ function emulatorAffordances(robot: EmulatedController, limits: { names: string[
   const record = (v: number[]): Record<string, number> => Object.fromEntries(names.map((n, i) => [n, v[i] ?? 0]));
   const answer = (end: MotionEnd): unknown => ({ status: end, joints: record(robot.reported) });
   const speedOf = (v: Json): number => (typeof v["speed"] === "number" ? v["speed"] : 1);
-  const properties = new Map<string, () => unknown>([
+  const properties = new Map<string, PropertyReader>([
     ["getJointPosition", () => record(robot.reported.map((r) => r + (noise > 0 ? gaussian(rand) * noise : 0)))],
     ["motionStatus", () => robot.status],
   ]);
@@ -183,8 +196,18 @@ function emulatorAffordances(robot: EmulatedController, limits: { names: string[
   return { properties, actions };
 }
 
-/** The Thing as node-wot produces it: the twin's affordance names and data schemas, and `jog`. */
-function thingInit(td: TdDocument, names: string[], o: { latencyMs: number; lag: number; noise: number }): WoT.ExposedThingInit {
+/** The camera over the cell: its scene loaded beside the emulated robot, its frames of `joints` (the true ones). */
+async function startCamera(sim: LaunchedBackend["client"], folder: TwinFolder, camera: EmulatorCamera, joints: () => number[], seed: number): Promise<DepthCamera> {
+  const problem = cameraProblem(camera);
+  if (problem !== null) throw servientError("E_BAD_INPUT", problem, { position: camera.position, target: camera.target });
+  const scene = cameraScene(folder, camera.scene);
+  if (scene !== null) await loadCameraScene(sim, scene);
+  return new DepthCamera(sim, camera, joints, seed);
+}
+
+/** The Thing as node-wot produces it: the twin's affordance names and data schemas, `jog`, and with a camera
+ *  `pointCloud`. */
+function thingInit(td: TdDocument, names: string[], o: { latencyMs: number; lag: number; noise: number; camera: boolean }): WoT.ExposedThingInit {
   // the twin's joint schema, without its forms (node-wot adds its own); read by polling (no change events)
   const { forms: _forms, observable: _observable, ...jointsSchema } = (td.properties?.["getJointPosition"] ?? {}) as Json;
   const units = (jointsSchema["properties"] ?? {}) as Record<string, { unit?: string }>;
@@ -208,6 +231,7 @@ function thingInit(td: TdDocument, names: string[], o: { latencyMs: number; lag:
         readOnly: true,
         properties: { state: { type: "string", enum: ["idle", "moving", "stopped"] }, lastError: { type: "object" } },
       },
+      ...(o.camera ? { pointCloud: POINT_CLOUD_AFFORDANCE } : {}),
     },
     actions: {
       moveToJointPosition: { input: td.actions?.["moveToJointPosition"]?.input ?? { type: "object" }, output: result },
