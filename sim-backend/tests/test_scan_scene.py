@@ -23,7 +23,6 @@ from simhelp import KUKA, SCENES
 
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.scan.clouds import read_cloud
-from robwot_sim.scan.scene_from_scan import STAND_GAP
 
 #: the camera's depth noise (m at 1 m) and the scan's noise bound: over 3 standard deviations at 2.5 m
 CAMERA_NOISE, NOISE = 0.0003, 0.005
@@ -126,14 +125,30 @@ def test_every_scanned_point_lies_inside_the_scene(scan: dict[str, Any]) -> None
         held = _held(points, result["obstacles"], scan["folder"], NOISE)
         # every point farther than the padding from the robot is held: the robot's points are the only ones
         # the covers may leave out (and a support lowered for the robot standing on it, only under its base)
-        lowered = [x for x in result["supports"] if x["lowered"] > 0]
-        assert int((~held[far]).sum()) == 0, (points[far & ~held][:10], lowered)
+        under = _under_lowered(points, result)
+        assert int((~held[far & ~under]).sum()) == 0, points[far & ~under & ~held][:10]
+
+
+def _under_lowered(points: np.ndarray, result: dict[str, Any]) -> np.ndarray:
+    """Points whose ball (of the noise's radius) reaches over the part of a support lowered for the robot
+    standing on it (the piece whose top is below its support's other pieces'), by the piece's own box."""
+    out = np.zeros(len(points), dtype=bool)
+    for support in result["supports"]:
+        if support["lowered"] <= 0:
+            continue
+        pieces = [o for o in result["obstacles"] if o["name"].startswith(support["name"] + "-")]
+        tops = [o["position"][2] + o["shape"]["size"][2] / 2 for o in pieces]
+        for piece, top in zip(pieces, tops, strict=True):
+            if top < max(tops) - 1e-9:
+                local = (points - piece["position"]) @ quat_matrix(piece["orientation"])
+                reach = np.asarray(piece["shape"]["size"][:2]) / 2 + NOISE  # a point's ball reaching over it
+                out |= (np.abs(local[:, :2]) <= reach).all(axis=1)
+    return out
 
 
 def _far_from_robot(points: np.ndarray, distance: float) -> np.ndarray:
-    """Points farther than ``distance`` from the KUKA's links and not under its base (where a support is
-    lowered for it), by PyBullet's own distance query on a probe sphere and the base's box (a world of its
-    own: the backend's is not used for this)."""
+    """Points farther than ``distance`` from the KUKA's links, by PyBullet's own distance query on a probe
+    sphere (a world of its own: the backend's is not used for this)."""
     import pybullet as pb
     import pybullet_data
 
@@ -147,9 +162,7 @@ def _far_from_robot(points: np.ndarray, distance: float) -> np.ndarray:
             pb.resetJointState(robot, j, v, physicsClientId=cid)
         sphere = pb.createCollisionShape(pb.GEOM_SPHERE, radius=1e-4, physicsClientId=cid)
         probe = pb.createMultiBody(0, sphere, physicsClientId=cid)
-        lo, hi = (np.asarray(v) for v in pb.getAABB(robot, -1, physicsClientId=cid))
-        lo, hi = lo - STAND_GAP, hi + STAND_GAP  # the cut around the base reaches this far beyond it
-        out = ~((points[:, :2] >= lo[:2]) & (points[:, :2] <= hi[:2])).all(axis=1)
+        out = np.ones(len(points), dtype=bool)
         boxes = [pb.getAABB(robot, link, physicsClientId=cid) for link in range(-1, len(movable))]
         maybe = np.zeros(len(points), dtype=bool)  # near a link's box: the others are far for sure
         for b_lo, b_hi in boxes:

@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import ConvexHull, QhullError
 
 from robwot_sim.model.objfile import write_obj
 from robwot_sim.model.rotations import quat_matrix
@@ -228,6 +229,14 @@ def _obstacles(name: str, kind: str, cover: Any, params: ScanParams) -> list[dic
              "position": [0.0, 0.0, 0.0], "orientation": IDENTITY.tolist()}]
 
 
+def _volume(points: FloatArray) -> float:
+    """The volume of the convex hull of ``points`` (0 when they span no volume)."""
+    try:
+        return float(ConvexHull(points).volume)
+    except (QhullError, ValueError):
+        return 0.0
+
+
 def _floor(points: FloatArray, planes: list[Plane]) -> Plane | None:
     """The highest support plane below the lowest of ``points``."""
     below = [p for p in planes if float(p.offset / p.normal[2]) <= float(points[:, 2].min())]
@@ -243,9 +252,9 @@ def _shadow(name: str, points: FloatArray, source: npt.NDArray[np.int64], planes
     seen = np.unique(source)
     for k, cloud in enumerate(seen):
         region = shadow(points[source == cloud], sensors[int(cloud)], floor, params.reach)
-        vertices, faces = hull_cover(region, 0.0)
-        hidden += float(volume_of((vertices, faces)))
+        hidden += _volume(region)
         if params.occluded == "block":
+            vertices, faces = hull_cover(region, 0.0)
             label = f"{name}-shadow" + (f"-{k + 1}" if len(seen) > 1 else "")
             if params.mesh_dir is None:
                 obstacles.append({"name": label, **box_cover(region, 0.0)})

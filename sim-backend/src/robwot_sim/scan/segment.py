@@ -49,6 +49,8 @@ _RESCORED = 8           # best hypotheses scored again against every point
 _REFINES = 2            # least-squares refinements (fit, recompute inliers)
 _ROUNDS_PER_PLANE = 3   # RANSAC rounds at most: this many per plane asked for, plus _ROUNDS_MORE (rounds
 _ROUNDS_MORE = 5        # that give no support, such as slices of a ramp or small coplanar tops, count too)
+_SEARCHED = 32768        # points of a larger cloud the search runs on (a random sample)
+_SAMPLED_SHARE = 0.7    # of a plane's expected share of the sample, what it must hold there to be taken
 _GRID_SIDE_MAX = 4096   # most cells along one side of a plane's occupancy grid (its cell grows beyond)
 _DENSE_MIN = 1 << 16    # a voxel grid of at most max(_DENSE_MIN, _DENSE_PER_POINT * n) cells is labelled
 _DENSE_PER_POINT = 16   # densely (time grows with cells), else as a sparse graph (time grows with points)
@@ -175,31 +177,38 @@ def find_supports(points: npt.ArrayLike, noise: float, min_points: int = 500, ma
     ``max_tilt`` rad of +Z) connected patches of at least ``min_points`` points within ``noise`` metres of
     their least-squares plane. ``cell`` is the in-plane grid splitting a plane's inliers into patches: it
     must exceed the spacing of the scan's points on a support, and be below the gap between two supports
-    at one height for them to be told apart. ``rng`` makes the search repeatable (default: a fixed seed)."""
+    at one height for them to be told apart. ``rng`` makes the search repeatable (default: a fixed seed).
+
+    A large cloud is searched on a random sample of ``_SEARCHED`` points (a plane holding ``min_points`` of
+    the cloud holds its share of the sample); a plane found there takes its inliers from every point."""
     pts = as_points(points)
     if noise <= 0.0 or cell <= 0.0:
         raise ValueError("noise and cell must be > 0")
     rng = np.random.default_rng(0) if rng is None else rng
     cos_tilt = math.cos(max_tilt)
-    window = max(2, min_points // 2)
     order = np.argsort(pts[:, 2]).astype(np.intp)
-    zs = pts[order]                             # sorted by z; the pool holds ascending positions in zs
+    zs = pts[order]                             # sorted by z; the pools hold ascending positions in zs
     pool = np.arange(len(zs), dtype=np.intp)
+    share = min(1.0, _SEARCHED / max(1, len(zs)))
+    searched = pool if share >= 1.0 else np.sort(rng.choice(len(zs), size=_SEARCHED, replace=False))
+    least = max(3, math.ceil(min_points * share * _SAMPLED_SHARE)) if share < 1.0 else min_points
+    window = max(2, least // 2)
     planes: list[Plane] = []
     for _ in range(_ROUNDS_PER_PLANE * most + _ROUNDS_MORE):
-        if len(planes) >= most or len(pool) < max(min_points, 3):
+        if len(planes) >= most or len(searched) < max(least, 3):
             break
-        sub = zs[pool]
+        sub = zs[searched]
         found = _ransac(sub, noise, window, cos_tilt, rng)
-        if found is None or found[2] < min_points:
+        if found is None or found[2] < least:
             break
-        normal, offset = found[0], found[1]
-        refined = _refine(sub, normal, offset, noise, cos_tilt)
-        if refined is not None:
-            normal, offset = refined
-        inside = np.abs(sub @ normal - offset) <= noise
-        inliers, pool = pool[inside], pool[~inside]   # a rejected slice's points stay objects, not searched
-        if refined is not None and len(inliers) >= min_points:
+        refined = _refine(sub, found[0], found[1], noise, cos_tilt)
+        normal, offset = refined if refined is not None else (found[0], found[1])
+        searched = searched[np.abs(sub @ normal - offset) > noise]  # a rejected slice stays objects
+        if refined is None:
+            continue
+        inside = np.abs(zs[pool] @ normal - offset) <= noise
+        inliers, pool = pool[inside], pool[~inside]
+        if len(inliers) >= min_points:
             found_here = _supports(zs, inliers, normal, offset, noise, cos_tilt, cell, min_points)
             planes += [plane._replace(inliers=order[plane.inliers]) for plane in found_here]
     planes.sort(key=lambda p: -len(p.inliers))

@@ -116,7 +116,9 @@ def _mesh(vertices: FloatArray) -> tuple[Mesh, FloatArray]:
 
 
 def _holds(equations: FloatArray, pts: FloatArray, noise: float) -> bool:
-    """Whether every point is at least ``noise`` inside every facet (up to ``_HOLD_TOL`` of rounding)."""
+    """Whether every point is at least ``noise`` inside every facet (up to ``_HOLD_TOL`` of rounding). Asked
+    of the vertices of the points' hull: a convex cover holding the ball around each of them holds the ball
+    around every point of their hull."""
     return bool((pts @ equations[:, :3].T + equations[:, 3] <= -noise + _HOLD_TOL).all())
 
 
@@ -153,13 +155,13 @@ def hull_cover(points: npt.ArrayLike, noise: float) -> Mesh:
         if moved is not None:
             try:
                 mesh, equations = _mesh(moved)
-                if _holds(equations, pts, noise):
+                if _holds(equations, base, noise):
                     candidates.append(mesh)
             except (QhullError, ValueError):
                 pass
     r = max(noise, _MIN_THICKNESS) + _HOLD_TOL  # the margin absorbs qhull's rounding
     mesh, equations = _mesh((base[:, None, :] + r * _CUBE[None, :, :]).reshape(-1, 3))
-    if not _holds(equations, pts, noise):
+    if not _holds(equations, base, noise):
         raise ArithmeticError("the cube-inflated hull does not hold its points")  # qhull rounding
     candidates.append(mesh)
     return min(candidates, key=_mesh_volume)
