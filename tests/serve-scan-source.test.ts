@@ -85,3 +85,31 @@ it("keeps the last good scene when a frame is truncated, and shows the fault", a
   expect(index!.scan.fault).toMatch(/not applied, the last good scene kept/);
   expect(index!.scan.obstacles).toEqual(before);
 }, 60_000);
+
+it("takes its frames from an http source too, through the bounded outbound client", async () => {
+  const { createServer } = await import("node:http");
+  const latest = readFileSync(join(frames, "frame1.ply"));
+  const sensor = createServer((_req, res) => {
+    res.writeHead(200, { "content-type": "application/octet-stream" });
+    res.end(latest);
+  });
+  await new Promise<void>((r) => sensor.listen(0, "127.0.0.1", () => r()));
+  const port = (sensor.address() as { port: number }).port;
+  const dir = await generateTwin("kuka_iiwa", 3000);
+  const other = await startServient({ twins: [dir], port: 0, realtime: 0, scanSource: { source: `http://127.0.0.1:${port}/cloud.ply`, noise: 0.004, periodMs: 100 } });
+  try {
+    let index: { scan: { frames: number; fault: string | null; obstacles: string[] } } | null = null;
+    for (let i = 0; i < 300 && !(index?.scan.frames); i++) {
+      index = (await http(`${other.url}/robwot.json`)).body as typeof index;
+      await new Promise((r) => setTimeout(r, 50));
+    }
+    await new Promise((r) => setTimeout(r, 600)); // several polls later: the same bytes are not a new frame
+    index = (await http(`${other.url}/robwot.json`)).body as typeof index;
+    expect(index!.scan.frames).toBe(1);
+    expect(index!.scan.fault).toBeNull();
+    expect(index!.scan.obstacles.length).toBeGreaterThanOrEqual(2);
+  } finally {
+    await other.stop();
+    await new Promise((r) => sensor.close(r));
+  }
+}, 120_000);
