@@ -12,6 +12,8 @@ into a scene (``scene.fromScan``), and the scene checked against the truth by ge
 from __future__ import annotations
 
 import functools
+import math
+import struct
 from pathlib import Path
 from typing import Any
 
@@ -235,3 +237,38 @@ def test_verdicts_match_the_true_scene_where_the_scan_saw(scan: dict[str, Any]) 
               f"false colliding {false_colliding} of 200")
         if occluded == "block":
             assert false_free == 0
+
+
+def _box_stl(path: Path, size: tuple[float, float, float]) -> None:
+    """A binary STL of a box of ``size`` standing on z = 0, centred on the z axis."""
+    sx, sy, sz = size
+    corners = np.array([[x, y, z] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (0.0, sz)])
+    tris = corners[ConvexHull(corners).simplices]
+    body = b"".join(struct.pack("<12fH", 0, 0, 0, *t.reshape(-1), 0) for t in tris)
+    path.write_bytes(b"\0" * 80 + struct.pack("<I", len(tris)) + body)
+
+
+def test_an_object_matching_a_model_is_placed_as_it(scan: dict[str, Any]) -> None:
+    """The box's model (a 0.1 x 0.1 x 0.2 m box) fits the box where the true scene has it (turned 0.3 rad,
+    standing on the table); the can fits no model; every point is still held."""
+    c: RpcClient = scan["client"]
+    model = scan["folder"] / "box.stl"
+    _box_stl(model, (0.1, 0.1, 0.2))
+    result = c.call("scene.fromScan", {"clouds": [{"file": f} for f in scan["files"]], "noise": NOISE,
+                                       "models": [{"name": "crate", "file": str(model)}]})
+    fitted = [o for o in result["objects"] if "model" in o]
+    assert len(fitted) == 1, [o.get("model") for o in result["objects"]]
+    placed = next(o for o in result["obstacles"] if o["name"] == f"{fitted[0]['name']}-crate")
+    assert np.hypot(placed["position"][0] - 0.55, placed["position"][1] - 0.25) < 0.01
+    assert abs(placed["position"][2] - (-0.01)) < 0.005  # standing on the table's top
+    turn = math.remainder(fitted[0]["model"]["yaw"] - 0.3, math.pi / 2)
+    assert abs(turn) < 0.05, fitted[0]["model"]
+    truth = {o["name"]: o for o in scan["truth"]}
+    can = np.asarray(truth["can"]["position"])
+    covers = {**result, "obstacles": [o for o in result["obstacles"] if o is not placed]}
+    at_can = [o for o in result["objects"] if _holds(covers, o["name"], can, scan["folder"])]
+    assert len(at_can) == 1 and "model" not in at_can[0]
+    # the model adds to the object's cover, it replaces none
+    cover = [o for o in result["obstacles"] if o["name"] == fitted[0]["name"]
+             or (o["name"].startswith(fitted[0]["name"] + "-") and o is not placed)]
+    assert len(cover) == fitted[0]["parts"] >= 1

@@ -4,10 +4,10 @@
  * points are removed; the scene is checked by loading it as every scene is loaded (`world.loadScene`)
  * before anything is written; the mesh folder and the scene file are then renamed into place.
  */
-import { existsSync, mkdirSync, mkdtempSync, renameSync, rmSync, statSync, writeFileSync } from "node:fs";
+import { copyFileSync, existsSync, mkdirSync, mkdtempSync, renameSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { basename, dirname, extname, join, relative, resolve } from "node:path";
 import { loadTwinFolder, robotLoadParams } from "@robwot/servient";
-import type { ScanCloud, ScanScene } from "@robwot/sim-client";
+import type { ScanCloud, ScanScene, SceneFromScanParams } from "@robwot/sim-client";
 import type { BackendGuard } from "./backend-guard.js";
 import { CliError } from "./errors.js";
 
@@ -30,6 +30,8 @@ export interface FromScanOptions {
   occluded: "report" | "block";
   reach: number;
   robotPadding: number;
+  /** the user's models (`--model NAME=FILE`) */
+  models: { name: string; file: string }[];
 }
 
 export type { ScanScene };
@@ -58,14 +60,22 @@ async function loadRobots(backend: BackendGuard, twinDir: string, joints: number
   return [model.name, ...others.map((r) => String(r["id"]))];
 }
 
+/** Each mesh obstacle's file name in the mesh folder: a hull written by the scan keeps its name, a user's
+ *  model is copied in as `<obstacle>.<ext>` (a scene file names only files beside it). */
+function meshNames(scan: ScanScene, staged: string): Map<string, string> {
+  const names = new Map<string, string>();
+  for (const o of scan.obstacles) {
+    if (o.shape.type !== "mesh") continue;
+    const inside = !relative(staged, o.shape.file).startsWith("..");
+    names.set(o.name, inside ? basename(o.shape.file) : `${o.name}${extname(o.shape.file)}`);
+  }
+  return names;
+}
+
 /** The scene document of `scan` as written to `out`: mesh files named relative to it. */
-function sceneDocument(scan: ScanScene, out: string, staged: string, description: string): Record<string, unknown> {
-  const meshes = meshFolder(out);
-  const obstacles = scan.obstacles.map((o) => {
-    if (o.shape.type !== "mesh") return o;
-    const file = join(meshes, relative(staged, o.shape.file));
-    return { ...o, shape: { ...o.shape, file: relative(dirname(out), file) } };
-  });
+function sceneDocument(scan: ScanScene, out: string, names: Map<string, string>, description: string): Record<string, unknown> {
+  const meshes = relative(dirname(out), meshFolder(out));
+  const obstacles = scan.obstacles.map((o) => (o.shape.type !== "mesh" ? o : { ...o, shape: { ...o.shape, file: join(meshes, names.get(o.name)!) } }));
   return { version: 1, name: basename(out, extname(out)), description, obstacles, robots: [] };
 }
 
@@ -88,10 +98,11 @@ export async function sceneFromScan(o: FromScanOptions, backend: BackendGuard): 
     const scan = await backend.sim.sceneFromScan({
       clouds: [clouds[0]!, ...clouds.slice(1)],
       noise: o.noise, shape: o.shape, voxel: o.voxel, gap: o.gap, occluded: o.occluded, reach: o.reach,
-      robotPadding: o.robotPadding, meshDir: staged,
+      robotPadding: o.robotPadding, meshDir: staged, models: o.models.map((m) => ({ name: m.name, file: resolve(m.file) })) as SceneFromScanParams["models"],
     });
     const description = `scanned by robwot scene from-scan from ${o.clouds.map((c) => basename(c.file)).join(", ")} (noise ${o.noise} m, ${o.shape} covers${o.occluded === "block" ? ", occluded space blocked" : ""})`;
-    const doc = sceneDocument(scan, out, staged, description);
+    const names = meshNames(scan, staged);
+    const doc = sceneDocument(scan, out, names, description);
     // the same checks as any scene: loaded into an empty world from the staged files
     const check = { ...doc, obstacles: scan.obstacles };
     await backend.sim.resetWorld({});
@@ -103,7 +114,9 @@ export async function sceneFromScan(o: FromScanOptions, backend: BackendGuard): 
       const meshes = join(staged, "meshes");
       mkdirSync(meshes);
       for (const x of scan.obstacles) {
-        if (x.shape.type === "mesh") renameSync(x.shape.file, join(meshes, basename(x.shape.file)));
+        if (x.shape.type !== "mesh") continue;
+        if (names.get(x.name) === basename(x.shape.file) && !relative(staged, x.shape.file).startsWith("..")) renameSync(x.shape.file, join(meshes, basename(x.shape.file)));
+        else copyFileSync(x.shape.file, join(meshes, names.get(x.name)!));
       }
       swapIn(meshes, meshFolder(out));
     }
@@ -126,7 +139,8 @@ export function describeScan(r: { scan: ScanScene; robots: string[]; meshes: str
     lines.push(`  ${s.name.padEnd(10)} plane at z = ${s.height.toFixed(3)} m, ${s.points} points${s.lowered > 0 ? `, lowered ${(s.lowered * 1000).toFixed(1)} mm to clear the robot standing on it` : ""}`);
   }
   for (const x of scan.objects) {
-    lines.push(`  ${x.name.padEnd(10)} ${x.points} points, ${x.cover}${x.parts > 1 ? ` (${x.parts} boxes)` : ""} of ${(x.volume * 1e3).toFixed(2)} l, ${(x.occluded * 1e3).toFixed(1)} l hidden behind it`);
+    const model = x.model ? `; is a ${x.model.name} (turned ${x.model.yaw.toFixed(2)} rad, points within ${(x.model.p95 * 1000).toFixed(1)} mm of it)` : "";
+    lines.push(`  ${x.name.padEnd(10)} ${x.points} points, ${x.cover}${x.parts > 1 ? ` (${x.parts} boxes)` : ""} of ${(x.volume * 1e3).toFixed(2)} l, ${(x.occluded * 1e3).toFixed(1)} l hidden behind it${model}`);
   }
   return lines;
 }

@@ -1307,6 +1307,15 @@ export interface ScanScene {
      * m^3 of space hidden behind it from every sensor that saw it (its shadow's volume)
      */
     occluded: number;
+    /**
+     * the model placed where it fits (its yaw, rad; the points' median and 95th-percentile distance to its surface, m)
+     */
+    model?: {
+      name: string;
+      yaw: number;
+      median: number;
+      p95: number;
+    };
   }[];
   /**
    * points read (finite), skipped (an organised cloud's non-returns), the robots' own, the supports', the objects'
@@ -1391,6 +1400,589 @@ export interface SceneFromScanParams {
    * how far (m) from the sensor a shadow reaches where its rays never meet a support
    */
   reach?: number;
+  /**
+   * the user's models of things that may stand in the cell: an object one fits (turned about Z only, standing on the support below it) is placed as that model too (`NAME-MODEL`), adding what the sensor could not see of it; its own cover stays
+   *
+   * @maxItems 16
+   */
+  models?:
+    | []
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ]
+    | [
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        },
+        {
+          name: Name;
+          file: FilePath;
+        }
+      ];
   meshDir?: FilePath;
 }
 /**

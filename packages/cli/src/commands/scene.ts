@@ -31,6 +31,9 @@ Options:
   --occluded report|block   space hidden behind objects: reported, or also blocked (default report)
   --reach M              how far a shadow reaches where its rays meet no support (default 2)
   --robot-padding M      points this close to a robot are its own (default 0.01)
+  --model NAME=FILE      a mesh (STL, OBJ, DAE; metres, Z up, resting on its lowest point) of a thing that
+                         may stand in the cell: an object it fits (turned about Z, on its support) is
+                         placed as that model too, adding what the sensor could not see; repeatable
   --backend ws://HOST:PORT   use a running backend instead of starting one
   --json                 print the result as JSON
 `;
@@ -48,6 +51,7 @@ const OPTIONS = {
   occluded: { type: "string" },
   reach: { type: "string" },
   "robot-padding": { type: "string" },
+  model: { type: "string", multiple: true },
   backend: { type: "string" },
   json: { type: "boolean" },
 } as const;
@@ -81,6 +85,21 @@ function clouds(files: string[], poses: string[], units: "m" | "mm"): CloudArg[]
   });
 }
 
+/** `--model NAME=FILE`: a model's name (a scene name) and its mesh file, which must exist. */
+function parseModel(text: string): { name: string; file: string } {
+  const eq = text.indexOf("=");
+  const name = eq > 0 ? text.slice(0, eq) : "";
+  const file = text.slice(eq + 1);
+  if (!/^[A-Za-z0-9_.-]{1,64}$/.test(name) || file === "") throw new CliError(`--model must look like NAME=FILE (e.g. crate=crate.stl), got "${text}"`);
+  if (!existsSync(file) || !statSync(file).isFile()) throw new CliError(`--model ${name}: mesh file not found: ${file}`);
+  return { name, file };
+}
+
+function models(values: string[]): { name: string; file: string }[] {
+  if (values.length > 16) throw new CliError(`at most 16 --model options, got ${values.length}`);
+  return values.map(parseModel);
+}
+
 export function parseFromScanArgs(argv: string[]): FromScanOptions & { backend?: string; json: boolean } {
   let parsed;
   try {
@@ -102,6 +121,7 @@ export function parseFromScanArgs(argv: string[]): FromScanOptions & { backend?:
     occluded: oneOf("occluded", v.occluded, ["report", "block"], "report"),
     reach: parseNumber("reach", v.reach, 2, 0.01, 20),
     robotPadding: parseNumber("robot-padding", v["robot-padding"], 0.01, 0, 0.1),
+    models: models(v.model ?? []),
     ...(v.backend !== undefined ? { backend: v.backend } : {}),
     json: v.json ?? false,
   };

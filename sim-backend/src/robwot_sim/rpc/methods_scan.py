@@ -14,6 +14,7 @@ from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.scan.clouds import write_ply
+from robwot_sim.scan.fit import load_model
 from robwot_sim.scan.robot_points import snapshot
 from robwot_sim.scan.scene_from_scan import Placed, ScanParams, place_clouds, scene_from_scan
 from robwot_sim.sim.camera import Camera, camera_points, depth_image, orientation
@@ -21,7 +22,8 @@ from robwot_sim.sim.world_thread import Kind
 
 
 def _params(p: Params) -> ScanParams:
-    return ScanParams(noise=float(p["noise"]), shape=str(p["shape"]), voxel=float(p["voxel"]),
+    models = tuple(load_model(str(m["name"]), str(m["file"])) for m in p["models"] or [])
+    return ScanParams(models=models, noise=float(p["noise"]), shape=str(p["shape"]), voxel=float(p["voxel"]),
                       gap=float(p["gap"]), padding=float(p["robotPadding"]), occluded=str(p["occluded"]),
                       reach=float(p["reach"]),
                       mesh_dir=Path(p["meshDir"]).expanduser() if p.has("meshDir") else None)
@@ -40,7 +42,7 @@ def _place(clouds: list[dict[str, Any]]) -> Placed:
 def register(d: Dispatcher, s: Services) -> None:
     @d.method("scene.fromScan")
     async def from_scan(p: Params, call: Call) -> dict[str, Any]:
-        params = _params(p)
+        params = await s.off_world(lambda: _params(p))
         placed = await s.off_world(lambda: _place(list(p["clouds"])), background=True)
         robots = await s.on_world(lambda: snapshot(s.world.scene), Kind.PLAIN)
         return await s.off_world(lambda: scene_from_scan(placed, robots, params), background=True)
@@ -52,8 +54,8 @@ def register(d: Dispatcher, s: Services) -> None:
                         0.0, float(p["far"]))
         rng = np.random.default_rng(int(p["seed"]))
         cid = s.world.scene.bullet.cid
-        depth = await s.on_world(lambda: depth_image(cid, camera, float(p["noise"]), float(p["dropout"]), rng),
-                                 Kind.PLAIN)
+        noise, dropout = float(p["noise"]), float(p["dropout"])
+        depth = await s.on_world(lambda: depth_image(cid, camera, noise, dropout, rng), Kind.PLAIN)
         points, quat = camera_points(depth, camera), orientation(camera)
         position = [float(v) for v in camera.position]
         await s.off_world(lambda: write_ply(Path(p["file"]).expanduser(), points, [*position, *quat]))

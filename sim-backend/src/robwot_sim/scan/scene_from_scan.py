@@ -26,6 +26,7 @@ from scipy.spatial import ConvexHull, QhullError
 from robwot_sim.model.objfile import write_obj
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.scan.clouds import read_cloud
+from robwot_sim.scan.fit import Model, fit
 from robwot_sim.scan.robot_points import RobotSnapshot, robot_mask
 from robwot_sim.scan.segment import Plane, clusters, find_supports
 from robwot_sim.scan.shapes import box_cover, hull_cover, shadow, tightest, volume_of, voxel_cover
@@ -50,6 +51,7 @@ class ScanParams(NamedTuple):
     occluded: str = "report"
     reach: float = 2.0
     mesh_dir: Path | None = None
+    models: tuple[Model, ...] = ()
 
 
 class Placed(NamedTuple):
@@ -194,9 +196,28 @@ def _objects(points: FloatArray, source: npt.NDArray[np.int64], planes: list[Pla
         made = _obstacles(name, kind, cover, params)
         obstacles += made
         hidden = _shadow(name, points[idx], source[idx], planes, sensors, params, obstacles)
-        out.append({"name": name, "points": len(idx), "cover": kind, "volume": float(volume_of(cover)),
-                    "parts": len(made), "occluded": hidden})
+        entry = {"name": name, "points": len(idx), "cover": kind, "volume": float(volume_of(cover)),
+                 "parts": len(made), "occluded": hidden}
+        model = _model(name, points[idx], planes, params, obstacles)
+        out.append({**entry, "model": model} if model else entry)
     return out
+
+
+def _model(name: str, points: FloatArray, planes: list[Plane], params: ScanParams,
+           obstacles: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The user's model that fits a cluster best (``fit.py``), placed as an obstacle ``NAME-MODEL`` beside
+    the cluster's cover; None when none fits."""
+    floor = _floor(points + np.array([0.0, 0.0, params.noise]), planes)
+    height = float(floor.offset / floor.normal[2]) if floor is not None else None
+    fits = [(m, f) for m in params.models if (f := fit(m, points, params.noise, height)) is not None]
+    if not fits:
+        return None
+    model, where = min(fits, key=lambda mf: mf[1].p95)
+    half = where.yaw / 2
+    obstacles.append({"name": f"{name}-{model.name}", "shape": {"type": "mesh", "file": model.file},
+                      "position": [float(v) for v in where.position],
+                      "orientation": [0.0, 0.0, float(np.sin(half)), float(np.cos(half))]})
+    return {"name": model.name, "yaw": where.yaw, "median": where.median, "p95": where.p95}
 
 
 def _cover(points: FloatArray, params: ScanParams) -> tuple[str, Any]:
