@@ -113,3 +113,27 @@ it("takes its frames from an http source too, through the bounded outbound clien
     await new Promise((r) => sensor.close(r));
   }
 }, 120_000);
+
+it("takes its frames from a ws source: each binary message a frame", async () => {
+  const { WebSocketServer } = await import("ws");
+  const frame1 = readFileSync(join(frames, "frame1.ply"));
+  const sensor = new WebSocketServer({ host: "127.0.0.1", port: 0 });
+  sensor.on("connection", (socket) => socket.send(frame1, { binary: true }));
+  await new Promise<void>((r) => sensor.once("listening", () => r()));
+  const port = (sensor.address() as { port: number }).port;
+  const dir = await generateTwin("kuka_iiwa", 3000);
+  const other = await startServient({ twins: [dir], port: 0, realtime: 0, scanSource: { source: `ws://127.0.0.1:${port}/`, noise: 0.004, periodMs: 100 } });
+  try {
+    let index: { scan: { frames: number; fault: string | null; obstacles: string[] } } | null = null;
+    for (let i = 0; i < 300 && !(index?.scan.frames); i++) {
+      index = (await http(`${other.url}/robwot.json`)).body as typeof index;
+      await new Promise((r) => setTimeout(r, 50));
+    }
+    expect(index!.scan.frames).toBe(1);
+    expect(index!.scan.fault).toBeNull();
+    expect(index!.scan.obstacles.length).toBeGreaterThanOrEqual(2);
+  } finally {
+    await other.stop();
+    await new Promise((r) => sensor.close(r));
+  }
+}, 120_000);
