@@ -118,7 +118,11 @@ it("takes its frames from a ws source: each binary message a frame", async () =>
   const { WebSocketServer } = await import("ws");
   const frame1 = readFileSync(join(frames, "frame1.ply"));
   const sensor = new WebSocketServer({ host: "127.0.0.1", port: 0 });
-  sensor.on("connection", (socket) => socket.send(frame1, { binary: true }));
+  // a sensor streams: a frame every 200 ms (a frame while the twin's robot has just moved is skipped)
+  sensor.on("connection", (socket) => {
+    const timer = setInterval(() => socket.send(frame1, { binary: true }), 200);
+    socket.on("close", () => clearInterval(timer));
+  });
   await new Promise<void>((r) => sensor.once("listening", () => r()));
   const port = (sensor.address() as { port: number }).port;
   const dir = await generateTwin("kuka_iiwa", 3000);
@@ -129,11 +133,12 @@ it("takes its frames from a ws source: each binary message a frame", async () =>
       index = (await http(`${other.url}/robwot.json`)).body as typeof index;
       await new Promise((r) => setTimeout(r, 50));
     }
-    expect(index!.scan.frames).toBe(1);
+    expect(index!.scan.frames).toBeGreaterThanOrEqual(1);
     expect(index!.scan.fault).toBeNull();
     expect(index!.scan.obstacles.length).toBeGreaterThanOrEqual(2);
   } finally {
     await other.stop();
+    for (const c of sensor.clients) c.terminate();
     await new Promise((r) => sensor.close(r));
   }
 }, 120_000);

@@ -8,7 +8,7 @@ import type { BackendSupervisor } from "@robwot/sim-client";
 import type { Quaternion, Vec3 } from "@robwot/core";
 import { contains, grown, scanChanges, type ScanBox } from "./scan-changes.js";
 import { Outbound } from "./outbound.js";
-import { ScanSource, sniffExtension, type ScanWorld } from "./scan-source.js";
+import { ScanSource, sniffExtension, STILL_MS, type ScanWorld } from "./scan-source.js";
 
 const I: Quaternion = { x: 0, y: 0, z: 0, w: 1 };
 const box = (name: string, position: Vec3, size: Vec3 = [0.1, 0.1, 0.2], orientation: Quaternion = I): ScanBox => ({ name, position, size, orientation });
@@ -60,7 +60,7 @@ it("sniffs a frame's format from its bytes", () => {
 });
 
 describe("ScanSource.applyFrame", () => {
-  function rig(answers: (() => unknown)[]): { source: ScanSource; calls: string[]; warnings: string[] } {
+  function rig(answers: (() => unknown)[], now: () => number = () => 1e9): { source: ScanSource; calls: string[]; warnings: string[] } {
     const calls: string[] = [];
     const warnings: string[] = [];
     const sim = {
@@ -75,7 +75,7 @@ describe("ScanSource.applyFrame", () => {
       moveObstacle: async (_b, p) => void calls.push(`move ${p.name} ${p.position.join(",")}`),
       removeObstacle: async (_b, name) => void calls.push(`remove ${name}`),
     };
-    const source = new ScanSource({ source: "/nowhere", noise: 0.005, periodMs: 1000 }, backend, world, new Outbound(), (m) => warnings.push(m));
+    const source = new ScanSource({ source: "/nowhere", noise: 0.005, periodMs: 1000 }, backend, world, new Outbound(), (m) => warnings.push(m), now);
     return { source, calls, warnings };
   }
   const scan = (position: Vec3): unknown => ({
@@ -100,6 +100,33 @@ describe("ScanSource.applyFrame", () => {
     await source.applyFrame(frame);
     expect(calls).toEqual(["add scan-1", "move scan-1 0.5,0.3,0.1"]);
     expect(source.status()).toMatchObject({ frames: 3, fault: null, obstacles: ["scan-1"] });
+    source.stop();
+  });
+
+  it("skips a frame arriving while a robot moves or just after, and one built while it moved", async () => {
+    let clock = 0;
+    let moveDuringBuild = false;
+    const answers = [() => scan([0.5, 0, 0.1]), () => scan([0.5, 0, 0.1])];
+    const { source, calls } = rig(
+      answers.map((a) => () => {
+        if (moveDuringBuild) source.moved();
+        return a();
+      }),
+      () => clock,
+    );
+    source.moved(); // at t = 0
+    clock = STILL_MS - 1;
+    source.offer(Buffer.from("ply\n")); // too soon after the move: never built
+    expect(source.status().skipped).toBe(1);
+    clock = STILL_MS + 1;
+    moveDuringBuild = true;
+    await source.applyFrame(Buffer.from("ply\n")); // the robot moved while it was built: not applied
+    expect(calls).toEqual([]);
+    expect(source.status().skipped).toBe(2);
+    clock = 2 * STILL_MS + 2;
+    moveDuringBuild = false;
+    await source.applyFrame(Buffer.from("ply\n"));
+    expect(calls).toEqual(["add scan-1"]);
     source.stop();
   });
 });

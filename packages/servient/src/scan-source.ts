@@ -15,11 +15,16 @@
  *
  * Covers are boxes or voxel boxes (no hull files): a still object's next box, which differs by the
  * sensor's noise, then lies inside the obstacle already there and changes nothing.
+ *
+ * A frame's robot points are told from obstacles by the robots' joints when it is built, so a frame is
+ * used only when no robot moved within `STILL_MS` before it arrived nor while it was built; others are
+ * skipped (counted): a robot's points seen where it no longer is would become an obstacle around it.
  */
 import { createHash } from "node:crypto";
 import { mkdtempSync, readdirSync, readFileSync, rmSync, statSync, watch, writeFileSync, type FSWatcher } from "node:fs";
 import { tmpdir } from "node:os";
 import { extname, join } from "node:path";
+import { performance } from "node:perf_hooks";
 import type { BackendSupervisor } from "@robwot/sim-client";
 import type { Quaternion, Vec3 } from "@robwot/core";
 import WebSocket from "ws";
@@ -30,6 +35,8 @@ import type { SceneObstacle } from "./twin-folder.js";
 export const CLOUD_EXTENSIONS = [".ply", ".pcd", ".xyz", ".txt"];
 /** bytes of one frame at most: a cloud of the backend's point limit as binary float32 xyz is 120 MB */
 export const MAX_FRAME_BYTES = 256 * 1024 * 1024;
+/** ms the robots must have stood still before a frame arrives for it to be used */
+export const STILL_MS = 300;
 
 export interface ScanSourceOptions {
   source: string;
@@ -49,6 +56,8 @@ export interface ScanStatus {
   lastFrame: string | null;
   /** the last failure, until a frame succeeds again */
   fault: string | null;
+  /** frames not used because a robot moved around them */
+  skipped: number;
   obstacles: string[];
 }
 
@@ -84,6 +93,10 @@ export class ScanSource {
   private watcher: FSWatcher | null = null;
   private socket: WebSocket | null = null;
   private lastHash = "";
+  private skipped = 0;
+  /** bumped whenever a robot's joints change; when they last did (ms, `now`) */
+  private motion = 0;
+  private movedAt = Number.NEGATIVE_INFINITY;
 
   constructor(
     private readonly opts: ScanSourceOptions,
@@ -91,10 +104,17 @@ export class ScanSource {
     private readonly world: ScanWorld,
     private readonly outbound: Outbound,
     private readonly warn: (message: string) => void = (m) => process.emitWarning(m, { code: "ROBWOT_SCAN" }),
+    private readonly now: () => number = () => performance.now(),
   ) {}
 
+  /** A robot's joints changed (the servient calls this on every twin's `joints`). */
+  moved(): void {
+    this.motion += 1;
+    this.movedAt = this.now();
+  }
+
   status(): ScanStatus {
-    return { source: redactUrl(this.opts.source), frames: this.frames, lastFrame: this.lastFrame, fault: this.fault, obstacles: [...this.boxes.keys()] };
+    return { source: redactUrl(this.opts.source), frames: this.frames, lastFrame: this.lastFrame, fault: this.fault, skipped: this.skipped, obstacles: [...this.boxes.keys()] };
   }
 
   start(): void {
@@ -112,10 +132,16 @@ export class ScanSource {
     rmSync(this.dir, { recursive: true, force: true });
   }
 
-  /** A frame's bytes: built now, or kept as the latest while one is being built. */
-  offer(data: Buffer): void {
+  /** A frame's bytes: built now, or kept as the latest while one is being built; skipped when a robot moved
+   *  within `STILL_MS` before it. */
+  offer(data: Buffer): boolean {
+    if (this.now() - this.movedAt < STILL_MS) {
+      this.skipped += 1;
+      return false;
+    }
     this.latest = data;
     if (!this.busy) void this.drain();
+    return true;
   }
 
   private async drain(): Promise<void> {
@@ -134,6 +160,7 @@ export class ScanSource {
   /** One frame: written to a file, covered by the backend, the changes applied; a failure kept as the fault. */
   async applyFrame(data: Buffer): Promise<void> {
     const file = join(this.dir, `frame${sniffExtension(data)}`);
+    const motion = this.motion;
     try {
       if (data.length > MAX_FRAME_BYTES) throw new Error(`a frame of ${data.length} bytes is larger than ${MAX_FRAME_BYTES}`);
       writeFileSync(file, data);
@@ -142,6 +169,10 @@ export class ScanSource {
         noise: this.opts.noise,
         shape: "box",
       });
+      if (this.motion !== motion) {
+        this.skipped += 1; // a robot moved while the frame was built: its points are not where it is
+        return;
+      }
       const frame: ScanBox[] = scan.obstacles.map((o) => {
         if (o.shape.type !== "box") throw new Error(`scene.fromScan answered a ${o.shape.type} cover; boxes were asked for`);
         return { name: o.name, size: o.shape.size as Vec3, position: o.position as Vec3, orientation: asQuat(o.orientation) };
@@ -185,10 +216,7 @@ export class ScanSource {
         const answer = await this.outbound.request(this.opts.source);
         if (answer.status !== 200) throw new Error(`GET answered ${answer.status} ${answer.statusText}`);
         const hash = createHash("sha256").update(answer.body).digest("hex");
-        if (hash !== this.lastHash) {
-          this.lastHash = hash;
-          this.offer(answer.body);
-        }
+        if (hash !== this.lastHash && this.offer(answer.body)) this.lastHash = hash;
       } catch (err) {
         this.failed(`scan source ${redactUrl(this.opts.source)} unheard: ${err instanceof Error ? err.message : String(err)}`);
       }
@@ -199,7 +227,7 @@ export class ScanSource {
 
   private connect(): void {
     const socket = (this.socket = new WebSocket(this.opts.source, { maxPayload: MAX_FRAME_BYTES, handshakeTimeout: 5000 }));
-    socket.on("message", (data, binary) => this.offer(binary ? Buffer.from(data as Buffer) : Buffer.from(String(data))));
+    socket.on("message", (data, binary) => void this.offer(binary ? Buffer.from(data as Buffer) : Buffer.from(String(data))));
     socket.on("error", (err) => this.failed(`scan source ${redactUrl(this.opts.source)} unheard: ${err.message}`));
     socket.on("close", () => {
       if (this.stopped) return;
@@ -221,8 +249,7 @@ export class ScanSource {
         const key = `${newest.f}:${newest.s.mtimeMs}:${newest.s.size}`;
         if (key === seen) return;
         if (newest.s.size > MAX_FRAME_BYTES) throw new Error(`${newest.f}: ${newest.s.size} bytes is larger than ${MAX_FRAME_BYTES}`);
-        seen = key;
-        this.offer(readFileSync(join(folder, newest.f)));
+        if (this.offer(readFileSync(join(folder, newest.f)))) seen = key; // a skipped frame is looked at again
       } catch (err) {
         this.failed(`scan folder ${folder}: ${err instanceof Error ? err.message : String(err)}`);
       }

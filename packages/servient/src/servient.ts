@@ -223,7 +223,7 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
   const backend: BackendSupervisor = new BackendSupervisor(connector, (call) => world.restore(call), { mapError: fromBackendError });
   const twins = nameTwins(opts, backend);
   const world = new SceneRecord([...twins.values()], opts.meshRoots ?? []);
-  const scan = opts.scanSource ? new ScanSource(opts.scanSource, backend, world, new Outbound({ ...OUTBOUND_LIMITS, maxBytes: MAX_FRAME_BYTES })) : null;
+  const scan = scanSource(opts, backend, world, twins);
   // the device's TD and map are checked against the twin before a backend is started for it
   const devices = prepareDevices(opts.as ?? [], twins);
   watchBackend(backend, twins);
@@ -301,6 +301,14 @@ export async function startServient(opts: ServientOptions): Promise<RunningServi
     ...(scan ? { scan: scan.status().source } : {}),
     stop: () => (stopping ??= (scan?.stop(), cell?.stop() ?? Promise.resolve()).then(() => shutdown({ exposed, registrar, live, servient, http, outbound, backend }))),
   };
+}
+
+/** `--scan-source`: the scene kept current from a sensor, told when a twin's joints change. */
+function scanSource(opts: ServientOptions, backend: BackendSupervisor, world: SceneRecord, twins: Map<string, Twin>): ScanSource | null {
+  if (!opts.scanSource) return null;
+  const scan = new ScanSource(opts.scanSource, backend, world, new Outbound({ ...OUTBOUND_LIMITS, maxBytes: MAX_FRAME_BYTES }));
+  for (const t of twins.values()) t.on("joints", () => scan.moved());
+  return scan;
 }
 
 /** `--register`: the directory's URL (userinfo becomes an Authorization header of that origin; only the
