@@ -42,7 +42,11 @@ const ws = new WebSocket(`${info.liveUrl}?thing=${slug}`);
 const waiters = [];
 ws.on("message", (d) => {
   const m = JSON.parse(d.toString());
-  for (const w of [...waiters]) if (w.pred(m)) (waiters.splice(waiters.indexOf(w), 1), w.resolve(performance.now()));
+  for (const w of [...waiters]) {
+    if (!w.pred(m)) continue;
+    waiters.splice(waiters.indexOf(w), 1);
+    w.resolve(performance.now());
+  }
 });
 await new Promise((r) => ws.once("open", r));
 const seen = (x, y) => new Promise((resolve) => waiters.push({ resolve, pred: (m) => m.type === "scene" && m.obstacles.some((o) => o.name.startsWith("scan-") && Math.hypot(o.position[0] - x, o.position[1] - y) < 0.03) }));

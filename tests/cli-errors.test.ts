@@ -105,7 +105,7 @@ describe("robwot generate with bad input", () => {
   it("unknown command and --help", async () => {
     const bad = await runCli(["genrate"]);
     expect(bad.code).toBe(2);
-    expect(bad.stderr).toMatch(/unknown command "genrate" \(valid: generate, serve, demo, openapi, asyncapi, emulate\)/);
+    expect(bad.stderr).toMatch(/unknown command "genrate" \(valid: generate, serve, demo, openapi, asyncapi, emulate, scene\)/);
     const help = await runCli(["generate", "--help"]);
     expect(help.code).toBe(0);
     expect(help.stdout).toMatch(/franka_panda/);

@@ -70,8 +70,9 @@ export function parseCamera(values: CameraValues): EmulatorOptions["camera"] {
   const target = point(halves[1]!, "target", values.camera);
   const view = target.map((t, i) => t - position[i]!);
   if (Math.hypot(...view) === 0) throw new CliError(`--camera: the point looked at must differ from the camera's position, got "${values.camera}"`);
-  // the backend's bound on the sine between the view and the image's up (sim/camera.py PARALLEL)
-  if (Math.hypot(view[0]!, view[1]!) / Math.hypot(...view) < 1e-6) {
+  // straight up or down: the image's up (the world's z) along the view; a view within a hair of it is
+  // refused by the backend's own camera check at the first frame, naming camera.up
+  if (Math.hypot(view[0]!, view[1]!) === 0) {
     throw new CliError(`--camera must not look straight up or down (the image's up is the world's z), got "${values.camera}"`);
   }
   const size = /^\s*(\d+)\s*x\s*(\d+)\s*$/i.exec(values["camera-size"] ?? "320x240");

@@ -9,10 +9,11 @@ Supports (:func:`find_supports`) are found by RANSAC restricted to near-horizont
   triples are drawn uniformly, half *locally in height* (three points close in the z-sorted order): a
   horizontal plane packs its points in a thin band of that order, so such triples fall on one plane far more
   often than uniform ones, which is what finds a small table among a large floor and many object sides.
-* The winner is refined by total least squares (the smallest principal axis of its inliers, inliers
-  recomputed, twice). When the inliers' own plane tilts past ``max_tilt`` they are a slice of a steeper
-  surface (a band across a ramp or across objects' sides), not a support: they leave the search and stay
-  with the objects. The rounds are bounded (a ramp could otherwise be sliced band after band).
+* The winner is refined by total least squares (the smallest principal axis of its inliers, of at most
+  ``_FITTED`` of them evenly spread, inliers recomputed, twice). When the inliers' own plane tilts past
+  ``max_tilt`` they are a slice of a steeper surface (a band across a ramp or across objects' sides), not a
+  support: they leave the search and stay with the objects. The rounds are bounded (a ramp could
+  otherwise be sliced band after band).
 * Its inliers are split into connected patches on a 2-D occupancy grid in the plane (8-connectivity): two
   tables at the same height are two supports. Every patch of at least ``min_points`` becomes a
   :class:`Plane`, refined on its own points. All the plane's inliers leave the pool before the next search,
@@ -47,6 +48,7 @@ _HYPOTHESES = 256       # plane hypotheses per RANSAC round (half uniform, half 
 _SAMPLE = 8192          # points every hypothesis is scored against
 _RESCORED = 8           # best hypotheses scored again against every point
 _REFINES = 2            # least-squares refinements (fit, recompute inliers)
+_FITTED = 16384         # points of a larger patch a plane is fitted on (every k-th)
 _ROUNDS_PER_PLANE = 3   # RANSAC rounds at most: this many per plane asked for, plus _ROUNDS_MORE (rounds
 _ROUNDS_MORE = 5        # that give no support, such as slices of a ramp or small coplanar tops, count too)
 _SEARCHED = 32768        # points of a larger cloud the search runs on (a random sample)
@@ -117,6 +119,8 @@ def _refine(pts: FloatArray, normal: FloatArray, offset: float, noise: float,
     """Total-least-squares refinement of a plane on its inliers among ``pts`` (recomputed each time), or
     None when the inliers' own plane leaves the tilt bound: they are a slice of a steeper surface (a ramp,
     an object's side), not a support."""
+    if len(pts) > _FITTED:  # the plane of a large patch fitted on an even share of its points
+        pts = pts[:: len(pts) // _FITTED + 1]
     for _ in range(_REFINES):
         inl = pts[np.abs(pts @ normal - offset) <= noise]
         if len(inl) < 3:
@@ -186,11 +190,11 @@ def find_supports(points: npt.ArrayLike, noise: float, min_points: int = 500, ma
         raise ValueError("noise and cell must be > 0")
     rng = np.random.default_rng(0) if rng is None else rng
     cos_tilt = math.cos(max_tilt)
-    order = np.argsort(pts[:, 2]).astype(np.intp)
-    zs = pts[order]                             # sorted by z; the pools hold ascending positions in zs
-    pool = np.arange(len(zs), dtype=np.intp)
-    share = min(1.0, _SEARCHED / max(1, len(zs)))
-    searched = pool if share >= 1.0 else np.sort(rng.choice(len(zs), size=_SEARCHED, replace=False))
+    pool = np.arange(len(pts), dtype=np.intp)  # every point not yet a support's
+    share = min(1.0, _SEARCHED / max(1, len(pts)))
+    sample = pool if share >= 1.0 else rng.choice(len(pts), size=_SEARCHED, replace=False)
+    zs = pts[sample[np.argsort(pts[sample, 2])]]  # the searched points sorted by z
+    searched = np.arange(len(zs), dtype=np.intp)  # positions in zs still searched
     least = max(3, math.ceil(min_points * share * _SAMPLED_SHARE)) if share < 1.0 else min_points
     window = max(2, least // 2)
     planes: list[Plane] = []
@@ -206,11 +210,10 @@ def find_supports(points: npt.ArrayLike, noise: float, min_points: int = 500, ma
         searched = searched[np.abs(sub @ normal - offset) > noise]  # a rejected slice stays objects
         if refined is None:
             continue
-        inside = np.abs(zs[pool] @ normal - offset) <= noise
+        inside = np.abs(pts[pool] @ normal - offset) <= noise
         inliers, pool = pool[inside], pool[~inside]
         if len(inliers) >= min_points:
-            found_here = _supports(zs, inliers, normal, offset, noise, cos_tilt, cell, min_points)
-            planes += [plane._replace(inliers=order[plane.inliers]) for plane in found_here]
+            planes += _supports(pts, inliers, normal, offset, noise, cos_tilt, cell, min_points)
     planes.sort(key=lambda p: -len(p.inliers))
     return planes[:most]
 
