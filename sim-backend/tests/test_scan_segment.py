@@ -376,6 +376,7 @@ def test_tightest_picks_by_volume() -> None:
                                 box_surface(rng, (0.06, 0.4, 0.1), (0.17, 0.17), 0.0, 0.0, n=3000)]))
     kind, cover = tightest(ell, NOISE, 0.01)
     assert kind == "voxels" and isinstance(cover, list) and voxels_hold(cover, ell[::10], NOISE)
+    assert tightest(can, NOISE, 0.02, hull=False)[0] != "hull"  # a hull that cannot be written is no choice
     strict = tightest(brick, NOISE, 0.02, slack=0.0)
     covers: dict[str, Cover] = {"box": box_cover(brick, NOISE), "hull": hull_cover(brick, NOISE),
               "voxels": voxel_cover(brick, NOISE, 0.02)}

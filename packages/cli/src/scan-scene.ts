@@ -73,7 +73,7 @@ function meshNames(scan: ScanScene, staged: string): Map<string, string> {
 }
 
 /** The scene document of `scan` as written to `out`: mesh files named relative to it. */
-function sceneDocument(scan: ScanScene, out: string, names: Map<string, string>, description: string): Record<string, unknown> {
+function scanDocument(scan: ScanScene, out: string, names: Map<string, string>, description: string): Record<string, unknown> {
   const meshes = relative(dirname(out), meshFolder(out));
   const obstacles = scan.obstacles.map((o) => (o.shape.type !== "mesh" ? o : { ...o, shape: { ...o.shape, file: join(meshes, names.get(o.name)!) } }));
   return { version: 1, name: basename(out, extname(out)), description, obstacles, robots: [] };
@@ -102,7 +102,7 @@ export async function sceneFromScan(o: FromScanOptions, backend: BackendGuard): 
     });
     const description = `scanned by robwot scene from-scan from ${o.clouds.map((c) => basename(c.file)).join(", ")} (noise ${o.noise} m, ${o.shape} covers${o.occluded === "block" ? ", occluded space blocked" : ""})`;
     const names = meshNames(scan, staged);
-    const doc = sceneDocument(scan, out, names, description);
+    const doc = scanDocument(scan, out, names, description);
     // the same checks as any scene: loaded into an empty world from the staged files
     const check = { ...doc, obstacles: scan.obstacles };
     await backend.sim.resetWorld({});

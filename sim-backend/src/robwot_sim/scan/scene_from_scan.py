@@ -228,11 +228,7 @@ def _cover(points: FloatArray, params: ScanParams) -> tuple[str, Any]:
         return "hull", hull_cover(points, params.noise)
     if params.shape == "voxels":
         return "voxels", voxel_cover(points, params.noise, params.voxel)
-    kind, cover = tightest(points, params.noise, params.voxel)
-    if kind == "hull" and params.mesh_dir is None:
-        box, voxels = box_cover(points, params.noise), voxel_cover(points, params.noise, params.voxel)
-        return ("box", box) if volume_of(box) <= volume_of(voxels) else ("voxels", voxels)
-    return kind, cover
+    return tightest(points, params.noise, params.voxel, hull=params.mesh_dir is not None)
 
 
 def _obstacles(name: str, kind: str, cover: Any, params: ScanParams) -> list[dict[str, Any]]:

@@ -229,11 +229,14 @@ def volume_of(cover: Cover) -> float:
     return _mesh_volume(cover)
 
 
-def tightest(points: npt.ArrayLike, noise: float, side: float, *, slack: float = 0.1) -> tuple[str, Cover]:
+def tightest(points: npt.ArrayLike, noise: float, side: float, *, slack: float = 0.1,
+             hull: bool = True) -> tuple[str, Cover]:
     """``("box" | "hull" | "voxels", cover)``: the cover of least volume, except that the first of box, hull,
-    voxels within ``slack`` (a fraction) of the least is taken (``slack=0``: strictly the least)."""
+    voxels within ``slack`` (a fraction) of the least is taken (``slack=0``: strictly the least); without
+    ``hull``, the hull is not among them (it could not be written)."""
     pts = _cluster(points, noise)
-    covers: list[tuple[str, Cover]] = [("box", box_cover(pts, noise)), ("hull", hull_cover(pts, noise)),
+    covers: list[tuple[str, Cover]] = [("box", box_cover(pts, noise)),
+                                       *([("hull", hull_cover(pts, noise))] if hull else []),
                                        ("voxels", voxel_cover(pts, noise, side))]
     volumes = [volume_of(cover) for _, cover in covers]
     least = min(volumes)
