@@ -14,11 +14,20 @@ from typing import Any
 
 import numpy as np
 import pytest
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.scan.segment import Plane, clusters, find_supports
-from robwot_sim.scan.shapes import Cover, box_cover, hull_cover, shadow, tightest, volume_of, voxel_cover
+from robwot_sim.scan.shapes import (
+    Cover,
+    box_cover,
+    hull_candidates,
+    hull_cover,
+    shadow,
+    tightest,
+    volume_of,
+    voxel_cover,
+)
 
 NOISE = 0.004
 TABLE_Z = 0.75
@@ -381,6 +390,36 @@ def test_tightest_picks_by_volume() -> None:
     covers: dict[str, Cover] = {"box": box_cover(brick, NOISE), "hull": hull_cover(brick, NOISE),
               "voxels": voxel_cover(brick, NOISE, 0.02)}
     assert volume_of(strict[1]) == pytest.approx(min(volume_of(c) for c in covers.values()))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_hull_candidates_keep_every_hull_vertex(dim: int) -> None:
+    """The filtered points' hull is the points' hull (same vertices) on a ball, a box's sampled surface with
+    many coplanar points, and a flat set it cannot filter; without the boundary points the volume agrees."""
+    rng = np.random.default_rng(21)
+    flat = np.column_stack([rng.random((500, dim - 1)), np.zeros(500)])
+    box = box_surface(rng, (0.2, 0.1, 0.15), (0.0, 0.0), 0.3, 0.0, n=5000)[:, :dim]
+    for pts in (rng.normal(size=(20_000, dim)), box, np.round(box, 2), flat):
+        kept = hull_candidates(pts)
+        assert len(kept) <= len(pts)
+        try:
+            truth = ConvexHull(pts)
+        except QhullError:  # a flat set: qhull refuses it, and it is returned whole
+            assert len(kept) == len(pts)
+            continue
+        assert {tuple(v) for v in pts[truth.vertices]} == {tuple(v) for v in kept[ConvexHull(kept).vertices]}
+        loose = ConvexHull(hull_candidates(pts, boundary=False))
+        assert loose.volume == pytest.approx(truth.volume, rel=1e-9)
+    big = rng.normal(size=(20_000, dim))
+    assert len(hull_candidates(big)) < len(big) / 10  # it filters
+
+
+def test_voxel_rows_far_from_the_origin() -> None:
+    """Voxel covers of a cluster far from the world origin (large voxel indices) hold its points."""
+    rng = np.random.default_rng(22)
+    pts = noisy(rng, box_surface(rng, (0.2, 0.1, 0.15), (-40.0, 35.0), 7.0, 0.4, n=2000))
+    for fill in (True, False):
+        assert voxels_hold(voxel_cover(pts, NOISE, 0.01, fill=fill), pts, NOISE)
 
 
 # ---------------------------------------------------------------- shadow

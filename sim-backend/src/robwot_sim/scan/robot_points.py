@@ -18,6 +18,7 @@ import pybullet as pb
 from scipy.spatial import ConvexHull, QhullError
 
 from robwot_sim.model.rotations import quat_matrix
+from robwot_sim.scan.segment import within
 from robwot_sim.sim.robot_shapes import hull_vertices, link_parts
 
 FloatArray = npt.NDArray[np.float64]
@@ -118,10 +119,9 @@ def robot_mask(points: FloatArray, robots: RobotSnapshot, padding: float) -> Boo
         return out
     lo = np.min([h.lo for h in robots.hulls], axis=0) - padding
     hi = np.max([h.hi for h in robots.hulls], axis=0) + padding
-    near = np.flatnonzero(((points >= lo) & (points <= hi)).all(axis=1))
+    near = np.flatnonzero(within(points, lo, hi))
     for hull in robots.hulls:
-        inside_box = ((points[near] >= hull.lo - padding) & (points[near] <= hull.hi + padding)).all(axis=1)
-        candidates = near[inside_box]
+        candidates = near[within(points[near], hull.lo - padding, hull.hi + padding)]
         for start in range(0, len(candidates), CHUNK):
             idx = candidates[start:start + CHUNK]
             signed = points[idx] @ hull.equations[:, :3].T + hull.equations[:, 3]

@@ -29,7 +29,15 @@ from robwot_sim.scan.clouds import read_cloud
 from robwot_sim.scan.fit import Model, fit
 from robwot_sim.scan.robot_points import RobotSnapshot, robot_mask
 from robwot_sim.scan.segment import Plane, clusters, find_supports
-from robwot_sim.scan.shapes import box_cover, hull_cover, shadow, tightest, volume_of, voxel_cover
+from robwot_sim.scan.shapes import (
+    box_cover,
+    hull_candidates,
+    hull_cover,
+    shadow,
+    tightest,
+    volume_of,
+    voxel_cover,
+)
 
 FloatArray = npt.NDArray[np.float64]
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])
@@ -249,7 +257,7 @@ def _obstacles(name: str, kind: str, cover: Any, params: ScanParams) -> list[dic
 def _volume(points: FloatArray) -> float:
     """The volume of the convex hull of ``points`` (0 when they span no volume)."""
     try:
-        return float(ConvexHull(points).volume)
+        return float(ConvexHull(hull_candidates(points, boundary=False)).volume)
     except (QhullError, ValueError):
         return 0.0
 

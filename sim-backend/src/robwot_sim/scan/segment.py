@@ -33,7 +33,7 @@ dense grid by ``scipy.ndimage.label`` while the grid is small, else as a sparse 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -43,6 +43,7 @@ from scipy.sparse.csgraph import connected_components
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+_Num = TypeVar("_Num", bound=np.generic)
 
 _HYPOTHESES = 256       # plane hypotheses per RANSAC round (half uniform, half local in height)
 _SAMPLE = 8192          # points every hypothesis is scored against
@@ -77,6 +78,26 @@ def as_points(points: npt.ArrayLike) -> FloatArray:
     return pts
 
 
+def extent(pts: npt.NDArray[_Num]) -> tuple[npt.NDArray[_Num], npt.NDArray[_Num]]:
+    """The per-axis least and greatest of non-empty ``pts`` [n, d], taken column by column (numpy's axis-0
+    reductions over a narrow array are many times slower than over one contiguous column each)."""
+    cols = range(pts.shape[1])
+    lo: npt.NDArray[_Num] = np.array([pts[:, i].min() for i in cols], dtype=pts.dtype)
+    hi: npt.NDArray[_Num] = np.array([pts[:, i].max() for i in cols], dtype=pts.dtype)
+    return lo, hi
+
+
+def within(pts: FloatArray, lo: npt.ArrayLike, hi: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """True for each of ``pts`` [n, d] inside the closed box ``lo``..``hi`` (column by column, as
+    :func:`extent`)."""
+    lo_, hi_ = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    out = np.ones(len(pts), dtype=bool)
+    for i in range(pts.shape[1]):
+        col = pts[:, i]
+        out &= (col >= lo_[i]) & (col <= hi_[i])
+    return out
+
+
 def _hypotheses(pts: FloatArray, window: int, cos_tilt: float,
                 rng: np.random.Generator) -> tuple[FloatArray, FloatArray]:
     """Plane hypotheses (normals ``[h, 3]`` with z > 0, offsets ``[h]``) from triples of ``pts`` (sorted by
@@ -107,7 +128,10 @@ def _ransac(pts: FloatArray, noise: float, window: int, cos_tilt: float,
     if len(normals) == 0:
         return None
     sample = pts[rng.integers(0, len(pts), size=min(len(pts), _SAMPLE))]
-    scores = (np.abs(sample @ normals.T - offsets) <= noise).sum(axis=0)
+    dist = normals @ sample.T  # [h, s], worked on in place: the scoring's temporaries cost more than it
+    dist -= offsets[:, None]
+    np.abs(dist, out=dist)
+    scores = np.count_nonzero(dist <= noise, axis=1)
     best = np.argsort(-scores, kind="stable")[:_RESCORED]
     full = (np.abs(pts @ normals[best].T - offsets[best]) <= noise).sum(axis=0)
     pick = best[int(np.argmax(full))]
@@ -148,10 +172,10 @@ def _patches(pts: FloatArray, normal: FloatArray, cell: float) -> IntArray:
     (8-connected cells: points up to ``2 * sqrt(2) * cell`` apart in the plane may join, never split
     when closer than ``cell``)."""
     uv = pts @ _plane_basis(normal)
-    lo = uv.min(axis=0)
-    cell = max(cell, float((uv.max(axis=0) - lo).max()) / (_GRID_SIDE_MAX - 1))
+    lo, hi = extent(uv)
+    cell = max(cell, float((hi - lo).max()) / (_GRID_SIDE_MAX - 1))
     ij = np.floor((uv - lo) / cell).astype(np.intp)
-    grid = np.zeros(tuple(int(v) + 1 for v in ij.max(axis=0)), dtype=bool)
+    grid = np.zeros(tuple(int(v) + 1 for v in extent(ij)[1]), dtype=bool)
     grid[ij[:, 0], ij[:, 1]] = True
     labels, _ = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
     return np.asarray(labels[ij[:, 0], ij[:, 1]], dtype=np.intp) - 1
@@ -266,12 +290,11 @@ def clusters(points: npt.ArrayLike, gap: float) -> IntArray:
         raise ValueError("gap must be > 0")
     if len(pts) == 0:
         return np.zeros(0, dtype=np.intp)
-    lo = pts.min(axis=0)
-    extent = (pts.max(axis=0) - lo) / gap
-    if float(extent.max()) >= 2.0**20:
+    lo, hi = extent(pts)
+    if float(((hi - lo) / gap).max()) >= 2.0**20:
         raise ValueError(f"the cloud spans more than 2^20 voxels of gap {gap} along one axis")
     idx = np.floor((pts - lo) / gap).astype(np.intp)
-    dims = tuple(int(v) + 1 for v in idx.max(axis=0))
+    dims = tuple(int(v) + 1 for v in extent(idx)[1])
     cells = math.prod(dims)
     if cells <= min(_DENSE_MAX, max(_DENSE_MIN, _DENSE_PER_POINT * len(pts))):
         return _dense_labels(idx, dims)

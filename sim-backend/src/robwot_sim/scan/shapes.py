@@ -42,13 +42,18 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
-from robwot_sim.scan.segment import FloatArray, IntArray, Plane, as_points
+from robwot_sim.scan.segment import FloatArray, IntArray, Plane, as_points, extent
 
 Mesh = tuple[FloatArray, IntArray]
 Cover = dict[str, Any] | Mesh | list[dict[str, Any]]
 
 _MIN_THICKNESS = 1e-6   # m: a degenerate cluster's hull is at least this far out when noise is 0
 _HOLD_TOL = 1e-10       # m: rounding a returned hull may show against a point's inflated distance
+_FEW = 64              # points up to which a hull is asked of qhull at once
+#: directions whose extreme points span the polytope ``hull_candidates`` filters with: 8 in the plane, 14
+#: in space (the axes and the cube's diagonals)
+_DIRECTIONS = {2: [d for d in itertools.product((-1, 0, 1), repeat=2) if any(d)],
+               3: [d for d in itertools.product((-1, 0, 1), repeat=3) if sum(map(abs, d)) in (1, 3)]}
 _CUBE = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
 _IDENTITY = [0.0, 0.0, 0.0, 1.0]
 
@@ -63,11 +68,38 @@ def _cluster(points: npt.ArrayLike, noise: float) -> FloatArray:
     return pts
 
 
+def hull_candidates(pts: FloatArray, *, boundary: bool = True) -> FloatArray:
+    """The points of ``pts`` [n, 2 or 3] that may be vertices of their convex hull (Akl-Toussaint): those
+    not inside the hull of their extreme points along a fixed set of directions, a polytope inside the
+    points' hull, and those extreme points. With ``boundary`` a point on the polytope's boundary (within
+    rounding) is kept and qhull on what is kept gives exactly the points' hull; without, such points go
+    too (many coplanar points, as a shadow's ends on a floor) and the hull is the points' to within 1e-9 of
+    their extent, enough for a volume. A set too small or too flat to filter is returned whole."""
+    if len(pts) <= _FEW:
+        return pts
+    cols = [np.ascontiguousarray(pts[:, i]) for i in range(pts.shape[1])]
+    dirs = _DIRECTIONS[pts.shape[1]]
+    picks = np.unique([int(np.argmax(sum(c * float(w) for c, w in zip(cols, d, strict=True) if w)))
+                       for d in dirs])
+    try:
+        facets = ConvexHull(pts[picks]).equations
+    except (QhullError, ValueError):
+        return pts
+    tol = 1e-9 * (float(np.abs(pts[picks]).max()) + 1e-300) * (-1.0 if boundary else 1.0)
+    keep = np.zeros(len(pts), dtype=bool)
+    keep[picks] = True
+    for f in facets:  # outward normal . x + offset beyond tol: not inside this facet
+        keep |= sum(c * float(w) for c, w in zip(cols, f[:-1], strict=True)) + float(f[-1]) > tol
+    kept: FloatArray = pts[keep]
+    return kept
+
+
 def _ring(xy: FloatArray) -> FloatArray:
     """The 2-D hull vertices of ``xy`` in order; for a degenerate set (one point, a segment) its distinct
     points, which give the same extents in every direction."""
     try:
-        ring: FloatArray = xy[ConvexHull(xy).vertices]
+        few = hull_candidates(xy)
+        ring: FloatArray = few[ConvexHull(few).vertices]
     except (QhullError, ValueError):
         ring = np.unique(xy, axis=0)
     return ring
@@ -93,7 +125,7 @@ def box_cover(points: npt.ArrayLike, noise: float) -> dict[str, Any]:
     c, s = math.cos(yaw), math.sin(yaw)
     rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     local = pts @ rot                       # the points in the box frame (rot^T p)
-    lo, hi = local.min(axis=0), local.max(axis=0)
+    lo, hi = extent(local)
     centre = rot @ ((lo + hi) / 2.0)
     size = hi - lo + 2.0 * noise
     return {"shape": {"type": "box", "size": [float(v) for v in size]},
@@ -146,7 +178,7 @@ def hull_cover(points: npt.ArrayLike, noise: float) -> Mesh:
     pts = _cluster(points, noise)
     candidates: list[Mesh] = []
     try:
-        hull = ConvexHull(pts)
+        hull = ConvexHull(hull_candidates(pts))
         base = hull.points[hull.vertices]
     except (QhullError, ValueError):
         hull, base = None, np.unique(pts, axis=0)
@@ -182,6 +214,26 @@ def _merge(lo: IntArray, hi: IntArray, axis: int) -> tuple[IntArray, IntArray]:
     return new_lo, new_hi
 
 
+def _unique_rows(rows: npt.NDArray[np.int64]) -> tuple[npt.NDArray[np.int64], IntArray]:
+    """The distinct rows of an integer ``[n, d]`` array in lexicographic order and, per row, the index of
+    its distinct row: ``np.unique(rows, axis=0, return_inverse=True)``, sorted as one integer key per row
+    (numpy's row-wise unique sorts a structured view, many times slower)."""
+    lo, hi = extent(rows)
+    dims = hi - lo + 1
+    if float(np.prod(dims.astype(np.float64))) >= 2.0**62:
+        u, inv = np.unique(rows, axis=0, return_inverse=True)
+        return u, inv.reshape(-1)
+    key = np.zeros(len(rows), dtype=np.int64)
+    for i in range(rows.shape[1]):
+        key = key * dims[i] + (rows[:, i] - lo[i])
+    keys, inverse = np.unique(key, return_inverse=True)
+    out = np.empty((len(keys), rows.shape[1]), dtype=np.int64)
+    for i in reversed(range(rows.shape[1])):
+        keys, out[:, i] = np.divmod(keys, dims[i])
+        out[:, i] += lo[i]
+    return out, inverse.reshape(-1)
+
+
 def _voxels(pts: FloatArray, noise: float, side: float) -> IntArray:
     """The distinct voxels ``[v, 3]`` (index ``floor(x / side)``) touched by each point's cube of
     half-side ``noise``, bounds widened by a rounding margin so a face at a voxel boundary is never lost."""
@@ -193,7 +245,7 @@ def _voxels(pts: FloatArray, noise: float, side: float) -> IntArray:
     for step in itertools.product(range(span + 1), repeat=3):
         cand = first + np.array(step, dtype=np.int64)
         parts.append(cand[(cand <= last).all(axis=1)])
-    return np.unique(np.concatenate(parts), axis=0)
+    return _unique_rows(np.concatenate(parts))[0]
 
 
 def voxel_cover(points: npt.ArrayLike, noise: float, side: float, *,
@@ -205,7 +257,7 @@ def voxel_cover(points: npt.ArrayLike, noise: float, side: float, *,
         raise ValueError("side must be finite and > 0")
     vox = _voxels(pts, noise, side)
     if fill:
-        cols, inverse = np.unique(vox[:, :2], axis=0, return_inverse=True)
+        cols, inverse = _unique_rows(vox[:, :2])
         top = np.full(len(cols), np.iinfo(np.int64).min, dtype=np.int64)
         np.maximum.at(top, inverse.reshape(-1), vox[:, 2])
         bottom = np.full(len(cols), int(vox[:, 2].min()), dtype=np.int64)
