@@ -33,7 +33,8 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from robwot_sim.sim.collision import CollisionChecker
-from robwot_sim.sim.pathcheck import first_contact, path_clearance
+from robwot_sim.sim.outerbounds import load_kernels
+from robwot_sim.sim.pathcheck import first_contact, path_clearance, sure_free
 from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.robot import LIMIT_TOL, BoundRobot
 from robwot_sim.sim.sweep import Guard, substeps
@@ -115,12 +116,26 @@ def _search(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goa
                 return False
         return first_contact(robot, checker, a, b, guard, clearance) is None
 
+    def spaced(a: FloatArray, b: FloatArray) -> bool:
+        # OMPL's own motion check (its states `RESOLUTION` of the extent apart, the end first, then in
+        # bisection order), the states the outer bounds find free asked of Bullet no more
+        checkpoint()
+        n = max(1, int(np.ceil(float(np.linalg.norm(b - a)) / spacing)))
+        states = a + (b - a) * (np.arange(1, n + 1) / n)[:, None]
+        sure = sure_free(checker, states, clearance)
+        for k in (n, *_bisection(n)):
+            if not sure[k - 1]:
+                robot.apply(states[k - 1])
+                if not checker.is_free(clearance):
+                    return False
+        return True
+
     setup.setStateValidityChecker(valid)
     info = setup.getSpaceInformation()
     info.setStateValidityCheckingResolution(RESOLUTION)
-    validator = _PathCheck(info, motion, dof)  # referenced until the search ends
-    if exact:
-        info.setMotionValidator(validator)
+    spacing = RESOLUTION * space.getMaximumExtent()
+    validator = _PathCheck(info, motion if exact else spaced, dof)  # referenced until the search ends
+    info.setMotionValidator(validator)
     setup.setPlanner(og.RRTConnect(info))
     begin, end = _state(space, start), _state(space, goal)
     setup.setStartAndGoalStates(begin, end)
@@ -225,6 +240,9 @@ def detour(scene: Scene, robot_id: str, target: JointVector, memory: DetourMemor
     passes the path check; else RRT-Connect searches one (`find_detour`), remembered when found."""
     e = scene.entry(robot_id)
     tgt = e.bound.validate(target, "target")
+    # a search asks for thousands of states: worth the outer bounds' fixed cost (loaded on a thread of their
+    # own; until they are, every state is Bullet's)
+    load_kernels()
     saved = e.bound.q.copy()
     version = scene.version
     try:

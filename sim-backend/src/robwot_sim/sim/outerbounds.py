@@ -84,7 +84,7 @@ class Grid(NamedTuple):
 #: rows a process labels before it loads the kernels and builds each robot's shapes: the fixed cost (numba's
 #: import and compiler, the kernels' load, a mesh-heavy robot's shapes: about a second and 100 MB) is paid
 #: back only over many rows, so a short generation never pays it; path checks use the bounds once loaded
-#: and never load them (a servient planning long programs keeps its memory)
+#: and never load them (a servient planning long programs keeps its memory), a detour search does
 WARM_AFTER = 100_000
 _asked = 0
 _kernels_ready = threading.Event()
@@ -96,7 +96,7 @@ _kernels_ok = False
 def load_kernels() -> None:
     """Loads the compiled kernels (``sphere_kernel.py``: numba's import and, from its disk cache, or
     compiled on a machine's first use, every kernel) on a thread of their own, once per process (once it
-    has labelled ``WARM_AFTER`` rows, or when told to: ``kernels_ready``); until they are
+    has labelled ``WARM_AFTER`` rows, or when told to: ``kernels_ready``, a detour search); until they are
     loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a caller
     wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
     the kernels compiled again; kernels that still fail to load leave the bounds empty for good, said

@@ -90,11 +90,11 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
         n = substeps(q0, q1, guard.reach, guard.max_sweep)
         step = float(np.sum(np.abs(q1 - q0) * guard.reach)) / n
         states = q0 + (q1 - q0) * (np.arange(1, n + 1) / n)[:, None]
-        sure = _sure_free(checker, states, clearance)
+        sure = sure_free(checker, states, clearance)
         for i in range(1, n + 1):
             if checkpoint():  # other bodies may have moved meanwhile: measure them again
                 slack = -1.0
-                sure[i - 1:] = _sure_free(checker, states[i - 1:], clearance)
+                sure[i - 1:] = sure_free(checker, states[i - 1:], clearance)
             q = states[i - 1]
             slack -= step
             applied = not sure[i - 1]
@@ -114,7 +114,7 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
     return None
 
 
-def _sure_free(checker: CollisionChecker, states: FloatArray, clearance: float) -> npt.NDArray[np.bool_]:
+def sure_free(checker: CollisionChecker, states: FloatArray, clearance: float) -> npt.NDArray[np.bool_]:
     """The ``states`` known free by ``clearance`` without Bullet (``CollisionChecker.sure_free``)."""
     if checker.sure_free is None or len(states) < SURE_FREE_MIN:
         return np.zeros(len(states), dtype=bool)
