@@ -1,11 +1,16 @@
 """workspace.warmUp over the real WebSocket: returns at once, refuses bad params, and a generation after it
-labels exactly as one without it."""
+labels exactly as one without it. planning.warmUp: loads the compiled kernels, after which path checks
+give the verdicts they gave before."""
 
 from __future__ import annotations
 
+import json
+import time
 from pathlib import Path
 
-from rpc_backend import RpcClient
+import numpy as np
+from rpc_backend import BackendProcess, RpcClient
+from simhelp import KUKA
 
 import robwot_sim.scene as scene
 from robwot_sim.workspace.pool import _validated_spec
@@ -36,3 +41,36 @@ def test_validated_spec_restores_the_schema_check() -> None:
         assert scene.schema_errors({"version": "bad"}) is None
     assert scene.schema_errors is original
     assert scene.schema_errors({"version": "bad"}) is not None
+
+
+def test_planning_warm_up_keeps_the_path_verdicts() -> None:
+    """In a backend of its own (the kernels, once loaded, stay for the process): 30 straight path checks
+    among two boxes, before planning.warmUp and after it said the kernels are loaded (asked again until
+    it does), give the same verdicts and first contacts."""
+    proc = BackendProcess()
+    try:
+        c = proc.client()
+        c.call("robot.load", {"urdf": KUKA, "id": "kuka"})
+        for name, where in (("a", [0.45, 0.0, 0.5]), ("b", [0.0, 0.45, 0.3])):
+            c.call("obstacle.add", {"name": name, "shape": {"type": "box", "size": [0.1, 0.3, 0.3]},
+                                    "position": where})
+        rng = np.random.default_rng(8)
+        targets = (rng.uniform(-1.0, 1.0, size=(30, 7)) * [2.9, 2.0, 2.9, 2.0, 2.9, 2.0, 3.0]).tolist()
+
+        def verdicts() -> list[tuple[bool, str]]:
+            out = []
+            for t in targets:
+                r = c.call("robot.checkPath", {"robot": "kuka", "target": t})
+                out.append((r["collisionFree"], json.dumps(r.get("firstCollision"), sort_keys=True)))
+            return out
+
+        before = verdicts()
+        assert {free for free, _ in before} == {True, False}  # both verdicts occur
+        assert c.call("planning.warmUp", {})["ready"] in (True, False)  # at once, whatever its state
+        deadline = time.monotonic() + 900  # a machine's first use compiles the kernels
+        while not c.call("planning.warmUp", {})["ready"]:
+            assert time.monotonic() < deadline, "the kernels did not load"
+            time.sleep(0.2)
+        assert verdicts() == before
+    finally:
+        assert proc.stop() == 0

@@ -355,6 +355,10 @@ export type WorkspaceGenerateResult = WorkspaceSummary;
  * Result of `workspace.warmUp`.
  */
 export type WorkspaceWarmUpResult = WarmUpResult;
+/**
+ * Result of `planning.warmUp`.
+ */
+export type PlanningWarmUpResult = PlanningReadiness;
 
 /**
  * ROS package name -> folder, for `package://NAME/...` mesh paths
@@ -1331,6 +1335,12 @@ export interface ScanScene {
    * time spent building the scene (reading included)
    */
   seconds: number;
+}
+export interface PlanningReadiness {
+  /**
+   * the compiled kernels were already loaded when asked
+   */
+  ready: boolean;
 }
 /**
  * Params of `ping`.
@@ -2416,6 +2426,10 @@ export interface WorkspaceGenerateParams {
 export interface WorkspaceWarmUpParams {
   workers?: Workers;
 }
+/**
+ * Params of `planning.warmUp`.
+ */
+export interface PlanningWarmUpParams {}
 
 /** Every backend method: its params and result. */
 export interface Methods {
@@ -2460,6 +2474,7 @@ export interface Methods {
   "cell.list": { params: CellListParams; result: CellListResult };
   "workspace.generate": { params: WorkspaceGenerateParams; result: WorkspaceGenerateResult };
   "workspace.warmUp": { params: WorkspaceWarmUpParams; result: WorkspaceWarmUpResult };
+  "planning.warmUp": { params: PlanningWarmUpParams; result: PlanningWarmUpResult };
 }
 
 /** Every server-to-client notification: its params. */

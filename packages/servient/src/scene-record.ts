@@ -179,6 +179,9 @@ export class SceneRecord extends EventEmitter<{ scene: [] }> {
       const { positions } = await sim.getJointPositions({ robot: twin.robotId });
       twin.applyPose(positions, await sim.fk({ robot: twin.robotId, positions }));
     }
+    // path checks and detour searches skip Bullet where the compiled outer bounds find states free for
+    // sure: loaded in the backend's background once the world stands (verdicts are the same without them)
+    await sim.planningWarmUp();
     if (!this.startChecked) await this.warnStartCollisions(sim);
   };
 

@@ -184,4 +184,8 @@ export abstract class ContractMethods {
   warmUp(params: Params<"workspace.warmUp"> = {}, options: CallOptions = {}): Result<"workspace.warmUp"> {
     return this.request("workspace.warmUp", params, options);
   }
+  /** `planning.warmUp`: load what planning uses, in the background: Starts loading, on threads of their own, the outer bounds' compiled kernels (numba: read from their disk cache, compiled on a machine's first use) that let path checks and detour searches skip Bullet for states free for sure, and the trajectory timing code (TOPP-RA); returns at once. Until they are loaded every check runs on Bullet alone, with the same verdicts. A servient asks for it on every backend it starts; a generation never needs it. Calling it again is harmless. */
+  planningWarmUp(params: Params<"planning.warmUp"> = {}, options: CallOptions = {}): Result<"planning.warmUp"> {
+    return this.request("planning.warmUp", params, options);
+  }
 }

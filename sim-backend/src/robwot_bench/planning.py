@@ -10,6 +10,9 @@ the servient and the socket in between:
   KUKA behind the wall of ``tests/test_server_motion.py``'s scene and on the Z1 and xArm7 of
   example-robot-data among the boxes of ``tests/test_sim_detour_symmetry.py``, from a home within the
   robot's clearance of a box. Prints the load average.
+
+As a servient has them (``planning.warmUp``), the outer bounds' compiled kernels are loaded before the
+first robot (waited for); ``--bullet`` leaves them out, every state checked by Bullet alone.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from collections.abc import Callable
 import numpy as np
 
 from robwot_bench.reference import example_robot
+from robwot_sim.sim.outerbounds import kernels_ready
 from robwot_sim.sim.planner import plan_joints, plan_pose
 from robwot_sim.sim.world import World
 
@@ -68,6 +72,7 @@ def measure(name: str, targets: int, seed: int) -> tuple[list[float], list[float
     """Straight validation times, detour times there and back (s), refusals there and back."""
     with World() as world:
         rid, home = ROBOTS[name](world)
+        world.warm_bounds()  # as a servient's planning.warmUp does (nothing with --bullet)
         lo, hi = world.robot_model(rid).limits()
         rng = np.random.default_rng(seed)
         straight: list[float] = []
@@ -112,8 +117,15 @@ def main() -> None:
     p.add_argument("--robots", default=",".join(ROBOTS))
     p.add_argument("--targets", type=int, default=20)
     p.add_argument("--seed", type=int, default=26)
+    p.add_argument("--bullet", action="store_true", help="without the outer bounds (Bullet alone)")
     args = p.parse_args()
-    print("bench-planning: load average " + " ".join(f"{x:.2f}" for x in os.getloadavg()), flush=True)
+    if args.bullet:
+        os.environ["ROBWOT_OUTER_BOUNDS"] = "off"
+    elif not kernels_ready(timeout=900.0):
+        raise SystemExit("the outer bounds' kernels did not load (run with --bullet to measure without)")
+    what = "Bullet alone" if args.bullet else "outer bounds loaded"
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"bench-planning ({what}): load average {load}", flush=True)
     print(f"{'robot':7s} {'what':22s} {'n':>4s} {'p50 ms':>7s} {'p95 ms':>7s} {'max ms':>7s} {'refused':>7s}")
     for name in args.robots.split(","):
         straight, there, back, no_there, no_back = measure(name, args.targets, args.seed)

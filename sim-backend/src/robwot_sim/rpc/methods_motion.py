@@ -1,10 +1,12 @@
-"""`robot.checkPath`, `robot.plan`, `robot.move`, `robot.stop`, `program.plan`, `program.run`. Ranges of
+"""`robot.checkPath`, `robot.plan`, `robot.move`, `robot.stop`, `program.plan`, `program.run`,
+`planning.warmUp`. Ranges of
 `speed`, `dt` and `realtime` are the contract's (`schemas/protocol.openrpc.json`), checked with the rest of
 a request's shape before a handler runs; what a schema cannot state (a goal's rules) is checked here, once,
 as the request is parsed into typed values (`Goal`, `Timing`, `ProgramStep`) the planners trust."""
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -13,10 +15,16 @@ from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
+from robwot_sim.sim.motion import load_timing
+from robwot_sim.sim.outerbounds import kernels_ready
 from robwot_sim.sim.planner import Goal, Plan, Timing
 from robwot_sim.sim.planner import plan as plan_goal
 from robwot_sim.sim.program import GRIPS, ProgramStep, plan_program
 from robwot_sim.sim.world_thread import Kind
+
+#: s a warm-up waits for the compiled kernels before building the robots' bounds (a machine's first use
+#: compiles them)
+KERNELS_WAIT = 900.0
 
 
 def goal_of(p: Params, dof: int) -> Goal:
@@ -69,6 +77,22 @@ def program_steps(values: Sequence[Mapping[str, Any]], dof: int) -> list[Program
 
 
 def register(d: Dispatcher, s: Services) -> None:
+    @d.method("planning.warmUp")
+    async def warm_up(p: Params, call: Call) -> dict[str, Any]:
+        ready = kernels_ready()  # starts loading them when not yet
+        load_timing()
+
+        def bounds() -> None:  # once the kernels are loaded, the robots' bounds built on the world's thread
+            if not kernels_ready(timeout=KERNELS_WAIT):
+                return
+            try:
+                s.call_world(s.world.warm_bounds)
+            except Exception as err:  # the first path check builds them instead
+                print(f"robwot: the robots' outer bounds were not built ahead ({err!r})", file=sys.stderr)
+
+        s.off_world(bounds, background=True)
+        return {"ready": ready}
+
     @d.method("robot.checkPath")
     async def check_path(p: Params, call: Call) -> dict[str, Any]:
         model = robot_param(p, s)

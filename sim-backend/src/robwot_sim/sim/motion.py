@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -194,6 +195,26 @@ def _acceleration_constraint(limit_at: Callable[[FloatArray], FloatArray]) -> ob
                                                    identical=True)
 
     return VaryingAcceleration()
+
+
+def load_timing() -> None:
+    """Imports TOPP-RA (and what it imports) on a thread of its own, once per process, so the first curve
+    a servient times does not wait for it (``planning.warmUp``)."""
+    global _timing_started
+    with _timing_lock:
+        if _timing_started:
+            return
+        _timing_started = True
+
+    def load() -> None:
+        import toppra.algorithm
+        import toppra.constraint  # noqa: F401
+
+    threading.Thread(target=load, name="robwot-timing", daemon=True).start()
+
+
+_timing_lock = threading.Lock()
+_timing_started = False
 
 
 def plan_curve_path(

@@ -27,6 +27,7 @@ path check asks Bullet only about the states not free for sure (``CollisionCheck
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 from typing import Any, NamedTuple
@@ -100,12 +101,16 @@ def load_kernels() -> None:
     loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a caller
     wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
     the kernels compiled again; kernels that still fail to load leave the bounds empty for good, said
-    once on stderr."""
+    once on stderr. ``ROBWOT_OUTER_BOUNDS=off`` in the environment leaves them unloaded: every check
+    on Bullet alone (to compare, or where numba cannot run)."""
     global _kernels_started
     with _kernels_lock:
         if _kernels_started:
             return
         _kernels_started = True
+    if os.environ.get("ROBWOT_OUTER_BOUNDS") == "off":
+        _kernels_ready.set()
+        return
 
     def load() -> None:
         global _kernels_ok

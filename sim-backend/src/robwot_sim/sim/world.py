@@ -99,6 +99,12 @@ class World:
         self.scene.reset()
         self.cell.clear()
 
+    def warm_bounds(self) -> None:
+        """Each robot's outer bounds built now (its shapes, the scene's grids) when the compiled kernels are
+        loaded, so the first path check after them does not pay for it; nothing otherwise."""
+        for rid in self.robot_ids():
+            self.scene.bounds.get(self.scene, rid)
+
     def list(self) -> dict[str, Any]:
         """Robots, obstacles, objects, conveyors and sensors; a held object where the robot holding it has it
         (``heldBy``)."""
