@@ -54,3 +54,6 @@ if (existsSync(stamp) && readFileSync(stamp, "utf8") === hash) {
   });
   writeFileSync(stamp, hash);
 }
+// the outer bounds' compiled kernels, once per machine (quick when numba's cache already holds them): a
+// backend then loads them instead of compiling them while it serves
+execFileSync(py, ["-m", "robwot_sim", "compile"], { stdio: "inherit" });

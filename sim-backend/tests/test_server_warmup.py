@@ -5,6 +5,8 @@ give the verdicts they gave before."""
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -74,3 +76,11 @@ def test_planning_warm_up_keeps_the_path_verdicts() -> None:
         assert verdicts() == before
     finally:
         assert proc.stop() == 0
+
+
+def test_compile_command_leaves_the_kernels_loadable() -> None:
+    """``python -m robwot_sim compile`` (what npm install runs) exits 0 saying the kernels are compiled."""
+    done = subprocess.run([sys.executable, "-m", "robwot_sim", "compile"], capture_output=True, text=True,
+                          timeout=1200, check=False)
+    assert done.returncode == 0, done.stderr
+    assert "the outer bounds' kernels are compiled" in done.stderr

@@ -16,15 +16,11 @@ from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.sim.motion import load_timing
-from robwot_sim.sim.outerbounds import kernels_ready
+from robwot_sim.sim.outerbounds import KERNELS_WAIT, kernels_ready
 from robwot_sim.sim.planner import Goal, Plan, Timing
 from robwot_sim.sim.planner import plan as plan_goal
 from robwot_sim.sim.program import GRIPS, ProgramStep, plan_program
 from robwot_sim.sim.world_thread import Kind
-
-#: s a warm-up waits for the compiled kernels before building the robots' bounds (a machine's first use
-#: compiles them)
-KERNELS_WAIT = 900.0
 
 
 def goal_of(p: Params, dof: int) -> Goal:

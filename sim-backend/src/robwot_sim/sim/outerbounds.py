@@ -87,6 +87,8 @@ class Grid(NamedTuple):
 #: back only over many rows, so a short generation never pays it; path checks use the bounds once loaded
 #: and never load them (a servient planning long programs keeps its memory), a detour search does
 WARM_AFTER = 100_000
+#: s to wait for the kernels where a caller must have them (a machine's first use compiles them)
+KERNELS_WAIT = 900.0
 _asked = 0
 _kernels_ready = threading.Event()
 _kernels_lock = threading.Lock()
