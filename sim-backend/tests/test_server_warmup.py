@@ -84,3 +84,21 @@ def test_compile_command_leaves_the_kernels_loadable() -> None:
                           timeout=1200, check=False)
     assert done.returncode == 0, done.stderr
     assert "the outer bounds' kernels are compiled" in done.stderr
+
+
+def test_planning_warm_up_spam_starts_one_waiter() -> None:
+    """A client asking 300 times while the kernels load starts one background waiter, not 300 threads:
+    the backend's thread count stays small and it keeps answering."""
+    proc = BackendProcess()
+    try:
+        c = proc.client()
+        c.call("robot.load", {"urdf": KUKA, "id": "kuka"})
+        ids = [c.send("planning.warmUp", {}) for _ in range(300)]
+        for i in ids:
+            c.wait(i, timeout=60)
+        status = Path(f"/proc/{proc.proc.pid}/status").read_text()
+        threads = int(next(line.split()[1] for line in status.splitlines() if line.startswith("Threads:")))
+        assert threads < 40, threads
+        assert c.call("ping") is not None
+    finally:
+        assert proc.stop() == 0

@@ -7,6 +7,7 @@ as the request is parsed into typed values (`Goal`, `Timing`, `ProgramStep`) the
 from __future__ import annotations
 
 import sys
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -73,18 +74,23 @@ def program_steps(values: Sequence[Mapping[str, Any]], dof: int) -> list[Program
 
 
 def register(d: Dispatcher, s: Services) -> None:
+    warming = threading.Lock()  # held while a warm-up waits to build the bounds: one at a time
+
     @d.method("planning.warmUp")
     async def warm_up(p: Params, call: Call) -> dict[str, Any]:
         ready = kernels_ready()  # starts loading them when not yet
         load_timing()
+        if not warming.acquire(blocking=False):
+            return {"ready": ready}  # the pending one builds every robot's bounds when it runs
 
         def bounds() -> None:  # once the kernels are loaded, the robots' bounds built on the world's thread
-            if not kernels_ready(timeout=KERNELS_WAIT):
-                return
             try:
-                s.call_world(s.world.warm_bounds)
+                if kernels_ready(timeout=KERNELS_WAIT):
+                    s.call_world(s.world.warm_bounds)
             except Exception as err:  # the first path check builds them instead
                 print(f"robwot: the robots' outer bounds were not built ahead ({err!r})", file=sys.stderr)
+            finally:
+                warming.release()
 
         s.off_world(bounds, background=True)
         return {"ready": ready}

@@ -1,8 +1,10 @@
 """A collision-free joint path around obstacles, for when no straight one exists.
 
 OMPL's RRT-Connect searches the robot's joint space (bounds = joint limits; a state is valid when the
-robot keeps the path clearance to everything), and OMPL's path simplifier shortcuts the result. OMPL
-checks a motion at states a fixed fraction of the joint space apart; every segment of its path is then
+robot keeps the path clearance to everything), and OMPL's path simplifier shortcuts the result. A motion
+is checked at OMPL's own spacing (states a fixed fraction of the joint space apart), all its states put
+to the outer bounds at once (`outerbounds.py`, loaded when a search starts) and only those they do not
+find free asked of Bullet (a state they find free keeps the clearance). Every segment of its path is then
 checked by our own path check (no point of the robot travels more than twice the clearance unchecked,
 clearance kept — `pathcheck.first_contact`). A segment ours refuses is replaced by a second search
 between its ends (valid states) in which every motion OMPL checks is our path check (`_PathCheck`: slower,
@@ -149,8 +151,9 @@ def _search(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goa
 
 
 class _PathCheck(ob.MotionValidator):  # type: ignore[misc]
-    """OMPL's motion check made ours (`pathcheck.first_contact`): a motion the search or its shortcuts
-    take passes our path check, so a path found is a path we accept, whichever way it was searched."""
+    """OMPL's motion check made ours: OMPL's spacing with the outer bounds first, or, for the second
+    search between the ends of a refused segment, our path check (`pathcheck.first_contact`): a motion
+    that search or its shortcuts take passes it, so a path found is a path we accept."""
 
     def __init__(self, info: ob.SpaceInformation, motion: Callable[[FloatArray, FloatArray], bool],
                  dof: int) -> None:
