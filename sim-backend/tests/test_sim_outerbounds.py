@@ -209,3 +209,25 @@ def test_a_parts_spheres_hold_every_point_of_its_hull() -> None:
         radii = np.array([r for _, r in spheres])
         gap = np.linalg.norm(inside[:, None, :] - centres[None], axis=2) - radii[None]
         assert (gap.min(axis=1) <= 1e-9).all(), f"{len(spheres)} spheres leave hull points out"
+
+
+def test_stale_bounds_are_built_again_only_once_bullet_paid_for_them() -> None:
+    """Path checks in a world that keeps changing: after an obstacle moved, short checks run on Bullet
+    alone (none decided by the bounds) until their states would have paid for a build; then the bounds
+    are built for the world as it is and decide states again."""
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="k")
+        w.add_obstacle({"name": "box", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]},
+                        "position": [0.6, 0.0, 0.3]})
+        entry = w.scene.entry("k")
+        cache = w.scene.bounds
+        qs = np.zeros((10, 7)) + np.linspace(0.0, 0.2, 10)[:, None]  # far from the box
+        assert cache.sure_free(w.scene, "k", entry, qs, 0.002).all()  # built at first use
+        w.move_obstacle("box", [0.6, 0.1, 0.3])
+        per_build = cache._rent["k"]
+        asked = 0
+        while asked + len(qs) < per_build:
+            assert not cache.sure_free(w.scene, "k", entry, qs, 0.002).any()  # stale: Bullet's
+            asked += len(qs)
+        assert cache.sure_free(w.scene, "k", entry, qs, 0.002).all()  # paid for: built anew
+        assert cache._bounds["k"][0] == w.scene.others_stamp("k")

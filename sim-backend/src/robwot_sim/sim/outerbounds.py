@@ -30,6 +30,7 @@ from __future__ import annotations
 import os
 import sys
 import threading
+import time
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -87,6 +88,9 @@ class Grid(NamedTuple):
 #: back only over many rows, so a short generation never pays it; path checks use the bounds once loaded
 #: and never load them (a servient planning long programs keeps its memory), a detour search does
 WARM_AFTER = 100_000
+#: Bullet checks of the robot's current state timed after its bounds are built: what a state costs Bullet,
+#: weighed against building stale bounds anew
+PROBES = 5
 #: s to wait for the kernels where a caller must have them (a machine's first use compiles them)
 KERNELS_WAIT = 900.0
 _asked = 0
@@ -308,6 +312,8 @@ class BoundsCache:
     def __init__(self) -> None:
         self._bounds: dict[str, tuple[tuple[int, int], OuterBounds]] = {}
         self._shapes: dict[str, tuple[Any, RobotShapes | None]] = {}
+        self._rent: dict[str, float] = {}  # per robot: states whose Bullet checks cost its last build
+        self._stale: dict[str, int] = {}  # per robot: states checked on Bullet alone since they went stale
 
     def get(self, scene: Any, robot_id: str, rows: int = 0) -> OuterBounds:
         """Robot ``robot_id``'s bounds in ``scene`` (a ``planning_scene.Scene``), asked for ``rows``
@@ -326,9 +332,32 @@ class BoundsCache:
             known = (e, robot_shapes(e.bound, e.checker.filtered, e.model))
             self._shapes[robot_id] = known
         others = [o.bound for rid, o in entries.items() if rid != robot_id]
+        start = time.perf_counter()
         bounds = build_outer_bounds(known[1], scene.bullet.cid, scene.obstacle_bodies(), others)
+        built = time.perf_counter()
+        for _ in range(PROBES):  # what Bullet takes for one state of this robot in this world
+            e.checker.is_free(e.clearance)
+        per_state = max((time.perf_counter() - built) / PROBES, 1e-7)
+        self._rent[robot_id] = (built - start) / per_state
         self._bounds[robot_id] = (stamp, bounds)
         return bounds
+
+    def _worth_building(self, scene: Any, robot_id: str, states: int) -> bool:
+        """Whether a check of ``states`` may use the robot's bounds, building them anew if the world changed:
+        yes when they are current or were never built; else only once the states checked on Bullet alone
+        since they went stale have cost Bullet what their last build took (rent until the rent paid equals
+        the price: never more than twice the cost of either choice). A world that keeps changing (another
+        robot moving, objects on a belt) so leaves short checks to Bullet instead of building the bounds
+        for each; a world changed once pays a few checks' worth of rent."""
+        cached = self._bounds.get(robot_id)
+        if cached is None or cached[0] == scene.others_stamp(robot_id):
+            return True
+        spent = self._stale.get(robot_id, 0) + states
+        if spent < self._rent.get(robot_id, 0.0):
+            self._stale[robot_id] = spent
+            return False
+        self._stale[robot_id] = 0
+        return True
 
     def sure_free(self, scene: Any, robot_id: str, entry: Any, qs: FloatArray, clearance: float) -> BoolArray:
         """The states of robot ``robot_id``'s body ``entry`` (a ``loader.RobotEntry``) its bounds find farther
@@ -337,6 +366,6 @@ class BoundsCache:
         is not the robot's (a body being rebuilt) or a link fixed to its base touches something (every
         state then collides)."""
         if not (_kernels_ready.is_set() and _kernels_ok) or scene.entries().get(robot_id) is not entry \
-                or entry.checker.static_contacts():
+                or entry.checker.static_contacts() or not self._worth_building(scene, robot_id, len(qs)):
             return np.zeros(len(qs), dtype=bool)
         return np.asarray(self.get(scene, robot_id).classify(qs, clearance) == 0)
