@@ -3,7 +3,7 @@
 OMPL's RRT-Connect searches the robot's joint space (bounds = joint limits; a state is valid when the
 robot keeps the path clearance to everything), and OMPL's path simplifier shortcuts the result. A motion
 is checked at OMPL's own spacing (states a fixed fraction of the joint space apart), all its states put
-to the outer bounds at once (`outerbounds.py`, loaded when a search starts) and only those they do not
+to the outer bounds at once (`outerbounds.py`, once loaded: `planning.warmUp`) and only those they do not
 find free asked of Bullet (a state they find free keeps the clearance). Every segment of its path is then
 checked by our own path check (no point of the robot travels more than twice the clearance unchecked,
 clearance kept — `pathcheck.first_contact`). A segment ours refuses is replaced by a second search
@@ -35,7 +35,6 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from robwot_sim.sim.collision import CollisionChecker
-from robwot_sim.sim.outerbounds import load_kernels
 from robwot_sim.sim.pathcheck import first_contact, path_clearance, sure_free
 from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.robot import LIMIT_TOL, BoundRobot
@@ -243,9 +242,6 @@ def detour(scene: Scene, robot_id: str, target: JointVector, memory: DetourMemor
     passes the path check; else RRT-Connect searches one (`find_detour`), remembered when found."""
     e = scene.entry(robot_id)
     tgt = e.bound.validate(target, "target")
-    # a search asks for thousands of states: worth the outer bounds' fixed cost (loaded on a thread of their
-    # own; until they are, every state is Bullet's)
-    load_kernels()
     saved = e.bound.q.copy()
     version = scene.version
     try:

@@ -86,7 +86,8 @@ class Grid(NamedTuple):
 #: rows a process labels before it loads the kernels and builds each robot's shapes: the fixed cost (numba's
 #: import and compiler, the kernels' load, a mesh-heavy robot's shapes: about a second and 100 MB) is paid
 #: back only over many rows, so a short generation never pays it; path checks use the bounds once loaded
-#: and never load them (a servient planning long programs keeps its memory), a detour search does
+#: and never load them: loading holds the backend's loop for up to a second or more at a time (numba's
+#: import and LLVM, in C, with the GIL), which only a servient's start (``planning.warmUp``) affords
 WARM_AFTER = 100_000
 #: Bullet checks of the robot's current state timed after its bounds are built: what a state costs Bullet,
 #: weighed against building stale bounds anew
@@ -103,7 +104,7 @@ _kernels_ok = False
 def load_kernels() -> None:
     """Loads the compiled kernels (``sphere_kernel.py``: numba's import and, from its disk cache, or
     compiled on a machine's first use, every kernel) on a thread of their own, once per process (once it
-    has labelled ``WARM_AFTER`` rows, or when told to: ``kernels_ready``, a detour search); until they are
+    has labelled ``WARM_AFTER`` rows, or when told to: ``kernels_ready``, ``planning.warmUp``); until they are
     loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a caller
     wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
     the kernels compiled again; kernels that still fail to load leave the bounds empty for good, said
