@@ -160,6 +160,9 @@ class _PathCheck(ob.MotionValidator):  # type: ignore[misc]
         self._motion, self._dof = motion, dof
 
     def checkMotion(self, a: ob.State, b: ob.State, *_: object) -> bool:
+        # called from OMPL's C++ loop, a Python validator takes Python's lock back before a waiting thread
+        # gets it (the backend's loop answered pings after up to a second): it is given up once per motion
+        time.sleep(0)
         return self._motion(_vector(a, self._dof), _vector(b, self._dof))
 
 
