@@ -371,7 +371,8 @@ export class Follower {
   private declareBlind(): void {
     if (this.stopped || this.blind.active) return;
     const now = Date.now();
-    const since = this.lastGood ?? this.startedAt;
+    // the last reading the twin shows (one accepted while its pose is still being computed is not seen yet)
+    const since = this.state?.at ?? this.lastGood ?? this.startedAt;
     const unanswered = this.pending ? `; ${this.pending.what} sent ${now - this.pending.since} ms ago is unanswered` : "";
     const last = this.lastError ? `; last error: ${this.lastError}` : "";
     this.monitor.reset();
