@@ -96,19 +96,25 @@ def scan(backend: BackendProcess, tmp_path_factory: pytest.TempPathFactory) -> d
     c.call("world.reset")
     c.call("world.loadScene", {"path": str(SCENES / "table.json")})
     c.call("robot.setJointPositions", {"robot": "kuka", "positions": Q})
+    files, scans = _scanned(c, folder, CAMERAS)
+    truth = c.call("world.list")["obstacles"]
+    return {"client": c, "files": files, "truth": truth, "scans": scans, "folder": folder}
+
+
+def _scanned(c: RpcClient, folder: Path, cameras: list[tuple[tuple[float, ...], tuple[float, ...]]],
+             ) -> tuple[list[str], dict[str, Any]]:
+    """The world as it stands captured by ``cameras`` (position, target) into ``folder``, and the scene
+    made of the clouds with unseen space reported and blocked."""
     files = []
-    for i, (position, target) in enumerate(CAMERAS):
+    for i, (position, target) in enumerate(cameras):
         f = str(folder / f"cam{i}.ply")
         c.call("camera.capture", {"file": f, "position": list(position), "target": list(target),
                                   "noise": CAMERA_NOISE, "dropout": 0.02, "seed": i + 1})
         files.append(f)
-    truth = c.call("world.list")["obstacles"]
-    scans = {}
-    for occluded in ("report", "block"):
-        mesh_dir = folder / occluded
-        scans[occluded] = c.call("scene.fromScan", {"clouds": [{"file": f} for f in files], "noise": NOISE,
-                                                    "occluded": occluded, "meshDir": str(mesh_dir)})
-    return {"client": c, "files": files, "truth": truth, "scans": scans, "folder": folder}
+    scans = {occluded: c.call("scene.fromScan", {"clouds": [{"file": f} for f in files], "noise": NOISE,
+                                                 "occluded": occluded, "meshDir": str(folder / occluded)})
+             for occluded in ("report", "block")}
+    return files, scans
 
 
 def test_a_known_positive_is_caught(scan: dict[str, Any]) -> None:
@@ -305,15 +311,7 @@ def lab(backend: BackendProcess, tmp_path_factory: pytest.TempPathFactory) -> di
         c.call("robot.setJointPositions", {"robot": r["id"], "positions": [0.0] * dof})
         quat = quat_from_rpy(r.get("baseRpy", [0.0, 0.0, 0.0]))
         robots.append((str((LAB.parent / r["urdf"]).resolve()), r["basePosition"], quat, r))
-    files = []
-    for i, (position, target) in enumerate(LAB_CAMERAS):
-        f = str(folder / f"cam{i}.ply")
-        c.call("camera.capture", {"file": f, "position": list(position), "target": list(target),
-                                  "noise": CAMERA_NOISE, "dropout": 0.02, "seed": i + 1})
-        files.append(f)
-    scans = {occluded: c.call("scene.fromScan", {"clouds": [{"file": f} for f in files], "noise": NOISE,
-                                                 "occluded": occluded, "meshDir": str(folder / occluded)})
-             for occluded in ("report", "block")}
+    files, scans = _scanned(c, folder, LAB_CAMERAS)
     return {"client": c, "files": files, "listed": listed, "robots": robots, "scans": scans, "folder": folder}
 
 
