@@ -231,3 +231,85 @@ def test_stale_bounds_are_built_again_only_once_bullet_paid_for_them() -> None:
             asked += len(qs)
         assert cache.sure_free(w.scene, "k", entry, qs, 0.002).all()  # paid for: built anew
         assert cache._bounds["k"][0] == w.scene.others_stamp("k")
+
+
+def _vertices(bounds: OuterBounds, link: int, p: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """The hull vertices the self test uses of bounds link ``link``, in the world (frames ``p``, ``r``)."""
+    s = bounds.robot.shapes if bounds.robot else None
+    assert s is not None
+    f = int(s.joint[link]) if s.joint[link] >= 0 else len(p) - 1
+    v = s.verts[s.vert_first[s.part_first[link]]:s.vert_end[s.part_end[link] - 1]]
+    return np.asarray(p[f] + v @ r[f].T)
+
+
+@pytest.mark.parametrize("robot", ["kuka_iiwa/model.urdf", "xarm/xarm6_with_gripper.urdf", "dobot_like"])
+def test_a_pair_tables_rates_bound_how_fast_its_links_move(robot: str) -> None:
+    """Each self pair's table holds the coordinates its links' relative pose depends on and rates no
+    hull vertex exceeds: moving those coordinates from random configurations moves each link's vertices,
+    seen from the frame the two links' joint chains share, by no more in all than the rates times the
+    moves (mimic joints, and the Dobot-like arm's couplings, included), and moving only the other
+    coordinates leaves the one link still as seen from the other."""
+    with World() as w:
+        if robot == "dobot_like":
+            urdf = str(MODELS.parents[2] / "examples" / "robots" / "dobot_like.urdf")
+            w.add_robot(World.read_robot(urdf, keep_level=("link_4",)), robot_id="r")
+        else:
+            w.load_robot(robot, robot_id="r")
+        bounds = w.queries.outer_bounds("r")
+        assert bounds.robot is not None
+        tree, tab, s = bounds.robot.tree, bounds.robot.tables, bounds.robot.shapes
+        assert (tab.dims >= 0).any(), "no pair has a table: the test proves nothing"
+        lo, hi = w.robot_model("r").limits()
+        rng = np.random.default_rng(3)
+        for k in np.flatnonzero(tab.dims >= 0):
+            coords = tab.coord[k, :tab.dims[k]]
+            la, lb = s.pair_a[k], s.pair_b[k]
+            chains = [robot_shapes._chain(tree, int(s.joint[ln])) for ln in (la, lb)]
+            shared = [j for j in chains[0] if j in chains[1]]
+            top = shared[0] if shared else len(tree.parent)  # the root's frame: the last
+            for q in rng.uniform(lo, hi, size=(40, len(lo))):
+                moved, other = q.copy(), q.copy()
+                moved[coords] = rng.uniform(lo[coords], hi[coords])
+                rest = np.setdiff1d(np.arange(len(lo)), coords)
+                other[rest] = rng.uniform(lo[rest], hi[rest])
+                seen = []
+                for x in (q, moved, other):
+                    p, r = robot_shapes.tree_frames(tree, x)
+                    seen.append([(_vertices(bounds, ln, p, r) - p[top]) @ r[top] for ln in (la, lb)])
+                bound = float(np.dot(tab.rate[k, :tab.dims[k]], np.abs(moved[coords] - q[coords])))
+                moves = sum(np.linalg.norm(seen[1][m] - seen[0][m], axis=1).max() for m in range(2))
+                assert moves <= bound + 1e-9, (k, q)
+                p, r = robot_shapes.tree_frames(tree, other)
+                f = int(s.joint[lb]) if s.joint[lb] >= 0 else len(p) - 1
+                p0, r0 = robot_shapes.tree_frames(tree, q)
+                f0 = (_vertices(bounds, la, p0, r0) - p0[f]) @ r0[f]
+                assert np.abs((_vertices(bounds, la, p, r) - p[f]) @ r[f] - f0).max() < 1e-9, (k, q)
+
+
+def test_pairs_a_table_calls_apart_are_apart_for_fresh_distance_queries() -> None:
+    """Configurations a self pair's table alone calls apart (after a batch filled its cells) are more than
+    the hull gap apart for Bullet's distance queries between that pair's links, and the tables decide most
+    pairs of the KUKA arm."""
+    from robwot_sim.sim.pair_kernel import table_apart
+
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="r")
+        bounds = w.queries.outer_bounds("r")
+        assert bounds.robot is not None
+        tab, s = bounds.robot.tables, bounds.robot.shapes
+        lo, hi = w.robot_model("r").limits()
+        qs = np.random.default_rng(4).uniform(lo, hi, size=(3000, len(lo)))
+        bounds.classify(qs)
+        body, cid = w.scene.entry("r").bound.body, w.scene.bullet.cid
+        links = _links(w, "r")
+        decided = 0
+        for q in qs[:100]:
+            w.set_joint_positions("r", q)
+            for k in np.flatnonzero(tab.dims >= 0):
+                if table_apart(tab, int(k), q, outerbounds.HULL_GAP + outerbounds.TOLERANCE) != 1:
+                    continue
+                decided += 1
+                near = pb.getClosestPoints(body, body, outerbounds.HULL_GAP, links[s.pair_a[k]],
+                                           links[s.pair_b[k]], physicsClientId=cid)
+                assert not near, (k, q, [c[8] for c in near])
+        assert decided >= 0.8 * 100 * (tab.dims >= 0).sum(), decided

@@ -18,7 +18,9 @@ kinematics of the whole joint tree (couplings applied) and places the shapes; a 
   other: their balls or boxes (separating-axis test) are apart, or a direction is found along which
   their hulls' vertices are that far apart (found by Gilbert's iteration, proven by the vertices);
 - a sure hit when a ball inside a moving link's part reaches more than ``surehit.DEPTH`` into a
-  primitive obstacle or into a ball of a link of a pair Bullet checks (``surehit.py``'s test, compiled).
+  primitive obstacle or into a ball of a link of a pair Bullet checks (``surehit.py``'s test, compiled),
+  or a corner of the part found near a primitive obstacle (a point of the part nearest to a vertex of its
+  slim hull) lies more than that inside it.
 
 A row apart from every other body needs Bullet only for its self-contact, checked in a world holding the
 robot alone; a row free both ways, or a sure hit, needs no Bullet (``CollisionQueries.free_batch``). A
@@ -44,6 +46,7 @@ from robwot_sim.sim.robot_shapes import (
     RobotShapes,
     Tree,
     ball,
+    pair_tables,
     robot_shapes,
     shapes_of,
     tree_frames,
@@ -127,11 +130,12 @@ def load_kernels() -> None:
             except Exception:  # e.g. a cache naming types this version no longer has: compile again
                 from numba.core.registry import CPUDispatcher
 
-                from robwot_sim.sim import sphere_kernel
-                for kernel in vars(sphere_kernel).values():
-                    cache = getattr(kernel, "_cache", None) if isinstance(kernel, CPUDispatcher) else None
-                    if cache is not None:
-                        cache.flush()
+                from robwot_sim.sim import bounds_kernel, pair_kernel, sphere_kernel
+                for module in (sphere_kernel, pair_kernel, bounds_kernel):
+                    for kernel in vars(module).values():
+                        cache = getattr(kernel, "_cache", None) if isinstance(kernel, CPUDispatcher) else None
+                        if cache is not None:
+                            cache.flush()
                 _warm()
             _kernels_ok = True
         except Exception as err:  # the bounds stay empty: every check runs on Bullet alone
@@ -166,7 +170,8 @@ def _warm() -> None:
                 np.eye(3)[None].copy(), np.array([[0.0, 0.0, 1.0]]), np.ones((1, 1)), np.zeros(1),
                 np.zeros(3), np.eye(3))
     shapes = shapes_of([link, link], [0, -1], [(0, 1)], [(0, 1)])
-    robot = RobotShapes(tree, (link, link), ((0, 1),), shapes, 1.0)
+    robot = RobotShapes(tree, (link, link), ((0, 1),), shapes, 1.0,
+                        pair_tables(tree, shapes, np.full(1, -1.0), np.ones(1)))
     bodies = Bodies(np.zeros(1, dtype=np.int64), np.full((1, 3), 0.05), np.array([[0.3, 0.0, 0.2]]),
                     np.eye(3)[None].copy(), np.ones(1, dtype=np.bool_))
     bounds = OuterBounds(robot, bodies, distance_grid(bodies, 0.2, None, GRID_SIDE),
@@ -261,13 +266,13 @@ class OuterBounds:
         out = np.full(len(qs), 3, dtype=np.int8)
         if self.empty or margin > MAX_MARGIN or not len(qs):
             return out
-        from robwot_sim.sim.sphere_kernel import classify
+        from robwot_sim.sim.bounds_kernel import classify
 
         assert self.robot is not None and self.bodies is not None
         assert self.grid is not None and self.zone is not None
         classify(np.ascontiguousarray(qs, dtype=np.float64), self.robot.tree, self.robot.shapes,
-                 self.bodies, self.grid, self.zone, float(margin), GROW, HULL_GAP, TOLERANCE, self_always,
-                 hits, DEPTH, out)
+                 self.robot.tables, self.bodies, self.grid, self.zone, float(margin), GROW, HULL_GAP,
+                 TOLERANCE, self_always, hits, DEPTH, out)
         return out
 
     def apart(self, qs: FloatArray, margin: float = 0.0) -> BoolArray:

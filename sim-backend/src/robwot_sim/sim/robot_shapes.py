@@ -8,8 +8,17 @@ frame:
   where the part's edges cross the slab's faces: the piece is their convex hull) gets the sphere around it,
   grown by ``GROW`` (Bullet's collision margin, rounding);
 - a box (along the part's principal axes or the link's) and a hull of few vertices holding it
-  (``decompose.slim``), for the self pairs;
+  (``decompose.slim``), for the self pairs, and per vertex the part's own point nearest to it (its
+  corners), for sure hits;
 - the balls inside its parts (``surehit.link_balls``), for sure hits.
+
+And per self pair whose links' relative pose depends on at most two joint coordinates (revolute joints
+between them, couplings included), a table over those coordinates (``PairTables``): each cell will hold a
+lower bound of the distance between the two links' hulls at the cell's centre, filled by the kernel the
+first time a configuration falls in the cell. A configuration elsewhere in the cell is apart by that bound
+less how far its coordinates are from the centre times how fast a point of either link can move per unit
+of each (``rate``: the farthest hull vertex from the joint's axis, over every configuration), so most
+self pairs cost a lookup instead of a test of their parts.
 """
 
 from __future__ import annotations
@@ -22,7 +31,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 import pybullet as pb
-from scipy.spatial import QhullError
+from scipy.spatial import QhullError, cKDTree
 
 from robwot_sim.model.couplings import Coupling
 from robwot_sim.model.fk import chain_joint
@@ -39,6 +48,10 @@ MAX_SLABS = 6  # spheres per convex part at most
 SLABS_PER_WIDTH = 1.0  # slabs per width of a part along its long axis
 SLIM = 0.002  # m: how far a part's hull for the self test may lie outside it (fewer vertices)
 KINDS = {"fixed": 0, "revolute": 1, "continuous": 1, "prismatic": 2}
+#: m a hull vertex may move from a pair table cell's centre to its edge per coordinate, where the cells
+#: allow: finer cells prove more pairs apart but are filled (one test of the pair's parts each) less often
+CELL_STEP = 0.01
+MAX_CELLS = 4096  # cells of one pair's table at most
 
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
@@ -76,6 +89,7 @@ class Shapes(NamedTuple):
     vert_first: IntArray
     vert_end: IntArray
     verts: FloatArray
+    corners: FloatArray
     link_c: FloatArray
     link_r: FloatArray
     pair_a: IntArray
@@ -87,6 +101,17 @@ class Shapes(NamedTuple):
     self_balls: int
     hit_a: IntArray
     hit_b: IntArray
+
+
+class PairTables(NamedTuple):
+    dims: IntArray
+    coord: IntArray
+    lo: FloatArray
+    width: FloatArray
+    cells: IntArray
+    rate: FloatArray
+    first: IntArray
+    gap: FloatArray
 
 
 def _shape_points(body: int, link: int, cid: int, shape: Any) -> FloatArray | None:
@@ -273,6 +298,7 @@ class LinkShapes:
     box_axes: FloatArray
     box_half: FloatArray
     verts: list[FloatArray]
+    corners: list[FloatArray]
     inner_c: FloatArray
     inner_r: FloatArray
 
@@ -280,12 +306,14 @@ class LinkShapes:
     def of(cls, link: int, moving: bool, parts: list[FloatArray], inner: LinkBalls | None) -> LinkShapes:
         spheres = [(s, k) for k, pts in enumerate(parts) for s in part_spheres(pts, GROW)]
         boxes = [fit_box(pts) for pts in parts]
+        verts = [hull_vertices(pts) for pts in parts]
         return cls(link, moving, np.array([c for (c, _), _ in spheres]).reshape(-1, 3),
                    np.array([r for (_, r), _ in spheres], dtype=np.float64),
                    np.array([k for _, k in spheres], dtype=np.int64),
                    np.array([b[0] for b in boxes]).reshape(-1, 3),
                    np.array([b[1] for b in boxes]).reshape(-1, 3, 3),
-                   np.array([b[2] for b in boxes]).reshape(-1, 3), [hull_vertices(pts) for pts in parts],
+                   np.array([b[2] for b in boxes]).reshape(-1, 3), verts,
+                   [pts[cKDTree(pts).query(v)[1]] for pts, v in zip(parts, verts, strict=True)],
                    np.zeros((0, 3)) if inner is None else inner.centres,
                    np.zeros(0) if inner is None else inner.radii)
 
@@ -335,6 +363,7 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
                   np.array([r for _, r in balls], dtype=np.float64),
                   part_first, part_end, box_c, cat([lk.box_axes for lk in links], (0, 3, 3)), box_half, box_r,
                   vert_first, vert_end, cat(verts, (0, 3)),
+                  cat([c for lk in links for c in lk.corners], (0, 3)),
                   np.array([c for c, _ in parts]).reshape(-1, 3),
                   np.array([r for _, r in parts], dtype=np.float64),
                   np.array([a for a, _ in pairs], dtype=np.int64),
@@ -357,6 +386,7 @@ class RobotShapes:
     pairs: tuple[tuple[int, int], ...]
     shapes: Shapes
     reach: float | None
+    tables: PairTables
 
 
 def _reach(tree: Tree, links: list[LinkShapes], joints: list[int]) -> float | None:
@@ -368,6 +398,57 @@ def _reach(tree: Tree, links: list[LinkShapes], joints: list[int]) -> float | No
         length[j] = length[p] + float(np.linalg.norm(tree.origin_p[j]))  # p = -1: the root's 0
     return max((float(length[j] + (np.linalg.norm(lk.centres, axis=1) + lk.radii).max())
                 for lk, j in zip(links, joints, strict=True) if len(lk.radii)), default=0.0)
+
+
+def _chain(tree: Tree, frame: int) -> list[int]:
+    """Joint ``frame`` and its ancestors, nearest first (the root's frame: none)."""
+    out = []
+    while 0 <= frame < len(tree.parent):
+        out.append(frame)
+        frame = int(tree.parent[frame])
+    return out
+
+
+def pair_tables(tree: Tree, shapes: Shapes, lo: FloatArray, hi: FloatArray) -> PairTables:
+    """The self pairs' tables (module docstring; ``sphere_kernel.PairTables``), every cell unknown (NaN), for
+    coordinates within ``lo``..``hi``. A pair gets none (``dims`` -1) where a prismatic joint lies between
+    its links, more than two coordinates move them or a coordinate's limits are not finite."""
+    pairs = len(shapes.pair_a)
+    dims, first = np.full(pairs, -1, dtype=np.int64), np.zeros(pairs, dtype=np.int64)
+    coord, cells = np.zeros((pairs, 2), dtype=np.int64), np.ones((pairs, 2), dtype=np.int64)
+    low, width, rate = np.zeros((pairs, 2)), np.ones((pairs, 2)), np.zeros((pairs, 2))
+    radius = [max((float(np.linalg.norm(shapes.verts[shapes.vert_first[p]:shapes.vert_end[p]], axis=1).max())
+                   for p in range(shapes.part_first[ln], shapes.part_end[ln])
+                   if shapes.vert_end[p] > shapes.vert_first[p]), default=0.0)
+              for ln in range(len(shapes.joint))]
+    size = 0
+    for k, (la, lb) in enumerate(zip(shapes.pair_a, shapes.pair_b, strict=True)):
+        chains = [_chain(tree, int(shapes.joint[la])), _chain(tree, int(shapes.joint[lb]))]
+        shared = set(chains[0]) & set(chains[1])
+        speed: dict[int, float] = {}
+        for link, chain in zip((la, lb), chains, strict=True):
+            below = radius[link]  # how far the link's vertices lie from the joint's origin, on its axis
+            for j in chain:
+                if j in shared:
+                    break
+                if tree.kind[j] == 2:
+                    speed = {-1: 0.0}
+                elif tree.kind[j] == 1:
+                    for c in map(int, np.flatnonzero(tree.coupling[j])):
+                        speed[c] = speed.get(c, 0.0) + abs(float(tree.coupling[j, c])) * below
+                below += float(np.linalg.norm(tree.origin_p[j]))
+        coords = sorted(speed)
+        if len(coords) > 2 or -1 in speed or any(not np.isfinite([lo[c], hi[c]]).all() for c in coords):
+            continue
+        per_dim = MAX_CELLS if len(coords) < 2 else int(MAX_CELLS ** 0.5)
+        dims[k], first[k] = len(coords), size
+        for m, c in enumerate(coords):
+            span = max(float(hi[c] - lo[c]), 1e-9)
+            count = int(min(max(np.ceil(span * speed[c] / (2 * CELL_STEP)), 1), per_dim))
+            coord[k, m], low[k, m], width[k, m], cells[k, m] = c, lo[c], span / count, count
+            rate[k, m] = speed[c]
+        size += int(np.prod(cells[k, :len(coords)]))
+    return PairTables(dims, coord, low, width, cells, rate, first, np.full(size, np.nan))
 
 
 def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> RobotShapes | None:
@@ -405,5 +486,6 @@ def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> Robo
              and (min(a, b), max(a, b)) not in filtered]
     mass = {ln: float(pb.getDynamicsInfo(body, ln, physicsClientId=cid)[0]) for ln in links}
     hit_pairs = [(i, k) for i, k in pairs if mass[links[i]] > 0 and mass[links[k]] > 0]
-    return RobotShapes(tree, tuple(shapes), tuple(pairs), shapes_of(shapes, joints, pairs, hit_pairs),
-                       _reach(tree, shapes, joints))
+    arrays = shapes_of(shapes, joints, pairs, hit_pairs)
+    return RobotShapes(tree, tuple(shapes), tuple(pairs), arrays, _reach(tree, shapes, joints),
+                       pair_tables(tree, arrays, *model.limits()))

@@ -18,11 +18,18 @@ spheres ``sphere_c``/``sphere_r`` (link ``l``: ``sphere_first[l]``..``sphere_end
 part of its link, ``sphere_part``) inside a ball
 ``ball_c``/``ball_r``, for the other bodies; per convex part a box (``box_c``, axes as columns
 ``box_axes``, half extents ``box_half``, inside the ball of radius ``box_r`` about its centre) and a hull's
-vertices (``verts[vert_first[p]:vert_end[p]]``), the parts of link ``l`` ``part_first[l]``..``part_end[l]``
+vertices (``verts[vert_first[p]:vert_end[p]]``; ``corners`` beside them: the part's own point nearest to
+each), the parts of link ``l`` ``part_first[l]``..``part_end[l]``
 inside the ball ``link_c``/``link_r``, for the self pairs ``pair_a[k]``, ``pair_b[k]``. Balls inside
 the link's parts (``surehit.py``: ``inner_c``/``inner_r``, link ``l``: ``inner_first[l]``..
 ``inner_end[l]``, largest first) for sure hits, against exact bodies (``Bodies.exact``: primitives, not
 the bounding boxes of meshes and other robots) and in the pairs ``hit_a[k]``, ``hit_b[k]``.
+
+``PairTables``, per self pair ``k`` with ``dims[k]`` >= 0 (-1: none): the coordinates ``coord[k, :dims]``
+its links' relative pose depends on, their cells from ``lo[k, m]``, ``width[k, m]`` wide, ``cells[k, m]``
+of them (C order), ``rate[k, m]`` (m per unit) the farthest a hull vertex of either link moves per unit of
+the coordinate, and from ``gap[first[k]]`` on per cell a lower bound of the distance between the two
+links' hulls at the cell's centre (NaN until computed).
 
 ``Bodies``: the other bodies, ``kind`` 0 box (half sizes), 1 sphere (radius), 2 cylinder (radius, half
 length along its z), ``centre``, ``rotation`` (world -> its frame: ``(p - centre) @ rotation``).
@@ -144,7 +151,7 @@ def frames(t: Tree, q: Array, P: Array, R: Array) -> None:
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _place(P: Array, R: Array, f: int, local: Array, out: Array) -> None:
+def place(P: Array, R: Array, f: int, local: Array, out: Array) -> None:
     """Point ``local`` of frame ``f`` in the world, into ``out``."""
     for r in range(3):
         out[r] = P[f, r] + R[f, r, 0] * local[0] + R[f, r, 1] * local[1] + R[f, r, 2] * local[2]
@@ -165,7 +172,7 @@ def _voxel(g: Grid, x: float, y: float, z: float) -> tuple[int, float]:
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _near(g: Grid, b: Bodies, x: float, y: float, z: float, need: float, exact: bool, tolerance: float,
+def near(g: Grid, b: Bodies, x: float, y: float, z: float, need: float, exact: bool, tolerance: float,
           found: Array) -> int:
     """How many bodies may come within ``need`` of (x, y, z), written to ``found``: 0 outside the bodies'
     box, or where the voxel's least distance less the point's distance to the voxel's centre exceeds
@@ -228,16 +235,18 @@ def _support(s: Shapes, p: int, P: Array, R: Array, f: int, ux: float, uy: float
         d = lx * s.verts[k, 0] + ly * s.verts[k, 1] + lz * s.verts[k, 2]
         if d > best:
             best, kb = d, k
-    _place(P, R, f, s.verts[kb], out)
+    place(P, R, f, s.verts[kb], out)
 
 
 @njit(cache=True, nogil=True)
-def _apart(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: int, P: Array, R: Array, u: Array,
-           delta: float, sa: Array, sb: Array) -> bool:
-    """True when the hull of part ``pa`` (frame ``fa``) and B, the hull of part ``pb`` (frame ``fb``) or
-    with ``body`` >= 0 that body, are proven more than ``delta`` apart: a direction n is found (Gilbert's
-    iteration on their difference A - B, from ``u``, the direction from A towards B) with min over A of
-    n.a - max over B of n.b > delta, computed from their support points themselves, so the answer is sound
+def separation(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: int, P: Array, R: Array,
+               u: Array, enough: float, least: float, sa: Array, sb: Array) -> float:
+    """A lower bound of the distance between the hull of part ``pa`` (frame ``fa``) and B, the hull of part
+    ``pb`` (frame ``fb``) or with ``body`` >= 0 that body (-inf: none found): the best of Gilbert's
+    iteration on their difference A - B, from ``u``, the direction from A towards B, returned once above
+    ``enough``, or once the iterate, a point of A - B whose length bounds the distance from above, is no
+    longer than ``least`` (the bound can then not exceed it). Each candidate is min over A of n.a - max
+    over B of n.b for a direction n, computed from their support points themselves, so the bound is sound
     however the iteration fares (it only finds n)."""
     _support(s, pa, P, R, fa, u[0], u[1], u[2], sa)
     if body >= 0:
@@ -245,10 +254,11 @@ def _apart(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: int, 
     else:
         _support(s, pb, P, R, fb, -u[0], -u[1], -u[2], sb)
     vx, vy, vz = sa[0] - sb[0], sa[1] - sb[1], sa[2] - sb[2]  # a point of A - B
+    best = -math.inf
     for _ in range(GILBERT_STEPS):
         vv = vx * vx + vy * vy + vz * vz
-        if vv < 1e-18:
-            return False
+        if vv < 1e-18 or vv <= least * abs(least):
+            return best
         _support(s, pa, P, R, fa, -vx, -vy, -vz, sa)
         if body >= 0:
             _body_support(b, body, vx, vy, vz, sb)
@@ -256,119 +266,13 @@ def _apart(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: int, 
             _support(s, pb, P, R, fb, vx, vy, vz, sb)
         wx, wy, wz = sa[0] - sb[0], sa[1] - sb[1], sa[2] - sb[2]  # A - B's point least along v
         vw = vx * wx + vy * wy + vz * wz
-        if vw > delta * math.sqrt(vv):
-            return True
-        if vv - vw <= 1e-9 * vv:
-            return False
+        best = max(best, float(vw / math.sqrt(vv)))
+        if best > enough or vv - vw <= 1e-9 * vv:
+            return best
         dx, dy, dz = wx - vx, wy - vy, wz - vz
         t = min(max(-(vx * dx + vy * dy + vz * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
         vx, vy, vz = vx + t * dx, vy + t * dy, vz + t * dz
-    return False
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _boxes_apart(ca: Array, ra: Array, ha: Array, cb: Array, rb: Array, hb: Array, grow: float,
-                 r: Array, ar: Array) -> bool:
-    """Boxes A and B (centres, axes as columns, half extents, both grown by ``grow``) apart by the
-    separating-axis test (the faces' 6 normals, the edges' 9 cross products); ``r``, ``ar``: scratch."""
-    t0 = (cb[0] - ca[0]) * ra[0, 0] + (cb[1] - ca[1]) * ra[1, 0] + (cb[2] - ca[2]) * ra[2, 0]
-    t1 = (cb[0] - ca[0]) * ra[0, 1] + (cb[1] - ca[1]) * ra[1, 1] + (cb[2] - ca[2]) * ra[2, 1]
-    t2 = (cb[0] - ca[0]) * ra[0, 2] + (cb[1] - ca[1]) * ra[1, 2] + (cb[2] - ca[2]) * ra[2, 2]
-    t = (t0, t1, t2)
-    a = (ha[0] + grow, ha[1] + grow, ha[2] + grow)
-    b = (hb[0] + grow, hb[1] + grow, hb[2] + grow)
-    for i in range(3):
-        for j in range(3):
-            r[i, j] = ra[0, i] * rb[0, j] + ra[1, i] * rb[1, j] + ra[2, i] * rb[2, j]
-            ar[i, j] = abs(r[i, j]) + 1e-9
-    for i in range(3):
-        if abs(t[i]) > a[i] + ar[i, 0] * b[0] + ar[i, 1] * b[1] + ar[i, 2] * b[2]:
-            return True
-    for j in range(3):
-        if abs(t[0] * r[0, j] + t[1] * r[1, j] + t[2] * r[2, j]) > (
-                a[0] * ar[0, j] + a[1] * ar[1, j] + a[2] * ar[2, j] + b[j]):
-            return True
-    for i in range(3):
-        i1, i2 = (i + 1) % 3, (i + 2) % 3
-        for j in range(3):
-            j1, j2 = (j + 1) % 3, (j + 2) % 3
-            if abs(t[i2] * r[i1, j] - t[i1] * r[i2, j]) > (a[i1] * ar[i2, j] + a[i2] * ar[i1, j]
-                                                           + b[j1] * ar[i, j2] + b[j2] * ar[i, j1]):
-                return True
-    return False
-
-
-@njit(cache=True, nogil=True)
-def classify(qs: Array, t: Tree, s: Shapes, b: Bodies, grid: Grid, zone: Grid, margin: float,
-             body_gap: float, hull_gap: float, tolerance: float, self_always: bool, hits: bool, depth: float,
-             out: Array) -> None:
-    """Per row of ``qs``: bit 1 set where a sphere of a moving link may come within ``margin`` of a body
-    (a link whose ball the coarse ``zone`` finds clear is not looked at further; a sphere by the fine
-    ``grid``, exactly where one or two bodies only can be near, and then its part's hull kept more than
-    ``body_gap`` plus the margin from them), bit 2 where two parts of a checked link pair may
-    come within ``hull_gap`` (link balls, then part balls, boxes, hulls), for every row or (not
-    ``self_always``) only the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row
-    not found free that surely collides (``_hit``, by more than ``depth``) is 4 instead."""
-    n = t.parent.shape[0]
-    nl = s.joint.shape[0]
-    P = np.empty((n + 1, 3))
-    R = np.empty((n + 1, 3, 3))
-    w = np.empty(3)
-    bc = np.empty((nl, 3))
-    BC = np.empty((s.box_c.shape[0], 3))
-    BA = np.empty((s.box_c.shape[0], 3, 3))
-    placed = np.full(s.box_c.shape[0], -1, np.int64)  # the row whose centre BC holds, per part
-    turned = np.full(s.box_c.shape[0], -1, np.int64)  # the row whose axes BA holds, per part
-    r33, a33 = np.empty((3, 3)), np.empty((3, 3))
-    u, sa, sb = np.empty(3), np.empty(3), np.empty(3)
-    found = np.empty(2, np.int64)
-    near_a = np.empty(s.box_c.shape[0], np.int64)
-    near_b = np.empty(s.box_c.shape[0], np.int64)
-    for i in range(qs.shape[0]):
-        frames(t, qs[i], P, R)
-        status = 0
-        for ln in range(nl):
-            if not s.moving[ln]:
-                continue
-            f = s.joint[ln] if s.joint[ln] >= 0 else n
-            _place(P, R, f, s.ball_c[ln], w)
-            if _near(zone, b, w[0], w[1], w[2], s.ball_r[ln] + margin, False, tolerance, found) == 0:
-                continue
-            for k in range(s.sphere_first[ln], s.sphere_end[ln]):
-                _place(P, R, f, s.sphere_c[k], w)
-                count = _near(grid, b, w[0], w[1], w[2], s.sphere_r[k] + margin, True, tolerance, found)
-                p = s.sphere_part[k]
-                for j in range(max(count, 0)):  # the sphere's part against each body that may be near
-                    _place(P, R, f, s.box_c[p], sa)
-                    for r in range(3):
-                        u[r] = b.centre[found[j], r] - sa[r]
-                    gap = body_gap + margin + tolerance
-                    if not _apart(s, p, f, -1, -1, b, found[j], P, R, u, gap, sa, sb):
-                        count = UNKNOWN
-                        break
-                if count == UNKNOWN:
-                    status = 1
-                    break
-            if status:
-                break
-        if status and not self_always:
-            out[i] = 4 if hits and _hit(s, b, grid, P, R, n, bc, depth, tolerance, w) else 3
-            continue
-        for ln in range(nl):
-            _place(P, R, s.joint[ln] if s.joint[ln] >= 0 else n, s.link_c[ln], bc[ln])
-        for k in range(s.pair_a.shape[0]):
-            la, lb = s.pair_a[k], s.pair_b[k]
-            dx, dy, dz = bc[la, 0] - bc[lb, 0], bc[la, 1] - bc[lb, 1], bc[la, 2] - bc[lb, 2]
-            reach = s.link_r[la] + s.link_r[lb] + hull_gap + tolerance
-            if dx * dx + dy * dy + dz * dz > reach * reach:
-                continue
-            fa = s.joint[la] if s.joint[la] >= 0 else n
-            fb = s.joint[lb] if s.joint[lb] >= 0 else n
-            if not _pair_apart(s, b, la, fa, lb, fb, i, P, R, bc, BC, BA, placed, turned, near_a, near_b,
-                               hull_gap, tolerance, r33, a33, u, sa, sb):
-                status |= 2
-                break
-        out[i] = 4 if status and hits and _hit(s, b, grid, P, R, n, bc, depth, tolerance, w) else status
+    return best
 
 
 @njit(cache=True, nogil=True)
@@ -385,7 +289,7 @@ def _hit(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, d
             continue
         f = s.joint[ln] if s.joint[ln] >= 0 else n
         for k in range(s.inner_first[ln], s.inner_end[ln]):
-            _place(P, R, f, s.inner_c[k], w)
+            place(P, R, f, s.inner_c[k], w)
             v, gap = _voxel(g, w[0], w[1], w[2])
             if v < 0 or g.d[v, 0] - gap - tolerance >= s.inner_r[k] - depth:
                 continue
@@ -398,9 +302,9 @@ def _hit(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, d
         fa = s.joint[la] if s.joint[la] >= 0 else n
         fb = s.joint[lb] if s.joint[lb] >= 0 else n
         for ka in range(s.inner_first[la], min(s.inner_end[la], s.inner_first[la] + s.self_balls)):
-            _place(P, R, fa, s.inner_c[ka], w)
+            place(P, R, fa, s.inner_c[ka], w)
             for kb in range(s.inner_first[lb], min(s.inner_end[lb], s.inner_first[lb] + s.self_balls)):
-                _place(P, R, fb, s.inner_c[kb], bc[0])
+                place(P, R, fb, s.inner_c[kb], bc[0])
                 dx, dy, dz = w[0] - bc[0, 0], w[1] - bc[0, 1], w[2] - bc[0, 2]
                 lim = s.inner_r[ka] + s.inner_r[kb] - depth - tolerance
                 if lim > 0.0 and dx * dx + dy * dy + dz * dz < lim * lim:
@@ -408,64 +312,24 @@ def _hit(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, d
     return False
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _turn(s: Shapes, m: int, f: int, row: int, R: Array, BA: Array, turned: Array) -> None:
-    """Part ``m``'s box axes in the world (frame ``f``) into ``BA[m]``, once per row (``turned``)."""
-    if turned[m] == row:
-        return
-    turned[m] = row
-    for r in range(3):
-        for col in range(3):
-            BA[m, r, col] = (R[f, r, 0] * s.box_axes[m, 0, col] + R[f, r, 1] * s.box_axes[m, 1, col]
-                             + R[f, r, 2] * s.box_axes[m, 2, col])
+@njit(cache=True, nogil=True)
+def sure(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, depth: float,
+          tolerance: float, w: Array, p: int, f: int, k: int) -> bool:
+    """The configuration in ``P``, ``R`` surely collides, by more than ``depth``: ``_sunk`` for part ``p``
+    (frame ``f``) and body ``k``, the pair found near, first, then ``_hit``."""
+    return _sunk(s, b, p, f, k, P, R, depth, tolerance, w) or _hit(s, b, g, P, R, n, bc, depth, tolerance, w)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _near_parts(s: Shapes, ln: int, f: int, other: int, row: int, P: Array, R: Array, bc: Array, BC: Array,
-                placed: Array, hull_gap: float, tolerance: float, near: Array) -> int:
-    """The parts of link ``ln`` (frame ``f``) whose balls come within ``hull_gap`` of link ``other``'s
-    ball, into ``near``; how many."""
-    count = 0
-    for m in range(s.part_first[ln], s.part_end[ln]):
-        if placed[m] != row:
-            placed[m] = row
-            _place(P, R, f, s.box_c[m], BC[m])
-        dx, dy, dz = BC[m, 0] - bc[other, 0], BC[m, 1] - bc[other, 1], BC[m, 2] - bc[other, 2]
-        lim = s.box_r[m] + s.link_r[other] + hull_gap + tolerance
-        if dx * dx + dy * dy + dz * dz <= lim * lim:
-            near[count] = m
-            count += 1
-    return count
+@njit(cache=True, nogil=True)
+def _sunk(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, depth: float, tolerance: float,
+          w: Array) -> bool:
+    """A corner of part ``p`` (frame ``f``; -1: none), a point of the part itself, lies more than ``depth``
+    inside body ``k``, an exact one (a primitive). ``w``: scratch."""
+    if p < 0 or not b.exact[k]:
+        return False
+    for v in range(s.vert_first[p], s.vert_end[p]):
+        place(P, R, f, s.corners[v], w)
+        if _sdf(b, k, w[0], w[1], w[2]) + tolerance < -depth:
+            return True
+    return False
 
-
-@njit(cache=True, nogil=True, inline="always")
-def _pair_apart(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, row: int, P: Array, R: Array,
-                bc: Array, BC: Array, BA: Array, placed: Array, turned: Array, near_a: Array, near_b: Array,
-                hull_gap: float, tolerance: float, r33: Array, a33: Array, u: Array, sa: Array,
-                sb: Array) -> bool:
-    """Every part of link ``la`` (frame ``fa``; its ball's centre in the world ``bc[la]``) more than
-    ``hull_gap`` from every part of ``lb``: of the parts of each that come near the other link's ball,
-    every pair's balls apart, else their boxes grown by half the gap, else their hulls (``_apart``). A
-    part's box centre (``BC``) and axes (``BA``) in the world are computed once per row (``placed``,
-    ``turned``); ``near_a``, ``near_b``: scratch."""
-    count_a = _near_parts(s, la, fa, lb, row, P, R, bc, BC, placed, hull_gap, tolerance, near_a)
-    if count_a == 0:
-        return True
-    count_b = _near_parts(s, lb, fb, la, row, P, R, bc, BC, placed, hull_gap, tolerance, near_b)
-    for i in range(count_a):
-        pa = near_a[i]
-        for j in range(count_b):
-            pb = near_b[j]
-            dx, dy, dz = BC[pa, 0] - BC[pb, 0], BC[pa, 1] - BC[pb, 1], BC[pa, 2] - BC[pb, 2]
-            lim = s.box_r[pa] + s.box_r[pb] + hull_gap + tolerance
-            if dx * dx + dy * dy + dz * dz > lim * lim:
-                continue
-            _turn(s, pa, fa, row, R, BA, turned)
-            _turn(s, pb, fb, row, R, BA, turned)
-            if _boxes_apart(BC[pa], BA[pa], s.box_half[pa], BC[pb], BA[pb], s.box_half[pb],
-                            hull_gap / 2 + tolerance, r33, a33):
-                continue
-            u[0], u[1], u[2] = -dx, -dy, -dz
-            if not _apart(s, pa, fa, pb, fb, b, -1, P, R, u, hull_gap + tolerance, sa, sb):
-                return False
-    return True

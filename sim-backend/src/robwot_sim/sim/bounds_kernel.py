@@ -1,0 +1,98 @@
+"""The compiled verdict of ``OuterBounds.classify`` per configuration: the other bodies (``sphere_kernel``),
+the self pairs (``pair_kernel``), sure hits (``sphere_kernel.sure``). Compiled by numba and cached on disk
+as ``sphere_kernel.py``'s, whose docstring says what each array holds. One function: its steps called as
+functions of their own cost a third more time per configuration (numba passing the tuples of arrays on).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numba import njit
+
+from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
+from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, near, place, separation, sure
+
+if TYPE_CHECKING:
+    from robwot_sim.sim.outerbounds import Bodies, Grid
+    from robwot_sim.sim.robot_shapes import PairTables, Shapes, Tree
+
+Array = np.ndarray
+
+
+@njit(cache=True, nogil=True)
+def _scratch(n: int, parts: int, links: int, coords: int) -> tuple[Array, ...]:
+    """``classify``'s scratch arrays for a tree of ``n`` joints, ``parts`` convex parts, ``links`` links."""
+    return (np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((links, 3)), np.empty((parts, 3)),
+            np.empty((parts, 3, 3)), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
+            np.empty((3, 3)), np.empty((3, 3)), np.empty(parts, np.int64), np.empty(parts, np.int64),
+            np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((6, 3)),
+            np.empty(2, np.int64))
+
+
+@njit(cache=True, nogil=True)
+def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid, zone: Grid,
+             margin: float, body_gap: float, hull_gap: float, tolerance: float, self_always: bool, hits: bool,
+             depth: float, out: Array) -> None:
+    """Per row of ``qs``: bit 1 set where a sphere of a moving link may come within ``margin`` of a body
+    (a link whose ball the coarse ``zone`` finds clear is not looked at further; a sphere by the fine
+    ``grid``, exactly where one or two bodies only can be near, and then its part's hull kept more than
+    ``body_gap`` plus the margin from them), bit 2 where two parts of a checked link pair may come within
+    ``hull_gap`` (link balls, the pair's table, then part balls, boxes, hulls), for every row or (not
+    ``self_always``) only the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not
+    found free that surely collides (by more than ``depth``: ``sure``) is 4 instead."""
+    n, nl = t.parent.shape[0], s.joint.shape[0]
+    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found = _scratch(
+        n, s.box_c.shape[0], nl, qs.shape[1])  # placed, turned: the row whose BC, BA a part's are
+    w, u, sa, sb, ca, cb = v[0], v[1], v[2], v[3], v[4], v[5]
+    need = hull_gap + tolerance
+    for i in range(qs.shape[0]):
+        frames(t, qs[i], P, R)
+        status, part, frame, body = 0, -1, -1, -1
+        for ln in range(nl):
+            if not s.moving[ln]:
+                continue
+            f = s.joint[ln] if s.joint[ln] >= 0 else n
+            place(P, R, f, s.ball_c[ln], w)
+            if near(zone, b, w[0], w[1], w[2], s.ball_r[ln] + margin, False, tolerance, found) == 0:
+                continue
+            for k in range(s.sphere_first[ln], s.sphere_end[ln]):
+                place(P, R, f, s.sphere_c[k], w)
+                count = near(grid, b, w[0], w[1], w[2], s.sphere_r[k] + margin, True, tolerance, found)
+                p = s.sphere_part[k]
+                for j in range(max(count, 0)):  # the sphere's part against each body that may be near
+                    place(P, R, f, s.box_c[p], sa)
+                    for r in range(3):
+                        u[r] = b.centre[found[j], r] - sa[r]
+                    gap = body_gap + margin + tolerance
+                    if not separation(s, p, f, -1, -1, b, found[j], P, R, u, gap, gap, sa, sb) > gap:
+                        part, frame, body, count = p, f, found[j], UNKNOWN
+                        break
+                if count == UNKNOWN:
+                    status = 1
+                    break
+            if status:
+                break
+        if status == 0 or self_always:
+            for ln in range(nl):
+                place(P, R, s.joint[ln] if s.joint[ln] >= 0 else n, s.link_c[ln], bc[ln])
+            for k in range(s.pair_a.shape[0]):
+                la, lb = s.pair_a[k], s.pair_b[k]
+                dx, dy, dz = bc[la, 0] - bc[lb, 0], bc[la, 1] - bc[lb, 1], bc[la, 2] - bc[lb, 2]
+                if dx * dx + dy * dy + dz * dz > (s.link_r[la] + s.link_r[lb] + need) ** 2:
+                    continue
+                fa, fb = s.joint[la] if s.joint[la] >= 0 else n, s.joint[lb] if s.joint[lb] >= 0 else n
+                known = table_apart(tab, k, qs[i], need)
+                if known < 0:
+                    known = fill_cell(tab, k, qs[i], t, s, b, la, fa, lb, fb, need, Q, P2, R2, ca, cb, u, sa,
+                                      sb)
+                if not known and not pair_apart(s, b, la, fa, lb, fb, i, P, R, bc, BC, BA, placed, turned,
+                                                 near_a, near_b, hull_gap, tolerance, r33, a33, u, sa, sb):
+                    status |= 2
+                    break
+        else:
+            status = 3
+        if status and hits and sure(s, b, grid, P, R, n, bc, depth, tolerance, w, part, frame, body):
+            status = 4
+        out[i] = status
