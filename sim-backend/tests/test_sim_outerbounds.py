@@ -148,17 +148,19 @@ def test_labels_with_the_bounds_equal_bullets_labels(load: Callable[[World], str
         lo, hi = w.robot_model(rid).limits()
         qs = np.random.default_rng(12).uniform(lo, hi, size=(ROWS, len(lo)))
         with_bounds = w.collision_free_batch(rid, qs)
-        status = w.queries.outer_bounds(rid).classify(qs, self_always=False)
-        alone, near = status == 2, (status & 1) == 1
-        hit = w.queries.sure_hits(rid)
-        full_world = np.zeros(ROWS, dtype=bool)  # with the bounds: rows near a body and not sure hits
-        full_world[near] = ~hit.hits(qs[near])
-        sure = hit.hits(qs)
+        status = w.queries.outer_bounds(rid).classify(qs, self_always=False, hits=True)
+        sure = w.queries.sure_hits(rid).hits(qs)
+        if w.queries._paying[rid][1]:  # the bounds decide: the rest alone (status 2) or in the whole world
+            alone, full_world = status == 2, (status & 1) == 1
+        else:  # they stood down: every row not a sure hit in the whole world
+            alone, full_world = np.zeros(ROWS, dtype=bool), ~sure
         bullet = w.collision_free_batch(rid, qs, bounds=False)
         assert 0 < bullet.sum() < ROWS
         if load.__name__ not in CLOSE_SELF:
             assert (status == 0).sum() >= ROWS // 20, "the bounds decide too few rows: the test proves little"
         assert not (with_bounds[status == 0] != bullet[status == 0]).any(), "a row free for sure collides"
+        assert (status == outerbounds.SURE_HIT).any() and not bullet[status == outerbounds.SURE_HIT].any(), \
+            "a sure hit is free for Bullet"
         differ = np.flatnonzero(with_bounds != bullet)
         assert len(differ) <= ROWS // 100, differ
         mimic = w.scene.entry(rid).bound.followers
@@ -287,9 +289,9 @@ def test_a_pair_tables_rates_bound_how_fast_its_links_move(robot: str) -> None:
 
 
 def test_pairs_a_table_calls_apart_are_apart_for_fresh_distance_queries() -> None:
-    """Configurations a self pair's table alone calls apart (after a batch filled its cells) are more than
-    the hull gap apart for Bullet's distance queries between that pair's links, and the tables decide most
-    pairs of the KUKA arm."""
+    """Configurations a self pair's table alone calls apart are more than the hull gap apart for Bullet's
+    distance queries between that pair's links, with its cells filled by a batch as rows fall in them and
+    with all of them filled at once (a servient's warm-up); the tables decide most pairs of the KUKA arm."""
     from robwot_sim.sim.pair_kernel import table_apart
 
     with World() as w:
@@ -299,7 +301,11 @@ def test_pairs_a_table_calls_apart_are_apart_for_fresh_distance_queries() -> Non
         tab, s = bounds.robot.tables, bounds.robot.shapes
         lo, hi = w.robot_model("r").limits()
         qs = np.random.default_rng(4).uniform(lo, hi, size=(3000, len(lo)))
-        bounds.classify(qs)
+        bounds.classify(qs[100:])
+        filled = tab.gap.copy()
+        bounds.fill_tables()
+        assert not np.isnan(tab.gap).any()
+        assert np.array_equal(tab.gap[~np.isnan(filled)], filled[~np.isnan(filled)])  # a cell is written once
         body, cid = w.scene.entry("r").bound.body, w.scene.bullet.cid
         links = _links(w, "r")
         decided = 0

@@ -260,6 +260,8 @@ def main() -> None:
         _scene(world, made[-1].boxes)  # the warm-up plan (its imports, the bounds of a robot), not timed
         world.set_joint_positions("panda", np.array(READY))
         plan_joints(world, "panda", made[-1].goal, 1.0, DT)
+        for bounds in world.warm_bounds():  # self pair tables filled, as a servient's planning.warmUp does
+            bounds.fill_tables()
         reference = _reference_for(world.robot_model("panda").controllable)
         if not _known_positive(world, made[0], reference):
             raise SystemExit("the exact reference missed a known contact: its verdicts prove nothing")

@@ -72,7 +72,8 @@ def measure(name: str, targets: int, seed: int) -> tuple[list[float], list[float
     """Straight validation times, detour times there and back (s), refusals there and back."""
     with World() as world:
         rid, home = ROBOTS[name](world)
-        world.warm_bounds()  # as a servient's planning.warmUp does (nothing with --bullet)
+        for bounds in world.warm_bounds():  # as a servient's planning.warmUp does (nothing with --bullet)
+            bounds.fill_tables()
         lo, hi = world.robot_model(rid).limits()
         rng = np.random.default_rng(seed)
         straight: list[float] = []

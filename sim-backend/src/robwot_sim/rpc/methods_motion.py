@@ -83,10 +83,11 @@ def register(d: Dispatcher, s: Services) -> None:
         if not warming.acquire(blocking=False):
             return {"ready": ready}  # the pending one builds every robot's bounds when it runs
 
-        def bounds() -> None:  # once the kernels are loaded, the robots' bounds built on the world's thread
-            try:
+        def bounds() -> None:  # once the kernels are loaded, the robots' bounds built on the world's thread,
+            try:  # then their self pair tables filled on this one
                 if kernels_ready(timeout=KERNELS_WAIT):
-                    s.call_world(s.world.warm_bounds)
+                    for built in s.call_world(s.world.warm_bounds):
+                        built.fill_tables()
             except Exception as err:  # the first path check builds them instead
                 print(f"robwot: the robots' outer bounds were not built ahead ({err!r})", file=sys.stderr)
             finally:

@@ -28,7 +28,7 @@ def _scratch(n: int, parts: int, links: int, coords: int) -> tuple[Array, ...]:
             np.empty((parts, 3, 3)), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
             np.empty((3, 3)), np.empty((3, 3)), np.empty(parts, np.int64), np.empty(parts, np.int64),
             np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((6, 3)),
-            np.empty(2, np.int64))
+            np.empty(2, np.int64), np.full(parts, -1, np.int64))
 
 
 @njit(cache=True, nogil=True)
@@ -43,8 +43,8 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
     ``self_always``) only the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not
     found free that surely collides (by more than ``depth``: ``sure``) is 4 instead."""
     n, nl = t.parent.shape[0], s.joint.shape[0]
-    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found = _scratch(
-        n, s.box_c.shape[0], nl, qs.shape[1])  # placed, turned: the row whose BC, BA a part's are
+    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen = _scratch(
+        n, s.box_c.shape[0], nl, qs.shape[1])  # placed, turned, seen: the row whose BC, BA a part's are
     w, u, sa, sb, ca, cb = v[0], v[1], v[2], v[3], v[4], v[5]
     need = hull_gap + tolerance
     for i in range(qs.shape[0]):
@@ -85,14 +85,13 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
                 fa, fb = s.joint[la] if s.joint[la] >= 0 else n, s.joint[lb] if s.joint[lb] >= 0 else n
                 known = table_apart(tab, k, qs[i], need)
                 if known < 0:
-                    known = fill_cell(tab, k, qs[i], t, s, b, la, fa, lb, fb, need, Q, P2, R2, ca, cb, u, sa,
-                                      sb)
+                    known = fill_cell(tab, k, qs[i], t, s, b, need, Q, P2, R2, ca, cb, u, sa, sb)
                 if not known and not pair_apart(s, b, la, fa, lb, fb, i, P, R, bc, BC, BA, placed, turned,
                                                  near_a, near_b, hull_gap, tolerance, r33, a33, u, sa, sb):
                     status |= 2
                     break
         else:
             status = 3
-        if status and hits and sure(s, b, grid, P, R, n, bc, depth, tolerance, w, part, frame, body):
+        if status and hits and sure(s, b, grid, P, R, n, bc, depth, tolerance, w, part, frame, body, seen, i):
             status = 4
         out[i] = status

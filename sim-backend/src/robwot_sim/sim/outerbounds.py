@@ -178,6 +178,7 @@ def _warm() -> None:
                          distance_grid(bodies, 0.3, None, ZONE_SIDE))
     tree_frames(tree, np.zeros(1))
     bounds.classify(np.zeros((1, 1)), hits=True)
+    bounds.fill_tables()
 
 
 def distance_grid(bodies: Bodies, reach: float, clip: tuple[FloatArray, FloatArray] | None,
@@ -274,6 +275,17 @@ class OuterBounds:
                  self.robot.tables, self.bodies, self.grid, self.zone, float(margin), GROW, HULL_GAP,
                  TOLERANCE, self_always, hits, DEPTH, out)
         return out
+
+    def fill_tables(self) -> None:
+        """Every cell of the robot's self pair tables computed now (``robot_shapes.PairTables``) instead of
+        as configurations fall in them: a servient's warm-up, off the world's thread (a cell is written
+        once, with the value any writer computes, so classifying meanwhile is safe)."""
+        if self.empty:
+            return
+        from robwot_sim.sim.pair_kernel import fill_tables
+
+        assert self.robot is not None and self.bodies is not None
+        fill_tables(self.robot.tree, self.robot.shapes, self.robot.tables, self.bodies, HULL_GAP + TOLERANCE)
 
     def apart(self, qs: FloatArray, margin: float = 0.0) -> BoolArray:
         """True where every moving link keeps more than ``margin`` (m) from every other body, for sure."""

@@ -60,10 +60,11 @@ def _boxes_apart(ca: Array, ra: Array, ha: Array, cb: Array, rb: Array, hb: Arra
 
 @njit(cache=True, nogil=True)
 def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array, R: Array, cap: float,
-              ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> float:
+              floor: float, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> float:
     """A lower bound of the distance between links ``la`` (frame ``fa``) and ``lb``'s hulls in the frames
     ``P``, ``R``, at most ``cap``: per pair of their parts the distance of their balls or, where that is
-    below the bound so far, the larger of it and Gilbert's (``separation``). ``ca``, ``cb``: scratch."""
+    below the bound so far, the larger of it and Gilbert's (``separation``); returned as soon as two parts
+    are found within ``floor`` (any bound at or below it then tells the same). ``ca``, ``cb``: scratch."""
     best = cap
     for pa in range(s.part_first[la], s.part_end[la]):
         place(P, R, fa, s.box_c[pa], ca)
@@ -74,8 +75,8 @@ def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array
             d = float(math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) - s.box_r[pa] - s.box_r[pb])
             if d >= best:
                 continue
-            best = min(best, max(d, separation(s, pa, fa, pb, fb, b, -1, P, R, u, best, 0.0, sa, sb)))
-            if best <= 0.0:
+            best = min(best, max(d, separation(s, pa, fa, pb, fb, b, -1, P, R, u, best, floor, sa, sb)))
+            if best <= floor:
                 return best
     return best
 
@@ -116,22 +117,48 @@ def table_apart(tab: PairTables, k: int, q: Array, need: float) -> int:
 
 
 @njit(cache=True, nogil=True)
-def fill_cell(tab: PairTables, k: int, q: Array, t: Tree, s: Shapes, b: Bodies, la: int, fa: int, lb: int,
-          fb: int, need: float, Q: Array, P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array,
-          sb: Array) -> int:
-    """``table_apart`` once configuration ``q``'s cell is computed and stored: ``_pair_gap`` at its
-    centre (``q`` with the pair's coordinates moved there), at most what any point of the cell needs;
-    ``Q``, ``P``, ``R`` and the rest scratch."""
-    index, slack, most = _cell(tab, k, q)
-    Q[:] = q
+def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, need: float, most: float,
+            Q: Array, P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> float:
+    """Cell ``index`` of self pair ``k``'s table computed and stored: ``_pair_gap`` at its centre (``Q``
+    with the pair's coordinates moved there), at most what any point of the cell needs (``need`` plus
+    ``most``); ``P``, ``R`` and the rest scratch."""
     rest = index
     for m in range(tab.dims[k] - 1, -1, -1):
         Q[tab.coord[k, m]] = tab.lo[k, m] + (rest % tab.cells[k, m] + 0.5) * tab.width[k, m]
         rest //= tab.cells[k, m]
     frames(t, Q, P, R)
-    gap = _pair_gap(s, b, la, fa, lb, fb, P, R, need + most, ca, cb, u, sa, sb)
+    n = t.parent.shape[0]
+    la, lb = s.pair_a[k], s.pair_b[k]
+    fa, fb = s.joint[la] if s.joint[la] >= 0 else n, s.joint[lb] if s.joint[lb] >= 0 else n
+    gap = _pair_gap(s, b, la, fa, lb, fb, P, R, need + most, need, ca, cb, u, sa, sb)
     tab.gap[tab.first[k] + index] = gap
+    return gap
+
+
+@njit(cache=True, nogil=True)
+def fill_cell(tab: PairTables, k: int, q: Array, t: Tree, s: Shapes, b: Bodies, need: float, Q: Array,
+              P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> int:
+    """``table_apart`` once configuration ``q``'s cell is computed (``_gap_at``, from ``q``)."""
+    index, slack, most = _cell(tab, k, q)
+    Q[:] = q
+    gap = _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u, sa, sb)
     return 1 if gap - slack > need else 0
+
+
+@njit(cache=True, nogil=True)
+def fill_tables(t: Tree, s: Shapes, tab: PairTables, b: Bodies, need: float) -> None:
+    """Every cell of every self pair's table not computed yet computed now (``_gap_at``)."""
+    n = t.parent.shape[0]
+    Q, P, R = np.zeros(t.coupling.shape[1]), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3))
+    ca, cb, u, sa, sb = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    for k in range(tab.dims.shape[0]):
+        count, most = 1, 0.0
+        for m in range(tab.dims[k]):
+            count *= tab.cells[k, m]
+            most += tab.rate[k, m] * tab.width[k, m] * 0.5
+        for index in range(count if tab.dims[k] >= 0 else 0):
+            if math.isnan(tab.gap[tab.first[k] + index]):
+                _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u, sa, sb)
 
 
 @njit(cache=True, nogil=True, inline="always")

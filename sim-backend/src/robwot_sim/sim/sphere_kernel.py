@@ -314,10 +314,36 @@ def _hit(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, d
 
 @njit(cache=True, nogil=True)
 def sure(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, depth: float,
-          tolerance: float, w: Array, p: int, f: int, k: int) -> bool:
-    """The configuration in ``P``, ``R`` surely collides, by more than ``depth``: ``_sunk`` for part ``p``
-    (frame ``f``) and body ``k``, the pair found near, first, then ``_hit``."""
-    return _sunk(s, b, p, f, k, P, R, depth, tolerance, w) or _hit(s, b, g, P, R, n, bc, depth, tolerance, w)
+          tolerance: float, w: Array, p: int, f: int, k: int, seen: Array, row: int) -> bool:
+    """The configuration in ``P``, ``R`` (row ``row``) surely collides, by more than ``depth``: ``_sunk``
+    for part ``p`` (frame ``f``) and body ``k``, the pair found near, first, then ``_hit``, then
+    ``_sunk_near``."""
+    return (_sunk(s, b, p, f, k, P, R, depth, tolerance, w) or _hit(s, b, g, P, R, n, bc, depth, tolerance, w)
+            or _sunk_near(s, b, g, P, R, n, depth, tolerance, w, seen, row))
+
+
+@njit(cache=True, nogil=True)
+def _sunk_near(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, depth: float, tolerance: float,
+               w: Array, seen: Array, row: int) -> bool:
+    """``_sunk`` for each part of a moving link with a sphere that may reach a body, against the exact ones
+    of the two nearest its centre (once per part and row: ``seen``)."""
+    for ln in range(s.joint.shape[0]):
+        if not s.moving[ln]:
+            continue
+        f = s.joint[ln] if s.joint[ln] >= 0 else n
+        for k in range(s.sphere_first[ln], s.sphere_end[ln]):
+            p = s.sphere_part[k]
+            if seen[p] == row:
+                continue
+            place(P, R, f, s.sphere_c[k], w)
+            v, gap = _voxel(g, w[0], w[1], w[2])
+            if v < 0 or g.d[v, 0] - gap - tolerance > s.sphere_r[k]:
+                continue
+            seen[p] = row
+            for j in range(2):
+                if g.near[v, j] >= 0 and _sunk(s, b, p, f, g.near[v, j], P, R, depth, tolerance, w):
+                    return True
+    return False
 
 
 @njit(cache=True, nogil=True)

@@ -32,6 +32,7 @@ from robwot_sim.sim import ik as inverse_kinematics
 from robwot_sim.sim.cell import Cell
 from robwot_sim.sim.collision_queries import CollisionQueries
 from robwot_sim.sim.gripper import Grippers
+from robwot_sim.sim.outerbounds import OuterBounds
 from robwot_sim.sim.planning_scene import JointVector, Quat, Scene, Vec3
 from robwot_sim.sim.timed import TimedPath
 from robwot_sim.sim.types import CollisionReport, IkResult, PathReport
@@ -99,11 +100,11 @@ class World:
         self.scene.reset()
         self.cell.clear()
 
-    def warm_bounds(self) -> None:
+    def warm_bounds(self) -> list[OuterBounds]:
         """Each robot's outer bounds built now (its shapes, the scene's grids) when the compiled kernels are
-        loaded, so the first path check after them does not pay for it; nothing otherwise."""
-        for rid in self.robot_ids():
-            self.scene.bounds.get(self.scene, rid)
+        loaded, so the first path check after them does not pay for it (empty bounds otherwise); the caller
+        may fill their self pair tables off the world's thread (``OuterBounds.fill_tables``)."""
+        return [self.scene.bounds.get(self.scene, rid) for rid in self.robot_ids()]
 
     def list(self) -> dict[str, Any]:
         """Robots, obstacles, objects, conveyors and sensors; a held object where the robot holding it has it
