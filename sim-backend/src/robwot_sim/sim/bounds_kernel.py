@@ -28,7 +28,7 @@ def _scratch(n: int, parts: int, links: int, coords: int) -> tuple[Array, ...]:
             np.empty((parts, 3, 3)), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
             np.empty((3, 3)), np.empty((3, 3)), np.empty(parts, np.int64), np.empty(parts, np.int64),
             np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((6, 3)),
-            np.empty(2, np.int64), np.full(parts, -1, np.int64))
+            np.empty(2, np.int64), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64))
 
 
 @njit(cache=True, nogil=True)
@@ -43,7 +43,7 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
     ``self_always``) only the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not
     found free that surely collides (by more than ``depth``: ``sure``) is 4 instead."""
     n, nl = t.parent.shape[0], s.joint.shape[0]
-    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen = _scratch(
+    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept = _scratch(
         n, s.box_c.shape[0], nl, qs.shape[1])  # placed, turned, seen: the row whose BC, BA a part's are
     w, u, sa, sb, ca, cb = v[0], v[1], v[2], v[3], v[4], v[5]
     need = hull_gap + tolerance
@@ -62,6 +62,8 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
                 count = near(grid, b, w[0], w[1], w[2], s.sphere_r[k] + margin, True, tolerance, found)
                 p = s.sphere_part[k]
                 for j in range(max(count, 0)):  # the sphere's part against each body that may be near
+                    if kept[p] == i * b.kind.shape[0] + found[j]:  # kept from it in this row already
+                        continue
                     place(P, R, f, s.box_c[p], sa)
                     for r in range(3):
                         u[r] = b.centre[found[j], r] - sa[r]
@@ -69,6 +71,7 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
                     if not separation(s, p, f, -1, -1, b, found[j], P, R, u, gap, gap, sa, sb) > gap:
                         part, frame, body, count = p, f, found[j], UNKNOWN
                         break
+                    kept[p] = i * b.kind.shape[0] + found[j]
                 if count == UNKNOWN:
                     status = 1
                     break
