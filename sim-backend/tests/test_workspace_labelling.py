@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import subprocess
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 
@@ -19,7 +20,7 @@ from robwot_sim.workspace import chain_fk
 from robwot_sim.workspace import pool as workspace_pool
 from robwot_sim.workspace.chunk import ChunkJob
 from robwot_sim.workspace.io import csv_layout
-from robwot_sim.workspace.labelling import chunk_size, label_samples, spec_key, warm_up
+from robwot_sim.workspace.labelling import Labelling, chunk_size, label_samples, spec_key, warm_up
 from robwot_sim.workspace.sampling import sample_configurations
 
 
@@ -61,6 +62,30 @@ def test_parallel_labels_equal_serial() -> None:
 
         assert np.array_equal(label_configurations(job, 6000, 2, helper=helper), serial)
         assert sum(helped) > 0  # the caller labelled chunks while the workers started
+
+
+def test_the_caller_leaves_the_chunks_to_the_workers_once_one_has_answered() -> None:
+    """The caller helps only while the pool has not answered: here its first chunk waits for that answer,
+    so it labels exactly one chunk and the workers every other one, with the same labels."""
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
+        lo, hi = w.robot_model("kuka").limits()
+        serial = w.collision_free_batch("kuka", sample_configurations(lo, hi, 6000, seed=5))
+        job = make_job(w, "kuka", 5)
+        labelling = Labelling(job, 6000, 2)
+        helped: list[int] = []
+
+        def helper(q: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+            while labelling._up is None:
+                threading.Event().wait(0.01)
+            labelling._up.result(timeout=300)
+            helped.append(len(q))
+            return w.collision_free_batch("kuka", q)
+
+        got = np.concatenate([c.flags for c in labelling.result(helper=helper)])
+        assert np.array_equal(got, serial)
+        first = labelling.chunks[0]
+        assert sum(helped) == first[1] - first[0] < 6000
 
 
 def test_worker_error_is_structured() -> None:

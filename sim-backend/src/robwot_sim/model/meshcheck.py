@@ -25,7 +25,9 @@ import os
 import re
 import struct
 import tempfile
+import threading
 import xml.etree.ElementTree as ET
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,6 +37,7 @@ import numpy.typing as npt
 
 from robwot_sim.errors import MeshError
 from robwot_sim.model import xmlsafe
+from robwot_sim.model.objmesh import parse_obj
 from robwot_sim.wholefile import TooLarge, read_whole
 
 MAX_MESH_BYTES = 256 * 1024 * 1024
@@ -77,53 +80,85 @@ def _read(path: Path) -> bytes:
         raise refused from None
 
 
+@dataclass(frozen=True)
+class Parsed:
+    """What a mesh file holds: its points (an OBJ's vertices, else its triangles' corners [3m, 3], an STL's
+    read from ``ascii`` text when so), an OBJ's vertices and faces, and its content's digest."""
+
+    points: npt.NDArray[np.float64]
+    mesh: MeshData | None
+    ascii: bool
+    digest: str
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.points.nbytes) + (int(self.mesh.faces.nbytes) if self.mesh else 0)
+
+
+#: bytes of parsed meshes a process keeps (by content): the robot's load, its collision mirrors and its
+#: outer shapes each ask about the same files, which are then parsed once
+MEMO_BYTES = 256 << 20
+_memo: OrderedDict[tuple[str, str], Parsed] = OrderedDict()
+_memo_bytes = 0
+_memo_lock = threading.Lock()
+
+
+def _parsed(path: Path) -> Parsed:
+    """The file parsed by the reader of its kind (``E_MESH`` for a refused one), once per content
+    (``MEMO_BYTES``): the arrays are shared, read-only."""
+    global _memo_bytes
+    suffix = path.suffix.lower()
+    if suffix not in (".stl", ".obj", ".dae"):
+        raise _refuse(path, f"unsupported mesh format {suffix or '(none)'!r}; use STL, OBJ or DAE")
+    data = _read(path)
+    key = (suffix, hashlib.sha256(data).hexdigest())
+    with _memo_lock:
+        hit = _memo.get(key)
+        if hit is not None:
+            _memo.move_to_end(key)
+            return hit
+    if suffix == ".obj":
+        mesh = _parse_obj(path, data)
+        parsed = Parsed(mesh.vertices, mesh, False, key[1])
+        mesh.faces.setflags(write=False)
+    elif suffix == ".dae":
+        parsed = Parsed(_parse_dae(path, data).reshape(-1, 3), None, False, key[1])
+    elif _binary_stl_triangles(data) is not None:
+        parsed = Parsed(_check_binary_stl(path, data), None, False, key[1])
+    else:
+        parsed = Parsed(_parse_ascii_stl(path, data), None, True, key[1])
+    parsed.points.setflags(write=False)  # shared by every caller
+    with _memo_lock:
+        if key not in _memo and parsed.nbytes <= MEMO_BYTES:
+            _memo[key] = parsed
+            _memo_bytes += parsed.nbytes
+            while _memo_bytes > MEMO_BYTES:
+                _memo_bytes -= _memo.popitem(last=False)[1].nbytes
+    return parsed
+
+
 def check_mesh(path: Path) -> Path:
     """Validate a mesh file; returns the file PyBullet may load (a converted copy for ASCII STL)."""
-    suffix = path.suffix.lower()
-    if suffix == ".stl":
-        data = _read(path)
-        if _binary_stl_triangles(data) is not None:
-            _check_binary_stl(path, data)
-            return path
-        return _ascii_to_binary(path, data)
-    if suffix == ".obj":
-        _parse_obj(path, _read(path))
-        return path
-    if suffix == ".dae":
-        _parse_dae(path, _read(path))
-        return path
-    raise _refuse(path, f"unsupported mesh format {suffix or '(none)'!r}; use STL, OBJ or DAE")
+    parsed = _parsed(path)
+    if parsed.ascii:
+        return _ascii_to_binary(parsed.points, parsed.digest)
+    return path
 
 
 def read_mesh(path: Path) -> MeshData | None:
     """The triangles of a checked STL, OBJ or DAE file (a DAE's as its scene places them, in metres)."""
-    suffix = path.suffix.lower()
-    if suffix == ".dae":
-        return _triangles(_parse_dae(path, _read(path)).reshape(-1, 3))
-    if suffix == ".stl":
-        data = _read(path)
-        if _binary_stl_triangles(data) is None:
-            return _triangles(_parse_ascii_stl(path, data))
-        return _triangles(_check_binary_stl(path, data).reshape(-1, 3))
-    if suffix == ".obj":
-        return _parse_obj(path, _read(path))
-    return None
+    if path.suffix.lower() not in (".stl", ".obj", ".dae"):
+        return None
+    parsed = _parsed(path)
+    return parsed.mesh or _triangles(parsed.points)
 
 
 def mesh_points(path: Path) -> npt.NDArray[np.float64] | None:
-    """Every vertex position of a checked STL, OBJ or DAE file, repeats kept ([n, 3]): enough for its convex
-    hull, without the merging of shared vertices ``read_mesh`` does."""
-    suffix = path.suffix.lower()
-    if suffix == ".dae":
-        return _parse_dae(path, _read(path)).reshape(-1, 3)
-    if suffix == ".stl":
-        data = _read(path)
-        if _binary_stl_triangles(data) is None:
-            return _parse_ascii_stl(path, data).astype(np.float64)
-        return _check_binary_stl(path, data).reshape(-1, 3).astype(np.float64)
-    if suffix == ".obj":
-        return _parse_obj(path, _read(path)).vertices
-    return None
+    """Every vertex position of a checked STL, OBJ or DAE file, repeats kept ([n, 3], read-only): enough for
+    its convex hull, without the merging of shared vertices ``read_mesh`` does."""
+    if path.suffix.lower() not in (".stl", ".obj", ".dae"):
+        return None
+    return _parsed(path).points
 
 
 def _triangles(corners: npt.NDArray[np.float64]) -> MeshData:
@@ -173,12 +208,11 @@ def _parse_ascii_stl(path: Path, data: bytes) -> npt.NDArray[np.float64]:
     return values
 
 
-def _ascii_to_binary(path: Path, data: bytes) -> Path:
-    """Converts a checked ASCII STL into a cached binary STL (PyBullet reads binary STL only)."""
-    corners = _parse_ascii_stl(path, data)
+def _ascii_to_binary(corners: npt.NDArray[np.float64], digest: str) -> Path:
+    """A checked ASCII STL's triangles as a cached binary STL (PyBullet reads binary STL only)."""
     cache = Path(tempfile.gettempdir()) / f"robwot-meshes-{os.getuid()}"
     cache.mkdir(mode=0o700, exist_ok=True)
-    out = cache / f"{hashlib.sha256(data).hexdigest()[:32]}.stl"
+    out = cache / f"{digest[:32]}.stl"
     if not out.is_file():
         tris = corners.reshape(-1, 3, 3)
         normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
@@ -193,43 +227,9 @@ def _ascii_to_binary(path: Path, data: bytes) -> Path:
     return out
 
 
-def _obj_index(token: str, count: int, path: Path, line: int) -> int:
-    raw = token.split("/")[0]
-    try:
-        i = int(raw)
-    except ValueError:
-        raise _refuse(path, f"face index {snippet(token)} is not an integer", line) from None
-    k = i - 1 if i > 0 else count + i
-    if i == 0 or not 0 <= k < count:
-        raise _refuse(path, f"face index {i} outside the {count} vertices defined so far", line)
-    return k
-
-
 def _parse_obj(path: Path, data: bytes) -> MeshData:
-    vertices: list[tuple[float, float, float]] = []
-    faces: list[tuple[int, int, int]] = []
-    for n, raw in enumerate(data.decode("utf-8", errors="replace").splitlines(), start=1):
-        parts = raw.split("#", 1)[0].split()
-        if not parts:
-            continue
-        if parts[0] == "v":
-            try:
-                xyz = tuple(float(p) for p in parts[1:4])
-            except ValueError:
-                raise _refuse(path, "vertex coordinates are not numbers", n) from None
-            if len(xyz) != 3 or not all(math.isfinite(c) for c in xyz):
-                raise _refuse(path, "a vertex needs 3 finite coordinates", n)
-            vertices.append((xyz[0], xyz[1], xyz[2]))
-        elif parts[0] == "f":
-            if len(parts) < 4:
-                raise _refuse(path, "a face needs at least 3 vertices", n)
-            idx = [_obj_index(p, len(vertices), path, n) for p in parts[1:]]
-            faces += [(idx[0], idx[k], idx[k + 1]) for k in range(1, len(idx) - 1)]
-        if len(faces) > MAX_TRIANGLES:
-            raise _refuse(path, f"more than {MAX_TRIANGLES} triangles", n)
-    if not faces:
-        raise _refuse(path, "OBJ without any face")
-    return MeshData(np.array(vertices, dtype=np.float64), np.array(faces, dtype=np.uint32))
+    vertices, faces = parse_obj(path, data, _refuse, MAX_TRIANGLES)
+    return MeshData(vertices, faces)
 
 
 def _local(tag: str) -> str:

@@ -2,8 +2,8 @@
 worker pool (``pool.py``).
 
 Work is split in chunks for progress reporting and load balance; the calling process may compute chunks
-too (``helper``: its own ``World`` labels them) while it would otherwise wait, which hides the workers'
-start-up.
+too (``helper``: its own ``World`` labels them) until a worker answers, which hides the workers' start-up;
+then it leaves them every core.
 """
 
 from __future__ import annotations
@@ -54,6 +54,7 @@ class Labelling:
         self._futures: dict[int, Future[Any]] = {}  # submitted to the pool (not cancelled)
         self._stopped = False
         self._error: BaseException | None = None
+        self._up: Future[Any] | None = None  # the pool's first answer
         self.pool = acquire_pool(workers)
         self._released = False
         self._submitter = threading.Thread(target=self._submit_all, name="robwot-labelling-submit",
@@ -62,7 +63,7 @@ class Labelling:
 
     def _submit_all(self) -> None:
         try:
-            self.pool.submit(ping)  # starts the forkserver and the workers: the slow part
+            self._up = self.pool.submit(ping)  # starts the forkserver and the workers: the slow part
             for i, (a, b) in enumerate(self.chunks):
                 with self._lock:
                     if self._stopped:
@@ -85,6 +86,12 @@ class Labelling:
                     return i
         return None
 
+    def _pool_up(self) -> bool:
+        """Whether a worker has answered: the caller then leaves the chunks to the workers, which have every
+        core (a caller helping them on would only take a core from one)."""
+        up = self._up
+        return up is not None and up.done() and up.exception() is None
+
     def _stop(self, broken: bool = False) -> None:
         with self._lock:
             self._stopped = True
@@ -106,7 +113,8 @@ class Labelling:
         (in any order) and keeps none (returns ``[]``): memory then does not grow with ``samples``.
 
         ``helper`` (e.g. the calling process's own ``World.collision_free_batch``) labels the rows of the
-        chunks that no worker has started, from the end, ``HELPER_STEP`` rows per call (short lock holds).
+        chunks that no worker has started, ``HELPER_STEP`` rows per call (short lock holds), until a worker
+        has answered (``_pool_up``).
         If the pool breaks (a worker crashed, or workers cannot start, e.g. ``__main__`` read from stdin),
         the helper labels the remaining chunks; without a helper that is an ``InternalError``.
         """
@@ -144,7 +152,7 @@ class Labelling:
         broken = False
         try:
             try:
-                while helper is not None and (i := self._claim()) is not None:
+                while helper is not None and not self._pool_up() and (i := self._claim()) is not None:
                     own(i)
                     with self._lock:
                         snapshot = dict(self._futures)
