@@ -87,10 +87,11 @@ class Grid(NamedTuple):
 
 
 #: rows a process labels before it loads the kernels and builds each robot's shapes: the fixed cost (numba's
-#: import and compiler, the kernels' load, a mesh-heavy robot's shapes: about a second and 100 MB) is paid
-#: back only over many rows, so a short generation never pays it; path checks use the bounds once loaded
+#: import and compiler, the kernels' load: about half a second and 100 MB; a robot's shapes, fitted once per
+#: machine: ``shape_cache.py``) is paid back only over many rows; path checks use the bounds once loaded
 #: and never load them: loading holds the backend's loop for up to a second or more at a time (numba's
-#: import and LLVM, in C, with the GIL), which only a servient's start (``planning.warmUp``) affords
+#: import and LLVM, in C, with the GIL), which only a servient's start (``planning.warmUp``) affords. The
+#: labelling workers have them from their first row: their forkserver loads them (``workspace/preload.py``)
 WARM_AFTER = 100_000
 #: Bullet checks of the robot's current state timed after its bounds are built: what a state costs Bullet,
 #: weighed against building stale bounds anew
@@ -104,15 +105,17 @@ _kernels_started = False
 _kernels_ok = False
 
 
-def load_kernels() -> None:
+def load_kernels(here: bool = False) -> None:
     """Loads the compiled kernels (``sphere_kernel.py``: numba's import and, from its disk cache, or
     compiled on a machine's first use, every kernel) on a thread of their own, once per process (once it
     has labelled ``WARM_AFTER`` rows, or when told to: ``kernels_ready``, ``planning.warmUp``); until they are
     loaded the outer bounds know nothing (every check runs on Bullet alone) instead of making a caller
-    wait. A cache numba cannot read (one written by another version of the kernels) is emptied and
-    the kernels compiled again; kernels that still fail to load leave the bounds empty for good, said
-    once on stderr. ``ROBWOT_OUTER_BOUNDS=off`` in the environment leaves them unloaded: every check
-    on Bullet alone (to compare, or where numba cannot run)."""
+    wait. ``here``: in the calling thread, returning once they are loaded (the labelling pool's forkserver,
+    whose workers then have them from their first row: ``workspace/preload.py``). A cache numba cannot read
+    (one written by another version of the kernels) is emptied and the kernels compiled again; kernels
+    that still fail to load leave the bounds empty for good, said once on stderr.
+    ``ROBWOT_OUTER_BOUNDS=off`` in the environment leaves them unloaded: every check on Bullet alone (to
+    compare, or where numba cannot run)."""
     global _kernels_started
     with _kernels_lock:
         if _kernels_started:
@@ -144,7 +147,10 @@ def load_kernels() -> None:
         finally:
             _kernels_ready.set()
 
-    threading.Thread(target=load, name="robwot-kernels", daemon=True).start()
+    if here:
+        load()
+    else:
+        threading.Thread(target=load, name="robwot-kernels", daemon=True).start()
 
 
 def asked(rows: int) -> bool:

@@ -38,6 +38,7 @@ from robwot_sim.model.fk import chain_joint
 from robwot_sim.model.joints import JointInfo
 from robwot_sim.model.meshcheck import mesh_points
 from robwot_sim.model.rotations import quat_matrix
+from robwot_sim.sim import shape_cache
 from robwot_sim.sim.surehit import SELF_BALLS, LinkBalls, link_balls
 from robwot_sim.sim.types import FloatArray
 
@@ -304,18 +305,29 @@ class LinkShapes:
 
     @classmethod
     def of(cls, link: int, moving: bool, parts: list[FloatArray], inner: LinkBalls | None) -> LinkShapes:
-        spheres = [(s, k) for k, pts in enumerate(parts) for s in part_spheres(pts, GROW)]
-        boxes = [fit_box(pts) for pts in parts]
-        verts = [hull_vertices(pts) for pts in parts]
-        return cls(link, moving, np.array([c for (c, _), _ in spheres]).reshape(-1, 3),
-                   np.array([r for (_, r), _ in spheres], dtype=np.float64),
-                   np.array([k for _, k in spheres], dtype=np.int64),
-                   np.array([b[0] for b in boxes]).reshape(-1, 3),
-                   np.array([b[1] for b in boxes]).reshape(-1, 3, 3),
-                   np.array([b[2] for b in boxes]).reshape(-1, 3), verts,
-                   [pts[cKDTree(pts).query(v)[1]] for pts, v in zip(parts, verts, strict=True)],
-                   np.zeros((0, 3)) if inner is None else inner.centres,
-                   np.zeros(0) if inner is None else inner.radii)
+        return cls.made(link, moving, fit_link(parts, inner))
+
+    @classmethod
+    def made(cls, link: int, moving: bool, a: dict[str, Any]) -> LinkShapes:
+        """A link's shapes from the arrays ``fit_link`` makes (or ``shape_cache`` kept)."""
+        return cls(link, moving, a["centres"], a["radii"], a["sphere_part"], a["box_c"], a["box_axes"],
+                   a["box_half"], a["verts"], a["corners"], a["inner_c"], a["inner_r"])
+
+
+def fit_link(parts: list[FloatArray], inner: LinkBalls | None) -> dict[str, Any]:
+    """The fitted arrays of a link's ``LinkShapes`` (the class's fields but its link and whether it moves)."""
+    spheres = [(s, k) for k, pts in enumerate(parts) for s in part_spheres(pts, GROW)]
+    boxes = [fit_box(pts) for pts in parts]
+    verts = [hull_vertices(pts) for pts in parts]
+    return {"centres": np.array([c for (c, _), _ in spheres]).reshape(-1, 3),
+            "radii": np.array([r for (_, r), _ in spheres], dtype=np.float64),
+            "sphere_part": np.array([k for _, k in spheres], dtype=np.int64),
+            "box_c": np.array([b[0] for b in boxes]).reshape(-1, 3),
+            "box_axes": np.array([b[1] for b in boxes]).reshape(-1, 3, 3),
+            "box_half": np.array([b[2] for b in boxes]).reshape(-1, 3), "verts": verts,
+            "corners": [pts[cKDTree(pts).query(v)[1]] for pts, v in zip(parts, verts, strict=True)],
+            "inner_c": np.zeros((0, 3)) if inner is None else inner.centres,
+            "inner_r": np.zeros(0) if inner is None else inner.radii}
 
 
 def _spans(counts: list[int]) -> tuple[IntArray, IntArray]:
@@ -478,8 +490,14 @@ def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> Robo
         if ln < 0:  # the base's points are in the world: into the root frame
             parts = [(pts - p[j]) @ r[j] for pts in parts]
         joints.append(j)
-        inner = link_balls(cid, body, ln) if ln in moving else None
-        shapes.append(LinkShapes.of(ln, ln in moving, parts, inner))
+        # what the fits read of Bullet besides the parts: the shapes, the inertial frame (shape_cache.key)
+        bullet = (ln, ln in moving, pb.getCollisionShapeData(body, ln, physicsClientId=cid),
+                  pb.getLinkState(body, ln, physicsClientId=cid)[2:4] if ln >= 0 else None)
+        def fit(p: list[FloatArray] = parts, at: int = ln) -> dict[str, Any]:
+            return fit_link(p, link_balls(cid, body, at) if at in moving else None)
+
+        fitted = shape_cache.cached(parts, bullet, fit)
+        shapes.append(LinkShapes.made(ln, ln in moving, fitted))
     parent = {ln: int(pb.getJointInfo(body, ln, physicsClientId=cid)[16]) for ln in links if ln >= 0}
     pairs = [(i, k) for i, a in enumerate(links) for k, b in enumerate(links)
              if i < k and parent.get(a) != b and parent.get(b) != a

@@ -44,7 +44,7 @@ from robwot_sim.errors import SimError
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
-_PRELOAD = ["robwot_sim.workspace.pool", "robwot_sim.sim.world"]
+_PRELOAD = ["robwot_sim.workspace.pool", "robwot_sim.sim.world", "robwot_sim.workspace.preload"]
 
 _pool_lock = threading.Lock()
 _pools: dict[int, ProcessPoolExecutor] = {}  # by worker count

@@ -1,0 +1,129 @@
+"""A link's outer shapes (``robot_shapes.LinkShapes``: spheres, boxes, slim hulls, corners, inner balls)
+kept on disk between processes, so a robot's shapes are fitted once per machine instead of once per process
+(each labelling worker, each backend): the fits cost about as much as the rest of a worker's start.
+
+An entry is named by the digest of everything the fits read: the link's parts as points in its frame (the
+meshes' contents, scaled and placed), Bullet's shape data of the link and its inertial frame (what the inner
+balls read besides), and ``SALT`` (the fitting code's sources and the versions of numpy, scipy and pybullet):
+changed code, meshes or libraries name other entries. The folder is the user's own (``folder``, mode 0700,
+beside the user's collision cache, never a twin's ``collision/`` folder): it is trusted as numba's cache of
+the kernels is. An entry is still read with ``allow_pickle=False`` and checked for its arrays' kinds, shapes
+and finite values; one that fails, or any failure to read or write, leaves the shapes to be fitted as if
+there were no cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robwot_sim.sim.types import FloatArray
+
+#: arrays of an entry: name -> (dtype kind, trailing shape)
+_FIELDS = {"centres": ("f", (3,)), "radii": ("f", ()), "sphere_part": ("i", ()), "box_c": ("f", (3,)),
+           "box_axes": ("f", (3, 3)), "box_half": ("f", (3,)), "verts": ("f", (3,)), "corners": ("f", (3,)),
+           "counts": ("i", ()), "inner_c": ("f", (3,)), "inner_r": ("f", ())}
+_salt: str | None = None
+
+
+def _salt_of() -> str:
+    """The fitting code's sources and the libraries' versions (module docstring)."""
+    global _salt
+    if _salt is None:
+        from robwot_sim.model import decompose
+        from robwot_sim.sim import robot_shapes, surehit
+
+        h = hashlib.sha256()
+        for module in (robot_shapes, surehit, decompose):
+            h.update(Path(str(module.__file__)).read_bytes())
+        h.update(Path(__file__).read_bytes())
+        for lib in ("numpy", "scipy", "pybullet"):
+            h.update(f"{lib}={metadata.version(lib)};".encode())
+        _salt = h.hexdigest()
+    return _salt
+
+
+def folder() -> Path:
+    """The user's shapes cache: ``shapes/`` in ``ROBWOT_COLLISION_CACHE`` when set, else
+    ``$XDG_CACHE_HOME/robwot/shapes`` (``~/.cache`` without it)."""
+    if os.environ.get("ROBWOT_COLLISION_CACHE"):
+        return Path(os.environ["ROBWOT_COLLISION_CACHE"]) / "shapes"
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "robwot" / "shapes"
+
+
+def key(parts: list[FloatArray], bullet: Any) -> str:
+    """The entry of a link whose parts are ``parts`` and whose Bullet data (shape data, inertial frame, link
+    index, whether it moves) is ``bullet`` (its ``repr`` is digested)."""
+    h = hashlib.sha256(_salt_of().encode())
+    h.update(repr(bullet).encode())
+    for pts in parts:
+        a = np.ascontiguousarray(pts, dtype=np.float64)
+        h.update(repr(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def load(name: str, parts: int) -> dict[str, Any] | None:
+    """The arrays of entry ``name`` for a link of ``parts`` parts (``verts`` and ``corners`` as one list per
+    part), or None when there is none or it is not sound in kind, shape and values."""
+    path = folder() / f"{name}.npz"
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays: dict[str, Any] = {k: np.asarray(z[k]) for k in _FIELDS}
+    except (OSError, ValueError, KeyError, EOFError):
+        return None
+    for k, (kind, tail) in _FIELDS.items():
+        a = arrays[k]
+        if a.dtype.kind != kind or a.shape[1:] != tail or (kind == "f" and not np.isfinite(a).all()):
+            return None
+    counts, spheres = arrays["counts"], len(arrays["radii"])
+    if (len(counts) != parts or (counts < 1).any() or counts.sum() != len(arrays["verts"])
+            or len(arrays["corners"]) != len(arrays["verts"]) or len(arrays["centres"]) != spheres
+            or len(arrays["sphere_part"]) != spheres or (arrays["radii"] <= 0).any()
+            or ((arrays["sphere_part"] < 0) | (arrays["sphere_part"] >= parts)).any()
+            or not len(arrays["box_c"]) == len(arrays["box_axes"]) == len(arrays["box_half"]) == parts
+            or len(arrays["inner_c"]) != len(arrays["inner_r"]) or (arrays["inner_r"] < 0).any()):
+        return None
+    cut = np.cumsum(counts)[:-1]
+    arrays["verts"] = [np.ascontiguousarray(v) for v in np.split(arrays["verts"], cut)]
+    arrays["corners"] = [np.ascontiguousarray(c) for c in np.split(arrays["corners"], cut)]
+    return arrays
+
+
+def store(name: str, arrays: dict[str, Any]) -> None:
+    """Writes entry ``name`` (whole or not at all: a temporary file renamed); a failure is ignored."""
+    out = folder()
+    data = dict(arrays)
+    data["counts"] = np.array([len(v) for v in arrays["verts"]], dtype=np.int64)
+    data["verts"] = np.concatenate(arrays["verts"]).reshape(-1, 3)
+    data["corners"] = np.concatenate(arrays["corners"]).reshape(-1, 3)
+    try:
+        out.mkdir(parents=True, mode=0o700, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=out, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, **{k: data[k] for k in _FIELDS})
+            os.replace(tmp, out / f"{name}.npz")
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except OSError:
+        pass
+
+
+def cached(parts: list[FloatArray], bullet: Any, fit: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """The arrays of a link's shapes: its entry when sound, else ``fit()``'s, then stored."""
+    name = key(parts, bullet)
+    found = load(name, len(parts))
+    if found is not None:
+        return found
+    made = fit()
+    store(name, made)
+    return made

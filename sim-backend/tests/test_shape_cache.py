@@ -1,0 +1,84 @@
+"""The outer shapes kept on disk (``sim/shape_cache.py``): what a later process reads is exactly what the
+fits make, on real robots; an entry that is damaged, or made for other parts, is never used."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robwot_sim.sim import robot_shapes, shape_cache
+from robwot_sim.sim.robot_shapes import RobotShapes
+from robwot_sim.sim.world import World
+
+FIELDS = ("centres", "radii", "sphere_part", "box_c", "box_axes", "box_half", "inner_c", "inner_r")
+
+
+def shapes_of(w: World, rid: str) -> RobotShapes:
+    e = w.queries._scene.entries()[rid]
+    made = robot_shapes.robot_shapes(e.bound, e.checker.filtered, e.model)
+    assert made is not None
+    return made
+
+
+def same(a: RobotShapes, b: RobotShapes) -> None:
+    assert len(a.links) == len(b.links)
+    for x, y in zip(a.links, b.links, strict=True):
+        assert (x.link, x.moving) == (y.link, y.moving)
+        for f in FIELDS:
+            assert np.array_equal(getattr(x, f), getattr(y, f)), f
+        for f in ("verts", "corners"):
+            assert all(np.array_equal(u, v) for u, v in zip(getattr(x, f), getattr(y, f), strict=True)), f
+
+
+@pytest.mark.parametrize("urdf", ["kuka_iiwa/model.urdf", "franka_panda/panda.urdf"])
+def test_shapes_read_back_are_the_fitted_ones(urdf: str, tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    with World() as w:
+        rid = w.load_robot(urdf, robot_id="r").id
+        monkeypatch.setenv("ROBWOT_COLLISION_CACHE", str(tmp_path))
+        fitted = []
+        original = robot_shapes.fit_link
+        monkeypatch.setattr(robot_shapes, "fit_link", lambda p, i: fitted.append(1) or original(p, i))
+        first = shapes_of(w, rid)
+        entries = sorted((tmp_path / "shapes").glob("*.npz"))
+        assert len(fitted) == len(first.links) == len(entries)
+        second = shapes_of(w, rid)
+        assert len(fitted) == len(first.links)  # nothing fitted again
+        same(first, second)
+
+
+def test_a_damaged_or_foreign_entry_is_fitted_again(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    with World() as w:
+        rid = w.load_robot("kuka_iiwa/model.urdf", robot_id="r").id
+        monkeypatch.setenv("ROBWOT_COLLISION_CACHE", str(tmp_path))
+        truth = shapes_of(w, rid)
+        entries = sorted((tmp_path / "shapes").glob("*.npz"))
+        with np.load(entries[0]) as z:
+            good = {k: z[k] for k in z.files}
+        damaged = [
+            b"not a zip",  # unreadable
+            {**good, "radii": np.full_like(good["radii"], np.nan)},  # not finite
+            {**good, "radii": -good["radii"]},  # not a radius
+            {**good, "counts": good["counts"][:-1]},  # another number of parts
+            {**good, "box_axes": good["box_axes"][:, :2]},  # not a rotation's shape
+            {k: v for k, v in good.items() if k != "corners"},  # an array missing
+            {**good, "centres": np.array(["x"] * len(good["centres"]))},  # not numbers
+        ]
+        for bad in damaged:
+            if isinstance(bad, bytes):
+                entries[0].write_bytes(bad)
+            else:
+                np.savez(entries[0], **bad)
+            assert shape_cache.load(entries[0].stem, len(good["box_c"])) is None
+            same(truth, shapes_of(w, rid))  # fitted again, and stored again whole
+            assert shape_cache.load(entries[0].stem, len(good["box_c"])) is not None
+
+
+def test_other_parts_name_another_entry() -> None:
+    parts = [np.random.default_rng(1).random((20, 3))]
+    moved = [parts[0] + 1e-9]
+    assert shape_cache.key(parts, ("link", 1)) != shape_cache.key(moved, ("link", 1))
+    assert shape_cache.key(parts, ("link", 1)) != shape_cache.key(parts, ("link", 2))
+    assert shape_cache.key(parts, ("link", 1)) == shape_cache.key([parts[0].copy()], ("link", 1))
