@@ -73,3 +73,30 @@ def test_a_killed_backend_leaves_no_worker_process(tmp_path: Path) -> None:
         for pid in left:  # do not leave them to the next test either
             with contextlib.suppress(ProcessLookupError):
                 os.kill(pid, signal.SIGKILL)
+
+
+def test_warm_workers_start_with_the_server_and_end_with_it() -> None:
+    """``serve --warm-workers 2`` starts the forkserver and two workers while the server starts (no request
+    asked for them); a SIGKILL of the backend still takes them all along."""
+    proc = BackendProcess("--warm-workers", "2")
+    try:
+        proc.client().close()  # the server answers
+        deadline = time.monotonic() + 120.0
+        while len(kids := descendants(proc.proc.pid)) < 3 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert len(kids) >= 3, f"expected a forkserver and 2 workers below the backend, found {kids}"
+    finally:
+        proc.stop(signal.SIGKILL)
+    deadline = time.monotonic() + 5.0
+    while survivors(kids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not survivors(kids)
+
+
+@pytest.mark.parametrize("value", ["-1", "257", "two"])
+def test_a_bad_warm_workers_count_is_refused(value: str) -> None:
+    import subprocess
+
+    run = subprocess.run([sys.executable, "-m", "robwot_sim", "serve", "--warm-workers", value],
+                         capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2 and "--warm-workers" in run.stderr

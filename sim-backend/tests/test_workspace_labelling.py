@@ -60,6 +60,7 @@ def test_parallel_labels_equal_serial() -> None:
             helped.append(len(q))
             return w.collision_free_batch("kuka", q)
 
+        workspace_pool.shutdown_pool()  # workers that have not started yet
         assert np.array_equal(label_configurations(job, 6000, 2, helper=helper), serial)
         assert sum(helped) > 0  # the caller labelled chunks while the workers started
 
@@ -72,6 +73,7 @@ def test_the_caller_leaves_the_chunks_to_the_workers_once_one_has_answered() -> 
         lo, hi = w.robot_model("kuka").limits()
         serial = w.collision_free_batch("kuka", sample_configurations(lo, hi, 6000, seed=5))
         job = make_job(w, "kuka", 5)
+        workspace_pool.shutdown_pool()  # workers that have not started yet
         labelling = Labelling(job, 6000, 2)
         helped: list[int] = []
 
@@ -131,6 +133,17 @@ def test_warm_up_starts_workers() -> None:
         job = make_job(w, "kuka", 2)
         qs = sample_configurations(job.lower, job.upper, 3, seed=2)
         assert np.array_equal(label_configurations(job, 3, 2), w.collision_free_batch("kuka", qs))
+        # its workers answered the warm-up: a caller leaves every chunk to them
+        assert workspace_pool.answered(2)
+        helped: list[int] = []
+
+        def helper(q: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+            helped.append(len(q))
+            return np.ones(len(q), dtype=bool)
+
+        qs = sample_configurations(job.lower, job.upper, 3000, seed=2)
+        got = label_configurations(job, 3000, 2, helper=helper)
+        assert np.array_equal(got, w.collision_free_batch("kuka", qs)) and helped == []
     assert workspace_pool._pools[2] is pool
 
 

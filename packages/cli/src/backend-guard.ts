@@ -35,11 +35,13 @@ export class BackendGuard {
   }
 
   /**
-   * Starts an own backend, or connects to `url`. A running backend must have an empty world (generation
-   * labels collisions against everything in it); it is reset again on close.
+   * Starts an own backend (with its labelling pool starting at once for `warmWorkers`: 0 = one worker per
+   * core), or connects to `url`. A running backend must have an empty world (generation labels collisions
+   * against everything in it); it is reset again on close.
    */
-  static async open(url?: string): Promise<BackendGuard> {
-    const supervisor: BackendSupervisor = new BackendSupervisor(url === undefined ? launchConnector() : urlConnector(url), async () => undefined, {
+  static async open(url?: string, warmWorkers?: number): Promise<BackendGuard> {
+    const connector = url === undefined ? launchConnector({ warmWorkers }) : urlConnector(url);
+    const supervisor: BackendSupervisor = new BackendSupervisor(connector, async () => undefined, {
       restart: false,
       mapError: (err) => {
         const reason = supervisor.deadReason;

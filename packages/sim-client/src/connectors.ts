@@ -34,9 +34,12 @@ export function describeExit(info: ExitInfo, stderr: string): string {
 
 /** Connections made here keep the contract's timeouts (`TRANSPORT`): a short method's request deadline; long
  *  methods carry none (the heartbeat bounds them). */
-export function launchConnector(options: { python?: string | undefined } = {}): SimConnector {
+export function launchConnector(options: { python?: string | undefined; warmWorkers?: number | undefined } = {}): SimConnector {
   return async () => {
-    const b = await launchBackend(options.python ? { python: options.python } : {});
+    const b = await launchBackend({
+      ...(options.python ? { python: options.python } : {}),
+      ...(options.warmWorkers !== undefined ? { warmWorkers: options.warmWorkers } : {}),
+    });
     const conn = b.client.connection;
     return session(conn, {
       pid: b.pid,

@@ -36,6 +36,9 @@ export interface LaunchOptions extends RpcConnectionOptions {
   env?: NodeJS.ProcessEnv;
   /** working directory of the child (relative URDF paths resolve against it) */
   cwd?: string;
+  /** start the labelling pool's worker processes (0: one per core) while the backend starts (`--warm-workers`):
+   *  for a client that will generate a workspace */
+  warmWorkers?: number;
 }
 
 export interface ExitInfo {
@@ -150,6 +153,7 @@ export async function launchBackend(options: LaunchOptions = {}): Promise<Launch
   const host = options.host ?? "127.0.0.1";
   // --exit-on-stdin-eof: the backend ends when our end of its stdin pipe closes, even if we are SIGKILLed
   const args = ["-m", "robwot_sim", "serve", "--host", host, "--port", String(options.port ?? 0), "--exit-on-stdin-eof"];
+  if (options.warmWorkers !== undefined) args.push("--warm-workers", String(options.warmWorkers));
   const token = randomBytes(32).toString("base64url");
   const child = spawn(python, args, {
     stdio: ["pipe", "pipe", "pipe"],

@@ -41,6 +41,9 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("--log-level", default="WARNING", help="stderr log level (default WARNING)")
     serve.add_argument("--exit-on-stdin-eof", action="store_true",
                        help="stop when stdin is closed (used by launchers to tie our life to theirs)")
+    serve.add_argument("--warm-workers", type=_worker_count, metavar="N",
+                       help="start the labelling pool (N worker processes, 0: one per core) while the server "
+                            "starts, for a client that will generate a workspace (robwot generate)")
     sub.add_parser(
         "compile", help="compile the outer bounds' kernels into numba's disk cache",
         description="Compiles the path-check and labelling kernels once per machine (npm install runs "
@@ -48,6 +51,19 @@ def _parser() -> argparse.ArgumentParser:
                     "instead of compiling them on a thread of its own while it serves. Without numba, or if "
                     "they cannot compile, every check runs on Bullet alone (said here; exit code 0).")
     return parser
+
+
+def _worker_count(text: str) -> int:
+    from robwot_sim.limits import value_schema
+
+    most = int(value_schema("Workers")["maximum"])
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 0 <= n <= most:
+        raise argparse.ArgumentTypeError(f"{n} is not within 0..{most}")
+    return n
 
 
 def _compile() -> int:
@@ -74,6 +90,10 @@ def main(argv: list[str] | None = None) -> int:
     faulthandler.enable()
     logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if args.warm_workers is not None:  # the forkserver imports and loads the kernels beside our imports
+        from robwot_sim.workspace.pool import warm_up
+
+        warm_up(args.warm_workers or None)
     from robwot_sim.server.app import run_server
 
     given = os.environ.pop("ROBWOT_BACKEND_TOKEN", "")

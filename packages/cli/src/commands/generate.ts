@@ -118,8 +118,10 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
   try {
     await preflight(opts);
     progress.stage("backend");
-    // the TD validator warms up while the backend's Python starts
-    const [backend] = await Promise.all([BackendGuard.open(opts.backend), warmTdValidator()]);
+    // the TD validator warms up while the backend's Python starts, and an own backend's labelling workers
+    // start with it (a cluster run labels elsewhere)
+    const warm = opts.cluster === undefined ? (opts.workers ?? 0) : undefined;
+    const [backend] = await Promise.all([BackendGuard.open(opts.backend, warm), warmTdValidator()]);
     const dropBackend = onCleanup(() => backend.close());
     // on a signal the staged folder goes first (cheap), then the backend stops, then it goes again
     // (the backend may have written into it meanwhile)

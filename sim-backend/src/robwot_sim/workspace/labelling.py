@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from robwot_sim.errors import InternalError, SimError
 from robwot_sim.workspace.chunk import Chunk, ChunkJob, label_chunk
-from robwot_sim.workspace.pool import acquire_pool, ping, release_pool, spec_key, warm_up
+from robwot_sim.workspace.pool import acquire_pool, answered, ping, release_pool, spec_key, warm_up
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -56,6 +56,7 @@ class Labelling:
         self._error: BaseException | None = None
         self._up: Future[Any] | None = None  # the pool's first answer
         self.pool = acquire_pool(workers)
+        self._warm = answered(workers)  # its workers are up: the caller leaves every chunk to them
         self._released = False
         self._submitter = threading.Thread(target=self._submit_all, name="robwot-labelling-submit",
                                            daemon=True)
@@ -90,7 +91,7 @@ class Labelling:
         """Whether a worker has answered: the caller then leaves the chunks to the workers, which have every
         core (a caller helping them on would only take a core from one)."""
         up = self._up
-        return up is not None and up.done() and up.exception() is None
+        return self._warm or (up is not None and up.done() and up.exception() is None)
 
     def _stop(self, broken: bool = False) -> None:
         with self._lock:

@@ -49,6 +49,7 @@ _PRELOAD = ["robwot_sim.workspace.pool", "robwot_sim.sim.world", "robwot_sim.wor
 _pool_lock = threading.Lock()
 _pools: dict[int, ProcessPoolExecutor] = {}  # by worker count
 _active: dict[int, int] = {}  # running labellings per pool
+_answered: set[int] = set()  # pools (by worker count) whose every worker has answered a warm-up
 
 # worker-process state: (spec key, World)
 _worker_world: tuple[str, Any] | None = None
@@ -175,6 +176,7 @@ def acquire_pool(workers: int) -> ProcessPoolExecutor:
     with _pool_lock:
         for size in [k for k in _pools if k != workers and _active.get(k, 0) == 0]:
             _pools.pop(size).shutdown(wait=False, cancel_futures=True)
+            _answered.discard(size)
         pool = _pools.get(workers)
         if pool is None:
             ctx = multiprocessing.get_context("forkserver")
@@ -190,6 +192,13 @@ def release_pool(workers: int, broken: bool = False) -> None:
         _active[workers] = max(0, _active.get(workers, 0) - 1)
         if broken and workers in _pools:
             _pools.pop(workers).shutdown(wait=False, cancel_futures=True)
+            _answered.discard(workers)
+
+
+def answered(workers: int) -> bool:
+    """Whether the pool of ``workers`` processes is running and each of them answered a warm-up."""
+    with _pool_lock:
+        return workers in _answered and workers in _pools
 
 
 def shutdown_pool() -> None:
@@ -218,6 +227,10 @@ def warm_up(workers: int | None = None, preload: bool = False) -> threading.Thre
             if preload:
                 import robwot_sim.workspace.alpha_shape  # noqa: F401
             wait(futures)
+            if all(f.exception() is None for f in futures):
+                with _pool_lock:
+                    if _pools.get(n) is pool:
+                        _answered.add(n)
         except (BrokenProcessPool, RuntimeError):
             pass  # a later generation reports the problem
         finally:
