@@ -319,3 +319,36 @@ def test_pairs_a_table_calls_apart_are_apart_for_fresh_distance_queries() -> Non
                                            links[s.pair_b[k]], physicsClientId=cid)
                 assert not near, (k, q, [c[8] for c in near])
         assert decided >= 0.8 * 100 * (tab.dims >= 0).sum(), decided
+
+
+def test_kernel_caches_are_emptied_when_any_kernel_source_changed(tmp_path: Path) -> None:
+    """numba keys a kernel's cache by its own file; a kernel holds copies of the kernels it calls from the
+    other files, so every cache is emptied unless the stamp names all three sources as they are."""
+    import hashlib
+
+    from robwot_sim.sim import bounds_kernel, pair_kernel, sphere_kernel
+
+    outerbounds.kernels_ready(timeout=outerbounds.KERNELS_WAIT)
+    caches, stamp, sources = outerbounds._kernel_caches()
+    assert len(caches) >= 10  # every kernel of the three files
+    files = [Path(str(m.__file__)) for m in (sphere_kernel, pair_kernel, bounds_kernel)]
+    assert sources == hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
+    assert stamp.read_text() == sources  # written once the kernels loaded
+
+    class Cache:
+        flushed = 0
+
+        def flush(self) -> None:
+            Cache.flushed += 1
+
+    fakes: list[object] = [Cache(), Cache()]
+    mine = tmp_path / "stamp"
+    mine.write_text(sources)
+    outerbounds.flush_stale(fakes, mine, sources)
+    assert Cache.flushed == 0
+    for other in ("0" * 64, ""):
+        mine.write_text(other)
+        outerbounds.flush_stale(fakes, mine, sources)
+    mine.unlink()
+    outerbounds.flush_stale(fakes, mine, sources)
+    assert Cache.flushed == 6

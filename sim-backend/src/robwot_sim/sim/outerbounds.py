@@ -29,10 +29,13 @@ path check asks Bullet only about the states not free for sure (``CollisionCheck
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import os
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -128,19 +131,17 @@ def load_kernels(here: bool = False) -> None:
     def load() -> None:
         global _kernels_ok
         try:
+            caches, stamp, sources = _kernel_caches()
+            flush_stale(caches, stamp, sources)
             try:
                 _warm()
             except Exception:  # e.g. a cache naming types this version no longer has: compile again
-                from numba.core.registry import CPUDispatcher
-
-                from robwot_sim.sim import bounds_kernel, pair_kernel, sphere_kernel
-                for module in (sphere_kernel, pair_kernel, bounds_kernel):
-                    for kernel in vars(module).values():
-                        cache = getattr(kernel, "_cache", None) if isinstance(kernel, CPUDispatcher) else None
-                        if cache is not None:
-                            cache.flush()
+                for cache in caches:
+                    cache.flush()
                 _warm()
             _kernels_ok = True
+            with contextlib.suppress(OSError):
+                stamp.write_text(sources)
         except Exception as err:  # the bounds stay empty: every check runs on Bullet alone
             print(f"robwot: the outer bounds' compiled kernels did not load ({err!r}); checks run on Bullet "
                   "alone", file=sys.stderr)
@@ -151,6 +152,33 @@ def load_kernels(here: bool = False) -> None:
         load()
     else:
         threading.Thread(target=load, name="robwot-kernels", daemon=True).start()
+
+
+def flush_stale(caches: list[Any], stamp: Path, sources: str) -> None:
+    """Every cache emptied unless ``stamp`` holds ``sources`` (the kernels' sources they were compiled from:
+    ``_kernel_caches``); an unreadable stamp counts as another."""
+    try:
+        same = stamp.read_text() == sources
+    except (OSError, UnicodeDecodeError):
+        same = False
+    if not same:
+        for cache in caches:
+            cache.flush()
+
+
+def _kernel_caches() -> tuple[list[Any], Path, str]:
+    """numba's disk caches of every kernel, the stamp file beside them and the digest of the kernels' sources
+    it must hold. numba keys a kernel's cache by its own file only, but a kernel holds a copy of every kernel
+    it calls from the other files (inlined or linked in): a change to any of the files compiles all."""
+    from numba.core.registry import CPUDispatcher
+
+    from robwot_sim.sim import bounds_kernel, pair_kernel, sphere_kernel
+    modules = (sphere_kernel, pair_kernel, bounds_kernel)
+    found = [getattr(k, "_cache", None) for m in modules for k in vars(m).values()
+             if isinstance(k, CPUDispatcher)]
+    caches = [c for c in found if c is not None]
+    digest = hashlib.sha256(b"".join(Path(str(m.__file__)).read_bytes() for m in modules)).hexdigest()
+    return caches, Path(caches[0]._cache_path) / "robwot-kernels.sha256", digest
 
 
 def asked(rows: int) -> bool:

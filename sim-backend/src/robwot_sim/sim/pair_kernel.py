@@ -82,22 +82,33 @@ def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _cell(tab: PairTables, k: int, q: Array) -> tuple[int, float, float]:
-    """Configuration ``q``'s cell in self pair ``k``'s table (-1: no table, or outside it), the rates times
-    ``q``'s distance from the cell's centre per coordinate, and the most that can be for any point of it."""
+def _cell(tab: PairTables, k: int, q: Array) -> tuple[int, float]:
+    """Configuration ``q``'s cell in self pair ``k``'s table (-1: no table, or outside it) and the rates
+    times ``q``'s distance from the cell's centre per coordinate."""
     dims = tab.dims[k]
     if dims < 0:
-        return -1, 0.0, 0.0
-    index, slack, most = 0, 0.0, 0.0
+        return -1, 0.0
+    index, slack = 0, 0.0
     for m in range(dims):
         x = (q[tab.coord[k, m]] - tab.lo[k, m]) / tab.width[k, m]
         if not (x >= 0.0 and x < tab.cells[k, m]):
-            return -1, 0.0, 0.0
+            return -1, 0.0
         c = int(x)
         index = index * tab.cells[k, m] + c
         slack += tab.rate[k, m] * tab.width[k, m] * abs(x - c - 0.5)
+    return index, slack
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _span(tab: PairTables, k: int) -> tuple[int, float]:
+    """Self pair ``k``'s table: its number of cells (0: none) and the most ``_cell``'s slack can be."""
+    if tab.dims[k] < 0:
+        return 0, 0.0
+    count, most = 1, 0.0
+    for m in range(tab.dims[k]):
+        count *= tab.cells[k, m]
         most += tab.rate[k, m] * tab.width[k, m] * 0.5
-    return index, slack, most
+    return count, most
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -107,7 +118,7 @@ def table_apart(tab: PairTables, k: int, q: Array, need: float) -> int:
     known (no table, outside it), -1 the cell not computed yet (``fill_cell``). Takes no shapes: a function
     the kernels inline must not pass the tuples of arrays on to another call (numba then counts
     references to every array of them at each use, on the hot path)."""
-    index, slack, _ = _cell(tab, k, q)
+    index, slack = _cell(tab, k, q)
     if index < 0:
         return 0
     gap = tab.gap[tab.first[k] + index]
@@ -139,7 +150,8 @@ def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, 
 def fill_cell(tab: PairTables, k: int, q: Array, t: Tree, s: Shapes, b: Bodies, need: float, Q: Array,
               P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> int:
     """``table_apart`` once configuration ``q``'s cell is computed (``_gap_at``, from ``q``)."""
-    index, slack, most = _cell(tab, k, q)
+    index, slack = _cell(tab, k, q)
+    most = _span(tab, k)[1]
     Q[:] = q
     gap = _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u, sa, sb)
     return 1 if gap - slack > need else 0
@@ -152,11 +164,8 @@ def fill_tables(t: Tree, s: Shapes, tab: PairTables, b: Bodies, need: float) -> 
     Q, P, R = np.zeros(t.coupling.shape[1]), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3))
     ca, cb, u, sa, sb = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     for k in range(tab.dims.shape[0]):
-        count, most = 1, 0.0
-        for m in range(tab.dims[k]):
-            count *= tab.cells[k, m]
-            most += tab.rate[k, m] * tab.width[k, m] * 0.5
-        for index in range(count if tab.dims[k] >= 0 else 0):
+        count, most = _span(tab, k)
+        for index in range(count):
             if math.isnan(tab.gap[tab.first[k] + index]):
                 _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u, sa, sb)
 
