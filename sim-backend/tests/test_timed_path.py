@@ -217,7 +217,12 @@ def test_every_valid_plan_carries_the_path_it_checked() -> None:
         w.add_obstacle({"name": "wall", "shape": {"type": "box", "size": [0.1, 0.4, 0.1]}, "position": wall})
         detour = plan_joints(w, m.id, [0, 1.2, 0, 0, 0, 0, 0], 1.0, 1 / 240)
         assert detour.valid and detour.checks["path"]["planned"] == "detour" and detour.via
-        assert detour.path is not None and isinstance(detour.path.pieces[0], Curve)  # one motion
+        # one motion through its corners when the smoothed curve passes the check, else straight pieces that
+        # stop at its via points: both are valid, and which one depends on the detour OMPL finds, which
+        # depends on the searches this process ran before (OMPL takes its seed once per process)
+        assert detour.path is not None
+        kinds = [type(piece).__name__ for piece in detour.path.pieces]
+        assert kinds[0] == "Curve" or kinds == ["Straight"] * (len(detour.via) + 1), kinds
         assert w.check_states(m.id, detour.path).collision_free
         assert detour.path.last == pytest.approx([0, 1.2, 0, 0, 0, 0, 0])
         w.remove_obstacle("wall")
