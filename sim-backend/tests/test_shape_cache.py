@@ -82,3 +82,36 @@ def test_other_parts_name_another_entry() -> None:
     assert shape_cache.key(parts, ("link", 1)) != shape_cache.key(moved, ("link", 1))
     assert shape_cache.key(parts, ("link", 1)) != shape_cache.key(parts, ("link", 2))
     assert shape_cache.key(parts, ("link", 1)) == shape_cache.key([parts[0].copy()], ("link", 1))
+
+
+CUBE = "".join(f"v {x} {y} {z}\n" for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (0.0, 0.3)) + (
+    "f 1 2 4 3\nf 5 7 8 6\nf 1 5 6 2\nf 3 4 8 7\nf 1 3 7 5\nf 2 6 8 4\n")
+ARM = """<robot name="cubes">
+  <link name="base"><collision><geometry><mesh filename="cube.obj"/></geometry></collision>
+    <inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <link name="arm"><collision><origin xyz="0 0 0.05"/><geometry><mesh filename="cube.obj"/></geometry>
+    </collision>
+    <inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.4"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def test_entries_name_mesh_files_by_content_not_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same robot from another folder (an expanded xacro's temporary one) reads the entries back; the
+    same vertices in a file that differs elsewhere are fitted again."""
+    monkeypatch.setenv("ROBWOT_COLLISION_CACHE", str(tmp_path / "cache"))
+    fitted = []
+    original = robot_shapes.fit_link
+    monkeypatch.setattr(robot_shapes, "fit_link", lambda p, i: fitted.append(1) or original(p, i))
+    counts = []
+    for folder, extra in (("a", ""), ("b", ""), ("c", "o second\n")):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "cube.obj").write_text(CUBE + extra)
+        (tmp_path / folder / "arm.urdf").write_text(ARM)
+        with World() as w:
+            rid = w.load_robot(str(tmp_path / folder / "arm.urdf"), robot_id="r").id
+            shapes_of(w, rid)
+        counts.append(len(fitted))
+    assert counts[0] == 2 and counts[1] == 2 and counts[2] == 4, counts

@@ -491,7 +491,9 @@ def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> Robo
             parts = [(pts - p[j]) @ r[j] for pts in parts]
         joints.append(j)
         # what the fits read of Bullet besides the parts: the shapes, the inertial frame (shape_cache.key)
-        bullet = (ln, ln in moving, pb.getCollisionShapeData(body, ln, physicsClientId=cid),
+        data = pb.getCollisionShapeData(body, ln, physicsClientId=cid)
+        shape_data = [shape_cache.by_content(row) for row in data]
+        bullet = (ln, ln in moving, shape_data,
                   pb.getLinkState(body, ln, physicsClientId=cid)[2:4] if ln >= 0 else None)
         def fit(p: list[FloatArray] = parts, at: int = ln) -> dict[str, Any]:
             return fit_link(p, link_balls(cid, body, at) if at in moving else None)

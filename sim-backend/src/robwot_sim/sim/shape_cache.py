@@ -3,13 +3,14 @@ kept on disk between processes, so a robot's shapes are fitted once per machine 
 (each labelling worker, each backend): the fits cost about as much as the rest of a worker's start.
 
 An entry is named by the digest of everything the fits read: the link's parts as points in its frame (the
-meshes' contents, scaled and placed), Bullet's shape data of the link and its inertial frame (what the inner
-balls read besides), and ``SALT`` (the fitting code's sources and the versions of numpy, scipy and pybullet):
-changed code, meshes or libraries name other entries. The folder is the user's own (``folder``, mode 0700,
-beside the user's collision cache, never a twin's ``collision/`` folder): it is trusted as numba's cache of
-the kernels is. An entry is still read with ``allow_pickle=False`` and checked for its arrays' kinds, shapes
-and finite values; one that fails, or any failure to read or write, leaves the shapes to be fitted as if
-there were no cache.
+meshes' contents, scaled and placed), Bullet's shape data of the link (its mesh files by their contents'
+digests, not their paths) and its inertial frame (what the inner balls read besides), and ``SALT`` (the
+fitting code's sources and the versions of numpy, scipy and pybullet): changed code, meshes or libraries
+name other entries. The folder is the user's own (``folder``, mode 0700, beside the user's collision
+cache, never a twin's ``collision/`` folder): it is trusted as numba's cache of the kernels is. An entry
+is still read with ``allow_pickle=False`` and checked for its arrays' kinds, shapes and finite values; one
+that fails, or any failure to read or write, leaves the shapes to be fitted as if there were no cache.
+Entries are a few kilobytes each and never removed: deleting the folder only costs the fits again.
 """
 
 from __future__ import annotations
@@ -68,6 +69,19 @@ def key(parts: list[FloatArray], bullet: Any) -> str:
         h.update(repr(a.shape).encode())
         h.update(a.tobytes())
     return h.hexdigest()
+
+
+def by_content(shape: tuple[Any, ...]) -> tuple[Any, ...]:
+    """One of Bullet's collision shape data rows with its mesh file named by the digest of its content: a
+    robot loaded from a temporary folder (an expanded xacro, a tool attached) names the same entries each
+    time, and a file changed in place names others."""
+    name = shape[4]
+    path = Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name))
+    try:
+        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else repr(name)
+    except OSError:
+        digest = repr(name)
+    return (*shape[:4], digest, *shape[5:])
 
 
 def load(name: str, parts: int) -> dict[str, Any] | None:
