@@ -64,23 +64,51 @@ def test_the_clearance_is_kept_to_the_millimetre_and_can_be_configured() -> None
     assert seen["refused"] >= 2 and seen["accepted"] >= 2, seen
 
 
+_BOXES = [(0.5, 0.0, 0.4), (-0.3, 0.45, 0.7), (0.0, -0.55, 0.2), (0.2, 0.3, 1.1)]
+
+
+def _kuka_among_boxes(w: World) -> Any:
+    """A KUKA among four 20 cm boxes; its scene entry."""
+    w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
+    for k, (x, y, z) in enumerate(_BOXES):
+        w.add_obstacle({"name": f"box{k}", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]},
+                        "position": [x, y, z]})
+    return w.scene.entry("kuka")
+
+
+def _first_contact_by_bullet(e: Any, q0: np.ndarray, q1: np.ndarray) -> tuple[float | None, int]:
+    """The reference: the first state along q0 -> q1 that Bullet finds closer than the clearance (None when
+    there is none), asking at every state the path check would visit; and the states asked."""
+    from robwot_sim.sim.sweep import substeps
+
+    n = substeps(q0, q1, e.guard.reach, e.guard.max_sweep)
+    for i in range(1, n + 1):
+        e.bound.apply(q0 + (q1 - q0) * (i / n))
+        if not e.checker.is_free(e.clearance):
+            return i / n, i
+    return None, n
+
+
+def _random_paths(w: World, e: Any, rng: np.random.Generator) -> Any:
+    """60 random straight paths of the KUKA that start free; each as (q0, q1)."""
+    lo, hi = w.robot_model("kuka").limits()
+    for _ in range(60):
+        q0, q1 = rng.uniform(lo, hi), rng.uniform(lo, hi)
+        e.bound.apply(q0)
+        if e.checker.is_free(e.clearance):
+            yield q0, q1
+
+
 def test_skipping_distance_queries_far_from_obstacles_finds_the_same_first_contact() -> None:
     """The path check measures the distance to other bodies only when the travel since the last
     measurement could have used up the gap (conservative advancement). On 60 random paths among boxes it
     reports the same first state closer than the clearance as measuring at every state, with a tenth of the
     distance queries."""
     from robwot_sim.sim.pathcheck import first_contact
-    from robwot_sim.sim.sweep import substeps
 
     rng = np.random.default_rng(11)
     with World() as w:
-        m = w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
-        boxes = [(0.5, 0.0, 0.4), (-0.3, 0.45, 0.7), (0.0, -0.55, 0.2), (0.2, 0.3, 1.1)]
-        for k, (x, y, z) in enumerate(boxes):
-            w.add_obstacle({"name": f"box{k}", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]},
-                            "position": [x, y, z]})
-        e = w.scene.entry("kuka")
-        lo, hi = m.limits()
+        e = _kuka_among_boxes(w)
         queries = {"gap": 0}
         gap = e.checker.gap
 
@@ -90,20 +118,10 @@ def test_skipping_distance_queries_far_from_obstacles_finds_the_same_first_conta
 
         e.checker.gap = counted  # type: ignore[method-assign]
         hits = states = 0
-        for _ in range(60):
-            q0, q1 = rng.uniform(lo, hi), rng.uniform(lo, hi)
-            e.bound.apply(q0)
-            if not e.checker.is_free(e.clearance):
-                continue
+        for q0, q1 in _random_paths(w, e, rng):
             got = first_contact(e.bound, e.checker, q0, q1, e.guard, e.clearance)
-            n = substeps(q0, q1, e.guard.reach, e.guard.max_sweep)
-            want = None
-            for i in range(1, n + 1):
-                e.bound.apply(q0 + (q1 - q0) * (i / n))
-                states += 1
-                if not e.checker.is_free(e.clearance):
-                    want = i / n
-                    break
+            want, asked = _first_contact_by_bullet(e, q0, q1)
+            states += asked
             assert (got[0] if got else None) == want
             hits += want is not None
     assert 10 <= hits < 60  # both outcomes occur
@@ -117,18 +135,11 @@ def test_states_the_bounds_find_free_give_the_same_first_contact(
     every state, and the bounds decided at least a third of the states."""
     from robwot_sim.sim import outerbounds, pathcheck
     from robwot_sim.sim.pathcheck import first_contact
-    from robwot_sim.sim.sweep import substeps
 
     assert outerbounds.kernels_ready(timeout=outerbounds.KERNELS_WAIT)
     rng = np.random.default_rng(12)
     with World() as w:
-        m = w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
-        boxes = [(0.5, 0.0, 0.4), (-0.3, 0.45, 0.7), (0.0, -0.55, 0.2), (0.2, 0.3, 1.1)]
-        for k, (x, y, z) in enumerate(boxes):
-            w.add_obstacle({"name": f"box{k}", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]},
-                            "position": [x, y, z]})
-        e = w.scene.entry("kuka")
-        lo, hi = m.limits()
+        e = _kuka_among_boxes(w)
         assert e.checker.sure_free is not None
         passed = {"sure": 0, "states": 0}
         sure_free = pathcheck.sure_free
@@ -141,19 +152,9 @@ def test_states_the_bounds_find_free_give_the_same_first_contact(
 
         monkeypatch.setattr(pathcheck, "sure_free", counted)
         hits = 0
-        for _ in range(60):
-            q0, q1 = rng.uniform(lo, hi), rng.uniform(lo, hi)
-            e.bound.apply(q0)
-            if not e.checker.is_free(e.clearance):
-                continue
+        for q0, q1 in _random_paths(w, e, rng):
             got = first_contact(e.bound, e.checker, q0, q1, e.guard, e.clearance)
-            n = substeps(q0, q1, e.guard.reach, e.guard.max_sweep)
-            want = None
-            for i in range(1, n + 1):
-                e.bound.apply(q0 + (q1 - q0) * (i / n))
-                if not e.checker.is_free(e.clearance):
-                    want = i / n
-                    break
+            want, _ = _first_contact_by_bullet(e, q0, q1)
             assert (got[0] if got else None) == want
             hits += want is not None
     assert 10 <= hits < 60  # both outcomes occur

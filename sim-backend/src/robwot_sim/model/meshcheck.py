@@ -97,7 +97,7 @@ class Parsed:
 
 #: bytes of parsed meshes a process keeps (by content): the robot's load, its collision mirrors and its
 #: outer shapes each ask about the same files, which are then parsed once
-MEMO_BYTES = 256 << 20
+MEMO_BYTES = 64 << 20
 _memo: OrderedDict[tuple[str, str], Parsed] = OrderedDict()
 _memo_bytes = 0
 _memo_lock = threading.Lock()
