@@ -81,8 +81,9 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
     (conservative advancement). States the outer bounds find farther than the clearance from every other
     body and free of self-contact (``CollisionChecker.sure_free``) are not asked of Bullet at all. The
     verdict and the first contact are the same as measuring at every state; far from obstacles most
-    queries are saved. A checkpoint (`world_thread.checkpoint`) before
-    each state may let other robots move: the distance is then measured again."""
+    queries are saved. A checkpoint (`world_thread.checkpoint`) before each segment and before each state
+    asked of Bullet may let other robots move: the distance is then measured, and the states ahead
+    classified, again. Between checkpoints nothing else moves, so the states found free stay free."""
     slack = -1.0  # travel left before the other bodies must be measured again
     applied = False  # whether the robot stands at the last state checked
     for j in range(len(points) - 1):
@@ -90,28 +91,45 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
         n = substeps(q0, q1, guard.reach, guard.max_sweep)
         step = float(np.sum(np.abs(q1 - q0) * guard.reach)) / n
         states = q0 + (q1 - q0) * (np.arange(1, n + 1) / n)[:, None]
-        sure = sure_free(checker, states, clearance)
-        for i in range(1, n + 1):
+        if checkpoint():
+            slack = -1.0
+        asked, t = _unsure(checker, states, clearance, 0), 0
+        done = 0  # states of the segment passed
+        while True:
+            k = asked[t] if t < len(asked) else n  # the next state to ask Bullet; those before are free
+            t += 1
+            applied = applied and k == done
+            slack -= step * (k - done)
+            done = k
+            if k == n:
+                break
             if checkpoint():  # other bodies may have moved meanwhile: measure them again
                 slack = -1.0
-                sure[i - 1:] = sure_free(checker, states[i - 1:], clearance)
-            q = states[i - 1]
+                asked, t = _unsure(checker, states, clearance, k), 0
+                if asked[:1] != [k]:
+                    continue
+                t = 1
+            q = states[k]
             slack -= step
-            applied = not sure[i - 1]
-            if not applied:
-                continue
+            done = k + 1
             robot.apply(q)
+            applied = True
             apart = clearance > TOUCH and slack >= 0.0
             if not apart and clearance > TOUCH:
                 gap = checker.gap(clearance + GAP_CAP)
                 if gap <= clearance:
-                    return j, i / n, q
+                    return j, done / n, q
                 apart, slack = True, gap - clearance
             if not checker.is_free(clearance, others_apart=apart):
-                return j, i / n, q
+                return j, done / n, q
     if not applied:
         robot.apply(points[-1])
     return None
+
+
+def _unsure(checker: CollisionChecker, states: FloatArray, clearance: float, start: int) -> list[int]:
+    """The indices from ``start`` on of the ``states`` not known free by ``clearance`` (``sure_free``)."""
+    return (start + np.flatnonzero(~sure_free(checker, states[start:], clearance))).tolist()
 
 
 def sure_free(checker: CollisionChecker, states: FloatArray, clearance: float) -> npt.NDArray[np.bool_]:

@@ -19,8 +19,9 @@ coordinates (m, rad); the state of the world is not changed. A plan is a long jo
 from __future__ import annotations
 
 import hashlib
+import itertools
 import struct
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -234,14 +235,14 @@ def plan_joints(world: World, robot: str, target: Sequence[float], speed: float 
 
 
 def _alternative_seeds(model: RobotModel, position: Sequence[float], orientation: Sequence[float] | None,
-                       count: int) -> list[list[float]]:
-    """`count` start configurations within the limits, the same for the same target."""
+                       count: int) -> Iterator[list[float]]:
+    """`count` start configurations within the limits, the same for the same target, drawn as asked (most
+    targets need none)."""
     key = struct.pack(f"{3 + len(orientation or [])}d", *position, *(orientation or []))
     rng = np.random.default_rng(int.from_bytes(hashlib.sha256(key).digest()[:8], "little"))
-    joints = {j.name: j for j in model.joints}
-    lower = np.array([joints[n].lower for n in model.controllable])
-    upper = np.array([joints[n].upper for n in model.controllable])
-    return [list(rng.uniform(lower, upper)) for _ in range(count)]
+    lower, upper = model.limits()
+    for _ in range(count):
+        yield list(rng.uniform(lower, upper))
 
 
 def plan_pose(world: World, robot: str, position: Sequence[float], orientation: Sequence[float] | None,
@@ -252,7 +253,7 @@ def plan_pose(world: World, robot: str, position: Sequence[float], orientation: 
     timing = Timing(speed, dt, acceleration, detour=detour)
     model = world.robot_model(robot)
     where = f"({', '.join(_fmt(v) for v in position)}) m"
-    seeds: list[list[float] | None] = [None, *_alternative_seeds(model, position, orientation, alternatives)]
+    seeds = itertools.chain([None], _alternative_seeds(model, position, orientation, alternatives))
     first: tuple[tuple[float, ...], float, list[Contact]] | None = None
     start: tuple[Contact, ...] = ()
     #: an IK solution that reaches the target but whose configuration collides
