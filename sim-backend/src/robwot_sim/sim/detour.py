@@ -54,6 +54,9 @@ COARSE = 8
 SMOOTH_ROUNDS = 3
 #: OMPL's random seed (the process's first search)
 SEED = 26
+#: seconds of search after which a motion check gives up Python's lock once (to the backend's loop), at most
+#: (giving it up costs a system call, as much as checking a short motion)
+YIELD_EVERY = 0.002
 #: detours remembered per robot (the most recent ones)
 REMEMBERED = 4
 #: how close (rad or m, per joint) a request's state must be to a remembered detour's to reuse it
@@ -158,11 +161,16 @@ class _PathCheck(ob.MotionValidator):  # type: ignore[misc]
                  dof: int) -> None:
         super().__init__(info)
         self._motion, self._dof = motion, dof
+        self._yielded = time.monotonic()
 
     def checkMotion(self, a: ob.State, b: ob.State, *_: object) -> bool:
         # called from OMPL's C++ loop, a Python validator takes Python's lock back before a waiting thread
-        # gets it (the backend's loop answered pings after up to a second): it is given up once per motion
-        time.sleep(0)
+        # gets it (the backend's loop answered pings after up to a second): it is given up at the first
+        # motion check after every YIELD_EVERY of search
+        now = time.monotonic()
+        if now - self._yielded >= YIELD_EVERY:
+            time.sleep(0)
+            self._yielded = now
         return self._motion(_vector(a, self._dof), _vector(b, self._dof))
 
 
