@@ -11,8 +11,9 @@ the servient and the socket in between:
   example-robot-data among the boxes of ``tests/test_sim_detour_symmetry.py``, from a home within the
   robot's clearance of a box. Prints the load average.
 
-As a servient has them (``planning.warmUp``), the outer bounds' compiled kernels are loaded before the
-first robot (waited for); ``--bullet`` leaves them out, every state checked by Bullet alone.
+As a servient has them (``planning.warmUp``), the outer bounds' compiled kernels and TOPP-RA (which times
+a detour's curve) are loaded before the first robot (waited for); ``--bullet`` leaves the kernels out,
+every state checked by Bullet alone.
 """
 
 from __future__ import annotations
@@ -124,6 +125,8 @@ def main() -> None:
         os.environ["ROBWOT_OUTER_BOUNDS"] = "off"
     elif not kernels_ready(timeout=900.0):
         raise SystemExit("the outer bounds' kernels did not load (run with --bullet to measure without)")
+    import toppra.algorithm  # what planning.warmUp's motion.load_timing imports, here waited for
+    import toppra.constraint  # noqa: F401
     what = "Bullet alone" if args.bullet else "outer bounds loaded"
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"bench-planning ({what}): load average {load}", flush=True)
