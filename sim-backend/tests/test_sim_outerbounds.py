@@ -19,7 +19,7 @@ from simhelp import MODELS
 from robwot_bench.reference import example_robot
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.model.tool import attach_tool
-from robwot_sim.sim import outerbounds, robot_shapes
+from robwot_sim.sim import joint_tree, outerbounds, robot_shapes
 from robwot_sim.sim.outerbounds import OuterBounds
 from robwot_sim.sim.world import World
 
@@ -183,14 +183,14 @@ def test_the_compiled_fk_places_every_link_where_bullet_does() -> None:
         with World() as w:
             w.add_robot(World.read_robot(urdf, couplings=rules, keep_level=level), robot_id="r")
             e = w.scene.entry("r")
-            tree, joint_of = robot_shapes.joint_tree(list(e.model.joints), list(e.model.controllable),
+            tree, joint_of = joint_tree.joint_tree(list(e.model.joints), list(e.model.controllable),
                                                     list(e.model.couplings), e.model.base_position,
                                                     e.model.base_orientation) or (None, {})
             assert tree is not None
             lo, hi = w.robot_model("r").limits()
             for q in np.random.default_rng(5).uniform(lo, hi, size=(200, len(lo))):
                 w.set_joint_positions("r", q)
-                p, r = robot_shapes.tree_frames(tree, q)
+                p, r = joint_tree.tree_frames(tree, q)
                 for ln, name in e.bound.link_names.items():
                     frame = e.bound.bullet.link_frame(e.bound.body, ln)
                     j = joint_of.get(name, -1)  # the root: its frame is the base's
@@ -266,7 +266,7 @@ def test_a_pair_tables_rates_bound_how_fast_its_links_move(robot: str) -> None:
         for k in np.flatnonzero(tab.dims >= 0):
             coords = tab.coord[k, :tab.dims[k]]
             la, lb = s.pair_a[k], s.pair_b[k]
-            chains = [robot_shapes._chain(tree, int(s.joint[ln])) for ln in (la, lb)]
+            chains = [joint_tree.ancestors(tree, int(s.joint[ln])) for ln in (la, lb)]
             shared = [j for j in chains[0] if j in chains[1]]
             top = shared[0] if shared else len(tree.parent)  # the root's frame: the last
             for q in rng.uniform(lo, hi, size=(40, len(lo))):
@@ -276,14 +276,14 @@ def test_a_pair_tables_rates_bound_how_fast_its_links_move(robot: str) -> None:
                 other[rest] = rng.uniform(lo[rest], hi[rest])
                 seen = []
                 for x in (q, moved, other):
-                    p, r = robot_shapes.tree_frames(tree, x)
+                    p, r = joint_tree.tree_frames(tree, x)
                     seen.append([(_vertices(bounds, ln, p, r) - p[top]) @ r[top] for ln in (la, lb)])
                 bound = float(np.dot(tab.rate[k, :tab.dims[k]], np.abs(moved[coords] - q[coords])))
                 moves = sum(np.linalg.norm(seen[1][m] - seen[0][m], axis=1).max() for m in range(2))
                 assert moves <= bound + 1e-9, (k, q)
-                p, r = robot_shapes.tree_frames(tree, other)
+                p, r = joint_tree.tree_frames(tree, other)
                 f = int(s.joint[lb]) if s.joint[lb] >= 0 else len(p) - 1
-                p0, r0 = robot_shapes.tree_frames(tree, q)
+                p0, r0 = joint_tree.tree_frames(tree, q)
                 f0 = (_vertices(bounds, la, p0, r0) - p0[f]) @ r0[f]
                 assert np.abs((_vertices(bounds, la, p, r) - p[f]) @ r[f] - f0).max() < 1e-9, (k, q)
 

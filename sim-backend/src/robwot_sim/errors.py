@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 from robwot_sim.limits import contract_document
@@ -281,9 +282,17 @@ class PlanBudget(SimError):
 
 
 class MeshError(SimError):
-    """A mesh file our parser refuses (PyBullet would crash or silently drop it): ``file``, ``reason``."""
+    """A mesh file our parser refuses (PyBullet would crash or silently drop it): ``file``, ``reason``
+    (``line`` where it has one)."""
 
     code = "E_MESH"
+
+    @classmethod
+    def at(cls, path: Path, reason: str, line: int | None = None) -> MeshError:
+        """The refusal of mesh file ``path`` for ``reason``, at ``line`` when given."""
+        if line is None:
+            return cls(f"mesh {path}: {reason}", file=str(path), reason=reason)
+        return cls(f"mesh {path}: line {line}: {reason}", file=str(path), reason=reason, line=line)
 
 
 class ClusterError(SimError):
@@ -331,3 +340,12 @@ class ScanError(SimError):
     def __init__(self, reason: str, *, file: str, line: int | None = None) -> None:
         where = file + (f":{line}" if line is not None else "")
         super().__init__(f"{where}: {reason}", file=file, line=line, reason=reason)
+
+
+def snippet(text: object, limit: int = 32, *, quote: bool = True) -> str:
+    """A short quote of a file's own text for an error message: printable ASCII only, at most ``limit``
+    characters (an error must not carry a file's content along)."""
+    raw = str(text)
+    clean = "".join(c if " " <= c <= "~" else "?" for c in raw[:limit])
+    clean += "..." if len(raw) > limit else ""
+    return repr(clean) if quote else clean

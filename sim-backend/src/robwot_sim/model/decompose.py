@@ -36,10 +36,10 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
-from robwot_sim.errors import MeshError, PathEscape
+from robwot_sim.errors import MeshError, PathEscape, snippet
 from robwot_sim.model.hull_merge import NEAR, merge_parts
 from robwot_sim.model.mesh_eta import MeshEta
-from robwot_sim.model.meshcheck import check_mesh, snippet
+from robwot_sim.model.meshcheck import check_mesh
 from robwot_sim.model.objfile import write_obj
 from robwot_sim.twin_layout import COLLISION_DIR
 from robwot_sim.wholefile import TooLarge, read_whole

@@ -20,11 +20,19 @@ from pathlib import Path
 
 import pybullet_data
 
-from robwot_sim.errors import FileNotFound, Forbidden, MeshError, PathEscape, UnknownPackage, UrdfError
+from robwot_sim.errors import (
+    FileNotFound,
+    Forbidden,
+    MeshError,
+    PathEscape,
+    UnknownPackage,
+    UrdfError,
+    snippet,
+)
 from robwot_sim.model import xmlsafe
 from robwot_sim.model.confine import inside
 from robwot_sim.model.decompose import FloatArray, IndexArray, OnMesh, collision_cache, split_collisions
-from robwot_sim.model.meshcheck import check_mesh, read_mesh, snippet
+from robwot_sim.model.meshcheck import check_mesh, read_mesh
 from robwot_sim.model.ros_packages import enclosing_package, find_on_ros_package_path, folder_named
 from robwot_sim.wholefile import TooLarge, read_whole
 

@@ -15,8 +15,10 @@ from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
 from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, near, place, separation, sure
 
 if TYPE_CHECKING:
+    from robwot_sim.sim.joint_tree import Tree
     from robwot_sim.sim.outerbounds import Bodies, Grid
-    from robwot_sim.sim.robot_shapes import PairTables, Shapes, Tree
+    from robwot_sim.sim.pair_tables import PairTables
+    from robwot_sim.sim.robot_shapes import Shapes
 
 Array = np.ndarray
 

@@ -43,17 +43,9 @@ import numpy.typing as npt
 import pybullet as pb
 
 from robwot_sim.model.rotations import quat_matrix
-from robwot_sim.sim.robot_shapes import (
-    GROW,
-    LinkShapes,
-    RobotShapes,
-    Tree,
-    ball,
-    pair_tables,
-    robot_shapes,
-    shapes_of,
-    tree_frames,
-)
+from robwot_sim.sim.joint_tree import Tree, tree_frames
+from robwot_sim.sim.pair_tables import pair_tables
+from robwot_sim.sim.robot_shapes import GROW, LinkShapes, RobotShapes, ball, robot_shapes, shapes_of
 from robwot_sim.sim.surehit import DEPTH, LinkBalls
 from robwot_sim.sim.types import FloatArray
 
@@ -311,7 +303,7 @@ class OuterBounds:
         return out
 
     def fill_tables(self) -> None:
-        """Every cell of the robot's self pair tables computed now (``robot_shapes.PairTables``) instead of
+        """Every cell of the robot's self pair tables computed now (``pair_tables.PairTables``) instead of
         as configurations fall in them: a servient's warm-up, off the world's thread (a cell is written
         once, with the value any writer computes, so classifying meanwhile is safe)."""
         if self.empty:

@@ -1,4 +1,4 @@
-"""Compiled kernels of the self pairs (``bounds_kernel.classify``): a pair's table (``robot_shapes.py``'s
+"""Compiled kernels of the self pairs (``bounds_kernel.classify``): a pair's table (``pair_tables.py``'s
 ``PairTables``, ``sphere_kernel.py`` says what each array holds) filled and looked up, else its links'
 parts by balls, boxes (separating axes) and hulls (``sphere_kernel.separation``). Compiled by numba and
 cached on disk as ``sphere_kernel.py``'s.
@@ -20,8 +20,10 @@ from numba import njit
 from robwot_sim.sim.sphere_kernel import frames, place, separation
 
 if TYPE_CHECKING:
+    from robwot_sim.sim.joint_tree import Tree
     from robwot_sim.sim.outerbounds import Bodies
-    from robwot_sim.sim.robot_shapes import PairTables, Shapes, Tree
+    from robwot_sim.sim.pair_tables import PairTables
+    from robwot_sim.sim.robot_shapes import Shapes
 
 Array = np.ndarray
 

@@ -12,18 +12,12 @@ frame:
   corners), for sure hits;
 - the balls inside its parts (``surehit.link_balls``), for sure hits.
 
-And per self pair whose links' relative pose depends on at most two joint coordinates (revolute joints
-between them, couplings included), a table over those coordinates (``PairTables``): each cell will hold a
-lower bound of the distance between the two links' hulls at the cell's centre, filled by the kernel the
-first time a configuration falls in the cell. A configuration elsewhere in the cell is apart by that bound
-less how far its coordinates are from the centre times how fast a point of either link can move per unit
-of each (``rate``: the farthest hull vertex from the joint's axis, over every configuration), so most
-self pairs cost a lookup instead of a test of their parts.
+And per self pair, a table over the joint coordinates that move its links where there are at most two
+(``pair_tables.py``).
 """
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -33,12 +27,11 @@ import numpy.typing as npt
 import pybullet as pb
 from scipy.spatial import QhullError, cKDTree
 
-from robwot_sim.model.couplings import Coupling
-from robwot_sim.model.fk import chain_joint
-from robwot_sim.model.joints import JointInfo
 from robwot_sim.model.meshcheck import mesh_points
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.sim import shape_cache
+from robwot_sim.sim.joint_tree import Tree, joint_tree, tree_frames
+from robwot_sim.sim.pair_tables import PairTables, pair_tables
 from robwot_sim.sim.surehit import SELF_BALLS, LinkBalls, link_balls
 from robwot_sim.sim.types import FloatArray
 
@@ -48,29 +41,12 @@ GROW = 0.002
 MAX_SLABS = 6  # spheres per convex part at most
 SLABS_PER_WIDTH = 1.0  # slabs per width of a part along its long axis
 SLIM = 0.002  # m: how far a part's hull for the self test may lie outside it (fewer vertices)
-KINDS = {"fixed": 0, "revolute": 1, "continuous": 1, "prismatic": 2}
-#: m a hull vertex may move from a pair table cell's centre to its edge per coordinate, where the cells
-#: allow: finer cells prove more pairs apart but are filled (one test of the pair's parts each) less often
-CELL_STEP = 0.01
-MAX_CELLS = 4096  # cells of one pair's table at most
 
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 
 
-# the kernels' arguments (``sphere_kernel.py`` says what each holds)
-class Tree(NamedTuple):
-    parent: IntArray
-    kind: IntArray
-    origin_p: FloatArray
-    origin_r: FloatArray
-    axis: FloatArray
-    coupling: FloatArray
-    offset: FloatArray
-    base_p: FloatArray
-    base_r: FloatArray
-
-
+# the kernels' arguments (``sphere_kernel.py`` says what each holds; the joint tree: ``joint_tree.Tree``)
 class Shapes(NamedTuple):
     joint: IntArray
     moving: BoolArray
@@ -102,17 +78,6 @@ class Shapes(NamedTuple):
     self_balls: int
     hit_a: IntArray
     hit_b: IntArray
-
-
-class PairTables(NamedTuple):
-    dims: IntArray
-    coord: IntArray
-    lo: FloatArray
-    width: FloatArray
-    cells: IntArray
-    rate: FloatArray
-    first: IntArray
-    gap: FloatArray
 
 
 def _shape_points(body: int, link: int, cid: int, shape: Any) -> FloatArray | None:
@@ -207,50 +172,6 @@ def part_spheres(points: FloatArray, grow: float) -> list[tuple[FloatArray, floa
         c, r = _enclosing(piece)
         out.append((centre + axes @ c, r + grow))
     return out
-
-
-def joint_tree(joints: list[JointInfo], controllable: list[str], couplings: list[Coupling],
-               base_position: Any, base_orientation: Any) -> tuple[Tree, dict[str, int]] | None:
-    """A parsed URDF's joint tree as the kernel takes it (``sphere_kernel.Tree``) and the joint whose child
-    is each link; None when a joint is of a kind the kernel does not move."""
-    if any(j.type not in KINDS for j in joints):
-        return None
-    children: dict[str, list[JointInfo]] = {}
-    for j in joints:
-        children.setdefault(j.parent, []).append(j)
-    todo = deque(sorted({j.parent for j in joints} - {j.child for j in joints}))
-    order: list[JointInfo] = []
-    while todo:
-        for j in children.get(todo.popleft(), []):
-            order.append(j)
-            todo.append(j.child)
-    index = {n: i for i, n in enumerate(controllable)}
-    rules = {c.follower: c for c in couplings}
-    joint_of = {j.child: k for k, j in enumerate(order)}
-    moved = [chain_joint(j, index, rules) for j in order]
-    n = len(order)
-    coupling = np.zeros((n, len(controllable)))
-    for k, cj in enumerate(moved):
-        for i, f in cj.terms:
-            coupling[k, i] += f
-    tree = Tree(np.array([joint_of.get(j.parent, -1) for j in order], dtype=np.int64),
-                np.array([KINDS[j.type] for j in order], dtype=np.int64),
-                np.array([j.origin_xyz for j in order], dtype=np.float64).reshape(n, 3),
-                np.array([cj.origin_rot for cj in moved], dtype=np.float64).reshape(n, 3, 3),
-                np.array([j.axis for j in order], dtype=np.float64).reshape(n, 3), coupling,
-                np.array([cj.offset for cj in moved], dtype=np.float64),
-                np.asarray(base_position, dtype=np.float64).reshape(3), quat_matrix(base_orientation))
-    return tree, joint_of
-
-
-def tree_frames(tree: Tree, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Every joint's frame (positions (n + 1, 3), rotations (n + 1, 3, 3); the last: the root's)."""
-    n = len(tree.parent)
-    from robwot_sim.sim.sphere_kernel import frames
-
-    p, r = np.empty((n + 1, 3)), np.empty((n + 1, 3, 3))
-    frames(tree, np.asarray(q, dtype=np.float64), p, r)
-    return p, r
 
 
 def fit_box(points: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -410,57 +331,6 @@ def _reach(tree: Tree, links: list[LinkShapes], joints: list[int]) -> float | No
         length[j] = length[p] + float(np.linalg.norm(tree.origin_p[j]))  # p = -1: the root's 0
     return max((float(length[j] + (np.linalg.norm(lk.centres, axis=1) + lk.radii).max())
                 for lk, j in zip(links, joints, strict=True) if len(lk.radii)), default=0.0)
-
-
-def _chain(tree: Tree, frame: int) -> list[int]:
-    """Joint ``frame`` and its ancestors, nearest first (the root's frame: none)."""
-    out = []
-    while 0 <= frame < len(tree.parent):
-        out.append(frame)
-        frame = int(tree.parent[frame])
-    return out
-
-
-def pair_tables(tree: Tree, shapes: Shapes, lo: FloatArray, hi: FloatArray) -> PairTables:
-    """The self pairs' tables (module docstring; ``sphere_kernel.PairTables``), every cell unknown (NaN), for
-    coordinates within ``lo``..``hi``. A pair gets none (``dims`` -1) where a prismatic joint lies between
-    its links, more than two coordinates move them or a coordinate's limits are not finite."""
-    pairs = len(shapes.pair_a)
-    dims, first = np.full(pairs, -1, dtype=np.int64), np.zeros(pairs, dtype=np.int64)
-    coord, cells = np.zeros((pairs, 2), dtype=np.int64), np.ones((pairs, 2), dtype=np.int64)
-    low, width, rate = np.zeros((pairs, 2)), np.ones((pairs, 2)), np.zeros((pairs, 2))
-    radius = [max((float(np.linalg.norm(shapes.verts[shapes.vert_first[p]:shapes.vert_end[p]], axis=1).max())
-                   for p in range(shapes.part_first[ln], shapes.part_end[ln])
-                   if shapes.vert_end[p] > shapes.vert_first[p]), default=0.0)
-              for ln in range(len(shapes.joint))]
-    size = 0
-    for k, (la, lb) in enumerate(zip(shapes.pair_a, shapes.pair_b, strict=True)):
-        chains = [_chain(tree, int(shapes.joint[la])), _chain(tree, int(shapes.joint[lb]))]
-        shared = set(chains[0]) & set(chains[1])
-        speed: dict[int, float] = {}
-        for link, chain in zip((la, lb), chains, strict=True):
-            below = radius[link]  # how far the link's vertices lie from the joint's origin, on its axis
-            for j in chain:
-                if j in shared:
-                    break
-                if tree.kind[j] == 2:
-                    speed = {-1: 0.0}
-                elif tree.kind[j] == 1:
-                    for c in map(int, np.flatnonzero(tree.coupling[j])):
-                        speed[c] = speed.get(c, 0.0) + abs(float(tree.coupling[j, c])) * below
-                below += float(np.linalg.norm(tree.origin_p[j]))
-        coords = sorted(speed)
-        if len(coords) > 2 or -1 in speed or any(not np.isfinite([lo[c], hi[c]]).all() for c in coords):
-            continue
-        per_dim = MAX_CELLS if len(coords) < 2 else int(MAX_CELLS ** 0.5)
-        dims[k], first[k] = len(coords), size
-        for m, c in enumerate(coords):
-            span = max(float(hi[c] - lo[c]), 1e-9)
-            count = int(min(max(np.ceil(span * speed[c] / (2 * CELL_STEP)), 1), per_dim))
-            coord[k, m], low[k, m], width[k, m], cells[k, m] = c, lo[c], span / count, count
-            rate[k, m] = speed[c]
-        size += int(np.prod(cells[k, :len(coords)]))
-    return PairTables(dims, coord, low, width, cells, rate, first, np.full(size, np.nan))
 
 
 def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> RobotShapes | None:

@@ -49,8 +49,9 @@ import numpy as np
 from numba import njit
 
 if TYPE_CHECKING:
+    from robwot_sim.sim.joint_tree import Tree
     from robwot_sim.sim.outerbounds import Bodies, Grid
-    from robwot_sim.sim.robot_shapes import Shapes, Tree
+    from robwot_sim.sim.robot_shapes import Shapes
 
 #: iterations of the search for a direction separating two parts' hulls
 GILBERT_STEPS = 24
