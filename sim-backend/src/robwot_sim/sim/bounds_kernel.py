@@ -1,7 +1,7 @@
 """The compiled verdict of ``OuterBounds.classify`` per configuration: the other bodies (``sphere_kernel``),
 the self pairs (``pair_kernel``), sure hits (``sphere_kernel.sure``). Compiled by numba and cached on disk
-as ``sphere_kernel.py``'s, whose docstring says what each array holds. One function: its steps called as
-functions of their own cost a third more time per configuration (numba passing the tuples of arrays on).
+as ``sphere_kernel.py``'s, whose docstring says what each array holds; the rows are tested by one kernel,
+``_rows``, compiled without reference counting (``sphere_kernel.kernel``).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
-from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, near, place, separation, sure
+from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place, separation, sure
 
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
@@ -44,9 +44,18 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
     ``hull_gap`` (link balls, the pair's table, then part balls, boxes, hulls), for every row or (not
     ``self_always``) only the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not
     found free that surely collides (by more than ``depth``: ``sure``) is 4 instead."""
+    _rows(qs, t, s, tab, b, grid, zone, margin, body_gap, hull_gap, tolerance, self_always, hits, depth, out,
+          _scratch(t.parent.shape[0], s.box_c.shape[0], s.joint.shape[0], qs.shape[1]))
+
+
+@kernel
+def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid, zone: Grid, margin: float,
+          body_gap: float, hull_gap: float, tolerance: float, self_always: bool, hits: bool, depth: float,
+          out: Array, scratch: tuple[Array, ...]) -> None:
+    """``classify`` with its scratch arrays (``_scratch``)."""
     n, nl = t.parent.shape[0], s.joint.shape[0]
-    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept = _scratch(
-        n, s.box_c.shape[0], nl, qs.shape[1])  # placed, turned, seen: the row whose BC, BA a part's are
+    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept = scratch
+    # placed, turned, seen: the row whose BC, BA a part's are
     w, u, sa, sb, ca, cb = v[0], v[1], v[2], v[3], v[4], v[5]
     need = hull_gap + tolerance
     for i in range(qs.shape[0]):

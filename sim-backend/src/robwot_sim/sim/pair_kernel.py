@@ -1,12 +1,7 @@
 """Compiled kernels of the self pairs (``bounds_kernel.classify``): a pair's table (``pair_tables.py``'s
 ``PairTables``, ``sphere_kernel.py`` says what each array holds) filled and looked up, else its links'
 parts by balls, boxes (separating axes) and hulls (``sphere_kernel.separation``). Compiled by numba and
-cached on disk as ``sphere_kernel.py``'s.
-
-A function the kernels inline must not pass the tuples of arrays (``Shapes``, ``Bodies``, ...) on to
-another call: numba then counts references to every array of them wherever it is inlined, on the hot path
-(measured: the KUKA's labelling took twice as long), so lookups take only what they read and the calls
-that need the tuples are made from a function that is not inlined.
+cached on disk as ``sphere_kernel.py``'s, without reference counting (``sphere_kernel.kernel``).
 """
 
 from __future__ import annotations
@@ -17,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
-from robwot_sim.sim.sphere_kernel import frames, place, separation
+from robwot_sim.sim.sphere_kernel import frames, kernel, place, separation
 
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
@@ -60,7 +55,7 @@ def _boxes_apart(ca: Array, ra: Array, ha: Array, cb: Array, rb: Array, hb: Arra
     return False
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array, R: Array, cap: float,
               floor: float, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> float:
     """A lower bound of the distance between links ``la`` (frame ``fa``) and ``lb``'s hulls in the frames
@@ -117,9 +112,7 @@ def _span(tab: PairTables, k: int) -> tuple[int, float]:
 def table_apart(tab: PairTables, k: int, q: Array, need: float) -> int:
     """Whether self pair ``k``'s links are more than ``need`` apart at configuration ``q`` by the pair's
     table (the bound of ``q``'s cell less the rates times ``q``'s distance from its centre): 1 yes, 0 not
-    known (no table, outside it), -1 the cell not computed yet (``fill_cell``). Takes no shapes: a function
-    the kernels inline must not pass the tuples of arrays on to another call (numba then counts
-    references to every array of them at each use, on the hot path)."""
+    known (no table, outside it), -1 the cell not computed yet (``fill_cell``)."""
     index, slack = _cell(tab, k, q)
     if index < 0:
         return 0
@@ -129,7 +122,7 @@ def table_apart(tab: PairTables, k: int, q: Array, need: float) -> int:
     return 1 if gap - slack > need else 0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, need: float, most: float,
             Q: Array, P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> float:
     """Cell ``index`` of self pair ``k``'s table computed and stored: ``_pair_gap`` at its centre (``Q``
@@ -148,13 +141,14 @@ def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, 
     return gap
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def fill_cell(tab: PairTables, k: int, q: Array, t: Tree, s: Shapes, b: Bodies, need: float, Q: Array,
               P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> int:
     """``table_apart`` once configuration ``q``'s cell is computed (``_gap_at``, from ``q``)."""
     index, slack = _cell(tab, k, q)
     most = _span(tab, k)[1]
-    Q[:] = q
+    for m in range(q.shape[0]):
+        Q[m] = q[m]
     gap = _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u, sa, sb)
     return 1 if gap - slack > need else 0
 
@@ -202,7 +196,7 @@ def _near_parts(s: Shapes, ln: int, f: int, other: int, row: int, P: Array, R: A
     return count
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def pair_apart(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, row: int, P: Array, R: Array,
                 bc: Array, BC: Array, BA: Array, placed: Array, turned: Array, near_a: Array, near_b: Array,
                 hull_gap: float, tolerance: float, r33: Array, a33: Array, u: Array, sa: Array,

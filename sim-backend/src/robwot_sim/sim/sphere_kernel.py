@@ -5,6 +5,12 @@ Compiled by numba on first use and cached on disk (``cache=True``: next to this 
 cache where that is not writable), so a later process loads them instead of compiling. The kernels are
 generic: a robot is arrays (its joint tree, its shapes, its link pairs), never code of its own.
 
+A kernel that is called (``kernel``, not inlined) is compiled without numba's reference counting
+(``_nrt=False``): with it, every array a kernel views or passes to an inlined function (each array of a
+named tuple, each row taken as ``a[k]``) is counted up and down by an atomic operation, many per test, and
+those operations cost several times the tests themselves. Such a kernel allocates nothing and returns no
+array: its caller passes the scratch arrays, made by a function compiled with counting.
+
 The arrays come in named tuples (``robot_shapes.py``, ``outerbounds.py``). ``Tree``: the joints in an order
 where a joint's parent comes first. ``parent[j]``: the joint whose child link is joint j's parent link, or
 -1 for the root link; ``kind[j]``: 0 fixed, 1 revolute (or continuous), 2 prismatic; ``origin_p[j]`` (3,),
@@ -43,7 +49,8 @@ box grown by that reach (a point outside it is farther than the reach from every
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import numpy as np
 from numba import njit
@@ -52,6 +59,15 @@ if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
     from robwot_sim.sim.outerbounds import Bodies, Grid
     from robwot_sim.sim.robot_shapes import Shapes
+
+_Function = TypeVar("_Function", bound=Callable[..., object])
+
+
+def kernel(function: _Function) -> _Function:
+    """``function`` compiled as a called kernel is (module docstring; ``_nrt`` is not in numba's type
+    stubs)."""
+    options: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}
+    return cast(_Function, njit(**options)(function))
 
 #: iterations of the search for a direction separating two parts' hulls
 GILBERT_STEPS = 24
@@ -78,22 +94,28 @@ def _sdf(b: Bodies, k: int, x: float, y: float, z: float) -> float:
     return float(math.sqrt(ox * ox + oy * oy + oz * oz) + inside)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
+def _cells(low: float, high: float, lo: float, side: float, count: int) -> tuple[int, int]:
+    """The first and end index of the cells of ``side`` from ``lo`` (``count`` of them) that ``low``..``high``
+    overlaps."""
+    first = min(max(math.floor((low - lo) / side), 0), count)
+    return first, min(max(math.ceil((high - lo) / side), 0), count)
+
+
+@kernel
 def fill_grid(g: Grid, b: Bodies, low: Array, high: Array) -> None:
     """``g.d`` and ``g.near`` (filled with +inf and -1) over the voxels of each body's box ``low[k]``..
     ``high[k]`` (the body's box grown by the grid's reach)."""
     ny, nz = g.shape[1], g.shape[2]
-    a = np.empty(3, np.int64)
-    e = np.empty(3, np.int64)
     for k in range(b.kind.shape[0]):
-        for d in range(3):
-            a[d] = min(max(math.floor((low[k, d] - g.lo[d]) / g.side), 0), g.shape[d])
-            e[d] = min(max(math.ceil((high[k, d] - g.lo[d]) / g.side), 0), g.shape[d])
-        for i in range(a[0], e[0]):
+        a0, e0 = _cells(low[k, 0], high[k, 0], g.lo[0], g.side, g.shape[0])
+        a1, e1 = _cells(low[k, 1], high[k, 1], g.lo[1], g.side, g.shape[1])
+        a2, e2 = _cells(low[k, 2], high[k, 2], g.lo[2], g.side, g.shape[2])
+        for i in range(a0, e0):
             x = g.lo[0] + (i + 0.5) * g.side
-            for j in range(a[1], e[1]):
+            for j in range(a1, e1):
                 y = g.lo[1] + (j + 0.5) * g.side
-                for m in range(a[2], e[2]):
+                for m in range(a2, e2):
                     s = np.float32(_sdf(b, k, x, y, g.lo[2] + (m + 0.5) * g.side))
                     v = (i * ny + j) * nz + m
                     dist = g.d[v]
@@ -110,14 +132,15 @@ def fill_grid(g: Grid, b: Bodies, low: Array, high: Array) -> None:
                         dist[2] = s
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def frames(t: Tree, q: Array, P: Array, R: Array) -> None:
     """Every joint's frame for configuration ``q`` into ``P`` (n + 1, 3) and ``R`` (n + 1, 3, 3), the root's
     included."""
     n = t.parent.shape[0]
-    P[n] = t.base_p
-    R[n] = t.base_r
-    m = np.empty((3, 3))
+    for r in range(3):
+        P[n, r] = t.base_p[r]
+        for c in range(3):
+            R[n, r, c] = t.base_r[r, c]
     for j in range(n):
         p = t.parent[j] if t.parent[j] >= 0 else n
         o, orr = t.origin_p[j], t.origin_r[j]
@@ -136,19 +159,14 @@ def frames(t: Tree, q: Array, P: Array, R: Array) -> None:
                 P[j, r] += (R[j, r, 0] * ax + R[j, r, 1] * ay + R[j, r, 2] * az) * v
             continue
         s, c1 = math.sin(v), 1.0 - math.cos(v)  # Rodrigues: I + s K + (1 - cos) K^2, unit axis
-        m[0, 0] = 1.0 - c1 * (ay * ay + az * az)
-        m[0, 1] = -s * az + c1 * ax * ay
-        m[0, 2] = s * ay + c1 * ax * az
-        m[1, 0] = s * az + c1 * ax * ay
-        m[1, 1] = 1.0 - c1 * (ax * ax + az * az)
-        m[1, 2] = -s * ax + c1 * ay * az
-        m[2, 0] = -s * ay + c1 * ax * az
-        m[2, 1] = s * ax + c1 * ay * az
-        m[2, 2] = 1.0 - c1 * (ax * ax + ay * ay)
+        m00, m01, m02 = 1.0 - c1 * (ay * ay + az * az), -s * az + c1 * ax * ay, s * ay + c1 * ax * az
+        m10, m11, m12 = s * az + c1 * ax * ay, 1.0 - c1 * (ax * ax + az * az), -s * ax + c1 * ay * az
+        m20, m21, m22 = -s * ay + c1 * ax * az, s * ax + c1 * ay * az, 1.0 - c1 * (ax * ax + ay * ay)
         for r in range(3):
             a0, a1, a2 = R[j, r, 0], R[j, r, 1], R[j, r, 2]
-            for c in range(3):
-                R[j, r, c] = a0 * m[0, c] + a1 * m[1, c] + a2 * m[2, c]
+            R[j, r, 0] = a0 * m00 + a1 * m10 + a2 * m20
+            R[j, r, 1] = a0 * m01 + a1 * m11 + a2 * m21
+            R[j, r, 2] = a0 * m02 + a1 * m12 + a2 * m22
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -239,7 +257,7 @@ def _support(s: Shapes, p: int, P: Array, R: Array, f: int, ux: float, uy: float
     place(P, R, f, s.verts[kb], out)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def separation(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: int, P: Array, R: Array,
                u: Array, enough: float, least: float, sa: Array, sb: Array) -> float:
     """A lower bound of the distance between the hull of part ``pa`` (frame ``fa``) and B, the hull of part
@@ -276,7 +294,7 @@ def separation(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: i
     return best
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _hit(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, depth: float,
          tolerance: float, w: Array) -> bool:
     """The configuration in ``P``, ``R`` surely collides: an inner ball of a moving link reaches more
@@ -313,7 +331,7 @@ def _hit(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, d
     return False
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def sure(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, depth: float,
           tolerance: float, w: Array, p: int, f: int, k: int, seen: Array, row: int) -> bool:
     """The configuration in ``P``, ``R`` (row ``row``) surely collides, by more than ``depth``: ``_sunk``
@@ -323,7 +341,7 @@ def sure(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, d
             or _sunk_near(s, b, g, P, R, n, depth, tolerance, w, seen, row))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _sunk_near(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, depth: float, tolerance: float,
                w: Array, seen: Array, row: int) -> bool:
     """``_sunk`` for each part of a moving link with a sphere that may reach a body, against the exact ones
@@ -347,7 +365,7 @@ def _sunk_near(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, depth:
     return False
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _sunk(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, depth: float, tolerance: float,
           w: Array) -> bool:
     """A corner of part ``p`` (frame ``f``; -1: none), a point of the part itself, lies more than ``depth``
