@@ -352,3 +352,48 @@ def test_kernel_caches_are_emptied_when_any_kernel_source_changed(tmp_path: Path
     mine.unlink()
     outerbounds.flush_stale(fakes, mine, sources)
     assert Cache.flushed == 6
+
+
+BALL_ARM = """<?xml version="1.0"?>
+<robot name="ball_arm">
+  <link name="base"/>
+  <link name="ball">
+    <inertial><mass value="0.1"/>
+      <inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial>
+    <collision><origin xyz="0.3 0 0"/><geometry><sphere radius="0.05"/></geometry></collision>
+  </link>
+  <joint name="turn" type="revolute">
+    <parent link="base"/><child link="ball"/><axis xyz="0 0 1"/>
+    <limit lower="-3.14" upper="3.14" velocity="1" effort="1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_a_spheres_box_is_no_point_of_it_for_sure_hits(tmp_path: Path) -> None:
+    """A link's sphere is held by its box's corners, which are no points of the sphere: a corner deep in an
+    obstacle the sphere itself keeps 2 cm from is no sure hit (Bullet: free), so such a part's corners are
+    not asked (``own``), while a sphere sunk into the obstacle stays one."""
+    urdf = tmp_path / "ball_arm.urdf"
+    urdf.write_text(BALL_ARM)
+    diagonal = np.array([1.0, 1.0, 1.0]) / np.sqrt(3)
+    # a box whose face, normal to the diagonal, lies 0.07 m from the ball's centre: the ball (0.05 m) is
+    # 2 cm off it, its box's corner (0.087 m out) 17 mm inside
+    turn = np.cross([0.0, 0.0, 1.0], diagonal)
+    angle = float(np.arccos(diagonal[2]))
+    quat = [*(np.sin(angle / 2) * turn / np.linalg.norm(turn)), float(np.cos(angle / 2))]
+    centre = np.array([0.3, 0.0, 0.0]) + diagonal * (0.07 + 0.1)
+    with World() as w:
+        rid = w.load_robot(str(urdf), robot_id="r").id
+        w.add_obstacle({"name": "slab", "shape": {"type": "box", "size": [0.6, 0.6, 0.2]},
+                        "position": centre.tolist(), "orientation": quat})
+        assert w.collision_free_batch(rid, np.zeros((1, 1)), bounds=False)[0]
+        status = w.queries.outer_bounds(rid).classify(np.zeros((1, 1)), self_always=False, hits=True)
+        assert status[0] != outerbounds.SURE_HIT
+        sunk = np.array([[0.0]])
+        w.remove_obstacle("slab")
+        w.add_obstacle({"name": "slab", "shape": {"type": "box", "size": [0.6, 0.6, 0.2]},
+                        "position": (centre - diagonal * 0.1).tolist(), "orientation": quat})
+        assert not w.collision_free_batch(rid, sunk, bounds=False)[0]
+        status = w.queries.outer_bounds(rid).classify(sunk, self_always=False, hits=True)
+        assert status[0] == outerbounds.SURE_HIT

@@ -9,7 +9,8 @@ frame:
   grown by ``GROW`` (Bullet's collision margin, rounding);
 - a box (along the part's principal axes or the link's) and a hull of few vertices holding it
   (``decompose.slim``), for the self pairs, and per vertex the part's own point nearest to it (its
-  corners), for sure hits;
+  corners), for sure hits where the part's points are its own (``own``: not a sphere's or capsule's,
+  whose points are its box's corners);
 - the balls inside its parts (``surehit.link_balls``), for sure hits.
 
 And per self pair, a table over the joint coordinates that move its links where there are at most two
@@ -67,6 +68,7 @@ class Shapes(NamedTuple):
     vert_end: IntArray
     verts: FloatArray
     corners: FloatArray
+    own: BoolArray
     link_c: FloatArray
     link_r: FloatArray
     pair_a: IntArray
@@ -221,18 +223,20 @@ class LinkShapes:
     box_half: FloatArray
     verts: list[FloatArray]
     corners: list[FloatArray]
+    own: BoolArray
     inner_c: FloatArray
     inner_r: FloatArray
 
     @classmethod
     def of(cls, link: int, moving: bool, parts: list[FloatArray], inner: LinkBalls | None) -> LinkShapes:
-        return cls.made(link, moving, fit_link(parts, inner))
+        return cls.made(link, moving, fit_link(parts, inner), np.ones(len(parts), dtype=np.bool_))
 
     @classmethod
-    def made(cls, link: int, moving: bool, a: dict[str, Any]) -> LinkShapes:
-        """A link's shapes from the arrays ``fit_link`` makes (or ``shape_cache`` kept)."""
+    def made(cls, link: int, moving: bool, a: dict[str, Any], own: BoolArray) -> LinkShapes:
+        """A link's shapes from the arrays ``fit_link`` makes (or ``shape_cache`` kept); ``own``: per part,
+        whether its points are its own (module docstring)."""
         return cls(link, moving, a["centres"], a["radii"], a["sphere_part"], a["box_c"], a["box_axes"],
-                   a["box_half"], a["verts"], a["corners"], a["inner_c"], a["inner_r"])
+                   a["box_half"], a["verts"], a["corners"], own, a["inner_c"], a["inner_r"])
 
 
 def fit_link(parts: list[FloatArray], inner: LinkBalls | None) -> dict[str, Any]:
@@ -297,6 +301,7 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
                   part_first, part_end, box_c, cat([lk.box_axes for lk in links], (0, 3, 3)), box_half, box_r,
                   vert_first, vert_end, cat(verts, (0, 3)),
                   cat([c for lk in links for c in lk.corners], (0, 3)),
+                  np.concatenate([lk.own for lk in links]) if links else np.zeros(0, dtype=np.bool_),
                   np.array([c for c, _ in parts]).reshape(-1, 3),
                   np.array([r for _, r in parts], dtype=np.float64),
                   np.array([a for a, _ in pairs], dtype=np.int64),
@@ -369,7 +374,8 @@ def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> Robo
             return fit_link(p, link_balls(cid, body, at) if at in moving else None)
 
         fitted = shape_cache.cached(parts, bullet, fit)
-        shapes.append(LinkShapes.made(ln, ln in moving, fitted))
+        own = np.array([row[2] not in (pb.GEOM_SPHERE, pb.GEOM_CAPSULE) for row in data], dtype=np.bool_)
+        shapes.append(LinkShapes.made(ln, ln in moving, fitted, own))
     parent = {ln: int(pb.getJointInfo(body, ln, physicsClientId=cid)[16]) for ln in links if ln >= 0}
     pairs = [(i, k) for i, a in enumerate(links) for k, b in enumerate(links)
              if i < k and parent.get(a) != b and parent.get(b) != a

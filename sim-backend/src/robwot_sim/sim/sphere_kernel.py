@@ -25,7 +25,8 @@ part of its link, ``sphere_part``) inside a ball
 ``ball_c``/``ball_r``, for the other bodies; per convex part a box (``box_c``, axes as columns
 ``box_axes``, half extents ``box_half``, inside the ball of radius ``box_r`` about its centre) and a hull's
 vertices (``verts[vert_first[p]:vert_end[p]]``; ``corners`` beside them: the part's own point nearest to
-each), the parts of link ``l`` ``part_first[l]``..``part_end[l]``
+each, where ``own[p]``: a sphere's or capsule's are its box's), the parts of link ``l``
+``part_first[l]``..``part_end[l]``
 inside the ball ``link_c``/``link_r``, for the self pairs ``pair_a[k]``, ``pair_b[k]``. Balls inside
 the link's parts (``surehit.py``: ``inner_c``/``inner_r``, link ``l``: ``inner_first[l]``..
 ``inner_end[l]``, largest first) for sure hits, against exact bodies (``Bodies.exact``: primitives, not
@@ -368,9 +369,9 @@ def _sunk_near(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, depth:
 @kernel
 def _sunk(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, depth: float, tolerance: float,
           w: Array) -> bool:
-    """A corner of part ``p`` (frame ``f``; -1: none), a point of the part itself, lies more than ``depth``
-    inside body ``k``, an exact one (a primitive). ``w``: scratch."""
-    if p < 0 or not b.exact[k]:
+    """A corner of part ``p`` (frame ``f``; -1: none), a point of the part itself (``own``), lies more than
+    ``depth`` inside body ``k``, an exact one (a primitive). ``w``: scratch."""
+    if p < 0 or not b.exact[k] or not s.own[p]:
         return False
     for v in range(s.vert_first[p], s.vert_end[p]):
         place(P, R, f, s.corners[v], w)
