@@ -12,7 +12,7 @@ from robwot_sim.sim import robot_shapes, shape_cache
 from robwot_sim.sim.robot_shapes import RobotShapes
 from robwot_sim.sim.world import World
 
-FIELDS = ("centres", "radii", "sphere_part", "box_c", "box_axes", "box_half", "inner_c", "inner_r")
+FIELDS = ("centres", "radii", "sphere_part", "box_c", "box_axes", "box_half", "own", "inner_c", "inner_r")
 
 
 def shapes_of(w: World, rid: str) -> RobotShapes:
@@ -28,7 +28,7 @@ def same(a: RobotShapes, b: RobotShapes) -> None:
         assert (x.link, x.moving) == (y.link, y.moving)
         for f in FIELDS:
             assert np.array_equal(getattr(x, f), getattr(y, f)), f
-        for f in ("verts", "corners"):
+        for f in ("verts", "corners", "faces"):
             assert all(np.array_equal(u, v) for u, v in zip(getattr(x, f), getattr(y, f), strict=True)), f
 
 
@@ -64,6 +64,7 @@ def test_a_damaged_or_foreign_entry_is_fitted_again(tmp_path: Path, monkeypatch:
             {**good, "counts": good["counts"][:-1]},  # another number of parts
             {**good, "box_axes": good["box_axes"][:, :2]},  # not a rotation's shape
             {k: v for k, v in good.items() if k != "corners"},  # an array missing
+            {**good, "face_counts": good["face_counts"] + 1},  # faces that do not add up
             {**good, "centres": np.array(["x"] * len(good["centres"]))},  # not numbers
         ]
         for bad in damaged:

@@ -21,6 +21,8 @@ from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.model.tool import attach_tool
 from robwot_sim.sim import joint_tree, outerbounds, robot_shapes
 from robwot_sim.sim.outerbounds import OuterBounds
+from robwot_sim.sim.sphere_kernel import sunk_pair
+from robwot_sim.sim.surehit import DEPTH
 from robwot_sim.sim.world import World
 
 SCENES = Path(__file__).resolve().parents[2] / "examples" / "scenes"
@@ -397,3 +399,24 @@ def test_a_spheres_box_is_no_point_of_it_for_sure_hits(tmp_path: Path) -> None:
         assert not w.collision_free_batch(rid, sunk, bounds=False)[0]
         status = w.queries.outer_bounds(rid).classify(sunk, self_always=False, hits=True)
         assert status[0] == outerbounds.SURE_HIT
+
+
+def test_a_corner_deep_in_the_other_links_hull_is_a_sure_self_hit() -> None:
+    """The UR5 alone, seeded random rows: a self pair whose one link has a corner (a point of it) deeper than
+    ``DEPTH`` inside a hull of the other (``sphere_kernel.sunk_pair``) touches for Bullet, on every such row,
+    and there are such rows (its links come close at many)."""
+    with World() as w:
+        r = example_robot("ur5")
+        rid = w.load_robot(str(r.urdf), package_roots=r.package_roots, srdf=r.srdf, robot_id="r").id
+        lo, hi = w.robot_model(rid).limits()
+        qs = np.random.default_rng(39).uniform(lo, hi, size=(ROWS, len(lo)))
+        free = w.collision_free_batch(rid, qs, bounds=False)
+        bounds = w.queries.outer_bounds(rid)
+        assert bounds.robot is not None
+        shapes, tree = bounds.robot.shapes, bounds.robot.tree
+        scratch = np.empty(3), np.empty(3)
+        proven = [i for i, q in enumerate(qs)
+                  if any(sunk_pair(shapes, k, len(tree.parent), *joint_tree.tree_frames(tree, q), DEPTH,
+                                   outerbounds.TOLERANCE, *scratch) for k in range(len(shapes.pair_a)))]
+        assert len(proven) >= ROWS // 50, "too few rows in self-contact proven: the test shows little"
+        assert not free[proven].any(), "a row proven in self-contact is free for Bullet"

@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
-from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place, separation, sure
+from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place, separation, sunk_pair, sure
 
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
@@ -43,7 +43,8 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
     ``body_gap`` plus the margin from them), bit 2 where two parts of a checked link pair may come within
     ``hull_gap`` (link balls, the pair's table, then part balls, boxes, hulls), for every row or (not
     ``self_always``) only the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not
-    found free that surely collides (by more than ``depth``: ``sure``) is 4 instead."""
+    found free that surely collides (by more than ``depth``: ``sure``, or ``sunk_pair`` for the self pair
+    found near or one after it) is 4 instead."""
     _rows(qs, t, s, tab, b, grid, zone, margin, body_gap, hull_gap, tolerance, self_always, hits, depth, out,
           _scratch(t.parent.shape[0], s.box_c.shape[0], s.joint.shape[0], qs.shape[1]))
 
@@ -60,7 +61,7 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
     need = hull_gap + tolerance
     for i in range(qs.shape[0]):
         frames(t, qs[i], P, R)
-        status, part, frame, body = 0, -1, -1, -1
+        status, part, frame, body, pair = 0, -1, -1, -1, -1
         for ln in range(nl):
             if not s.moving[ln]:
                 continue
@@ -103,9 +104,15 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
                 if not known and not pair_apart(s, b, la, fa, lb, fb, i, P, R, bc, BC, BA, placed, turned,
                                                  near_a, near_b, hull_gap, tolerance, r33, a33, u, sa, sb):
                     status |= 2
+                    pair = k
                     break
         else:
             status = 3
-        if status and hits and sure(s, b, grid, P, R, n, bc, depth, tolerance, w, part, frame, body, seen, i):
-            status = 4
+        if status and hits:
+            if sure(s, b, grid, P, R, n, bc, depth, tolerance, w, part, frame, body, seen, i):
+                status = 4
+            while status != 4 and 0 <= pair < s.pair_a.shape[0]:  # the pair found near and those after it
+                if sunk_pair(s, pair, n, P, R, depth, tolerance, w, ca):
+                    status = 4
+                pair += 1
         out[i] = status

@@ -10,7 +10,9 @@ frame:
 - a box (along the part's principal axes or the link's) and a hull of few vertices holding it
   (``decompose.slim``), for the self pairs, and per vertex the part's own point nearest to it (its
   corners), for sure hits where the part's points are its own (``own``: not a sphere's or capsule's,
-  whose points are its box's corners);
+  whose points are its box's corners), and the planes of the faces of its convex hull (Bullet's own
+  shape of it): a corner of one part deeper than ``surehit.DEPTH`` inside another's hull is a sure hit of
+  their self pair;
 - the balls inside its parts (``surehit.link_balls``), for sure hits.
 
 And per self pair, a table over the joint coordinates that move its links where there are at most two
@@ -26,7 +28,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 import pybullet as pb
-from scipy.spatial import QhullError, cKDTree
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from robwot_sim.model.meshcheck import mesh_points
 from robwot_sim.model.rotations import quat_matrix
@@ -69,6 +71,9 @@ class Shapes(NamedTuple):
     verts: FloatArray
     corners: FloatArray
     own: BoolArray
+    face_first: IntArray
+    face_end: IntArray
+    faces: FloatArray
     link_c: FloatArray
     link_r: FloatArray
     pair_a: IntArray
@@ -80,6 +85,7 @@ class Shapes(NamedTuple):
     self_balls: int
     hit_a: IntArray
     hit_b: IntArray
+    pair_hit: BoolArray
 
 
 def _shape_points(body: int, link: int, cid: int, shape: Any) -> FloatArray | None:
@@ -207,6 +213,15 @@ def hull_vertices(points: FloatArray) -> FloatArray:
         return np.ascontiguousarray(points, dtype=np.float64)
 
 
+def hull_faces(points: FloatArray) -> FloatArray:
+    """The planes of the faces of the convex hull of ``points`` (rows: unit outward normal, offset; a point
+    x is inside where every ``n . x + offset`` is negative); none where Qhull cannot build it (flat)."""
+    try:
+        return np.ascontiguousarray(ConvexHull(points).equations, dtype=np.float64)
+    except (QhullError, ValueError):
+        return np.zeros((0, 4))
+
+
 @dataclass(frozen=True)
 class LinkShapes:
     """The outer shapes of one link with collision shapes, in its URDF frame: Bullet link index, whether it
@@ -224,6 +239,7 @@ class LinkShapes:
     verts: list[FloatArray]
     corners: list[FloatArray]
     own: BoolArray
+    faces: list[FloatArray]
     inner_c: FloatArray
     inner_r: FloatArray
 
@@ -236,7 +252,7 @@ class LinkShapes:
         """A link's shapes from the arrays ``fit_link`` makes (or ``shape_cache`` kept); ``own``: per part,
         whether its points are its own (module docstring)."""
         return cls(link, moving, a["centres"], a["radii"], a["sphere_part"], a["box_c"], a["box_axes"],
-                   a["box_half"], a["verts"], a["corners"], own, a["inner_c"], a["inner_r"])
+                   a["box_half"], a["verts"], a["corners"], own, a["faces"], a["inner_c"], a["inner_r"])
 
 
 def fit_link(parts: list[FloatArray], inner: LinkBalls | None) -> dict[str, Any]:
@@ -251,6 +267,7 @@ def fit_link(parts: list[FloatArray], inner: LinkBalls | None) -> dict[str, Any]
             "box_axes": np.array([b[1] for b in boxes]).reshape(-1, 3, 3),
             "box_half": np.array([b[2] for b in boxes]).reshape(-1, 3), "verts": verts,
             "corners": [pts[cKDTree(pts).query(v)[1]] for pts, v in zip(parts, verts, strict=True)],
+            "faces": [hull_faces(pts) for pts in parts],
             "inner_c": np.zeros((0, 3)) if inner is None else inner.centres,
             "inner_r": np.zeros(0) if inner is None else inner.radii}
 
@@ -278,6 +295,8 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
     part_first, part_end = _spans([len(lk.box_half) for lk in links])
     verts = [v for lk in links for v in lk.verts]
     vert_first, vert_end = _spans([len(v) for v in verts])
+    faces = [f for lk in links for f in lk.faces]
+    face_first, face_end = _spans([len(f) for f in faces])
     balls = [ball(lk.centres, lk.radii) for lk in links]
     parts = [ball(lk.box_c, np.array([np.linalg.norm(v - c, axis=1).max() if len(v) else 0.0
                                        for v, c in zip(lk.verts, lk.box_c, strict=True)]))
@@ -302,6 +321,7 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
                   vert_first, vert_end, cat(verts, (0, 3)),
                   cat([c for lk in links for c in lk.corners], (0, 3)),
                   np.concatenate([lk.own for lk in links]) if links else np.zeros(0, dtype=np.bool_),
+                  face_first, face_end, cat(faces, (0, 4)),
                   np.array([c for c, _ in parts]).reshape(-1, 3),
                   np.array([r for _, r in parts], dtype=np.float64),
                   np.array([a for a, _ in pairs], dtype=np.int64),
@@ -309,7 +329,8 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
                   inner_first, inner_end, cat([lk.inner_c for lk in links], (0, 3)),
                   cat([lk.inner_r for lk in links], (0,)), SELF_BALLS,
                   np.array([a for a, _ in hit_pairs], dtype=np.int64),
-                  np.array([b for _, b in hit_pairs], dtype=np.int64))
+                  np.array([b for _, b in hit_pairs], dtype=np.int64),
+                  np.array([pair in set(hit_pairs) for pair in pairs], dtype=np.bool_))
 
 
 @dataclass(frozen=True)

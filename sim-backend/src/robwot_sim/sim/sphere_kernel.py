@@ -25,9 +25,11 @@ part of its link, ``sphere_part``) inside a ball
 ``ball_c``/``ball_r``, for the other bodies; per convex part a box (``box_c``, axes as columns
 ``box_axes``, half extents ``box_half``, inside the ball of radius ``box_r`` about its centre) and a hull's
 vertices (``verts[vert_first[p]:vert_end[p]]``; ``corners`` beside them: the part's own point nearest to
-each, where ``own[p]``: a sphere's or capsule's are its box's), the parts of link ``l``
+each, where ``own[p]``: a sphere's or capsule's are its box's) and the planes of its convex hull's faces
+(``faces[face_first[p]:face_end[p]]``: unit outward normal, offset), the parts of link ``l``
 ``part_first[l]``..``part_end[l]``
-inside the ball ``link_c``/``link_r``, for the self pairs ``pair_a[k]``, ``pair_b[k]``. Balls inside
+inside the ball ``link_c``/``link_r``, for the self pairs ``pair_a[k]``, ``pair_b[k]`` (``pair_hit[k]``: one
+Bullet reports contacts of, both links with mass). Balls inside
 the link's parts (``surehit.py``: ``inner_c``/``inner_r``, link ``l``: ``inner_first[l]``..
 ``inner_end[l]``, largest first) for sure hits, against exact bodies (``Bodies.exact``: primitives, not
 the bounding boxes of meshes and other robots) and in the pairs ``hit_a[k]``, ``hit_b[k]``.
@@ -293,6 +295,55 @@ def separation(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: i
         t = min(max(-(vx * dx + vy * dy + vz * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
         vx, vy, vz = vx + t * dx, vy + t * dy, vz + t * dz
     return best
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _corner_inside(s: Shapes, pa: int, fa: int, pb: int, fb: int, P: Array, R: Array, depth: float,
+                   w: Array) -> bool:
+    """A corner of part ``pa`` (frame ``fa``) lies more than ``depth`` inside the convex hull of part ``pb``
+    (frame ``fb``), by the planes of its faces."""
+    for v in range(s.vert_first[pa], s.vert_end[pa]):
+        place(P, R, fa, s.corners[v], w)
+        dx, dy, dz = w[0] - P[fb, 0], w[1] - P[fb, 1], w[2] - P[fb, 2]
+        x = R[fb, 0, 0] * dx + R[fb, 1, 0] * dy + R[fb, 2, 0] * dz  # into frame fb
+        y = R[fb, 0, 1] * dx + R[fb, 1, 1] * dy + R[fb, 2, 1] * dz
+        z = R[fb, 0, 2] * dx + R[fb, 1, 2] * dy + R[fb, 2, 2] * dz
+        inside = s.face_end[pb] > s.face_first[pb]
+        for f in range(s.face_first[pb], s.face_end[pb]):
+            h = s.faces[f]
+            if h[0] * x + h[1] * y + h[2] * z + h[3] >= -depth:
+                inside = False
+                break
+        if inside:
+            return True
+    return False
+
+
+@kernel
+def sunk_pair(s: Shapes, k: int, n: int, P: Array, R: Array, depth: float, tolerance: float, w: Array,
+              c: Array) -> bool:
+    """Self pair ``k``, one Bullet checks (``pair_hit``), surely touches: a corner of a part of one link, a
+    point of it (``own``), lies more than ``depth`` inside the convex hull of a part of the other (Bullet's
+    own shape of it), of two parts whose balls overlap. ``w``, ``c``: scratch."""
+    if not s.pair_hit[k]:
+        return False
+    la, lb = s.pair_a[k], s.pair_b[k]
+    fa, fb = s.joint[la] if s.joint[la] >= 0 else n, s.joint[lb] if s.joint[lb] >= 0 else n
+    for pa in range(s.part_first[la], s.part_end[la]):
+        if not s.own[pa]:
+            continue
+        place(P, R, fa, s.box_c[pa], c)
+        for pb in range(s.part_first[lb], s.part_end[lb]):
+            if not s.own[pb]:
+                continue
+            place(P, R, fb, s.box_c[pb], w)
+            dx, dy, dz = w[0] - c[0], w[1] - c[1], w[2] - c[2]
+            if dx * dx + dy * dy + dz * dz >= (s.box_r[pa] + s.box_r[pb]) ** 2:
+                continue
+            if (_corner_inside(s, pa, fa, pb, fb, P, R, depth + tolerance, w)
+                    or _corner_inside(s, pb, fb, pa, fa, P, R, depth + tolerance, w)):
+                return True
+    return False
 
 
 @kernel
