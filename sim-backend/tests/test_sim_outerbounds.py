@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pybullet as pb
 import pytest
+from numba import njit
 from simhelp import MODELS
 
 from robwot_bench.reference import example_robot
@@ -21,7 +22,7 @@ from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.model.tool import attach_tool
 from robwot_sim.sim import joint_tree, outerbounds, robot_shapes
 from robwot_sim.sim.outerbounds import OuterBounds
-from robwot_sim.sim.sphere_kernel import sunk_pair
+from robwot_sim.sim.sphere_kernel import _body_inside, frames, place, sunk_pair
 from robwot_sim.sim.surehit import DEPTH
 from robwot_sim.sim.world import World
 
@@ -420,3 +421,44 @@ def test_a_corner_deep_in_the_other_links_hull_is_a_sure_self_hit() -> None:
                                    outerbounds.TOLERANCE, *scratch) for k in range(len(shapes.pair_a)))]
         assert len(proven) >= ROWS // 50, "too few rows in self-contact proven: the test shows little"
         assert not free[proven].any(), "a row proven in self-contact is free for Bullet"
+
+
+@njit(cache=False)
+def _rows_with_a_body_inside(qs: np.ndarray, tree: joint_tree.Tree, s: robot_shapes.Shapes,
+                             b: outerbounds.Bodies, depth: float) -> np.ndarray:
+    """Per row: whether a point of a primitive obstacle lies more than ``depth`` inside a moving part's hull
+    (``sphere_kernel._body_inside``, every own part against every exact body)."""
+    n = tree.parent.shape[0]
+    P, R, c = np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty(3)
+    out = np.zeros(qs.shape[0], dtype=np.bool_)
+    for i in range(qs.shape[0]):
+        frames(tree, qs[i], P, R)
+        for ln in range(s.joint.shape[0]):
+            f = s.joint[ln] if s.joint[ln] >= 0 else n
+            for p in range(s.part_first[ln], s.part_end[ln]):
+                place(P, R, f, s.box_c[p], c)
+                for k in range(b.kind.shape[0]):
+                    reach = s.box_r[p] + np.sqrt((b.size[k] ** 2).sum())
+                    far = ((b.centre[k] - c) ** 2).sum() > reach**2
+                    if far or not (s.moving[ln] and s.own[p] and b.exact[k]):
+                        continue
+                    out[i] |= _body_inside(s, b, k, p, f, P, R, depth)
+    return out
+
+
+def test_an_obstacles_point_deep_in_a_links_hull_is_a_sure_hit() -> None:
+    """The KUKA among the 239 obstacles, seeded random rows: where a point of an obstacle (a box's corner,
+    a centre) lies more than ``DEPTH`` inside a hull of a moving link (``sphere_kernel._body_inside``), the
+    row touches for Bullet, and there are such rows."""
+    with World() as w:
+        rid = w.load_robot("kuka_iiwa/model.urdf", robot_id="r").id
+        w.load_scene(SCENES / "obstacles-239.json")
+        lo, hi = w.robot_model(rid).limits()
+        qs = np.random.default_rng(39).uniform(lo, hi, size=(ROWS, len(lo)))
+        free = w.collision_free_batch(rid, qs, bounds=False)
+        bounds = w.queries.outer_bounds(rid)
+        assert bounds.robot is not None and bounds.bodies is not None
+        proven = _rows_with_a_body_inside(qs, bounds.robot.tree, bounds.robot.shapes, bounds.bodies,
+                                          DEPTH + outerbounds.TOLERANCE)
+        assert proven.sum() >= ROWS // 50, "too few rows proven: the test shows little"
+        assert not free[proven].any(), "a row with an obstacle's point inside a link is free for Bullet"

@@ -298,23 +298,50 @@ def separation(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: i
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _inside(s: Shapes, p: int, f: int, P: Array, R: Array, wx: float, wy: float, wz: float,
+            depth: float) -> bool:
+    """World point (wx, wy, wz) lies more than ``depth`` inside the convex hull of part ``p`` (frame ``f``),
+    by the planes of its faces (none: never)."""
+    dx, dy, dz = wx - P[f, 0], wy - P[f, 1], wz - P[f, 2]
+    x = R[f, 0, 0] * dx + R[f, 1, 0] * dy + R[f, 2, 0] * dz  # into frame f
+    y = R[f, 0, 1] * dx + R[f, 1, 1] * dy + R[f, 2, 1] * dz
+    z = R[f, 0, 2] * dx + R[f, 1, 2] * dy + R[f, 2, 2] * dz
+    for h in range(s.face_first[p], s.face_end[p]):
+        if s.faces[h, 0] * x + s.faces[h, 1] * y + s.faces[h, 2] * z + s.faces[h, 3] >= -depth:
+            return False
+    return bool(s.face_end[p] > s.face_first[p])
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _corner_inside(s: Shapes, pa: int, fa: int, pb: int, fb: int, P: Array, R: Array, depth: float,
                    w: Array) -> bool:
-    """A corner of part ``pa`` (frame ``fa``) lies more than ``depth`` inside the convex hull of part ``pb``
-    (frame ``fb``), by the planes of its faces."""
+    """A corner of part ``pa`` (frame ``fa``) lies more than ``depth`` inside the convex hull of part
+    ``pb`` (frame ``fb``)."""
     for v in range(s.vert_first[pa], s.vert_end[pa]):
         place(P, R, fa, s.corners[v], w)
-        dx, dy, dz = w[0] - P[fb, 0], w[1] - P[fb, 1], w[2] - P[fb, 2]
-        x = R[fb, 0, 0] * dx + R[fb, 1, 0] * dy + R[fb, 2, 0] * dz  # into frame fb
-        y = R[fb, 0, 1] * dx + R[fb, 1, 1] * dy + R[fb, 2, 1] * dz
-        z = R[fb, 0, 2] * dx + R[fb, 1, 2] * dy + R[fb, 2, 2] * dz
-        inside = s.face_end[pb] > s.face_first[pb]
-        for f in range(s.face_first[pb], s.face_end[pb]):
-            h = s.faces[f]
-            if h[0] * x + h[1] * y + h[2] * z + h[3] >= -depth:
-                inside = False
-                break
-        if inside:
+        if _inside(s, pb, fb, P, R, w[0], w[1], w[2], depth):
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _body_inside(s: Shapes, b: Bodies, k: int, p: int, f: int, P: Array, R: Array, depth: float) -> bool:
+    """A point of body ``k`` (its centre; a box's corners, a cylinder's end faces' centres) lies more than
+    ``depth`` inside the convex hull of part ``p`` (frame ``f``)."""
+    count = 9 if b.kind[k] == 0 else 3 if b.kind[k] == 2 else 1
+    for m in range(count):
+        lx, ly, lz = 0.0, 0.0, 0.0
+        if b.kind[k] == 0 and m < 8:
+            lx = b.size[k, 0] if m & 1 else -b.size[k, 0]
+            ly = b.size[k, 1] if m & 2 else -b.size[k, 1]
+            lz = b.size[k, 2] if m & 4 else -b.size[k, 2]
+        elif b.kind[k] == 2 and m > 0:
+            lz = b.size[k, 1] if m == 1 else -b.size[k, 1]
+        rot = b.rotation
+        wx = b.centre[k, 0] + rot[k, 0, 0] * lx + rot[k, 0, 1] * ly + rot[k, 0, 2] * lz
+        wy = b.centre[k, 1] + rot[k, 1, 0] * lx + rot[k, 1, 1] * ly + rot[k, 1, 2] * lz
+        wz = b.centre[k, 2] + rot[k, 2, 0] * lx + rot[k, 2, 1] * ly + rot[k, 2, 2] * lz
+        if _inside(s, p, f, P, R, wx, wy, wz, depth):
             return True
     return False
 
@@ -421,12 +448,13 @@ def _sunk_near(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, depth:
 def _sunk(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, depth: float, tolerance: float,
           w: Array) -> bool:
     """A corner of part ``p`` (frame ``f``; -1: none), a point of the part itself (``own``), lies more than
-    ``depth`` inside body ``k``, an exact one (a primitive). ``w``: scratch."""
+    ``depth`` inside body ``k``, an exact one (a primitive), or a point of the body more than ``depth``
+    inside the part's convex hull. ``w``: scratch."""
     if p < 0 or not b.exact[k] or not s.own[p]:
         return False
     for v in range(s.vert_first[p], s.vert_end[p]):
         place(P, R, f, s.corners[v], w)
         if _sdf(b, k, w[0], w[1], w[2]) + tolerance < -depth:
             return True
-    return False
+    return _body_inside(s, b, k, p, f, P, R, depth + tolerance)
 
