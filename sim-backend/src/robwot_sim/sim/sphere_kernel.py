@@ -326,17 +326,23 @@ def _corner_inside(s: Shapes, pa: int, fa: int, pb: int, fb: int, P: Array, R: A
 
 @njit(cache=True, nogil=True, inline="always")
 def _body_inside(s: Shapes, b: Bodies, k: int, p: int, f: int, P: Array, R: Array, depth: float) -> bool:
-    """A point of body ``k`` (its centre; a box's corners, a cylinder's end faces' centres) lies more than
-    ``depth`` inside the convex hull of part ``p`` (frame ``f``)."""
-    count = 9 if b.kind[k] == 0 else 3 if b.kind[k] == 2 else 1
-    for m in range(count):
-        lx, ly, lz = 0.0, 0.0, 0.0
-        if b.kind[k] == 0 and m < 8:
-            lx = b.size[k, 0] if m & 1 else -b.size[k, 0]
-            ly = b.size[k, 1] if m & 2 else -b.size[k, 1]
-            lz = b.size[k, 2] if m & 4 else -b.size[k, 2]
-        elif b.kind[k] == 2 and m > 0:
-            lz = b.size[k, 1] if m == 1 else -b.size[k, 1]
+    """A point of body ``k`` lies more than ``depth`` inside the convex hull of part ``p`` (frame ``f``): of
+    the points -1, 0, 1 times its half sizes along its axes those in it (a box: all 27; a cylinder: on its
+    axis and its rims' four points on its axes, at its ends and middle; a sphere: its centre and six points
+    of its surface)."""
+    kind, a, c = b.kind[k], b.size[k, 0], b.size[k, 1]
+    for m in range(27):
+        i, j, h = m % 3 - 1, (m // 3) % 3 - 1, m // 9 - 1
+        if kind == 0:
+            lx, ly, lz = i * a, j * c, h * b.size[k, 2]
+        elif kind == 2:
+            if i != 0 and j != 0:
+                continue
+            lx, ly, lz = i * a, j * a, h * c
+        else:
+            if abs(i) + abs(j) + abs(h) > 1:
+                continue
+            lx, ly, lz = i * a, j * a, h * a
         rot = b.rotation
         wx = b.centre[k, 0] + rot[k, 0, 0] * lx + rot[k, 0, 1] * ly + rot[k, 0, 2] * lz
         wy = b.centre[k, 1] + rot[k, 1, 0] * lx + rot[k, 1, 1] * ly + rot[k, 1, 2] * lz
