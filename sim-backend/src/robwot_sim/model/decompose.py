@@ -412,18 +412,21 @@ def split_collisions(root: ET.Element, cache_dir: Path, read_mesh: MeshReader, *
                 continue
             path = Path(mesh.get("filename", ""))
             scale = _scale(mesh.get("scale"))
+            whole = path.suffix.lower() in WHOLE_AS_PART
+            key = cache_key(path.read_bytes(), scale, whole)
+            if key in known or key in todo:
+                found.append((link, col, key))
+                continue
+            cached = _cached(key, cache_dir)
+            if cached is not None:  # its triangles are not read: the parts are known by its content
+                known[key], folders[key] = cached
+                found.append((link, col, key))
+                continue
             read = read_mesh(path)
             if read is None:
                 continue
-            whole = path.suffix.lower() in WHOLE_AS_PART
-            key = cache_key(path.read_bytes(), scale, whole)
             found.append((link, col, key))
-            if key in known or key in todo:
-                continue
-            cached = _cached(key, cache_dir)
-            if cached is not None:
-                known[key], folders[key] = cached
-            elif allow_decompose:
+            if allow_decompose:
                 todo[key] = (read[0] * np.asarray(scale), read[1], whole, path.name)
             elif is_convex(read[0] * np.asarray(scale), read[1]):
                 known[key] = Decomposition(convex=True, parts=())  # kept whole: nothing to decompose
