@@ -14,7 +14,7 @@ from robwot_bench.reference import ExactReference
 from robwot_sim.errors import InvalidParams, OutOfLimits
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import generate_workspace
+from robwot_sim.workspace.generate import generate_workspace
 
 ROBOTS = Path(__file__).resolve().parents[2] / "examples" / "robots"
 DOBOT = ROBOTS / "dobot_like.urdf"

@@ -4,6 +4,7 @@ give the verdicts they gave before."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import subprocess
 import sys
@@ -14,6 +15,7 @@ import numpy as np
 from rpc_backend import BackendProcess, RpcClient
 from simhelp import KUKA
 
+import robwot_sim.limits
 import robwot_sim.scene as scene
 from robwot_sim.workspace.pool import _validated_spec
 
@@ -79,11 +81,17 @@ def test_planning_warm_up_keeps_the_path_verdicts() -> None:
 
 
 def test_compile_command_leaves_the_kernels_loadable() -> None:
-    """``python -m robwot_sim compile`` (what npm install runs) exits 0 saying the kernels are compiled."""
+    """``python -m robwot_sim compile`` (what npm install runs) exits 0 saying the kernels are compiled, and
+    leaves the package's bytecode beside its sources (removed first for one module here)."""
+    source = Path(robwot_sim.limits.__file__)
+    cached = Path(importlib.util.cache_from_source(str(source)))
+    cached.unlink(missing_ok=True)
     done = subprocess.run([sys.executable, "-m", "robwot_sim", "compile"], capture_output=True, text=True,
                           timeout=1200, check=False)
     assert done.returncode == 0, done.stderr
     assert "the outer bounds' kernels are compiled" in done.stderr
+    assert cached.is_file()
+    assert all(Path(importlib.util.cache_from_source(str(f))).is_file() for f in source.parent.rglob("*.py"))
 
 
 def test_planning_warm_up_spam_starts_one_waiter() -> None:

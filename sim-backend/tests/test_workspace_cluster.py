@@ -21,8 +21,8 @@ import pytest
 
 from robwot_sim.errors import InvalidParams, SimError
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import generate_workspace
 from robwot_sim.workspace.cluster import LocalCluster
+from robwot_sim.workspace.generate import generate_workspace
 
 ENABLED = os.environ.get("ROBWOT_RAY_TESTS") == "1"
 pytestmark = pytest.mark.skipif(not ENABLED, reason="Ray cluster tests are opt-in: set ROBWOT_RAY_TESTS=1 "
@@ -137,7 +137,7 @@ def test_cluster_refuses_bad_address(tmp_path: Path) -> None:
 def test_no_cluster_needs_no_ray(tmp_path: Path) -> None:
     """The local run never imports Ray."""
     code = ("import sys, json; from robwot_sim.sim.world import World; "
-            "from robwot_sim.workspace import generate_workspace; w = World(); "
+            "from robwot_sim.workspace.generate import generate_workspace; w = World(); "
             "w.load_robot('kuka_iiwa/model.urdf', robot_id='kuka'); "
             f"generate_workspace(w, 'kuka', samples=600, seed=1, workers=1, out_dir={str(tmp_path)!r}); "
             "print(json.dumps('ray' in sys.modules))")

@@ -14,7 +14,7 @@ from robwot_sim.model.joints import parse_model
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 from robwot_sim.model.urdf import parse_urdf
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import chain_fk
+from robwot_sim.workspace.generate import chain_fk
 from robwot_sim.workspace.sampling import BLOCK, sample_configurations
 
 MODELS = Path(__file__).parent / "models" / "workspace"

@@ -14,7 +14,7 @@ import pytest
 
 from robwot_sim.errors import InvalidParams, SimError, UnknownRobot
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import generate_workspace
+from robwot_sim.workspace.generate import generate_workspace
 from robwot_sim.workspace.io import read_stl
 
 MODELS = Path(__file__).parent / "models" / "workspace"

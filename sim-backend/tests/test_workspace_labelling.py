@@ -16,9 +16,9 @@ import pytest
 
 from robwot_sim.errors import SimError
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import chain_fk
 from robwot_sim.workspace import pool as workspace_pool
 from robwot_sim.workspace.chunk import ChunkJob
+from robwot_sim.workspace.generate import chain_fk
 from robwot_sim.workspace.io import csv_layout
 from robwot_sim.workspace.labelling import Labelling, chunk_size, label_samples, spec_key, warm_up
 from robwot_sim.workspace.sampling import sample_configurations
@@ -152,7 +152,7 @@ def test_caller_finishes_when_workers_cannot_start() -> None:
     script = """
 import numpy as np
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import chain_fk
+from robwot_sim.workspace.generate import chain_fk
 from robwot_sim.workspace.chunk import ChunkJob
 from robwot_sim.workspace.labelling import label_samples, spec_key
 from robwot_sim.workspace.sampling import sample_configurations

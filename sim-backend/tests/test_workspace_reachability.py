@@ -10,7 +10,7 @@ import numpy.typing as npt
 import pytest
 
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import generate_workspace
+from robwot_sim.workspace.generate import generate_workspace
 from robwot_sim.workspace.reachability import DIRECTIONS, LATTICE, ReachabilityMap, direction_bins
 
 MODELS = Path(__file__).parent / "models" / "workspace"

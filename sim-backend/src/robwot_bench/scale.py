@@ -34,8 +34,8 @@ from typing import Any
 from robwot_bench.backend import SCENES
 from robwot_sim.limits import value_schema
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import generate_workspace
 from robwot_sim.workspace.cluster import LocalCluster
+from robwot_sim.workspace.generate import generate_workspace
 
 URDF = "kuka_iiwa/model.urdf"
 SCENE = SCENES / "obstacles-4.json"

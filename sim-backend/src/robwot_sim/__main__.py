@@ -13,7 +13,6 @@ line, which every local user can read); without it a random one is made and prin
 from __future__ import annotations
 
 import argparse
-import asyncio
 import faulthandler
 import json
 import logging
@@ -45,11 +44,12 @@ def _parser() -> argparse.ArgumentParser:
                        help="start the labelling pool (N worker processes, 0: one per core) while the server "
                             "starts, for a client that will generate a workspace (robwot generate)")
     sub.add_parser(
-        "compile", help="compile the outer bounds' kernels into numba's disk cache",
-        description="Compiles the path-check and labelling kernels once per machine (npm install runs "
-                    "it): a backend that needs them then loads them from the cache in about half a second "
-                    "instead of compiling them on a thread of its own while it serves. Without numba, or if "
-                    "they cannot compile, every check runs on Bullet alone (said here; exit code 0).")
+        "compile", help="compile the backend's bytecode and its kernels into numba's disk cache",
+        description="Compiles the backend's Python bytecode and the path-check and labelling kernels once "
+                    "per machine (npm install runs it): a backend that needs them then loads them from "
+                    "the cache instead of compiling them on a thread of its own while it serves. Without "
+                    "numba, or if they cannot compile, every check runs on Bullet alone (said here; exit "
+                    "code 0).")
     return parser
 
 
@@ -67,8 +67,14 @@ def _worker_count(text: str) -> int:
 
 
 def _compile() -> int:
+    import compileall
+    from pathlib import Path
+
     from robwot_sim.sim.outerbounds import KERNELS_WAIT, kernels_ready
 
+    # The package's bytecode too: a Python told not to write it (PYTHONDONTWRITEBYTECODE, as on CI machines)
+    # would compile every module from source at each backend start. A stale file is recompiled on import.
+    compileall.compile_dir(str(Path(__file__).parent), quiet=1)
     ok = kernels_ready(timeout=KERNELS_WAIT)
     print("robwot: the outer bounds' kernels are compiled" if ok else
           "robwot: the outer bounds' kernels are not available: every check runs on Bullet alone",
@@ -90,10 +96,14 @@ def main(argv: list[str] | None = None) -> int:
     faulthandler.enable()
     logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    if args.warm_workers is not None:  # the forkserver imports and loads the kernels beside our imports
+    # The forkserver imports the simulation and loads the kernels beside our imports, so it starts before
+    # anything heavy is imported here (asyncio, the server, numpy: the packages' __init__ import nothing).
+    if args.warm_workers is not None:
         from robwot_sim.workspace.pool import warm_up
 
         warm_up(args.warm_workers or None)
+    import asyncio
+
     from robwot_sim.server.app import run_server
 
     given = os.environ.pop("ROBWOT_BACKEND_TOKEN", "")

@@ -17,7 +17,8 @@ from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.sim.world import World
-from robwot_sim.workspace import generate_workspace, warm_up
+from robwot_sim.workspace.generate import generate_workspace
+from robwot_sim.workspace.pool import warm_up
 
 
 def _workers(p: Params) -> int:

@@ -34,15 +34,12 @@ import time
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any
-
-import numpy as np
-import numpy.typing as npt
+from typing import TYPE_CHECKING, Any
 
 from robwot_sim.errors import SimError
 
-FloatArray = npt.NDArray[np.float64]
-BoolArray = npt.NDArray[np.bool_]
+if TYPE_CHECKING:  # numpy is the forkserver's to import: the backend starts it before importing numpy
+    from robwot_sim.sim.types import FloatArray
 
 _PRELOAD = ["robwot_sim.workspace.pool", "robwot_sim.sim.world", "robwot_sim.workspace.preload"]
 
@@ -97,8 +94,7 @@ def worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray) 
                 world.close()
                 raise
             _worker_world = (key, world)
-        flags: BoolArray = _worker_world[1].collision_free_batch(robot_id, qs)
-        return flags
+        return _worker_world[1].collision_free_batch(robot_id, qs)
     except SimError as e:
         return {"error": e.to_json(), "type": type(e).__name__}
 
