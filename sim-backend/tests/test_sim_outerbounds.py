@@ -21,8 +21,9 @@ from robwot_bench.reference import example_robot
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.model.tool import attach_tool
 from robwot_sim.sim import joint_tree, outerbounds, robot_shapes
+from robwot_sim.sim.hit_kernel import _body_inside, sunk_pair
 from robwot_sim.sim.outerbounds import OuterBounds
-from robwot_sim.sim.sphere_kernel import _body_inside, frames, place, sunk_pair
+from robwot_sim.sim.sphere_kernel import frames, place
 from robwot_sim.sim.surehit import DEPTH
 from robwot_sim.sim.world import World
 
@@ -326,15 +327,15 @@ def test_pairs_a_table_calls_apart_are_apart_for_fresh_distance_queries() -> Non
 
 def test_kernel_caches_are_emptied_when_any_kernel_source_changed(tmp_path: Path) -> None:
     """numba keys a kernel's cache by its own file; a kernel holds copies of the kernels it calls from the
-    other files, so every cache is emptied unless the stamp names all three sources as they are."""
+    other files, so every cache is emptied unless the stamp names all four sources as they are."""
     import hashlib
 
-    from robwot_sim.sim import bounds_kernel, pair_kernel, sphere_kernel
+    from robwot_sim.sim import bounds_kernel, hit_kernel, pair_kernel, sphere_kernel
 
     outerbounds.kernels_ready(timeout=outerbounds.KERNELS_WAIT)
     caches, stamp, sources = outerbounds._kernel_caches()
-    assert len(caches) >= 10  # every kernel of the three files
-    files = [Path(str(m.__file__)) for m in (sphere_kernel, pair_kernel, bounds_kernel)]
+    assert len(caches) >= 10  # every kernel of the four files
+    files = [Path(str(m.__file__)) for m in (sphere_kernel, hit_kernel, pair_kernel, bounds_kernel)]
     assert sources == hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
     assert stamp.read_text() == sources  # written once the kernels loaded
 
@@ -404,7 +405,7 @@ def test_a_spheres_box_is_no_point_of_it_for_sure_hits(tmp_path: Path) -> None:
 
 def test_a_corner_deep_in_the_other_links_hull_is_a_sure_self_hit() -> None:
     """The UR5 alone, seeded random rows: a self pair whose one link has a corner (a point of it) deeper than
-    ``DEPTH`` inside a hull of the other (``sphere_kernel.sunk_pair``) touches for Bullet, on every such row,
+    ``DEPTH`` inside a hull of the other (``hit_kernel.sunk_pair``) touches for Bullet, on every such row,
     and there are such rows (its links come close at many)."""
     with World() as w:
         r = example_robot("ur5")
@@ -427,7 +428,7 @@ def test_a_corner_deep_in_the_other_links_hull_is_a_sure_self_hit() -> None:
 def _rows_with_a_body_inside(qs: np.ndarray, tree: joint_tree.Tree, s: robot_shapes.Shapes,
                              b: outerbounds.Bodies, depth: float) -> np.ndarray:
     """Per row: whether a point of a primitive obstacle lies more than ``depth`` inside a moving part's hull
-    (``sphere_kernel._body_inside``, every own part against every exact body)."""
+    (``hit_kernel._body_inside``, every own part against every exact body)."""
     n = tree.parent.shape[0]
     P, R, c = np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty(3)
     out = np.zeros(qs.shape[0], dtype=np.bool_)
@@ -448,7 +449,7 @@ def _rows_with_a_body_inside(qs: np.ndarray, tree: joint_tree.Tree, s: robot_sha
 
 def test_an_obstacles_point_deep_in_a_links_hull_is_a_sure_hit() -> None:
     """The KUKA among the 239 obstacles, seeded random rows: where a point of an obstacle (a box's corner,
-    a centre) lies more than ``DEPTH`` inside a hull of a moving link (``sphere_kernel._body_inside``), the
+    a centre) lies more than ``DEPTH`` inside a hull of a moving link (``hit_kernel._body_inside``), the
     row touches for Bullet, and there are such rows."""
     with World() as w:
         rid = w.load_robot("kuka_iiwa/model.urdf", robot_id="r").id

@@ -1,5 +1,5 @@
 """The compiled verdict of ``OuterBounds.classify`` per configuration: the other bodies (``sphere_kernel``),
-the self pairs (``pair_kernel``), sure hits (``sphere_kernel.sure``). Compiled by numba and cached on disk
+the self pairs (``pair_kernel``), sure hits (``hit_kernel.sure``). Compiled by numba and cached on disk
 as ``sphere_kernel.py``'s, whose docstring says what each array holds; the rows are tested by one kernel,
 ``_rows``, compiled without reference counting (``sphere_kernel.kernel``).
 """
@@ -11,8 +11,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
+from robwot_sim.sim.hit_kernel import sunk_pair, sure
 from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
-from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place, separation, sunk_pair, sure
+from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place, separation
 
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree

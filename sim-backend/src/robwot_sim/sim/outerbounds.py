@@ -164,8 +164,8 @@ def _kernel_caches() -> tuple[list[Any], Path, str]:
     it calls from the other files (inlined or linked in): a change to any of the files compiles all."""
     from numba.core.registry import CPUDispatcher
 
-    from robwot_sim.sim import bounds_kernel, pair_kernel, sphere_kernel
-    modules = (sphere_kernel, pair_kernel, bounds_kernel)
+    from robwot_sim.sim import bounds_kernel, hit_kernel, pair_kernel, sphere_kernel
+    modules = (sphere_kernel, hit_kernel, pair_kernel, bounds_kernel)
     found = [getattr(k, "_cache", None) for m in modules for k in vars(m).values()
              if isinstance(k, CPUDispatcher)]
     caches = [c for c in found if c is not None]

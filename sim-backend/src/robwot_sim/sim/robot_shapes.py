@@ -83,8 +83,6 @@ class Shapes(NamedTuple):
     inner_c: FloatArray
     inner_r: FloatArray
     self_balls: int
-    hit_a: IntArray
-    hit_b: IntArray
     pair_hit: BoolArray
 
 
@@ -328,8 +326,6 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
                   np.array([b for _, b in pairs], dtype=np.int64),
                   inner_first, inner_end, cat([lk.inner_c for lk in links], (0, 3)),
                   cat([lk.inner_r for lk in links], (0,)), SELF_BALLS,
-                  np.array([a for a, _ in hit_pairs], dtype=np.int64),
-                  np.array([b for _, b in hit_pairs], dtype=np.int64),
                   np.array([pair in set(hit_pairs) for pair in pairs], dtype=np.bool_))
 
 
