@@ -43,7 +43,7 @@ import numpy.typing as npt
 import pybullet as pb
 
 from robwot_sim.model.rotations import quat_matrix
-from robwot_sim.sim.joint_tree import Tree, tree_frames
+from robwot_sim.sim.joint_tree import Tree, chain_poses, tree_frames
 from robwot_sim.sim.pair_tables import pair_tables
 from robwot_sim.sim.robot_shapes import GROW, LinkShapes, RobotShapes, ball, robot_shapes, shapes_of
 from robwot_sim.sim.surehit import DEPTH, LinkBalls
@@ -181,6 +181,11 @@ def asked(rows: int) -> bool:
     return _kernels_started or _asked >= WARM_AFTER
 
 
+def kernels_loaded() -> bool:
+    """Whether the kernels are loaded in this process (never starts loading them)."""
+    return _kernels_ready.is_set() and _kernels_ok
+
+
 def kernels_ready(timeout: float = 0.0) -> bool:
     """Whether the kernels are loaded (``load_kernels``, started if not yet), waiting up to ``timeout`` s."""
     load_kernels()
@@ -203,6 +208,7 @@ def _warm() -> None:
     bounds = OuterBounds(robot, bodies, distance_grid(bodies, 0.2, None, GRID_SIDE),
                          distance_grid(bodies, 0.3, None, ZONE_SIDE))
     tree_frames(tree, np.zeros(1))
+    chain_poses(tree, np.zeros((1, 1)))
     bounds.classify(np.zeros((1, 1)), hits=True)
     bounds.fill_tables()
 
@@ -409,7 +415,7 @@ class BoundsCache:
         none until the kernels are loaded (path checks never load them: ``WARM_AFTER``), while ``entry``
         is not the robot's (a body being rebuilt) or a link fixed to its base touches something (every
         state then collides)."""
-        if not (_kernels_ready.is_set() and _kernels_ok) or scene.entries().get(robot_id) is not entry \
+        if not kernels_loaded() or scene.entries().get(robot_id) is not entry \
                 or entry.checker.static_contacts() or not self._worth_building(scene, robot_id, len(qs)):
             return np.zeros(len(qs), dtype=bool)
         return np.asarray(self.get(scene, robot_id).classify(qs, clearance) == 0)
