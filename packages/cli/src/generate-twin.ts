@@ -272,7 +272,7 @@ async function generateFrom(
   writeManifest(staged.tmp, model, opts, input, home);
 
   // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
-  // make a valid TD fails fast (the validator was loaded and warmed while the backend started).
+  // make a valid TD fails fast (the validator's modules were loaded while the backend started).
   const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool, opts.gripper).validate())().catch(
     (err: unknown) => [err instanceof Error ? err.message : String(err)],
   );

@@ -11,6 +11,7 @@ import {
   canonicalJson,
   fnv1a64,
   LIVE_REL,
+  loadTdValidator,
   type ThingDescription,
   TWIN_FILES,
   validateThingDescription,
@@ -37,17 +38,12 @@ export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unk
 }
 
 /**
- * Loads the official TD validator and runs it once (about half its CPU cost is one-off) while the backend's
- * Python starts up and leaves a core idle; the generate pipeline's two validations then run faster, the
- * first one beside the collision labelling, the last one on the critical path. Never fails.
+ * Loads the official TD validator's modules while the backend's Python starts up. Not a validation: each
+ * one compiles the TD JSON Schemas again, and the generate pipeline's early one (beside the collision
+ * labelling) warms it for the last one. Never fails.
  */
 export async function warmTdValidator(): Promise<void> {
-  await validateThingDescription({
-    "@context": "https://www.w3.org/2022/wot/td/v1.1",
-    title: "warm-up",
-    securityDefinitions: { nosec_sc: { scheme: "nosec" } },
-    security: "nosec_sc",
-  }).catch(() => undefined);
+  await Promise.resolve().then(loadTdValidator).catch(() => undefined);
 }
 
 export function tdErrorsMessage(errors: string[]): string {

@@ -118,7 +118,7 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
   try {
     await preflight(opts);
     progress.stage("backend");
-    // the TD validator warms up while the backend's Python starts, and an own backend's labelling workers
+    // the TD validator's modules load while the backend's Python starts, and an own backend's labelling workers
     // start with it (a cluster run labels elsewhere)
     const warm = opts.cluster === undefined ? (opts.workers ?? 0) : undefined;
     const [backend] = await Promise.all([BackendGuard.open(opts.backend, warm), warmTdValidator()]);

@@ -35,6 +35,13 @@ export interface TdValidationResult {
 
 let playground: Playground | undefined;
 
+/** Loads the validator's modules (a few hundred ms of CPU), e.g. while a backend starts. Validating a
+ * small TD to warm it would cost a compilation more: each validation compiles the TD JSON Schemas again
+ * (the validator makes a new ajv instance per call). */
+export function loadTdValidator(): void {
+  loadPlayground();
+}
+
 function loadPlayground(): Playground {
   playground ??= createRequire(import.meta.url)("@thing-description-playground/core") as Playground;
   return playground;
