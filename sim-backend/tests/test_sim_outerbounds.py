@@ -20,7 +20,7 @@ from simhelp import MODELS
 from robwot_bench.reference import example_robot
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.model.tool import attach_tool
-from robwot_sim.sim import joint_tree, outerbounds, robot_shapes
+from robwot_sim.sim import joint_tree, kernels, outerbounds, robot_shapes
 from robwot_sim.sim.hit_kernel import _body_inside, sunk_pair
 from robwot_sim.sim.outerbounds import OuterBounds
 from robwot_sim.sim.sphere_kernel import frames, place
@@ -31,9 +31,9 @@ SCENES = Path(__file__).resolve().parents[2] / "examples" / "scenes"
 
 
 @pytest.fixture(autouse=True)
-def kernels() -> None:
+def loaded_kernels() -> None:
     """The compiled kernels loaded (or, on a machine's first use, compiled) before any bounds are asked."""
-    assert outerbounds.kernels_ready(timeout=300), "the outer bounds' kernels did not load"
+    assert kernels.kernels_ready(timeout=300), "the outer bounds' kernels did not load"
 ROWS = 1500
 #: decided rows checked against fresh distance queries per case
 FRESH = 150
@@ -332,8 +332,8 @@ def test_kernel_caches_are_emptied_when_any_kernel_source_changed(tmp_path: Path
 
     from robwot_sim.sim import bounds_kernel, hit_kernel, pair_kernel, sphere_kernel
 
-    outerbounds.kernels_ready(timeout=outerbounds.KERNELS_WAIT)
-    caches, stamp, sources = outerbounds._kernel_caches()
+    kernels.kernels_ready(timeout=kernels.KERNELS_WAIT)
+    caches, stamp, sources = kernels._kernel_caches()
     assert len(caches) >= 10  # every kernel of the four files
     files = [Path(str(m.__file__)) for m in (sphere_kernel, hit_kernel, pair_kernel, bounds_kernel)]
     assert sources == hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
@@ -348,13 +348,13 @@ def test_kernel_caches_are_emptied_when_any_kernel_source_changed(tmp_path: Path
     fakes: list[object] = [Cache(), Cache()]
     mine = tmp_path / "stamp"
     mine.write_text(sources)
-    outerbounds.flush_stale(fakes, mine, sources)
+    kernels.flush_stale(fakes, mine, sources)
     assert Cache.flushed == 0
     for other in ("0" * 64, ""):
         mine.write_text(other)
-        outerbounds.flush_stale(fakes, mine, sources)
+        kernels.flush_stale(fakes, mine, sources)
     mine.unlink()
-    outerbounds.flush_stale(fakes, mine, sources)
+    kernels.flush_stale(fakes, mine, sources)
     assert Cache.flushed == 6
 
 

@@ -133,10 +133,10 @@ def test_states_the_bounds_find_free_give_the_same_first_contact(
     """With the outer bounds loaded, the states they find free are not asked of Bullet: on 60 random paths
     among boxes the path check still reports the same first state closer than the clearance as Bullet at
     every state, and the bounds decided at least a third of the states."""
-    from robwot_sim.sim import outerbounds, pathcheck
+    from robwot_sim.sim import kernels, pathcheck
     from robwot_sim.sim.pathcheck import first_contact
 
-    assert outerbounds.kernels_ready(timeout=outerbounds.KERNELS_WAIT)
+    assert kernels.kernels_ready(timeout=kernels.KERNELS_WAIT)
     rng = np.random.default_rng(12)
     with World() as w:
         e = _kuka_among_boxes(w)

@@ -14,7 +14,7 @@ from robwot_sim.model.joints import parse_model
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 from robwot_sim.model.urdf import parse_urdf
 from robwot_sim.sim.joint_tree import chain_poses, chain_tree
-from robwot_sim.sim.outerbounds import KERNELS_WAIT, kernels_ready
+from robwot_sim.sim.kernels import KERNELS_WAIT, kernels_ready
 from robwot_sim.sim.world import World
 from robwot_sim.workspace.chunk import end_link
 from robwot_sim.workspace.generate import chain_fk

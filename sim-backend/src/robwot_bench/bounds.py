@@ -24,7 +24,8 @@ import pybullet as pb
 
 from robwot_bench.reference import example_robot
 from robwot_sim.model.urdf import pybullet_data_path
-from robwot_sim.sim.outerbounds import SURE_HIT, kernels_ready
+from robwot_sim.sim.kernels import kernels_ready
+from robwot_sim.sim.outerbounds import SURE_HIT
 from robwot_sim.sim.world import World
 
 SCENES = Path(__file__).resolve().parents[3] / "examples" / "scenes"

@@ -40,7 +40,7 @@ import numpy as np
 from robwot_bench.reference import ExactReference, example_robot
 from robwot_sim.errors import Unreachable
 from robwot_sim.model.rotations import quat_from_rpy
-from robwot_sim.sim.outerbounds import kernels_ready
+from robwot_sim.sim.kernels import kernels_ready
 from robwot_sim.sim.planner import plan_joints
 from robwot_sim.sim.world import World
 

@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from robwot_bench.reference import example_robot
-from robwot_sim.sim.outerbounds import kernels_ready
+from robwot_sim.sim.kernels import kernels_ready
 from robwot_sim.sim.planner import plan_joints, plan_pose
 from robwot_sim.sim.world import World
 

@@ -70,7 +70,7 @@ def _compile() -> int:
     import compileall
     from pathlib import Path
 
-    from robwot_sim.sim.outerbounds import KERNELS_WAIT, kernels_ready
+    from robwot_sim.sim.kernels import KERNELS_WAIT, kernels_ready
 
     # The package's bytecode too: a Python told not to write it (PYTHONDONTWRITEBYTECODE, as on CI machines)
     # would compile every module from source at each backend start. A stale file is recompiled on import.

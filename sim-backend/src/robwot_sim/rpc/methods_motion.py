@@ -16,8 +16,8 @@ from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.methods_robot import robot_param
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
+from robwot_sim.sim.kernels import KERNELS_WAIT, kernels_ready
 from robwot_sim.sim.motion import load_timing
-from robwot_sim.sim.outerbounds import KERNELS_WAIT, kernels_ready
 from robwot_sim.sim.planner import Goal, Plan, Timing
 from robwot_sim.sim.planner import plan as plan_goal
 from robwot_sim.sim.program import GRIPS, ProgramStep, plan_program

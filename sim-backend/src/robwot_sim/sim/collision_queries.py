@@ -48,7 +48,7 @@ class CollisionQueries:
         apart from every other body are checked for self-contact in a world holding the robot alone; of
         the rest, the sure hits (``surehit.py``'s test, compiled with the bounds) are colliding and Bullet
         checks the others in the whole scene. ``bounds=False``, bounds the robot cannot have, or a process
-        that has not asked about enough rows yet (``outerbounds.WARM_AFTER``): the sure hits in numpy, no
+        that has not asked about enough rows yet (``kernels.WARM_AFTER``): the sure hits in numpy, no
         outer bounds (``python -m robwot_bench.bounds`` compares)."""
         e = self._scene.entry(robot_id)
         entries = self._scene.entries()

@@ -20,7 +20,7 @@ import numpy.typing as npt
 from robwot_sim.model.couplings import Followers
 from robwot_sim.model.fk import ChainFK
 from robwot_sim.sim.joint_tree import chain_poses, chain_tree
-from robwot_sim.sim.outerbounds import kernels_loaded
+from robwot_sim.sim.kernels import kernels_loaded
 from robwot_sim.workspace.io import csv_table, format_rows
 from robwot_sim.workspace.reachability import ReachabilityMap, direction_bins
 from robwot_sim.workspace.sampling import sample_configurations
