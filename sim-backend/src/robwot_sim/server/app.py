@@ -103,8 +103,10 @@ async def run_server(host: str = "127.0.0.1", port: int = 0, *, token: str,
     with World() as world:
         backend = Backend(world, max_message_bytes)
         hard_cap = max(4 * max_message_bytes, max_message_bytes + 1024 * 1024)
+        # no permessage-deflate: the backend serves its own machine, where compressing a frame costs more
+        # time than sending its bytes (README, "Servient")
         async with serve(partial(serve_connection, backend), host, port, max_size=hard_cap, ping_timeout=60,
-                         process_request=owner_check(token)) as server:
+                         process_request=owner_check(token), compression=None) as server:
             bound = next(iter(server.sockets)).getsockname()[1]
             if on_ready is not None:
                 on_ready(int(bound))

@@ -277,9 +277,9 @@ class BoundsCache:
     def sure_free(self, scene: Any, robot_id: str, entry: Any, qs: FloatArray, clearance: float) -> BoolArray:
         """The states of robot ``robot_id``'s body ``entry`` (a ``loader.RobotEntry``) its bounds find farther
         than ``clearance`` from every other body and free of self-contact (``CollisionChecker.sure_free``);
-        none until the kernels are loaded (path checks never load them: ``kernels.WARM_AFTER``), while ``entry``
-        is not the robot's (a body being rebuilt) or a link fixed to its base touches something (every
-        state then collides)."""
+        none until the kernels are loaded (path checks never load them: ``kernels.WARM_AFTER``), while
+        ``entry`` is not the robot's (a body being rebuilt) or a link fixed to its base touches something
+        (every state then collides)."""
         if not kernels_loaded() or scene.entries().get(robot_id) is not entry \
                 or entry.checker.static_contacts() or not self._worth_building(scene, robot_id, len(qs)):
             return np.zeros(len(qs), dtype=bool)
