@@ -13,12 +13,8 @@ from robwot_sim.model.fk import ChainFK
 from robwot_sim.model.joints import parse_model
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 from robwot_sim.model.urdf import parse_urdf
-from robwot_sim.sim.joint_tree import chain_poses, chain_tree
-from robwot_sim.sim.kernels import KERNELS_WAIT, kernels_ready
 from robwot_sim.sim.world import World
-from robwot_sim.workspace.chunk import end_link
 from robwot_sim.workspace.generate import chain_fk
-from robwot_sim.workspace.reachability import direction_bins
 from robwot_sim.workspace.sampling import BLOCK, sample_configurations
 
 MODELS = Path(__file__).parent / "models" / "workspace"
@@ -56,33 +52,6 @@ def test_fk_matches_pybullet(world: World, urdf: str) -> None:
             assert np.abs(np.array(pose.position) - pos[i]).max() < 1e-6
             assert np.abs(quat_matrix(pose.quat_xyzw) - rot[i]).max() < 1e-6
         assert np.allclose(fk.positions(qs), pos)
-    finally:
-        world.remove_robot(rid)
-
-
-@pytest.mark.parametrize("urdf", [
-    "kuka_iiwa/model.urdf", "franka_panda/panda.urdf", str(MODELS / "chain_mimic.urdf"),
-    str(MODELS / "shell.urdf"), str(MODELS / "planar2.urdf"),
-])
-def test_compiled_chain_poses_match_the_numpy_fk(world: World, urdf: str) -> None:
-    """The compiled end-link poses a worker's chunks use (``chunk.end_link`` once the kernels are loaded)
-    equal ChainFK's numpy ones to within rounding, couplings, prismatic joints and a base pose included."""
-    assert kernels_ready(timeout=KERNELS_WAIT)
-    rid = Path(urdf).stem + "-compiled"
-    model = world.load_robot(urdf, robot_id=rid, base_position=BASE_POS, base_orientation=BASE_QUAT)
-    try:
-        fk = chain_fk(world, rid)
-        tree = chain_tree(fk)
-        assert tree is not None
-        lo, hi = model.limits()
-        qs = sample_configurations(lo, hi, 500, seed=11)
-        pos, rot = fk.poses(qs)
-        got_pos, got_rot = chain_poses(tree, qs)
-        assert np.abs(got_pos - pos).max() < 1e-12
-        assert np.abs(got_rot - rot).max() < 1e-12
-        positions, bins = end_link(fk, qs)
-        assert np.abs(positions - pos).max() < 1e-12
-        assert (bins == direction_bins(rot)).mean() > 0.999  # a tie between two bins may go either way
     finally:
         world.remove_robot(rid)
 

@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.model.couplings import Coupling
-from robwot_sim.model.fk import ChainFK, chain_joint
+from robwot_sim.model.fk import chain_joint
 from robwot_sim.model.joints import JointInfo
 from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.sim.types import FloatArray
@@ -74,36 +74,6 @@ def tree_frames(tree: Tree, q: FloatArray) -> tuple[FloatArray, FloatArray]:
     p, r = np.empty((n + 1, 3)), np.empty((n + 1, 3, 3))
     frames(tree, np.asarray(q, dtype=np.float64), p, r)
     return p, r
-
-
-def chain_tree(fk: ChainFK) -> Tree | None:
-    """The chain of ``fk`` as a joint tree (each joint's parent the one before), or None when a joint is of
-    a kind the kernel does not move."""
-    if any(j.type not in KINDS for j in fk.joints):
-        return None
-    n = len(fk.joints)
-    coupling = np.zeros((n, fk.dof))
-    for k, j in enumerate(fk.joints):
-        for i, f in j.terms:
-            coupling[k, i] += f
-    kinds = np.array([KINDS[j.type] for j in fk.joints], dtype=np.int64)
-    return Tree(np.arange(-1, n - 1, dtype=np.int64), kinds,
-                np.array([j.origin_xyz for j in fk.joints], dtype=np.float64).reshape(n, 3),
-                np.array([j.origin_rot for j in fk.joints], dtype=np.float64).reshape(n, 3, 3),
-                np.array([j.axis for j in fk.joints], dtype=np.float64).reshape(n, 3), coupling,
-                np.array([j.offset for j in fk.joints], dtype=np.float64), fk.base_position.copy(),
-                fk.base_rotation.copy())
-
-
-def chain_poses(tree: Tree, qs: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The end-link positions (rows, 3) and rotations (rows, 3, 3) of a ``chain_tree`` per row of ``qs``
-    (validated), compiled: ``ChainFK.poses`` to within rounding."""
-    from robwot_sim.sim import sphere_kernel
-
-    q = np.ascontiguousarray(qs, dtype=np.float64)
-    positions, rotations = np.empty((len(q), 3)), np.empty((len(q), 3, 3))
-    sphere_kernel.chain_poses(tree, q, positions, rotations)
-    return positions, rotations
 
 
 def ancestors(tree: Tree, frame: int) -> list[int]:

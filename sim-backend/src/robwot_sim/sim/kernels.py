@@ -126,7 +126,7 @@ def kernels_ready(timeout: float = 0.0) -> bool:
 def _warm() -> None:
     """Every kernel called once with the types the bounds call it with (so each is loaded from numba's
     cache, or compiled): a one-joint arm with one box part beside a box."""
-    from robwot_sim.sim.joint_tree import Tree, chain_poses, tree_frames
+    from robwot_sim.sim.joint_tree import Tree, tree_frames
     from robwot_sim.sim.outerbounds import GRID_SIDE, ZONE_SIDE, Bodies, OuterBounds, distance_grid
     from robwot_sim.sim.pair_tables import pair_tables
     from robwot_sim.sim.robot_shapes import LinkShapes, RobotShapes, shapes_of
@@ -145,6 +145,5 @@ def _warm() -> None:
     bounds = OuterBounds(robot, bodies, distance_grid(bodies, 0.2, None, GRID_SIDE),
                          distance_grid(bodies, 0.3, None, ZONE_SIDE))
     tree_frames(tree, np.zeros(1))
-    chain_poses(tree, np.zeros((1, 1)))
     bounds.classify(np.zeros((1, 1)), hits=True)
     bounds.fill_tables()

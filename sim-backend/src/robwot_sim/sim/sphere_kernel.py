@@ -172,21 +172,6 @@ def frames(t: Tree, q: Array, P: Array, R: Array) -> None:
             R[j, r, 2] = a0 * m02 + a1 * m12 + a2 * m22
 
 
-@njit(cache=True, nogil=True)
-def chain_poses(t: Tree, qs: Array, positions: Array, rotations: Array) -> None:
-    """The last frame of a chain (a tree whose every joint's parent is the one before; no joint: the root)
-    per row of ``qs``, into ``positions`` (rows, 3) and ``rotations`` (rows, 3, 3)."""
-    n = t.parent.shape[0]
-    P, R = np.empty((n + 1, 3)), np.empty((n + 1, 3, 3))
-    last = n - 1 if n > 0 else n
-    for i in range(qs.shape[0]):
-        frames(t, qs[i], P, R)
-        for r in range(3):
-            positions[i, r] = P[last, r]
-            for c in range(3):
-                rotations[i, r, c] = R[last, r, c]
-
-
 @njit(cache=True, nogil=True, inline="always")
 def place(P: Array, R: Array, f: int, local: Array, out: Array) -> None:
     """Point ``local`` of frame ``f`` in the world, into ``out``."""

@@ -19,8 +19,6 @@ import numpy.typing as npt
 
 from robwot_sim.model.couplings import Followers
 from robwot_sim.model.fk import ChainFK
-from robwot_sim.sim.joint_tree import chain_poses, chain_tree
-from robwot_sim.sim.kernels import kernels_loaded
 from robwot_sim.workspace.io import csv_table, format_rows
 from robwot_sim.workspace.reachability import ReachabilityMap, direction_bins
 from robwot_sim.workspace.sampling import sample_configurations
@@ -61,15 +59,13 @@ class Chunk:
 
 
 def end_link(fk: ChainFK, qs: FloatArray, block: int = 100_000) -> tuple[FloatArray, UInt8Array]:
-    """End-link positions ``(n, 3)`` and approach-direction bins ``(n,)`` (in blocks to bound memory), by the
-    compiled kernel where this process has loaded the kernels (a worker's forkserver loads them), else by
-    ``fk`` in numpy. The two agree to within rounding (``tests/test_workspace_fk.py``): a chunk computed by
-    either gives the same files unless a coordinate lies within rounding of a printed digit's boundary."""
-    tree = chain_tree(fk) if kernels_loaded() else None
+    """End-link positions ``(n, 3)`` and approach-direction bins ``(n,)`` (in blocks to bound memory). Every
+    process computes them alike (``fk`` in numpy), whichever computes a chunk: a pool worker, the calling
+    process or a Ray worker, so that any split gives the same files and summary."""
     positions = np.empty((len(qs), 3))
     bins = np.empty(len(qs), dtype=np.uint8)
     for a in range(0, len(qs), block):
-        p, r = fk.poses(qs[a:a + block]) if tree is None else chain_poses(tree, qs[a:a + block])
+        p, r = fk.poses(qs[a:a + block])
         positions[a:a + block], bins[a:a + block] = p, direction_bins(r)
     return positions, bins
 
