@@ -98,6 +98,11 @@ async function exportSceneRobots(sim: SimClient, world: WorldList, ownRobot: str
 
 /** Configurations checked again, one by one, to name what touches when no sample was collision-free. */
 const WHY_SAMPLES = 40;
+/** Samples from which the TD is also validated before the labelling ends (placeholder bounds), so that a model
+ * that cannot make a valid TD fails before a long labelling. The official validator compiles the TD JSON
+ * Schemas anew at every call, which costs more CPU than a shorter labelling takes; a cluster run always
+ * validates early. */
+const EARLY_TD_SAMPLES = 1_000_000;
 
 /**
  * What touches in an all-colliding workspace: seeded random configurations within the joint limits checked
@@ -271,12 +276,14 @@ async function generateFrom(
   writeJson(join(staged.tmp, TWIN_FILES.scene), scene);
   writeManifest(staged.tmp, model, opts, input, home);
 
-  // While the backend samples: validate the TD's structure (placeholder bounds), so a model that cannot
-  // make a valid TD fails fast (the validator's modules were loaded while the backend started).
-  const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool, opts.gripper).validate())().catch(
-    (err: unknown) => [err instanceof Error ? err.message : String(err)],
-  );
-  if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
+  // While the backend samples a long run: validate the TD's structure (placeholder bounds), so a model that
+  // cannot make a valid TD fails fast (the validator's modules were loaded while the backend started).
+  if (opts.samples >= EARLY_TD_SAMPLES || opts.cluster !== undefined) {
+    const early = await (async () => buildTd(model, placeholderSummary(opts), scene, opts.baseUrl, input.tool, opts.gripper).validate())().catch(
+      (err: unknown) => [err instanceof Error ? err.message : String(err)],
+    );
+    if (early.length > 0) throw new CliError(`generated Thing Description is invalid: ${tdErrorsMessage(early)}`, "E_TD_INVALID", 1);
+  }
   const summary = await generating;
   const overlaps = overlapWarnings(model, others, summary);
   warnings.say(overlaps);
