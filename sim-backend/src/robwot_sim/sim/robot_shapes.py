@@ -294,6 +294,7 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
     verts = [v for lk in links for v in lk.verts]
     vert_first, vert_end = _spans([len(v) for v in verts])
     faces = [f for lk in links for f in lk.faces]
+    hits = set(hit_pairs)
     face_first, face_end = _spans([len(f) for f in faces])
     balls = [ball(lk.centres, lk.radii) for lk in links]
     parts = [ball(lk.box_c, np.array([np.linalg.norm(v - c, axis=1).max() if len(v) else 0.0
@@ -326,7 +327,7 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
                   np.array([b for _, b in pairs], dtype=np.int64),
                   inner_first, inner_end, cat([lk.inner_c for lk in links], (0, 3)),
                   cat([lk.inner_r for lk in links], (0,)), SELF_BALLS,
-                  np.array([pair in set(hit_pairs) for pair in pairs], dtype=np.bool_))
+                  np.array([pair in hits for pair in pairs], dtype=np.bool_))
 
 
 @dataclass(frozen=True)
