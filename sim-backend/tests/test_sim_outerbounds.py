@@ -327,15 +327,16 @@ def test_pairs_a_table_calls_apart_are_apart_for_fresh_distance_queries() -> Non
 
 def test_kernel_caches_are_emptied_when_any_kernel_source_changed(tmp_path: Path) -> None:
     """numba keys a kernel's cache by its own file; a kernel holds copies of the kernels it calls from the
-    other files, so every cache is emptied unless the stamp names all four sources as they are."""
+    other files, so every cache is emptied unless the stamp names all five sources as they are."""
     import hashlib
 
-    from robwot_sim.sim import bounds_kernel, hit_kernel, pair_kernel, sphere_kernel
+    from robwot_sim.sim import bounds_kernel, gjk_kernel, hit_kernel, pair_kernel, sphere_kernel
 
     kernels.kernels_ready(timeout=kernels.KERNELS_WAIT)
     caches, stamp, sources = kernels._kernel_caches()
-    assert len(caches) >= 10  # every kernel of the four files
-    files = [Path(str(m.__file__)) for m in (sphere_kernel, hit_kernel, pair_kernel, bounds_kernel)]
+    assert len(caches) >= 11  # every kernel of the five files
+    modules = (sphere_kernel, gjk_kernel, hit_kernel, pair_kernel, bounds_kernel)
+    files = [Path(str(m.__file__)) for m in modules]
     assert sources == hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
     assert stamp.read_text() == sources  # written once the kernels loaded
 

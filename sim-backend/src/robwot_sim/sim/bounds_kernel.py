@@ -11,9 +11,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
+from robwot_sim.sim.gjk_kernel import part_body_gap, sunk
 from robwot_sim.sim.hit_kernel import sunk_pair, sure
+from robwot_sim.sim.outerbounds import SURE_HIT
 from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
-from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place, separation
+from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place
 
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
@@ -30,7 +32,7 @@ def _scratch(n: int, parts: int, links: int, coords: int) -> tuple[Array, ...]:
     return (np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((links, 3)), np.empty((parts, 3)),
             np.empty((parts, 3, 3)), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
             np.empty((3, 3)), np.empty((3, 3)), np.empty(parts, np.int64), np.empty(parts, np.int64),
-            np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((6, 3)),
+            np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((5, 3)),
             np.empty(2, np.int64), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64))
 
 
@@ -58,7 +60,7 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
     n, nl = t.parent.shape[0], s.joint.shape[0]
     P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept = scratch
     # placed, turned, seen: the row whose BC, BA a part's are
-    w, u, sa, sb, ca, cb = v[0], v[1], v[2], v[3], v[4], v[5]
+    w, u, sa, ca, cb = v[0], v[1], v[2], v[3], v[4]
     need = hull_gap + tolerance
     for i in range(qs.shape[0]):
         frames(t, qs[i], P, R)
@@ -80,16 +82,24 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
                     place(P, R, f, s.box_c[p], sa)
                     for r in range(3):
                         u[r] = b.centre[found[j], r] - sa[r]
-                    gap = body_gap + margin + tolerance
-                    if not separation(s, p, f, -1, -1, b, found[j], P, R, u, gap, gap, sa, sb) > gap:
-                        part, frame, body, count = p, f, found[j], UNKNOWN
-                        break
-                    kept[p] = i * b.kind.shape[0] + found[j]
+                    gap, k_ = body_gap + margin + tolerance, found[j]
+                    if not part_body_gap(s, b, p, f, k_, P, R, u, gap, gap, False) > gap:
+                        part, frame, body, count = p, f, k_, UNKNOWN
+                        if hits and sunk(s, b, p, f, k_, P, R, depth + tolerance, u, False):
+                            status = SURE_HIT
+                            break
+                        if not part_body_gap(s, b, p, f, k_, P, R, u, gap, gap, True) > gap:
+                            break
+                        count = 0
+                    kept[p] = i * b.kind.shape[0] + k_
                 if count == UNKNOWN:
-                    status = 1
+                    status = max(status, 1)
                     break
             if status:
                 break
+        if status == SURE_HIT:
+            out[i] = status
+            continue
         if status == 0 or self_always:
             for ln in range(nl):
                 place(P, R, s.joint[ln] if s.joint[ln] >= 0 else n, s.link_c[ln], bc[ln])
@@ -101,9 +111,9 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
                 fa, fb = s.joint[la] if s.joint[la] >= 0 else n, s.joint[lb] if s.joint[lb] >= 0 else n
                 known = table_apart(tab, k, qs[i], need)
                 if known < 0:
-                    known = fill_cell(tab, k, qs[i], t, s, b, need, Q, P2, R2, ca, cb, u, sa, sb)
+                    known = fill_cell(tab, k, qs[i], t, s, b, need, Q, P2, R2, ca, cb, u)
                 if not known and not pair_apart(s, b, la, fa, lb, fb, i, P, R, bc, BC, BA, placed, turned,
-                                                 near_a, near_b, hull_gap, tolerance, r33, a33, u, sa, sb):
+                                                 near_a, near_b, hull_gap, tolerance, r33, a33, u):
                     status |= 2
                     pair = k
                     break
@@ -111,9 +121,9 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
             status = 3
         if status and hits:
             if sure(s, b, grid, P, R, n, bc, depth, tolerance, w, part, frame, body, seen, i):
-                status = 4
-            while status != 4 and 0 <= pair < s.pair_a.shape[0]:  # the pair found near and those after it
+                status = SURE_HIT
+            while status != SURE_HIT and 0 <= pair < s.pair_a.shape[0]:  # the pair found near, those after
                 if sunk_pair(s, pair, n, P, R, depth, tolerance, w, ca):
-                    status = 4
+                    status = SURE_HIT
                 pair += 1
         out[i] = status

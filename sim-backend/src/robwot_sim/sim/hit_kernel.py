@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
+from robwot_sim.sim.gjk_kernel import sunk
 from robwot_sim.sim.sphere_kernel import body_sdf, kernel, place, voxel_of
 
 if TYPE_CHECKING:
@@ -152,9 +153,10 @@ def sure(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, bc: Array, d
           tolerance: float, w: Array, p: int, f: int, k: int, seen: Array, row: int) -> bool:
     """The configuration in ``P``, ``R`` (row ``row``) surely collides, by more than ``depth``: ``_sunk``
     for part ``p`` (frame ``f``) and body ``k``, the pair found near, first, then ``_hit``, then
-    ``_sunk_near``."""
+    ``_sunk_near``, then that pair by the part's whole hull (``gjk_kernel.sunk``, ``exact``)."""
     return (_sunk(s, b, p, f, k, P, R, depth, tolerance, w) or _hit(s, b, g, P, R, n, bc, depth, tolerance, w)
-            or _sunk_near(s, b, g, P, R, n, depth, tolerance, w, seen, row))
+            or _sunk_near(s, b, g, P, R, n, depth, tolerance, w, seen, row)
+            or (k >= 0 and sunk(s, b, p, f, k, P, R, depth + tolerance, w, True)))
 
 
 @kernel
@@ -184,14 +186,11 @@ def _sunk_near(s: Shapes, b: Bodies, g: Grid, P: Array, R: Array, n: int, depth:
 @kernel
 def _sunk(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, depth: float, tolerance: float,
           w: Array) -> bool:
-    """A corner of part ``p`` (frame ``f``; -1: none), a point of the part itself (``own``), lies more than
-    ``depth`` inside body ``k``, an exact one (a primitive), or a point of the body more than ``depth``
-    inside the part's convex hull. ``w``: scratch."""
+    """Part ``p`` (frame ``f``; -1: none), a part whose points are its own (``own``), reaches more than
+    ``depth`` into body ``k``, an exact one (a primitive): the hull of its corners meets the body shrunk by
+    that much (``gjk_kernel.sunk``), or a point of the body lies more than ``depth`` inside the part's
+    convex hull. ``w``: scratch."""
     if p < 0 or not b.exact[k] or not s.own[p]:
         return False
-    for v in range(s.vert_first[p], s.vert_end[p]):
-        place(P, R, f, s.corners[v], w)
-        if body_sdf(b, k, w[0], w[1], w[2]) + tolerance < -depth:
-            return True
-    return _body_inside(s, b, k, p, f, P, R, depth + tolerance)
-
+    return (sunk(s, b, p, f, k, P, R, depth + tolerance, w, False)
+            or _body_inside(s, b, k, p, f, P, R, depth + tolerance))

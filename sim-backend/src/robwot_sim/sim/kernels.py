@@ -1,7 +1,7 @@
-"""The outer bounds' compiled kernels (``sphere_kernel.py``, ``hit_kernel.py``, ``pair_kernel.py``,
-``bounds_kernel.py``) in a process: loaded once, from numba's disk cache (compiled on a machine's first
-use), on a thread of their own or in the caller's; until they are loaded the bounds know nothing and every
-check runs on Bullet alone (``outerbounds.py``)."""
+"""The outer bounds' compiled kernels (``sphere_kernel.py``, ``gjk_kernel.py``, ``hit_kernel.py``,
+``pair_kernel.py``, ``bounds_kernel.py``) in a process: loaded once, from numba's disk cache (compiled on a
+machine's first use), on a thread of their own or in the caller's; until they are loaded the bounds know
+nothing and every check runs on Bullet alone (``outerbounds.py``)."""
 
 from __future__ import annotations
 
@@ -95,8 +95,8 @@ def _kernel_caches() -> tuple[list[Any], Path, str]:
     it calls from the other files (inlined or linked in): a change to any of the files compiles all."""
     from numba.core.registry import CPUDispatcher
 
-    from robwot_sim.sim import bounds_kernel, hit_kernel, pair_kernel, sphere_kernel
-    modules = (sphere_kernel, hit_kernel, pair_kernel, bounds_kernel)
+    from robwot_sim.sim import bounds_kernel, gjk_kernel, hit_kernel, pair_kernel, sphere_kernel
+    modules = (sphere_kernel, gjk_kernel, hit_kernel, pair_kernel, bounds_kernel)
     found = [getattr(k, "_cache", None) for m in modules for k in vars(m).values()
              if isinstance(k, CPUDispatcher)]
     caches = [c for c in found if c is not None]

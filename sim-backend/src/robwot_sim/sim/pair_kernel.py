@@ -1,6 +1,6 @@
 """Compiled kernels of the self pairs (``bounds_kernel.classify``): a pair's table (``pair_tables.py``'s
 ``PairTables``, ``sphere_kernel.py`` says what each array holds) filled and looked up, else its links'
-parts by balls, boxes (separating axes) and hulls (``sphere_kernel.separation``). Compiled by numba and
+parts by balls, boxes (separating axes) and hulls (``gjk_kernel.separation``). Compiled by numba and
 cached on disk as ``sphere_kernel.py``'s, without reference counting (``sphere_kernel.kernel``).
 """
 
@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
-from robwot_sim.sim.sphere_kernel import frames, kernel, place, separation
+from robwot_sim.sim.gjk_kernel import separation
+from robwot_sim.sim.sphere_kernel import frames, kernel, place
 
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
@@ -57,10 +58,10 @@ def _boxes_apart(ca: Array, ra: Array, ha: Array, cb: Array, rb: Array, hb: Arra
 
 @kernel
 def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array, R: Array, cap: float,
-              floor: float, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> float:
+              floor: float, ca: Array, cb: Array, u: Array) -> float:
     """A lower bound of the distance between links ``la`` (frame ``fa``) and ``lb``'s hulls in the frames
     ``P``, ``R``, at most ``cap``: per pair of their parts the distance of their balls or, where that is
-    below the bound so far, the larger of it and Gilbert's (``separation``); returned as soon as two parts
+    below the bound so far, the larger of it and GJK's (``separation``); returned as soon as two parts
     are found within ``floor`` (any bound at or below it then tells the same). ``ca``, ``cb``: scratch."""
     best = cap
     for pa in range(s.part_first[la], s.part_end[la]):
@@ -72,7 +73,7 @@ def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array
             d = float(math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) - s.box_r[pa] - s.box_r[pb])
             if d >= best:
                 continue
-            best = min(best, max(d, separation(s, pa, fa, pb, fb, b, -1, P, R, u, best, floor, sa, sb)))
+            best = min(best, max(d, separation(s, b, pa, fa, pb, fb, P, R, u, best, floor)))
             if best <= floor:
                 return best
     return best
@@ -124,7 +125,7 @@ def table_apart(tab: PairTables, k: int, q: Array, need: float) -> int:
 
 @kernel
 def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, need: float, most: float,
-            Q: Array, P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> float:
+            Q: Array, P: Array, R: Array, ca: Array, cb: Array, u: Array) -> float:
     """Cell ``index`` of self pair ``k``'s table computed and stored: ``_pair_gap`` at its centre (``Q``
     with the pair's coordinates moved there), at most what any point of the cell needs (``need`` plus
     ``most``); ``P``, ``R`` and the rest scratch."""
@@ -136,20 +137,20 @@ def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, 
     n = t.parent.shape[0]
     la, lb = s.pair_a[k], s.pair_b[k]
     fa, fb = s.joint[la] if s.joint[la] >= 0 else n, s.joint[lb] if s.joint[lb] >= 0 else n
-    gap = _pair_gap(s, b, la, fa, lb, fb, P, R, need + most, need, ca, cb, u, sa, sb)
+    gap = _pair_gap(s, b, la, fa, lb, fb, P, R, need + most, need, ca, cb, u)
     tab.gap[tab.first[k] + index] = gap
     return gap
 
 
 @kernel
 def fill_cell(tab: PairTables, k: int, q: Array, t: Tree, s: Shapes, b: Bodies, need: float, Q: Array,
-              P: Array, R: Array, ca: Array, cb: Array, u: Array, sa: Array, sb: Array) -> int:
+              P: Array, R: Array, ca: Array, cb: Array, u: Array) -> int:
     """``table_apart`` once configuration ``q``'s cell is computed (``_gap_at``, from ``q``)."""
     index, slack = _cell(tab, k, q)
     most = _span(tab, k)[1]
     for m in range(q.shape[0]):
         Q[m] = q[m]
-    gap = _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u, sa, sb)
+    gap = _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u)
     return 1 if gap - slack > need else 0
 
 
@@ -158,12 +159,12 @@ def fill_tables(t: Tree, s: Shapes, tab: PairTables, b: Bodies, need: float) -> 
     """Every cell of every self pair's table not computed yet computed now (``_gap_at``)."""
     n = t.parent.shape[0]
     Q, P, R = np.zeros(t.coupling.shape[1]), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3))
-    ca, cb, u, sa, sb = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    ca, cb, u = np.empty(3), np.empty(3), np.empty(3)
     for k in range(tab.dims.shape[0]):
         count, most = _span(tab, k)
         for index in range(count):
             if math.isnan(tab.gap[tab.first[k] + index]):
-                _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u, sa, sb)
+                _gap_at(tab, k, index, t, s, b, need, most, Q, P, R, ca, cb, u)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -199,8 +200,7 @@ def _near_parts(s: Shapes, ln: int, f: int, other: int, row: int, P: Array, R: A
 @kernel
 def pair_apart(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, row: int, P: Array, R: Array,
                 bc: Array, BC: Array, BA: Array, placed: Array, turned: Array, near_a: Array, near_b: Array,
-                hull_gap: float, tolerance: float, r33: Array, a33: Array, u: Array, sa: Array,
-                sb: Array) -> bool:
+                hull_gap: float, tolerance: float, r33: Array, a33: Array, u: Array) -> bool:
     """Every part of link ``la`` (frame ``fa``; its ball's centre in the world ``bc[la]``) more than
     ``hull_gap`` from every part of ``lb``: of the parts of each that come near the other link's ball,
     every pair's balls apart, else their boxes grown by half the gap, else their hulls (``separation``). A
@@ -225,7 +225,7 @@ def pair_apart(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, row: in
                 continue
             u[0], u[1], u[2] = -dx, -dy, -dz
             need = hull_gap + tolerance
-            if not separation(s, pa, fa, pb, fb, b, -1, P, R, u, need, need, sa, sb) > need:
+            if not separation(s, b, pa, fa, pb, fb, P, R, u, need, need) > need:
                 return False
     return True
 

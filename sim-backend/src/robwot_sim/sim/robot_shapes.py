@@ -10,9 +10,9 @@ frame:
 - a box (along the part's principal axes or the link's) and a hull of few vertices holding it
   (``decompose.slim``), for the self pairs, and per vertex the part's own point nearest to it (its
   corners), for sure hits where the part's points are its own (``own``: not a sphere's or capsule's,
-  whose points are its box's corners), and the planes of the faces of its convex hull (Bullet's own
-  shape of it): a corner of one part deeper than ``surehit.DEPTH`` inside another's hull is a sure hit of
-  their self pair;
+  whose points are its box's corners), and the planes of the faces and the vertices of its convex hull
+  (Bullet's own shape of it): a corner of one part deeper than ``surehit.DEPTH`` inside another's hull is
+  a sure hit of their self pair, the hull's distance to another body is exact (``gjk_kernel.py``);
 - the balls inside its parts (``surehit.link_balls``), for sure hits.
 
 And per self pair, a table over the joint coordinates that move its links where there are at most two
@@ -70,6 +70,9 @@ class Shapes(NamedTuple):
     vert_end: IntArray
     verts: FloatArray
     corners: FloatArray
+    hull_first: IntArray
+    hull_end: IntArray
+    hull: FloatArray
     own: BoolArray
     face_first: IntArray
     face_end: IntArray
@@ -211,6 +214,14 @@ def hull_vertices(points: FloatArray) -> FloatArray:
         return np.ascontiguousarray(points, dtype=np.float64)
 
 
+def hull_points(points: FloatArray) -> FloatArray:
+    """The vertices of the convex hull of ``points`` (all of them where Qhull cannot build it: flat)."""
+    try:
+        return np.ascontiguousarray(points[ConvexHull(points).vertices], dtype=np.float64)
+    except (QhullError, ValueError):
+        return np.ascontiguousarray(points, dtype=np.float64)
+
+
 def hull_faces(points: FloatArray) -> FloatArray:
     """The planes of the faces of the convex hull of ``points`` (rows: unit outward normal, offset; a point
     x is inside where every ``n . x + offset`` is negative); none where Qhull cannot build it (flat)."""
@@ -238,6 +249,7 @@ class LinkShapes:
     corners: list[FloatArray]
     own: BoolArray
     faces: list[FloatArray]
+    hull: list[FloatArray]
     inner_c: FloatArray
     inner_r: FloatArray
 
@@ -250,7 +262,8 @@ class LinkShapes:
         """A link's shapes from the arrays ``fit_link`` makes (or ``shape_cache`` kept); ``own``: per part,
         whether its points are its own (module docstring)."""
         return cls(link, moving, a["centres"], a["radii"], a["sphere_part"], a["box_c"], a["box_axes"],
-                   a["box_half"], a["verts"], a["corners"], own, a["faces"], a["inner_c"], a["inner_r"])
+                   a["box_half"], a["verts"], a["corners"], own, a["faces"], a["hull"], a["inner_c"],
+                   a["inner_r"])
 
 
 def fit_link(parts: list[FloatArray], inner: LinkBalls | None) -> dict[str, Any]:
@@ -265,7 +278,7 @@ def fit_link(parts: list[FloatArray], inner: LinkBalls | None) -> dict[str, Any]
             "box_axes": np.array([b[1] for b in boxes]).reshape(-1, 3, 3),
             "box_half": np.array([b[2] for b in boxes]).reshape(-1, 3), "verts": verts,
             "corners": [pts[cKDTree(pts).query(v)[1]] for pts, v in zip(parts, verts, strict=True)],
-            "faces": [hull_faces(pts) for pts in parts],
+            "faces": [hull_faces(pts) for pts in parts], "hull": [hull_points(pts) for pts in parts],
             "inner_c": np.zeros((0, 3)) if inner is None else inner.centres,
             "inner_r": np.zeros(0) if inner is None else inner.radii}
 
@@ -294,6 +307,8 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
     verts = [v for lk in links for v in lk.verts]
     vert_first, vert_end = _spans([len(v) for v in verts])
     faces = [f for lk in links for f in lk.faces]
+    hulls = [h for lk in links for h in lk.hull]
+    hull_first, hull_end = _spans([len(h) for h in hulls])
     hits = set(hit_pairs)
     face_first, face_end = _spans([len(f) for f in faces])
     balls = [ball(lk.centres, lk.radii) for lk in links]
@@ -319,6 +334,7 @@ def shapes_of(links: list[LinkShapes], joints: list[int], pairs: list[tuple[int,
                   part_first, part_end, box_c, cat([lk.box_axes for lk in links], (0, 3, 3)), box_half, box_r,
                   vert_first, vert_end, cat(verts, (0, 3)),
                   cat([c for lk in links for c in lk.corners], (0, 3)),
+                  hull_first, hull_end, cat(hulls, (0, 3)),
                   np.concatenate([lk.own for lk in links]) if links else np.zeros(0, dtype=np.bool_),
                   face_first, face_end, cat(faces, (0, 4)),
                   np.array([c for c, _ in parts]).reshape(-1, 3),

@@ -1,6 +1,7 @@
-"""A link's outer shapes (``robot_shapes.LinkShapes``: spheres, boxes, slim hulls, corners, hull faces, inner
-balls) kept on disk between processes, so a robot's shapes are fitted once per machine instead of once per
-process (each labelling worker, each backend): the fits cost about as much as the rest of a worker's start.
+"""A link's outer shapes (``robot_shapes.LinkShapes``: spheres, boxes, slim hulls, corners, hull faces and
+vertices, inner balls) kept on disk between processes, so a robot's shapes are fitted once per machine
+instead of once per process (each labelling worker, each backend): the fits cost about as much as the rest
+of a worker's start.
 
 An entry is named by the digest of everything the fits read: the link's parts as points in its frame (the
 meshes' contents, scaled and placed), Bullet's shape data of the link (its mesh files by their contents'
@@ -30,8 +31,8 @@ from robwot_sim.sim.types import FloatArray
 #: arrays of an entry: name -> (dtype kind, trailing shape)
 _FIELDS = {"centres": ("f", (3,)), "radii": ("f", ()), "sphere_part": ("i", ()), "box_c": ("f", (3,)),
            "box_axes": ("f", (3, 3)), "box_half": ("f", (3,)), "verts": ("f", (3,)), "corners": ("f", (3,)),
-           "counts": ("i", ()), "faces": ("f", (4,)), "face_counts": ("i", ()), "inner_c": ("f", (3,)),
-           "inner_r": ("f", ())}
+           "counts": ("i", ()), "faces": ("f", (4,)), "face_counts": ("i", ()), "hull": ("f", (3,)),
+           "hull_counts": ("i", ()), "inner_c": ("f", (3,)), "inner_r": ("f", ())}
 _salt: str | None = None
 
 
@@ -86,8 +87,9 @@ def by_content(shape: tuple[Any, ...]) -> tuple[Any, ...]:
 
 
 def load(name: str, parts: int) -> dict[str, Any] | None:
-    """The arrays of entry ``name`` for a link of ``parts`` parts (``verts`` and ``corners`` as one list per
-    part), or None when there is none or it is not sound in kind, shape and values."""
+    """The arrays of entry ``name`` for a link of ``parts`` parts (``verts``, ``corners``, ``faces`` and
+    ``hull`` as one list per part), or None when there is none or it is not sound in kind, shape and
+    values."""
     path = folder() / f"{name}.npz"
     try:
         with np.load(path, allow_pickle=False) as z:
@@ -103,6 +105,8 @@ def load(name: str, parts: int) -> dict[str, Any] | None:
             or len(arrays["corners"]) != len(arrays["verts"]) or len(arrays["centres"]) != spheres
             or len(arrays["face_counts"]) != parts or (arrays["face_counts"] < 0).any()
             or arrays["face_counts"].sum() != len(arrays["faces"])
+            or len(arrays["hull_counts"]) != parts or (arrays["hull_counts"] < 1).any()
+            or arrays["hull_counts"].sum() != len(arrays["hull"])
             or len(arrays["sphere_part"]) != spheres or (arrays["radii"] <= 0).any()
             or ((arrays["sphere_part"] < 0) | (arrays["sphere_part"] >= parts)).any()
             or not len(arrays["box_c"]) == len(arrays["box_axes"]) == len(arrays["box_half"]) == parts
@@ -113,6 +117,8 @@ def load(name: str, parts: int) -> dict[str, Any] | None:
     arrays["corners"] = [np.ascontiguousarray(c) for c in np.split(arrays["corners"], cut)]
     cut = np.cumsum(arrays["face_counts"])[:-1]
     arrays["faces"] = [np.ascontiguousarray(f) for f in np.split(arrays["faces"], cut)]
+    cut = np.cumsum(arrays["hull_counts"])[:-1]
+    arrays["hull"] = [np.ascontiguousarray(h) for h in np.split(arrays["hull"], cut)]
     return arrays
 
 
@@ -125,6 +131,8 @@ def store(name: str, arrays: dict[str, Any]) -> None:
     data["corners"] = np.concatenate(arrays["corners"]).reshape(-1, 3)
     data["face_counts"] = np.array([len(f) for f in arrays["faces"]], dtype=np.int64)
     data["faces"] = np.concatenate(arrays["faces"]).reshape(-1, 4)
+    data["hull_counts"] = np.array([len(h) for h in arrays["hull"]], dtype=np.int64)
+    data["hull"] = np.concatenate(arrays["hull"]).reshape(-1, 3)
     try:
         out.mkdir(parents=True, mode=0o700, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=out, suffix=".tmp")

@@ -25,8 +25,9 @@ part of its link, ``sphere_part``) inside a ball
 ``ball_c``/``ball_r``, for the other bodies; per convex part a box (``box_c``, axes as columns
 ``box_axes``, half extents ``box_half``, inside the ball of radius ``box_r`` about its centre) and a hull's
 vertices (``verts[vert_first[p]:vert_end[p]]``; ``corners`` beside them: the part's own point nearest to
-each, where ``own[p]``: a sphere's or capsule's are its box's) and the planes of its convex hull's faces
-(``faces[face_first[p]:face_end[p]]``: unit outward normal, offset), the parts of link ``l``
+each, where ``own[p]``: a sphere's or capsule's are its box's), the planes of its convex hull's faces
+(``faces[face_first[p]:face_end[p]]``: unit outward normal, offset) and that hull's vertices
+(``hull[hull_first[p]:hull_end[p]]``: Bullet's own shape of the part, many more), the parts of link ``l``
 ``part_first[l]``..``part_end[l]``
 inside the ball ``link_c``/``link_r``, for the self pairs ``pair_a[k]``, ``pair_b[k]`` (``pair_hit[k]``: one
 Bullet reports contacts of, both links with mass). Balls inside
@@ -61,7 +62,6 @@ from numba import njit
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
     from robwot_sim.sim.outerbounds import Bodies, Grid
-    from robwot_sim.sim.robot_shapes import Shapes
 
 _Function = TypeVar("_Function", bound=Callable[..., object])
 
@@ -71,9 +71,6 @@ def kernel(function: _Function) -> _Function:
     stubs)."""
     options: dict[str, Any] = {"cache": True, "nogil": True, "_nrt": False}
     return cast(_Function, njit(**options)(function))
-
-#: iterations of the search for a direction separating two parts' hulls
-GILBERT_STEPS = 24
 
 Array = np.ndarray
 
@@ -221,77 +218,3 @@ def near(g: Grid, b: Bodies, x: float, y: float, z: float, need: float, exact: b
             found[count] = k
             count += 1
     return count if g.d[v, 2] - gap > need else UNKNOWN
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _body_support(b: Bodies, k: int, ux: float, uy: float, uz: float, out: Array) -> None:
-    """The point of body ``k`` farthest along world direction u, into ``out``."""
-    c, rot, size = b.centre[k], b.rotation[k], b.size[k]
-    lx = rot[0, 0] * ux + rot[1, 0] * uy + rot[2, 0] * uz  # u in the body's frame
-    ly = rot[0, 1] * ux + rot[1, 1] * uy + rot[2, 1] * uz
-    lz = rot[0, 2] * ux + rot[1, 2] * uy + rot[2, 2] * uz
-    if b.kind[k] == 1:
-        norm = math.sqrt(lx * lx + ly * ly + lz * lz) + 1e-300
-        px, py, pz = size[0] * lx / norm, size[0] * ly / norm, size[0] * lz / norm
-    elif b.kind[k] == 0:
-        px = size[0] if lx >= 0.0 else -size[0]
-        py = size[1] if ly >= 0.0 else -size[1]
-        pz = size[2] if lz >= 0.0 else -size[2]
-    else:
-        norm = math.sqrt(lx * lx + ly * ly)
-        px, py = (size[0] * lx / norm, size[0] * ly / norm) if norm > 0.0 else (0.0, 0.0)
-        pz = size[1] if lz >= 0.0 else -size[1]
-    for r in range(3):
-        out[r] = c[r] + rot[r, 0] * px + rot[r, 1] * py + rot[r, 2] * pz
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _support(s: Shapes, p: int, P: Array, R: Array, f: int, ux: float, uy: float, uz: float,
-             out: Array) -> None:
-    """The vertex of part ``p`` (frame ``f``) farthest along world direction u, in the world, into ``out``."""
-    lx = R[f, 0, 0] * ux + R[f, 1, 0] * uy + R[f, 2, 0] * uz
-    ly = R[f, 0, 1] * ux + R[f, 1, 1] * uy + R[f, 2, 1] * uz
-    lz = R[f, 0, 2] * ux + R[f, 1, 2] * uy + R[f, 2, 2] * uz
-    best, kb = -np.inf, s.vert_first[p]
-    for k in range(s.vert_first[p], s.vert_end[p]):
-        d = lx * s.verts[k, 0] + ly * s.verts[k, 1] + lz * s.verts[k, 2]
-        if d > best:
-            best, kb = d, k
-    place(P, R, f, s.verts[kb], out)
-
-
-@kernel
-def separation(s: Shapes, pa: int, fa: int, pb: int, fb: int, b: Bodies, body: int, P: Array, R: Array,
-               u: Array, enough: float, least: float, sa: Array, sb: Array) -> float:
-    """A lower bound of the distance between the hull of part ``pa`` (frame ``fa``) and B, the hull of part
-    ``pb`` (frame ``fb``) or with ``body`` >= 0 that body (-inf: none found): the best of Gilbert's
-    iteration on their difference A - B, from ``u``, the direction from A towards B, returned once above
-    ``enough``, or once the iterate, a point of A - B whose length bounds the distance from above, is no
-    longer than ``least`` (the bound can then not exceed it). Each candidate is min over A of n.a - max
-    over B of n.b for a direction n, computed from their support points themselves, so the bound is sound
-    however the iteration fares (it only finds n)."""
-    _support(s, pa, P, R, fa, u[0], u[1], u[2], sa)
-    if body >= 0:
-        _body_support(b, body, -u[0], -u[1], -u[2], sb)
-    else:
-        _support(s, pb, P, R, fb, -u[0], -u[1], -u[2], sb)
-    vx, vy, vz = sa[0] - sb[0], sa[1] - sb[1], sa[2] - sb[2]  # a point of A - B
-    best = -math.inf
-    for _ in range(GILBERT_STEPS):
-        vv = vx * vx + vy * vy + vz * vz
-        if vv < 1e-18 or vv <= least * abs(least):
-            return best
-        _support(s, pa, P, R, fa, -vx, -vy, -vz, sa)
-        if body >= 0:
-            _body_support(b, body, vx, vy, vz, sb)
-        else:
-            _support(s, pb, P, R, fb, vx, vy, vz, sb)
-        wx, wy, wz = sa[0] - sb[0], sa[1] - sb[1], sa[2] - sb[2]  # A - B's point least along v
-        vw = vx * wx + vy * wy + vz * wz
-        best = max(best, float(vw / math.sqrt(vv)))
-        if best > enough or vv - vw <= 1e-9 * vv:
-            return best
-        dx, dy, dz = wx - vx, wy - vy, wz - vz
-        t = min(max(-(vx * dx + vy * dy + vz * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
-        vx, vy, vz = vx + t * dx, vy + t * dy, vz + t * dz
-    return best
