@@ -64,11 +64,11 @@ def ur3_mesh_and_robot(w: World) -> str:
     return "r"
 
 
-def among_4_obstacles(urdf: str, name: str) -> Callable[[World], str]:
-    """A loader of a pybullet_data robot among the 4 obstacles of the example scene."""
+def among_4_obstacles(urdf: str, name: str, scene: str = "obstacles-4.json") -> Callable[[World], str]:
+    """A loader of a pybullet_data robot among the 4 obstacles of the example scene (or another one)."""
     def load(w: World) -> str:
         w.load_robot(urdf, robot_id="r")
-        w.load_scene(SCENES / "obstacles-4.json")
+        w.load_scene(SCENES / scene)
         return "r"
     load.__name__ = name
     return load
@@ -95,7 +95,10 @@ def z1_4(w: World) -> str:
 
 
 CASES = [among_4_obstacles("kuka_iiwa/model.urdf", "kuka_4"), ur3_mesh_and_robot,
-         among_4_obstacles("xarm/xarm6_with_gripper.urdf", "xarm_gripper_4"), ur5_tool_table, z1_4]
+         among_4_obstacles("xarm/xarm6_with_gripper.urdf", "xarm_gripper_4"), ur5_tool_table, z1_4,
+         # long links whose spheres reach more than two of the obstacles from one voxel: each obstacle
+         # measured by its exact distance
+         among_4_obstacles("TwoJointRobot_wo_fixedJoints.urdf", "two_joint_239", "obstacles-239.json")]
 #: cases where no row is free of self-contact for sure: the xArm gripper's inner and outer knuckles come
 #: within 0.4 mm of each other (Bullet's distance queries), closer than the bounds can tell apart
 CLOSE_SELF = {"xarm_gripper_4"}

@@ -15,7 +15,7 @@ from robwot_sim.sim.gjk_kernel import part_body_gap, sunk
 from robwot_sim.sim.hit_kernel import sunk_pair, sure
 from robwot_sim.sim.outerbounds import SURE_HIT
 from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
-from robwot_sim.sim.sphere_kernel import UNKNOWN, frames, kernel, near, place
+from robwot_sim.sim.sphere_kernel import UNKNOWN, body_sdf, frames, kernel, near, place
 
 if TYPE_CHECKING:
     from robwot_sim.sim.joint_tree import Tree
@@ -42,14 +42,31 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
              depth: float, out: Array) -> None:
     """Per row of ``qs``: bit 1 set where a sphere of a moving link may come within ``margin`` of a body
     (a link whose ball the coarse ``zone`` finds clear is not looked at further; a sphere by the fine
-    ``grid``, exactly where one or two bodies only can be near, and then its part's hull kept more than
-    ``body_gap`` plus the margin from them), bit 2 where two parts of a checked link pair may come within
-    ``hull_gap`` (link balls, the pair's table, then part balls, boxes, hulls), for every row or (not
-    ``self_always``) only the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not
-    found free that surely collides (by more than ``depth``: ``sure``, or ``sunk_pair`` for the self pair
-    found near or one after it) is 4 instead."""
+    ``grid``, exactly where one or two bodies only can be near, by each body's exact distance where more
+    can, and then its part's hull kept more than ``body_gap`` plus the margin from them:
+    ``_part_status``), bit 2 where two parts of a checked link pair may come within ``hull_gap`` (link
+    balls, the pair's table, then part balls, boxes, hulls), for every row or (not ``self_always``) only
+    the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not found free that
+    surely collides (by more than ``depth``: ``_part_status``, ``sure``, or ``sunk_pair`` for the self
+    pair found near or one after it) is 4 instead."""
     _rows(qs, t, s, tab, b, grid, zone, margin, body_gap, hull_gap, tolerance, self_always, hits, depth, out,
           _scratch(t.parent.shape[0], s.box_c.shape[0], s.joint.shape[0], qs.shape[1]))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _part_status(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, c: Array,
+                 gap: float, hits: bool, depth: float) -> int:
+    """Part ``p`` (frame ``f``) against body ``k``: 0 more than ``gap`` from it (its slim hull, else its own
+    hull), with ``hits`` ``SURE_HIT`` where it reaches more than ``depth`` into it (``gjk_kernel.sunk``
+    on its corners), else 1. ``u``, ``c``: scratch."""
+    place(P, R, f, s.box_c[p], c)
+    for r in range(3):
+        u[r] = b.centre[k, r] - c[r]
+    if part_body_gap(s, b, p, f, k, P, R, u, gap, gap, False) > gap:
+        return 0
+    if hits and sunk(s, b, p, f, k, P, R, depth, u, False):
+        return SURE_HIT
+    return 0 if part_body_gap(s, b, p, f, k, P, R, u, gap, gap, True) > gap else 1
 
 
 @kernel
@@ -61,7 +78,7 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
     P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept = scratch
     # placed, turned, seen: the row whose BC, BA a part's are
     w, u, sa, ca, cb = v[0], v[1], v[2], v[3], v[4]
-    need = hull_gap + tolerance
+    need, nb = hull_gap + tolerance, b.kind.shape[0]
     for i in range(qs.shape[0]):
         frames(t, qs[i], P, R)
         status, part, frame, body, pair = 0, -1, -1, -1, -1
@@ -74,26 +91,21 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
                 continue
             for k in range(s.sphere_first[ln], s.sphere_end[ln]):
                 place(P, R, f, s.sphere_c[k], w)
-                count = near(grid, b, w[0], w[1], w[2], s.sphere_r[k] + margin, True, tolerance, found)
-                p = s.sphere_part[k]
-                for j in range(max(count, 0)):  # the sphere's part against each body that may be near
-                    if kept[p] == i * b.kind.shape[0] + found[j]:  # kept from it in this row already
+                reach, p = s.sphere_r[k] + margin, s.sphere_part[k]
+                count = near(grid, b, w[0], w[1], w[2], reach, True, tolerance, found)
+                every = count == UNKNOWN  # the grid cannot tell: each body by its exact distance
+                for j in range(nb if every else count):  # the sphere's part against each body it may reach
+                    m = j if every else found[j]
+                    apart = every and body_sdf(b, m, w[0], w[1], w[2]) - tolerance > reach
+                    if apart or kept[p] == i * nb + m:  # the sphere apart from it, or kept from it already
                         continue
-                    place(P, R, f, s.box_c[p], sa)
-                    for r in range(3):
-                        u[r] = b.centre[found[j], r] - sa[r]
-                    gap, k_ = body_gap + margin + tolerance, found[j]
-                    if not part_body_gap(s, b, p, f, k_, P, R, u, gap, gap, False) > gap:
-                        part, frame, body, count = p, f, k_, UNKNOWN
-                        if hits and sunk(s, b, p, f, k_, P, R, depth + tolerance, u, False):
-                            status = SURE_HIT
-                            break
-                        if not part_body_gap(s, b, p, f, k_, P, R, u, gap, gap, True) > gap:
-                            break
-                        count = 0
-                    kept[p] = i * b.kind.shape[0] + k_
-                if count == UNKNOWN:
-                    status = max(status, 1)
+                    status = _part_status(s, b, p, f, m, P, R, u, sa, body_gap + margin + tolerance, hits,
+                                          depth + tolerance)
+                    if status:
+                        part, frame, body = p, f, m
+                        break
+                    kept[p] = i * nb + m
+                if status:
                     break
             if status:
                 break
