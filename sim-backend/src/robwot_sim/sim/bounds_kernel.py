@@ -24,6 +24,8 @@ if TYPE_CHECKING:
     from robwot_sim.sim.robot_shapes import Shapes
 
 Array = np.ndarray
+#: (part, body) pairs a row leaves to the parts' whole hulls until every body is looked at, at most
+PENDING = 8
 
 
 @njit(cache=True, nogil=True)
@@ -33,7 +35,8 @@ def _scratch(n: int, parts: int, links: int, coords: int) -> tuple[Array, ...]:
             np.empty((parts, 3, 3)), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
             np.empty((3, 3)), np.empty((3, 3)), np.empty(parts, np.int64), np.empty(parts, np.int64),
             np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((5, 3)),
-            np.empty(2, np.int64), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64))
+            np.empty(2, np.int64), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
+            np.empty((PENDING, 3), np.int64))
 
 
 @njit(cache=True, nogil=True)
@@ -54,19 +57,67 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _part_status(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, c: Array,
-                 gap: float, hits: bool, depth: float) -> int:
-    """Part ``p`` (frame ``f``) against body ``k``: 0 more than ``gap`` from it (its slim hull, else its own
-    hull), with ``hits`` ``SURE_HIT`` where it reaches more than ``depth`` into it (``gjk_kernel.sunk``
-    on its corners), else 1. ``u``, ``c``: scratch."""
+def _toward(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, c: Array) -> None:
+    """``u``: from the centre of part ``p``'s box (frame ``f``) to body ``k``'s centre (``c``: scratch)."""
     place(P, R, f, s.box_c[p], c)
     for r in range(3):
         u[r] = b.centre[k, r] - c[r]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _part_status(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, c: Array,
+                 gap: float, hits: bool, depth: float) -> int:
+    """Part ``p`` (frame ``f``) against body ``k`` by the part's few points: 0 its slim hull more than ``gap``
+    from it, with ``hits`` ``SURE_HIT`` where the hull of its corners reaches more than ``depth`` into it
+    (``gjk_kernel.sunk``), else 1 (its whole hull may tell: ``part_body_gap``'s ``exact``). ``u``, ``c``:
+    scratch."""
+    _toward(s, b, p, f, k, P, R, u, c)
     if part_body_gap(s, b, p, f, k, P, R, u, gap, gap, False) > gap:
         return 0
-    if hits and sunk(s, b, p, f, k, P, R, depth, u, False):
-        return SURE_HIT
-    return 0 if part_body_gap(s, b, p, f, k, P, R, u, gap, gap, True) > gap else 1
+    return SURE_HIT if hits and sunk(s, b, p, f, k, P, R, depth, u, False) else 1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _bodies(i: int, s: Shapes, b: Bodies, grid: Grid, zone: Grid, P: Array, R: Array, n: int, margin: float,
+            gap: float, tolerance: float, hits: bool, depth: float, w: Array, u: Array, c: Array,
+            found: Array, kept: Array, pending: Array) -> tuple[int, int, int, int]:
+    """Row ``i``'s verdict on the other bodies (``classify``'s bit 1, or ``SURE_HIT``) and the part, its
+    frame and the body it concerns (-1: none). The pairs the parts' few points leave open wait in
+    ``pending`` until every body is looked at (a later pair may be a sure hit), then their whole hulls
+    decide (``kept``: per part, the row and body it was found apart from)."""
+    nb, waiting = b.kind.shape[0], 0
+    for ln in range(s.joint.shape[0]):
+        if not s.moving[ln]:
+            continue
+        f = s.joint[ln] if s.joint[ln] >= 0 else n
+        place(P, R, f, s.ball_c[ln], w)
+        if near(zone, b, w[0], w[1], w[2], s.ball_r[ln] + margin, False, tolerance, found) == 0:
+            continue
+        for k in range(s.sphere_first[ln], s.sphere_end[ln]):
+            place(P, R, f, s.sphere_c[k], w)
+            reach, p = s.sphere_r[k] + margin, s.sphere_part[k]
+            count = near(grid, b, w[0], w[1], w[2], reach, True, tolerance, found)
+            every = count == UNKNOWN  # the grid cannot tell: each body by its exact distance
+            for j in range(nb if every else count):  # the sphere's part against each body it may reach
+                m = j if every else found[j]
+                apart = every and body_sdf(b, m, w[0], w[1], w[2]) - tolerance > reach
+                if apart or kept[p] == i * nb + m:  # the sphere apart from it, or kept from it already
+                    continue
+                status = _part_status(s, b, p, f, m, P, R, u, c, gap, hits, depth)
+                if status == SURE_HIT or (status and waiting == PENDING):
+                    return status, p, f, m
+                if status:
+                    kept[p] = i * nb + m  # not apart: looked at once in this row all the same
+                    pending[waiting, 0], pending[waiting, 1], pending[waiting, 2] = p, f, m
+                    waiting += 1
+                else:
+                    kept[p] = i * nb + m
+    for q in range(waiting):
+        p, f, m = pending[q, 0], pending[q, 1], pending[q, 2]
+        _toward(s, b, p, f, m, P, R, u, c)
+        if not part_body_gap(s, b, p, f, m, P, R, u, gap, gap, True) > gap:
+            return 1, p, f, m
+    return 0, -1, -1, -1
 
 
 @kernel
@@ -75,40 +126,17 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
           out: Array, scratch: tuple[Array, ...]) -> None:
     """``classify`` with its scratch arrays (``_scratch``)."""
     n, nl = t.parent.shape[0], s.joint.shape[0]
-    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept = scratch
+    P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept, wait = (
+        scratch)
     # placed, turned, seen: the row whose BC, BA a part's are
     w, u, sa, ca, cb = v[0], v[1], v[2], v[3], v[4]
-    need, nb = hull_gap + tolerance, b.kind.shape[0]
+    need = hull_gap + tolerance
     for i in range(qs.shape[0]):
         frames(t, qs[i], P, R)
-        status, part, frame, body, pair = 0, -1, -1, -1, -1
-        for ln in range(nl):
-            if not s.moving[ln]:
-                continue
-            f = s.joint[ln] if s.joint[ln] >= 0 else n
-            place(P, R, f, s.ball_c[ln], w)
-            if near(zone, b, w[0], w[1], w[2], s.ball_r[ln] + margin, False, tolerance, found) == 0:
-                continue
-            for k in range(s.sphere_first[ln], s.sphere_end[ln]):
-                place(P, R, f, s.sphere_c[k], w)
-                reach, p = s.sphere_r[k] + margin, s.sphere_part[k]
-                count = near(grid, b, w[0], w[1], w[2], reach, True, tolerance, found)
-                every = count == UNKNOWN  # the grid cannot tell: each body by its exact distance
-                for j in range(nb if every else count):  # the sphere's part against each body it may reach
-                    m = j if every else found[j]
-                    apart = every and body_sdf(b, m, w[0], w[1], w[2]) - tolerance > reach
-                    if apart or kept[p] == i * nb + m:  # the sphere apart from it, or kept from it already
-                        continue
-                    status = _part_status(s, b, p, f, m, P, R, u, sa, body_gap + margin + tolerance, hits,
-                                          depth + tolerance)
-                    if status:
-                        part, frame, body = p, f, m
-                        break
-                    kept[p] = i * nb + m
-                if status:
-                    break
-            if status:
-                break
+        gap = body_gap + margin + tolerance
+        status, part, frame, body = _bodies(i, s, b, grid, zone, P, R, n, margin, gap, tolerance, hits,
+                                            depth + tolerance, w, u, sa, found, kept, wait)
+        pair = -1
         if status == SURE_HIT:
             out[i] = status
             continue
