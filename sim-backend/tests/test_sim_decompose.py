@@ -202,3 +202,32 @@ def test_a_robot_with_many_parts_loads_from_a_long_cache_path(tmp_path: Path,
     with World() as w:
         m = w.load_robot("kuka_iiwa/model.urdf")
         assert not w.check_collision(m.id, [0, 2.0, 0, -2.0, 0, 2.0, 0]).collision_free
+
+
+def test_coacds_log_level_is_set_once_before_any_decomposition(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Meshes are decomposed on threads; CoACD's logger is not thread-safe (setting its level while another
+    thread decomposed aborted a test run), so the level is set once per process, never while a
+    decomposition runs: four concurrent decompositions set it once, before their first run."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import coacd
+
+    events: list[str] = []
+    real_level, real_run = coacd.set_log_level, coacd.run_coacd
+
+    def level(name: str) -> None:
+        events.append("level")
+        real_level(name)
+
+    def run(*args: object, **kwargs: object) -> object:
+        events.append("run")
+        return real_run(*args, **kwargs)
+
+    monkeypatch.setattr(coacd, "set_log_level", level)
+    monkeypatch.setattr(coacd, "run_coacd", run)
+    monkeypatch.setattr(decompose_module, "_quiet", False)
+    v, f = u_shape()
+    with ThreadPoolExecutor(4) as pool:
+        found = list(pool.map(lambda _: decompose_module.convex_parts(v, f), range(4)))
+    assert all(len(parts) >= 3 for parts in found)
+    assert events[0] == "level" and events.count("level") == 1 and events.count("run") == 4

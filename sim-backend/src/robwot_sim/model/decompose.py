@@ -191,12 +191,27 @@ def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path
     return written
 
 
+_quiet_lock = threading.Lock()
+_quiet = False
+
+
+def _quiet_coacd(coacd: Any) -> None:
+    """CoACD's log level set to errors, once per process and before any decomposition of it runs: its
+    logger is not thread-safe, and setting the level while another thread decomposes aborted the process
+    (meshes are decomposed on threads, one per core)."""
+    global _quiet
+    with _quiet_lock:
+        if not _quiet:
+            coacd.set_log_level("error")
+            _quiet = True
+
+
 def convex_parts(vertices: FloatArray, faces: IndexArray) -> list[FloatArray]:
     """CoACD's convex pieces of a mesh merged to ``MAX_MESH_PARTS`` parts, or to at most ``MOST_MESH_PARTS``
     where merging would add more than ``MERGE_BUDGET`` of their volume (``hull_merge``; their vertices)."""
     import coacd  # imported here: most robots have only convex meshes
 
-    coacd.set_log_level("error")
+    _quiet_coacd(coacd)
     mesh = coacd.Mesh(np.ascontiguousarray(vertices, dtype=np.float64),
                       np.ascontiguousarray(faces, dtype=np.int32))
     size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
