@@ -467,3 +467,19 @@ def test_an_obstacles_point_deep_in_a_links_hull_is_a_sure_hit() -> None:
                                           DEPTH + outerbounds.TOLERANCE)
         assert proven.sum() >= ROWS // 50, "too few rows proven: the test shows little"
         assert not free[proven].any(), "a row with an obstacle's point inside a link is free for Bullet"
+
+
+def test_the_kernels_stamp_is_never_read_half_written(tmp_path: Path) -> None:
+    """Every process that loads the kernels writes their stamp while others read it (``flush_stale``): a
+    stamp read half-written emptied every cache in a CI run and made its backends compile the kernels again
+    for minutes. It is left alone when it already holds the sources (no write at all), else replaced whole
+    by a renamed file (a new inode), leaving no temporary file."""
+    stamp = tmp_path / "robwot-kernels.sha256"
+    kernels.write_stamp(stamp, "a" * 64)
+    assert stamp.read_text() == "a" * 64
+    first = stamp.stat()
+    kernels.write_stamp(stamp, "a" * 64)
+    assert stamp.stat().st_mtime_ns == first.st_mtime_ns and stamp.stat().st_ino == first.st_ino
+    kernels.write_stamp(stamp, "b" * 64)
+    assert stamp.read_text() == "b" * 64 and stamp.stat().st_ino != first.st_ino
+    assert [p.name for p in tmp_path.iterdir()] == [stamp.name]

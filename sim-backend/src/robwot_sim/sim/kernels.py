@@ -9,6 +9,7 @@ import contextlib
 import hashlib
 import os
 import sys
+import tempfile
 import threading
 from pathlib import Path
 from typing import Any
@@ -64,7 +65,7 @@ def load_kernels(here: bool = False) -> None:
                 _warm()
             _kernels_ok = True
             with contextlib.suppress(OSError):
-                stamp.write_text(sources)
+                write_stamp(stamp, sources)
         except Exception as err:  # the bounds stay empty: every check runs on Bullet alone
             print(f"robwot: the outer bounds' compiled kernels did not load ({err!r}); checks run on Bullet "
                   "alone", file=sys.stderr)
@@ -75,6 +76,26 @@ def load_kernels(here: bool = False) -> None:
         load()
     else:
         threading.Thread(target=load, name="robwot-kernels", daemon=True).start()
+
+
+def write_stamp(stamp: Path, sources: str) -> None:
+    """``stamp`` made to hold ``sources``: untouched when it already does, else written whole (a temporary
+    file renamed over it). Every process that loads the kernels writes it while others read it
+    (``flush_stale``): a stamp read half-written would empty every cache and make every process compile
+    the kernels again, for minutes."""
+    try:
+        if stamp.read_text() == sources:
+            return
+    except (OSError, UnicodeDecodeError):
+        pass
+    fd, tmp = tempfile.mkstemp(dir=stamp.parent, prefix=stamp.name + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(sources)
+        os.replace(tmp, stamp)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def flush_stale(caches: list[Any], stamp: Path, sources: str) -> None:
