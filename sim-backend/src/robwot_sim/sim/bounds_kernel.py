@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
-from robwot_sim.sim.gjk_kernel import part_body_gap, sunk
+from robwot_sim.sim.gjk_kernel import part_body_gap, sunk, toward
 from robwot_sim.sim.hit_kernel import sunk_pair, sure
 from robwot_sim.sim.outerbounds import SURE_HIT
 from robwot_sim.sim.pair_kernel import fill_cell, pair_apart, table_apart
@@ -34,7 +34,7 @@ def _scratch(n: int, parts: int, links: int, coords: int) -> tuple[Array, ...]:
     return (np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((links, 3)), np.empty((parts, 3)),
             np.empty((parts, 3, 3)), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
             np.empty((3, 3)), np.empty((3, 3)), np.empty(parts, np.int64), np.empty(parts, np.int64),
-            np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((5, 3)),
+            np.empty(coords), np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((4, 3)),
             np.empty(2, np.int64), np.full(parts, -1, np.int64), np.full(parts, -1, np.int64),
             np.empty((PENDING, 3), np.int64))
 
@@ -57,21 +57,13 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _toward(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, c: Array) -> None:
-    """``u``: from the centre of part ``p``'s box (frame ``f``) to body ``k``'s centre (``c``: scratch)."""
-    place(P, R, f, s.box_c[p], c)
-    for r in range(3):
-        u[r] = b.centre[k, r] - c[r]
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _part_status(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, c: Array,
-                 gap: float, hits: bool, depth: float) -> int:
+def _part_status(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, gap: float,
+                 hits: bool, depth: float) -> int:
     """Part ``p`` (frame ``f``) against body ``k`` by the part's few points: 0 its slim hull more than ``gap``
     from it, with ``hits`` ``SURE_HIT`` where the hull of its corners reaches more than ``depth`` into it
-    (``gjk_kernel.sunk``), else 1 (its whole hull may tell: ``part_body_gap``'s ``exact``). ``u``, ``c``:
+    (``gjk_kernel.sunk``), else 1 (its whole hull may tell: ``part_body_gap``'s ``exact``). ``u``:
     scratch."""
-    _toward(s, b, p, f, k, P, R, u, c)
+    toward(s, b, p, f, k, P, R, u)
     if part_body_gap(s, b, p, f, k, P, R, u, gap, gap, False) > gap:
         return 0
     return SURE_HIT if hits and sunk(s, b, p, f, k, P, R, depth, u, False) else 1
@@ -79,12 +71,12 @@ def _part_status(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Arra
 
 @njit(cache=True, nogil=True, inline="always")
 def _bodies(i: int, s: Shapes, b: Bodies, grid: Grid, zone: Grid, P: Array, R: Array, n: int, margin: float,
-            gap: float, tolerance: float, hits: bool, depth: float, w: Array, u: Array, c: Array,
+            gap: float, tolerance: float, hits: bool, depth: float, w: Array, u: Array,
             found: Array, kept: Array, pending: Array) -> tuple[int, int, int, int]:
     """Row ``i``'s verdict on the other bodies (``classify``'s bit 1, or ``SURE_HIT``) and the part, its
     frame and the body it concerns (-1: none). The pairs the parts' few points leave open wait in
     ``pending`` until every body is looked at (a later pair may be a sure hit), then their whole hulls
-    decide (``kept``: per part, the row and body it was found apart from)."""
+    decide (``kept``: per part, the row and body it was last looked at against)."""
     nb, waiting = b.kind.shape[0], 0
     for ln in range(s.joint.shape[0]):
         if not s.moving[ln]:
@@ -103,18 +95,16 @@ def _bodies(i: int, s: Shapes, b: Bodies, grid: Grid, zone: Grid, P: Array, R: A
                 apart = every and body_sdf(b, m, w[0], w[1], w[2]) - tolerance > reach
                 if apart or kept[p] == i * nb + m:  # the sphere apart from it, or kept from it already
                     continue
-                status = _part_status(s, b, p, f, m, P, R, u, c, gap, hits, depth)
+                status = _part_status(s, b, p, f, m, P, R, u, gap, hits, depth)
                 if status == SURE_HIT or (status and waiting == PENDING):
                     return status, p, f, m
+                kept[p] = i * nb + m  # looked at once in this row: apart, or waiting below
                 if status:
-                    kept[p] = i * nb + m  # not apart: looked at once in this row all the same
                     pending[waiting, 0], pending[waiting, 1], pending[waiting, 2] = p, f, m
                     waiting += 1
-                else:
-                    kept[p] = i * nb + m
     for q in range(waiting):
         p, f, m = pending[q, 0], pending[q, 1], pending[q, 2]
-        _toward(s, b, p, f, m, P, R, u, c)
+        toward(s, b, p, f, m, P, R, u)
         if not part_body_gap(s, b, p, f, m, P, R, u, gap, gap, True) > gap:
             return 1, p, f, m
     return 0, -1, -1, -1
@@ -129,13 +119,13 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
     P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept, wait = (
         scratch)
     # placed, turned, seen: the row whose BC, BA a part's are
-    w, u, sa, ca, cb = v[0], v[1], v[2], v[3], v[4]
+    w, u, ca, cb = v[0], v[1], v[2], v[3]
     need = hull_gap + tolerance
     for i in range(qs.shape[0]):
         frames(t, qs[i], P, R)
         gap = body_gap + margin + tolerance
         status, part, frame, body = _bodies(i, s, b, grid, zone, P, R, n, margin, gap, tolerance, hits,
-                                            depth + tolerance, w, u, sa, found, kept, wait)
+                                            depth + tolerance, w, u, found, kept, wait)
         pair = -1
         if status == SURE_HIT:
             out[i] = status

@@ -255,6 +255,14 @@ def separation(s: Shapes, b: Bodies, pa: int, fa: int, pb: int, fb: int, P: Arra
 
 
 @njit(cache=True, nogil=True, inline="always")
+def toward(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array) -> None:
+    """``u``: from the centre of part ``p``'s box (frame ``f``) to body ``k``'s centre, where GJK starts."""
+    for r in range(3):
+        u[r] = b.centre[k, r] - (P[f, r] + R[f, r, 0] * s.box_c[p, 0] + R[f, r, 1] * s.box_c[p, 1]
+                                 + R[f, r, 2] * s.box_c[p, 2])
+
+
+@njit(cache=True, nogil=True, inline="always")
 def part_body_gap(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array, enough: float,
                   least: float, exact: bool) -> float:
     """A lower bound of the distance between part ``p`` (frame ``f``) and body ``k`` (``gjk``): by the few
@@ -283,9 +291,7 @@ def sunk(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, depth
         thin = min(thin, min(size[1], size[2]))
     if not thin > depth:
         return False
-    for r in range(3):
-        u[r] = b.centre[k, r] - (P[f, r] + R[f, r, 0] * s.box_c[p, 0] + R[f, r, 1] * s.box_c[p, 1]
-                                 + R[f, r, 2] * s.box_c[p, 2])
+    toward(s, b, p, f, k, P, R, u)
     if exact:
         return gjk(s.hull, s.hull_first[p], s.hull_end[p], f, s.hull, 0, 0, -1, b, k, depth, P, R, u, 0.0,
                    -1.0)[1]
