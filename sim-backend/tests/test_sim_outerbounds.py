@@ -231,15 +231,38 @@ def test_stale_bounds_are_built_again_only_once_bullet_paid_for_them() -> None:
         entry = w.scene.entry("k")
         cache = w.scene.bounds
         qs = np.zeros((10, 7)) + np.linspace(0.0, 0.2, 10)[:, None]  # far from the box
-        assert cache.sure_free(w.scene, "k", entry, qs, 0.002).all()  # built at first use
+        assert cache.sure_free(w.scene, "k", entry, qs, 0.002)[0].all()  # built at first use
         w.move_obstacle("box", [0.6, 0.1, 0.3])
         per_build = cache._rent["k"]
         asked = 0
         while asked + len(qs) < per_build:
-            assert not cache.sure_free(w.scene, "k", entry, qs, 0.002).any()  # stale: Bullet's
+            assert not cache.sure_free(w.scene, "k", entry, qs, 0.002)[0].any()  # stale: Bullet's
             asked += len(qs)
-        assert cache.sure_free(w.scene, "k", entry, qs, 0.002).all()  # paid for: built anew
+        assert cache.sure_free(w.scene, "k", entry, qs, 0.002)[0].all()  # paid for: built anew
         assert cache._bounds["k"][0] == w.scene.others_stamp("k")
+
+
+def test_rows_ahead_are_tested_until_the_rows_not_known_free_asked_for() -> None:
+    """``free_ahead`` on a KUKA sweeping through a box: with no limit every row is tested and the verdicts
+    are ``classify``'s; with a limit of k the rows are tested up to the k-th not known free, the same
+    verdicts on those."""
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="k")
+        w.add_obstacle({"name": "box", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]},
+                        "position": [0.6, 0.0, 0.3]})
+        bounds = w.scene.bounds.get(w.scene, "k")
+        qs = np.zeros((400, 7))
+        qs[:, 0] = np.linspace(-2.0, 2.0, 400)
+        qs[:, 1] = 1.4
+        want = bounds.classify(qs, 0.002) == 0
+        unsure = np.flatnonzero(~want)
+        assert 10 < len(unsure) < 300  # both verdicts occur
+        free, tested = bounds.free_ahead(qs, 0.002, 0)
+        assert tested == len(qs) and (free == want).all()
+        for k in (1, 2, 7):
+            free, tested = bounds.free_ahead(qs, 0.002, k)
+            assert tested == unsure[k - 1] + 1
+            assert (free[:tested] == want[:tested]).all()
 
 
 def _vertices(bounds: OuterBounds, link: int, p: np.ndarray, r: np.ndarray) -> np.ndarray:

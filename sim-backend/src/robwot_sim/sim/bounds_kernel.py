@@ -42,7 +42,7 @@ def _scratch(n: int, parts: int, links: int, coords: int) -> tuple[Array, ...]:
 @njit(cache=True, nogil=True)
 def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid, zone: Grid,
              margin: float, body_gap: float, hull_gap: float, tolerance: float, self_always: bool, hits: bool,
-             depth: float, out: Array) -> None:
+             depth: float, stop: int, out: Array) -> int:
     """Per row of ``qs``: bit 1 set where a sphere of a moving link may come within ``margin`` of a body
     (a link whose ball the coarse ``zone`` finds clear is not looked at further; a sphere by the fine
     ``grid``, exactly where one or two bodies only can be near, by each body's exact distance where more
@@ -51,9 +51,11 @@ def classify(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Gr
     balls, the pair's table, then part balls, boxes, hulls), for every row or (not ``self_always``) only
     the rows clear of the bodies (bit 2 then set untested). With ``hits``, a row not found free that
     surely collides (by more than ``depth``: ``_part_status``, ``sure``, or ``sunk_pair`` for the self
-    pair found near or one after it) is 4 instead."""
-    _rows(qs, t, s, tab, b, grid, zone, margin, body_gap, hull_gap, tolerance, self_always, hits, depth, out,
-          _scratch(t.parent.shape[0], s.box_c.shape[0], s.joint.shape[0], qs.shape[1]))
+    pair found near or one after it) is 4 instead. With ``stop`` > 0 the rows after the ``stop``-th row not
+    found free are left as they are in ``out``. Returns the number of rows tested."""
+    scratch = _scratch(t.parent.shape[0], s.box_c.shape[0], s.joint.shape[0], qs.shape[1])
+    return _rows(qs, t, s, tab, b, grid, zone, margin, body_gap, hull_gap, tolerance, self_always, hits,
+                 depth, stop, out, scratch)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -113,7 +115,7 @@ def _bodies(i: int, s: Shapes, b: Bodies, grid: Grid, zone: Grid, P: Array, R: A
 @kernel
 def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid, zone: Grid, margin: float,
           body_gap: float, hull_gap: float, tolerance: float, self_always: bool, hits: bool, depth: float,
-          out: Array, scratch: tuple[Array, ...]) -> None:
+          stop: int, out: Array, scratch: tuple[Array, ...]) -> int:
     """``classify`` with its scratch arrays (``_scratch``)."""
     n, nl = t.parent.shape[0], s.joint.shape[0]
     P, R, bc, BC, BA, placed, turned, r33, a33, near_a, near_b, Q, P2, R2, v, found, seen, kept, wait = (
@@ -121,6 +123,8 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
     # placed, turned, seen: the row whose BC, BA a part's are
     w, u, ca, cb = v[0], v[1], v[2], v[3]
     need = hull_gap + tolerance
+    unsure = 0  # rows not found free so far
+    stop = stop if stop > 0 else qs.shape[0] + 1
     for i in range(qs.shape[0]):
         frames(t, qs[i], P, R)
         gap = body_gap + margin + tolerance
@@ -129,6 +133,9 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
         pair = -1
         if status == SURE_HIT:
             out[i] = status
+            unsure += 1
+            if unsure == stop:
+                return i + 1
             continue
         if status == 0 or self_always:
             for ln in range(nl):
@@ -157,3 +164,7 @@ def _rows(qs: Array, t: Tree, s: Shapes, tab: PairTables, b: Bodies, grid: Grid,
                     status = SURE_HIT
                 pair += 1
         out[i] = status
+        unsure += status != 0
+        if unsure == stop:
+            return i + 1
+    return int(qs.shape[0])

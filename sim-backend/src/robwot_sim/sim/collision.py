@@ -63,13 +63,18 @@ def find_always_colliding(
     return sorted(p for p, n in counts.items() if n >= ALWAYS_FRACTION * samples)
 
 
+#: ``CollisionChecker.sure_free``: (states, clearance, states not known free to stop after) -> (free, tested)
+SureFree = Callable[[npt.NDArray[np.float64], float, int], tuple[npt.NDArray[np.bool_], int]]
+
+
 class CollisionChecker:
     """Collision queries for one robot against itself and every other body of the world. ``sure_free``
     (set by the scene it belongs to): of states (rows of joint vectors), those surely farther than a
     clearance (m) from every other body and free of self-contact without asking Bullet (the outer bounds),
-    so that ``is_free`` would say so; None: none known."""
+    so that ``is_free`` would say so, tested in order until a number of states not known free are met (0:
+    every state), and how many were tested; None: none known."""
 
-    sure_free: Callable[[npt.NDArray[np.float64], float], npt.NDArray[np.bool_]] | None = None
+    sure_free: SureFree | None = None
 
     def __init__(self, robot: BoundRobot, table: BodyTable, filtered: Iterable[tuple[int, int]]) -> None:
         self.robot, self.table = robot, table

@@ -161,17 +161,28 @@ class OuterBounds:
         ``self_always`` false only for the rows apart from the other bodies); with ``hits``, ``SURE_HIT``
         where it surely collides (``surehit.py``'s test, compiled). Empty bounds, or a margin above
         ``MAX_MARGIN``: 3 everywhere."""
+        return self._classify(qs, margin, self_always, hits, 0)[0]
+
+    def free_ahead(self, qs: FloatArray, margin: float, unsure: int) -> tuple[BoolArray, int]:
+        """The rows of ``qs`` free for sure by ``margin`` (``classify`` 0), tested in order until ``unsure``
+        rows not known free are met (0: every row), and how many rows were tested (the rows after them
+        are not known free)."""
+        out, tested = self._classify(qs, margin, True, False, unsure)
+        return out == 0, tested
+
+    def _classify(self, qs: FloatArray, margin: float, self_always: bool, hits: bool,
+                  stop: int) -> tuple[npt.NDArray[np.int8], int]:
         out = np.full(len(qs), 3, dtype=np.int8)
         if self.empty or margin > MAX_MARGIN or not len(qs):
-            return out
+            return out, len(qs)
         from robwot_sim.sim.bounds_kernel import classify
 
         assert self.robot is not None and self.bodies is not None
         assert self.grid is not None and self.zone is not None
-        classify(np.ascontiguousarray(qs, dtype=np.float64), self.robot.tree, self.robot.shapes,
-                 self.robot.tables, self.bodies, self.grid, self.zone, float(margin), GROW, HULL_GAP,
-                 TOLERANCE, self_always, hits, DEPTH, out)
-        return out
+        tested = classify(np.ascontiguousarray(qs, dtype=np.float64), self.robot.tree, self.robot.shapes,
+                          self.robot.tables, self.bodies, self.grid, self.zone, float(margin), GROW, HULL_GAP,
+                          TOLERANCE, self_always, hits, DEPTH, stop, out)
+        return out, int(tested)
 
     def fill_tables(self) -> None:
         """Every cell of the robot's self pair tables computed now (``pair_tables.PairTables``) instead of
@@ -274,13 +285,15 @@ class BoundsCache:
         self._stale[robot_id] = 0
         return True
 
-    def sure_free(self, scene: Any, robot_id: str, entry: Any, qs: FloatArray, clearance: float) -> BoolArray:
+    def sure_free(self, scene: Any, robot_id: str, entry: Any, qs: FloatArray, clearance: float,
+                  unsure: int = 0) -> tuple[BoolArray, int]:
         """The states of robot ``robot_id``'s body ``entry`` (a ``loader.RobotEntry``) its bounds find farther
-        than ``clearance`` from every other body and free of self-contact (``CollisionChecker.sure_free``);
+        than ``clearance`` from every other body and free of self-contact, tested in order until ``unsure``
+        states not known free are met (0: all), and how many were tested (``CollisionChecker.sure_free``);
         none until the kernels are loaded (path checks never load them: ``kernels.WARM_AFTER``), while
         ``entry`` is not the robot's (a body being rebuilt) or a link fixed to its base touches something
         (every state then collides)."""
         if not kernels_loaded() or scene.entries().get(robot_id) is not entry \
                 or entry.checker.static_contacts() or not self._worth_building(scene, robot_id, len(qs)):
-            return np.zeros(len(qs), dtype=bool)
-        return np.asarray(self.get(scene, robot_id).classify(qs, clearance) == 0)
+            return np.zeros(len(qs), dtype=bool), len(qs)
+        return self.get(scene, robot_id).free_ahead(qs, clearance, unsure)

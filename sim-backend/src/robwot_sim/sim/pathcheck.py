@@ -39,6 +39,11 @@ from robwot_sim.sim.world_thread import checkpoint
 GAP_CAP = 0.05
 #: states of a segment below which the outer bounds are not asked (one Bullet query costs about as much)
 SURE_FREE_MIN = 2
+#: states not known free the outer bounds meet before they stop a segment's first batch; each next batch
+#: meets ``AHEAD_GROWTH`` times more. A walk stops at its first contact, usually one of the first such states
+#: (a path checked into a collision): the states past it are never tested
+AHEAD_FIRST = 2
+AHEAD_GROWTH = 4
 #: halvings of a parameter interval that place a curve's checked state (its travel known to ~1e-15 of it)
 BISECTIONS = 50
 
@@ -93,11 +98,10 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
         states = q0 + (q1 - q0) * (np.arange(1, n + 1) / n)[:, None]
         if checkpoint():
             slack = -1.0
-        asked, t = _unsure(checker, states, clearance, 0), 0
+        ahead = _Ahead(checker, states, clearance)
         done = 0  # states of the segment passed
         while True:
-            k = asked[t] if t < len(asked) else n  # the next state to ask Bullet; those before are free
-            t += 1
+            k = ahead.unsure(done)  # the next state to ask Bullet; those before are free
             applied = applied and k == done
             slack -= step * (k - done)
             done = k
@@ -105,10 +109,9 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
                 break
             if checkpoint():  # other bodies may have moved meanwhile: measure them again
                 slack = -1.0
-                asked, t = _unsure(checker, states, clearance, k), 0
-                if asked[:1] != [k]:
+                ahead.forget(k)
+                if ahead.unsure(k) != k:
                     continue
-                t = 1
             q = states[k]
             slack -= step
             done = k + 1
@@ -127,16 +130,47 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
     return None
 
 
-def _unsure(checker: CollisionChecker, states: FloatArray, clearance: float, start: int) -> list[int]:
-    """The indices from ``start`` on of the ``states`` not known free by ``clearance`` (``sure_free``)."""
-    return (start + np.flatnonzero(~sure_free(checker, states[start:], clearance))).tolist()
+class _Ahead:
+    """The states of a segment ahead of a walk, tested by the outer bounds (``CollisionChecker.sure_free``)
+    in batches from the walk's position, each stopping once it met ``budget`` states not known free
+    (``AHEAD_FIRST``, growing by ``AHEAD_GROWTH``): the states past the walk's first contact are mostly
+    never tested."""
+
+    def __init__(self, checker: CollisionChecker, states: FloatArray, clearance: float) -> None:
+        self.checker, self.states, self.clearance = checker, states, clearance
+        self.free = np.zeros(len(states), dtype=bool)
+        self.known = 0  # the states before it are tested
+        self.budget = AHEAD_FIRST
+        self.asks = checker.sure_free is not None and len(states) >= SURE_FREE_MIN
+
+    def unsure(self, k: int) -> int:
+        """The first state from ``k`` on not known free (``len(states)``: none)."""
+        n = len(self.states)
+        while True:
+            if k < self.known:
+                left = np.flatnonzero(~self.free[k:self.known])
+                if len(left):
+                    return k + int(left[0])
+                k = self.known
+            if k >= n or not self.asks:
+                return min(k, n)
+            assert self.checker.sure_free is not None
+            free, tested = self.checker.sure_free(self.states[k:], self.clearance, self.budget)
+            self.free[k:k + tested] = free[:tested]
+            self.known = k + tested
+            self.budget *= AHEAD_GROWTH
+
+    def forget(self, k: int) -> None:
+        """The states from ``k`` on to be tested again (other bodies may have moved)."""
+        self.known = min(self.known, k)
+        self.budget = AHEAD_FIRST
 
 
 def sure_free(checker: CollisionChecker, states: FloatArray, clearance: float) -> npt.NDArray[np.bool_]:
     """The ``states`` known free by ``clearance`` without Bullet (``CollisionChecker.sure_free``)."""
     if checker.sure_free is None or len(states) < SURE_FREE_MIN:
         return np.zeros(len(states), dtype=bool)
-    return checker.sure_free(states, clearance)
+    return checker.sure_free(states, clearance, 0)[0]
 
 
 def _vertices(path: FloatArray) -> list[int]:
