@@ -25,6 +25,7 @@ search that may find nothing where a way is known to exist.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import time
 from collections.abc import Callable, Iterable
@@ -35,7 +36,7 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from robwot_sim.sim.collision import CollisionChecker
-from robwot_sim.sim.pathcheck import first_contact, path_clearance, sure_free
+from robwot_sim.sim.pathcheck import Ahead, first_contact, path_clearance
 from robwot_sim.sim.planning_scene import JointVector, Scene
 from robwot_sim.sim.robot import LIMIT_TOL, BoundRobot
 from robwot_sim.sim.sweep import Guard, substeps
@@ -114,7 +115,7 @@ def _search(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goa
         # most motions a search tries are refused: a few states spread over the motion in bisection order
         # find most refusals before the dense walk from its start (which alone decides an acceptance)
         n = substeps(a, b, guard.reach, COARSE * guard.max_sweep)
-        for k in _bisection(n):
+        for k in _bisection(n)[1:]:
             robot.apply(a + (b - a) * (k / n))
             if not checker.is_free(clearance):
                 return False
@@ -122,16 +123,18 @@ def _search(robot: BoundRobot, checker: CollisionChecker, start: FloatArray, goa
 
     def spaced(a: FloatArray, b: FloatArray) -> bool:
         # OMPL's own motion check (its states `RESOLUTION` of the extent apart, the end first, then in
-        # bisection order), the states the outer bounds find free asked of Bullet no more
+        # bisection order), the states the outer bounds find free asked of Bullet no more (tested in that
+        # order as far as the first refusal, as a path check's walk does)
         checkpoint()
         n = max(1, int(np.ceil(float(np.linalg.norm(b - a)) / spacing)))
-        states = a + (b - a) * (np.arange(1, n + 1) / n)[:, None]
-        sure = sure_free(checker, states, clearance)
-        for k in (n, *_bisection(n)):
-            if not sure[k - 1]:
-                robot.apply(states[k - 1])
-                if not checker.is_free(clearance):
-                    return False
+        order = _bisection(n)
+        ahead = Ahead(checker, a + (b - a) * (order / n)[:, None], clearance)
+        k = ahead.unsure(0)
+        while k < n:
+            robot.apply(ahead.states[k])
+            if not checker.is_free(clearance):
+                return False
+            k = ahead.unsure(k + 1)
         return True
 
     setup.setStateValidityChecker(valid)
@@ -174,9 +177,11 @@ class _PathCheck(ob.MotionValidator):  # type: ignore[misc]
         return self._motion(_vector(a, self._dof), _vector(b, self._dof))
 
 
-def _bisection(n: int) -> list[int]:
-    """1..n-1 in bisection order (n/2 first, then the quarters, ...)."""
-    out: list[int] = []
+@functools.lru_cache(maxsize=256)
+def _bisection(n: int) -> FloatArray:
+    """The steps 1..n of a motion in n steps, the end first, then 1..n-1 in bisection order (n/2, then the
+    quarters, ...) (read only: cached)."""
+    out: list[int] = [n]
     seen = {0, n}
     width = n
     while width > 1:
@@ -186,7 +191,9 @@ def _bisection(n: int) -> list[int]:
                 out.append(k)
         width = (width + 1) // 2
     out += [k for k in range(1, n) if k not in seen]
-    return out
+    steps = np.array(out, dtype=np.float64)
+    steps.flags.writeable = False
+    return steps
 
 
 def _vector(state: ob.State, dof: int) -> FloatArray:

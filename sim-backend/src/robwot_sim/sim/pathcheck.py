@@ -21,7 +21,6 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import numpy.typing as npt
 
 from robwot_sim.limits import DEFAULT_DT, DEFAULT_SPEED
 from robwot_sim.sim.collision import TOUCH, CollisionChecker
@@ -98,7 +97,7 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
         states = q0 + (q1 - q0) * (np.arange(1, n + 1) / n)[:, None]
         if checkpoint():
             slack = -1.0
-        ahead = _Ahead(checker, states, clearance)
+        ahead = Ahead(checker, states, clearance)
         done = 0  # states of the segment passed
         while True:
             k = ahead.unsure(done)  # the next state to ask Bullet; those before are free
@@ -130,7 +129,7 @@ def first_contact_along(robot: BoundRobot, checker: CollisionChecker, points: Fl
     return None
 
 
-class _Ahead:
+class Ahead:
     """The states of a segment ahead of a walk, tested by the outer bounds (``CollisionChecker.sure_free``)
     in batches from the walk's position, each stopping once it met ``budget`` states not known free
     (``AHEAD_FIRST``, growing by ``AHEAD_GROWTH``): the states past the walk's first contact are mostly
@@ -164,13 +163,6 @@ class _Ahead:
         """The states from ``k`` on to be tested again (other bodies may have moved)."""
         self.known = min(self.known, k)
         self.budget = AHEAD_FIRST
-
-
-def sure_free(checker: CollisionChecker, states: FloatArray, clearance: float) -> npt.NDArray[np.bool_]:
-    """The ``states`` known free by ``clearance`` without Bullet (``CollisionChecker.sure_free``)."""
-    if checker.sure_free is None or len(states) < SURE_FREE_MIN:
-        return np.zeros(len(states), dtype=bool)
-    return checker.sure_free(states, clearance, 0)[0]
 
 
 def _vertices(path: FloatArray) -> list[int]:
