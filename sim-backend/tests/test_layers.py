@@ -86,3 +86,19 @@ def test_the_check_sees_an_upward_import() -> None:
     assert layer("robwot_sim.model.fk") < layer("robwot_sim.sim.surehit") < layer("robwot_sim.rpc.table")
     assert layer("robwot_sim.sim.surehit") > layer("robwot_sim.model.fk")
     assert layer("robwot_bench.fidelity") > layer("robwot_sim.server")
+
+
+def test_the_backends_start_loads_no_scipy() -> None:
+    """The server and the labelling pool's forkserver (its preload) start without scipy's spatial, sparse,
+    image and interpolation code (a third of the backend's import time): they load where a request first
+    needs them (scan, alpha shape, shape fitting of a robot not cached yet, IK of a coupled chain). (numba
+    loads scipy's linear algebra for the kernels.)"""
+    import subprocess
+    import sys
+
+    code = ("import sys, robwot_sim.server.app, robwot_sim.workspace.preload; "
+            "print(sorted(m for m in sys.modules if m.split('.')[:2] in "
+            "(['scipy', 'spatial'], ['scipy', 'sparse'], ['scipy', 'ndimage'], ['scipy', 'interpolate'])))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         timeout=300)
+    assert out.stdout.strip() == "[]", out.stdout

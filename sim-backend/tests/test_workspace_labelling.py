@@ -147,6 +147,30 @@ def test_warm_up_starts_workers() -> None:
     assert workspace_pool._pools[2] is pool
 
 
+def test_the_caller_leaves_the_chunks_to_a_pool_a_warm_up_is_starting() -> None:
+    """A generation that starts while a warm-up starts the workers (the backend's ``--warm-workers``, the
+    CLI's ``workspace.warmUp``) waits for them instead of labelling chunks itself (it would build a world
+    of its own on a core they need): same labels, nothing helped."""
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
+        job = make_job(w, "kuka", 7)
+        qs = sample_configurations(job.lower, job.upper, 3000, seed=7)
+        serial = w.collision_free_batch("kuka", qs)
+        workspace_pool.shutdown_pool()  # the workers start from nothing
+        thread = warm_up(2)
+        assert workspace_pool.warming(2) and not workspace_pool.answered(2)
+        helped: list[int] = []
+
+        def helper(q: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+            helped.append(len(q))
+            return w.collision_free_batch("kuka", q)
+
+        assert np.array_equal(label_configurations(job, 3000, 2, helper=helper), serial)
+        assert helped == []
+        thread.join(timeout=120)
+        assert not workspace_pool.warming(2) and workspace_pool.answered(2)
+
+
 def test_caller_finishes_when_workers_cannot_start() -> None:
     """With __main__ read from stdin, spawned workers cannot start: the caller labels everything."""
     script = """

@@ -12,12 +12,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial.transform import Rotation
 
 from robwot_sim.model.fk import ChainFK
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -47,6 +50,8 @@ def _errors(fk: ChainFK, q: FloatArray, position: FloatArray,
     err = position[None, :] - pos
     if rotation is None:
         return err, rot
+    from scipy.spatial.transform import Rotation
+
     turn = (rotation * Rotation.from_matrix(rot).inv()).as_rotvec()
     return np.hstack([err, turn]), rot
 
@@ -120,6 +125,8 @@ def smallest_singular_value(fk: ChainFK, q: FloatArray, orientation: bool = True
     link's motion needs joint speeds without bound."""
     row = np.asarray(q, dtype=np.float64)[None, :]
     position, rot = fk.poses(row)
+    from scipy.spatial.transform import Rotation
+
     rotation = Rotation.from_matrix(rot[0]) if orientation else None
     err, _ = _errors(fk, row, position[0], rotation)
     jac = _jacobian(fk, row, err, position[0], rotation)[0]

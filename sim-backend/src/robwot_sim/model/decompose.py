@@ -34,7 +34,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 from robwot_sim.errors import MeshError, PathEscape, snippet
 from robwot_sim.model.hull_merge import NEAR, merge_parts
@@ -140,6 +139,8 @@ def is_convex(vertices: FloatArray, faces: IndexArray) -> bool:
     size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
     if size == 0.0:
         return True
+    from scipy.spatial import ConvexHull, QhullError
+
     try:
         hull = ConvexHull(vertices)
     except QhullError:
@@ -181,6 +182,8 @@ def decompose(vertices: FloatArray, faces: IndexArray, key: str, cache_dir: Path
     if cached is not None:
         return cached
     if convex if convex is not None else is_convex(vertices, faces):
+        from scipy.spatial import ConvexHull
+
         _write(folder, [_compact(vertices, ConvexHull(vertices, qhull_options="QJ").simplices)]
                if whole_as_part else [])
     else:
@@ -253,6 +256,8 @@ def cover(vertices: FloatArray, parts: list[FloatArray]) -> list[tuple[FloatArra
     uncovered vertex joins the part it is closest to, whose hull is then recomputed: the twin's shape then
     contains the mesh (up to triangle interiors spanning two parts), never less.
     """
+    from scipy.spatial import ConvexHull
+
     pts = [p for p in parts if len(p) >= 4]
     size = float(np.ptp(vertices, axis=0).max())
     tolerance = COVER_TOLERANCE * size
@@ -288,6 +293,8 @@ def slim(points: FloatArray, margin: float) -> tuple[FloatArray, npt.NDArray[Any
     checked to contain every point; when it does not, or has no fewer vertices (nothing to merge), the
     exact hull is returned. Returns (vertices, triangles).
     """
+    from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
+
     exact = ConvexHull(points, qhull_options="QJ")
     vertices, triangles = _compact(points, exact.simplices)
     try:

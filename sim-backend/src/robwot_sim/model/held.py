@@ -15,15 +15,17 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pybullet as pb
-from scipy.spatial import ConvexHull
 
 from robwot_sim.model.objfile import write_obj
 from robwot_sim.model.tool import fixed_joint, link_element, portable_copy
 from robwot_sim.model.urdf import UrdfDoc
+
+if TYPE_CHECKING:
+    from scipy.spatial import ConvexHull
 
 #: the key of a mesh shape's hull points in a shape as built (``sim/client.py`` ``HULL``)
 HULL = "hull"
@@ -44,6 +46,8 @@ def held_geometry(shape: Mapping[str, Any], folder: Path, name: str) -> ET.Eleme
         ET.SubElement(geometry, "cylinder", {"radius": f"{shape['radius']:.9g}",
                                              "length": f"{shape['length']:.9g}"})
     else:
+        from scipy.spatial import ConvexHull
+
         points = np.asarray(shape[HULL], dtype=np.float64)
         out = folder / f"{name}_hull.obj"
         write_obj(out, points, outward(points, ConvexHull(points)))

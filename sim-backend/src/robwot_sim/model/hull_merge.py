@@ -19,7 +19,6 @@ import heapq
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import ConvexHull, QhullError
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -29,6 +28,8 @@ NEAR = 0.02
 
 def _hull(points: FloatArray) -> tuple[FloatArray, float]:
     """The hull's vertices of ``points`` and its volume (a flat or degenerate set: itself, volume 0)."""
+    from scipy.spatial import ConvexHull, QhullError
+
     try:
         hull = ConvexHull(points, qhull_options="QJ")
     except (QhullError, ValueError):

@@ -1,11 +1,13 @@
 """`scene.fromScan` (a conservative scene from point clouds: ``scan/``) and `camera.capture` (a depth image
 of the world written as a point cloud: ``sim/camera.py``). Neither changes the world: the clouds are read
-and covered off the world's thread, which only hands over the robots' shapes or casts the camera's rays."""
+and covered off the world's thread, which only hands over the robots' shapes or casts the camera's rays.
+The scan modules (and scipy's spatial, sparse and image code under them) load at the first
+``scene.fromScan``, not with the backend."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,14 +16,17 @@ from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
 from robwot_sim.scan.clouds import write_ply
-from robwot_sim.scan.fit import load_model
-from robwot_sim.scan.robot_points import snapshot
-from robwot_sim.scan.scene_from_scan import Placed, ScanParams, place_clouds, scene_from_scan
 from robwot_sim.sim.camera import Camera, camera_points, depth_image, orientation
 from robwot_sim.sim.world_thread import Kind
 
+if TYPE_CHECKING:
+    from robwot_sim.scan.scene_from_scan import Placed, ScanParams
+
 
 def _params(p: Params) -> ScanParams:
+    from robwot_sim.scan.fit import load_model
+    from robwot_sim.scan.scene_from_scan import ScanParams
+
     models = tuple(load_model(str(m["name"]), str(m["file"])) for m in p["models"] or [])
     return ScanParams(models=models, noise=float(p["noise"]), shape=str(p["shape"]), voxel=float(p["voxel"]),
                       gap=float(p["gap"]), padding=float(p["robotPadding"]), occluded=str(p["occluded"]),
@@ -31,6 +36,8 @@ def _params(p: Params) -> ScanParams:
 
 def _place(clouds: list[dict[str, Any]]) -> Placed:
     """The clouds read and placed; a missing file named as such."""
+    from robwot_sim.scan.scene_from_scan import place_clouds
+
     try:
         return place_clouds(clouds)
     except FileNotFoundError as e:
@@ -42,6 +49,9 @@ def _place(clouds: list[dict[str, Any]]) -> Placed:
 def register(d: Dispatcher, s: Services) -> None:
     @d.method("scene.fromScan")
     async def from_scan(p: Params, call: Call) -> dict[str, Any]:
+        from robwot_sim.scan.robot_points import snapshot
+        from robwot_sim.scan.scene_from_scan import scene_from_scan
+
         params = await s.off_world(lambda: _params(p))
         placed = await s.off_world(lambda: _place(list(p["clouds"])), background=True)
         robots = await s.on_world(lambda: snapshot(s.world.scene), Kind.PLAIN)

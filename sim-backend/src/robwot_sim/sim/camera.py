@@ -40,7 +40,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import pybullet as pb
-from scipy.spatial.transform import Rotation
 
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.rotations import quat_matrix
@@ -142,6 +141,8 @@ def orientation(camera: Camera) -> FloatArray:
     """The quaternion [x, y, z, w] of the camera's optical frame in the world (ROS optical convention:
     z forward along the view, x right, y down). ``model.rotations`` converts quaternions to matrices
     only; the other way is scipy's, as in ``model.chain_ik``."""
+    from scipy.spatial.transform import Rotation
+
     return np.asarray(Rotation.from_matrix(_frame(validated(camera))).as_quat(), dtype=np.float64)
 
 

@@ -151,10 +151,18 @@ def _warm() -> None:
     from robwot_sim.sim.outerbounds import GRID_SIDE, ZONE_SIDE, Bodies, OuterBounds, distance_grid
     from robwot_sim.sim.pair_tables import pair_tables
     from robwot_sim.sim.robot_shapes import LinkShapes, RobotShapes, shapes_of
-    from robwot_sim.sim.surehit import LinkBalls
 
+    # the box's shapes written out, not fitted: the fitting code (scipy's) is no kernel, and a process
+    # labelling a robot whose shapes are cached never loads it
     box = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (0.0, 0.5)])
-    link = LinkShapes.of(0, True, [box], LinkBalls(0, np.zeros((1, 3)), np.array([0.05])))
+    planes = np.array([[1.0, 0, 0, -0.1], [-1.0, 0, 0, -0.1], [0, 1.0, 0, -0.1], [0, -1.0, 0, -0.1],
+                       [0, 0, 1.0, -0.5], [0, 0, -1.0, 0]])  # n . x + offset <= 0 inside
+    fitted = {"centres": np.array([[0.0, 0.0, 0.25]]), "radii": np.array([0.3]),
+              "sphere_part": np.zeros(1, dtype=np.int64), "box_c": np.array([[0.0, 0.0, 0.25]]),
+              "box_axes": np.eye(3)[None].copy(), "box_half": np.array([[0.1, 0.1, 0.25]]), "verts": [box],
+              "corners": [box], "faces": [planes], "hull": [box], "inner_c": np.zeros((1, 3)),
+              "inner_r": np.array([0.05])}
+    link = LinkShapes.made(0, True, fitted, np.ones(1, dtype=np.bool_))
     tree = Tree(np.array([-1], dtype=np.int64), np.array([1], dtype=np.int64), np.zeros((1, 3)),
                 np.eye(3)[None].copy(), np.array([[0.0, 0.0, 1.0]]), np.ones((1, 1)), np.zeros(1),
                 np.zeros(3), np.eye(3))

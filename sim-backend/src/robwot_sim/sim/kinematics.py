@@ -16,7 +16,6 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import pybullet as pb
-from scipy.spatial.transform import Rotation
 
 from robwot_sim.errors import Unreachable
 from robwot_sim.model.chain_ik import solve_chain_ik
@@ -190,6 +189,8 @@ def _solve_linkage(robot: BoundRobot, position: Sequence[float], quat_xyzw: Sequ
     (``model/chain_ik.py``); a solution must keep every follower within its limits."""
     fk = robot.linkage_fk()
     target = np.asarray(position, dtype=np.float64)
+    from scipy.spatial.transform import Rotation
+
     rotation = None if quat_xyzw is None else Rotation.from_quat([float(v) for v in quat_xyzw])
     mid = (robot.lower + robot.upper) / 2
     batches = [np.vstack([seed, mid, robot.random_q(rng, LINKAGE_BATCH - 2)]),

@@ -28,7 +28,6 @@ from typing import Any, NamedTuple
 import numpy as np
 import numpy.typing as npt
 import pybullet as pb
-from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from robwot_sim.model.meshcheck import mesh_points
 from robwot_sim.model.rotations import quat_matrix
@@ -205,6 +204,8 @@ def fit_box(points: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
 def hull_vertices(points: FloatArray) -> FloatArray:
     """Few vertices whose convex hull holds that of ``points`` (``decompose.slim`` at ``SLIM``: facets
     merged and moved out; the exact hull where that fails; all of them when they are flat)."""
+    from scipy.spatial import QhullError
+
     from robwot_sim.model.decompose import slim
 
     try:
@@ -216,6 +217,8 @@ def hull_vertices(points: FloatArray) -> FloatArray:
 
 def hull_points(points: FloatArray) -> FloatArray:
     """The vertices of the convex hull of ``points`` (all of them where Qhull cannot build it: flat)."""
+    from scipy.spatial import ConvexHull, QhullError
+
     try:
         return np.ascontiguousarray(points[ConvexHull(points).vertices], dtype=np.float64)
     except (QhullError, ValueError):
@@ -225,6 +228,8 @@ def hull_points(points: FloatArray) -> FloatArray:
 def hull_faces(points: FloatArray) -> FloatArray:
     """The planes of the faces of the convex hull of ``points`` (rows: unit outward normal, offset; a point
     x is inside where every ``n . x + offset`` is negative); none where Qhull cannot build it (flat)."""
+    from scipy.spatial import ConvexHull, QhullError
+
     try:
         return np.ascontiguousarray(ConvexHull(points).equations, dtype=np.float64)
     except (QhullError, ValueError):
@@ -268,6 +273,8 @@ class LinkShapes:
 
 def fit_link(parts: list[FloatArray], inner: LinkBalls | None) -> dict[str, Any]:
     """The fitted arrays of a link's ``LinkShapes`` (the class's fields but its link and whether it moves)."""
+    from scipy.spatial import cKDTree
+
     spheres = [(s, k) for k, pts in enumerate(parts) for s in part_spheres(pts, GROW)]
     boxes = [fit_box(pts) for pts in parts]
     verts = [hull_vertices(pts) for pts in parts]

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from robwot_sim import validate as v
 from robwot_sim.errors import InvalidParams, MeshError
@@ -110,6 +109,8 @@ def mesh_hull(path: Path, scale: float | list[float]) -> list[list[float]] | Non
     if raw is None:
         return None
     points = raw * np.asarray(scale, dtype=np.float64)
+    from scipy.spatial import ConvexHull, QhullError
+
     try:
         hull = ConvexHull(points)
     except QhullError:  # flat or degenerate: the joggled hull keeps every point it needs

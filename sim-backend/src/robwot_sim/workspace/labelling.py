@@ -20,7 +20,7 @@ import numpy.typing as npt
 
 from robwot_sim.errors import InternalError, SimError
 from robwot_sim.workspace.chunk import Chunk, ChunkJob, label_chunk
-from robwot_sim.workspace.pool import acquire_pool, answered, ping, release_pool, spec_key, warm_up
+from robwot_sim.workspace.pool import acquire_pool, answered, ping, release_pool, spec_key, warm_up, warming
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -42,8 +42,9 @@ class Labelling:
     """The chunks of ``samples`` rows of ``job``. The pool is started and the chunks submitted by a
     background thread, so the caller can compute chunks itself (``result(helper=...)``) in the meantime:
     chunks are submitted from the start to the workers, and the caller claims the first one no worker has
-    started, so chunks finish nearly in sample order (a streaming ``sink`` holds few of them). If the
-    pool fails to start, a helping caller computes everything itself."""
+    started, so chunks finish nearly in sample order (a streaming ``sink`` holds few of them); not while
+    a warm-up (``pool.warm_up``) is starting the workers. If the pool fails to start, a helping caller
+    computes everything itself."""
 
     def __init__(self, job: ChunkJob, samples: int, workers: int) -> None:
         self.n, self.job, self.workers = samples, job, workers
@@ -56,7 +57,9 @@ class Labelling:
         self._error: BaseException | None = None
         self._up: Future[Any] | None = None  # the pool's first answer
         self.pool = acquire_pool(workers)
-        self._warm = answered(workers)  # its workers are up: the caller leaves every chunk to them
+        # its workers are up, or a warm-up is starting them: the caller leaves every chunk to them (helping
+        # meanwhile, it would build a world of its own on a core they need)
+        self._warm = answered(workers) or warming(workers)
         self._released = False
         self._submitter = threading.Thread(target=self._submit_all, name="robwot-labelling-submit",
                                            daemon=True)

@@ -47,6 +47,7 @@ _pool_lock = threading.Lock()
 _pools: dict[int, ProcessPoolExecutor] = {}  # by worker count
 _active: dict[int, int] = {}  # running labellings per pool
 _answered: set[int] = set()  # pools (by worker count) whose every worker has answered a warm-up
+_warming: dict[int, int] = {}  # per pool (by worker count): the warm-ups starting it now
 
 # worker-process state: (spec key, World)
 _worker_world: tuple[str, Any] | None = None
@@ -197,11 +198,18 @@ def answered(workers: int) -> bool:
         return workers in _answered and workers in _pools
 
 
+def warming(workers: int) -> bool:
+    """Whether a warm-up (``warm_up``) is starting the pool of ``workers`` processes now."""
+    with _pool_lock:
+        return _warming.get(workers, 0) > 0
+
+
 def shutdown_pool() -> None:
     """Stop every worker process (also registered with ``atexit``)."""
     with _pool_lock:
         pools = list(_pools.values())
         _pools.clear()
+        _answered.clear()  # a pool started again has to answer again
     for pool in pools:
         pool.shutdown(wait=True, cancel_futures=True)
 
@@ -230,8 +238,12 @@ def warm_up(workers: int | None = None, preload: bool = False) -> threading.Thre
         except (BrokenProcessPool, RuntimeError):
             pass  # a later generation reports the problem
         finally:
+            with _pool_lock:
+                _warming[n] -= 1
             release_pool(n)
 
+    with _pool_lock:  # counted before the thread runs: a generation asking at once sees it
+        _warming[n] = _warming.get(n, 0) + 1
     thread = threading.Thread(target=run, name="robwot-workspace-warm-up", daemon=True)
     thread.start()
     return thread
