@@ -2,8 +2,9 @@
 
 OMPL's RRT-Connect searches the robot's joint space (bounds = joint limits; a state is valid when the
 robot keeps the path clearance to everything), and OMPL's path simplifier shortcuts the result. A motion
-is checked at OMPL's own spacing (states a fixed fraction of the joint space apart), all its states put
-to the outer bounds at once (`outerbounds.py`, once loaded: `planning.warmUp`) and only those they do not
+is checked at OMPL's own spacing (states a fixed fraction of the joint space apart), its end first, then
+in bisection order, its states put to the outer bounds in that order (`outerbounds.py`, once loaded:
+`planning.warmUp`; in batches as far as the first refusal, `pathcheck.Ahead`) and only those they do not
 find free asked of Bullet (a state they find free keeps the clearance). Every segment of its path is then
 checked by our own path check (no point of the robot travels more than twice the clearance unchecked,
 clearance kept — `pathcheck.first_contact`). A segment ours refuses is replaced by a second search
