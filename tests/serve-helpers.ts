@@ -243,3 +243,21 @@ export function freePort(): Promise<number> {
     });
   });
 }
+
+/**
+ * What `start(port)` settles to on a port nothing listened on a moment before: started again on another
+ * such port while it fails because something took the port meanwhile (another test process binding port 0
+ * may be given it), at most `tries` times.
+ */
+export async function onFreePort<T>(start: (port: number) => Promise<T>, tries = 5): Promise<{ port: number; value?: T; error?: Error }> {
+  for (let i = 1; ; i++) {
+    const port = await freePort();
+    try {
+      return { port, value: await start(port) };
+    } catch (err) {
+      const error = err instanceof Error ? err : new Error(String(err));
+      if (i < tries && error.message.includes(`port ${port} on 127.0.0.1 is in use`)) continue;
+      return { port, error };
+    }
+  }
+}

@@ -9,7 +9,7 @@
 import { afterAll, beforeAll, expect, it } from "vitest";
 import { startServient, type RunningServient } from "../packages/servient/src/index.js";
 import { endless, hang, peerProxy, type PeerProxy } from "./helpers/peer-proxy.js";
-import { freePort, generateTwin, http, invoke, kukaPose, waitFor } from "./serve-helpers.js";
+import { generateTwin, http, invoke, kukaPose, onFreePort, waitFor } from "./serve-helpers.js";
 
 const AUTH = { scheme: "basic" as const, user: "robot", password: "s3cret-pw" };
 
@@ -44,19 +44,26 @@ async function proxy(route?: Parameters<typeof peerProxy>[1]): Promise<PeerProxy
 /** The physical TD URL with the credentials in it, through `p`. */
 const withUser = (p: PeerProxy): string => `${p.url.replace("http://", `http://${AUTH.user}:${AUTH.password}@`)}/${physical.things[0]!.slug}`;
 
+/** `startServient` on a free port, expected to be refused: the port and the refusal. */
+async function refusedOnFreePort(options: (port: number) => Parameters<typeof startServient>[0]): Promise<{ port: number; error?: Error }> {
+  const { port, value, error } = await onFreePort((port) => startServient(options(port)));
+  if (value) started.push(value);
+  return { port, ...(error ? { error } : {}) };
+}
+
 it.each(["relay", "follow", "register"] as const)("--%s pointing at the twin itself is refused at start", async (option) => {
-  const port = await freePort();
-  await expect(startServient({ twins: [kuka], port, realtime: 0, [option]: `http://localhost:${port}/lbr-iiwa` })).rejects.toThrow(
-    `--${option} http://localhost:${port}/lbr-iiwa is this servient itself`,
-  );
+  const { port, error } = await refusedOnFreePort((port) => ({ twins: [kuka], port, realtime: 0, [option]: `http://localhost:${port}/lbr-iiwa` }));
+  expect(error?.message).toContain(`--${option} http://localhost:${port}/lbr-iiwa is this servient itself`);
 });
 
 it("a physical TD whose stop form points at the twin is refused at start", async () => {
-  const port = await freePort();
-  const p = await proxy((req) => (req.method === "GET" && !req.url!.includes("/properties/") ? { td: (td) => ({ ...td, actions: { ...td.actions, stop: { ...td.actions.stop, forms: [{ href: `http://127.0.0.1:${port}/lbr-iiwa/actions/stop` }] } } }) } : "forward"));
-  await expect(startServient({ twins: [kuka], port, realtime: 0, relay: withUser(p), follow: false })).rejects.toThrow(
-    `--relay: the form of actions/stop at http://127.0.0.1:${port}/lbr-iiwa/actions/stop is this servient itself`,
-  );
+  let stopAt = "";
+  const p = await proxy((req) => (req.method === "GET" && !req.url!.includes("/properties/") ? { td: (td) => ({ ...td, actions: { ...td.actions, stop: { ...td.actions.stop, forms: [{ href: stopAt }] } } }) } : "forward"));
+  const { port, error } = await refusedOnFreePort((port) => {
+    stopAt = `http://127.0.0.1:${port}/lbr-iiwa/actions/stop`;
+    return { twins: [kuka], port, realtime: 0, relay: withUser(p), follow: false };
+  });
+  expect(error?.message).toContain(`--relay: the form of actions/stop at http://127.0.0.1:${port}/lbr-iiwa/actions/stop is this servient itself`);
 });
 
 it("a stop form that reaches the twin under another name answers 508: one stop, a bounded number of requests", async () => {
