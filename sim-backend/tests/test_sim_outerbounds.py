@@ -22,7 +22,8 @@ from robwot_sim.model.rotations import quat_matrix
 from robwot_sim.model.tool import attach_tool
 from robwot_sim.sim import joint_tree, kernels, outerbounds, robot_shapes
 from robwot_sim.sim.hit_kernel import _body_inside, sunk_pair
-from robwot_sim.sim.outerbounds import OuterBounds
+from robwot_sim.sim.outerbounds import HULL_GAP, TOLERANCE, OuterBounds
+from robwot_sim.sim.robot_shapes import GROW
 from robwot_sim.sim.sphere_kernel import frames, place
 from robwot_sim.sim.surehit import DEPTH
 from robwot_sim.sim.world import World
@@ -263,6 +264,32 @@ def test_rows_ahead_are_tested_until_the_rows_not_known_free_asked_for() -> None
             free, tested = bounds.free_ahead(qs, 0.002, k)
             assert tested == unsure[k - 1] + 1
             assert (free[:tested] == want[:tested]).all()
+
+
+def test_the_kernel_called_without_numbas_dispatch_gives_the_dispatchers_verdicts() -> None:
+    """After its first call an instance calls the kernel's machine code for its argument types directly
+    (``OuterBounds._call``): found here (not the dispatcher), with the verdicts and tested counts the
+    dispatcher gives for the same rows, margins and limits."""
+    from robwot_sim.sim.bounds_kernel import classify
+
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="k")
+        w.add_obstacle({"name": "box", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]},
+                        "position": [0.6, 0.0, 0.3]})
+        bounds = w.scene.bounds.get(w.scene, "k")
+        lo, hi = w.robot_model("k").limits()
+        qs = np.random.default_rng(3).uniform(lo, hi, (300, 7))
+        bounds.classify(qs[:1])
+        assert bounds._compiled is not None and bounds._compiled is not classify
+        for margin, hits, stop in ((0.0, False, 0), (0.002, False, 5), (0.0, True, 0), (0.02, True, 1)):
+            got, tested = bounds._classify(qs, margin, True, hits, stop)
+            robot = bounds.robot
+            assert robot is not None
+            want = np.full(len(qs), 3, dtype=np.int8)
+            count = classify(qs, robot.tree, robot.shapes, robot.tables, bounds.bodies, bounds.grid,
+                             bounds.zone, margin, GROW, HULL_GAP, TOLERANCE, True, hits, DEPTH, stop, want)
+            assert tested == count and (got == want).all()
+        assert len(set(bounds.classify(qs, 0.002))) > 1  # both verdicts occur
 
 
 def _vertices(bounds: OuterBounds, link: int, p: np.ndarray, r: np.ndarray) -> np.ndarray:

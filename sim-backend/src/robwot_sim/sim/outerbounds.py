@@ -30,6 +30,7 @@ path check asks Bullet only about the states not free for sure (``CollisionCheck
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -149,6 +150,7 @@ class OuterBounds:
         self.robot, self.bodies, self.grid, self.zone = robot, bodies, grid, zone
         self.links = list(robot.links) if robot else []
         self.pairs = list(robot.pairs) if robot else []
+        self._compiled: Callable[..., int] | None = None  # ``_call``
 
     @property
     def empty(self) -> bool:
@@ -175,14 +177,31 @@ class OuterBounds:
         out = np.full(len(qs), 3, dtype=np.int8)
         if self.empty or margin > MAX_MARGIN or not len(qs):
             return out, len(qs)
-        from robwot_sim.sim.bounds_kernel import classify
-
         assert self.robot is not None and self.bodies is not None
         assert self.grid is not None and self.zone is not None
-        tested = classify(np.ascontiguousarray(qs, dtype=np.float64), self.robot.tree, self.robot.shapes,
-                          self.robot.tables, self.bodies, self.grid, self.zone, float(margin), GROW, HULL_GAP,
-                          TOLERANCE, self_always, hits, DEPTH, stop, out)
-        return out, int(tested)
+        rows = np.require(qs, np.float64, ["C", "W"])  # one array type: ``_call``
+        assert rows.ndim == 2
+        r = self.robot
+        tested = self._call(rows, r.tree, r.shapes, r.tables, self.bodies, self.grid, self.zone,
+                            float(margin), GROW, HULL_GAP, TOLERANCE, bool(self_always), bool(hits), DEPTH,
+                            int(stop), out)
+        return out, tested
+
+    def _call(self, *args: Any) -> int:
+        """``bounds_kernel.classify(*args)``: after its first call, its machine code for these arguments'
+        types called directly. numba's dispatcher types every argument at every call, the shapes' dozens
+        of arrays included: more time than the kernel takes for a short segment's states. The types of
+        an instance's arguments never change (its arrays; the batch and the output contiguous arrays of
+        fixed dtype; Python floats, bools and ints); the dispatcher stays the way where numba has no
+        compiled code of these types to name."""
+        from robwot_sim.sim.bounds_kernel import classify
+
+        if self._compiled is not None:
+            return self._compiled(*args)
+        tested = int(classify(*args))
+        compiled = getattr(classify, "overloads", {}).get(tuple(classify.typeof_pyval(a) for a in args))
+        self._compiled = getattr(compiled, "entry_point", None) or classify
+        return tested
 
     def fill_tables(self) -> None:
         """Every cell of the robot's self pair tables computed now (``pair_tables.PairTables``) instead of
