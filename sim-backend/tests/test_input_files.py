@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import shutil
 from pathlib import Path
+from typing import BinaryIO
 
 import pytest
 from rpc_backend import RpcClient
@@ -23,7 +24,7 @@ from robwot_sim.limits import MAX_LIMITED_JOINTS
 from robwot_sim.model.moveit_config import MAX_LAUNCH_BYTES, find_moveit_config, joint_limits
 from robwot_sim.model.ros_packages import MAX_MANIFEST_BYTES, package_name
 from robwot_sim.model.yamlsafe import MAX_YAML_BYTES
-from robwot_sim.wholefile import TooLarge, read_whole
+from robwot_sim.wholefile import TooLarge, atomic_write, read_whole
 
 WS = MODELS / "ros_ws"
 CONFIG = WS / "tinyxacro_moveit_config"
@@ -63,6 +64,24 @@ def test_read_whole_takes_a_file_at_its_limit_and_refuses_more_or_an_endless_one
     with pytest.raises(TooLarge) as endless:
         read_whole("/dev/zero", 1000)
     assert endless.value.limit == 1000 and "more than 1000 bytes" in str(endless.value)
+
+
+def test_atomic_write_leaves_the_old_file_or_the_new_one_and_nothing_else(tmp_path: Path) -> None:
+    """A write that fails halfway leaves the file as it was and no temporary file; one that succeeds
+    replaces it whole, readable by others (0644)."""
+    f = tmp_path / "f"
+    f.write_bytes(b"old")
+
+    def half(out: BinaryIO) -> None:
+        out.write(b"new, half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        atomic_write(f, half)
+    assert f.read_bytes() == b"old" and [p.name for p in tmp_path.iterdir()] == ["f"]
+    atomic_write(f, lambda out: out.write(b"new"))
+    assert f.read_bytes() == b"new" and [p.name for p in tmp_path.iterdir()] == ["f"]
+    assert f.stat().st_mode & 0o777 == 0o644
 
 
 def test_a_limits_file_over_the_yaml_limit_is_refused_not_cut(tmp_path: Path) -> None:

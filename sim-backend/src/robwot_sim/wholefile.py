@@ -1,4 +1,4 @@
-"""Reading an input file whole, or refusing it: never a prefix of it.
+"""Files read whole or refused, and written whole or not at all: never a prefix of either.
 
 Every file the backend reads from outside (URDF, SRDF, xacro includes, YAML, launch files, package.xml,
 scenes, meshes, convex-part manifests) goes through `read_whole` with the size limit of its kind. A file
@@ -6,12 +6,18 @@ above the limit is refused before it is read, and one that turns out longer whil
 or it is a device or a pipe reporting no size) is refused too: no reader ever parses the first part of
 a file as if it were all of it (a cut YAML drops the joints past the cut; a cut XML reads as malformed
 at a line that is not wrong). The reader turns `TooLarge` into its own error naming the file.
+
+Every file the backend writes for others to read (the twin's point cloud and STL, the kernels' stamp) goes
+through `atomic_write`: a reader, in this process or another, sees the old file or the new one.
 """
 
 from __future__ import annotations
 
 import os
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import BinaryIO
 
 
 class TooLarge(ValueError):
@@ -39,3 +45,17 @@ def read_whole(path: str | Path, limit: int) -> bytes:
     if len(data) > limit:
         raise TooLarge(len(data), limit, exact=False)
     return data
+
+
+def atomic_write(path: Path, write: Callable[[BinaryIO], object]) -> None:
+    """``path`` made to hold what ``write`` writes, whole: written to a temporary file in its folder and
+    renamed over it (mode 0644); on any failure the temporary file is removed and ``path`` is untouched."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

@@ -9,12 +9,13 @@ import contextlib
 import hashlib
 import os
 import sys
-import tempfile
 import threading
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from robwot_sim.wholefile import atomic_write
 
 #: rows a process labels before it loads the kernels and builds each robot's shapes: the fixed cost (numba's
 #: import and compiler, the kernels' load: about half a second and 100 MB; a robot's shapes, fitted once per
@@ -88,14 +89,7 @@ def write_stamp(stamp: Path, sources: str) -> None:
             return
     except (OSError, UnicodeDecodeError):
         pass
-    fd, tmp = tempfile.mkstemp(dir=stamp.parent, prefix=stamp.name + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(sources)
-        os.replace(tmp, stamp)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write(stamp, lambda f: f.write(sources.encode()))
 
 
 def flush_stale(caches: list[Any], stamp: Path, sources: str) -> None:

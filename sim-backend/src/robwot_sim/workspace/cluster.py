@@ -37,8 +37,8 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.errors import ClusterError, InvalidParams
+from robwot_sim.wholefile import atomic_write
 from robwot_sim.workspace.chunk import ChunkJob, ChunkSink, label_chunk
-from robwot_sim.workspace.io import atomic_write
 from robwot_sim.workspace.labelling import chunk_size, rebuild_error
 from robwot_sim.workspace.reachability import ReachabilityMap
 

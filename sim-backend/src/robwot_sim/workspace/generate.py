@@ -21,8 +21,9 @@ import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.fk import ChainFK
 from robwot_sim.twin_layout import POINT_CLOUD, REACHABILITY, SURFACE
+from robwot_sim.wholefile import atomic_write
 from robwot_sim.workspace.chunk import ChunkJob, ChunkSink
-from robwot_sim.workspace.io import atomic_write, csv_layout, write_stl
+from robwot_sim.workspace.io import csv_layout, write_stl
 from robwot_sim.workspace.labelling import Labelling
 from robwot_sim.workspace.reachability import (
     BASE_VOXEL,
