@@ -65,6 +65,37 @@ def test_parallel_labels_equal_serial() -> None:
         assert sum(helped) > 0  # the caller labelled chunks while the workers started
 
 
+def test_a_worker_reads_no_mesh_the_backend_checked(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A worker building its world takes the meshes the backend's process checked as checked (it parsed
+    every mesh and convex part of the robot again: a fifth of its start) and labels as the backend does;
+    without them it reads them all."""
+    from robwot_sim.model import meshcheck
+
+    monkeypatch.setattr(meshcheck, "SETTLED_NS", 0)  # parts decomposed by this very test count
+    monkeypatch.setattr(meshcheck, "_passed", set())
+    with World() as w:
+        w.load_robot("kuka_iiwa/model.urdf", robot_id="kuka")
+        lo, hi = w.robot_model("kuka").limits()
+        qs = sample_configurations(lo, hi, 300, seed=5)
+        serial = w.collision_free_batch("kuka", qs)
+        job = make_job(w, "kuka", 5)
+    checked = meshcheck.checked_meshes()
+    reads: list[Path] = []
+    original = meshcheck._read
+    monkeypatch.setattr(meshcheck, "_read", lambda f: reads.append(f) or original(f))
+    for vouched, read in ((checked, False), (frozenset(), True)):
+        monkeypatch.setattr(meshcheck, "_passed", set())  # a new worker: nothing checked there
+        monkeypatch.setattr(workspace_pool, "_worker_world", None)
+        try:
+            flags = workspace_pool.worker_label(job.key, job.spec, "kuka", qs, vouched)
+        finally:
+            if workspace_pool._worker_world is not None:
+                workspace_pool._worker_world[1].close()
+        assert np.array_equal(flags, serial)
+        assert bool(reads) == read and (not read or {str(f) for f in reads} >= {s[0] for s in checked})
+        reads.clear()
+
+
 def test_the_caller_leaves_the_chunks_to_the_workers_once_one_has_answered() -> None:
     """The caller helps only while the pool has not answered: here its first chunk waits for that answer,
     so it labels exactly one chunk and the workers every other one, with the same labels."""

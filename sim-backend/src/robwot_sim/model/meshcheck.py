@@ -15,6 +15,14 @@ STL whose triangle count exceeds what the file holds crash the whole process. Ev
 
 A refused file raises ``MeshError`` (``E_MESH``) naming the file and the reason; the caller adds where
 it came from (URDF and line, obstacle name).
+
+A file passed is remembered by its stamp (path, size, modification time in ns, inode, device): asked about
+again with the same stamp, it is not read again. A process may take another's passed files as its own
+(``checked_meshes`` there, ``vouch`` here: a labelling pool's workers take the backend's); a file changed
+since has another stamp and is parsed again. The kernel stamps a write with a clock of a few milliseconds'
+resolution, so a file written again within that time could keep its stamp: only a file last modified
+``SETTLED_NS`` or longer before it is read is remembered (as git does with its index), and any later write
+stamps it anew. A stamp set back by hand (``touch -d``) is taken at its word.
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ import re
 import struct
 import tempfile
 import threading
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
@@ -121,12 +130,55 @@ def _parsed(path: Path) -> Parsed:
     return parsed
 
 
+#: a file's stamp: (path, size, modification time in ns, inode, device)
+FileStamp = tuple[str, int, int, int, int]
+#: stamps of the files this process (or one vouching for it) parsed and passed as PyBullet may load them;
+#: emptied when it holds more than ``MAX_PASSED`` (a servient loading robots for months)
+_passed: set[FileStamp] = set()
+MAX_PASSED = 10_000
+#: how long before it is read a file must have been modified last to be remembered (module docstring)
+SETTLED_NS = 1_000_000_000
+
+
+def _stamp(path: Path) -> FileStamp | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (str(path), st.st_size, st.st_mtime_ns, st.st_ino, st.st_dev)
+
+
 def check_mesh(path: Path) -> Path:
-    """Validate a mesh file; returns the file PyBullet may load (a converted copy for ASCII STL)."""
+    """Validate a mesh file; returns the file PyBullet may load (a converted copy for ASCII STL). A file
+    passed before with the same stamp (module docstring) is not read again. The stamp is taken before the
+    file is read: a file changed while or after it is read has another stamp at the next check."""
+    stamp = _stamp(path)
+    if stamp is not None and stamp in _passed:
+        return path
     parsed = _parsed(path)
     if parsed.ascii:
         return _ascii_to_binary(parsed.points, parsed.digest)
+    if stamp is not None and time.time_ns() - stamp[2] >= SETTLED_NS:
+        with _memo_lock:
+            if len(_passed) >= MAX_PASSED:
+                _passed.clear()
+            _passed.add(stamp)
     return path
+
+
+def checked_meshes() -> frozenset[FileStamp]:
+    """The stamps of the files this process passed (``check_mesh``) and PyBullet may load as they are."""
+    with _memo_lock:
+        return frozenset(_passed)
+
+
+def vouch(stamps: frozenset[FileStamp]) -> None:
+    """Take files another process of this machine passed (``checked_meshes`` there) as passed here: each
+    counts while the file keeps that stamp. Never for another machine's: a stamp names a file of one."""
+    with _memo_lock:
+        if len(_passed) + len(stamps) > MAX_PASSED:
+            _passed.clear()
+        _passed.update(stamps)
 
 
 def read_mesh(path: Path) -> MeshData | None:

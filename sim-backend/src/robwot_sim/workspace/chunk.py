@@ -19,6 +19,7 @@ import numpy.typing as npt
 
 from robwot_sim.model.couplings import Followers
 from robwot_sim.model.fk import ChainFK
+from robwot_sim.model.meshcheck import FileStamp
 from robwot_sim.workspace.io import csv_table, format_rows
 from robwot_sim.workspace.reachability import ReachabilityMap, direction_bins
 from robwot_sim.workspace.sampling import sample_configurations
@@ -44,6 +45,9 @@ class ChunkJob:
     joints: bool  # joint columns in workspace.csv
     #: a draw that drives a follower past its limit is not a configuration of the robot: left out
     followers: Followers | None = None
+    #: mesh files the backend's process checked (``meshcheck.checked_meshes``), taken as checked by a local
+    #: pool's workers (never sent to a cluster: a stamp names a file of this machine)
+    checked_meshes: frozenset[FileStamp] = frozenset()
 
 
 @dataclass(frozen=True)
@@ -81,7 +85,8 @@ def label_chunk(job: ChunkJob, start: int, count: int,
     if job.followers is not None and len(job.followers):
         qs = qs[job.followers.within(qs)]
     positions, bins = end_link(job.fk, qs)
-    flags = worker_label(job.key, job.spec, job.robot_id, qs) if label is None else label(qs)
+    flags = (worker_label(job.key, job.spec, job.robot_id, qs, job.checked_meshes) if label is None
+             else label(qs))
     if isinstance(flags, dict):
         return flags
     free = np.asarray(flags, dtype=bool)

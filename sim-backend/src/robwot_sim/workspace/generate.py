@@ -11,7 +11,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -20,6 +20,7 @@ import numpy as np
 import robwot_sim
 from robwot_sim.errors import InvalidParams
 from robwot_sim.model.fk import ChainFK
+from robwot_sim.model.meshcheck import checked_meshes
 from robwot_sim.twin_layout import POINT_CLOUD, REACHABILITY, SURFACE
 from robwot_sim.wholefile import atomic_write
 from robwot_sim.workspace.chunk import ChunkJob, ChunkSink
@@ -204,7 +205,8 @@ def _label_locally(world: World, req: _Request, prep: _Prepared, report: Progres
     def write(f: BinaryIO) -> None:
         f.write((",".join(prep.header) + "\n").encode())
         sink.write = f.write
-        Labelling(prep.job, req.samples, req.workers).result(
+        job = replace(prep.job, checked_meshes=checked_meshes())
+        Labelling(job, req.samples, req.workers).result(
             lambda done, total: report("collide", done, total),
             helper=lambda q: world.collision_free_batch(req.robot_id, q), sink=sink.add)
 

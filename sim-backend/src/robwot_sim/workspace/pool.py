@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 from robwot_sim.errors import SimError
 
 if TYPE_CHECKING:  # numpy is the forkserver's to import: the backend starts it before importing numpy
+    from robwot_sim.model.meshcheck import FileStamp
     from robwot_sim.sim.types import FloatArray
 
 _PRELOAD = ["robwot_sim.workspace.pool", "robwot_sim.sim.world", "robwot_sim.workspace.preload"]
@@ -74,16 +75,20 @@ def spec_key(spec: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray) -> Any:
-    """Runs in a worker: label ``qs`` in the cached world (built from ``spec`` when the key changed).
+def worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray,
+                 checked_meshes: frozenset[FileStamp] = frozenset()) -> Any:
+    """Runs in a worker: label ``qs`` in the cached world (built from ``spec`` when the key changed, taking
+    ``checked_meshes`` as checked: the backend's process parsed them, ``meshcheck.vouch``).
 
     Returns the flag array, or an error dict (``SimError`` subclasses do not all survive pickling).
     """
     global _worker_world
     try:
         if _worker_world is None or _worker_world[0] != key:
+            from robwot_sim.model.meshcheck import vouch
             from robwot_sim.sim.world import World
 
+            vouch(checked_meshes)
             if _worker_world is not None:
                 _worker_world[1].close()
                 _worker_world = None
