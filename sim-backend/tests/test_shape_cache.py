@@ -77,12 +77,40 @@ def test_a_damaged_or_foreign_entry_is_fitted_again(tmp_path: Path, monkeypatch:
             assert shape_cache.load(entries[0].stem, len(good["box_c"])) is not None
 
 
-def test_other_parts_name_another_entry() -> None:
-    parts = [np.random.default_rng(1).random((20, 3))]
-    moved = [parts[0] + 1e-9]
-    assert shape_cache.key(parts, ("link", 1)) != shape_cache.key(moved, ("link", 1))
-    assert shape_cache.key(parts, ("link", 1)) != shape_cache.key(parts, ("link", 2))
-    assert shape_cache.key(parts, ("link", 1)) == shape_cache.key([parts[0].copy()], ("link", 1))
+def test_other_bullet_data_name_another_entry() -> None:
+    row = (0, -1, 5, (1.0, 1.0, 1.0), "ab12.obj", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    moved = (*row[:5], (0.0, 0.0, 1e-9), row[6])
+    assert shape_cache.key((1, True, [row], None)) != shape_cache.key((1, True, [moved], None))
+    assert shape_cache.key((1, True, [row], None)) != shape_cache.key((2, True, [row], None))
+    assert shape_cache.key((1, True, [row], None)) == shape_cache.key((1, True, [tuple(row)], None))
+
+
+@pytest.mark.parametrize("urdf", ["kuka_iiwa/model.urdf", "franka_panda/panda.urdf"])
+def test_an_entry_found_reads_no_part(urdf: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A robot whose shapes are in the cache never reads its links' parts (parsing a robot's convex parts cost
+    a labelling worker as much as the rest of its start); with an empty cache every link's are read."""
+    monkeypatch.setenv("ROBWOT_COLLISION_CACHE", str(tmp_path))
+    read: list[int] = []
+    original = robot_shapes.link_parts
+    monkeypatch.setattr(robot_shapes, "link_parts", lambda c, b, ln: read.append(ln) or original(c, b, ln))
+    with World() as w:
+        rid = w.load_robot(urdf, robot_id="r").id
+        first = shapes_of(w, rid)
+    assert len(read) == len(first.links)
+    with World() as w:
+        rid = w.load_robot(urdf, robot_id="r").id
+        same(first, shapes_of(w, rid))
+    assert len(read) == len(first.links)
+
+
+def test_the_same_bytes_as_another_kind_of_mesh_name_another_entry(tmp_path: Path) -> None:
+    """An entry names a mesh by its content and the reader its suffix picks: the same bytes as OBJ and as
+    STL are read differently."""
+    (tmp_path / "m.obj").write_bytes(b"x")
+    (tmp_path / "m.stl").write_bytes(b"x")
+    rows = [shape_cache.by_content((0, -1, 5, (1, 1, 1), str(tmp_path / f"m.{k}").encode(), (0, 0, 0),
+                                    (0, 0, 0, 1))) for k in ("obj", "stl")]
+    assert rows[0][4] != rows[1][4] and rows[0][4][:64] == rows[1][4][:64]
 
 
 CUBE = "".join(f"v {x} {y} {z}\n" for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (0.0, 0.3)) + (

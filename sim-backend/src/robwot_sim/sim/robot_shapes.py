@@ -22,7 +22,6 @@ And per self pair, a table over the joint coordinates that move its links where 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -92,7 +91,7 @@ def _shape_points(body: int, link: int, cid: int, shape: Any) -> FloatArray | No
     """Points whose convex hull holds one collision shape of a link, in its shape frame (None: unknown)."""
     kind, dims, name = shape[2], shape[3], shape[4]
     if kind == pb.GEOM_MESH:
-        path = Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name))
+        path = shape_cache.mesh_file(name)
         pts = mesh_points(path) if path.is_file() else None
         return None if pts is None or not len(pts) else pts * np.asarray(dims, dtype=np.float64)
     if kind == pb.GEOM_BOX:
@@ -105,6 +104,17 @@ def _shape_points(body: int, link: int, cid: int, shape: Any) -> FloatArray | No
     else:
         return None
     return np.array([[x, y, z] for x in (-h[0], h[0]) for y in (-h[1], h[1]) for z in (-h[2], h[2])])
+
+
+class _Unreadable(Exception):
+    """A link's collision shapes could not be read as points (``link_parts`` gave None)."""
+
+
+def _readable(data: Any) -> bool:
+    """Whether every mesh a link's collision shape data names is a file (``_shape_points`` reads it; a
+    hull Bullet made of a URDF cylinder names none)."""
+    return all(row[2] != pb.GEOM_MESH or row[4] == b"unknown_file" or shape_cache.mesh_file(row[4]).is_file()
+               for row in data)
 
 
 def link_parts(cid: int, body: int, link: int) -> list[FloatArray] | None:
@@ -400,21 +410,32 @@ def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> Robo
         if j == -2 or (np.abs(p[j] - np.asarray(frame[0])).max() > 1e-6
                        or np.abs(r[j] - quat_matrix(frame[1])).max() > 1e-6):
             return None
-        parts = link_parts(cid, body, ln)
-        if parts is None:
-            return None
-        if ln < 0:  # the base's points are in the world: into the root frame
-            parts = [(pts - p[j]) @ r[j] for pts in parts]
-        joints.append(j)
-        # what the fits read of Bullet besides the parts: the shapes, the inertial frame (shape_cache.key)
         data = pb.getCollisionShapeData(body, ln, physicsClientId=cid)
-        shape_data = [shape_cache.by_content(row) for row in data]
-        bullet = (ln, ln in moving, shape_data,
-                  pb.getLinkState(body, ln, physicsClientId=cid)[2:4] if ln >= 0 else None)
-        def fit(p: list[FloatArray] = parts, at: int = ln) -> dict[str, Any]:
-            return fit_link(p, link_balls(cid, body, at) if at in moving else None)
+        if not _readable(data):
+            return None
+        joints.append(j)
+        # everything the link's parts are made of (link_parts: the shapes with their meshes by content, the
+        # inertial frame; the base's in the root frame), so an entry is found without reading the parts
+        if ln >= 0:
+            inertial: Any = pb.getLinkState(body, ln, physicsClientId=cid)[2:4]
+        else:
+            com_p, com_r = pb.getBasePositionAndOrientation(body, physicsClientId=cid)
+            inertial = (((np.asarray(com_p) - p[j]) @ r[j]).tobytes(),
+                        (r[j].T @ quat_matrix(com_r)).tobytes())
+        bullet = (ln, ln in moving, [shape_cache.by_content(row) for row in data], inertial)
 
-        fitted = shape_cache.cached(parts, bullet, fit)
+        def fit(at: int = ln, jj: int = j) -> dict[str, Any]:
+            parts = link_parts(cid, body, at)
+            if parts is None:
+                raise _Unreadable
+            if at < 0:  # the base's points are in the world: into the root frame
+                parts = [(pts - p[jj]) @ r[jj] for pts in parts]
+            return fit_link(parts, link_balls(cid, body, at) if at in moving else None)
+
+        try:
+            fitted = shape_cache.cached(len(data), bullet, fit)
+        except _Unreadable:
+            return None
         own = np.array([row[2] not in (pb.GEOM_SPHERE, pb.GEOM_CAPSULE) for row in data], dtype=np.bool_)
         shapes.append(LinkShapes.made(ln, ln in moving, fitted, own))
     parent = {ln: int(pb.getJointInfo(body, ln, physicsClientId=cid)[16]) for ln in links if ln >= 0}

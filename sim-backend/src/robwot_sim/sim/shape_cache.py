@@ -3,11 +3,12 @@ vertices, inner balls) kept on disk between processes, so a robot's shapes are f
 instead of once per process (each labelling worker, each backend): the fits cost about as much as the rest
 of a worker's start.
 
-An entry is named by the digest of everything the fits read: the link's parts as points in its frame (the
-meshes' contents, scaled and placed), Bullet's shape data of the link (its mesh files by their contents'
-digests, not their paths) and its inertial frame (what the inner balls read besides), and ``SALT`` (the
-fitting code's sources and the versions of numpy, scipy and pybullet): changed code, meshes or libraries
-name other entries. The folder is the user's own (``folder``, mode 0700, beside the user's collision
+An entry is named by the digest of everything the fits read: Bullet's shape data of the link (kind,
+scale, placement, its mesh files by their contents' digests and kinds, not their paths) and its inertial
+frame (the base's in its root frame), which make the link's parts as points in its frame, and ``SALT``
+(the fitting code's sources and the versions of numpy, scipy and pybullet): changed code, meshes or
+libraries name other entries. The parts are read (their meshes parsed) only to fit an entry not found.
+The folder is the user's own (``folder``, mode 0700, beside the user's collision
 cache, never a twin's ``collision/`` folder): it is trusted as numba's cache of the kernels is. An entry
 is still read with ``allow_pickle=False`` and checked for its arrays' kinds, shapes and finite values; one
 that fails, or any failure to read or write, leaves the shapes to be fitted as if there were no cache.
@@ -18,7 +19,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
 from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from robwot_sim.sim.types import FloatArray
+from robwot_sim.wholefile import atomic_write
 
 #: arrays of an entry: name -> (dtype kind, trailing shape)
 _FIELDS = {"centres": ("f", (3,)), "radii": ("f", ()), "sphere_part": ("i", ()), "box_c": ("f", (3,)),
@@ -61,26 +61,28 @@ def folder() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "robwot" / "shapes"
 
 
-def key(parts: list[FloatArray], bullet: Any) -> str:
-    """The entry of a link whose parts are ``parts`` and whose Bullet data (shape data, inertial frame, link
-    index, whether it moves) is ``bullet`` (its ``repr`` is digested)."""
+def key(bullet: Any) -> str:
+    """The entry of a link whose Bullet data (link index, whether it moves, shape data ``by_content``,
+    inertial frame) is ``bullet`` (its ``repr`` is digested)."""
     h = hashlib.sha256(_salt_of().encode())
     h.update(repr(bullet).encode())
-    for pts in parts:
-        a = np.ascontiguousarray(pts, dtype=np.float64)
-        h.update(repr(a.shape).encode())
-        h.update(a.tobytes())
     return h.hexdigest()
 
 
+def mesh_file(name: bytes | str) -> Path:
+    """The file a row of Bullet's collision shape data names (its fifth field)."""
+    return Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name))
+
+
 def by_content(shape: tuple[Any, ...]) -> tuple[Any, ...]:
-    """One of Bullet's collision shape data rows with its mesh file named by the digest of its content: a
-    robot loaded from a temporary folder (an expanded xacro, a tool attached) names the same entries each
-    time, and a file changed in place names others."""
+    """One of Bullet's collision shape data rows with its mesh file named by the digest of its content and its
+    kind (the reader its suffix picks): a robot loaded from a temporary folder (an expanded xacro, a tool
+    attached) names the same entries each time, and a file changed in place names others."""
     name = shape[4]
-    path = Path(name.decode(errors="replace") if isinstance(name, bytes) else str(name))
+    path = mesh_file(name)
     try:
-        digest = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else repr(name)
+        digest = (hashlib.sha256(path.read_bytes()).hexdigest() + path.suffix.lower() if path.is_file()
+                  else repr(name))
     except OSError:
         digest = repr(name)
     return (*shape[:4], digest, *shape[5:])
@@ -135,22 +137,16 @@ def store(name: str, arrays: dict[str, Any]) -> None:
     data["hull"] = np.concatenate(arrays["hull"]).reshape(-1, 3)
     try:
         out.mkdir(parents=True, mode=0o700, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=out, suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, **{k: data[k] for k in _FIELDS})
-            os.replace(tmp, out / f"{name}.npz")
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        atomic_write(out / f"{name}.npz", lambda f: np.savez(f, **{k: data[k] for k in _FIELDS}))
     except OSError:
         pass
 
 
-def cached(parts: list[FloatArray], bullet: Any, fit: Callable[[], dict[str, Any]]) -> dict[str, Any]:
-    """The arrays of a link's shapes: its entry when sound, else ``fit()``'s, then stored."""
-    name = key(parts, bullet)
-    found = load(name, len(parts))
+def cached(parts: int, bullet: Any, fit: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """The arrays of the shapes of a link of ``parts`` parts: its entry when sound, else ``fit()``'s, then
+    stored."""
+    name = key(bullet)
+    found = load(name, parts)
     if found is not None:
         return found
     made = fit()
