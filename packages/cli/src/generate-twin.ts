@@ -206,13 +206,15 @@ async function loadRobotInScene(
 /**
  * Runs the whole pipeline against an open backend whose world is empty. `staged` must have been created
  * by the caller (before starting the backend, so output problems are reported first); it is committed
- * on success and left for the caller to discard on failure.
+ * on success and left for the caller to discard on failure. `done` is called once the backend is no
+ * longer needed (before the final TD checks, which the caller's stopping backend then runs beside).
  */
 export async function generateTwin(
   opts: GenerateOptions,
   backend: BackendGuard,
   staged: StagedDir,
   progress: ProgressSink,
+  done: () => void = () => undefined,
 ): Promise<GenerateResult> {
   const t0 = performance.now();
   progress.stage("load");
@@ -227,7 +229,7 @@ export async function generateTwin(
   const effective: GenerateOptions = { ...rest, ...(input.srdf !== undefined ? { srdf: input.srdf } : {}), ...(input.ee !== undefined ? { ee: input.ee } : {}) };
   let keep = false;
   try {
-    return await generateFrom(effective, sim, staged, progress, t0, input);
+    return await generateFrom(effective, sim, staged, progress, t0, input, done);
   } catch (err) {
     const { message, code } = describeError(err);
     if (input.expandedDir !== undefined && message.includes(input.urdf)) {
@@ -248,6 +250,7 @@ async function generateFrom(
   progress: ProgressSink,
   t0: number,
   input: RosInput,
+  done: () => void,
 ): Promise<GenerateResult> {
   const { source, urdf, packageRoots } = input;
   const meshes = meshProgress(progress);
@@ -288,6 +291,7 @@ async function generateFrom(
   const overlaps = overlapWarnings(model, others, summary);
   warnings.say(overlaps);
   await refuseDegenerate(summary, staged.tmp, sim, model, overlaps);
+  done(); // nothing below asks the backend
   writeJson(join(staged.tmp, TWIN_FILES.summary), summary);
   writeJson(join(staged.tmp, TWIN_FILES.thingModel), buildThingModel());
   noteSurface(summary, progress);

@@ -38,9 +38,9 @@ export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unk
 }
 
 /**
- * Loads the official TD validator's modules while the backend's Python starts up. Not a validation: each
- * one compiles the TD JSON Schemas again (a long generation validates once beside the labelling, every
- * one at the end). Never fails.
+ * Starts the official TD validator's thread, which loads its modules while the backend's Python starts up.
+ * Not a validation: each one compiles the TD JSON Schemas again (a long generation validates once beside
+ * the labelling, every one at the end). Never fails.
  */
 export async function warmTdValidator(): Promise<void> {
   await Promise.resolve().then(loadTdValidator).catch(() => undefined);

@@ -35,6 +35,15 @@ describe("launchBackend", () => {
     await backend.stop(); // idempotent
   });
 
+  it("signals the backend at the stop call itself, so a caller busy after it does not hold its exit back", async () => {
+    const backend = await launchBackend();
+    started.push(backend);
+    const stopping = backend.stop();
+    expect(backend.process.killed).toBe(true); // no turn of the event loop since the call
+    await stopping;
+    expect(backend.running).toBe(false);
+  });
+
   it("lets a second client with the backend's token connect to the same backend by URL", async () => {
     const backend = await launchBackend();
     started.push(backend);

@@ -125,13 +125,17 @@ export class LaunchedBackend extends EventEmitter<BackendEvents> {
     return this.stderrTail();
   }
 
-  /** Closes the client, sends SIGTERM and waits for exit (SIGKILL after the grace period). Idempotent. */
+  /**
+   * Sends SIGTERM, closes the client and waits for exit (SIGKILL after the grace period). Idempotent. The
+   * signal goes at the call itself, not after a turn of the event loop: a caller that stops the backend
+   * and then computes (a generation checking its TD) has the backend exit meanwhile.
+   */
   stop(): Promise<void> {
     this.stopping ??= (async () => {
-      // the process is stopped next whatever the connection does
+      const running = this.running;
+      if (running) this.process.kill("SIGTERM");
       await this.client.close().catch(() => undefined);
-      if (!this.running) return;
-      this.process.kill("SIGTERM");
+      if (!running) return;
       const timer = setTimeout(() => this.process.kill("SIGKILL"), this.stopTimeoutMs);
       await this.exited;
       clearTimeout(timer);

@@ -127,7 +127,8 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
     // (the backend may have written into it meanwhile)
     const dropEarly = onCleanup(() => staged.discard());
     try {
-      const result = await generateTwin(opts, backend, staged, progress).catch(async (err: unknown) => {
+      // the backend stops while the final TD is checked; a failure to stop is reported by the close below
+      const result = await generateTwin(opts, backend, staged, progress, () => void backend.close().catch(() => undefined)).catch(async (err: unknown) => {
         throw await backend.explain(err);
       });
       const seconds = (performance.now() - t0) / 1000;

@@ -1,10 +1,16 @@
 /**
  * Validation with the official W3C WoT validator `@thing-description-playground/core` (`tdValidator`,
- * CommonJS, loaded lazily through `createRequire`: it pulls in ajv and jsonld). The JSON-LD check needs
- * the network and the Thing Model conformance checks may fetch linked TMs: both are off.
- * Node only (not exported to the browser entry).
+ * CommonJS: it pulls in ajv and jsonld). The JSON-LD check needs the network and the Thing Model
+ * conformance checks may fetch linked TMs: both are off.
+ *
+ * The validator runs on a worker thread of its own, started by the first call (or `loadTdValidator`): its
+ * modules load there (a few hundred ms) and each validation compiles the TD JSON Schemas again (the
+ * validator makes a new ajv instance per call), both off the caller's event loop, which goes on serving
+ * (a generation stops its backend while its TD is checked). The thread keeps the process alive only while
+ * a validation is pending; a thread that fails fails the pending validations, and the next call starts
+ * another. Node only (not exported to the browser entry).
  */
-import { createRequire } from "node:module";
+import { Worker } from "node:worker_threads";
 
 type Outcome = "passed" | "failed" | "warning" | null;
 
@@ -14,13 +20,67 @@ interface PlaygroundResult {
   detailComments: Record<string, string>;
 }
 
-interface Playground {
-  tmValidator(tm: string, log: (message: unknown) => void, options: { checkDefaults?: boolean; checkJsonLd?: boolean }): Promise<PlaygroundResult>;
-  tdValidator(
-    td: string,
-    log: (message: unknown) => void,
-    options: { checkDefaults?: boolean; checkJsonLd?: boolean; checkTmConformance?: boolean },
-  ): Promise<PlaygroundResult>;
+type Kind = "td" | "tm";
+
+interface Answer {
+  id: number;
+  result?: PlaygroundResult;
+  log?: string[];
+  error?: string;
+}
+
+/** The thread's code (CommonJS, evaluated): the playground resolved from this module's folder. */
+const THREAD = `
+const { parentPort } = require("node:worker_threads");
+const playground = require("node:module").createRequire(${JSON.stringify(import.meta.url)})("@thing-description-playground/core");
+parentPort.on("message", async ({ id, kind, text }) => {
+  const log = [];
+  try {
+    const result = kind === "td"
+      ? await playground.tdValidator(text, (m) => log.push(String(m)), { checkDefaults: true, checkJsonLd: false, checkTmConformance: false })
+      : await playground.tmValidator(text, (m) => log.push(String(m)), { checkDefaults: false, checkJsonLd: false });
+    parentPort.postMessage({ id, result, log });
+  } catch (err) {
+    parentPort.postMessage({ id, error: String((err && err.stack) || err) });
+  }
+});
+`;
+
+let thread: Worker | undefined;
+const pending = new Map<number, { resolve: (a: Answer) => void; reject: (err: Error) => void }>();
+let nextId = 0;
+
+function validatorThread(): Worker {
+  if (thread !== undefined) return thread;
+  const t = new Worker(THREAD, { eval: true });
+  t.unref();
+  const fail = (err: Error): void => {
+    if (thread === t) thread = undefined;
+    for (const p of pending.values()) p.reject(err);
+    pending.clear();
+  };
+  t.on("message", (a: Answer) => {
+    const p = pending.get(a.id);
+    if (p === undefined) return;
+    pending.delete(a.id);
+    if (pending.size === 0) t.unref();
+    if (a.error !== undefined) p.reject(new Error(`the TD validator failed: ${a.error}`));
+    else p.resolve(a);
+  });
+  t.on("error", (err) => fail(err));
+  t.on("exit", (code) => fail(new Error(`the TD validator's thread exited with code ${code}`)));
+  thread = t;
+  return t;
+}
+
+function validate(kind: Kind, text: string): Promise<{ result: PlaygroundResult; log: string[] }> {
+  const t = validatorThread();
+  const id = nextId++;
+  return new Promise((resolve, reject) => {
+    pending.set(id, { resolve: (a) => resolve({ result: a.result as PlaygroundResult, log: a.log ?? [] }), reject });
+    t.ref();
+    t.postMessage({ id, kind, text });
+  });
 }
 
 export interface TdValidationResult {
@@ -33,28 +93,14 @@ export interface TdValidationResult {
   report: PlaygroundResult["report"];
 }
 
-let playground: Playground | undefined;
-
-/** Loads the validator's modules (a few hundred ms of CPU), e.g. while a backend starts. Validating a
- * small TD to warm it would cost a compilation more: each validation compiles the TD JSON Schemas again
- * (the validator makes a new ajv instance per call). */
+/** Starts the validator's thread, which loads its modules (a few hundred ms of CPU) there, e.g. while a
+ * backend starts. Not a validation: each one compiles the TD JSON Schemas again. */
 export function loadTdValidator(): void {
-  loadPlayground();
-}
-
-function loadPlayground(): Playground {
-  playground ??= createRequire(import.meta.url)("@thing-description-playground/core") as Playground;
-  return playground;
+  validatorThread();
 }
 
 export async function validateThingDescription(td: unknown): Promise<TdValidationResult> {
-  const text = typeof td === "string" ? td : JSON.stringify(td);
-  const log: string[] = [];
-  const result = await loadPlayground().tdValidator(text, (m) => log.push(String(m)), {
-    checkDefaults: true,
-    checkJsonLd: false,
-    checkTmConformance: false,
-  });
+  const { result, log } = await validate("td", typeof td === "string" ? td : JSON.stringify(td));
   const errors: string[] = [];
   const warnings: string[] = [];
   const { report, details, detailComments } = result;
@@ -74,11 +120,7 @@ export async function validateThingDescription(td: unknown): Promise<TdValidatio
 
 /** A Thing Model against the official TM JSON Schema and assertions (JSON-LD off). */
 export async function validateThingModel(tm: unknown): Promise<TdValidationResult> {
-  const log: string[] = [];
-  const result = await loadPlayground().tmValidator(typeof tm === "string" ? tm : JSON.stringify(tm), (m) => log.push(String(m)), {
-    checkDefaults: false,
-    checkJsonLd: false,
-  });
+  const { result, log } = await validate("tm", typeof tm === "string" ? tm : JSON.stringify(tm));
   const errors: string[] = [];
   if (result.report.json !== "passed") errors.push("not valid JSON");
   if (result.report.schema === "failed") errors.push(`TM JSON Schema: ${log.filter((l) => l.startsWith(">")).map((l) => l.slice(2)).join("; ") || "failed"}`);
