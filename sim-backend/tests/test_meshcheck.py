@@ -106,10 +106,10 @@ def test_ascii_stl_is_converted_and_loads(client: RpcClient, tmp_path: Path) -> 
 def test_a_passed_file_is_not_read_again_while_its_stamp_holds(tmp_path: Path,
                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
     """A file passed once is not read again; one vouched for by another process (a labelling worker taking
-    the backend's) is not read at all; a file changed since (another stamp) is read again and refused when
-    it is hostile now; a file modified just before it is read (its stamp not settled) is read every time."""
+    the backend's) is not read at all; a file changed since, its modification time set back, is read again
+    and refused when it is hostile now; a file changed just before it is read (its stamp not settled) is
+    read every time."""
     import os
-    import time
 
     from robwot_sim.errors import MeshError
     from robwot_sim.model import meshcheck
@@ -124,15 +124,16 @@ def test_a_passed_file_is_not_read_again_while_its_stamp_holds(tmp_path: Path,
     meshcheck.check_mesh(mesh)
     assert reads == [mesh, mesh]  # written just now: not settled
     reads.clear()
-    past = time.time() - 10
-    os.utime(mesh, (past, past))
+    monkeypatch.setattr(meshcheck, "SETTLED_NS", 0)  # as if a while had passed since it was written
     assert meshcheck.check_mesh(mesh) == mesh and meshcheck.check_mesh(mesh) == mesh
     assert reads == [mesh]
     stamps = meshcheck.checked_meshes()
     monkeypatch.setattr(meshcheck, "_passed", set())  # another process: nothing passed there
     meshcheck.vouch(stamps)
     assert meshcheck.check_mesh(mesh) == mesh and reads == [mesh]
-    mesh.write_bytes(binary_stl(1000, TRI))  # changed in place: a lying triangle count
+    before = mesh.stat()
+    mesh.write_bytes(binary_stl(1000, TRI))  # changed in place: a lying triangle count, same size,
+    os.utime(mesh, ns=(before.st_atime_ns, before.st_mtime_ns))  # its modification time set back
     with pytest.raises(MeshError, match="1000 triangles"):
         meshcheck.check_mesh(mesh)
     assert reads == [mesh, mesh]

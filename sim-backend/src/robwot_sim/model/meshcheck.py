@@ -16,13 +16,14 @@ STL whose triangle count exceeds what the file holds crash the whole process. Ev
 A refused file raises ``MeshError`` (``E_MESH``) naming the file and the reason; the caller adds where
 it came from (URDF and line, obstacle name).
 
-A file passed is remembered by its stamp (path, size, modification time in ns, inode, device): asked about
-again with the same stamp, it is not read again. A process may take another's passed files as its own
-(``checked_meshes`` there, ``vouch`` here: a labelling pool's workers take the backend's); a file changed
-since has another stamp and is parsed again. The kernel stamps a write with a clock of a few milliseconds'
-resolution, so a file written again within that time could keep its stamp: only a file last modified
-``SETTLED_NS`` or longer before it is read is remembered (as git does with its index), and any later write
-stamps it anew. A stamp set back by hand (``touch -d``) is taken at its word.
+A file passed is remembered by its stamp (path, size, modification and status change times in ns, inode,
+device): asked about again with the same stamp, it is not read again. A process may take another's passed
+files as its own (``checked_meshes`` there, ``vouch`` here: a labelling pool's workers take the backend's);
+a file changed since has another stamp and is parsed again. The status change time is the kernel's own:
+every write sets it, and so does setting the modification time back (``touch -d``). The kernel stamps with
+a clock of a few milliseconds' resolution, so a file written again within that time could keep its stamp:
+only a file whose status last changed ``SETTLED_NS`` or longer before it is read is remembered (as git does
+with its index), and any later write stamps it anew.
 """
 
 from __future__ import annotations
@@ -130,13 +131,14 @@ def _parsed(path: Path) -> Parsed:
     return parsed
 
 
-#: a file's stamp: (path, size, modification time in ns, inode, device)
-FileStamp = tuple[str, int, int, int, int]
+#: a file's stamp: (path, size, modification time in ns, status change time in ns, inode, device)
+FileStamp = tuple[str, int, int, int, int, int]
 #: stamps of the files this process (or one vouching for it) parsed and passed as PyBullet may load them;
 #: emptied when it holds more than ``MAX_PASSED`` (a servient loading robots for months)
 _passed: set[FileStamp] = set()
 MAX_PASSED = 10_000
-#: how long before it is read a file must have been modified last to be remembered (module docstring)
+#: how long before it is read a file's status must have changed last for it to be remembered (module
+#: docstring)
 SETTLED_NS = 1_000_000_000
 
 
@@ -145,7 +147,7 @@ def _stamp(path: Path) -> FileStamp | None:
         st = os.stat(path)
     except OSError:
         return None
-    return (str(path), st.st_size, st.st_mtime_ns, st.st_ino, st.st_dev)
+    return (str(path), st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev)
 
 
 def check_mesh(path: Path) -> Path:
@@ -158,7 +160,7 @@ def check_mesh(path: Path) -> Path:
     parsed = _parsed(path)
     if parsed.ascii:
         return _ascii_to_binary(parsed.points, parsed.digest)
-    if stamp is not None and time.time_ns() - stamp[2] >= SETTLED_NS:
+    if stamp is not None and time.time_ns() - stamp[3] >= SETTLED_NS:
         with _memo_lock:
             if len(_passed) >= MAX_PASSED:
                 _passed.clear()
