@@ -131,3 +131,18 @@ def test_only_contract_methods_can_be_registered() -> None:
         assert "not in the contract" in str(exc)
     else:
         raise AssertionError("registered a method outside the contract")
+
+
+def test_the_pybullet_version_is_read_from_its_metadata_once(monkeypatch: Any) -> None:
+    """``ping`` (the heartbeat, several times a second) and every workspace summary name PyBullet's version:
+    its package metadata is parsed from disk once per process, not at each."""
+    from importlib import metadata
+
+    from robwot_sim.sim import client
+
+    client.pybullet_version.cache_clear()
+    calls: list[str] = []
+    real = metadata.version
+    monkeypatch.setattr(metadata, "version", lambda name: calls.append(name) or real(name))
+    assert client.pybullet_version() == client.pybullet_version() == real("pybullet")
+    assert calls == ["pybullet"]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from importlib import metadata
 from typing import Any
 
 import pybullet_data
@@ -12,21 +11,15 @@ from robwot_sim.rpc.contract import invalid_param
 from robwot_sim.rpc.dispatch import Call, Dispatcher
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.services import Services
+from robwot_sim.sim.client import pybullet_version
 from robwot_sim.sim.world import World
 from robwot_sim.sim.world_thread import Kind
-
-
-def _pybullet_version() -> str:
-    try:
-        return metadata.version("pybullet")
-    except metadata.PackageNotFoundError:  # pragma: no cover - pybullet is a hard dependency
-        return "unknown"
 
 
 def register(d: Dispatcher, s: Services) -> None:
     @d.method("ping")
     async def ping(p: Params, call: Call) -> dict[str, Any]:
-        return {"version": __version__, "pybullet": _pybullet_version(),
+        return {"version": __version__, "pybullet": pybullet_version(),
                 "pybulletData": pybullet_data.getDataPath()}
 
     @d.method("world.reset")

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import os
 import sys
 from collections.abc import Iterator, Sequence
+from importlib import metadata
 from typing import Any, NamedTuple
 
 import pybullet as pb
@@ -55,6 +57,16 @@ def stdout_to_stderr() -> Iterator[None]:
 
 #: where removed static bodies wait for reuse (m): far beyond any workspace
 PARKING = 1.0e5
+
+
+@functools.cache
+def pybullet_version() -> str:
+    """The installed PyBullet's version, read once per process (the package metadata is parsed from disk:
+    a heartbeat's ``ping`` asks for it several times a second)."""
+    try:
+        return metadata.version("pybullet")
+    except metadata.PackageNotFoundError:  # pragma: no cover - pybullet is a hard dependency
+        return "unknown"
 
 
 class Bullet:

@@ -51,14 +51,10 @@ Progress = Callable[[str, int, int], None]
 
 def versions() -> dict[str, str]:
     """Versions of the tools that produced a workspace."""
-    from importlib import metadata
-
     import scipy
-    try:
-        pybullet = metadata.version("pybullet")
-    except metadata.PackageNotFoundError:  # pragma: no cover - pybullet is a dependency
-        pybullet = "unknown"
-    return {"robwot_sim": robwot_sim.__version__, "pybullet": pybullet, "numpy": np.__version__,
+
+    from robwot_sim.sim.client import pybullet_version
+    return {"robwot_sim": robwot_sim.__version__, "pybullet": pybullet_version(), "numpy": np.__version__,
             "scipy": scipy.__version__}
 
 
