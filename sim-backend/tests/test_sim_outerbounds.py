@@ -533,3 +533,19 @@ def test_the_kernels_stamp_is_never_read_half_written(tmp_path: Path) -> None:
     kernels.write_stamp(stamp, "b" * 64)
     assert stamp.read_text() == "b" * 64 and stamp.stat().st_ino != first.st_ino
     assert [p.name for p in tmp_path.iterdir()] == [stamp.name]
+
+
+def test_a_batch_builds_a_mirror_only_for_rows_that_need_it() -> None:
+    """A KUKA among 239 boxes: the bounds find no row apart from every other body but not free, so a batch
+    builds no mirror of the robot alone (a labelling worker built one at its start, a tenth of it, and
+    never used it); the rows Bullet must check get the scene's mirror, with the labels of Bullet alone."""
+    with World() as w:
+        rid = w.load_robot("kuka_iiwa/model.urdf", robot_id="k").id
+        w.load_scene(str(SCENES / "obstacles-239.json"))
+        lo, hi = w.robot_model(rid).limits()
+        qs = np.random.default_rng(5).uniform(lo, hi, size=(ROWS, len(lo)))
+        status = w.queries.outer_bounds(rid).classify(qs, self_always=False, hits=True)
+        assert not (status == 2).any() and (status == 3).any()
+        labels = w.collision_free_batch(rid, qs)
+        assert rid not in w.queries._alone and w.queries._fast is not None
+        assert np.array_equal(labels, w.collision_free_batch(rid, qs, bounds=False))

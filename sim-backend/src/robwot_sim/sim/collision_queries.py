@@ -72,15 +72,17 @@ class CollisionQueries:
             todo = np.flatnonzero((status != 0) & (status != SURE_HIT))
             if not e.checker.massless_moving:  # the mirrors do not check massless links
                 alone = todo[status[todo] == 2]
-                out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], {}, e.bound.followers)
+                if len(alone):  # a mirror is built only for rows that need it
+                    out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], {}, e.bound.followers)
                 todo = todo[status[todo] != 2]
         else:
             todo = np.flatnonzero(~self.sure_hits(robot_id).hits(arr))
         if e.checker.massless_moving:
             out[todo] = e.checker.batch(arr[todo])
             return out
-        others = {rid: o.bound.full_values(o.bound.q) for rid, o in entries.items() if rid != robot_id}
-        out[todo] = self.mirror().batch(robot_id, arr[todo], others, e.bound.followers)
+        if len(todo):
+            others = {rid: o.bound.full_values(o.bound.q) for rid, o in entries.items() if rid != robot_id}
+            out[todo] = self.mirror().batch(robot_id, arr[todo], others, e.bound.followers)
         return out
 
     def _probe(self, robot_id: str, outer: OuterBounds, arr: npt.NDArray[np.float64]) -> Any:
