@@ -110,13 +110,6 @@ class _Unreadable(Exception):
     """A link's collision shapes could not be read as points (``link_parts`` gave None)."""
 
 
-def _readable(data: Any) -> bool:
-    """Whether every mesh a link's collision shape data names is a file (``_shape_points`` reads it; a
-    hull Bullet made of a URDF cylinder names none)."""
-    return all(row[2] != pb.GEOM_MESH or row[4] == b"unknown_file" or shape_cache.mesh_file(row[4]).is_file()
-               for row in data)
-
-
 def link_parts(cid: int, body: int, link: int) -> list[FloatArray] | None:
     """Per collision shape of a link as Bullet holds it, points whose convex hull holds it, in the link's
     URDF frame (the base: in the world frame); None when a shape cannot be read."""
@@ -411,11 +404,10 @@ def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> Robo
                        or np.abs(r[j] - quat_matrix(frame[1])).max() > 1e-6):
             return None
         data = pb.getCollisionShapeData(body, ln, physicsClientId=cid)
-        if not _readable(data):
-            return None
         joints.append(j)
-        # everything the link's parts are made of (link_parts: the shapes with their meshes by content, the
-        # inertial frame; the base's in the root frame), so an entry is found without reading the parts
+        # everything the link's parts are made of (link_parts: the shapes with their meshes by content and
+        # kind, the inertial frame; the base's in the root frame), so an entry is found without reading the
+        # parts: one is only ever stored for parts that were read, and a mesh not read names no entry
         if ln >= 0:
             inertial: Any = pb.getLinkState(body, ln, physicsClientId=cid)[2:4]
         else:
