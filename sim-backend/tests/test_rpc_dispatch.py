@@ -95,6 +95,11 @@ def test_invalid_params_before_handler() -> None:
     assert sent == []
     reply = _handle(d, '{"jsonrpc":"2.0","id":5,"method":"echo","params":{"y":1}}', sent)
     assert reply["error"]["data"]["param"] == "y"
+    # an integer beyond a double's range is the infinity it rounds to, named as such (not a handler's crash)
+    reply = _handle(d, '{"jsonrpc":"2.0","id":6,"method":"echo","params":{"x":-1%s}}' % ("0" * 400), sent)
+    data = reply["error"]["data"]
+    assert (data["code"], data["param"], data["got"]) == ("E_INVALID_PARAMS", "x", "-Infinity")
+    assert sent == []
 
 
 def test_client_notifications_get_no_reply() -> None:

@@ -4,11 +4,12 @@ and what was received; defaults come from the contract."""
 from __future__ import annotations
 
 import math
+import random
 from typing import Any
 
 import pytest
 
-from robwot_sim.rpc.contract import contract
+from robwot_sim.rpc.contract import _fast_valid, contract
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.protocol import INVALID_PARAMS, Fault
 
@@ -86,3 +87,67 @@ def test_valid_values_come_back_with_the_contracts_defaults() -> None:
     with pytest.raises(Fault):
         Params({"q": [0, 0, 0, 0]}).quaternion("q")
     assert not p.has("speed") and p["seed"] is None
+
+
+HOSTILE: list[Any] = [None, math.nan, math.inf, -math.inf, "x", "", "a=b", -1, 0, 0.5, 3.0, 1e308, 10**20,
+                      True, [], [1, 2, 3], [[1]], {}, {"type": "box"}, {"type": "sphere", "radius": 0.1},
+                      "é" * 300]
+
+
+def _sample(schema: Any, rng: random.Random) -> Any:
+    """A value the schema describes (mostly valid: `not` and cross-field rules are ignored)."""
+    schema = contract().resolve(schema)
+    members = schema.get("oneOf") or schema.get("anyOf")
+    if members:
+        return _sample(rng.choice(members), rng)
+    if "const" in schema or "enum" in schema:
+        return schema.get("const", rng.choice(schema.get("enum", [None])))
+    kind = schema.get("type")
+    if kind == "object" or "properties" in schema:
+        required = set(schema.get("required", []))
+        return {k: _sample(sub, rng) for k, sub in schema.get("properties", {}).items()
+                if k in required or rng.random() < 0.5}
+    if kind == "array":
+        lo = schema.get("minItems", 0)
+        count = rng.randint(lo, min(schema.get("maxItems", 9), lo + 3))
+        return [_sample(schema.get("items", {}), rng) for _ in range(count)]
+    if kind in ("number", "integer"):
+        lo = schema.get("minimum", schema.get("exclusiveMinimum", -10.0))
+        value = lo + rng.random() * (schema.get("maximum", lo + 10.0) - lo)
+        return round(value) if kind == "integer" else value
+    if kind == "string":
+        return "a=b" if "pattern" in schema else "k"[: schema.get("maxLength", 1)]
+    return rng.random() < 0.5 if kind == "boolean" else None
+
+
+def _mutate(value: Any, rng: random.Random) -> Any:
+    """``value`` with one place along a random path replaced, removed or given an unknown field."""
+    if isinstance(value, dict) and value and rng.random() < 0.7:
+        key = rng.choice(sorted(value))
+        roll = rng.random()
+        if roll < 0.15:
+            return {k: v for k, v in value.items() if k != key}
+        if roll < 0.25:
+            return {**value, "zz": 1}
+        return {**value, key: _mutate(value[key], rng)}
+    if isinstance(value, list) and value and rng.random() < 0.7:
+        at = rng.randrange(len(value))
+        return [*value[:at], _mutate(value[at], rng), *value[at + 1:]]
+    return rng.choice(HOSTILE)
+
+
+def test_the_compiled_validator_accepts_nothing_the_python_one_refuses() -> None:
+    """On generated params of every method (valid ones, and each mutated in one place), a value the
+    compiled validator accepts is one the Python validator accepts: the fast path never lets through what
+    the errors' validator refuses. Both verdicts occur (the comparison is not vacuous)."""
+    c, rng = contract(), random.Random(39)
+    verdicts = {True: 0, False: 0}
+    for name, method in sorted(c.methods.items()):
+        for _ in range(60):
+            value = _sample(method.params_schema, rng)
+            for candidate in (value, _mutate(value, rng), _mutate(_mutate(value, rng), rng)):
+                fast = _fast_valid(c.fast_params[name], candidate)
+                slow = not any(True for _ in c._params[name].iter_errors(candidate))
+                assert slow or not fast, (name, candidate)
+                verdicts[slow] += 1
+    assert min(verdicts.values()) > 1000, verdicts

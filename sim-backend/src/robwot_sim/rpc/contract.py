@@ -7,6 +7,13 @@ defaults of nested values (a program step's `speed`, `blend`, ...: a handler rea
 its own) and, when
 asked (`ROBWOT_CHECK_RESULTS=1`, set by the test suites), the results too. A failure names the param
 (`positions[3]`, `shape.size[0]`), what the contract expects and what was received.
+
+Two validators read each schema: `jsonschema_rs` (compiled, Rust) answers whether a value is valid, on
+every request; `jsonschema` (pure Python, hundreds of times slower, whose errors carry the paths and
+context the messages are made from) runs only on a value the first refused, to say why. The compiled one
+refuses NaN and infinities as ours does (serde's JSON numbers are finite), and what it accepts the Python
+one accepts too (`tests/test_rpc_params.py` compares them on generated values of every method); where
+the Python one finds no error in a value the compiled one refused, the value is accepted.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
+import jsonschema_rs
 from jsonschema import Draft7Validator, validators
 from jsonschema.exceptions import ValidationError, best_match
 
@@ -43,6 +51,15 @@ _Validator = validators.extend(
     type_checker=Draft7Validator.TYPE_CHECKER.redefine("number", _finite_number)
     .redefine("integer", _integer),
 )
+
+
+def _fast_valid(validator: jsonschema_rs.Draft7Validator, value: Any) -> bool:
+    """The compiled validator's verdict; False for a value it cannot read (a type JSON does not have, as a
+    numpy scalar in a result): the Python validator then judges it."""
+    try:
+        return bool(validator.is_valid(value))
+    except (ValueError, TypeError, OverflowError):
+        return False
 
 
 def describe(value: Any) -> str:
@@ -119,6 +136,8 @@ class Contract:
         self._results = {name: self._validator(m.result_schema) for name, m in self.methods.items()}
         self.notifications = {n["name"]: self._validator(n["params"])
                               for n in document.get(NOTIFICATIONS_KEY, [])}
+        self.fast_params = {name: self._compiled(m.params_schema) for name, m in self.methods.items()}
+        self._fast_results = {name: self._compiled(m.result_schema) for name, m in self.methods.items()}
 
     def _default(self, schema: Mapping[str, Any]) -> Any:
         """A param's default: on its schema, or on the component it refers to."""
@@ -127,6 +146,9 @@ class Contract:
     def _validator(self, schema: Mapping[str, Any]) -> Any:
         # `#/components/...` references resolve against a root that carries the document's components
         return _Validator({**schema, "components": self._components})
+
+    def _compiled(self, schema: Mapping[str, Any]) -> jsonschema_rs.Draft7Validator:
+        return jsonschema_rs.Draft7Validator({**schema, "components": self._components})
 
     def resolve(self, schema: Mapping[str, Any]) -> Mapping[str, Any]:
         """`schema` with a local `$ref` followed (one level at a time)."""
@@ -143,12 +165,13 @@ class Contract:
                            param="params", expected="object", got=describe(raw))
         # JSON-RPC clients often send null for "not given": it counts as absent
         values = {k: v for k, v in (raw or {}).items() if v is not None}
-        errors = list(self._params[method].iter_errors(values))
-        # an unknown (misspelt) name first: the other errors are often its consequence
-        unknown = [e for e in errors if e.validator == "additionalProperties" and not e.absolute_path]
-        error = best_match(unknown or errors)
-        if error is not None:
-            raise self._fault(error)
+        if not _fast_valid(self.fast_params[method], values):
+            errors = list(self._params[method].iter_errors(values))
+            # an unknown (misspelt) name first: the other errors are often its consequence
+            unknown = [e for e in errors if e.validator == "additionalProperties" and not e.absolute_path]
+            error = best_match(unknown or errors)
+            if error is not None:
+                raise self._fault(error)
         schemas = self.methods[method].params_schema["properties"]
         return {k: self.with_defaults(schemas[k], v) for k, v in values.items()}
 
@@ -170,6 +193,8 @@ class Contract:
 
     def check_result(self, method: str, result: Any) -> None:
         """Raise E_INTERNAL when a result contradicts the contract (a bug in the backend)."""
+        if _fast_valid(self._fast_results[method], result):
+            return
         error = best_match(self._results[method].iter_errors(result))
         if error is not None:
             where = _join(list(error.absolute_path)) or "result"

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,6 +25,14 @@ INVALID_PARAMS = rpc_code_of("E_INVALID_PARAMS")
 INTERNAL_ERROR = rpc_code_of("E_INTERNAL")
 
 DEFAULT_MAX_MESSAGE_BYTES = 4 * 1024 * 1024
+_DOUBLE_MAX = int(sys.float_info.max)
+
+
+def _json_int(text: str) -> int | float:
+    """A JSON integer; one beyond a double's range reads as the infinity it rounds to, as `1e400` does
+    (and as JavaScript reads both), so that the params check names it instead of a handler failing."""
+    value = int(text)
+    return value if -_DOUBLE_MAX <= value <= _DOUBLE_MAX else float(text)
 
 RequestId = str | int | None
 
@@ -102,7 +111,7 @@ def parse_frame(frame: str | bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) 
         return Rejected(fault, None)
     try:
         # NaN/Infinity literals are accepted here so that param validation can name the param.
-        doc = loads_bounded(frame)
+        doc = loads_bounded(frame, parse_int=_json_int)
     except TooDeep:
         return _too_deep()
     except ValueError as exc:
