@@ -159,3 +159,35 @@ def test_states_the_bounds_find_free_give_the_same_first_contact(
             hits += want is not None
     assert 10 <= hits < 60  # both outcomes occur
     assert passed["sure"] > passed["states"] / 3, passed
+
+
+def test_a_path_the_bounds_find_free_throughout_asks_bullet_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A short swing of the KUKA among boxes, far from all of them: with the outer bounds loaded, its
+    check asks Bullet about no state (its ends, whose clearance sets the path's, and its start's contact
+    included) and finds it free with the guard's clearance, as Bullet does at every state; ending inside a
+    box, the same check finds the contact Bullet finds."""
+    from robwot_sim.sim import kernels
+
+    assert kernels.kernels_ready(timeout=kernels.KERNELS_WAIT)
+    start = np.array([0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0])
+    target = start + np.array([0.3, 0.1, 0.0, 0.1, 0.0, 0.0, 0.0])
+    with World() as w:
+        e = _kuka_among_boxes(w)
+        asked = {"bullet": 0}
+        is_free = e.checker.is_free
+
+        def counted(*args: Any, **kwargs: Any) -> bool:
+            asked["bullet"] += 1
+            return is_free(*args, **kwargs)
+
+        assert _first_contact_by_bullet(e, start, target)[0] is None
+        w.set_joint_positions("kuka", start.tolist())
+        monkeypatch.setattr(e.checker, "is_free", counted)
+        w.check_path("kuka", target.tolist())  # the first check builds the bounds (asking Bullet meanwhile)
+        asked["bullet"] = 0
+        report = w.check_path("kuka", target.tolist())
+        assert report.collision_free and asked["bullet"] == 0
+        assert w.motion_clearance("kuka", target.tolist()) == e.clearance
+        w.move_obstacle("box0", w.fk("kuka", target.tolist()).position)
+        assert not w.check_path("kuka", target.tolist()).collision_free
+        assert asked["bullet"] > 0

@@ -51,13 +51,22 @@ def path_clearance(robot: BoundRobot, checker: CollisionChecker, start: FloatArr
                    *ends: FloatArray) -> float:
     """The clearance a path from ``start`` (through or to ``ends``) keeps: the guard's, or contact only
     when one of those states is closer. Both ends count alike, so a path and its reverse keep the same
-    clearance (a path keeping the guard's clearance could not end at a state closer than it)."""
+    clearance (a path keeping the guard's clearance could not end at a state closer than it). The states
+    the outer bounds find that far from everything (``CollisionChecker.sure_free``) are not asked of Bullet;
+    a clearance above `TOUCH` returned thus says ``start`` is free of contact."""
+    states = (start, *ends)
+    known = np.zeros(len(states), dtype=bool)
+    if checker.sure_free is not None and len(states) >= SURE_FREE_MIN:
+        known = checker.sure_free(np.stack(states), guard.clearance, 0)[0]
+    if known.all():
+        return guard.clearance
     saved = robot.q.copy()
     try:
-        for q in (start, *ends):
-            robot.apply(q)
-            if not checker.is_free(guard.clearance):
-                return TOUCH
+        for q, free in zip(states, known, strict=True):
+            if not free:
+                robot.apply(q)
+                if not checker.is_free(guard.clearance):
+                    return TOUCH
         return guard.clearance
     finally:
         robot.apply(saved)
@@ -250,10 +259,10 @@ def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: TimedPa
     try:
         first = path.first
         clearance = path_clearance(robot, checker, first, guard, path.last)
-        robot.apply(first)
         resume = 0.0
         start: tuple[Contact, ...] = ()
-        if not checker.is_free():
+        # above TOUCH the start was found that far from everything: free of contact
+        if clearance <= TOUCH and not _free_at(robot, checker, first):
             # a start in contact: the path may leave it while the contact recedes (``exit_contact.py``)
             left = leave_contact(robot, checker, path, guard)
             start = left.start
@@ -273,6 +282,12 @@ def check_joint_path(robot: BoundRobot, checker: CollisionChecker, path: TimedPa
     finally:
         robot.apply(saved)
     return PathReport(True, path.duration, len(path), None, start)
+
+
+def _free_at(robot: BoundRobot, checker: CollisionChecker, q: FloatArray) -> bool:
+    """Whether state ``q`` is free of contact (Bullet's check; the robot left there)."""
+    robot.apply(q)
+    return checker.is_free()
 
 
 def _piece_contact(robot: BoundRobot, checker: CollisionChecker, piece: Piece, guard: Guard,
