@@ -212,3 +212,22 @@ def test_ik_same_request_same_answer() -> None:
                     answers.add(("unreachable", round(float(e.data["positionError"]), 12)))
                 w.ik(m.id, (0.4, 0.1, 0.5))  # an unrelated request in between
             assert len(answers) == 1, f"target {t}: {len(answers)} different answers"
+
+
+def test_random_restarts_are_seeded_only_when_needed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A target a few centimetres from the end effector is solved from the current state: its restarts'
+    generator (a hash of the request and a seed sequence) is never made; a target the first tries miss
+    makes it once."""
+    from robwot_sim.sim import ik
+
+    made = []
+    request_rng = ik.request_rng
+    monkeypatch.setattr(ik, "request_rng", lambda *a: made.append(a) or request_rng(*a))
+    with World() as w:
+        m = w.load_robot(KUKA)
+        w.set_joint_positions(m.id, [0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0])
+        near = np.array(w.fk(m.id).position) + [0.02, -0.03, 0.01]
+        assert w.ik(m.id, tuple(near)).position_error < 1e-3 and made == []
+        with pytest.raises(Unreachable):
+            w.ik(m.id, (0.0, 0.0, -0.5))  # below the base, within the reach sphere: every restart tried
+        assert len(made) == 1

@@ -4,6 +4,7 @@ itself, the robot's state unchanged."""
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 from collections.abc import Sequence
@@ -63,7 +64,7 @@ def ik(scene: Scene, robot_id: str, position: Vec3, quat_xyzw: Quat | None = Non
         return e.checker.is_free()
 
     try:
-        rng = request_rng(salt, pos, quat, start)
+        rng = functools.partial(request_rng, salt, pos, quat, start)
         with scene.holding(robot_id):
             res = solve_ik(b, pos, quat, start, rng, is_free if want_free else None, e.sphere)
         if not want_free:

@@ -100,11 +100,12 @@ def solve_ik(
     position: Sequence[float],
     quat_xyzw: Sequence[float] | None,
     seed: FloatArray,
-    rng: np.random.Generator,
+    rng: Callable[[], np.random.Generator],
     is_free: Callable[[FloatArray], bool] | None = None,
     sphere: tuple[FloatArray, float] | None = None,
 ) -> IkResult:
-    """IK from ``seed``, then random restarts. Moves the robot: the caller restores its state.
+    """IK from ``seed``, then random restarts drawn from ``rng()`` (made only when they are needed: most
+    targets near the seed are solved from it). Moves the robot: the caller restores its state.
 
     ``collision_free`` in the result is True unless only colliding solutions were found (``is_free``).
     Raises Unreachable when no configuration reaches within 1 mm / 1 degree; at once when ``position``
@@ -116,7 +117,7 @@ def solve_ik(
         if beyond > ACCEPT_POSITION:
             raise Unreachable(beyond, 0.0, [float(v) for v in seed], beyond_reach=True)
     if robot.linkage_on_chain:
-        return _solve_linkage(robot, position, quat_xyzw, seed, rng, is_free)
+        return _solve_linkage(robot, position, quat_xyzw, seed, rng(), is_free)
     b = robot.bullet
     damping = [DAMPING] * len(robot.movable_idx)
     target_p = tuple(float(v) for v in position)
@@ -134,10 +135,15 @@ def solve_ik(
     best: tuple[float, FloatArray, float, float] | None = None  # (score, q, pe, oe) of any solution
     fallback: tuple[float, FloatArray, float, float] | None = None  # best colliding one within tolerance
     mid = robot.pin((robot.lower + robot.upper) / 2)
+    restarts: np.random.Generator | None = None
     for attempt in range(RESTARTS + 2):
         checkpoint()  # between attempts: the robot is only held (world_thread.py)
         # the caller's seed first, then the middle of the limits (far from them), then random restarts
-        q = seed if attempt == 0 else mid if attempt == 1 else robot.random_q(rng)
+        if attempt < 2:
+            q = seed if attempt == 0 else mid
+        else:
+            restarts = restarts or rng()
+            q = robot.random_q(restarts)
         robot.apply(q)
         for _ in range(CHAIN if attempt >= FIRST_CHAINED else 1):
             solver, shift = robot.ik_via or (robot, (0.0, 0.0, 0.0))
