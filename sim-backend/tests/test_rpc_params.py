@@ -9,9 +9,11 @@ from typing import Any
 
 import pytest
 
-from robwot_sim.rpc.contract import _fast_valid, contract
+from robwot_sim import scene
+from robwot_sim.rpc.contract import contract
 from robwot_sim.rpc.params import Params
 from robwot_sim.rpc.protocol import INVALID_PARAMS, Fault
+from robwot_sim.schemacheck import accepts
 
 BOX = {"type": "box", "size": [1, 1, 1]}
 
@@ -94,23 +96,31 @@ HOSTILE: list[Any] = [None, math.nan, math.inf, -math.inf, "x", "", "a=b", -1, 0
                       "é" * 300]
 
 
-def _sample(schema: Any, rng: random.Random) -> Any:
-    """A value the schema describes (mostly valid: `not` and cross-field rules are ignored)."""
-    schema = contract().resolve(schema)
+def _scene_resolve(schema: Any) -> Any:
+    while "$ref" in schema:
+        schema = scene.schema()["$defs"][schema["$ref"].split("/")[-1]]
+    return schema
+
+
+def _sample(schema: Any, rng: random.Random, resolve: Any = None) -> Any:
+    """A value the schema describes (mostly valid: `not` and cross-field rules are ignored); ``resolve``
+    follows a `$ref` (default: the contract's)."""
+    resolve = resolve or contract().resolve
+    schema = resolve(schema)
     members = schema.get("oneOf") or schema.get("anyOf")
     if members:
-        return _sample(rng.choice(members), rng)
+        return _sample(rng.choice(members), rng, resolve)
     if "const" in schema or "enum" in schema:
         return schema.get("const", rng.choice(schema.get("enum", [None])))
     kind = schema.get("type")
     if kind == "object" or "properties" in schema:
         required = set(schema.get("required", []))
-        return {k: _sample(sub, rng) for k, sub in schema.get("properties", {}).items()
+        return {k: _sample(sub, rng, resolve) for k, sub in schema.get("properties", {}).items()
                 if k in required or rng.random() < 0.5}
     if kind == "array":
         lo = schema.get("minItems", 0)
         count = rng.randint(lo, min(schema.get("maxItems", 9), lo + 3))
-        return [_sample(schema.get("items", {}), rng) for _ in range(count)]
+        return [_sample(schema.get("items", {}), rng, resolve) for _ in range(count)]
     if kind in ("number", "integer"):
         lo = schema.get("minimum", schema.get("exclusiveMinimum", -10.0))
         value = lo + rng.random() * (schema.get("maximum", lo + 10.0) - lo)
@@ -146,8 +156,21 @@ def test_the_compiled_validator_accepts_nothing_the_python_one_refuses() -> None
         for _ in range(60):
             value = _sample(method.params_schema, rng)
             for candidate in (value, _mutate(value, rng), _mutate(_mutate(value, rng), rng)):
-                fast = _fast_valid(c.fast_params[name], candidate)
+                fast = accepts(c.fast_params[name], candidate)
                 slow = not any(True for _ in c._params[name].iter_errors(candidate))
                 assert slow or not fast, (name, candidate)
                 verdicts[slow] += 1
     assert min(verdicts.values()) > 1000, verdicts
+
+
+def test_scene_documents_the_compiled_validator_accepts_the_python_one_accepts() -> None:
+    """The same comparison on generated scene documents (and each mutated in one place and two)."""
+    rng, compiled, reference = random.Random(40), scene._compiled(), scene._validator()
+    verdicts = {True: 0, False: 0}
+    for _ in range(400):
+        doc = _sample(scene.schema(), rng, _scene_resolve)
+        for candidate in (doc, _mutate(doc, rng), _mutate(_mutate(doc, rng), rng)):
+            slow = not any(True for _ in reference.iter_errors(candidate))
+            assert slow or not accepts(compiled, candidate), candidate
+            verdicts[slow] += 1
+    assert min(verdicts.values()) > 100, verdicts

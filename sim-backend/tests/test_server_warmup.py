@@ -16,8 +16,6 @@ from rpc_backend import BackendProcess, RpcClient
 from simhelp import KUKA
 
 import robwot_sim.limits
-import robwot_sim.scene as scene
-from robwot_sim.workspace.pool import _validated_spec
 
 
 def test_warm_up_then_generate_gives_the_same_csv(client: RpcClient, tmp_path: Path) -> None:
@@ -36,15 +34,6 @@ def test_warm_up_refuses_bad_workers(client: RpcClient) -> None:
     for bad in (0, 1.5, "two", 257):
         err = client.error("workspace.warmUp", {"workers": bad})
         assert err.code == -32602 and err.data["param"] == "workers"
-
-
-def test_validated_spec_restores_the_schema_check() -> None:
-    """Workers skip the schema check only while loading the already validated spec."""
-    original = scene.schema_errors
-    with _validated_spec():
-        assert scene.schema_errors({"version": "bad"}) is None
-    assert scene.schema_errors is original
-    assert scene.schema_errors({"version": "bad"}) is not None
 
 
 def test_planning_warm_up_keeps_the_path_verdicts() -> None:

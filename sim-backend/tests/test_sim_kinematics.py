@@ -226,7 +226,7 @@ def test_random_restarts_are_seeded_only_when_needed(monkeypatch: pytest.MonkeyP
     with World() as w:
         m = w.load_robot(KUKA)
         w.set_joint_positions(m.id, [0.0, 0.5, 0.0, -1.2, 0.0, 1.0, 0.0])
-        near = np.array(w.fk(m.id).position) + [0.02, -0.03, 0.01]
+        near = np.array(w.fk(m.id).position) + np.array([0.02, -0.03, 0.01])
         assert w.ik(m.id, tuple(near)).position_error < 1e-3 and made == []
         with pytest.raises(Unreachable):
             w.ik(m.id, (0.0, 0.0, -0.5))  # below the base, within the reach sphere: every restart tried

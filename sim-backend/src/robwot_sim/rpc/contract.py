@@ -8,12 +8,8 @@ its own) and, when
 asked (`ROBWOT_CHECK_RESULTS=1`, set by the test suites), the results too. A failure names the param
 (`positions[3]`, `shape.size[0]`), what the contract expects and what was received.
 
-Two validators read each schema: `jsonschema_rs` (compiled, Rust) answers whether a value is valid, on
-every request; `jsonschema` (pure Python, hundreds of times slower, whose errors carry the paths and
-context the messages are made from) runs only on a value the first refused, to say why. The compiled one
-refuses NaN and infinities as ours does (serde's JSON numbers are finite), and what it accepts the Python
-one accepts too (`tests/test_rpc_params.py` compares them on generated values of every method); where
-the Python one finds no error in a value the compiled one refused, the value is accepted.
+Each schema is checked by a compiled validator first, the Python one saying why it refused
+(`schemacheck.py`).
 """
 
 from __future__ import annotations
@@ -26,15 +22,17 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
-import jsonschema_rs
 from jsonschema import Draft7Validator, validators
 from jsonschema.exceptions import ValidationError, best_match
 
 from robwot_sim.limits import contract_document
 from robwot_sim.rpc.protocol import Fault
+from robwot_sim.schemacheck import accepts, compiled
 
 #: OpenRPC has no notification object: server-to-client notifications are listed under this extension.
 NOTIFICATIONS_KEY = "x-notifications"
+#: the draft the contract's schemas follow (OpenRPC 1.3's)
+DRAFT_7 = "http://json-schema.org/draft-07/schema#"
 
 
 def _finite_number(_checker: Any, value: Any) -> bool:
@@ -51,15 +49,6 @@ _Validator = validators.extend(
     type_checker=Draft7Validator.TYPE_CHECKER.redefine("number", _finite_number)
     .redefine("integer", _integer),
 )
-
-
-def _fast_valid(validator: jsonschema_rs.Draft7Validator, value: Any) -> bool:
-    """The compiled validator's verdict; False for a value it cannot read (a type JSON does not have, as a
-    numpy scalar in a result): the Python validator then judges it."""
-    try:
-        return bool(validator.is_valid(value))
-    except (ValueError, TypeError, OverflowError):
-        return False
 
 
 def describe(value: Any) -> str:
@@ -147,8 +136,8 @@ class Contract:
         # `#/components/...` references resolve against a root that carries the document's components
         return _Validator({**schema, "components": self._components})
 
-    def _compiled(self, schema: Mapping[str, Any]) -> jsonschema_rs.Draft7Validator:
-        return jsonschema_rs.Draft7Validator({**schema, "components": self._components})
+    def _compiled(self, schema: Mapping[str, Any]) -> Any:
+        return compiled({**schema, "components": self._components, "$schema": DRAFT_7})
 
     def resolve(self, schema: Mapping[str, Any]) -> Mapping[str, Any]:
         """`schema` with a local `$ref` followed (one level at a time)."""
@@ -165,7 +154,7 @@ class Contract:
                            param="params", expected="object", got=describe(raw))
         # JSON-RPC clients often send null for "not given": it counts as absent
         values = {k: v for k, v in (raw or {}).items() if v is not None}
-        if not _fast_valid(self.fast_params[method], values):
+        if not accepts(self.fast_params[method], values):
             errors = list(self._params[method].iter_errors(values))
             # an unknown (misspelt) name first: the other errors are often its consequence
             unknown = [e for e in errors if e.validator == "additionalProperties" and not e.absolute_path]
@@ -193,7 +182,7 @@ class Contract:
 
     def check_result(self, method: str, result: Any) -> None:
         """Raise E_INTERNAL when a result contradicts the contract (a bug in the backend)."""
-        if _fast_valid(self._fast_results[method], result):
+        if accepts(self._fast_results[method], result):
             return
         error = best_match(self._results[method].iter_errors(result))
         if error is not None:

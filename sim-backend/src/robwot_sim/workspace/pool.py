@@ -19,7 +19,6 @@ forkserver, dies. The forkserver then sees end of file on its pipe and exits too
 from __future__ import annotations
 
 import atexit
-import contextlib
 import ctypes
 import ctypes.util
 import hashlib
@@ -31,7 +30,6 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import TYPE_CHECKING, Any
@@ -94,8 +92,7 @@ def worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray,
                 _worker_world = None
             world = World()
             try:
-                with _validated_spec():
-                    world.load_scene(spec)
+                world.load_scene(spec)
             except BaseException:
                 world.close()
                 raise
@@ -103,26 +100,6 @@ def worker_label(key: str, spec: dict[str, Any], robot_id: str, qs: FloatArray,
         return _worker_world[1].collision_free_batch(robot_id, qs)
     except SimError as e:
         return {"error": e.to_json(), "type": type(e).__name__}
-
-
-@contextlib.contextmanager
-def _validated_spec() -> Iterator[None]:
-    """In a worker: skip the JSON-schema check of a scene document while loading it. The spec comes from
-    the main world's ``scene_spec()``, whose every part was validated when it was loaded there; the
-    check costs ~2 ms per obstacle (0.5 s for 239), paid again by every worker. Workers are
-    single-threaded, so swapping the module function for the duration is safe."""
-    import robwot_sim.scene as scene
-
-    original = scene.schema_errors
-    scene.schema_errors = _no_problem
-    try:
-        yield
-    finally:
-        scene.schema_errors = original
-
-
-def _no_problem(doc: Any) -> tuple[str, str] | None:
-    return None
 
 
 def ping() -> int:
