@@ -189,3 +189,31 @@ def test_acceleration_limits_given_at_load_replace_the_default_and_are_checked()
             with pytest.raises(InvalidParams):
                 w.add_robot(World.read_robot(MODELS / "planar2.urdf"), robot_id="other", accelerations=bad)
             assert w.robot_ids() == [m.id]
+
+
+def test_curves_under_the_same_limits_share_toppras_constraints(monkeypatch: pytest.MonkeyPatch) -> None:
+    """toppra's constraints (whose constructors write their limits out as text) are made once per limits:
+    a second curve under the same limits makes none and is timed exactly as with constraints made anew."""
+    import toppra.constraint
+
+    from robwot_sim.sim import motion
+
+    made: list[object] = []
+    velocity = toppra.constraint.JointVelocityConstraint
+    monkeypatch.setattr(toppra.constraint, "JointVelocityConstraint",
+                        lambda *a, **k: made.append(a) or velocity(*a, **k))
+    motion._fixed_constraints.cache_clear()
+    t = np.linspace(0.0, 1.0, 25)[:, None]
+
+    def curve(scale: float) -> np.ndarray:  # a detour's kind of curve: joint limits only
+        points = np.hstack([scale * t, -0.6 * np.sin(math.pi * t)])
+        return w.plan_motion(m.id, points[-1], start=points[0], via=points[1:-1], arc=[0.0] * len(points),
+                             tcp_speed=None).rows()
+
+    with World() as w:
+        m = w.load_robot(MODELS / "planar2.urdf")
+        curve(0.8)
+        again = curve(0.9)
+        assert len(made) == 1
+        motion._fixed_constraints.cache_clear()
+        assert np.array_equal(curve(0.9), again) and len(made) == 2

@@ -171,6 +171,19 @@ def _between(knots: FloatArray, rows: FloatArray) -> Callable[[FloatArray], Floa
     return at
 
 
+@functools.lru_cache(maxsize=64)
+def _fixed_constraints(vlim: bytes, alim: bytes) -> tuple[object, object]:
+    """toppra's joint velocity and acceleration constraints of limits that hold all along a curve (each
+    coordinate's limit, float64 bytes). Made once per limits: their constructors write the limits out as
+    text (numpy's array formatting, costlier than timing a short curve), and a solve keeps nothing in them
+    (it only reads their limits), so one object serves every curve and thread."""
+    import toppra.constraint
+
+    v, a = np.frombuffer(vlim), np.frombuffer(alim)
+    return (toppra.constraint.JointVelocityConstraint(np.stack([-v, v], axis=1)),
+            toppra.constraint.JointAccelerationConstraint(np.stack([-a, a], axis=1)))
+
+
 def _acceleration_constraint(limit_at: Callable[[FloatArray], FloatArray]) -> object:
     """TOPP-RA's joint acceleration constraint with limits that change along the path: each coordinate's
     acceleration divided by its limit there kept within [-1, 1] (toppra's own constraint takes one limit
@@ -255,8 +268,8 @@ def plan_curve_path(
     spline = CubicSpline(ss, waypoints, bc_type="not-a-knot")  # the spline toppra's interpolator makes
     path = toppra.SplineInterpolator(ss, waypoints, bc_type="not-a-knot")
     if np.all(vlim == vlim[0]) and np.all(alim == alim[0]):  # the same limits all along: toppra's own
-        constraints = [toppra.constraint.JointVelocityConstraint(np.stack([-vlim[0], vlim[0]], axis=1)),
-                       toppra.constraint.JointAccelerationConstraint(np.stack([-alim[0], alim[0]], axis=1))]
+        constraints = list(_fixed_constraints(vlim[0].astype(np.float64).tobytes(),
+                                              alim[0].astype(np.float64).tobytes()))
     else:
         velocity_at = _between(ss, vlim)
         constraints = [
