@@ -125,8 +125,7 @@ class Contract:
         self._results = {name: self._validator(m.result_schema) for name, m in self.methods.items()}
         self.notifications = {n["name"]: self._validator(n["params"])
                               for n in document.get(NOTIFICATIONS_KEY, [])}
-        self.fast_params = {name: self._compiled(m.params_schema) for name, m in self.methods.items()}
-        self._fast_results = {name: self._compiled(m.result_schema) for name, m in self.methods.items()}
+        self._fast: dict[tuple[str, str], Any] = {}  # compiled validators, by (params or result, method)
 
     def _default(self, schema: Mapping[str, Any]) -> Any:
         """A param's default: on its schema, or on the component it refers to."""
@@ -136,8 +135,16 @@ class Contract:
         # `#/components/...` references resolve against a root that carries the document's components
         return _Validator({**schema, "components": self._components})
 
-    def _compiled(self, schema: Mapping[str, Any]) -> Any:
-        return compiled({**schema, "components": self._components, "$schema": DRAFT_7})
+    def fast(self, method: str, part: str = "params") -> Any:
+        """The compiled validator of a method's ``params`` or ``result``, compiled when first asked for (each
+        holds every component: compiling all at start would delay the backend's readiness)."""
+        validator = self._fast.get((part, method))
+        if validator is None:
+            m = self.methods[method]
+            schema = m.params_schema if part == "params" else m.result_schema
+            validator = compiled({**schema, "components": self._components, "$schema": DRAFT_7})
+            self._fast[(part, method)] = validator
+        return validator
 
     def resolve(self, schema: Mapping[str, Any]) -> Mapping[str, Any]:
         """`schema` with a local `$ref` followed (one level at a time)."""
@@ -154,7 +161,7 @@ class Contract:
                            param="params", expected="object", got=describe(raw))
         # JSON-RPC clients often send null for "not given": it counts as absent
         values = {k: v for k, v in (raw or {}).items() if v is not None}
-        if not accepts(self.fast_params[method], values):
+        if not accepts(self.fast(method), values):
             errors = list(self._params[method].iter_errors(values))
             # an unknown (misspelt) name first: the other errors are often its consequence
             unknown = [e for e in errors if e.validator == "additionalProperties" and not e.absolute_path]
@@ -182,7 +189,7 @@ class Contract:
 
     def check_result(self, method: str, result: Any) -> None:
         """Raise E_INTERNAL when a result contradicts the contract (a bug in the backend)."""
-        if accepts(self._fast_results[method], result):
+        if accepts(self.fast(method, "result"), result):
             return
         error = best_match(self._results[method].iter_errors(result))
         if error is not None:
