@@ -207,12 +207,17 @@ class CollisionChecker:
         return out
 
     def batch(self, qs: FloatArray, progress: Callable[[int], None] | None = None) -> np.ndarray:
-        """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state."""
+        """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state. The
+        rows' flags do not depend on what was checked before the batch: Bullet's contact test starts
+        from what it found at the previous test of a pair (its cached separating axis and contact points),
+        and a grazing contact's verdict can follow it, so the batch starts by a test at the robot's
+        state, not at whatever row another batch ended with."""
         robot = self.robot
         saved = robot.q.copy()
         out = np.zeros(len(qs), dtype=bool)
         if self.static_contacts():
             return out
+        robot.bullet.detect()
         try:
             for i, q in enumerate(qs):
                 robot.apply(q)

@@ -51,7 +51,6 @@ class CollisionQueries:
         that has not asked about enough rows yet (``kernels.WARM_AFTER``): the sure hits in numpy, no
         outer bounds (``python -m robwot_bench.bounds`` compares)."""
         e = self._scene.entry(robot_id)
-        entries = self._scene.entries()
         arr = _rows(qs, e.bound.dof)
         bad = (
             ~np.isfinite(arr).all(axis=1)
@@ -73,7 +72,8 @@ class CollisionQueries:
             if not e.checker.massless_moving:  # the mirrors do not check massless links
                 alone = todo[status[todo] == 2]
                 if len(alone):  # a mirror is built only for rows that need it
-                    out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], {}, e.bound.followers)
+                    out[alone] = self.mirror(robot_id).batch(robot_id, arr[alone], self._states(robot_id),
+                                                             e.bound.followers)
                 todo = todo[status[todo] != 2]
         else:
             todo = np.flatnonzero(~self.sure_hits(robot_id).hits(arr))
@@ -83,9 +83,13 @@ class CollisionQueries:
             out[todo] = e.checker.batch(arr[todo])
             return out
         if len(todo):
-            others = {rid: o.bound.full_values(o.bound.q) for rid, o in entries.items() if rid != robot_id}
-            out[todo] = self.mirror().batch(robot_id, arr[todo], others, e.bound.followers)
+            out[todo] = self.mirror().batch(robot_id, arr[todo], self._states(), e.bound.followers)
         return out
+
+    def _states(self, robot_id: str | None = None) -> dict[str, list[float]]:
+        """Every robot's state (``robot_id``'s alone) as a mirror sets it (`FastWorld.batch`)."""
+        return {rid: o.bound.full_values(o.bound.q) for rid, o in self._scene.entries().items()
+                if robot_id in (None, rid)}
 
     def _probe(self, robot_id: str, outer: OuterBounds, arr: npt.NDArray[np.float64]) -> Any:
         """Whether the outer bounds decide enough rows of this robot and scene to pay: at least

@@ -143,11 +143,13 @@ class FastWorld:
         others: Mapping[str, list[float]],
         followers: Followers,
     ) -> np.ndarray:
-        """Collision-free flag per row of ``qs`` for ``robot_id``; ``others`` gives the other robots' states
-        as full value lists for their ``set_idx``."""
+        """Collision-free flag per row of ``qs`` for ``robot_id``; ``others`` gives robots' states as full
+        value lists for their ``set_idx`` (``robot_id``'s own too: the batch starts by a test there, so its
+        flags do not depend on what was checked before it, ``CollisionChecker.batch``)."""
         b, cid = self.bullet, self.bullet.cid
         for rid, vals in others.items():
             b.reset_joints(self.bodies[rid], self.robots[rid].set_idx, list(vals))
+        b.detect()
         body = self.bodies[robot_id]
         r = self.robots[robot_id]
         idx, filtered = r.set_idx, r.filtered
