@@ -8,7 +8,7 @@ import { join, resolve } from "node:path";
 import { buildThingModel, type GripperDecl, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
 import type { RobotLoadProgressNotification, RobotModel, SimClient, WorkspaceSummary, WorldList } from "@robwot/sim-client";
 import type { BackendGuard } from "./backend-guard.js";
-import { buildTd, tdErrorsMessage } from "./td.js";
+import { buildTd, compileTdSchemasNow, tdErrorsMessage } from "./td.js";
 import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError, describeError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
@@ -99,9 +99,8 @@ async function exportSceneRobots(sim: SimClient, world: WorldList, ownRobot: str
 /** Configurations checked again, one by one, to name what touches when no sample was collision-free. */
 const WHY_SAMPLES = 40;
 /** Samples from which the TD is also validated before the labelling ends (placeholder bounds), so that a model
- * that cannot make a valid TD fails before a long labelling. The official validator compiles the TD JSON
- * Schemas anew at every call, which costs more CPU than a shorter labelling takes; a cluster run always
- * validates early. */
+ * that cannot make a valid TD fails before a long labelling. Below, the validation would only take CPU from
+ * the labelling workers to fail a few seconds earlier; a cluster run always validates early. */
 const EARLY_TD_SAMPLES = 1_000_000;
 
 /**
@@ -334,7 +333,13 @@ function startGenerating(opts: GenerateOptions, sim: SimClient, model: RobotMode
       csvJoints: opts.csvJoints,
       reachVoxel: opts.reachVoxel,
     },
-    { onProgress: (p) => progress.update(p.stage, p.done, p.total) },
+    {
+      onProgress: (p) => {
+        // the alpha shape takes one core, the labelling took all: the TD validator compiles its schema beside it
+        if (p.stage === "alpha") compileTdSchemasNow();
+        progress.update(p.stage, p.done, p.total);
+      },
+    },
   );
   // Abandoned (and rejected when the backend stops) if the export or the early TD check fails.
   generating.catch(() => undefined);

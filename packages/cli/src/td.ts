@@ -9,6 +9,7 @@ import {
   type BuildThingDescriptionOptions,
   buildThingDescription,
   canonicalJson,
+  compileTdSchemas,
   fnv1a64,
   LIVE_REL,
   loadTdValidator,
@@ -39,11 +40,20 @@ export function buildTd(model: RobotModel, summary: WorkspaceSummary, scene: unk
 
 /**
  * Starts the official TD validator's thread, which loads its modules while the backend's Python starts up.
- * Not a validation: each one compiles the TD JSON Schemas again (a long generation validates once beside
- * the labelling, every one at the end). Never fails.
+ * Never fails.
  */
 export async function warmTdValidator(): Promise<void> {
   await Promise.resolve().then(loadTdValidator).catch(() => undefined);
+}
+
+/** Has the validator compile the TD JSON Schema now (a generation: when its labelling workers are done).
+ * Never fails: a validation after it compiles what it needs. */
+export function compileTdSchemasNow(): void {
+  try {
+    compileTdSchemas();
+  } catch {
+    // the validation starts the thread again and reports why it cannot
+  }
 }
 
 export function tdErrorsMessage(errors: string[]): string {

@@ -1,6 +1,6 @@
 /** Public surface of @robwot/core (Node). The browser entry `./browser.js` holds the pure subset. */
 export * from "./browser.js";
-export { loadTdValidator, validateThingDescription, validateThingModel } from "./td/validate.js";
+export { compileTdSchemas, loadTdValidator, validateThingDescription, validateThingModel } from "./td/validate.js";
 export type { TdValidationResult } from "./td/validate.js";
 export { loadWorkspace } from "./workspace/load-fs.js";
 export { jailFile, realFolder } from "./folder-jail.js";

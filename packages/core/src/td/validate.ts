@@ -1,14 +1,16 @@
 /**
  * Validation with the official W3C WoT validator `@thing-description-playground/core` (`tdValidator`,
  * CommonJS: it pulls in ajv and jsonld). The JSON-LD check needs the network and the Thing Model
- * conformance checks may fetch linked TMs: both are off.
+ * conformance checks may fetch linked TMs: both are off. So is the check against the schema with defaults
+ * spelled out, which can only warn (a TD may leave defaults out) and would compile a second schema.
  *
- * The validator runs on a worker thread of its own, started by the first call (or `loadTdValidator`): its
- * modules load there (a few hundred ms) and each validation compiles the TD JSON Schemas again (the
- * validator makes a new ajv instance per call), both off the caller's event loop, which goes on serving
- * (a generation stops its backend while its TD is checked). The thread keeps the process alive only while
- * a validation is pending; a thread that fails fails the pending validations, and the next call starts
- * another. Node only (not exported to the browser entry).
+ * The validator runs on a worker thread of its own, started by the first call (or `loadTdValidator`), off
+ * the caller's event loop, which goes on serving (a generation stops its backend while its TD is checked).
+ * Its modules load there, and there the TD JSON Schemas are compiled once: the playground makes a new
+ * ajv instance per validation, which would compile them again each time (most of a validation's CPU), so
+ * the ajv class it requires is replaced by one whose instances share compiled schemas (see THREAD). The
+ * thread keeps the process alive only while a validation is pending; a thread that fails fails the pending
+ * validations, and the next call starts another. Node only (not exported to the browser entry).
  */
 import { Worker } from "node:worker_threads";
 
@@ -29,15 +31,57 @@ interface Answer {
   error?: string;
 }
 
-/** The thread's code (CommonJS, evaluated): the playground resolved from this module's folder. */
+/** A minimal valid TD: validating it compiles the schema every TD is checked against (`compileTdSchemas`). */
+const WARM_TD = {
+  "@context": "https://www.w3.org/2022/wot/td/v1.1",
+  title: "warm-up",
+  securityDefinitions: { nosec_sc: { scheme: "nosec" } },
+  security: "nosec_sc",
+  properties: { p: { type: "number", forms: [{ href: "http://127.0.0.1/p" }] } },
+};
+
+/**
+ * The thread's code (CommonJS, evaluated): the playground resolved from this module's folder. Before the
+ * playground loads, the ajv it requires is replaced by a subclass whose instances share one compiled-schema
+ * cache (ajv's own cache, keyed by the schema object) per set of options. Sound because every instance the
+ * playground makes (one per tdValidator and tmValidator call) is made alike: the same options, the formats
+ * of ajv-formats and ajv-formats-draft2019, no other keywords; ajv copies a validation's errors to the
+ * instance that asked. Validations run one at a time (each is synchronous up to its verdict).
+ */
 const THREAD = `
 const { parentPort } = require("node:worker_threads");
-const playground = require("node:module").createRequire(${JSON.stringify(import.meta.url)})("@thing-description-playground/core");
+const { createRequire } = require("node:module");
+const playgroundPath = createRequire(${JSON.stringify(import.meta.url)}).resolve("@thing-description-playground/core");
+const requirePlayground = createRequire(playgroundPath);
+const Ajv = requirePlayground("ajv");
+const caches = new Map();
+let making = "{}";
+class SharedCompilations extends Ajv {
+  constructor(opts = {}) {
+    making = JSON.stringify(opts);
+    super(opts);
+    this.sharedCacheKey = making;
+  }
+  get _cache() {
+    const key = this.sharedCacheKey ?? making;
+    let cache = caches.get(key);
+    if (cache === undefined) caches.set(key, (cache = new Map()));
+    return cache;
+  }
+  set _cache(_ownMap) {}
+}
+requirePlayground.cache[requirePlayground.resolve("ajv")].exports = SharedCompilations;
+const playground = requirePlayground(playgroundPath);
+const TD_CHECKS = { checkDefaults: false, checkJsonLd: false, checkTmConformance: false };
 parentPort.on("message", async ({ id, kind, text }) => {
+  if (kind === "warm") {
+    await playground.tdValidator(${JSON.stringify(JSON.stringify(WARM_TD))}, () => undefined, TD_CHECKS).catch(() => undefined);
+    return;
+  }
   const log = [];
   try {
     const result = kind === "td"
-      ? await playground.tdValidator(text, (m) => log.push(String(m)), { checkDefaults: true, checkJsonLd: false, checkTmConformance: false })
+      ? await playground.tdValidator(text, (m) => log.push(String(m)), TD_CHECKS)
       : await playground.tmValidator(text, (m) => log.push(String(m)), { checkDefaults: false, checkJsonLd: false });
     parentPort.postMessage({ id, result, log });
   } catch (err) {
@@ -88,15 +132,21 @@ export interface TdValidationResult {
   valid: boolean;
   /** Why it is not valid: schema errors and failed assertions. */
   errors: string[];
-  /** Non-fatal findings (e.g. defaults not spelled out, assertion warnings). */
+  /** Non-fatal findings of the additional assertions. */
   warnings: string[];
   report: PlaygroundResult["report"];
 }
 
-/** Starts the validator's thread, which loads its modules (a few hundred ms of CPU) there, e.g. while a
- * backend starts. Not a validation: each one compiles the TD JSON Schemas again. */
+/** Starts the validator's thread, which loads its modules there (a few hundred ms of CPU), e.g. while a
+ * backend starts. */
 export function loadTdValidator(): void {
   validatorThread();
+}
+
+/** Has the validator's thread (started if need be) compile the TD JSON Schema now, e.g. while a core is idle,
+ * rather than at the next validation. */
+export function compileTdSchemas(): void {
+  validatorThread().postMessage({ kind: "warm" });
 }
 
 export async function validateThingDescription(td: unknown): Promise<TdValidationResult> {
@@ -108,7 +158,6 @@ export async function validateThingDescription(td: unknown): Promise<TdValidatio
   if (report.schema === "failed") {
     errors.push(`TD 1.1 JSON Schema: ${log.filter((l) => l.startsWith(">")).map((l) => l.slice(2)).join("; ") || "failed"}`);
   }
-  if (report.defaults === "warning") warnings.push(`full schema with defaults: ${log.find((l) => l.startsWith(">"))?.slice(2) ?? "warning"}`);
   for (const [key, outcome] of Object.entries(details)) {
     const why = detailComments[key] ?? key;
     if (outcome === "failed") errors.push(`${key}: ${why}`);
