@@ -42,15 +42,18 @@ const WARM_TD = {
 
 /**
  * The thread's code (CommonJS, evaluated): the playground resolved from this module's folder. Before the
- * playground loads, the ajv it requires is replaced by a subclass whose instances share one compiled-schema
- * cache (ajv's own cache, keyed by the schema object) per set of options. Sound because every instance the
- * playground makes (one per tdValidator and tmValidator call) is made alike: the same options, the formats
- * of ajv-formats and ajv-formats-draft2019, no other keywords; ajv copies a validation's errors to the
- * instance that asked. Validations run one at a time (each is synchronous up to its verdict).
+ * playground loads, two of the modules it requires are given to it otherwise:
+ * - ajv: a subclass whose instances share one compiled-schema cache (ajv's own cache, keyed by the schema
+ *   object) per set of options. Sound because every instance the playground makes (one per tdValidator and
+ *   tmValidator call) is made alike: the same options, the formats of ajv-formats and ajv-formats-draft2019,
+ *   no other keywords; ajv copies a validation's errors to the instance that asked. Validations run one at
+ *   a time (each is synchronous up to its verdict).
+ * - jsonld (most of the playground's load time), loaded at its first use: only the JSON-LD check, which is
+ *   off, uses it.
  */
 const THREAD = `
 const { parentPort } = require("node:worker_threads");
-const { createRequire } = require("node:module");
+const { createRequire, Module } = require("node:module");
 const playgroundPath = createRequire(${JSON.stringify(import.meta.url)}).resolve("@thing-description-playground/core");
 const requirePlayground = createRequire(playgroundPath);
 const Ajv = requirePlayground("ajv");
@@ -71,6 +74,21 @@ class SharedCompilations extends Ajv {
   set _cache(_ownMap) {}
 }
 requirePlayground.cache[requirePlayground.resolve("ajv")].exports = SharedCompilations;
+const jsonldPath = requirePlayground.resolve("jsonld");
+const deferred = new Module(jsonldPath);
+deferred.filename = jsonldPath;
+deferred.loaded = true;
+let jsonld;
+deferred.exports = new Proxy({}, {
+  get(_none, key) {
+    if (jsonld === undefined) {
+      delete requirePlayground.cache[jsonldPath];
+      jsonld = requirePlayground(jsonldPath);
+    }
+    return jsonld[key];
+  },
+});
+requirePlayground.cache[jsonldPath] = deferred;
 const playground = requirePlayground(playgroundPath);
 const TD_CHECKS = { checkDefaults: false, checkJsonLd: false, checkTmConformance: false };
 parentPort.on("message", async ({ id, kind, text }) => {
