@@ -11,6 +11,8 @@ from collections.abc import Iterator, Sequence
 from importlib import metadata
 from typing import Any, NamedTuple
 
+import numpy as np
+import numpy.typing as npt
 import pybullet as pb
 
 Vec3 = tuple[float, float, float]
@@ -149,15 +151,13 @@ class Bullet:
     def has_collision_shape(self, body: int, link: int) -> bool:
         return bool(pb.getCollisionShapeData(body, link, physicsClientId=self.cid))
 
-    def link_radius(self, body: int, link: int) -> float:
-        """Largest distance (m) from a link's frame origin to a corner of its collision bounding box
-        (0 without collision shape): the box holds the shape, so no point of it is farther."""
+    def link_box_corners(self, body: int, link: int) -> npt.NDArray[np.float64]:
+        """The 8 corners (world, m) of a link's collision bounding box, which holds its shapes; ``(0, 3)``
+        without collision shape."""
         if not self.has_collision_shape(body, link):
-            return 0.0
+            return np.zeros((0, 3))
         lo, hi = pb.getAABB(body, link, physicsClientId=self.cid)
-        o = self.link_frame(body, link)[0]
-        corners = [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
-        return float(max(sum((c[i] - o[i]) ** 2 for i in range(3)) ** 0.5 for c in corners))
+        return np.array([(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
 
     def link_masses(self, body: int, links: Sequence[int]) -> list[float]:
         return [float(pb.getDynamicsInfo(body, ln, physicsClientId=self.cid)[0]) for ln in links]

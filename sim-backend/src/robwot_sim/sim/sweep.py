@@ -5,8 +5,12 @@ A path is checked at states; between two checked states every point of the robot
 bodies and the sweep between neighbours is at most ``2 c``, no point can have touched anything in
 between (a point that moved at most ``2 c`` stays within ``c`` of one of the two states, where it was
 farther than ``c`` from every obstacle). ``reach_k`` bounds the distance of any collision point of the
-links joint k moves from its axis, from the rigid chain: the distances between consecutive link frames
-plus the radius of each link's collision shape about its frame (from its bounding box, so never less).
+links joint k moves from its axis (a point at distance d from the axis travels d per radian), from the
+rigid chain: for joint k's own link, the distance from the axis of its collision bounding box's corners;
+below it, the distance from the axis of the next joint's origin (a constant of the link, as the axis is)
+plus, from that origin on, the distances between consecutive link frames and each link's box's farthest
+corner from its frame. A box holds its link's shapes, and the distance from a point or from a line is
+convex, so no point of the shapes is farther than the box's farthest corner.
 """
 
 from __future__ import annotations
@@ -18,6 +22,8 @@ import numpy as np
 import pybullet as pb
 
 from robwot_sim.limits import DEFAULT_CLEARANCE
+from robwot_sim.model.rotations import quat_matrix
+from robwot_sim.sim.client import JointInfo
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import FloatArray
 
@@ -41,15 +47,17 @@ class Guard:
 
 def joint_reach(robot: BoundRobot) -> FloatArray:
     """Per controllable joint: metres travelled by the farthest collision point per radian (revolute) or
-    per metre (prismatic: 1) of joint motion, mimic followers included."""
+    per metre (prismatic: 1) of joint motion, mimic followers included (module docstring)."""
     b, body = robot.bullet, robot.body
     infos = b.joints(body)
     children: dict[int, list[int]] = {-1: []}
     for ji in infos:
         children.setdefault(ji.parent_index, []).append(ji.idx)
         children.setdefault(ji.idx, [])
-    origin = {ln: np.array(b.link_frame(body, ln)[0]) for ln in children}
-    radius = {ln: b.link_radius(body, ln) for ln in children}
+    frame = {ln: b.link_frame(body, ln) for ln in children}
+    origin = {ln: np.array(frame[ln][0]) for ln in children}
+    corners = {ln: b.link_box_corners(body, ln) - origin[ln] for ln in children}  # (0, 3): no shape
+    radius = {ln: float(np.linalg.norm(c, axis=1).max(initial=0.0)) for ln, c in corners.items()}
 
     def farthest(ln: int) -> float:
         """Largest distance from ``ln``'s frame origin to any collision point of ``ln`` or below it."""
@@ -58,8 +66,19 @@ def joint_reach(robot: BoundRobot) -> FloatArray:
             best = max(best, float(np.linalg.norm(origin[child] - origin[ln])) + farthest(child))
         return best
 
-    prismatic = {ji.idx for ji in infos if ji.type == pb.JOINT_PRISMATIC}
-    per_link = {ln: (1.0 if ln in prismatic else farthest(ln)) for ln in children if ln >= 0}
+    def about_axis(ji: JointInfo) -> float:
+        """Largest distance from joint ``ji``'s axis to any collision point of its link or below it."""
+        axis = quat_matrix(frame[ji.idx][1]) @ np.asarray(ji.axis, dtype=np.float64)
+        axis /= np.linalg.norm(axis)
+        c = corners[ji.idx]
+        best = float(np.linalg.norm(c - np.outer(c @ axis, axis), axis=1).max(initial=0.0))
+        for child in children[ji.idx]:
+            d = origin[child] - origin[ji.idx]
+            best = max(best, float(np.linalg.norm(d - (d @ axis) * axis)) + farthest(child))
+        return best
+
+    per_link = {ji.idx: 1.0 if ji.type == pb.JOINT_PRISMATIC else
+                about_axis(ji) if ji.type == pb.JOINT_REVOLUTE else farthest(ji.idx) for ji in infos}
     reach = np.array([per_link[i] for i in robot.ctrl_idx], dtype=np.float64)
     follow = robot.followers
     if len(follow):
