@@ -3,9 +3,9 @@
  * temporary folder and moved into place only when everything, TD validation included, succeeded.
  * Shared by `robwot generate` and `robwot demo`.
  */
-import { copyFileSync, existsSync, readFileSync, realpathSync, rmSync, statSync, writeFileSync } from "node:fs";
+import { copyFileSync, existsSync, realpathSync, rmSync, writeFileSync } from "node:fs";
 import { join, resolve } from "node:path";
-import { buildThingModel, type GripperDecl, mulberry32, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
+import { buildThingModel, type GripperDecl, TWIN_FILES, TWIN_FOLDERS } from "@robwot/core";
 import type { RobotLoadProgressNotification, RobotModel, SimClient, WorkspaceSummary, WorldList } from "@robwot/sim-client";
 import type { BackendGuard } from "./backend-guard.js";
 import { buildTd, compileTdSchemasNow, tdErrorsMessage } from "./td.js";
@@ -18,6 +18,7 @@ import { prepareRosInput, type RosInput } from "./ros-input.js";
 import { sceneDocument } from "./scene-doc.js";
 import { checkStart, type Home, overlapWarnings, Warnings } from "./start-state.js";
 import { StagedDir } from "./twin-dir.js";
+import { noteSurface, refuseDegenerate } from "./workspace-verdict.js";
 import { VERSION } from "./version.js";
 
 export interface GenerateResult {
@@ -96,57 +97,10 @@ async function exportSceneRobots(sim: SimClient, world: WorldList, ownRobot: str
   return out;
 }
 
-/** Configurations checked again, one by one, to name what touches when no sample was collision-free. */
-const WHY_SAMPLES = 40;
 /** Samples from which the TD is also validated before the labelling ends (placeholder bounds), so that a model
  * that cannot make a valid TD fails before a long labelling. Below, the validation would only take CPU from
  * the labelling workers to fail a few seconds earlier; a cluster run always validates early. */
 const EARLY_TD_SAMPLES = 1_000_000;
-
-/**
- * What touches in an all-colliding workspace: seeded random configurations within the joint limits checked
- * one by one, their contacts counted per pair of bodies (robot links, obstacles, other robots), the most
- * frequent first with the share of configurations it appears in.
- */
-async function touchingPairs(sim: SimClient, model: RobotModel, seed: number): Promise<string> {
-  const random = mulberry32(seed);
-  const joints = model.controllable.map((n) => model.joints.find((j) => j.name === n)!);
-  const counts = new Map<string, number>();
-  for (let i = 0; i < WHY_SAMPLES; i++) {
-    const q = joints.map((j) => j.lower + random() * (j.upper - j.lower));
-    const report = await sim.checkCollision({ robot: model.id, positions: q });
-    const pairs = new Set(report.contacts.map((c) => [c.a, c.b].map((s) => (s.link === null ? s.body : `${s.body}/${s.link}`)).sort().join(" touches ")));
-    for (const p of pairs) counts.set(p, (counts.get(p) ?? 0) + 1);
-  }
-  const top = [...counts].sort((a, b) => b[1] - a[1]).slice(0, 4);
-  if (top.length === 0) return `${WHY_SAMPLES} configurations checked again showed no contact`;
-  return `in ${WHY_SAMPLES} configurations checked again: ${top.map(([p, n]) => `${p} (${Math.round((100 * n) / WHY_SAMPLES)} %)`).join(", ")}`;
-}
-
-/**
- * A twin whose collision-free workspace has no surface (no collision-free sample, or only a point or a
- * line of end-effector positions) could never validate a Cartesian target, and serve would refuse it:
- * it is not written. Exit 1 with what to check.
- */
-async function refuseDegenerate(summary: WorkspaceSummary, dir: string, sim: SimClient, model: RobotModel, crowded: readonly string[]): Promise<void> {
-  if (summary.collisionFree === 0) {
-    const touching = await touchingPairs(sim, model, summary.seed);
-    const why = crowded.length > 0 ? `; ${crowded.join("; ")}` : "";
-    throw new CliError(
-      `no collision-free configuration in ${summary.samples} samples: the robot touches itself or the scene everywhere; ${touching}${why} (check the scene, the base pose and the URDF's collision geometry)`,
-      "E_WORKSPACE",
-      1,
-    );
-  }
-  const triangles = statSync(join(dir, TWIN_FILES.surface)).size > 84 ? readFileSync(join(dir, TWIN_FILES.surface)).readUInt32LE(80) : 0;
-  if (triangles === 0) {
-    throw new CliError(
-      `the collision-free workspace is degenerate (no surface through the collision-free points): the end effector reaches a single point only; check --ee (the end-effector link) and the joint limits`,
-      "E_WORKSPACE",
-      1,
-    );
-  }
-}
 
 /**
  * Loads the scene, then the robot. A scene may place robots itself (`robots: [{urdf, basePosition, ...}]`):
@@ -395,13 +349,4 @@ async function declareGripper(sim: SimClient, model: RobotModel, g: GripperDecl)
  * SRDF's skipped entries; `robot.load` the packages it took by their folder's name). */
 function inputWarnings(input: RosInput, model: RobotModel): string[] {
   return [...new Set([...(input.srdfWarnings ?? []), ...(model.warnings ?? [])])];
-}
-
-/** What the user should know about a workspace surface that is not the alpha shape of the samples. */
-function noteSurface(summary: WorkspaceSummary, progress: ProgressSink): void {
-  if (summary.method === "convex-hull") {
-    progress.info("the alpha shape degenerated (too few points): workspace.stl is the convex hull");
-  } else if (summary.halfThickness !== undefined) {
-    progress.info(`flat workspace (${summary.method}): workspace.stl is the reachable region thickened by ${summary.halfThickness * 1000} mm on each side`);
-  }
 }
