@@ -117,6 +117,28 @@ def test_example_scenes_are_generated_and_leave_free_space(n: int) -> None:
         assert free.mean() > 0.25
 
 
+def test_obstacles_share_one_point_sized_visual_shape() -> None:
+    """No obstacle body, nor the mirror's compound of small ones, has a visual made from its collision shape
+    (PyBullet tessellates spheres and cylinders for it, which costs more than the body): each has the
+    client's one point-sized box, and its collision shape is the obstacle's."""
+    import pybullet as pb
+
+    with World() as w:
+        w.load_scene(SCENES / "obstacles-66.json")
+        bullets = [(w.scene.bullet, [b for b, _ in w.scene.obstacle_bodies()])]
+        mirror = w.queries.mirror()
+        bullets.append((mirror.bullet, [b for b in range(pb.getNumBodies(physicsClientId=mirror.bullet.cid))
+                                        if b not in mirror.bodies.values()]))
+        for bullet, bodies in bullets:
+            assert len(bodies) > 1
+            for body in bodies:
+                visual = pb.getVisualShapeData(body, physicsClientId=bullet.cid)
+                assert [(v[2], tuple(v[3])) for v in visual] == [(pb.GEOM_BOX, (2e-6,) * 3)]
+            types = {c[2] for b in bodies
+                     for c in pb.getCollisionShapeData(b, -1, physicsClientId=bullet.cid)}
+            assert {pb.GEOM_SPHERE, pb.GEOM_CYLINDER} <= types
+
+
 def test_table_scene_and_round_trip() -> None:
     """table.json loads a kuka and obstacles; scene_spec() rebuilds an identical world."""
     with World() as w:

@@ -82,6 +82,7 @@ class Bullet:
         # are parked far away, out of every check, and reused for the next obstacle of the same shape
         self._static_key: dict[int, str] = {}  # live static body -> its shape key
         self._parked: dict[str, list[int]] = {}  # shape key -> parked bodies
+        self._invisible = -1  # the visual shape every created body shares (``invisible``)
 
     def close(self) -> None:
         if self.cid >= 0:
@@ -255,17 +256,30 @@ class Bullet:
         self._static_key[body] = key
         return body
 
+    def invisible(self) -> int:
+        """A visual shape for bodies made here (``create_body``): PyBullet gives a body without one a visual
+        made from its collision shape, for a renderer nothing here uses (images are ray-cast against
+        collision shapes, ``camera.py``), and tessellates spheres, cylinders and hulls to make it, which
+        costs more than the body. A point-sized box, one per client, shared by every body, costs nothing
+        to convert. Visual shapes take no part in collision detection or ray tests."""
+        if self._invisible < 0:
+            self._invisible = int(pb.createVisualShape(pb.GEOM_BOX, halfExtents=[1e-6] * 3,
+                                                       physicsClientId=self.cid))
+            if self._invisible < 0:
+                raise RuntimeError("PyBullet could not create a visual shape")
+        return self._invisible
+
     def create_body(
         self, shape: dict[str, Any], position: Sequence[float], quat_xyzw: Sequence[float], mass: float
     ) -> int:
-        """A body of one collision shape (as ``create_static``) and ``mass`` (kg; 0: static), no visual;
-        never parked. A mesh with mass is its convex hull to Bullet."""
+        """A body of one collision shape (as ``create_static``) and ``mass`` (kg; 0: static), no visual
+        (``invisible``); never parked. A mesh with mass is its convex hull to Bullet."""
         col = self._collision_shape(shape)
         return int(
             pb.createMultiBody(
                 baseMass=mass,
                 baseCollisionShapeIndex=col,
-                baseVisualShapeIndex=-1,
+                baseVisualShapeIndex=self.invisible(),
                 basePosition=list(position),
                 baseOrientation=list(quat_xyzw),
                 physicsClientId=self.cid,

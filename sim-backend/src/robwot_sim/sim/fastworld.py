@@ -128,7 +128,8 @@ class FastWorld:
         if col < 0:
             raise RuntimeError("PyBullet could not create the compound obstacle shape")
         body = pb.createMultiBody(
-            baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=-1, physicsClientId=cid
+            baseMass=0, baseCollisionShapeIndex=col, baseVisualShapeIndex=self.bullet.invisible(),
+            physicsClientId=cid
         )
         if len(pb.getCollisionShapeData(body, -1, physicsClientId=cid) or ()) != len(prims):
             raise RuntimeError("PyBullet dropped children of a compound obstacle shape")
