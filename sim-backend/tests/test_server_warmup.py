@@ -30,6 +30,40 @@ def test_warm_up_then_generate_gives_the_same_csv(client: RpcClient, tmp_path: P
     assert csv[0] == csv[1]
 
 
+def _descendants(pid: int) -> list[int]:
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        for task in Path(f"/proc/{p}/task").iterdir():
+            kids = [int(k) for k in (task / "children").read_text().split()]
+            out += kids
+            todo += kids
+    return out
+
+
+def test_warm_up_leaves_the_alpha_shape_code_to_the_generation(tmp_path: Path) -> None:
+    """workspace.warmUp starts the workers and loads nothing else: the alpha shape's code (scipy's spatial
+    package, whose Qhull library the process then maps) loads once a generation labels, when the backend
+    waits for its workers, not while the workers start beside it (every core is busy then)."""
+    proc = BackendProcess()
+    try:
+        c = proc.client()
+        assert c.call("workspace.warmUp", {"workers": 2}) == {"workers": 2}
+        qhull = lambda: "spatial/_qhull" in Path(f"/proc/{proc.proc.pid}/maps").read_text()  # noqa: E731
+        deadline = time.monotonic() + 120
+        while len(_descendants(proc.proc.pid)) < 3 and time.monotonic() < deadline:  # forkserver, 2 workers
+            time.sleep(0.05)
+        assert len(_descendants(proc.proc.pid)) >= 3
+        time.sleep(1.0)  # the workers run: an import the warm-up made beside them has ended by now
+        assert not qhull()
+        c.call("robot.load", {"urdf": KUKA, "id": "kuka"})
+        c.call("workspace.generate", {"robot": "kuka", "samples": 500, "workers": 2, "outDir": str(tmp_path)},
+               timeout=300)
+        assert qhull()
+    finally:
+        proc.stop()
+
+
 def test_warm_up_refuses_bad_workers(client: RpcClient) -> None:
     for bad in (0, 1.5, "two", 257):
         err = client.error("workspace.warmUp", {"workers": bad})

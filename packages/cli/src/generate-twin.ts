@@ -173,7 +173,7 @@ export async function generateTwin(
   progress.stage("load");
   const { sim } = backend;
   const source = urdfPath(opts, backend.pybulletData);
-  // The backend starts its collision workers (and loads the alpha-shape code) while it loads the scene.
+  // The backend starts its collision workers while it loads the scene.
   // Only a head start: should it fail, workspace.generate starts the pool itself and reports any real failure.
   if (opts.cluster === undefined) await sim.warmUp(opts.workers === undefined ? {} : { workers: opts.workers }).catch(() => undefined);
   const input = await prepareRosInput(opts, sim, source);

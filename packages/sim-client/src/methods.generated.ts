@@ -180,7 +180,7 @@ export abstract class ContractMethods {
     const { onProgress, ...call } = options;
     return this.listening("workspace.progress", onProgress, () => this.request("workspace.generate", params, call));
   }
-  /** `workspace.warmUp`: start the collision worker pool in the background: Starts the collision worker processes that `workspace.generate` with the same `workers` count uses, and loads the alpha-shape code, in the background: returns at once, before they are ready. Calling it again is harmless. */
+  /** `workspace.warmUp`: start the collision worker pool in the background: Starts the collision worker processes that `workspace.generate` with the same `workers` count uses, in the background: returns at once, before they are ready. Calling it again is harmless. */
   warmUp(params: Params<"workspace.warmUp"> = {}, options: CallOptions = {}): Result<"workspace.warmUp"> {
     return this.request("workspace.warmUp", params, options);
   }

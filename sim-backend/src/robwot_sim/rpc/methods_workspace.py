@@ -1,7 +1,6 @@
 """`workspace.generate`: blocking generation in a thread of its own (off the world's thread: it waits on
 its worker processes for minutes), progress as notifications; the few world calls it makes go to the
-world's thread (`_WorldCalls`). `workspace.warmUp`: start the collision worker pool (and load the
-alpha-shape code) ahead of time."""
+world's thread (`_WorldCalls`). `workspace.warmUp`: start the collision worker pool ahead of time."""
 
 from __future__ import annotations
 
@@ -46,7 +45,7 @@ def register(d: Dispatcher, s: Services) -> None:
     @d.method("workspace.warmUp")
     async def warm(p: Params, call: Call) -> dict[str, Any]:
         workers = _workers(p)
-        warm_up(workers, preload=True)
+        warm_up(workers)
         return {"workers": workers}
 
     @d.method("workspace.generate")

@@ -7,8 +7,11 @@ WorkspaceSummary of ARCHITECTURE.md (Contract 2). Units: metres, radians, second
 
 from __future__ import annotations
 
+import importlib
 import math
 import os
+import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -210,6 +213,17 @@ def _label_locally(world: World, req: _Request, prep: _Prepared, report: Progres
     return _Labelled(sink.alpha_points(), sink.free, sink.lo, sink.hi, sink.reach, time.perf_counter() - t1)
 
 
+def _load_shape_code() -> None:
+    """Imports the alpha shape's code (scipy's spatial package: a few tenths of a second of CPU) on a thread
+    of its own, once per process. Started as the labelling begins, when this process only waits for its
+    workers: the alpha shape then finds it loaded (an import of a module another thread is importing
+    waits for it), and the backend's start, which the workers' start competes with for every core, does
+    not pay for it."""
+    if "robwot_sim.workspace.alpha_shape" not in sys.modules:
+        threading.Thread(target=importlib.import_module, args=("robwot_sim.workspace.alpha_shape",),
+                         name="robwot-shape-import", daemon=True).start()
+
+
 def _shape(points: np.ndarray, alpha: float | str, report: Progress) -> Shape:
     from robwot_sim.workspace.alpha_shape import alpha_shape
 
@@ -286,6 +300,7 @@ def generate_workspace(world: World, robot_id: str, *, samples: int = 80_000, se
     prep = _prepare(world, req, csv_joints)
     report("sample", req.samples, req.samples)
     report("collide", 0, req.samples)
+    _load_shape_code()
     lab = (_label_on_cluster(req.address, req, prep, report) if req.address is not None
            else _label_locally(world, req, prep, report))
     t2 = time.perf_counter()

@@ -199,19 +199,16 @@ def shutdown_pool() -> None:
 atexit.register(shutdown_pool)
 
 
-def warm_up(workers: int | None = None, preload: bool = False) -> threading.Thread:
+def warm_up(workers: int | None = None) -> threading.Thread:
     """Start the forkserver and ``workers`` (default: cores) worker processes in a background thread,
     e.g. when the backend starts (RPC ``workspace.warmUp``), so the first generation does not pay for
-    it. With ``preload``, the thread then imports the alpha-shape code (scipy, ~0.5 s) in this process
-    while the workers start. Returns the thread."""
+    it. Returns the thread."""
     n = workers or os.cpu_count() or 1
 
     def run() -> None:
         pool = acquire_pool(n)
         try:
             futures = [pool.submit(ping) for _ in range(n)]
-            if preload:
-                import robwot_sim.workspace.alpha_shape  # noqa: F401
             wait(futures)
             if all(f.exception() is None for f in futures):
                 with _pool_lock:
