@@ -102,3 +102,18 @@ def test_the_backends_start_loads_no_scipy() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          timeout=300)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_the_labelling_forkserver_loads_no_json_schema_validator() -> None:
+    """The labelling pool's forkserver imports what its workers run (``pool._PRELOAD``), not the Python JSON
+    Schema validator: it only words why a scene is refused, and a worker's scene is the backend's, valid
+    (every worker waits for what the forkserver imports)."""
+    import subprocess
+    import sys
+
+    from robwot_sim.workspace.pool import _PRELOAD
+
+    code = f"import sys, {', '.join(_PRELOAD)}; print('jsonschema' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         timeout=300)
+    assert out.stdout.strip() == "False", out.stdout

@@ -14,9 +14,7 @@ import math
 from functools import cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
-
-import jsonschema
+from typing import TYPE_CHECKING, Any
 
 from robwot_sim.errors import FileNotFound, InvalidParams, SceneError
 from robwot_sim.jsondepth import TooDeep, loads_bounded
@@ -26,6 +24,9 @@ from robwot_sim.model.urdf import pybullet_data_path
 from robwot_sim.schemacheck import accepts, compiled
 from robwot_sim.validate import MIN_QUATERNION_NORM, unit_quaternion
 from robwot_sim.wholefile import TooLarge, read_whole
+
+if TYPE_CHECKING:
+    import jsonschema
 
 MAX_SCENE_BYTES = 50 * 1024 * 1024
 
@@ -44,6 +45,10 @@ def _compiled() -> object:
 
 @cache
 def _validator() -> jsonschema.protocols.Validator:
+    """The Python validator, for the message on a document refused (imported then: a valid scene, such as
+    the one a labelling worker builds its world from, never needs it)."""
+    import jsonschema
+
     cls = jsonschema.validators.validator_for(schema())
     v: jsonschema.protocols.Validator = cls(schema())
     return v
@@ -78,7 +83,9 @@ def schema_errors(doc: Any) -> tuple[str, str] | None:
     if bad is not None:
         return _pointer(bad[0]), f"{bad[1]} is not a finite number"
     if not accepts(_compiled(), doc):  # the Python validator only says why (``schemacheck.py``)
-        err = jsonschema.exceptions.best_match(_validator().iter_errors(doc))
+        from jsonschema.exceptions import best_match
+
+        err = best_match(_validator().iter_errors(doc))
         if err is not None:
             return _pointer(err.absolute_path), err.message
     return _duplicate_name(doc) or _zero_quaternion(doc)
