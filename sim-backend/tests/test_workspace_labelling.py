@@ -15,6 +15,7 @@ import numpy.typing as npt
 import pytest
 
 from robwot_sim.errors import SimError
+from robwot_sim.sim.kernels import KERNELS_WAIT, kernels_ready
 from robwot_sim.sim.world import World
 from robwot_sim.workspace import pool as workspace_pool
 from robwot_sim.workspace.chunk import ChunkJob
@@ -69,7 +70,11 @@ def test_a_chunks_labels_do_not_depend_on_the_chunk_labelled_before_it() -> None
     """Which chunks a worker labels, and in which order, changes from run to run; Bullet's verdict on a
     grazing contact (the Panda's fingers) follows its previous test of the pair. So each batch starts by a
     test at the robot's own state: a Panda chunk among 239 boxes gets the same labels in a fresh world as
-    after any other chunk (row 45,000 of seed 1 followed chunk 10,000's last row to the other label)."""
+    after any other chunk (row 45,000 of seed 1 followed chunk 10,000's last row to the other label).
+    The kernels are loaded first, as a worker has them from its first row: a load ending within the test
+    (other tests of this process having asked for enough rows) would label the chunks before and after it
+    by different paths, whose Bullet queries differ on a few grazing rows."""
+    assert kernels_ready(timeout=KERNELS_WAIT)
     with World() as w:
         w.load_scene(str(Path(__file__).resolve().parents[2] / "examples" / "scenes" / "obstacles-239.json"))
         w.load_robot("franka_panda/panda.urdf", robot_id="panda")
