@@ -91,8 +91,7 @@ def test_the_check_sees_an_upward_import() -> None:
 def test_the_backends_start_loads_no_scipy() -> None:
     """The server and the labelling pool's forkserver (its preload) start without scipy's spatial, sparse,
     image and interpolation code (a third of the backend's import time): they load where a request first
-    needs them (scan, alpha shape, shape fitting of a robot not cached yet, IK of a coupled chain). (numba
-    loads scipy's linear algebra for the kernels.)"""
+    needs them (scan, alpha shape, shape fitting of a robot not cached yet, IK of a coupled chain)."""
     import subprocess
     import sys
 
@@ -117,3 +116,19 @@ def test_the_labelling_forkserver_loads_no_json_schema_validator() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          timeout=300)
     assert out.stdout.strip() == "False", out.stdout
+
+
+def test_the_labelling_forkserver_loads_the_kernels_without_scipys_linear_algebra() -> None:
+    """The forkserver's kernels load without scipy's linear algebra, which numba imports to probe for a BLAS
+    no kernel calls (``workspace/preload.py``); they load, and the package imports again afterwards."""
+    import subprocess
+    import sys
+
+    from robwot_sim.workspace.pool import _PRELOAD
+
+    code = (f"import sys, {', '.join(_PRELOAD)}; from robwot_sim.sim.kernels import kernels_loaded; "
+            "print(kernels_loaded(), 'scipy.linalg' in sys.modules); "
+            "import scipy.linalg.cython_blas; print('ok')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         timeout=900)
+    assert out.stdout.split() == ["True", "False", "ok"], out.stdout + out.stderr
