@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from robwot_sim.errors import InvalidParams, UnknownLink, UrdfError
-from robwot_sim.model.fk import ChainFK
+from robwot_sim.model.fk import ChainFK, end_frames
 from robwot_sim.model.joints import parse_model
 from robwot_sim.model.rotations import quat_matrix, rpy_matrix
 from robwot_sim.model.urdf import parse_urdf
@@ -39,7 +39,8 @@ def world() -> Iterator[World]:
     str(MODELS / "chain_mimic.urdf"), str(MODELS / "shell.urdf"), str(MODELS / "planar2.urdf"),
 ])
 def test_fk_matches_pybullet(world: World, urdf: str) -> None:
-    """Vectorised FK equals PyBullet's end-effector link frame (< 1e-6 m, < 1e-6 in rotation) at random q."""
+    """Vectorised FK, by matrices (``poses``) and coordinate by coordinate (``end_frames``), equals
+    PyBullet's end-effector link frame (< 1e-6 m, < 1e-6 in rotation) at random q."""
     rid = Path(urdf).stem + "-fk"
     model = world.load_robot(urdf, robot_id=rid, base_position=BASE_POS, base_orientation=BASE_QUAT)
     try:
@@ -47,10 +48,12 @@ def test_fk_matches_pybullet(world: World, urdf: str) -> None:
         lo, hi = model.limits()
         qs = sample_configurations(lo, hi, 40, seed=7)
         pos, rot = fk.poses(qs)
+        epos, erot = end_frames(fk, qs)
         for i, q in enumerate(qs):
             pose = world.fk(rid, q)
-            assert np.abs(np.array(pose.position) - pos[i]).max() < 1e-6
-            assert np.abs(quat_matrix(pose.quat_xyzw) - rot[i]).max() < 1e-6
+            for p, r in ((pos[i], rot[i]), (epos[i], erot[i])):
+                assert np.abs(np.array(pose.position) - p).max() < 1e-6
+                assert np.abs(quat_matrix(pose.quat_xyzw) - r).max() < 1e-6
         assert np.allclose(fk.positions(qs), pos)
     finally:
         world.remove_robot(rid)
@@ -136,6 +139,27 @@ def test_fk_blocks_equal_one_pass() -> None:
     fk = _chain(MODELS / "chain_mimic.urdf", "tool", ["base_yaw", "spin", "slide"])
     qs = sample_configurations([-2.5, -3.14, -0.1], [2.5, 3.14, 0.2], 2500, seed=9)
     assert np.array_equal(fk.positions(qs, block=1000), fk.poses(qs)[0])
+
+
+@pytest.mark.parametrize("urdf, ee, joints", [
+    (MODELS / "chain_mimic.urdf", "tool", ["base_yaw", "spin", "slide"]),
+    (MODELS / "planar2.urdf", None, None),
+])
+def test_end_frames_of_a_row_do_not_depend_on_its_batch(urdf: Path, ee: str | None,
+                                                        joints: list[str] | None) -> None:
+    """A generation's end-link poses (``end_frames``) are the same bits for a row whatever batch it is in
+    (its files are the same for any split into chunks): rows alone, in batches of 7 and in one batch."""
+    if ee is None or joints is None:
+        model = parse_model(parse_urdf(urdf))
+        joints = [j.name for j in model.joints if j.type != "fixed"]
+        ee = model.links[-1]
+    fk = _chain(urdf, ee, joints)
+    qs = sample_configurations([-2.5] * len(joints), [2.5] * len(joints), 300, seed=4)
+    whole = end_frames(fk, qs)
+    for size in (1, 7):
+        parts = [end_frames(fk, qs[a:a + size]) for a in range(0, len(qs), size)]
+        for k in range(2):
+            assert np.array_equal(np.concatenate([part[k] for part in parts]), whole[k])
 
 
 def test_joint_tree_refuses_a_malformed_origin_with_its_line(tmp_path: Path) -> None:

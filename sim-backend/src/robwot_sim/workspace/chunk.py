@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robwot_sim.model.couplings import Followers
-from robwot_sim.model.fk import ChainFK
+from robwot_sim.model.fk import ChainFK, end_frames
 from robwot_sim.model.meshcheck import FileStamp
 from robwot_sim.workspace.io import csv_table, format_rows
 from robwot_sim.workspace.reachability import ReachabilityMap, direction_bins
@@ -72,7 +72,7 @@ def end_link(fk: ChainFK, qs: FloatArray, block: int = 100_000) -> tuple[FloatAr
     positions = np.empty((len(qs), 3))
     bins = np.empty(len(qs), dtype=np.uint8)
     for a in range(0, len(qs), block):
-        p, r = fk.poses(qs[a:a + block])
+        p, r = end_frames(fk, qs[a:a + block])
         positions[a:a + block], bins[a:a + block] = p, direction_bins(r)
     return positions, bins
 
