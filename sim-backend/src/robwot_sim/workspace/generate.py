@@ -214,11 +214,10 @@ def _label_locally(world: World, req: _Request, prep: _Prepared, report: Progres
 
 
 def _load_shape_code() -> None:
-    """Imports the alpha shape's code (scipy's spatial package: a few tenths of a second of CPU) on a thread
-    of its own, once per process. Started as the labelling begins, when this process only waits for its
-    workers: the alpha shape then finds it loaded (an import of a module another thread is importing
-    waits for it), and the backend's start, which the workers' start competes with for every core, does
-    not pay for it."""
+    """Imports the alpha shape's code (scipy's spatial package) on a thread of its own, once per process.
+    Started as the labelling begins, when this process only waits for its workers: the alpha shape then
+    finds it loaded (an import of a module another thread is importing waits for it), and the backend's
+    start, which the workers' start competes with for every core, does not pay for it."""
     if "robwot_sim.workspace.alpha_shape" not in sys.modules:
         threading.Thread(target=importlib.import_module, args=("robwot_sim.workspace.alpha_shape",),
                          name="robwot-shape-import", daemon=True).start()

@@ -6,9 +6,10 @@ leaves them unloaded, as everywhere.
 
 Every worker waits for this load, so it skips what the kernels do not use: numba probes for a BLAS as it
 loads its NumPy support, by importing scipy's linear algebra package (longer than loading every kernel)
-only to know whether ``np.dot`` may call it. No kernel calls a BLAS (``test_layers.py`` checks that none
-is loaded), so the probe is answered "none" here (the import refused for its duration): ``np.dot`` in
-numba code of this process would loop instead, and scipy itself still imports wherever it is used.
+only to know whether ``np.dot`` may call it. No kernel calls a BLAS, so the probe is answered "none" here
+(the import refused for its duration; ``test_layers.py`` checks that the kernels load without the package
+and that it imports afterwards): ``np.dot`` in numba code of this process would loop instead, and scipy
+itself still imports wherever it is used.
 """
 
 import sys
