@@ -124,6 +124,29 @@ def test_fast_batch_agrees_with_check_collision_and_brute_force(urdf: str, scene
         assert 0.1 < fast.mean() < 0.95
 
 
+@pytest.mark.parametrize("urdf", ["xarm/xarm6_with_gripper.urdf", PANDA])
+def test_a_rows_label_does_not_depend_on_the_row_checked_before_it(urdf: str) -> None:
+    """Bullet keeps a pair's contact points from one check to the next and refreshes only their distances:
+    after another configuration it may report a contact the pair's own test does not find (the xArm's
+    gripper knuckles) or a touching pair apart (the Panda's fingers). A contact point reported within
+    ``RECHECK`` of touching is confirmed by the pair's fresh test, so rows labelled in one order, in the
+    reverse order (in the mirror world holding the robot alone, and in the main world among obstacles)
+    and each alone get the same labels."""
+    with World() as w:
+        m = w.load_robot(urdf)
+        w.load_scene(SCENES / "obstacles-4.json")
+        e = w.scene.entry(m.id)
+        qs = e.bound.random_q(np.random.default_rng(26), 3000)
+        mirror = w.queries.mirror(m.id)
+        forward = mirror.batch(m.id, qs, {}, e.bound.followers)
+        assert 0.05 < forward.mean() < 0.95
+        assert np.array_equal(mirror.batch(m.id, qs[::-1], {}, e.bound.followers)[::-1], forward)
+        main = e.checker.batch(qs[:600])
+        assert np.array_equal(e.checker.batch(qs[:600][::-1])[::-1], main)
+        for i in range(0, 600, 7):
+            assert e.checker.batch(qs[i:i + 1])[0] == main[i], i
+
+
 def test_batch_rejects_bad_arrays() -> None:
     """Wrong shapes, NaN and out-of-limit rows are refused before any check."""
     with World() as w:

@@ -5,9 +5,10 @@ without the outer bounds (``bounds=False``: the sure hits in numpy, then Bullet)
 default, ``robwot_sim/sim/outerbounds.py``, compiled), alternately in one process (the machine's load hits
 both alike): wall time per configuration of each and their ratio, the share of rows the bounds find apart
 from every other body, free of self-contact too, and sure hits, the labels that differ, and how many rows
-Bullet itself labels differently when it checks them in reverse order (a grazing contact's manifold
-persists from one check to the next on some robots). Rows the bounds decide are checked by fresh Bullet
-distance queries, sure hits against Bullet's own label (``unsound`` must be 0). Prints the load average.
+Bullet itself labels differently when it checks them in reverse order (a grazing contact's points kept
+from one check to the next would make some, without ``client.Recheck``). Rows the bounds decide
+are checked by fresh Bullet distance queries, sure hits against Bullet's own label (``unsound`` must be
+0). Prints the load average.
 """
 
 from __future__ import annotations

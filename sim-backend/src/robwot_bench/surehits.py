@@ -6,7 +6,7 @@ compiled) with the sure-hit test (``robwot_sim/sim/surehit.py``) and with every 
 alternately in blocks of a worker's batch in one process (the machine's load hits both alike): CPU time per
 configuration of each and their ratio, the share of rows that are sure hits, the test's own time, the
 labels that differ and how many rows Bullet alone labels differently when it checks them in reverse order
-(a grazing contact's manifold persists from one check to the next on some robots). Each differing row is
+(none where every row's verdict is its pair's own test: ``client.Recheck``). Each differing row is
 explained or not: a sure hit whose contact a fresh Bullet distance query confirms (``unsound`` counts
 those it does not), or a row Bullet checked after another row than without the test: ``after`` counts
 those whose label is the one Bullet gives when it checks that same predecessor and then the row. Prints the

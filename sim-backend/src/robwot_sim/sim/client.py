@@ -71,6 +71,39 @@ def pybullet_version() -> str:
         return "unknown"
 
 
+#: m: a contact point reporting its pair within this of touching is asked of again (``Recheck``); Bullet's
+#: refreshed distances of kept points err by less than both collision margins
+RECHECK = 0.002
+
+
+class Recheck:
+    """Bullet's contact points of one robot body (``getContactPoints`` after a collision detection) checked
+    against its pairs' own tests. Bullet keeps a pair's contact points from one detection to the next,
+    refreshing their distances from the points' places on each link and the normal as first found: after
+    another configuration a kept point may report a contact the pair's own test does not find (the xArm's
+    gripper knuckles), or a touching pair a little apart (the Panda's fingers, 0.8 mm where they overlap
+    by 0.9). So a point reported within ``RECHECK`` of the distance asked about is confirmed by a fresh
+    test of its pair (``getClosestPoints``), and a verdict on a configuration does not depend on what was
+    checked before it. Not where a link of the robot with a box shape reports a contact: Bullet finds
+    the contacts of two boxes by another algorithm than their closest points (a carried cube 0.24 mm
+    into a table has no closest points within 0), so such a contact stands as reported."""
+
+    def __init__(self, cid: int, body: int) -> None:
+        self.cid, self.body = cid, body
+        shapes = {ln: pb.getCollisionShapeData(body, ln, physicsClientId=cid) or ()
+                  for ln in range(-1, pb.getNumJoints(body, physicsClientId=cid))}
+        self.boxes = frozenset(ln for ln, rows in shapes.items() if any(s[2] == pb.GEOM_BOX for s in rows))
+
+    def touching(self, c: Any, within: float) -> bool:
+        """Whether raw contact point ``c`` (bodies 1, 2, links 3, 4, distance 8), reported within ``within``
+        plus ``RECHECK``, is a contact within ``within`` (m)."""
+        if c[8] <= within and ((c[1] == self.body and c[3] in self.boxes)
+                               or (c[2] == self.body and c[4] in self.boxes)):
+            return True
+        fresh = pb.getClosestPoints(c[1], c[2], within, c[3], c[4], physicsClientId=self.cid)
+        return any(p[8] <= within for p in fresh)
+
+
 class Bullet:
     """One PyBullet physics client in DIRECT mode. Use as a context manager or call ``close()``."""
 

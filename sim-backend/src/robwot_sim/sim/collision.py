@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from robwot_sim.sim.client import ContactPoint
+from robwot_sim.sim.client import RECHECK, ContactPoint, Recheck
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import BodyLink, Contact, FloatArray
 from robwot_sim.sim.world_thread import checkpoint
@@ -91,6 +91,7 @@ class CollisionChecker:
             ln for ln in robot.static_links if robot.bullet.has_collision_shape(robot.body, ln)
         ]
         self._static: list[Contact] | None = None
+        self.recheck = Recheck(robot.bullet.cid, robot.body)
         self._static_version = -1
 
     def _others(self) -> list[int]:
@@ -165,11 +166,12 @@ class CollisionChecker:
         bl = self.robot.bullet
         bl.detect()
         body = self.robot.body
-        for c in bl.contacts_raw(body):
+        for c in bl.contacts_raw(body):  # a point within RECHECK confirmed by its pair's test (Recheck)
             if c[1] != c[2]:
-                if c[8] <= clearance:
+                if c[8] <= clearance + RECHECK and self.recheck.touching(c, clearance):
                     return False
-            elif c[8] <= TOUCH and (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered:
+            elif (c[8] <= TOUCH + RECHECK and (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered
+                  and self.recheck.touching(c, TOUCH)):
                 return False
         if others_apart:
             return True
@@ -207,11 +209,10 @@ class CollisionChecker:
         return out
 
     def batch(self, qs: FloatArray, progress: Callable[[int], None] | None = None) -> np.ndarray:
-        """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state. The
-        rows' flags do not depend on what was checked before the batch: Bullet's contact test starts
-        from what it found at the previous test of a pair (its cached separating axis and contact points),
-        and a grazing contact's verdict can follow it, so the batch starts by a test at the robot's
-        state, not at whatever row another batch ended with."""
+        """Collision-free flag per row of ``qs`` (validated by the caller); restores the robot state. A
+        row's flag does not depend on what was checked before it (``is_free``: the contacts Bullet kept
+        from an earlier test confirmed by the pair's own, ``client.Recheck``); the batch also starts
+        by a test at the robot's state, not at whatever row another batch ended with."""
         robot = self.robot
         saved = robot.q.copy()
         out = np.zeros(len(qs), dtype=bool)

@@ -21,7 +21,7 @@ import pybullet as pb
 
 from robwot_sim.model.couplings import Followers
 from robwot_sim.model.urdf import prepare_urdf
-from robwot_sim.sim.client import Bullet
+from robwot_sim.sim.client import RECHECK, Bullet, Recheck
 from robwot_sim.sim.types import FloatArray
 
 TOUCH = 0.0
@@ -76,6 +76,7 @@ class FastWorld:
         self.version = version
         self.bullet = Bullet()
         self.bodies: dict[str, int] = {}
+        self.recheck: dict[str, Recheck] = {}
         try:
             for rid, r in robots.items():
                 prepared = prepare_urdf(r.urdf, r.package_roots)
@@ -91,6 +92,7 @@ class FastWorld:
                 for a, b in r.filtered:
                     self.bullet.set_pair_filter(body, body, a, b, False)
                 self.bodies[rid] = body
+                self.recheck[rid] = Recheck(self.bullet.cid, body)
             self._add_obstacles(obstacles)
         except Exception:
             self.bullet.close()
@@ -145,15 +147,16 @@ class FastWorld:
         followers: Followers,
     ) -> np.ndarray:
         """Collision-free flag per row of ``qs`` for ``robot_id``; ``others`` gives robots' states as full
-        value lists for their ``set_idx`` (``robot_id``'s own too: the batch starts by a test there, so its
-        flags do not depend on what was checked before it, ``CollisionChecker.batch``)."""
+        value lists for their ``set_idx`` (``robot_id``'s own too: the batch starts by a test there, as
+        ``CollisionChecker.batch``); a contact point within ``RECHECK`` of touching is confirmed by its
+        pair's own test (``Recheck``), so a row's flag does not depend on the rows before it."""
         b, cid = self.bullet, self.bullet.cid
         for rid, vals in others.items():
             b.reset_joints(self.bodies[rid], self.robots[rid].set_idx, list(vals))
         b.detect()
         body = self.bodies[robot_id]
         r = self.robots[robot_id]
-        idx, filtered = r.set_idx, r.filtered
+        idx, filtered, recheck = r.set_idx, r.filtered, self.recheck[robot_id]
         out = np.zeros(len(qs), dtype=bool)
         reset, detect, contacts = (
             pb.resetJointStatesMultiDof,
@@ -170,7 +173,9 @@ class FastWorld:
             detect(physicsClientId=cid)
             free = True
             for c in contacts(body, physicsClientId=cid):
-                if c[8] <= TOUCH and (c[1] != c[2] or (min(c[3], c[4]), max(c[3], c[4])) not in filtered):
+                if (c[8] <= TOUCH + RECHECK
+                        and (c[1] != c[2] or (min(c[3], c[4]), max(c[3], c[4])) not in filtered)
+                        and recheck.touching(c, TOUCH)):
                     free = False
                     break
             out[i] = free

@@ -255,6 +255,15 @@ def separation(s: Shapes, b: Bodies, pa: int, fa: int, pb: int, fb: int, P: Arra
 
 
 @njit(cache=True, nogil=True, inline="always")
+def hull_separation(s: Shapes, b: Bodies, pa: int, fa: int, pb: int, fb: int, P: Array, R: Array, u: Array,
+                    enough: float, least: float) -> float:
+    """``separation`` by the vertices of the parts' convex hulls (``hull``: Bullet's own shapes of them,
+    many more): exact where GJK converges."""
+    return gjk(s.hull, s.hull_first[pa], s.hull_end[pa], fa, s.hull, s.hull_first[pb], s.hull_end[pb], fb,
+               b, -1, 0.0, P, R, u, enough, least)[0]
+
+
+@njit(cache=True, nogil=True, inline="always")
 def toward(s: Shapes, b: Bodies, p: int, f: int, k: int, P: Array, R: Array, u: Array) -> None:
     """``u``: from the centre of part ``p``'s box (frame ``f``) to body ``k``'s centre, where GJK starts."""
     for r in range(3):

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
-from robwot_sim.sim.gjk_kernel import separation
+from robwot_sim.sim.gjk_kernel import hull_separation, separation
 from robwot_sim.sim.sphere_kernel import frames, kernel, place
 
 if TYPE_CHECKING:
@@ -58,11 +58,13 @@ def _boxes_apart(ca: Array, ra: Array, ha: Array, cb: Array, rb: Array, hb: Arra
 
 @kernel
 def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array, R: Array, cap: float,
-              floor: float, ca: Array, cb: Array, u: Array) -> float:
+              floor: float, exact: bool, ca: Array, cb: Array, u: Array) -> float:
     """A lower bound of the distance between links ``la`` (frame ``fa``) and ``lb``'s hulls in the frames
     ``P``, ``R``, at most ``cap``: per pair of their parts the distance of their balls or, where that is
-    below the bound so far, the larger of it and GJK's (``separation``); returned as soon as two parts
-    are found within ``floor`` (any bound at or below it then tells the same). ``ca``, ``cb``: scratch."""
+    below the bound so far, the larger of it and GJK's on their few vertices (``separation``) or, with
+    ``exact`` where that is too, on their whole hulls (``hull_separation``: the exact distance where GJK
+    converges); returned as soon as two parts are found within ``floor`` (any bound at or below it then
+    tells the same). ``ca``, ``cb``: scratch."""
     best = cap
     for pa in range(s.part_first[la], s.part_end[la]):
         place(P, R, fa, s.box_c[pa], ca)
@@ -73,7 +75,10 @@ def _pair_gap(s: Shapes, b: Bodies, la: int, fa: int, lb: int, fb: int, P: Array
             d = float(math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) - s.box_r[pa] - s.box_r[pb])
             if d >= best:
                 continue
-            best = min(best, max(d, separation(s, b, pa, fa, pb, fb, P, R, u, best, floor)))
+            d = max(d, separation(s, b, pa, fa, pb, fb, P, R, u, best, floor))
+            if exact and d < best and s.hull_end[pa] > s.hull_first[pa] and s.hull_end[pb] > s.hull_first[pb]:
+                d = max(d, hull_separation(s, b, pa, fa, pb, fb, P, R, u, best, floor))
+            best = min(best, d)
             if best <= floor:
                 return best
     return best
@@ -128,7 +133,9 @@ def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, 
             Q: Array, P: Array, R: Array, ca: Array, cb: Array, u: Array) -> float:
     """Cell ``index`` of self pair ``k``'s table computed and stored: ``_pair_gap`` at its centre (``Q``
     with the pair's coordinates moved there), at most what any point of the cell needs (``need`` plus
-    ``most``); ``P``, ``R`` and the rest scratch."""
+    ``most``), exact for a table over one coordinate (its cells are fine enough for a few millimetres to
+    matter; a table over two has cells whose slack is larger than what exactness adds); ``P``, ``R`` and
+    the rest scratch."""
     rest = index
     for m in range(tab.dims[k] - 1, -1, -1):
         Q[tab.coord[k, m]] = tab.lo[k, m] + (rest % tab.cells[k, m] + 0.5) * tab.width[k, m]
@@ -137,7 +144,7 @@ def _gap_at(tab: PairTables, k: int, index: int, t: Tree, s: Shapes, b: Bodies, 
     n = t.parent.shape[0]
     la, lb = s.pair_a[k], s.pair_b[k]
     fa, fb = s.joint[la] if s.joint[la] >= 0 else n, s.joint[lb] if s.joint[lb] >= 0 else n
-    gap = _pair_gap(s, b, la, fa, lb, fb, P, R, need + most, need, ca, cb, u)
+    gap = _pair_gap(s, b, la, fa, lb, fb, P, R, need + most, need, tab.dims[k] == 1, ca, cb, u)
     tab.gap[tab.first[k] + index] = gap
     return gap
 

@@ -435,7 +435,8 @@ def robot_shapes(bound: Any, filtered: set[tuple[int, int]], model: Any) -> Robo
              if i < k and parent.get(a) != b and parent.get(b) != a
              and (min(a, b), max(a, b)) not in filtered]
     mass = {ln: float(pb.getDynamicsInfo(body, ln, physicsClientId=cid)[0]) for ln in links}
-    hit_pairs = [(i, k) for i, k in pairs if mass[links[i]] > 0 and mass[links[k]] > 0]
+    # Bullet pairs a body without mass (static: a fixed base, a massless link) only with one that has mass
+    hit_pairs = [(i, k) for i, k in pairs if mass[links[i]] > 0 or mass[links[k]] > 0]
     arrays = shapes_of(shapes, joints, pairs, hit_pairs)
     return RobotShapes(tree, tuple(shapes), tuple(pairs), arrays, _reach(tree, shapes, joints),
                        pair_tables(tree, arrays, *model.limits()))

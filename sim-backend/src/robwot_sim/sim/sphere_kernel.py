@@ -30,7 +30,7 @@ each, where ``own[p]``: a sphere's or capsule's are its box's), the planes of it
 (``hull[hull_first[p]:hull_end[p]]``: Bullet's own shape of the part, many more), the parts of link ``l``
 ``part_first[l]``..``part_end[l]``
 inside the ball ``link_c``/``link_r``, for the self pairs ``pair_a[k]``, ``pair_b[k]`` (``pair_hit[k]``: one
-Bullet reports contacts of, both links with mass). Balls inside
+Bullet reports contacts of, a link of it with mass: the fixed base's pairs too). Balls inside
 the link's parts (``surehit.py``: ``inner_c``/``inner_r``, link ``l``: ``inner_first[l]``..
 ``inner_end[l]``, largest first) for sure hits (``hit_kernel.py``), against exact bodies (``Bodies.exact``:
 primitives, not the bounding boxes of meshes and other robots) and in the pairs with ``pair_hit``.

@@ -13,14 +13,14 @@ nearest face), in the URDF link frame, and every link's frame comes from the vec
 - a ball reaches into a primitive obstacle (box, sphere, cylinder; signed distance < radius): every
   ball of the batch is looked up in a grid of the nearest obstacle per voxel (``_Grid``), so the test
   costs the same with 4 obstacles or 239, or
-- two balls of a link pair that Bullet checks overlap (both links with mass, neither the other's
+- two balls of a link pair that Bullet checks overlap (a link of it with mass, neither the other's
   parent, not a filtered pair).
 
 Then the part and the obstacle (or the two parts) share a ball of radius > ``DEPTH``: Bullet reports a
 contact of negative distance there, so the label is the one Bullet gives. Everything else (grazing
-contacts, meshes, other robots) is left to Bullet. Skipping rows changes another row's label only where
-Bullet's own label depends on the row it checked before (a grazing contact's manifold kept from it, on
-some robots; ``python -m robwot_bench.surehits`` counts both).
+contacts, meshes, other robots) is left to Bullet, whose label of a row does not depend on the rows it
+checked before (``client.Recheck``), so skipping rows changes no other row's label
+(``python -m robwot_bench.surehits`` counts both).
 """
 
 from __future__ import annotations

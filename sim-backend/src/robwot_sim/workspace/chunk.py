@@ -4,11 +4,11 @@ process's cached world, ``pool.worker_label``), their ``workspace.csv`` lines an
 
 This is the unit of work of every generation: a task of the local process pool (``labelling.py``, also
 run by the calling process itself while it would wait) and a Ray task of a cluster run (``cluster.py``).
-The rows depend only on ``(seed, row)``, so any split into chunks among processes that label alike (the
-pool's workers, Ray's) gives the same files. The calling process labels the chunks it computes while the
-workers start without the outer bounds' kernels (``labelling.py``), so a few rows Bullet finds grazing
-may get the other label there than in a worker. ``ChunkSink`` folds finished chunks, in chunk order, into
-what a generation keeps (the same code for both).
+The rows and their labels depend only on ``(seed, row)`` (a row's label is the same whichever path labels
+it and whatever was checked before it: ``client.Recheck``), so any split into chunks among
+processes gives the same files, the chunks the calling process labels while the workers start, without
+the outer bounds' kernels (``labelling.py``), included. ``ChunkSink`` folds finished chunks, in chunk
+order, into what a generation keeps (the same code for both).
 """
 
 from __future__ import annotations
