@@ -131,7 +131,8 @@ def test_a_rows_label_does_not_depend_on_the_row_checked_before_it(urdf: str) ->
     gripper knuckles) or a touching pair apart (the Panda's fingers). A contact point reported within
     ``RECHECK`` of touching is confirmed by the pair's fresh test, so rows labelled in one order, in the
     reverse order (in the mirror world holding the robot alone, and in the main world among obstacles)
-    and each alone get the same labels."""
+    and each alone get the same labels, and the contacts a check of one configuration names say the
+    same."""
     with World() as w:
         m = w.load_robot(urdf)
         w.load_scene(SCENES / "obstacles-4.json")
@@ -145,6 +146,8 @@ def test_a_rows_label_does_not_depend_on_the_row_checked_before_it(urdf: str) ->
         assert np.array_equal(e.checker.batch(qs[:600][::-1])[::-1], main)
         for i in range(0, 600, 7):
             assert e.checker.batch(qs[i:i + 1])[0] == main[i], i
+        for i in range(600):  # the contacts a single check names (after the row before it) agree
+            assert w.check_collision(m.id, qs[i]).collision_free == main[i], i
 
 
 def test_batch_rejects_bad_arrays() -> None:

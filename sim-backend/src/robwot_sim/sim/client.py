@@ -71,8 +71,9 @@ def pybullet_version() -> str:
         return "unknown"
 
 
-#: m: a contact point reporting its pair within this of touching is asked of again (``Recheck``); Bullet's
-#: refreshed distances of kept points err by less than both collision margins
+#: m: a contact point reporting its pair within this of touching is asked of again (``Recheck``): both
+#: links' collision margins; a kept point reporting its pair farther apart is taken as apart (not proven:
+#: the labels' order tests and ``bench:bounds``'s ``order`` column measure it)
 RECHECK = 0.002
 
 
@@ -81,12 +82,12 @@ class Recheck:
     against its pairs' own tests. Bullet keeps a pair's contact points from one detection to the next,
     refreshing their distances from the points' places on each link and the normal as first found: after
     another configuration a kept point may report a contact the pair's own test does not find (the xArm's
-    gripper knuckles), or a touching pair a little apart (the Panda's fingers, 0.8 mm where they overlap
-    by 0.9). So a point reported within ``RECHECK`` of the distance asked about is confirmed by a fresh
-    test of its pair (``getClosestPoints``), and a verdict on a configuration does not depend on what was
-    checked before it. Not where a link of the robot with a box shape reports a contact: Bullet finds
-    the contacts of two boxes by another algorithm than their closest points (a carried cube 0.24 mm
-    into a table has no closest points within 0), so such a contact stands as reported."""
+    gripper knuckles), or a touching pair a little apart (the Panda's fingers). So a point reported within
+    ``RECHECK`` of the distance asked about is confirmed by a fresh test of its pair (``getClosestPoints``),
+    and a verdict on a configuration does not depend on what was checked before it. Not where a link of
+    the robot with a box shape reports a contact: Bullet finds the contacts of two boxes by another
+    algorithm than their closest points (a carried cube just into a table may have none within 0), so
+    such a contact stands as reported."""
 
     def __init__(self, cid: int, body: int) -> None:
         self.cid, self.body = cid, body
@@ -94,14 +95,23 @@ class Recheck:
                   for ln in range(-1, pb.getNumJoints(body, physicsClientId=cid))}
         self.boxes = frozenset(ln for ln, rows in shapes.items() if any(s[2] == pb.GEOM_BOX for s in rows))
 
-    def touching(self, c: Any, within: float) -> bool:
-        """Whether raw contact point ``c`` (bodies 1, 2, links 3, 4, distance 8), reported within ``within``
-        plus ``RECHECK``, is a contact within ``within`` (m)."""
-        if c[8] <= within and ((c[1] == self.body and c[3] in self.boxes)
-                               or (c[2] == self.body and c[4] in self.boxes)):
-            return True
+    def stands(self, c: Any, within: float) -> bool:
+        """Raw contact point ``c`` (bodies 1, 2, links 3, 4, distance 8) is taken as reported: a contact
+        within ``within`` (m) of a link with a box shape."""
+        return c[8] <= within and ((c[1] == self.body and c[3] in self.boxes)
+                                   or (c[2] == self.body and c[4] in self.boxes))
+
+    def points(self, c: Any, within: float) -> list[Any]:
+        """The raw points within ``within`` (m) of the pair of contact point ``c``, reported within
+        ``within`` plus ``RECHECK``: ``c`` itself where it ``stands``, else the pair's fresh test's."""
+        if self.stands(c, within):
+            return [c]
         fresh = pb.getClosestPoints(c[1], c[2], within, c[3], c[4], physicsClientId=self.cid)
-        return any(p[8] <= within for p in fresh)
+        return [p for p in fresh if p[8] <= within]
+
+    def touching(self, c: Any, within: float) -> bool:
+        """Whether contact point ``c``'s pair is within ``within`` (m) (``points``)."""
+        return bool(self.points(c, within))
 
 
 class Bullet:

@@ -97,11 +97,6 @@ class CollisionChecker:
     def _others(self) -> list[int]:
         return [b for b in self.table.names if b != self.robot.body]
 
-    def _pair_ok(self, c: ContactPoint) -> bool:
-        if c.body_a == c.body_b:
-            return (min(c.link_a, c.link_b), max(c.link_a, c.link_b)) not in self.filtered
-        return True
-
     def _contact(self, c: ContactPoint) -> Contact:
         if c.body_a != self.robot.body and c.body_b == self.robot.body:
             a, b = self.table.side(c.body_b, c.link_b), self.table.side(c.body_a, c.link_a)
@@ -146,11 +141,18 @@ class CollisionChecker:
         closer than ``clearance`` (m) count as contacts (self-contacts at distance <= 0 only)."""
         bl = self.robot.bullet
         bl.detect()
-        pts = [
-            c
-            for c in bl.contacts(self.robot.body)
-            if c.distance <= (TOUCH if c.body_a == c.body_b else clearance) and self._pair_ok(c)
-        ]
+        raw, asked = [], set()
+        for c in bl.contacts_raw(self.robot.body):  # as ``is_free``: the points ``Recheck`` confirms
+            within = TOUCH if c[1] == c[2] else clearance
+            if c[8] > within + RECHECK or (c[1] == c[2]
+                                           and (min(c[3], c[4]), max(c[3], c[4])) in self.filtered):
+                continue
+            if not self.recheck.stands(c, within):
+                if c[1:5] in asked:  # the pair's fresh points are in already
+                    continue
+                asked.add(c[1:5])
+            raw += self.recheck.points(c, within)
+        pts = [ContactPoint(c[1], c[2], c[3], c[4], tuple(c[5]), float(c[8])) for c in raw]
         if self.massless_moving:
             pts += self._closest_links(self.massless_moving, clearance)
         if clearance > TOUCH:
