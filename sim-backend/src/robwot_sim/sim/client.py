@@ -101,17 +101,23 @@ class Recheck:
         return c[8] <= within and ((c[1] == self.body and c[3] in self.boxes)
                                    or (c[2] == self.body and c[4] in self.boxes))
 
+    @staticmethod
+    def asks(c: Any, within: float) -> bool:
+        """Whether contact point ``c`` reports its pair within ``within`` (m) plus ``RECHECK``: one to ask
+        about (``points``); a point farther is taken as apart."""
+        return bool(c[8] <= within + RECHECK)
+
     def points(self, c: Any, within: float) -> list[Any]:
-        """The raw points within ``within`` (m) of the pair of contact point ``c``, reported within
-        ``within`` plus ``RECHECK``: ``c`` itself where it ``stands``, else the pair's fresh test's."""
+        """The raw points within ``within`` (m) of the pair of contact point ``c`` (one that ``asks``): ``c``
+        itself where it ``stands``, else the pair's fresh test's."""
         if self.stands(c, within):
             return [c]
         fresh = pb.getClosestPoints(c[1], c[2], within, c[3], c[4], physicsClientId=self.cid)
         return [p for p in fresh if p[8] <= within]
 
     def touching(self, c: Any, within: float) -> bool:
-        """Whether contact point ``c``'s pair is within ``within`` (m) (``points``)."""
-        return bool(self.points(c, within))
+        """Whether contact point ``c``'s pair is within ``within`` (m): ``asks`` and ``points``."""
+        return self.asks(c, within) and bool(self.points(c, within))
 
 
 class Bullet:

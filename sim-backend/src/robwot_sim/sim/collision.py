@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from robwot_sim.sim.client import RECHECK, ContactPoint, Recheck
+from robwot_sim.sim.client import ContactPoint, Recheck
 from robwot_sim.sim.robot import BoundRobot
 from robwot_sim.sim.types import BodyLink, Contact, FloatArray
 from robwot_sim.sim.world_thread import checkpoint
@@ -144,8 +144,8 @@ class CollisionChecker:
         raw, asked = [], set()
         for c in bl.contacts_raw(self.robot.body):  # as ``is_free``: the points ``Recheck`` confirms
             within = TOUCH if c[1] == c[2] else clearance
-            if c[8] > within + RECHECK or (c[1] == c[2]
-                                           and (min(c[3], c[4]), max(c[3], c[4])) in self.filtered):
+            if not self.recheck.asks(c, within) or (c[1] == c[2]
+                                                    and (min(c[3], c[4]), max(c[3], c[4])) in self.filtered):
                 continue
             if not self.recheck.stands(c, within):
                 if c[1:5] in asked:  # the pair's fresh points are in already
@@ -170,10 +170,9 @@ class CollisionChecker:
         body = self.robot.body
         for c in bl.contacts_raw(body):  # a point within RECHECK confirmed by its pair's test (Recheck)
             if c[1] != c[2]:
-                if c[8] <= clearance + RECHECK and self.recheck.touching(c, clearance):
+                if self.recheck.touching(c, clearance):
                     return False
-            elif (c[8] <= TOUCH + RECHECK and (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered
-                  and self.recheck.touching(c, TOUCH)):
+            elif (min(c[3], c[4]), max(c[3], c[4])) not in self.filtered and self.recheck.touching(c, TOUCH):
                 return False
         if others_apart:
             return True

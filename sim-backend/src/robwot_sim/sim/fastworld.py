@@ -21,7 +21,7 @@ import pybullet as pb
 
 from robwot_sim.model.couplings import Followers
 from robwot_sim.model.urdf import prepare_urdf
-from robwot_sim.sim.client import RECHECK, Bullet, Recheck
+from robwot_sim.sim.client import Bullet, Recheck
 from robwot_sim.sim.types import FloatArray
 
 TOUCH = 0.0
@@ -173,8 +173,7 @@ class FastWorld:
             detect(physicsClientId=cid)
             free = True
             for c in contacts(body, physicsClientId=cid):
-                if (c[8] <= TOUCH + RECHECK
-                        and (c[1] != c[2] or (min(c[3], c[4]), max(c[3], c[4])) not in filtered)
+                if ((c[1] != c[2] or (min(c[3], c[4]), max(c[3], c[4])) not in filtered)
                         and recheck.touching(c, TOUCH)):
                     free = False
                     break
