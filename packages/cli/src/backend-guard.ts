@@ -6,7 +6,7 @@
  * unanswered past the deadline has hung (or was stopped). It is then killed (an own backend) or dropped (a
  * shared one), which fails every pending call at once, with that reason instead of waiting.
  */
-import { BackendDownError, BackendSupervisor, ConnectionClosedError, launchConnector, urlConnector, type SimClient } from "@robwot/sim-client";
+import { BackendDownError, BackendSupervisor, ConnectionClosedError, launchConnector, urlConnector, type SimClient, type SpawnedBackend } from "@robwot/sim-client";
 import { CliError } from "./errors.js";
 
 /** How long a dropped connection waits for its process's end to be known (the exit follows the socket's
@@ -36,11 +36,11 @@ export class BackendGuard {
 
   /**
    * Starts an own backend (with its labelling pool starting at once for `warmWorkers`: 0 = one worker per
-   * core), or connects to `url`. A running backend must have an empty world (generation labels collisions
-   * against everything in it); it is reset again on close.
+   * core; or takes `spawned`, its process started already), or connects to `url`. A running backend must have
+   * an empty world (generation labels collisions against everything in it); it is reset again on close.
    */
-  static async open(url?: string, warmWorkers?: number): Promise<BackendGuard> {
-    const connector = url === undefined ? launchConnector({ warmWorkers }) : urlConnector(url);
+  static async open(url?: string, warmWorkers?: number, spawned?: SpawnedBackend): Promise<BackendGuard> {
+    const connector = url === undefined ? launchConnector({ warmWorkers, spawned }) : urlConnector(url);
     const supervisor: BackendSupervisor = new BackendSupervisor(connector, async () => undefined, {
       restart: false,
       mapError: (err) => {

@@ -3,7 +3,7 @@
  * non-zero exit code; the message names the file, line, joint, link or value involved.
  */
 
-import { RobwotError } from "@robwot/core";
+import { RobwotError } from "@robwot/core/errors";
 
 /** An error whose message is ready to show to the user: a RobwotError (string `code`: `E_USAGE`,
  *  `E_OUTPUT`, or the backend's `E_...` code) with the process exit code (2 usage, 1 otherwise). */

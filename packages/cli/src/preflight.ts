@@ -1,5 +1,6 @@
 /**
- * What `robwot generate` checks of its options before a backend starts, beyond parsing them: `--ee`
+ * What `robwot generate` checks of its options before it asks a backend anything, beyond parsing them (an own
+ * backend's process starts meanwhile and is stopped on a refusal): `--ee`
  * against the links of the robot's URDF file (a plain URDF, or an example's), and `--cluster` (Ray in the
  * Python that will run the backend; something listening at an explicit address). Each refusal names the
  * option and costs milliseconds. What cannot be known here is left to the backend, which checks it all
@@ -10,7 +11,7 @@ import { execFile } from "node:child_process";
 import { readFileSync } from "node:fs";
 import { connect } from "node:net";
 import { TRANSPORT } from "@robwot/core/backend-contract";
-import { resolvePython } from "@robwot/sim-client";
+import { resolvePython } from "@robwot/sim-client/spawn";
 import type { GenerateOptions } from "./commands/generate-options.js";
 import { CliError } from "./errors.js";
 import { exampleUrdfPath } from "./examples.js";
@@ -118,7 +119,7 @@ async function checkCluster(address: string, own: boolean, python: string, facts
   if (explicit !== undefined && endpoint !== null) await reachable(explicit, endpoint.host, endpoint.port);
 }
 
-/** Refuses, before any backend starts, an option the robot's files or this machine already contradict. */
+/** Refuses, before a backend is asked anything, an option the robot's files or this machine already contradict. */
 export async function preflight(opts: GenerateOptions): Promise<void> {
   // a backend someone else runs has its own Python, files and network
   const own = opts.backend === undefined;

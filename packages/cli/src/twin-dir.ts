@@ -7,7 +7,7 @@ import { randomBytes } from "node:crypto";
 import { chmodSync, existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, realpathSync, renameSync, rmdirSync, rmSync, statSync } from "node:fs";
 import { homedir } from "node:os";
 import { basename, dirname, join, parse, relative, resolve } from "node:path";
-import { TWIN_FILES } from "@robwot/core";
+import { TWIN_FILES } from "@robwot/core/twin-layout";
 import { CliError } from "./errors.js";
 
 /** A file every complete twin folder contains; an existing folder without it is not ours to replace. */

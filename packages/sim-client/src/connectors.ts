@@ -3,6 +3,7 @@
  * supervisor when it dies), or connect to an external `ws://` URL (reconnected when it drops).
  */
 import { launchBackend, type ExitInfo } from "./launcher.js";
+import type { SpawnedBackend } from "./spawn.js";
 import { RpcConnection } from "./rpc-connection.js";
 import type { SimConnector, SimSession } from "./supervisor.js";
 
@@ -34,11 +35,16 @@ export function describeExit(info: ExitInfo, stderr: string): string {
 
 /** Connections made here keep the contract's timeouts (`TRANSPORT`): a short method's request deadline; long
  *  methods carry none (the heartbeat bounds them). */
-export function launchConnector(options: { python?: string | undefined; warmWorkers?: number | undefined } = {}): SimConnector {
+export function launchConnector(options: { python?: string | undefined; warmWorkers?: number | undefined; spawned?: SpawnedBackend | undefined } = {}): SimConnector {
+  // a process started already (`spawnBackend`) is the first session's; a restart starts another
+  let spawned = options.spawned;
   return async () => {
+    const first = spawned;
+    spawned = undefined;
     const b = await launchBackend({
       ...(options.python ? { python: options.python } : {}),
       ...(options.warmWorkers !== undefined ? { warmWorkers: options.warmWorkers } : {}),
+      ...(first !== undefined ? { spawned: first } : {}),
     });
     const conn = b.client.connection;
     return session(conn, {

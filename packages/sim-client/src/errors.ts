@@ -1,5 +1,5 @@
 /** Errors of the sim-client, all RobwotErrors (one base in TypeScript): a stable string `code`, `details`. */
-import { RobwotError } from "@robwot/core/browser";
+import { RobwotError } from "@robwot/core/errors";
 
 /** `error.data` of a JSON-RPC error: a stable string `code` (`E_UNKNOWN_ROBOT`, ...) plus fields. */
 export interface RpcErrorData {

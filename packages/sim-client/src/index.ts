@@ -4,6 +4,8 @@ export { LONG_METHODS, SimClient } from "./sim-client.js";
 export type { RpcCaller } from "./sim-client.js";
 export { connect, deadlineFromEnv, defaultPython, launchBackend, LaunchedBackend, resolvePython } from "./launcher.js";
 export type { BackendEvents, ExitInfo, LaunchOptions } from "./launcher.js";
+export { spawnBackend, SpawnedBackend } from "./spawn.js";
+export type { SpawnOptions } from "./spawn.js";
 export { BackendDownError, BackendStartError, ConnectionClosedError, isRpcError, RpcError, RpcTimeoutError } from "./errors.js";
 export { BackendSupervisor, DEFAULT_DEADLINES } from "./supervisor.js";
 export type { Deadlines, SimConnector, SimSession, SupervisorEvents, SupervisorOptions } from "./supervisor.js";

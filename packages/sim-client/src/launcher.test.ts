@@ -3,7 +3,8 @@ import { chmodSync, mkdtempSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import { afterAll, describe, expect, it } from "vitest";
-import { BackendStartError, ConnectionClosedError, connect, launchBackend, type LaunchedBackend } from "./index.js";
+import { once } from "node:events";
+import { BackendStartError, ConnectionClosedError, connect, launchBackend, type LaunchedBackend, spawnBackend } from "./index.js";
 
 const started: LaunchedBackend[] = [];
 afterAll(async () => {
@@ -111,6 +112,37 @@ describe("launchBackend", () => {
       if (saved === undefined) delete process.env.ROBWOT_PYTHON;
       else process.env.ROBWOT_PYTHON = saved;
     }
+  });
+
+  it("connects to a backend started before (spawnBackend) whose ready line was written before it was adopted", async () => {
+    const spawned = spawnBackend();
+    const deadline = Date.now() + 30_000;
+    while (!spawned.stdout.includes('"ready"') && Date.now() < deadline) await new Promise((r) => setTimeout(r, 20));
+    expect(spawned.stdout).toContain('"ready"');
+    const backend = await launchBackend({ spawned, startTimeoutMs: 2000 });
+    started.push(backend);
+    expect(backend.pid).toBe(spawned.child.pid);
+    expect((await backend.client.ping()).pybulletData).toContain("pybullet_data");
+    await backend.stop();
+    expect(backend.running).toBe(false);
+  });
+
+  it("reports a started backend that ended before it was adopted, with its exit code and stderr", async () => {
+    const spawned = spawnBackend({ python: script('echo "cannot import numpy" >&2; exit 3') });
+    await once(spawned.child, "exit");
+    const err = (await launchBackend({ spawned }).catch((e: unknown) => e)) as BackendStartError;
+    expect(err).toBeInstanceOf(BackendStartError);
+    expect(err.exitCode).toBe(3);
+    expect(err.stderrTail).toContain("cannot import numpy");
+  });
+
+  it("reports an interpreter that cannot be started, found only once the start was tried", async () => {
+    const spawned = spawnBackend({ python: "robwot-no-such-python" });
+    await new Promise((r) => setTimeout(r, 100)); // the spawn's error event has come and gone
+    expect(spawned.error?.message).toContain("ENOENT");
+    const err = (await launchBackend({ spawned }).catch((e: unknown) => e)) as BackendStartError;
+    expect(err).toBeInstanceOf(BackendStartError);
+    expect(err.message).toContain("cannot start the backend");
   });
 
   it("times out waiting for the ready line with the stderr tail in the error", async () => {

@@ -6,7 +6,8 @@ import { existsSync, readFileSync, statSync } from "node:fs";
 import { basename, join, resolve } from "node:path";
 import { parseArgs } from "node:util";
 import { existingFile, parseAlpha, parseInteger, parseNumber, parsePackageRoots, parseUrl, usageError } from "../args.js";
-import { quatArr, quatMul, type GripperDecl } from "@robwot/core";
+import type { GripperDecl } from "@robwot/core";
+import { quatArr, quatMul } from "@robwot/core/geometry";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { CliError } from "../errors.js";
 

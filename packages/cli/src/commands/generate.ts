@@ -1,13 +1,17 @@
-/** `robwot generate`: wiring of options, output folder, backend, progress and the summary printout. */
+/**
+ * `robwot generate`: wiring of options, output folder, backend, progress and the summary printout. Its own
+ * imports are light: an own backend's Python starts once the options are read and the output folder staged,
+ * and the modules of the generation itself (the TD builder and validator, the client) load while it starts.
+ */
 import { relative } from "node:path";
-import { BackendGuard } from "../backend-guard.js";
+import type { SpawnedBackend } from "@robwot/sim-client";
+import { spawnBackend } from "@robwot/sim-client/spawn";
 import { describeError } from "../errors.js";
 import { exampleHelp } from "../examples.js";
-import { type GenerateResult, generateTwin } from "../generate-twin.js";
+import type { GenerateResult } from "../generate-twin.js";
 import { onCleanup } from "../lifecycle.js";
 import { preflight } from "../preflight.js";
 import { createProgress } from "../progress.js";
-import { warmTdValidator } from "../td.js";
 import { StagedDir } from "../twin-dir.js";
 import { VALUE_SCHEMAS } from "@robwot/core/backend-contract";
 import { DEFAULT_BASE_URL, DEFAULT_SAMPLES, type GenerateOptions, parseGenerateArgs } from "./generate-options.js";
@@ -115,13 +119,22 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
   const inputs = [opts.urdfFile, opts.scene, opts.srdf, ...Object.values(opts.packageRoots)].filter((f): f is string => f !== undefined);
   const staged = StagedDir.create(opts.out, { force: opts.force, inputs });
   const dropStaged = onCleanup(() => staged.discard());
+  // an own backend's labelling workers start with it (a cluster run labels elsewhere)
+  const warm = opts.cluster === undefined ? (opts.workers ?? 0) : undefined;
+  const spawned = opts.backend === undefined ? spawnEarly(warm) : undefined;
+  let adopted = false;
   try {
-    await preflight(opts);
+    // while the backend's Python starts: the generation's modules load, the TD validator's too, and the
+    // options are checked against the robot's files (a refusal stops the backend started for nothing)
+    const [{ BackendGuard }, { generateTwin }, { warmTdValidator }] = await Promise.all([
+      import("../backend-guard.js"),
+      import("../generate-twin.js"),
+      import("../td.js"),
+      preflight(opts),
+    ]);
     progress.stage("backend");
-    // the TD validator's modules load while the backend's Python starts, and an own backend's labelling workers
-    // start with it (a cluster run labels elsewhere)
-    const warm = opts.cluster === undefined ? (opts.workers ?? 0) : undefined;
-    const [backend] = await Promise.all([BackendGuard.open(opts.backend, warm), warmTdValidator()]);
+    adopted = true;
+    const [backend] = await Promise.all([BackendGuard.open(opts.backend, warm, spawned), warmTdValidator()]);
     const dropBackend = onCleanup(() => backend.close());
     // on a signal the staged folder goes first (cheap), then the backend stops, then it goes again
     // (the backend may have written into it meanwhile)
@@ -148,8 +161,18 @@ export async function runGenerate(opts: GenerateOptions): Promise<number> {
     }
     throw err;
   } finally {
+    if (!adopted) spawned?.kill();
     dropStaged();
     staged.discard();
+  }
+}
+
+/** The own backend's process, started now; undefined where it cannot start (the launch then says why). */
+function spawnEarly(warmWorkers: number | undefined): SpawnedBackend | undefined {
+  try {
+    return spawnBackend(warmWorkers !== undefined ? { warmWorkers } : {});
+  } catch {
+    return undefined;
   }
 }
 
