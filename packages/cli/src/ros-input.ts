@@ -7,7 +7,8 @@
 import { rmSync } from "node:fs";
 import { basename, dirname } from "node:path";
 import type { SimClient, SrdfInfo } from "@robwot/sim-client";
-import type { GenerateOptions, ToolShape } from "./commands/generate-options.js";
+import type { GenerateOptions } from "./commands/generate-options.js";
+import type { ToolShape } from "./commands/pose-options.js";
 import { CliError } from "./errors.js";
 
 export interface RosInput {

@@ -138,7 +138,7 @@ describe("launchBackend", () => {
 
   it("reports an interpreter that cannot be started, found only once the start was tried", async () => {
     const spawned = spawnBackend({ python: "robwot-no-such-python" });
-    await new Promise((r) => setTimeout(r, 100)); // the spawn's error event has come and gone
+    await once(spawned.child, "error"); // the spawn's error event has come and gone before the launch
     expect(spawned.error?.message).toContain("ENOENT");
     const err = (await launchBackend({ spawned }).catch((e: unknown) => e)) as BackendStartError;
     expect(err).toBeInstanceOf(BackendStartError);
